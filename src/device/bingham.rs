@@ -1,0 +1,95 @@
+//! The seed paper's base model: Bingham plastic force (Eq. 2) whose yield force follows the coil current
+//! through the coil's electrical lag (Eq. 3) and the fluid's lag (Eq. 4), i.e. Eq. (6), behind the current
+//! driver's saturation.
+
+use super::effect::{Inputs, Stage};
+use super::lag::advance_two_lags;
+use super::params::{DataStats, ParamSpec};
+
+/// Index of each base parameter in the parameter vector.
+pub const FC0: usize = 0;
+pub const FC_GAIN: usize = 1;
+pub const C0: usize = 2;
+pub const TE: usize = 3;
+pub const TM: usize = 4;
+
+/// Base parameters, in vector order.
+///
+/// Eq. (6) contains the product `bH kH` only, so the two gains are one parameter here, the yield force per
+/// ampere of (lagged) coil current. `fc0_n` is the yield force at zero current: the seal and foam friction a
+/// real damper shows with the coil off (Eq. 2's `Fc` at `H = 0`).
+pub const PARAMS: [ParamSpec; 5] = [
+    ParamSpec::new("fc0_n", "N", 0.0, f64::INFINITY, "yield (Coulomb) force at zero coil current, Eq. (2)"),
+    ParamSpec::new(
+        "fc_gain_n_per_a",
+        "N/A",
+        0.0,
+        f64::INFINITY,
+        "yield force per ampere of lagged coil current, bH·kH of Eq. (6)",
+    ),
+    ParamSpec::new("c0_n_s_per_m", "N·s/m", 0.0, f64::INFINITY, "post-yield viscous damping C0, Eq. (2)"),
+    ParamSpec::new("te_s", "s", 0.0, 1.0, "coil electrical time constant Te = L/R, Eq. (3)"),
+    ParamSpec::new("tm_s", "s", 0.0, 1.0, "MR fluid response time constant Tm, Eq. (4)"),
+];
+
+/// Number of base states: coil current (Eq. 3) and fluid excitation (Eq. 4), both in amperes.
+pub const N_STATES: usize = 2;
+
+/// The driver's saturation: the coil current command is limited to ±`limit_a` (the paper's driver
+/// saturates at 14 A; its supply could give 17 A).
+pub fn saturate(current_cmd_a: f64, limit_a: f64) -> f64 {
+    current_cmd_a.clamp(-limit_a, limit_a)
+}
+
+/// Lag states at rest for a command held since long before the first sample.
+pub fn init_states(s: &mut [f64], current_cmd_a: f64, limit_a: f64) {
+    let u = saturate(current_cmd_a, limit_a);
+    s[0] = u;
+    s[1] = u;
+}
+
+/// Eq. (2) with Eq. (6)'s yield force: the stage before any effect.
+///
+/// The yield force depends on the field magnitude, so a bipolar driver's negative current gives the same
+/// yield force as a positive one.
+pub fn stage(p: &[f64], s: &[f64], inp: &Inputs) -> Stage {
+    let h = s[1];
+    Stage {
+        current_a: h,
+        yield_n: p[FC0] + p[FC_GAIN] * h.abs(),
+        direction: sgn(inp.v_m_s),
+        damping_n_s_per_m: p[C0],
+        extra_n: 0.0,
+    }
+}
+
+/// Advance the two lags (Eq. 3, Eq. 4) over one step with the saturated command held.
+pub fn advance(p: &[f64], s: &mut [f64], current_cmd_a: f64, limit_a: f64, dt_s: f64) {
+    let u = saturate(current_cmd_a, limit_a);
+    let (i, h) = advance_two_lags(s[0], s[1], u, p[TE], p[TM], dt_s);
+    s[0] = i;
+    s[1] = h;
+}
+
+/// `sgn` of Eq. (2), zero at zero velocity.
+pub fn sgn(v: f64) -> f64 {
+    if v > 0.0 {
+        1.0
+    } else if v < 0.0 {
+        -1.0
+    } else {
+        0.0
+    }
+}
+
+/// Starting values from the data's linear Bingham estimate; the lags start at a few sample intervals.
+pub fn initial_guess(stats: &DataStats) -> Vec<f64> {
+    let lag = (5.0 * stats.dt_s).clamp(1e-4, 0.1);
+    vec![
+        stats.fc0_n.max(0.0),
+        stats.fc_gain_n_per_a.max(0.0),
+        stats.c0_n_s_per_m.max(0.0),
+        lag,
+        lag,
+    ]
+}

@@ -1,0 +1,107 @@
+//! The extension point: a physical effect that composes with the paper's Bingham base model.
+//!
+//! The damper force is assembled in stages (see [`Stage`]): the coil current, lagged by Eq. (3) and (4),
+//! sets a yield force; a direction function (`sgn v` in Eq. 2) gives it a sign; a viscous term `C0 v` and
+//! additive forces complete it:
+//!
+//! `F = yield_n · direction + damping_n_s_per_m · v + extra_n`.
+//!
+//! An effect changes one or more stages (hysteresis replaces the direction function by an internal state,
+//! magnetic saturation reshapes the yield force versus current, stiffness adds a force, …). Effects are
+//! applied in the order of their [`EffectStage`], so `bingham+a+b` and `bingham+b+a` are the same model.
+//! The fitter and the diagnosis only see the trait: a new effect is one `impl Effect` and one
+//! `Registry::register` call.
+
+use super::params::{DataStats, ParamSpec};
+
+/// Signals at one sample.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Inputs {
+    pub t_s: f64,
+    /// Piston displacement from mid-stroke, m (positive = extension).
+    pub x_m: f64,
+    /// Piston velocity, m/s.
+    pub v_m_s: f64,
+    /// Piston acceleration, m/s² (measured, derived, or from the multibody).
+    pub a_m_s2: f64,
+    /// Coil current command, A, as the DAQ set it (before the driver's saturation).
+    pub current_cmd_a: f64,
+}
+
+/// The force assembled so far at one sample. Effects edit it in their `apply`.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Stage {
+    /// Effective excitation after the driver saturation, coil lag and fluid lag, in amperes.
+    pub current_a: f64,
+    /// Yield (Coulomb) force magnitude, N, ≥ 0.
+    pub yield_n: f64,
+    /// Direction function in [-1, 1]: `sgn v` for the Bingham model.
+    pub direction: f64,
+    /// Post-yield viscous damping, N·s/m.
+    pub damping_n_s_per_m: f64,
+    /// Additive forces (position, inertia, …), N.
+    pub extra_n: f64,
+}
+
+impl Stage {
+    /// The total force on the piston, N, with the sign convention of the measurement format.
+    pub fn force_n(&self, v_m_s: f64) -> f64 {
+        self.yield_n * self.direction + self.damping_n_s_per_m * v_m_s + self.extra_n
+    }
+}
+
+/// Where in the force assembly an effect acts; effects are applied in this order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum EffectStage {
+    /// Reshapes the yield force as a function of current (replaces the linear map).
+    YieldMap,
+    /// Scales the yield force (temperature, wear).
+    YieldScale,
+    /// Replaces or shapes the direction function (pre-yield behaviour).
+    Direction,
+    /// Makes the yield force depend on the direction of motion.
+    DirectionDependence,
+    /// Changes the post-yield damping.
+    Damping,
+    /// Adds a force that does not go through the fluid's yield (springs, inertia).
+    Additive,
+}
+
+/// Increment between this sample and the next, for advancing internal states.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Step {
+    pub dt_s: f64,
+    /// Displacement increment over the step, m (measured where available; `v dt` otherwise).
+    pub dx_m: f64,
+}
+
+/// A physical effect that composes with the Bingham base model.
+///
+/// `p` is this effect's slice of the parameter vector, in the order of [`Effect::params`]; `s` its slice
+/// of the state vector (length [`Effect::n_states`]).
+pub trait Effect: Send + Sync {
+    /// Canonical name used in model specs (`bingham+NAME`).
+    fn name(&self) -> &'static str;
+    /// Physics, equation and literature source, in one paragraph.
+    fn describe(&self) -> &'static str;
+    /// Where in the force assembly it acts.
+    fn stage(&self) -> EffectStage;
+    /// Parameter declarations (unique names across all effects; prefix them with the effect's tag).
+    fn params(&self) -> &'static [ParamSpec];
+    /// Data-derived starting values, one per parameter, inside the bounds.
+    fn initial_guess(&self, stats: &DataStats) -> Vec<f64>;
+    /// Number of internal states (hysteresis, temperature, …).
+    fn n_states(&self) -> usize {
+        0
+    }
+    /// Initial states at the first sample of a test.
+    fn init_states(&self, _p: &[f64], _s: &mut [f64], _inp: &Inputs, _stage: &Stage) {}
+    /// Edit the force assembly at this sample.
+    fn apply(&self, p: &[f64], s: &[f64], inp: &Inputs, stage: &mut Stage);
+    /// Advance internal states from this sample to the next, given the force this sample produced.
+    fn advance(&self, _p: &[f64], _s: &mut [f64], _inp: &Inputs, _stage: &Stage, _force_n: f64, _step: Step) {}
+    /// Words a diagnosis can use: how its absence shows in a residual (from the effect vocabulary).
+    fn residual_signature(&self) -> &'static str {
+        ""
+    }
+}

@@ -1,0 +1,36 @@
+//! MR damper physics: the seed paper's base model (Eq. 2–6) and the effect library.
+//!
+//! One home for the damper force: the virtual MTS machine, the stick rig and the fitter all call
+//! [`Model::eval`] / [`Damper`].
+
+pub mod bingham;
+pub mod config;
+pub mod effect;
+pub mod effects;
+pub mod lag;
+pub mod model;
+pub mod params;
+
+use std::path::PathBuf;
+
+pub use config::{DeviceConfig, Geometry, ParamsFile};
+pub use effect::{Effect, EffectStage, Inputs, Stage, Step};
+pub use model::{Damper, Model, ModelSpec, Registry, PAPER_CURRENT_LIMIT_A};
+pub use params::{DataStats, ParamSpec, ParamValue};
+
+/// Errors from building or loading a device model.
+#[derive(Debug, thiserror::Error)]
+pub enum DeviceError {
+    #[error("model `{spec}`: unknown base model `{base}` (the base model is `bingham`)")]
+    UnknownBase { spec: String, base: String },
+    #[error("unknown effect `{name}` (known effects: {known})")]
+    UnknownEffect { name: String, known: String },
+    #[error("model `{spec}`: {why}")]
+    BadSpec { spec: String, why: String },
+    #[error("{}: {msg}", path.display())]
+    Io { path: PathBuf, msg: String },
+    #[error("{}:{line}: {msg}", path.display())]
+    Parse { path: PathBuf, line: usize, msg: String },
+    #[error("{}:{line}: field `{field}`: {msg}", path.display())]
+    Field { path: PathBuf, line: usize, field: String, msg: String },
+}

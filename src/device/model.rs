@@ -1,0 +1,334 @@
+//! A composed model: the Bingham base plus named effects, with its parameter and state layout.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use super::bingham;
+use super::effect::{Effect, Inputs, Stage, Step};
+use super::params::{DataStats, ParamSpec};
+use super::DeviceError;
+
+/// The only base model: the seed paper's.
+pub const BASE: &str = "bingham";
+
+/// The driver saturation the paper set (Section 4): 14 A.
+pub const PAPER_CURRENT_LIMIT_A: f64 = 14.0;
+
+/// Effects that can be named in a model spec. [`Registry::builtin`] holds the canonical vocabulary.
+#[derive(Clone, Default)]
+pub struct Registry {
+    effects: BTreeMap<&'static str, Arc<dyn Effect>>,
+}
+
+impl Registry {
+    /// An empty registry (base model only).
+    pub fn empty() -> Self {
+        Self::default()
+    }
+
+    /// The canonical effect vocabulary of the model-discovery contract.
+    pub fn builtin() -> Self {
+        let mut r = Self::empty();
+        super::effects::register_builtin(&mut r);
+        r
+    }
+
+    /// Add an effect; a later registration under the same name replaces the earlier one.
+    pub fn register<E: Effect + 'static>(&mut self, effect: E) -> &mut Self {
+        self.effects.insert(effect.name(), Arc::new(effect));
+        self
+    }
+
+    pub fn get(&self, name: &str) -> Option<Arc<dyn Effect>> {
+        self.effects.get(name).cloned()
+    }
+
+    /// Registered effect names, sorted.
+    pub fn names(&self) -> Vec<&'static str> {
+        self.effects.keys().copied().collect()
+    }
+}
+
+impl std::fmt::Debug for Registry {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Registry").field("effects", &self.names()).finish()
+    }
+}
+
+/// A parsed model spec: `bingham` or `bingham+effect+effect`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ModelSpec {
+    pub effects: Vec<String>,
+}
+
+impl ModelSpec {
+    /// Parse `bingham+hysteresis+asymmetry`. Names are checked against the registry when a [`Model`] is built.
+    pub fn parse(spec: &str) -> Result<Self, DeviceError> {
+        let mut parts = spec.split('+').map(str::trim);
+        let base = parts.next().unwrap_or_default();
+        if base != BASE {
+            return Err(DeviceError::UnknownBase { spec: spec.to_string(), base: base.to_string() });
+        }
+        let mut effects: Vec<String> = Vec::new();
+        for p in parts {
+            if p.is_empty() {
+                return Err(DeviceError::BadSpec { spec: spec.to_string(), why: "empty effect name".into() });
+            }
+            if effects.iter().any(|e| e == p) {
+                return Err(DeviceError::BadSpec { spec: spec.to_string(), why: format!("effect `{p}` named twice") });
+            }
+            effects.push(p.to_string());
+        }
+        Ok(Self { effects })
+    }
+
+    /// The spec with one more effect.
+    pub fn with(&self, effect: &str) -> Self {
+        let mut e = self.effects.clone();
+        e.push(effect.to_string());
+        Self { effects: e }
+    }
+
+    pub fn has(&self, effect: &str) -> bool {
+        self.effects.iter().any(|e| e == effect)
+    }
+}
+
+impl std::fmt::Display for ModelSpec {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(BASE)?;
+        for e in &self.effects {
+            write!(f, "+{e}")?;
+        }
+        Ok(())
+    }
+}
+
+struct Slot {
+    effect: Arc<dyn Effect>,
+    params: std::ops::Range<usize>,
+    states: std::ops::Range<usize>,
+}
+
+/// The base model plus effects, with the parameter layout `[base params, effect params in spec order]`
+/// and the state layout `[coil current, fluid excitation, effect states in spec order]`.
+pub struct Model {
+    spec: ModelSpec,
+    slots: Vec<Slot>,
+    /// Indices into `slots` in the order of application (by stage, then spec order).
+    apply_order: Vec<usize>,
+    param_specs: Vec<ParamSpec>,
+    n_states: usize,
+    /// Driver saturation of the current command, A (a property of the driver, not fitted).
+    pub current_limit_a: f64,
+}
+
+impl std::fmt::Debug for Model {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Model").field("spec", &self.spec.to_string()).finish()
+    }
+}
+
+impl Model {
+    /// Build a model from a spec; unknown effects are an error that lists the known ones.
+    pub fn new(spec: &ModelSpec, registry: &Registry, current_limit_a: f64) -> Result<Self, DeviceError> {
+        let mut param_specs: Vec<ParamSpec> = bingham::PARAMS.to_vec();
+        let mut n_states = bingham::N_STATES;
+        let mut slots = Vec::new();
+        for name in &spec.effects {
+            let effect = registry.get(name).ok_or_else(|| DeviceError::UnknownEffect {
+                name: name.clone(),
+                known: registry.names().join(", "),
+            })?;
+            let p0 = param_specs.len();
+            for ps in effect.params() {
+                if param_specs.iter().any(|q| q.name == ps.name) {
+                    return Err(DeviceError::BadSpec {
+                        spec: spec.to_string(),
+                        why: format!("parameter `{}` of `{name}` clashes with another element's", ps.name),
+                    });
+                }
+                param_specs.push(ps.clone());
+            }
+            let s0 = n_states;
+            n_states += effect.n_states();
+            slots.push(Slot { params: p0..param_specs.len(), states: s0..n_states, effect });
+        }
+        let mut apply_order: Vec<usize> = (0..slots.len()).collect();
+        apply_order.sort_by_key(|&k| slots[k].effect.stage());
+        Ok(Self { spec: spec.clone(), slots, apply_order, param_specs, n_states, current_limit_a })
+    }
+
+    /// Parse and build in one call.
+    pub fn from_spec(spec: &str, registry: &Registry, current_limit_a: f64) -> Result<Self, DeviceError> {
+        Self::new(&ModelSpec::parse(spec)?, registry, current_limit_a)
+    }
+
+    pub fn spec(&self) -> &ModelSpec {
+        &self.spec
+    }
+
+    pub fn name(&self) -> String {
+        self.spec.to_string()
+    }
+
+    pub fn param_specs(&self) -> &[ParamSpec] {
+        &self.param_specs
+    }
+
+    pub fn n_params(&self) -> usize {
+        self.param_specs.len()
+    }
+
+    pub fn n_states(&self) -> usize {
+        self.n_states
+    }
+
+    /// Index of a parameter by name.
+    pub fn param_index(&self, name: &str) -> Option<usize> {
+        self.param_specs.iter().position(|p| p.name == name)
+    }
+
+    /// The effects in spec order.
+    pub fn effects(&self) -> impl Iterator<Item = &Arc<dyn Effect>> {
+        self.slots.iter().map(|s| &s.effect)
+    }
+
+    /// Data-derived starting values for every parameter, clamped into the bounds.
+    pub fn initial_guess(&self, stats: &DataStats) -> Vec<f64> {
+        let mut p = bingham::initial_guess(stats);
+        for slot in &self.slots {
+            let g = slot.effect.initial_guess(stats);
+            debug_assert_eq!(g.len(), slot.params.len(), "{} initial guess length", slot.effect.name());
+            p.extend(g);
+        }
+        p.iter().zip(&self.param_specs).map(|(v, s)| s.clamp(*v)).collect()
+    }
+
+    /// States at the first sample of a test: lags at rest for the first command, effects initialised.
+    pub fn init_state(&self, p: &[f64], first: &Inputs) -> Vec<f64> {
+        let mut s = vec![0.0; self.n_states];
+        bingham::init_states(&mut s, first.current_cmd_a, self.current_limit_a);
+        let stage = bingham::stage(p, &s, first);
+        for slot in &self.slots {
+            let (head, tail) = s.split_at_mut(slot.states.start);
+            let _ = head;
+            slot.effect.init_states(
+                &p[slot.params.clone()],
+                &mut tail[..slot.states.len()],
+                first,
+                &stage,
+            );
+        }
+        s
+    }
+
+    /// The force assembly at one sample (base, then each effect in stage order).
+    pub fn eval(&self, p: &[f64], s: &[f64], inp: &Inputs) -> Stage {
+        let mut stage = bingham::stage(p, s, inp);
+        for &k in &self.apply_order {
+            let slot = &self.slots[k];
+            slot.effect.apply(&p[slot.params.clone()], &s[slot.states.clone()], inp, &mut stage);
+        }
+        stage
+    }
+
+    /// Advance every state from this sample to the next.
+    pub fn advance(&self, p: &[f64], s: &mut [f64], inp: &Inputs, stage: &Stage, force_n: f64, step: Step) {
+        for &k in &self.apply_order {
+            let slot = &self.slots[k];
+            slot.effect.advance(&p[slot.params.clone()], &mut s[slot.states.clone()], inp, stage, force_n, step);
+        }
+        bingham::advance(p, s, inp.current_cmd_a, self.current_limit_a, step.dt_s);
+    }
+
+    /// Integrate one test from its own start and write the force at every sample into `out`.
+    pub fn simulate_into(&self, p: &[f64], inputs: &[Inputs], out: &mut [f64]) {
+        assert_eq!(inputs.len(), out.len());
+        let Some(first) = inputs.first() else { return };
+        let mut s = self.init_state(p, first);
+        for k in 0..inputs.len() {
+            let inp = &inputs[k];
+            let stage = self.eval(p, &s, inp);
+            let f = stage.force_n(inp.v_m_s);
+            out[k] = f;
+            if let Some(next) = inputs.get(k + 1) {
+                let step = Step { dt_s: next.t_s - inp.t_s, dx_m: next.x_m - inp.x_m };
+                self.advance(p, &mut s, inp, &stage, f, step);
+            }
+        }
+    }
+
+    /// Integrate one test and return the force at every sample.
+    pub fn simulate(&self, p: &[f64], inputs: &[Inputs]) -> Vec<f64> {
+        let mut out = vec![0.0; inputs.len()];
+        self.simulate_into(p, inputs, &mut out);
+        out
+    }
+}
+
+/// A model with its parameters and running state: the force element that the MTS machine and the stick
+/// rig step in time. The same code the fitter integrates.
+#[derive(Debug, Clone)]
+pub struct Damper {
+    model: Arc<Model>,
+    params: Vec<f64>,
+    state: Vec<f64>,
+    started: bool,
+}
+
+impl Damper {
+    pub fn new(model: Arc<Model>, params: Vec<f64>) -> Result<Self, DeviceError> {
+        if params.len() != model.n_params() {
+            return Err(DeviceError::BadSpec {
+                spec: model.name(),
+                why: format!("{} parameter values for {} parameters", params.len(), model.n_params()),
+            });
+        }
+        let state = vec![0.0; model.n_states()];
+        Ok(Self { model, params, state, started: false })
+    }
+
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    pub fn params(&self) -> &[f64] {
+        &self.params
+    }
+
+    /// Value of a named parameter.
+    pub fn param(&self, name: &str) -> Option<f64> {
+        self.model.param_index(name).map(|k| self.params[k])
+    }
+
+    /// Restart from rest at the given inputs (lags settled at its current command).
+    pub fn reset(&mut self, first: &Inputs) {
+        self.state = self.model.init_state(&self.params, first);
+        self.started = true;
+    }
+
+    /// The force assembly at these inputs with the present state; the first call starts from rest.
+    pub fn eval(&mut self, inp: &Inputs) -> Stage {
+        if !self.started {
+            self.reset(inp);
+        }
+        self.model.eval(&self.params, &self.state, inp)
+    }
+
+    /// Advance the state over a step after `eval` at `inp` produced `stage`.
+    pub fn advance(&mut self, inp: &Inputs, stage: &Stage, step: Step) {
+        let f = stage.force_n(inp.v_m_s);
+        self.model.advance(&self.params, &mut self.state, inp, stage, f, step);
+    }
+
+    /// Coil current (Eq. 3 state), A.
+    pub fn coil_current_a(&self) -> f64 {
+        self.state.first().copied().unwrap_or(0.0)
+    }
+
+    /// Fluid excitation (Eq. 4 state), A.
+    pub fn fluid_excitation_a(&self) -> f64 {
+        self.state.get(1).copied().unwrap_or(0.0)
+    }
+}
