@@ -1,3 +1,6 @@
 //! mrfeel: simulation and model discovery for magneto-rheological artificial feel systems.
 pub mod device;
+pub mod measurement;
+pub mod mts;
 pub mod units;
+pub mod viz;

@@ -1,1 +1,32 @@
-fn main() {}
+//! The `mrfeel` command line: parse, call the library, print. All work is in the library.
+
+use clap::{Parser, Subcommand};
+
+/// Simulation and model discovery for magneto-rheological (MR) artificial feel systems on aircraft
+/// control sticks.
+#[derive(Parser)]
+#[command(name = "mrfeel", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Virtual MTS machine: drive the damper with a displacement protocol and record the force (CSV).
+    Mts(mrfeel::mts::cli::MtsArgs),
+}
+
+fn main() -> std::process::ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Mts(a) => mrfeel::mts::cli::run(a),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}

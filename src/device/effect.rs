@@ -88,8 +88,14 @@ pub trait Effect: Send + Sync {
     fn stage(&self) -> EffectStage;
     /// Parameter declarations (unique names across all effects; prefix them with the effect's tag).
     fn params(&self) -> &'static [ParamSpec];
-    /// Data-derived starting values, one per parameter, inside the bounds.
+    /// Data-derived starting values for a fit, one per parameter, inside the bounds.
     fn initial_guess(&self, stats: &DataStats) -> Vec<f64>;
+    /// A plausible, clearly visible strength of the effect for a device with these statistics: the truth
+    /// values `mrfeel mts --effects NAME` uses to generate data with a hidden effect. Defaults to the
+    /// initial guess; effects should give their own so a fit does not start at the truth.
+    fn typical_params(&self, stats: &DataStats) -> Vec<f64> {
+        self.initial_guess(stats)
+    }
     /// Number of internal states (hysteresis, temperature, …).
     fn n_states(&self) -> usize {
         0
@@ -99,7 +105,8 @@ pub trait Effect: Send + Sync {
     /// Edit the force assembly at this sample.
     fn apply(&self, p: &[f64], s: &[f64], inp: &Inputs, stage: &mut Stage);
     /// Advance internal states from this sample to the next, given the force this sample produced.
-    fn advance(&self, _p: &[f64], _s: &mut [f64], _inp: &Inputs, _stage: &Stage, _force_n: f64, _step: Step) {}
+    fn advance(&self, _p: &[f64], _s: &mut [f64], _inp: &Inputs, _stage: &Stage, _force_n: f64, _step: Step) {
+    }
     /// Words a diagnosis can use: how its absence shows in a residual (from the effect vocabulary).
     fn residual_signature(&self) -> &'static str {
         ""
