@@ -51,7 +51,11 @@ pub fn dahl_step(z: f64, dx_m: f64, x_yield_m: f64) -> f64 {
         return z;
     }
     let s = dx_m.signum();
-    let decay = if x_yield_m > 0.0 { (-dx_m.abs() / x_yield_m).exp() } else { 0.0 };
+    let decay = if x_yield_m > 0.0 {
+        (-dx_m.abs() / x_yield_m).exp()
+    } else {
+        0.0
+    };
     (s - (s - z) * decay).clamp(-1.0, 1.0)
 }
 
@@ -76,12 +80,12 @@ impl Effect for Hysteresis {
 
     /// 2 % of the largest displacement: a loop the data can see, so the gradient is informative.
     fn initial_guess(&self, stats: &DataStats) -> Vec<f64> {
-        vec![0.02 * Scales::from(stats).x_m]
+        vec![0.02 * Scales::of(stats).x_m]
     }
 
     /// 6 % of the largest displacement: the force reaches 90 % of yield 18 % of an amplitude after a reversal.
     fn typical_params(&self, stats: &DataStats) -> Vec<f64> {
-        vec![0.06 * Scales::from(stats).x_m]
+        vec![0.06 * Scales::of(stats).x_m]
     }
 
     fn n_states(&self) -> usize {
@@ -97,7 +101,15 @@ impl Effect for Hysteresis {
         stage.direction = s[0];
     }
 
-    fn advance(&self, p: &[f64], s: &mut [f64], _inp: &Inputs, _stage: &Stage, _force_n: f64, step: Step) {
+    fn advance(
+        &self,
+        p: &[f64],
+        s: &mut [f64],
+        _inp: &Inputs,
+        _stage: &Stage,
+        _force_n: f64,
+        step: Step,
+    ) {
         s[0] = dahl_step(s[0], step.dx_m, p[X_YIELD]);
     }
 
@@ -139,10 +151,16 @@ mod tests {
         let f = m.simulate(&p, &inputs);
         let fy = BASE[0] + BASE[1] * i;
         let f_zero = loop_force(&inputs, &f, -amp + xy * 2f64.ln(), true);
-        assert!(f_zero.abs() < 0.02 * fy, "force {f_zero} N at x_y ln 2 after reversal, yield {fy}");
+        assert!(
+            f_zero.abs() < 0.02 * fy,
+            "force {f_zero} N at x_y ln 2 after reversal, yield {fy}"
+        );
         let f_3 = loop_force(&inputs, &f, -amp + 3.0 * xy, true);
         let expect = fy * (1.0 - 2.0 * (-3.0f64).exp());
-        assert!((f_3 - expect).abs() < 0.02 * fy, "at 3 x_y: {f_3} vs {expect}");
+        assert!(
+            (f_3 - expect).abs() < 0.02 * fy,
+            "at 3 x_y: {f_3} vs {expect}"
+        );
         // Far from the reversal the force is the yield force, as in Bingham.
         let f_mid = loop_force(&inputs, &f, 0.0, true);
         assert!((f_mid - fy).abs() < 1e-6 * fy);
@@ -157,13 +175,24 @@ mod tests {
         // At v ≈ 0 after a rise (x at +A, about to go down) the force is still positive: it lags the reversal.
         let at_top = loop_force(&inputs, &f, 0.005, false);
         let at_bottom = loop_force(&inputs, &f, -0.005, true);
-        assert!(at_top > 0.5 * (BASE[0] + 5.0 * BASE[1]), "force at the top {at_top}");
-        assert!(at_bottom < -0.5 * (BASE[0] + 5.0 * BASE[1]), "force at the bottom {at_bottom}");
+        assert!(
+            at_top > 0.5 * (BASE[0] + 5.0 * BASE[1]),
+            "force at the top {at_top}"
+        );
+        assert!(
+            at_bottom < -0.5 * (BASE[0] + 5.0 * BASE[1]),
+            "force at the bottom {at_bottom}"
+        );
         // Energy dissipated over the last full cycle (∮F dx) is positive.
         let period = 0.5;
         let start = inputs.iter().position(|i| i.t_s >= 1.0).expect("samples");
-        let end = inputs.iter().position(|i| i.t_s >= 1.0 + period).expect("samples");
-        let w: f64 = (start..end).map(|k| 0.5 * (f[k] + f[k + 1]) * (inputs[k + 1].x_m - inputs[k].x_m)).sum();
+        let end = inputs
+            .iter()
+            .position(|i| i.t_s >= 1.0 + period)
+            .expect("samples");
+        let w: f64 = (start..end)
+            .map(|k| 0.5 * (f[k] + f[k + 1]) * (inputs[k + 1].x_m - inputs[k].x_m))
+            .sum();
         assert!(w > 0.0, "cycle work {w} J");
     }
 
@@ -176,8 +205,15 @@ mod tests {
         let p = params(&hyst, &[("hyst_x_yield_m", 1e-7)]);
         let fh = hyst.simulate(&p, &inputs);
         // Identical except at the sample of a reversal itself (z already flipped, sgn v at exactly 0 or not).
-        let differ = fb.iter().zip(&fh).filter(|(a, b)| (*a - *b).abs() > 1e-6).count();
-        assert!(differ <= 8, "{differ} samples differ from Bingham (4 reversals)");
+        let differ = fb
+            .iter()
+            .zip(&fh)
+            .filter(|(a, b)| (*a - *b).abs() > 1e-6)
+            .count();
+        assert!(
+            differ <= 8,
+            "{differ} samples differ from Bingham (4 reversals)"
+        );
     }
 
     #[test]

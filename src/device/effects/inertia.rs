@@ -48,13 +48,13 @@ impl Effect for Inertia {
 
     /// A mass giving 1 % of the force scale at the largest acceleration.
     fn initial_guess(&self, stats: &DataStats) -> Vec<f64> {
-        let s = Scales::from(stats);
+        let s = Scales::of(stats);
         vec![0.01 * s.force_n / s.a_m_s2]
     }
 
     /// A mass giving 15 % of the force scale at the largest acceleration.
     fn typical_params(&self, stats: &DataStats) -> Vec<f64> {
-        let s = Scales::from(stats);
+        let s = Scales::of(stats);
         vec![0.15 * s.force_n / s.a_m_s2]
     }
 
@@ -99,7 +99,10 @@ mod tests {
             let inputs = sine(0.004, freq, 2.0, 1e-4, 1.0);
             let f = m.simulate(&p, &inputs);
             let f0 = base.simulate(&BASE, &inputs);
-            f.iter().zip(&f0).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max)
+            f.iter()
+                .zip(&f0)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max)
         };
         let (p2, p4) = (peak(2.0), peak(4.0));
         let expect = mass * 0.004 * (2.0 * std::f64::consts::PI * 2.0f64).powi(2);
