@@ -80,7 +80,6 @@ impl Effect for Asymmetry {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use crate::device::effects::testkit::*;
 
     #[test]

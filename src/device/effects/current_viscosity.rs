@@ -76,7 +76,6 @@ impl Effect for CurrentViscosity {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use crate::device::effects::testkit::*;
 
     /// Post-yield slope dF/dv at a current, from two triangles at different speeds (same yield branch).

@@ -204,14 +204,23 @@ mod tests {
         let fb = base.simulate(&BASE, &inputs);
         let p = params(&hyst, &[("hyst_x_yield_m", 1e-7)]);
         let fh = hyst.simulate(&p, &inputs);
-        // Identical except at the sample of a reversal itself (z already flipped, sgn v at exactly 0 or not).
-        let differ = fb
-            .iter()
-            .zip(&fh)
-            .filter(|(a, b)| (*a - *b).abs() > 1e-6)
-            .count();
+        // Identical except within a few samples of each reversal, where z follows the sign of the last
+        // displacement step and sgn v the sign of the present velocity.
+        let (amp, w, dt) = (0.01, 2.0 * std::f64::consts::PI, 1e-3);
+        let near_reversal = 3.0 * dt * amp * w * w; // |v| within three samples of a reversal
+        let mut differ = 0;
+        for ((b, h), i) in fb.iter().zip(&fh).zip(&inputs) {
+            if (b - h).abs() > 1e-6 {
+                differ += 1;
+                assert!(
+                    i.v_m_s.abs() < near_reversal,
+                    "differs at t = {} far from a reversal",
+                    i.t_s
+                );
+            }
+        }
         assert!(
-            differ <= 8,
+            differ <= 12,
             "{differ} samples differ from Bingham (4 reversals)"
         );
     }

@@ -71,7 +71,6 @@ impl Effect for Inertia {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use crate::device::effects::testkit::*;
 
     #[test]

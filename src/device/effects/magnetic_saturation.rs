@@ -92,7 +92,6 @@ impl Effect for MagneticSaturation {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use crate::device::effects::testkit::*;
 
     /// Yield force at steady current, from a triangle at constant speed without viscosity.
