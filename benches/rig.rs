@@ -37,16 +37,21 @@ fn bench(c: &mut Criterion) {
         });
     }
     {
-        // Baseline: zero yield, zero damping — rapier's multibody step plus the rig's bookkeeping.
+        // Zero yield, zero damping: the rig step with the damper's constraints inactive.
         let mut r = rig(0.0, 0.0, 0.0);
         let mut k = 0u64;
-        g.bench_function("baseline_step_without_damper_forces", |b| {
+        g.bench_function("rig_step_without_damper_forces", |b| {
             b.iter(|| {
                 r.step(black_box(0.2 * hand(k)), black_box(0.0));
                 k += 1;
                 black_box(r.state().load_cell_n)
             })
         });
+    }
+    {
+        // Baseline: the bare rapier step of the same multibody and loop closure (no device, no bookkeeping).
+        let mut r = rig(3.0, 5.0, 300.0);
+        g.bench_function("baseline_rapier_step_only", |b| b.iter(|| r.step_rapier_only()));
     }
     g.finish();
 }

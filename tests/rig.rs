@@ -172,6 +172,7 @@ fn stick_does_not_creep_under_gravity_when_yield_exceeds_the_gravity_moment() {
         }
     }
     let drift = (r.state().stick_angle_rad - t0).abs();
+    println!("parked at {t0} rad: drift {drift} rad in 5 s, {flips} velocity sign changes");
     assert!(drift < 1e-4, "stick crept {drift} rad in 5 s");
     assert!(
         flips < 5 * 5,
@@ -220,12 +221,14 @@ fn hand_force_above_yield_gives_the_bingham_steady_speed() {
     }
     park_with_current(&mut r, -15f64.to_radians(), -40.0, i_a);
     let mut checked = 0;
+    let mut worst = 0.0f64;
     for _ in 0..steps(&r, 2.0) {
         r.step(f_hand, i_a);
         let s = r.state();
         if s.stick_angle_rad.abs() < 2f64.to_radians() {
             let g = r.linkage().gearing_m_per_rad(s.stick_angle_rad).unwrap();
             let v_expect = (f_hand * r.grip_lever_m() / g - (fc0 + gain * i_a)) / c0;
+            worst = worst.max(((s.piston_v_m_s - v_expect) / v_expect).abs());
             assert!(
                 (s.piston_v_m_s - v_expect).abs() < 0.03 * v_expect,
                 "v {} vs {v_expect}",
@@ -244,6 +247,7 @@ fn hand_force_above_yield_gives_the_bingham_steady_speed() {
             break;
         }
     }
+    println!("steady speed: worst relative error {worst:.3e} over {checked} samples");
     assert!(checked > 10, "only {checked} samples near centre");
 }
 
@@ -288,6 +292,10 @@ fn hand_work_equals_energy_change_plus_damper_dissipation() {
     let rhs = (s.kinetic_energy_j - s0.kinetic_energy_j)
         + (s.potential_energy_j - s0.potential_energy_j)
         + s.damper_dissipated_j;
+    println!(
+        "hand work {lhs} J, ΔE + dissipated {rhs} J, error {:.3e}, max |θ| {max_angle}",
+        (lhs - rhs) / lhs
+    );
     assert!(lhs > 0.5, "hand work {lhs} J too small to test");
     assert!(
         (lhs - rhs).abs() < 0.01 * lhs,
@@ -297,29 +305,60 @@ fn hand_work_equals_energy_change_plus_damper_dissipation() {
 }
 
 #[test]
+fn damper_never_returns_energy_to_the_mechanism() {
+    // A hard, irregular workout: pushes above and below yield, current steps (the yield force changes
+    // under a moving piston), reversals and hits on the stops, gravity on.
+    let mut r = rig(true, 3.0, 6.0, 150.0);
+    let mut worst = 0.0f64;
+    for k in 0..steps(&r, 6.0) {
+        let t = k as f64 * r.dt_s();
+        let f = 40.0 * (2.0 * PI * 0.7 * t).sin() + 25.0 * (2.0 * PI * 3.1 * t).sin();
+        let i = if (t * 2.0).floor() as i64 % 2 == 0 {
+            0.5
+        } else {
+            8.0
+        };
+        let before = r.state().damper_dissipated_j;
+        r.step(f, i);
+        let s = r.state();
+        worst = worst
+            .max(s.damper_power_w)
+            .max((before - s.damper_dissipated_j) / r.dt_s());
+    }
+    assert!(r.state().damper_dissipated_j > 1.0, "too little motion to test");
+    // Numerical zero: f32 velocities of a stuck piston are ~1e-10 m/s, times tens of newtons.
+    assert!(worst <= 1e-6, "the damper returned energy: {worst}");
+}
+
+#[test]
 fn piston_never_passes_its_stroke_when_pushed_hard_into_the_stop() {
+    // 300 N at the grip (above the FAA's 60 lbf temporary pitch force), slammed into both stops.
     let mut r = rig(true, 3.0, 5.0, 100.0);
     let stroke = r.stroke_limit_m();
     let (lo, hi) = r.stick_limits_rad();
+    let (mut x_max, mut overshoot) = (0.0f64, 0.0f64);
     for (f, secs) in [(300.0, 1.0), (-300.0, 1.5), (300.0, 1.5)] {
         for _ in 0..steps(&r, secs) {
             r.step(f, 0.0);
             let s = r.state();
-            assert!(s.piston_x_m.abs() < stroke, "piston at {} m", s.piston_x_m);
-            assert!(
-                s.stick_angle_rad > lo - 0.01 && s.stick_angle_rad < hi + 0.01,
-                "stick at {}",
-                s.stick_angle_rad
-            );
+            x_max = x_max.max(s.piston_x_m.abs());
+            overshoot = overshoot.max(s.stick_angle_rad - hi).max(lo - s.stick_angle_rad);
         }
-        // It reached the stick's stop.
+        // It rests on the stick's stop.
         let s = r.state();
         assert!(
-            (s.stick_angle_rad.abs() - hi).abs() < 0.01,
+            (s.stick_angle_rad.abs() - hi).abs() < 2e-3,
             "stick at {} rad",
             s.stick_angle_rad
         );
     }
+    println!("max |piston x| {x_max} m, max stop overshoot {overshoot} rad");
+    assert!(x_max < stroke, "piston reached {x_max} m, stroke {stroke} m");
+    // The stop is a stiff constraint, not a wall: at 1 kHz its overshoot on impact stays below 2°.
+    assert!(
+        overshoot < 2f64.to_radians(),
+        "stick overshot its stop by {overshoot} rad"
+    );
 }
 
 #[test]
