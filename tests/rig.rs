@@ -331,6 +331,37 @@ fn damper_never_returns_energy_to_the_mechanism() {
 }
 
 #[test]
+fn holding_the_stick_on_its_stop_does_not_chatter() {
+    // The pilot holds full aft stick (15 N) with the damper energised: stop and yield share the load.
+    let mut r = rig(true, 3.0, 5.0, 300.0);
+    for _ in 0..steps(&r, 2.0) {
+        r.step(15.0, 1.0);
+    }
+    let (mut lc_min, mut lc_max, mut x_min, mut x_max) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for _ in 0..steps(&r, 1.0) {
+        r.step(15.0, 1.0);
+        let s = r.state();
+        lc_min = lc_min.min(s.load_cell_n);
+        lc_max = lc_max.max(s.load_cell_n);
+        x_min = x_min.min(s.piston_x_m);
+        x_max = x_max.max(s.piston_x_m);
+    }
+    assert!(
+        (r.state().stick_angle_rad - r.stick_limits_rad().1).abs() < 2e-3,
+        "not on the stop"
+    );
+    assert!(
+        lc_max - lc_min < 0.5,
+        "load cell swings {lc_min}..{lc_max} N on the stop"
+    );
+    assert!(
+        x_max - x_min < 1e-6,
+        "piston moves {} m on the stop",
+        x_max - x_min
+    );
+}
+
+#[test]
 fn piston_never_passes_its_stroke_when_pushed_hard_into_the_stop() {
     // 300 N at the grip (above the FAA's 60 lbf temporary pitch force), slammed into both stops.
     let mut r = rig(true, 3.0, 5.0, 100.0);
