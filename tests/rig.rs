@@ -4,6 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
+use mrfeel::control::feel::{self, FeelSprings, FeelSystem};
 use mrfeel::device::{DeviceConfig, Registry};
 use mrfeel::rig::{Rig, RigConfig};
 
@@ -405,4 +406,107 @@ fn body_poses_name_every_link_with_its_visuals() {
     // The cylinder's frame sits on the damper axis, 0.5221 m forward of the pivot, 0.15 m up.
     let c = poses.iter().find(|p| p.name == "cylinder").unwrap();
     assert!((c.translation_m[0] + 0.5221).abs() < 1e-6 && (c.translation_m[2] - 0.15).abs() < 1e-6);
+}
+
+fn feel_springs() -> FeelSprings {
+    FeelSprings::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("models/feel-springs.toml")).unwrap()
+}
+
+/// Step the rig with a feel element on the piston joint.
+fn step_feel(r: &mut Rig, f: &dyn FeelSystem, hand_n: f64) {
+    feel::apply(f, r);
+    r.step(hand_n, 0.0);
+}
+
+#[test]
+fn centring_spring_recentres_the_stick_when_the_hand_lets_go() {
+    // Unpowered damper: 1 N of residual friction, 60 N·s/m. Gravity on.
+    let (fc0, c0) = (1.0, 60.0);
+    let mut r = rig(true, fc0, 0.0, c0);
+    let spring = feel_springs().centring;
+    for _ in 0..steps(&r, 1.0) {
+        step_feel(&mut r, &spring, 25.0);
+    }
+    let x_held = r.state().piston_x_m;
+    assert!(x_held > 0.02, "pushed only to {x_held} m");
+    for _ in 0..steps(&r, 3.0) {
+        step_feel(&mut r, &spring, 0.0);
+    }
+    let x = r.state().piston_x_m;
+    // The stick's weight acts as a negative spring at the piston: (m_s g z_s + m_r g z_r) / gearing².
+    let k_grav = (0.383035 * 9.80665 * 0.330536 + 0.042412 * 9.80665 * 0.15) / (0.15 * 0.15);
+    let dead_band = fc0 / (spring.k_n_per_m - k_grav);
+    assert!(
+        x.abs() <= 1.05 * dead_band,
+        "stick rests at x = {x} m, dead band {dead_band} m"
+    );
+    assert!(r.state().piston_v_m_s.abs() < 1e-4);
+}
+
+#[test]
+fn passive_feel_systems_never_inject_energy() {
+    let springs = feel_springs();
+    let mut q = springs.q_feel;
+    q.set_dynamic_pressure(10_000.0);
+    let systems: [(&str, &dyn FeelSystem); 3] = [
+        ("centring", &springs.centring),
+        ("variable gradient", &springs.variable_gradient),
+        ("q-feel", &q),
+    ];
+    for (name, f) in systems {
+        let mut r = rig(true, 0.5, 0.0, 20.0);
+        let e0 = r.state().kinetic_energy_j + r.state().potential_energy_j + f.stored_energy_j(0.0);
+        let mut worst_gain = f64::MIN;
+        let mut worst_loss = 0.0f64;
+        for k in 0..steps(&r, 4.0) {
+            let t = k as f64 * r.dt_s();
+            let hand = if t < 1.5 { 20.0 * (2.0 * PI * t).sin() } else { 0.0 };
+            step_feel(&mut r, f, hand);
+            let s = r.state();
+            let e = s.kinetic_energy_j + s.potential_energy_j + f.stored_energy_j(s.piston_x_m);
+            // Mechanical + stored energy never exceeds what the hand put in.
+            worst_gain = worst_gain.max((e - e0) - s.hand_work_j);
+            // The element is conservative: its work is minus the change of its stored energy.
+            let w_spring = s.external_work_j;
+            let du = f.stored_energy_j(s.piston_x_m) - f.stored_energy_j(0.0);
+            // The element only stores and returns energy: its work never exceeds its energy drop.
+            assert!(
+                w_spring <= -du + 1e-9,
+                "{name}: spring did {w_spring} J, its energy fell by {} J",
+                -du
+            );
+            worst_loss = worst_loss.max(-(w_spring + du) / s.hand_work_j.abs().max(1e-3));
+        }
+        println!(
+            "{name}: worst energy gain over hand work {worst_gain} J, spring's numerical loss {worst_loss}"
+        );
+        // The implicit tangent's dissipation stays a small part of the energy put in.
+        assert!(
+            worst_loss < 0.05,
+            "{name}: the spring lost {worst_loss} of the hand's work"
+        );
+        assert!(worst_gain < 1e-3, "{name} injected {worst_gain} J");
+    }
+}
+
+#[test]
+fn q_feel_static_deflection_scales_inversely_with_dynamic_pressure() {
+    let mut q = feel_springs().q_feel;
+    let mut x_at = |qbar: f64| {
+        q.set_dynamic_pressure(qbar);
+        let mut r = rig(false, 0.05, 0.0, 150.0);
+        for _ in 0..steps(&r, 2.0) {
+            step_feel(&mut r, &q, 6.0);
+        }
+        (r.state().piston_x_m, q.stiffness_n_per_m())
+    };
+    let (x1, k1) = x_at(10_000.0);
+    let (x2, k2) = x_at(20_000.0);
+    assert!(k2 > k1, "stiffness did not rise with q");
+    let ratio = x1 / x2;
+    assert!(
+        (ratio - k2 / k1).abs() < 0.03 * k2 / k1,
+        "deflection ratio {ratio}, stiffness ratio {}",
+        k2 / k1
+    );
 }

@@ -144,6 +144,20 @@ impl RigConfig {
         }
     }
 
+    /// Defaults for the given URDF at the given physics rate, checked (rate range, file readable).
+    pub fn load(urdf: &Path, physics_hz: f64) -> Result<Self, RigError> {
+        let cfg = Self {
+            physics_hz,
+            ..Self::new(urdf)
+        };
+        cfg.check()?;
+        std::fs::metadata(urdf).map_err(|e| RigError::Io {
+            path: urdf.to_path_buf(),
+            msg: e.to_string(),
+        })?;
+        Ok(cfg)
+    }
+
     fn check(&self) -> Result<(), RigError> {
         if !(self.physics_hz.is_finite() && (100.0..=100_000.0).contains(&self.physics_hz)) {
             return Err(RigError::Config {
@@ -235,7 +249,8 @@ pub struct RigState {
     pub fluid_current_a: f64,
     /// Hand force at the grip (tangential, + = aft), N.
     pub hand_force_n: f64,
-    /// External force element on the piston (issue 6 feel springs), N along +x.
+    /// External force elements on the piston (issue 6 feel springs: explicit force + implicit spring at the
+    /// end of the step), N along +x.
     pub external_force_n: f64,
     /// Work done by the hand since the start, J.
     pub hand_work_j: f64,
@@ -286,6 +301,8 @@ pub struct Rig {
     substep_dt_s: f64,
     steps: u64,
     external_force_n: f64,
+    spring_k_n_per_m: f64,
+    spring_rest_m: f64,
     pe0_j: f64,
     state: RigState,
 }
@@ -655,6 +672,8 @@ impl Rig {
             substep_dt_s,
             steps: 0,
             external_force_n: 0.0,
+            spring_k_n_per_m: 0.0,
+            spring_rest_m: 0.0,
             pe0_j: 0.0,
             state: RigState::default(),
         };
@@ -684,10 +703,15 @@ impl Rig {
         let jf = self.damper.begin_step(inp);
 
         // The damper on the piston DoF: implicit yield (dry friction) and viscous damping.
+        // The feel-system spring on the same DoF, implicit: −k (x⁺ − rest).
         if let Some((mb, link_id)) = self.world.multibody_joints.get_mut(self.piston_joint) {
             if let Some(k) = mb.link(link_id).map(|l| l.assembly_id()) {
                 mb.frictions_mut()[k] = (jf.friction_n + self.piston_friction_n) as f32;
                 mb.damping_mut()[k] = (jf.damping_n_s_per_m + self.piston_damping_n_s_per_m) as f32;
+            }
+            if let Some(link) = mb.link_mut(link_id) {
+                link.joint
+                    .set_spring(0, self.spring_k_n_per_m as f32, self.spring_rest_m as f32);
             }
         }
         // Explicit forces (forces persist in rapier until reset).
@@ -744,9 +768,11 @@ impl Rig {
         // The fluid's force on the piston from the piston group's momentum balance along the slide:
         // m Δv/Δt = F_load_cell + F_fluid + F_external + m g·u.
         let g_along = -self.gravity_m_s2 * u.z;
+        let spring_n = -self.spring_k_n_per_m * (s.piston_x_m - self.spring_rest_m);
         let fluid_on_piston = self.piston_group_mass_kg * s.piston_a_m_s2
             - s.load_cell_n
             - self.external_force_n
+            - spring_n
             - self.piston_group_mass_kg * g_along;
         s.damper_force_n = -fluid_on_piston;
         // Power at the end-of-step velocity, the one the implicit yield and damping act on (positions may
@@ -754,7 +780,8 @@ impl Rig {
         s.damper_power_w = fluid_on_piston * s.piston_v_m_s;
         s.damper_dissipated_j = before.damper_dissipated_j - s.damper_power_w * self.dt_s;
         s.hand_work_j = before.hand_work_j + hand_force_n * self.grip_lever_m * (s.stick_angle_rad - theta0);
-        s.external_work_j = before.external_work_j + self.external_force_n * dx;
+        s.external_force_n = self.external_force_n + spring_n;
+        s.external_work_j = before.external_work_j + (self.external_force_n + spring_n) * dx;
         self.damper.end_step(self.dt_s, dx);
         s.coil_current_a = self.damper.coil_current_a();
         s.fluid_current_a = self.damper.fluid_current_a();
@@ -857,6 +884,16 @@ impl Rig {
     /// caller (e.g. from [`Rig::state`]) and held for the following steps until set again.
     pub fn set_external_force_n(&mut self, force_n: f64) {
         self.external_force_n = force_n;
+    }
+
+    /// Hook for spring feel systems (issue 6): a linear spring on the piston joint, `F = −k (x − rest)`
+    /// along +x, integrated implicitly by the multibody (backward Euler: it can store and return energy
+    /// but never inject it, whatever `k` and the step). Held until set again; `k = 0` removes it. A
+    /// nonlinear spring is applied as its tangent at the present displacement (see
+    /// `crate::control::feel::apply`).
+    pub fn set_external_spring(&mut self, stiffness_n_per_m: f64, rest_x_m: f64) {
+        self.spring_k_n_per_m = stiffness_n_per_m.max(0.0);
+        self.spring_rest_m = rest_x_m;
     }
 
     /// Link names and visual shapes (static), in URDF order.
