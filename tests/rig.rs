@@ -510,3 +510,21 @@ fn q_feel_static_deflection_scales_inversely_with_dynamic_pressure() {
         k2 / k1
     );
 }
+
+#[test]
+fn same_inputs_give_bit_identical_runs_on_any_thread() {
+    // Determinism (design rule) and `Send` (scenarios run in parallel): two rigs on two threads.
+    let run = || {
+        let mut r = rig(true, 3.0, 5.0, 300.0);
+        for k in 0..steps(&r, 1.0) {
+            let t = k as f64 * r.dt_s();
+            r.step(25.0 * (2.0 * PI * 1.3 * t).sin(), 2.0 + (3.0 * t).sin());
+        }
+        r.state()
+    };
+    let a = std::thread::spawn(run);
+    let b = std::thread::spawn(run);
+    let (a, b) = (a.join().unwrap(), b.join().unwrap());
+    assert!(a.stick_angle_rad.abs() > 1e-3, "the stick did not move");
+    assert_eq!(a, b);
+}
