@@ -225,6 +225,7 @@ pub struct RigState {
     pub t_s: f64,
     /// Stick angle about the pivot, rad, + = aft (pull).
     pub stick_angle_rad: f64,
+    /// Stick angle change over the last step divided by the step, rad/s.
     pub stick_rate_rad_s: f64,
     /// Grip reference point, world, m.
     pub grip_pos_m: [f64; 3],
@@ -422,6 +423,24 @@ impl Rig {
             V3::from_array(piston_j.axis.xyz.0),
         );
         check_stops_agree(model, stick_j, piston_j, &linkage)?;
+
+        // The damper force is recovered from the piston's momentum, which needs the cylinder fixed to the
+        // world: every joint from the piston's parent up to the root must be fixed.
+        let mut link = piston_j.parent.link.clone();
+        for _ in 0..model.robot.joints.len() {
+            let Some(j) = model.robot.joints.iter().find(|j| j.child.link == link) else {
+                break;
+            };
+            if !matches!(j.joint_type, urdf_rs::JointType::Fixed) {
+                return Err(model.field_error(
+                    "joint",
+                    &j.name,
+                    "type",
+                    format!("the cylinder must be fixed to the base; `{}` moves it", j.name),
+                ));
+            }
+            link = j.parent.link.clone();
+        }
 
         // The piston group: the piston link and every link fixed to it (the load cell).
         let mut group = vec![piston_j.child.link.clone()];
@@ -765,6 +784,10 @@ impl Rig {
         let dx = s.piston_x_m - x0;
         let dv = s.piston_v_m_s - v0;
         s.piston_a_m_s2 = dv / self.dt_s;
+        // The stick's rate as its motion over the step (an encoder's view). The solver's generalized
+        // velocity equals it in smooth motion, but holds a spurious value while the soft stop is loaded
+        // (the stop's compliance term), with the stick at rest.
+        s.stick_rate_rad_s = (s.stick_angle_rad - theta0) / self.dt_s;
         // The fluid's force on the piston from the piston group's momentum balance along the slide:
         // m Δv/Δt = F_load_cell + F_fluid + F_external + m g·u.
         let g_along = -self.gravity_m_s2 * u.z;
