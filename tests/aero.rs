@@ -257,6 +257,25 @@ fn trailing_edge_down_elevator_pushes_the_stick_forward_and_pitches_nose_down() 
 }
 
 #[test]
+fn stick_force_per_g_is_a_pull_across_the_speed_range() {
+    for (name, speeds, h) in [
+        ("c172p", [35.0, 45.0, 55.0], 1000.0),
+        ("737", [130.0, 150.0, 210.0], 3000.0),
+    ] {
+        let a = aircraft(name);
+        for v in speeds {
+            let f = FeelAssessment::assess(&a, v, h).unwrap();
+            eprintln!("{name}: {}", f.report());
+            assert!(
+                f.stick_force_per_g_n > 0.0 && f.speed_gradient_n_per_m_s > 0.0,
+                "{name}: {}",
+                f.report()
+            );
+        }
+    }
+}
+
+#[test]
 fn feel_sits_inside_the_far_control_force_limits() {
     for (name, v, h) in [("c172p", 50.0, 1000.0), ("737", 170.0, 3000.0)] {
         let a = aircraft(name);

@@ -87,8 +87,10 @@ pub struct FeelAssessment {
     pub altitude_m: f64,
     pub basis: CertificationBasis,
     pub limit_load_factor: f64,
-    /// Secant stick force per g between 1 g and 2 g (or the limit, if lower), N/g.
+    /// Secant stick force per g between 1 g and `per_g_at_nz` (2 g, or less where the limit load
+    /// factor or the stall come first), N/g.
     pub stick_force_per_g_n: f64,
+    pub per_g_at_nz: f64,
     /// Pull from trim to the limit load factor, N (from the model's steady pull-up; extrapolated
     /// with the stick force per g when the wing stalls before the limit).
     pub force_at_limit_n: f64,
@@ -110,7 +112,21 @@ impl FeelAssessment {
         let m = aircraft.model();
         let basis = CertificationBasis::for_model(m);
         let n_lim = m.limit_load_factor;
-        let n_ref = 2.0_f64.min(n_lim);
+        // stick force per g between 1 g and 2 g, or 80 % of the way to the stall load factor
+        // when the wing cannot reach 2 g at this speed
+        let air = super::atmosphere::isa(altitude_m);
+        let cl_1g =
+            m.mass_kg * G0_M_S2 / (0.5 * air.density_kg_m3 * airspeed_m_s.powi(2) * m.wing_area_m2);
+        let n_stall = m.cl_max() / cl_1g;
+        let n_ref = 2.0_f64.min(n_lim).min(1.0 + 0.8 * (n_stall - 1.0));
+        if n_ref <= 1.05 {
+            return Err(AeroError::Input {
+                what: format!("{} at {airspeed_m_s} m/s, {altitude_m} m", m.name),
+                why: format!(
+                    "too close to the stall for a pull-up (stall load factor {n_stall:.2})"
+                ),
+            });
+        }
         let per_g = aircraft.stick_force_per_g(airspeed_m_s, altitude_m, n_ref)?;
         let (force_at_limit_n, extrapolated) =
             match aircraft.pull_up_stick_force_n(airspeed_m_s, altitude_m, n_lim) {
@@ -135,6 +151,7 @@ impl FeelAssessment {
             basis,
             limit_load_factor: n_lim,
             stick_force_per_g_n: per_g,
+            per_g_at_nz: n_ref,
             force_at_limit_n,
             force_at_limit_extrapolated: extrapolated,
             speed_gradient_n_per_m_s: speed_gradient,
@@ -176,13 +193,14 @@ impl FeelAssessment {
             CertificationPart::Part25 => "14 CFR 25",
         };
         format!(
-            "{:.1} m/s at {:.0} m ({part}): stick force per g {:.1} N/g ({:.1} lbf/g), allowed [{:.1}, {:.1}] N/g \
+            "{:.1} m/s at {:.0} m ({part}): stick force per g {:.1} N/g ({:.1} lbf/g, 1 to {:.2} g), allowed [{:.1}, {:.1}] N/g \
              ([{:.1}, {:.1}] lbf/g), band position {:.2}; pull to n = {:.1}: {:.0} N ({:.1} lbf{}); \
              speed gradient {:.2} N per m/s ({:.2} lbf per 6 kt); complies: {}",
             self.airspeed_m_s,
             self.altitude_m,
             self.stick_force_per_g_n,
             lbf(self.stick_force_per_g_n),
+            self.per_g_at_nz,
             lo,
             hi,
             lbf(lo),
@@ -191,7 +209,7 @@ impl FeelAssessment {
             self.limit_load_factor,
             self.force_at_limit_n,
             lbf(self.force_at_limit_n),
-            if self.force_at_limit_extrapolated { ", extrapolated past the stall" } else { "" },
+            if self.force_at_limit_extrapolated { ", extrapolated: stall or elevator stop first" } else { "" },
             self.speed_gradient_n_per_m_s,
             lbf(self.speed_gradient_n_per_m_s * 6.0 * KT_TO_M_S),
             self.complies()

@@ -456,6 +456,11 @@ impl AircraftModel {
             .join(format!("{name}.toml"))
     }
 
+    /// Maximum lift coefficient of the unstalled lift curve (largest value of `cl_alpha`).
+    pub fn cl_max(&self) -> f64 {
+        self.cl_alpha.max_value()
+    }
+
     /// Aspect ratio b²/S.
     pub fn aspect_ratio(&self) -> f64 {
         self.span_m * self.span_m / self.wing_area_m2

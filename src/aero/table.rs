@@ -65,6 +65,11 @@ impl Table1 {
         (self.y[k] - self.y[k - 1]) / (self.x[k] - self.x[k - 1])
     }
 
+    /// Largest tabulated value.
+    pub fn max_value(&self) -> f64 {
+        self.y.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+    }
+
     pub fn x_range(&self) -> (f64, f64) {
         (self.x[0], self.x[self.x.len() - 1])
     }
