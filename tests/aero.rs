@@ -435,3 +435,17 @@ fn bad_model_file_names_file_line_and_field() {
         Err(AeroError::Field { .. })
     ));
 }
+
+#[test]
+fn impossible_trims_are_errors_not_panics() {
+    let mut a = aircraft("c172p");
+    // 15 m/s needs CL ~ 3.4, far beyond the c172p's 1.47
+    assert!(matches!(a.trim(15.0, 1000.0), Err(AeroError::Trim { .. })));
+    assert!(matches!(
+        a.trim(f64::NAN, 1000.0),
+        Err(AeroError::Trim { .. })
+    ));
+    // 737 at 60 m/s: below the stall speed
+    let mut b = aircraft("737");
+    assert!(matches!(b.trim(60.0, 3000.0), Err(AeroError::Trim { .. })));
+}
