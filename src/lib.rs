@@ -1,4 +1,5 @@
 //! mrfeel: simulation and model discovery for magneto-rheological artificial feel systems.
+pub mod aero;
 pub mod control;
 pub mod device;
 pub mod measurement;
