@@ -1,3 +1,9 @@
 //! mrfeel: simulation and model discovery for magneto-rheological artificial feel systems.
+pub mod control;
 pub mod device;
+pub mod pilot;
+pub mod scenario;
+pub mod sensors;
+pub mod sim;
 pub mod units;
+pub mod viz;

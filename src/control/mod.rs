@@ -1,0 +1,9 @@
+//! Control: feel laws, the PID and the MR feel loop (signals only: the loop sees sensor samples).
+
+pub mod controller;
+pub mod law;
+pub mod pid;
+
+pub use controller::{ControlOutput, FeelController, Feedforward, LoopMode};
+pub use law::FeelLaw;
+pub use pid::{AntiWindup, Pid, PidGains};

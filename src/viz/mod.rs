@@ -1,0 +1,3 @@
+//! Views of results: Rerun recordings and static plots.
+
+pub mod rerun_rig;
