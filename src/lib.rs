@@ -2,6 +2,7 @@
 pub mod control;
 pub mod device;
 pub mod pilot;
+pub mod rig;
 pub mod scenario;
 pub mod sensors;
 pub mod sim;
