@@ -1,5 +1,5 @@
-//! Scenario files (`scenarios/*.toml`): one headless run of the stick rig, wiring the rig (URDF and physics
-//! rate), the device (a `models/*.toml` device file or a fitted `PARAMS.json`), the sensors and DAQ, the
+//! Scenario files (`scenarios/*.toml`): one headless run of the stick rig, wiring the rig (the `[rig]` table
+//! is [`RigConfig`]: URDF, physics rate, solver settings), the device (a `models/*.toml` device file or a fitted `PARAMS.json`), the sensors and DAQ, the
 //! feel loop's controller and feel law, and the pilot (hand model file and task).
 //!
 //! Every key is checked: unknown keys, wrong types and out-of-range values are errors naming the file, the
@@ -12,6 +12,7 @@ use toml::Spanned;
 
 use crate::control::{AntiWindup, FeelLaw, PidGains};
 use crate::pilot::{HandConfig, Signal, Task};
+use crate::rig::RigConfig;
 use crate::sensors::{DaqConfig, LaserConfig, LoadCellConfig, SensorsConfig};
 
 #[derive(Debug, thiserror::Error)]
@@ -49,8 +50,8 @@ pub struct Scenario {
     pub name: String,
     pub duration_s: f64,
     pub seed: u64,
-    pub urdf_path: PathBuf,
-    pub physics_rate_hz: f64,
+    /// The rig's settings, with the URDF path resolved against the scenario's directory.
+    pub rig: RigConfig,
     pub device_path: PathBuf,
     pub sensors: SensorsConfig,
     pub controller: ControllerConfig,
@@ -64,8 +65,8 @@ impl Scenario {
         Self::parse(&text, path)
     }
 
-    pub fn physics_dt_s(&self) -> f64 {
-        1.0 / self.physics_rate_hz
+    pub fn physics_rate_hz(&self) -> f64 {
+        self.rig.physics_hz
     }
 
     /// The same scenario with another DAQ rate (for the DAQ-rate sweep).
@@ -79,7 +80,16 @@ impl Scenario {
         let f: File = from_toml(text, path)?;
         let c = Ctx { path, text };
         let dir = path.parent().unwrap_or(Path::new("."));
-        let physics_rate_hz = c.num(&f.rig.physics_rate_hz, "rig.physics_rate_hz", 100.0, 100_000.0, "Hz")?;
+        let mut rig = f.rig.get_ref().clone();
+        rig.urdf = dir.join(&rig.urdf);
+        let physics_rate_hz = rig.physics_hz;
+        if !(physics_rate_hz.is_finite() && (100.0..=100_000.0).contains(&physics_rate_hz)) {
+            return Err(c.err(
+                &f.rig,
+                "rig.physics_hz",
+                &format!("value {physics_rate_hz} outside the allowed range [100, 100000] Hz"),
+            ));
+        }
         let duration_s = c.num(&f.duration_s, "duration_s", 1e-3, 3600.0, "s")?;
         let seed = c.int(&f.seed, "seed", 0, i64::MAX)? as u64;
 
@@ -96,7 +106,7 @@ impl Scenario {
                 velocity_cutoff_hz: c.num(&f.laser.velocity_cutoff_hz, "laser.velocity_cutoff_hz", 0.1, 1e4, "Hz")?,
             },
             daq: DaqConfig {
-                sample_rate_hz: c.num(&f.daq.sample_rate_hz, "daq.sample_rate_hz", 1.0, physics_rate_hz, "Hz (at most rig.physics_rate_hz)")?,
+                sample_rate_hz: c.num(&f.daq.sample_rate_hz, "daq.sample_rate_hz", 1.0, physics_rate_hz, "Hz (at most rig.physics_hz)")?,
                 latency_samples: c.int(&f.daq.latency_samples, "daq.latency_samples", 0, 1000)? as usize,
                 adc_bits: c.int(&f.daq.adc_bits, "daq.adc_bits", 0, 32)? as u32,
             },
@@ -165,8 +175,7 @@ impl Scenario {
             name: f.name,
             duration_s,
             seed,
-            urdf_path: dir.join(f.rig.urdf),
-            physics_rate_hz,
+            rig,
             device_path: dir.join(f.device.file),
             sensors,
             controller,
@@ -363,7 +372,7 @@ struct File {
     description: String,
     duration_s: Spanned<f64>,
     seed: Spanned<i64>,
-    rig: RigSection,
+    rig: Spanned<RigConfig>,
     device: DeviceSection,
     load_cell: LoadCellSection,
     laser: LaserSection,
@@ -371,13 +380,6 @@ struct File {
     controller: ControllerSection,
     feel: FeelSection,
     pilot: PilotSection,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RigSection {
-    urdf: PathBuf,
-    physics_rate_hz: Spanned<f64>,
 }
 
 #[derive(Deserialize)]

@@ -69,9 +69,7 @@ pub fn load(path: &Path) -> anyhow::Result<(Scenario, DeviceConfig, crate::rig::
 
 /// The scenario's rig with the device's damper.
 pub fn build_rig(scn: &Scenario, device: &DeviceConfig) -> anyhow::Result<crate::rig::Rig> {
-    let cfg = crate::rig::RigConfig::load(&scn.urdf_path, scn.physics_rate_hz)
-        .with_context(|| format!("rig of scenario {}", scn.path.display()))?;
-    Ok(crate::rig::Rig::new(&cfg, device.damper())?)
+    crate::rig::Rig::new(&scn.rig, device.damper()).with_context(|| format!("rig of scenario {}", scn.path.display()))
 }
 
 fn progress_bar(len: u64, msg: &str) -> ProgressBar {
@@ -132,9 +130,9 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
 pub fn sweep(scn: &Scenario, device: &DeviceConfig, rates: &[f64]) -> anyhow::Result<Vec<SweepPoint>> {
     for &r in rates {
         anyhow::ensure!(
-            r > 0.0 && r <= scn.physics_rate_hz,
+            r > 0.0 && r <= scn.physics_rate_hz(),
             "DAQ rate {r} Hz: allowed range (0, {}] Hz (the scenario's physics rate)",
-            scn.physics_rate_hz
+            scn.physics_rate_hz()
         );
     }
     anyhow::ensure!(

@@ -13,7 +13,7 @@ pub mod plant;
 pub mod response;
 pub mod results;
 
-pub use plant::{BodyPose, BodyShape, Plant, PlantState};
+pub use plant::{Plant, PlantState};
 pub use results::{Results, Row, Summary};
 
 use crate::control::{FeelController, Feedforward, LoopMode, Pid};
@@ -114,6 +114,7 @@ impl<P: Plant> Loop<P> {
             yield_force_n: s.yield_force_n,
             mode: self.mode,
             kinetic_energy_j: s.kinetic_energy_j,
+            potential_energy_j: s.potential_energy_j,
             dissipated_j: s.dissipated_j,
             pilot_work_j: self.pilot_work_j,
         };
@@ -144,7 +145,7 @@ pub fn run<P: Plant>(
     for k in 0..n {
         if let Some(every) = frame_every {
             if k % every == 0 {
-                frames.push((k as f64 * dt, lp.plant.bodies()));
+                frames.push((k as f64 * dt, lp.plant.poses()));
             }
         }
         rows.push(lp.step());
@@ -159,6 +160,7 @@ pub fn run<P: Plant>(
         stroke_half_m: lp.plant.stroke_half_m(),
         current_max_a: scn.controller.gains.out_max,
         rows,
+        visuals: if frame_every.is_some() { lp.plant.visuals() } else { Vec::new() },
         frames,
     }
 }

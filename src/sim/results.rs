@@ -4,7 +4,7 @@ use std::io::Write;
 
 use serde::Serialize;
 
-use super::plant::BodyPose;
+use crate::rig::{BodyPose, LinkVisuals};
 use crate::control::LoopMode;
 
 /// One physics step: the state at its start and what was applied over it.
@@ -30,12 +30,13 @@ pub struct Row {
     pub yield_force_n: f64,
     pub mode: LoopMode,
     pub kinetic_energy_j: f64,
+    pub potential_energy_j: f64,
     pub dissipated_j: f64,
     /// Work done by the hand on the grip since the start, J.
     pub pilot_work_j: f64,
 }
 
-pub const CSV_COLUMNS: [&str; 17] = [
+pub const CSV_COLUMNS: [&str; 18] = [
     "t_s",
     "stick_angle_rad",
     "stick_rate_rad_s",
@@ -51,6 +52,7 @@ pub const CSV_COLUMNS: [&str; 17] = [
     "yield_force_n",
     "loop_mode",
     "kinetic_energy_j",
+    "potential_energy_j",
     "dissipated_j",
     "pilot_work_j",
 ];
@@ -70,6 +72,8 @@ pub struct Results {
     pub stroke_half_m: f64,
     pub current_max_a: f64,
     pub rows: Vec<Row>,
+    /// Link shapes for drawing (empty unless poses were recorded).
+    pub visuals: Vec<LinkVisuals>,
     /// Body poses at the drawing rate: (time, bodies).
     pub frames: Vec<(f64, Vec<BodyPose>)>,
 }
@@ -92,8 +96,9 @@ pub struct Summary {
     pub max_abs_load_cell_n: f64,
     pub pilot_work_j: f64,
     pub kinetic_energy_change_j: f64,
+    pub potential_energy_change_j: f64,
     pub dissipated_j: f64,
-    /// (pilot work − ΔKE − dissipated) / pilot work.
+    /// (pilot work − ΔKE − ΔPE − dissipated) / pilot work.
     pub energy_residual: f64,
 }
 
@@ -117,6 +122,7 @@ impl Results {
         };
         let w = last.pilot_work_j - first.pilot_work_j;
         let dke = last.kinetic_energy_j - first.kinetic_energy_j;
+        let dpe = last.potential_energy_j - first.potential_energy_j;
         let diss = last.dissipated_j - first.dissipated_j;
         Summary {
             scenario: self.scenario.clone(),
@@ -131,8 +137,9 @@ impl Results {
             max_abs_load_cell_n: fold(|r| r.load_cell_true_n.abs(), 0.0, f64::max),
             pilot_work_j: w,
             kinetic_energy_change_j: dke,
+            potential_energy_change_j: dpe,
             dissipated_j: diss,
-            energy_residual: if w != 0.0 { (w - dke - diss) / w } else { f64::NAN },
+            energy_residual: if w != 0.0 { (w - dke - dpe - diss) / w } else { f64::NAN },
         }
     }
 
@@ -146,7 +153,7 @@ impl Results {
         for r in &self.rows {
             writeln!(
                 w,
-                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
                 r.t_s,
                 r.stick_angle_rad,
                 r.stick_rate_rad_s,
@@ -162,6 +169,7 @@ impl Results {
                 r.yield_force_n,
                 mode_code(r.mode),
                 r.kinetic_energy_j,
+                r.potential_energy_j,
                 r.dissipated_j,
                 r.pilot_work_j
             )?;
@@ -188,6 +196,7 @@ impl Row {
             yield_force_n: 0.0,
             mode: LoopMode::Holding,
             kinetic_energy_j: 0.0,
+            potential_energy_j: 0.0,
             dissipated_j: 0.0,
             pilot_work_j: 0.0,
         }
@@ -216,9 +225,10 @@ impl std::fmt::Display for Summary {
         writeln!(f, "  max |load cell| {:.1} N", self.max_abs_load_cell_n)?;
         write!(
             f,
-            "  energy: pilot work {:.4} J = ΔKE {:.4} J + dissipated {:.4} J (residual {:.3} %)",
+            "  energy: pilot work {:.4} J = ΔKE {:.4} J + ΔPE {:.4} J + dissipated {:.4} J (residual {:.3} %)",
             self.pilot_work_j,
             self.kinetic_energy_change_j,
+            self.potential_energy_change_j,
             self.dissipated_j,
             100.0 * self.energy_residual
         )

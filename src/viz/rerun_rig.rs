@@ -2,8 +2,9 @@
 //! desired vs measured force, the current command and the stroke.
 //!
 //! Entity layout (timeline `time`, duration in seconds):
-//! - `rig/<body>`: the body's shape (static) under its pose (`Transform3D` per frame);
-//! - `rig/forces/load_cell`: arrow at the piston along the rig's x axis, 1 mm per newton;
+//! - `rig/<link>`: the link's pose (`Transform3D` per frame, from the multibody);
+//!   `rig/<link>/visual_<k>`: its URDF visuals (static shapes posed in the link's frame);
+//! - `forces/load_cell`: arrow at the piston along the rig's x axis, 1 mm per newton;
 //! - `series/force/{desired,load_cell,load_cell_true,damper}` (N), `series/current/command` (A),
 //!   `series/stroke/piston_x` (m), `series/pilot/force` (N), `series/stick/angle` (rad): one value per
 //!   physics step, the same samples as the CSV's columns.
@@ -12,7 +13,8 @@ use std::path::Path;
 
 use rerun::{RecordingStream, TimeColumn};
 
-use crate::sim::{BodyShape, Results};
+use crate::rig::VisualShape;
+use crate::sim::Results;
 
 /// Metres of arrow per newton of force.
 const ARROW_M_PER_N: f32 = 1e-3;
@@ -83,44 +85,63 @@ fn log_series(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
 }
 
 fn log_bodies(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
-    let Some((_, first)) = res.frames.first() else { return Ok(()) };
-    for b in first {
-        let path = format!("rig/{}", b.name);
-        match b.shape {
-            BodyShape::Box { half_extents_m } => {
-                rec.log_static(path, &rerun::Boxes3D::from_half_sizes([half_extents_m])).map_err(err)?
-            }
-            BodyShape::Cylinder { radius_m, length_m } => rec
-                .log_static(path, &rerun::Cylinders3D::from_lengths_and_radii([length_m], [radius_m]))
-                .map_err(err)?,
-            BodyShape::Sphere { radius_m } => {
-                rec.log_static(path, &rerun::Ellipsoids3D::from_radii([radius_m])).map_err(err)?
+    // Shapes, static: each visual under its link, posed in the link's frame.
+    for link in &res.visuals {
+        for (k, v) in link.visuals.iter().enumerate() {
+            let path = format!("rig/{}/visual_{k}", link.name);
+            let local = rerun::Transform3D::from_translation_rotation(
+                f32x3(v.translation_m),
+                rerun::Quaternion::from_xyzw(f32x4(v.rotation_xyzw)),
+            );
+            rec.log_static(path.as_str(), &local).map_err(err)?;
+            match &v.shape {
+                VisualShape::Box { size_m } => rec
+                    .log_static(path.as_str(), &rerun::Boxes3D::from_sizes([f32x3(*size_m)]))
+                    .map_err(err)?,
+                VisualShape::Cylinder { radius_m, length_m } | VisualShape::Capsule { radius_m, length_m } => rec
+                    .log_static(
+                        path.as_str(),
+                        &rerun::Cylinders3D::from_lengths_and_radii([*length_m as f32], [*radius_m as f32]),
+                    )
+                    .map_err(err)?,
+                VisualShape::Sphere { radius_m } => rec
+                    .log_static(path.as_str(), &rerun::Ellipsoids3D::from_radii([*radius_m as f32]))
+                    .map_err(err)?,
+                VisualShape::Mesh { .. } => {}
             }
         }
     }
-    // Force arrow on the piston: the frame's row gives the load-cell force.
+    // Link poses over time, and the load-cell force as an arrow at the piston along +x.
     let dt = if res.rows.len() > 1 { res.rows[1].t_s - res.rows[0].t_s } else { 1.0 };
-    for (t, bodies) in &res.frames {
+    for (t, poses) in &res.frames {
         rec.set_duration_secs("time", *t);
-        for b in bodies {
+        for p in poses {
             rec.log(
-                format!("rig/{}", b.name),
+                format!("rig/{}", p.name),
                 &rerun::Transform3D::from_translation_rotation(
-                    b.translation_m,
-                    rerun::Quaternion::from_xyzw(b.rotation_xyzw),
+                    f32x3(p.translation_m),
+                    rerun::Quaternion::from_xyzw(f32x4(p.rotation_xyzw)),
                 ),
             )
             .map_err(err)?;
         }
         let k = ((t / dt).round() as usize).min(res.rows.len().saturating_sub(1));
-        if let (Some(row), Some(piston)) = (res.rows.get(k), bodies.iter().find(|b| b.name.contains("piston"))) {
+        if let (Some(row), Some(piston)) = (res.rows.get(k), poses.iter().find(|p| p.name == "piston")) {
             rec.log(
-                "rig/forces/load_cell",
+                "forces/load_cell",
                 &rerun::Arrows3D::from_vectors([[row.load_cell_true_n as f32 * ARROW_M_PER_N, 0.0, 0.0]])
-                    .with_origins([piston.translation_m]),
+                    .with_origins([f32x3(piston.translation_m)]),
             )
             .map_err(err)?;
         }
     }
     Ok(())
+}
+
+fn f32x3(a: [f64; 3]) -> [f32; 3] {
+    [a[0] as f32, a[1] as f32, a[2] as f32]
+}
+
+fn f32x4(a: [f64; 4]) -> [f32; 4] {
+    [a[0] as f32, a[1] as f32, a[2] as f32, a[3] as f32]
 }
