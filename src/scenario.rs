@@ -20,9 +20,18 @@ pub enum ScenarioError {
     #[error("{}: {msg}", path.display())]
     Io { path: PathBuf, msg: String },
     #[error("{}:{line}: {msg}", path.display())]
-    Parse { path: PathBuf, line: usize, msg: String },
+    Parse {
+        path: PathBuf,
+        line: usize,
+        msg: String,
+    },
     #[error("{}:{line}: `{key}`: {msg}", path.display())]
-    Field { path: PathBuf, line: usize, key: String, msg: String },
+    Field {
+        path: PathBuf,
+        line: usize,
+        key: String,
+        msg: String,
+    },
 }
 
 /// The controller section, validated.
@@ -97,17 +106,42 @@ impl Scenario {
             load_cell: LoadCellConfig {
                 range_n: c.num(&f.load_cell.range_n, "load_cell.range_n", 1.0, 1e5, "N")?,
                 gain: c.num(&f.load_cell.gain, "load_cell.gain", 0.5, 2.0, "")?,
-                offset_n: c.num(&f.load_cell.offset_n, "load_cell.offset_n", -50.0, 50.0, "N")?,
-                noise_rms_n: c.num(&f.load_cell.noise_rms_n, "load_cell.noise_rms_n", 0.0, 50.0, "N")?,
+                offset_n: c.num(
+                    &f.load_cell.offset_n,
+                    "load_cell.offset_n",
+                    -50.0,
+                    50.0,
+                    "N",
+                )?,
+                noise_rms_n: c.num(
+                    &f.load_cell.noise_rms_n,
+                    "load_cell.noise_rms_n",
+                    0.0,
+                    50.0,
+                    "N",
+                )?,
             },
             laser: LaserConfig {
                 range_m: c.num(&f.laser.range_m, "laser.range_m", 1e-3, 1.0, "m")?,
                 noise_rms_m: c.num(&f.laser.noise_rms_m, "laser.noise_rms_m", 0.0, 1e-2, "m")?,
-                velocity_cutoff_hz: c.num(&f.laser.velocity_cutoff_hz, "laser.velocity_cutoff_hz", 0.1, 1e4, "Hz")?,
+                velocity_cutoff_hz: c.num(
+                    &f.laser.velocity_cutoff_hz,
+                    "laser.velocity_cutoff_hz",
+                    0.1,
+                    1e4,
+                    "Hz",
+                )?,
             },
             daq: DaqConfig {
-                sample_rate_hz: c.num(&f.daq.sample_rate_hz, "daq.sample_rate_hz", 1.0, physics_rate_hz, "Hz (at most rig.physics_hz)")?,
-                latency_samples: c.int(&f.daq.latency_samples, "daq.latency_samples", 0, 1000)? as usize,
+                sample_rate_hz: c.num(
+                    &f.daq.sample_rate_hz,
+                    "daq.sample_rate_hz",
+                    1.0,
+                    physics_rate_hz,
+                    "Hz (at most rig.physics_hz)",
+                )?,
+                latency_samples: c.int(&f.daq.latency_samples, "daq.latency_samples", 0, 1000)?
+                    as usize,
                 adc_bits: c.int(&f.daq.adc_bits, "daq.adc_bits", 0, 32)? as u32,
             },
         };
@@ -118,7 +152,13 @@ impl Scenario {
             "back-calculation" => AntiWindup::BackCalculation {
                 tracking_time_s: match &k.tracking_time_s {
                     Some(v) => c.num(v, "controller.tracking_time_s", 1e-5, 10.0, "s")?,
-                    None => return Err(c.err(&k.anti_windup, "controller.tracking_time_s", "required with anti_windup = \"back-calculation\"")),
+                    None => {
+                        return Err(c.err(
+                            &k.anti_windup,
+                            "controller.tracking_time_s",
+                            "required with anti_windup = \"back-calculation\"",
+                        ))
+                    }
                 },
             },
             other => {
@@ -130,19 +170,49 @@ impl Scenario {
             }
         };
         let out_min = c.num(&k.current_min_a, "controller.current_min_a", 0.0, 14.0, "A")?;
-        let out_max = c.num(&k.current_max_a, "controller.current_max_a", out_min, 14.0, "A (the driver saturates at 14 A)")?;
+        let out_max = c.num(
+            &k.current_max_a,
+            "controller.current_max_a",
+            out_min,
+            14.0,
+            "A (the driver saturates at 14 A)",
+        )?;
         let controller = ControllerConfig {
             gains: PidGains {
                 kp: c.num(&k.kp_a_per_n, "controller.kp_a_per_n", 0.0, 10.0, "A/N")?,
-                ki: c.num(&k.ki_a_per_n_s, "controller.ki_a_per_n_s", 0.0, 1000.0, "A/(N·s)")?,
-                kd: c.num(&k.kd_a_s_per_n, "controller.kd_a_s_per_n", 0.0, 1.0, "A·s/N")?,
-                derivative_filter_s: c.num(&k.derivative_filter_s, "controller.derivative_filter_s", 0.0, 1.0, "s")?,
+                ki: c.num(
+                    &k.ki_a_per_n_s,
+                    "controller.ki_a_per_n_s",
+                    0.0,
+                    1000.0,
+                    "A/(N·s)",
+                )?,
+                kd: c.num(
+                    &k.kd_a_s_per_n,
+                    "controller.kd_a_s_per_n",
+                    0.0,
+                    1.0,
+                    "A·s/N",
+                )?,
+                derivative_filter_s: c.num(
+                    &k.derivative_filter_s,
+                    "controller.derivative_filter_s",
+                    0.0,
+                    1.0,
+                    "s",
+                )?,
                 out_min,
                 out_max,
                 anti_windup,
             },
             feedforward: *k.feedforward.get_ref(),
-            rest_speed_m_s: c.num(&k.rest_speed_m_s, "controller.rest_speed_m_s", 0.0, 1.0, "m/s")?,
+            rest_speed_m_s: c.num(
+                &k.rest_speed_m_s,
+                "controller.rest_speed_m_s",
+                0.0,
+                1.0,
+                "m/s",
+            )?,
             rest_force_n: c.num(&k.rest_force_n, "controller.rest_force_n", 0.0, 250.0, "N")?,
         };
 
@@ -150,24 +220,76 @@ impl Scenario {
         let feel = match fl.law.get_ref().as_str() {
             "spring" => FeelLaw::Spring {
                 breakout_n: c.req(&fl.breakout_n, &fl.law, "feel.breakout_n", 0.0, 250.0, "N")?,
-                gradient_n_per_m: c.req(&fl.gradient_n_per_m, &fl.law, "feel.gradient_n_per_m", 0.0, 1e6, "N/m")?,
-                damping_n_s_per_m: c.req(&fl.damping_n_s_per_m, &fl.law, "feel.damping_n_s_per_m", 0.0, 1e5, "N·s/m")?,
-                max_force_n: c.req(&fl.max_force_n, &fl.law, "feel.max_force_n", 0.0, 250.0, "N")?,
+                gradient_n_per_m: c.req(
+                    &fl.gradient_n_per_m,
+                    &fl.law,
+                    "feel.gradient_n_per_m",
+                    0.0,
+                    1e6,
+                    "N/m",
+                )?,
+                damping_n_s_per_m: c.req(
+                    &fl.damping_n_s_per_m,
+                    &fl.law,
+                    "feel.damping_n_s_per_m",
+                    0.0,
+                    1e5,
+                    "N·s/m",
+                )?,
+                max_force_n: c.req(
+                    &fl.max_force_n,
+                    &fl.law,
+                    "feel.max_force_n",
+                    0.0,
+                    250.0,
+                    "N",
+                )?,
             },
             "force-steps" => FeelLaw::ForceSteps {
                 low_n: c.req(&fl.low_n, &fl.law, "feel.low_n", 0.0, 250.0, "N")?,
                 high_n: c.req(&fl.high_n, &fl.law, "feel.high_n", 0.0, 250.0, "N")?,
-                start_s: c.req(&fl.start_s, &fl.law, "feel.start_s", 0.0, duration_s, "s (within duration_s)")?,
+                start_s: c.req(
+                    &fl.start_s,
+                    &fl.law,
+                    "feel.start_s",
+                    0.0,
+                    duration_s,
+                    "s (within duration_s)",
+                )?,
                 period_s: c.req(&fl.period_s, &fl.law, "feel.period_s", 1e-3, 3600.0, "s")?,
             },
             other => {
-                return Err(c.err(&fl.law, "feel.law", &format!("`{other}` is not one of: spring, force-steps")))
+                return Err(c.err(
+                    &fl.law,
+                    "feel.law",
+                    &format!("`{other}` is not one of: spring, force-steps"),
+                ))
             }
         };
-        c.unused(&fl.law, &[
-            ("spring", &[("low_n", fl.low_n.as_ref()), ("high_n", fl.high_n.as_ref()), ("start_s", fl.start_s.as_ref()), ("period_s", fl.period_s.as_ref())]),
-            ("force-steps", &[("breakout_n", fl.breakout_n.as_ref()), ("gradient_n_per_m", fl.gradient_n_per_m.as_ref()), ("damping_n_s_per_m", fl.damping_n_s_per_m.as_ref()), ("max_force_n", fl.max_force_n.as_ref())]),
-        ], "feel")?;
+        c.unused(
+            &fl.law,
+            &[
+                (
+                    "spring",
+                    &[
+                        ("low_n", fl.low_n.as_ref()),
+                        ("high_n", fl.high_n.as_ref()),
+                        ("start_s", fl.start_s.as_ref()),
+                        ("period_s", fl.period_s.as_ref()),
+                    ],
+                ),
+                (
+                    "force-steps",
+                    &[
+                        ("breakout_n", fl.breakout_n.as_ref()),
+                        ("gradient_n_per_m", fl.gradient_n_per_m.as_ref()),
+                        ("damping_n_s_per_m", fl.damping_n_s_per_m.as_ref()),
+                        ("max_force_n", fl.max_force_n.as_ref()),
+                    ],
+                ),
+            ],
+            "feel",
+        )?;
 
         let pilot = parse_pilot(&f.pilot, &c, dir, duration_s, 1.0 / physics_rate_hz, seed)?;
         Ok(Scenario {
@@ -198,7 +320,13 @@ fn parse_pilot(
     let task = match p.task.get_ref().as_str() {
         "position" => Task::Position,
         "force" => Task::Force,
-        other => return Err(c.err(&p.task, "pilot.task", &format!("`{other}` is not one of: position, force"))),
+        other => {
+            return Err(c.err(
+                &p.task,
+                "pilot.task",
+                &format!("`{other}` is not one of: position, force"),
+            ))
+        }
     };
     // Command values carry the task's unit: `_rad` (stick angle) for position, `_n` (grip force) for force.
     let (unit, lim, other_unit) = match task {
@@ -208,21 +336,43 @@ fn parse_pilot(
     let val = |name: &str| -> Result<Option<f64>, ScenarioError> {
         let (mine, theirs) = p.value_pair(name, unit);
         if let Some(t) = theirs {
-            return Err(c.err(t, &format!("pilot.{name}_{other_unit}"), &format!("a {} task takes `{name}_{unit}`", p.task.get_ref())));
+            return Err(c.err(
+                t,
+                &format!("pilot.{name}_{other_unit}"),
+                &format!("a {} task takes `{name}_{unit}`", p.task.get_ref()),
+            ));
         }
-        mine.map(|v| c.num(v, &format!("pilot.{name}_{unit}"), -lim, lim, unit)).transpose()
+        mine.map(|v| c.num(v, &format!("pilot.{name}_{unit}"), -lim, lim, unit))
+            .transpose()
     };
     let need = |name: &str| -> Result<f64, ScenarioError> {
-        val(name)?.ok_or_else(|| c.err(&p.signal, &format!("pilot.{name}_{unit}"), &format!("required by signal = \"{}\"", p.signal.get_ref())))
+        val(name)?.ok_or_else(|| {
+            c.err(
+                &p.signal,
+                &format!("pilot.{name}_{unit}"),
+                &format!("required by signal = \"{}\"", p.signal.get_ref()),
+            )
+        })
     };
-    let need_t = |v: &Option<Spanned<f64>>, key: &str, lo: f64, hi: f64, u: &str| -> Result<f64, ScenarioError> {
+    let need_t = |v: &Option<Spanned<f64>>,
+                  key: &str,
+                  lo: f64,
+                  hi: f64,
+                  u: &str|
+     -> Result<f64, ScenarioError> {
         match v {
             Some(v) => c.num(v, key, lo, hi, u),
-            None => Err(c.err(&p.signal, key, &format!("required by signal = \"{}\"", p.signal.get_ref()))),
+            None => Err(c.err(
+                &p.signal,
+                key,
+                &format!("required by signal = \"{}\"", p.signal.get_ref()),
+            )),
         }
     };
     let command = match p.signal.get_ref().as_str() {
-        "hold" => Signal::Hold { value: need("value")? },
+        "hold" => Signal::Hold {
+            value: need("value")?,
+        },
         "step" => Signal::Step {
             initial: need("initial")?,
             last: need("final")?,
@@ -232,7 +382,13 @@ fn parse_pilot(
             from: need("from")?,
             to: need("to")?,
             start_s: need_t(&p.start_s, "pilot.start_s", 0.0, duration_s, "s")?,
-            duration_s: need_t(&p.ramp_duration_s, "pilot.ramp_duration_s", 1e-3, 3600.0, "s")?,
+            duration_s: need_t(
+                &p.ramp_duration_s,
+                "pilot.ramp_duration_s",
+                1e-3,
+                3600.0,
+                "s",
+            )?,
         },
         "sine" => Signal::Sine {
             offset: val("offset")?.unwrap_or(0.0),
@@ -250,7 +406,7 @@ fn parse_pilot(
             need_t(&p.cutoff_hz, "pilot.cutoff_hz", 1e-3, 100.0, "Hz")?,
             duration_s,
             dt_s,
-            seed ^ 0x5eed_0f_9170,
+            seed ^ 0x005e_ed0f_9170,
         ),
         other => {
             return Err(c.err(
@@ -260,7 +416,12 @@ fn parse_pilot(
             ))
         }
     };
-    Ok(PilotConfig { hand_path, hand, task, command })
+    Ok(PilotConfig {
+        hand_path,
+        hand,
+        task,
+        command,
+    })
 }
 
 /// Load `models/pilot-hand.toml`.
@@ -273,14 +434,35 @@ pub fn load_hand(path: &Path) -> Result<HandConfig, ScenarioError> {
         stiffness_n_per_m: c.num(&h.stiffness_n_per_m, "stiffness_n_per_m", 0.0, 1e5, "N/m")?,
         damping_n_s_per_m: c.num(&h.damping_n_s_per_m, "damping_n_s_per_m", 0.0, 1e4, "N·s/m")?,
         activation_tau_s: c.num(&h.activation_tau_s, "activation_tau_s", 1e-3, 1.0, "s")?,
-        grip_stiffness_n_per_m: c.num(&h.grip_stiffness_n_per_m, "grip_stiffness_n_per_m", 10.0, 1e6, "N/m")?,
-        grip_damping_n_s_per_m: c.num(&h.grip_damping_n_s_per_m, "grip_damping_n_s_per_m", 0.0, 1e4, "N·s/m")?,
-        tracking_gain_per_s: c.num(&h.tracking_gain_per_s, "tracking_gain_per_s", 0.0, 100.0, "1/s")?,
+        grip_stiffness_n_per_m: c.num(
+            &h.grip_stiffness_n_per_m,
+            "grip_stiffness_n_per_m",
+            10.0,
+            1e6,
+            "N/m",
+        )?,
+        grip_damping_n_s_per_m: c.num(
+            &h.grip_damping_n_s_per_m,
+            "grip_damping_n_s_per_m",
+            0.0,
+            1e4,
+            "N·s/m",
+        )?,
+        tracking_gain_per_s: c.num(
+            &h.tracking_gain_per_s,
+            "tracking_gain_per_s",
+            0.0,
+            100.0,
+            "1/s",
+        )?,
     })
 }
 
 fn read(path: &Path) -> Result<String, ScenarioError> {
-    std::fs::read_to_string(path).map_err(|e| ScenarioError::Io { path: path.to_path_buf(), msg: e.to_string() })
+    std::fs::read_to_string(path).map_err(|e| ScenarioError::Io {
+        path: path.to_path_buf(),
+        msg: e.to_string(),
+    })
 }
 
 fn from_toml<T: serde::de::DeserializeOwned>(text: &str, path: &Path) -> Result<T, ScenarioError> {
@@ -293,8 +475,15 @@ fn from_toml<T: serde::de::DeserializeOwned>(text: &str, path: &Path) -> Result<
 
 /// 1-based line of a byte offset.
 fn line_of(text: &str, offset: usize) -> usize {
-    text.as_bytes()[..offset.min(text.len())].iter().filter(|&&b| b == b'\n').count() + 1
+    text.as_bytes()[..offset.min(text.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
 }
+
+/// A variant's optional key and its value, if given.
+type KeyValue<'a> = (&'a str, Option<&'a Spanned<f64>>);
 
 struct Ctx<'a> {
     path: &'a Path,
@@ -311,10 +500,21 @@ impl Ctx<'_> {
         }
     }
 
-    fn num(&self, v: &Spanned<f64>, key: &str, lo: f64, hi: f64, unit: &str) -> Result<f64, ScenarioError> {
+    fn num(
+        &self,
+        v: &Spanned<f64>,
+        key: &str,
+        lo: f64,
+        hi: f64,
+        unit: &str,
+    ) -> Result<f64, ScenarioError> {
         let x = *v.get_ref();
         if !x.is_finite() || x < lo || x > hi {
-            return Err(self.err(v, key, &format!("value {x} outside the allowed range [{lo}, {hi}] {unit}")));
+            return Err(self.err(
+                v,
+                key,
+                &format!("value {x} outside the allowed range [{lo}, {hi}] {unit}"),
+            ));
         }
         Ok(x)
     }
@@ -322,7 +522,11 @@ impl Ctx<'_> {
     fn int(&self, v: &Spanned<i64>, key: &str, lo: i64, hi: i64) -> Result<i64, ScenarioError> {
         let x = *v.get_ref();
         if x < lo || x > hi {
-            return Err(self.err(v, key, &format!("value {x} outside the allowed range [{lo}, {hi}]")));
+            return Err(self.err(
+                v,
+                key,
+                &format!("value {x} outside the allowed range [{lo}, {hi}]"),
+            ));
         }
         Ok(x)
     }
@@ -347,14 +551,18 @@ impl Ctx<'_> {
     fn unused(
         &self,
         sel: &Spanned<String>,
-        by_variant: &[(&str, &[(&str, Option<&Spanned<f64>>)])],
+        by_variant: &[(&str, &[KeyValue<'_>])],
         section: &str,
     ) -> Result<(), ScenarioError> {
         for (variant, keys) in by_variant {
             if sel.get_ref() == variant {
                 for (k, v) in keys.iter() {
                     if let Some(v) = v {
-                        return Err(self.err(v, &format!("{section}.{k}"), &format!("not used by `{}`", sel.get_ref())));
+                        return Err(self.err(
+                            v,
+                            &format!("{section}.{k}"),
+                            &format!("not used by `{}`", sel.get_ref()),
+                        ));
                     }
                 }
             }

@@ -86,7 +86,12 @@ pub struct FilteredDifferentiator {
 impl FilteredDifferentiator {
     pub fn new(cutoff_hz: f64, dt_s: f64) -> Self {
         let tau = 1.0 / (2.0 * std::f64::consts::PI * cutoff_hz);
-        Self { alpha: (-dt_s / tau).exp(), dt_s, last_x: None, v: 0.0 }
+        Self {
+            alpha: (-dt_s / tau).exp(),
+            dt_s,
+            last_x: None,
+            v: 0.0,
+        }
     }
 
     pub fn update(&mut self, x: f64) -> f64 {
@@ -147,10 +152,19 @@ impl Daq {
         let bits = self.cfg.daq.adc_bits;
         let nf: f64 = StandardNormal.sample(&mut self.rng);
         let nx: f64 = StandardNormal.sample(&mut self.rng);
-        let force = quantise(lc.gain * true_force_n + lc.offset_n + lc.noise_rms_n * nf, lc.range_n, bits);
+        let force = quantise(
+            lc.gain * true_force_n + lc.offset_n + lc.noise_rms_n * nf,
+            lc.range_n,
+            bits,
+        );
         let x = quantise(true_x_m + ls.noise_rms_m * nx, ls.range_m, bits);
         let v = self.diff.update(x);
-        self.line.push_back(DaqSample { sampled_t_s: t_s, force_n: force, x_m: x, v_m_s: v });
+        self.line.push_back(DaqSample {
+            sampled_t_s: t_s,
+            force_n: force,
+            x_m: x,
+            v_m_s: v,
+        });
         if self.line.len() > self.cfg.daq.latency_samples {
             self.line.pop_front()
         } else {
@@ -165,9 +179,22 @@ mod tests {
 
     fn cfg(rate: f64, latency: usize, bits: u32, noise: f64) -> SensorsConfig {
         SensorsConfig {
-            load_cell: LoadCellConfig { range_n: 250.0, gain: 1.0, offset_n: 0.0, noise_rms_n: noise },
-            laser: LaserConfig { range_m: 0.06, noise_rms_m: 0.0, velocity_cutoff_hz: 50.0 },
-            daq: DaqConfig { sample_rate_hz: rate, latency_samples: latency, adc_bits: bits },
+            load_cell: LoadCellConfig {
+                range_n: 250.0,
+                gain: 1.0,
+                offset_n: 0.0,
+                noise_rms_n: noise,
+            },
+            laser: LaserConfig {
+                range_m: 0.06,
+                noise_rms_m: 0.0,
+                velocity_cutoff_hz: 50.0,
+            },
+            daq: DaqConfig {
+                sample_rate_hz: rate,
+                latency_samples: latency,
+                adc_bits: bits,
+            },
         }
     }
 
@@ -209,7 +236,9 @@ mod tests {
         c.load_cell.offset_n = -0.3;
         let mut d = Daq::new(c, 7);
         let n = 20000;
-        let xs: Vec<f64> = (0..n).map(|k| d.acquire(k as f64 * 1e-3, 50.0, 0.0).unwrap().force_n).collect();
+        let xs: Vec<f64> = (0..n)
+            .map(|k| d.acquire(k as f64 * 1e-3, 50.0, 0.0).unwrap().force_n)
+            .collect();
         let mean = xs.iter().sum::<f64>() / n as f64;
         let sd = (xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n as f64).sqrt();
         assert!((mean - (1.02 * 50.0 - 0.3)).abs() < 0.02, "mean {mean}");
@@ -231,7 +260,11 @@ mod tests {
         }
         assert!((v - rate).abs() < 1e-9 * rate.max(1.0));
         let tau = 1.0 / (2.0 * std::f64::consts::PI * 20.0);
-        assert!((t63.unwrap() - tau).abs() < 1.5 * dt, "t63 {:?} tau {tau}", t63);
+        assert!(
+            (t63.unwrap() - tau).abs() < 1.5 * dt,
+            "t63 {:?} tau {tau}",
+            t63
+        );
     }
 
     #[test]

@@ -57,7 +57,9 @@ fn urdf_masses_limits_and_axes_match_table_1() {
     // Stroke ±2 in on a prismatic joint along +x.
     let slide = joint("piston_slide");
     assert!(matches!(slide.joint_type, urdf_rs::JointType::Prismatic));
-    assert!((slide.limit.upper - 2.0 * IN).abs() < 1e-9 && (slide.limit.lower + 2.0 * IN).abs() < 1e-9);
+    assert!(
+        (slide.limit.upper - 2.0 * IN).abs() < 1e-9 && (slide.limit.lower + 2.0 * IN).abs() < 1e-9
+    );
     assert_eq!(slide.axis.xyz.0, [1.0, 0.0, 0.0]);
     // Stick: revolute about the lateral axis, ±18° travel.
     let pivot = joint("stick_pivot");
@@ -78,7 +80,10 @@ fn stick_stops_keep_the_piston_inside_its_stroke() {
     let stroke = r.stroke_limit_m();
     for t in [lo, hi] {
         let x = r.linkage().piston_x_m(t).unwrap();
-        assert!(x.abs() < stroke, "stick stop {t} rad drives the piston to {x} m");
+        assert!(
+            x.abs() < stroke,
+            "stick stop {t} rad drives the piston to {x} m"
+        );
     }
     // The gearing near centre is the clevis height (slider-crank): 0.15 m/rad.
     assert!((r.gearing_m_per_rad() - 0.15).abs() < 1e-6);
@@ -113,8 +118,13 @@ fn stops_that_would_fight_are_rejected_with_the_line() {
 fn physics_rate_outside_its_range_is_an_error() {
     let mut cfg = RigConfig::new(urdf_path());
     cfg.physics_hz = 10.0;
-    let e = Rig::new(&cfg, damper(2.0, 5.0, 300.0)).unwrap_err().to_string();
-    assert!(e.contains("physics_hz") && e.contains("[100, 100000]"), "{e}");
+    let e = Rig::new(&cfg, damper(2.0, 5.0, 300.0))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("physics_hz") && e.contains("[100, 100000]"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -207,7 +217,10 @@ fn hand_force_below_yield_does_not_move_the_stick() {
         s.load_cell_n
     );
     // The fluid holds it: the damper force balances the load cell.
-    assert!((s.damper_force_n - s.load_cell_n).abs() < 0.02 * expect, "{s:?}");
+    assert!(
+        (s.damper_force_n - s.load_cell_n).abs() < 0.02 * expect,
+        "{s:?}"
+    );
     assert!(max_load < 1.1 * expect);
 }
 
@@ -301,7 +314,10 @@ fn hand_work_equals_energy_change_plus_damper_dissipation() {
         (lhs - rhs).abs() < 0.01 * lhs,
         "hand work {lhs} J vs ΔE + dissipated {rhs} J"
     );
-    assert!(min_step >= -1e-9, "damper gave back {min_step} J in one step");
+    assert!(
+        min_step >= -1e-9,
+        "damper gave back {min_step} J in one step"
+    );
 }
 
 #[test]
@@ -325,7 +341,10 @@ fn damper_never_returns_energy_to_the_mechanism() {
             .max(s.damper_power_w)
             .max((before - s.damper_dissipated_j) / r.dt_s());
     }
-    assert!(r.state().damper_dissipated_j > 1.0, "too little motion to test");
+    assert!(
+        r.state().damper_dissipated_j > 1.0,
+        "too little motion to test"
+    );
     // Numerical zero: f32 velocities of a stuck piston are ~1e-10 m/s, times tens of newtons.
     assert!(worst <= 1e-6, "the damper returned energy: {worst}");
 }
@@ -373,7 +392,9 @@ fn piston_never_passes_its_stroke_when_pushed_hard_into_the_stop() {
             r.step(f, 0.0);
             let s = r.state();
             x_max = x_max.max(s.piston_x_m.abs());
-            overshoot = overshoot.max(s.stick_angle_rad - hi).max(lo - s.stick_angle_rad);
+            overshoot = overshoot
+                .max(s.stick_angle_rad - hi)
+                .max(lo - s.stick_angle_rad);
         }
         // It rests on the stick's stop.
         let s = r.state();
@@ -384,7 +405,10 @@ fn piston_never_passes_its_stroke_when_pushed_hard_into_the_stop() {
         );
     }
     println!("max |piston x| {x_max} m, max stop overshoot {overshoot} rad");
-    assert!(x_max < stroke, "piston reached {x_max} m, stroke {stroke} m");
+    assert!(
+        x_max < stroke,
+        "piston reached {x_max} m, stroke {stroke} m"
+    );
     // The stop is a stiff constraint, not a wall: at 1 kHz its overshoot on impact stays below 2°.
     assert!(
         overshoot < 2f64.to_radians(),
@@ -397,7 +421,14 @@ fn body_poses_name_every_link_with_its_visuals() {
     let r = rig(true, 3.0, 5.0, 300.0);
     let poses = r.poses();
     let names: Vec<&str> = poses.iter().map(|p| p.name.as_str()).collect();
-    for n in ["base", "stick", "push_rod", "load_cell", "piston", "cylinder"] {
+    for n in [
+        "base",
+        "stick",
+        "push_rod",
+        "load_cell",
+        "piston",
+        "cylinder",
+    ] {
         assert!(names.contains(&n), "{n} missing from {names:?}");
         let v = r.visuals().iter().find(|l| l.name == n).unwrap();
         assert!(!v.visuals.is_empty());

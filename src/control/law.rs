@@ -21,10 +21,20 @@
 #[derive(Debug, Clone, PartialEq)]
 pub enum FeelLaw {
     /// `F = breakout_n·sgn(x) + gradient_n_per_m·x + damping_n_s_per_m·v`, clipped to ±`max_force_n`.
-    Spring { breakout_n: f64, gradient_n_per_m: f64, damping_n_s_per_m: f64, max_force_n: f64 },
+    Spring {
+        breakout_n: f64,
+        gradient_n_per_m: f64,
+        damping_n_s_per_m: f64,
+        max_force_n: f64,
+    },
     /// A force magnitude stepping between `low_n` and `high_n` every `period_s` from `start_s`, with the
     /// sign of the velocity (always resisting): the response-time test signal.
-    ForceSteps { low_n: f64, high_n: f64, start_s: f64, period_s: f64 },
+    ForceSteps {
+        low_n: f64,
+        high_n: f64,
+        start_s: f64,
+        period_s: f64,
+    },
 }
 
 impl FeelLaw {
@@ -32,7 +42,12 @@ impl FeelLaw {
     /// (or of the pilot's push at rest), used by laws that always resist.
     pub fn force_n(&self, t_s: f64, x_m: f64, v_m_s: f64, dir: f64) -> f64 {
         match *self {
-            FeelLaw::Spring { breakout_n, gradient_n_per_m, damping_n_s_per_m, max_force_n } => {
+            FeelLaw::Spring {
+                breakout_n,
+                gradient_n_per_m,
+                damping_n_s_per_m,
+                max_force_n,
+            } => {
                 let f = breakout_n * sgn(x_m) + gradient_n_per_m * x_m + damping_n_s_per_m * v_m_s;
                 f.clamp(-max_force_n, max_force_n)
             }
@@ -52,7 +67,12 @@ impl FeelLaw {
     /// For `ForceSteps`, the magnitude at `t_s`; for other laws 0.
     pub fn step_level_n(&self, t_s: f64) -> f64 {
         match *self {
-            FeelLaw::ForceSteps { low_n, high_n, start_s, period_s } => {
+            FeelLaw::ForceSteps {
+                low_n,
+                high_n,
+                start_s,
+                period_s,
+            } => {
                 if t_s < start_s {
                     low_n
                 } else if ((t_s - start_s) / period_s).floor() as i64 % 2 == 0 {
@@ -68,9 +88,12 @@ impl FeelLaw {
     /// Step times of a `ForceSteps` law within `[0, t_end_s)`.
     pub fn step_times_s(&self, t_end_s: f64) -> Vec<f64> {
         match *self {
-            FeelLaw::ForceSteps { start_s, period_s, .. } => {
-                (0..).map(|k| start_s + k as f64 * period_s).take_while(|&t| t < t_end_s).collect()
-            }
+            FeelLaw::ForceSteps {
+                start_s, period_s, ..
+            } => (0..)
+                .map(|k| start_s + k as f64 * period_s)
+                .take_while(|&t| t < t_end_s)
+                .collect(),
             _ => Vec::new(),
         }
     }
@@ -108,7 +131,12 @@ mod tests {
 
     #[test]
     fn force_steps_alternate_and_follow_velocity_sign() {
-        let law = FeelLaw::ForceSteps { low_n: 20.0, high_n: 50.0, start_s: 0.5, period_s: 0.3 };
+        let law = FeelLaw::ForceSteps {
+            low_n: 20.0,
+            high_n: 50.0,
+            start_s: 0.5,
+            period_s: 0.3,
+        };
         assert_eq!(law.force_n(0.4, 0.0, 0.1, sgn(0.1)), 20.0);
         assert_eq!(law.force_n(0.6, 0.0, 0.1, sgn(0.1)), 50.0);
         assert_eq!(law.force_n(0.9, 0.0, -0.1, sgn(-0.1)), -20.0);

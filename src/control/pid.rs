@@ -44,7 +44,13 @@ pub struct Pid {
 
 impl Pid {
     pub fn new(gains: PidGains) -> Self {
-        Self { gains, integral: 0.0, last_meas: None, deriv: 0.0, saturated: false }
+        Self {
+            gains,
+            integral: 0.0,
+            last_meas: None,
+            deriv: 0.0,
+            saturated: false,
+        }
     }
 
     pub fn integral(&self) -> f64 {
@@ -70,7 +76,11 @@ impl Pid {
         let e = setpoint - measurement;
         if let Some(y0) = self.last_meas {
             let raw = -(measurement - y0) / dt_s;
-            let a = if g.derivative_filter_s > 0.0 { (-dt_s / g.derivative_filter_s).exp() } else { 0.0 };
+            let a = if g.derivative_filter_s > 0.0 {
+                (-dt_s / g.derivative_filter_s).exp()
+            } else {
+                0.0
+            };
             self.deriv = a * self.deriv + (1.0 - a) * raw;
         }
         self.last_meas = Some(measurement);
@@ -169,12 +179,26 @@ mod tests {
         // 100 N is beyond the 70 N reachable at 14 A: the output saturates for 1 s.
         let none = recovery_s(AntiWindup::None, 100.0);
         let clamp = recovery_s(AntiWindup::Clamping, 100.0);
-        let back = recovery_s(AntiWindup::BackCalculation { tracking_time_s: 0.02 }, 100.0);
+        let back = recovery_s(
+            AntiWindup::BackCalculation {
+                tracking_time_s: 0.02,
+            },
+            100.0,
+        );
         // Without protection the integrator gains ≈ ki·(100 − 70)·1 s = 60 A of excess that unwinds at
         // ki·(30 − 70) = −80 A/s: ≈ 0.75 s lost. With protection the loop recovers in about its own time.
-        assert!(clamp < 1.2 * own + 0.01, "clamping {clamp} s vs own step {own} s");
-        assert!(back < 1.2 * own + 0.01, "back-calculation {back} s vs own step {own} s");
-        assert!(none > 0.6 + own, "without anti-windup {none} s vs own step {own} s");
+        assert!(
+            clamp < 1.2 * own + 0.01,
+            "clamping {clamp} s vs own step {own} s"
+        );
+        assert!(
+            back < 1.2 * own + 0.01,
+            "back-calculation {back} s vs own step {own} s"
+        );
+        assert!(
+            none > 0.6 + own,
+            "without anti-windup {none} s vs own step {own} s"
+        );
     }
 
     #[test]

@@ -99,7 +99,16 @@ pub trait Effect: Send + Sync {
     /// Edit the force assembly at this sample.
     fn apply(&self, p: &[f64], s: &[f64], inp: &Inputs, stage: &mut Stage);
     /// Advance internal states from this sample to the next, given the force this sample produced.
-    fn advance(&self, _p: &[f64], _s: &mut [f64], _inp: &Inputs, _stage: &Stage, _force_n: f64, _step: Step) {}
+    fn advance(
+        &self,
+        _p: &[f64],
+        _s: &mut [f64],
+        _inp: &Inputs,
+        _stage: &Stage,
+        _force_n: f64,
+        _step: Step,
+    ) {
+    }
     /// Words a diagnosis can use: how its absence shows in a residual (from the effect vocabulary).
     fn residual_signature(&self) -> &'static str {
         ""

@@ -30,7 +30,16 @@ pub enum DeviceError {
     #[error("{}: {msg}", path.display())]
     Io { path: PathBuf, msg: String },
     #[error("{}:{line}: {msg}", path.display())]
-    Parse { path: PathBuf, line: usize, msg: String },
+    Parse {
+        path: PathBuf,
+        line: usize,
+        msg: String,
+    },
     #[error("{}:{line}: field `{field}`: {msg}", path.display())]
-    Field { path: PathBuf, line: usize, field: String, msg: String },
+    Field {
+        path: PathBuf,
+        line: usize,
+        field: String,
+        msg: String,
+    },
 }

@@ -22,7 +22,13 @@ impl ParamSpec {
         upper: f64,
         doc: &'static str,
     ) -> Self {
-        Self { name, unit, lower, upper, doc }
+        Self {
+            name,
+            unit,
+            lower,
+            upper,
+            doc,
+        }
     }
 
     /// Clamp a value into the bounds.

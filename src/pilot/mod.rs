@@ -51,7 +51,16 @@ pub struct Hand {
 
 impl Hand {
     pub fn new(cfg: HandConfig, task: Task) -> Self {
-        Self { cfg, task, x_h: 0.0, v_h: 0.0, act: 0.0, act_rate: 0.0, z: 0.0, started: false }
+        Self {
+            cfg,
+            task,
+            x_h: 0.0,
+            v_h: 0.0,
+            act: 0.0,
+            act_rate: 0.0,
+            z: 0.0,
+            started: false,
+        }
     }
 
     /// Hand position along the grip path, m.
@@ -97,7 +106,8 @@ impl Hand {
         self.act_rate = (self.act - a0) / dt_s;
         let f_muscle = match self.task {
             Task::Position => {
-                c.stiffness_n_per_m * (self.act - self.x_h) + c.damping_n_s_per_m * (self.act_rate - self.v_h)
+                c.stiffness_n_per_m * (self.act - self.x_h)
+                    + c.damping_n_s_per_m * (self.act_rate - self.v_h)
             }
             Task::Force => self.act - c.damping_n_s_per_m * self.v_h,
         };
@@ -136,7 +146,10 @@ mod tests {
             f = h.step(0.01, 0.0, 0.0, dt);
         }
         let k_series = 1200.0 * 20000.0 / (1200.0 + 20000.0);
-        assert!((f - 0.01 * k_series).abs() < 0.01 * 0.01 * k_series, "force {f}");
+        assert!(
+            (f - 0.01 * k_series).abs() < 0.01 * 0.01 * k_series,
+            "force {f}"
+        );
     }
 
     /// The neuromuscular lag: a force step against a wall reaches 63 % after ≈ τ (plus the palm's fast
@@ -162,7 +175,11 @@ mod tests {
     fn position_task_follows_a_slow_command_when_unloaded() {
         let mut h = Hand::new(cfg(), Task::Position);
         let dt = 1e-3;
-        let s = Signal::Sine { offset: 0.0, amplitude: 0.05, frequency_hz: 0.2 };
+        let s = Signal::Sine {
+            offset: 0.0,
+            amplitude: 0.05,
+            frequency_hz: 0.2,
+        };
         let mut worst: f64 = 0.0;
         for k in 0..10000 {
             let t = k as f64 * dt;

@@ -27,8 +27,8 @@ pub mod urdf;
 use std::path::{Path, PathBuf};
 
 use rapier3d::prelude::{
-    GenericJoint, GenericJointBuilder, ImpulseJointHandle, JointAxesMask, MultibodyJointHandle, PhysicsWorld,
-    RigidBodyBuilder, RigidBodyHandle, SpringCoefficients, Vector,
+    GenericJoint, GenericJointBuilder, ImpulseJointHandle, JointAxesMask, MultibodyJointHandle,
+    PhysicsWorld, RigidBodyBuilder, RigidBodyHandle, SpringCoefficients, Vector,
 };
 use rapier3d_urdf::{UrdfLoaderOptions, UrdfMultibodyOptions, UrdfRobot};
 use serde::Deserialize;
@@ -46,7 +46,11 @@ pub enum RigError {
     #[error("{}: {msg}", path.display())]
     Io { path: PathBuf, msg: String },
     #[error("{}:{line}: {msg}", path.display())]
-    Urdf { path: PathBuf, line: usize, msg: String },
+    Urdf {
+        path: PathBuf,
+        line: usize,
+        msg: String,
+    },
     #[error("{}:{line}: {field}: {msg}", path.display())]
     Field {
         path: PathBuf,
@@ -351,7 +355,11 @@ impl Rig {
                 ),
             ));
         }
-        for (j, element) in [(stick_j, "joint"), (piston_j, "joint"), (loop_j, "loop_joint")] {
+        for (j, element) in [
+            (stick_j, "joint"),
+            (piston_j, "joint"),
+            (loop_j, "loop_joint"),
+        ] {
             if V3::from_array(j.axis.xyz.0).norm() < 1e-9 {
                 return Err(model.field_error(element, &j.name, "axis", "zero axis"));
             }
@@ -449,7 +457,10 @@ impl Rig {
                     "link",
                     &stick_link,
                     "visual",
-                    format!("no <visual name=\"{}\"> marking the grip", roles.grip_visual),
+                    format!(
+                        "no <visual name=\"{}\"> marking the grip",
+                        roles.grip_visual
+                    ),
                 )
             })?;
         let grip_local_f64 = V3::from_array(grip.origin.xyz.0);
@@ -611,7 +622,9 @@ impl Rig {
             .local_frame2(frame2)
             .contacts_enabled(false)
             .build();
-        let loop_joint = world.impulse_joints.insert(load_cell_body, rod_body, joint, true);
+        let loop_joint = world
+            .impulse_joints
+            .insert(load_cell_body, rod_body, joint, true);
 
         let grip_local = Vector::new(
             grip_local_f64.x as f32,
@@ -753,7 +766,8 @@ impl Rig {
         // also move by the solver's constraint stabilisation at an impact on a stop).
         s.damper_power_w = fluid_on_piston * s.piston_v_m_s;
         s.damper_dissipated_j = before.damper_dissipated_j - s.damper_power_w * self.dt_s;
-        s.hand_work_j = before.hand_work_j + hand_force_n * self.grip_lever_m * (s.stick_angle_rad - theta0);
+        s.hand_work_j =
+            before.hand_work_j + hand_force_n * self.grip_lever_m * (s.stick_angle_rad - theta0);
         s.external_work_j = before.external_work_j + self.external_force_n * dx;
         self.damper.end_step(self.dt_s, dx);
         s.coil_current_a = self.damper.coil_current_a();
@@ -776,7 +790,9 @@ impl Rig {
                 s.piston_v_m_s = mb.generalized_velocity()[link.assembly_id()] as f64;
             }
         }
-        let grip = b[self.stick_body].position().transform_point(self.grip_local);
+        let grip = b[self.stick_body]
+            .position()
+            .transform_point(self.grip_local);
         s.grip_pos_m = [grip.x as f64, grip.y as f64, grip.z as f64];
         if let Some(j) = self.world.impulse_joints.get(self.loop_joint) {
             let rot = b[self.load_cell_body].rotation() * self.loop_frame1_rot;
@@ -785,7 +801,11 @@ impl Rig {
             let along = imp.x as f64 * u.x + imp.y as f64 * u.y + imp.z as f64 * u.z;
             s.load_cell_n = along / self.substep_dt_s;
         }
-        s.kinetic_energy_j = self.links.iter().map(|l| b[l.body].kinetic_energy() as f64).sum();
+        s.kinetic_energy_j = self
+            .links
+            .iter()
+            .map(|l| b[l.body].kinetic_energy() as f64)
+            .sum();
         s.potential_energy_j = self.potential_energy_abs_j() - self.pe0_j;
         s.coil_current_a = self.damper.coil_current_a();
         s.fluid_current_a = self.damper.fluid_current_a();
@@ -922,7 +942,8 @@ fn check_stops_agree(
 }
 
 fn quat(q: [f64; 4]) -> rapier3d::math::Rotation {
-    rapier3d::math::Rotation::from_xyzw(q[0] as f32, q[1] as f32, q[2] as f32, q[3] as f32).normalize()
+    rapier3d::math::Rotation::from_xyzw(q[0] as f32, q[1] as f32, q[2] as f32, q[3] as f32)
+        .normalize()
 }
 
 fn visual_of(v: &urdf_rs::Visual) -> Visual {

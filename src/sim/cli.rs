@@ -38,7 +38,11 @@ pub struct DaqSweepArgs {
     /// Scenario with a `force-steps` feel law (e.g. `scenarios/response-time.toml`).
     pub scenario: PathBuf,
     /// DAQ rates to run, Hz (each at most the scenario's physics rate).
-    #[arg(long, value_delimiter = ',', default_value = "100,200,500,1000,2000,5000")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "100,200,500,1000,2000,5000"
+    )]
     pub rates: Vec<f64>,
     /// Write `daq-sweep.png` and `daq-sweep.svg` into this directory.
     #[arg(long)]
@@ -52,9 +56,13 @@ pub struct DaqSweepArgs {
 pub fn register_font() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
-        let bytes: &'static [u8] = include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/DejaVuSans.ttf"));
+        let bytes: &'static [u8] = include_bytes!(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/assets/DejaVuSans.ttf"
+        ));
         // The bundled font is valid; a failure would only lose text in plots.
-        let _ = plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, bytes);
+        let _ =
+            plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, bytes);
     });
 }
 
@@ -69,15 +77,22 @@ pub fn load(path: &Path) -> anyhow::Result<(Scenario, DeviceConfig, crate::rig::
 
 /// The scenario's rig with the device's damper.
 pub fn build_rig(scn: &Scenario, device: &DeviceConfig) -> anyhow::Result<crate::rig::Rig> {
-    crate::rig::Rig::new(&scn.rig, device.damper()).with_context(|| format!("rig of scenario {}", scn.path.display()))
+    crate::rig::Rig::new(&scn.rig, device.damper())
+        .with_context(|| format!("rig of scenario {}", scn.path.display()))
 }
 
 fn progress_bar(len: u64, msg: &str) -> ProgressBar {
     let pb = ProgressBar::with_draw_target(
         Some(len),
-        if std::io::stderr().is_terminal() { ProgressDrawTarget::stderr() } else { ProgressDrawTarget::hidden() },
+        if std::io::stderr().is_terminal() {
+            ProgressDrawTarget::stderr()
+        } else {
+            ProgressDrawTarget::hidden()
+        },
     );
-    if let Ok(style) = ProgressStyle::with_template("{msg} [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}") {
+    if let Ok(style) =
+        ProgressStyle::with_template("{msg} [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}")
+    {
         pb.set_style(style.progress_chars("=> "));
     }
     pb.set_message(msg.to_string());
@@ -85,9 +100,16 @@ fn progress_bar(len: u64, msg: &str) -> ProgressBar {
 }
 
 /// Run a loaded scenario with a progress bar.
-pub fn run_with_progress<P: Plant>(scn: &Scenario, device: &DeviceConfig, plant: P, opts: RunOptions) -> Results {
+pub fn run_with_progress<P: Plant>(
+    scn: &Scenario,
+    device: &DeviceConfig,
+    plant: P,
+    opts: RunOptions,
+) -> Results {
     let pb = progress_bar(1000, &scn.name);
-    let res = run(scn, device, plant, opts, |f| pb.set_position((f * 1000.0) as u64));
+    let res = run(scn, device, plant, opts, |f| {
+        pb.set_position((f * 1000.0) as u64)
+    });
     pb.finish_and_clear();
     res
 }
@@ -102,11 +124,15 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
     } else {
         None
     };
-    let opts = RunOptions { frames_hz: want_viz.then_some(60.0) };
+    let opts = RunOptions {
+        frames_hz: want_viz.then_some(60.0),
+    };
     let res = run_with_progress(&scn, &device, rig, opts);
     if let Some(path) = &args.out {
-        let f = std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
-        res.write_csv(std::io::BufWriter::new(f)).with_context(|| format!("writing {}", path.display()))?;
+        let f =
+            std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
+        res.write_csv(std::io::BufWriter::new(f))
+            .with_context(|| format!("writing {}", path.display()))?;
     }
     if let Some(rec) = &rec {
         crate::viz::rerun_rig::log_run(rec, &res)?;
@@ -120,14 +146,22 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
             println!("  results: {}", p.display());
         }
         if let Some(p) = &args.rerun {
-            println!("  recording: {} (open with `rerun {}`)", p.display(), p.display());
+            println!(
+                "  recording: {} (open with `rerun {}`)",
+                p.display(),
+                p.display()
+            );
         }
     }
     Ok(())
 }
 
 /// Run the scenario at each DAQ rate (in parallel, results in order) and measure the step responses.
-pub fn sweep(scn: &Scenario, device: &DeviceConfig, rates: &[f64]) -> anyhow::Result<Vec<SweepPoint>> {
+pub fn sweep(
+    scn: &Scenario,
+    device: &DeviceConfig,
+    rates: &[f64],
+) -> anyhow::Result<Vec<SweepPoint>> {
     for &r in rates {
         anyhow::ensure!(
             r > 0.0 && r <= scn.physics_rate_hz(),
@@ -162,15 +196,23 @@ pub fn daq_sweep_cmd(args: &DaqSweepArgs) -> anyhow::Result<()> {
         .with_context(|| format!("device of scenario {}", args.scenario.display()))?;
     let points = sweep(&scn, &device, &args.rates)?;
     if let Some(dir) = &args.plot {
-        response::plot(&points, dir, &format!("Feel-loop force response vs DAQ rate ({})", scn.name))
-            .map_err(anyhow::Error::msg)?;
+        response::plot(
+            &points,
+            dir,
+            &format!("Feel-loop force response vs DAQ rate ({})", scn.name),
+        )
+        .map_err(anyhow::Error::msg)?;
     }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&points)?);
     } else {
         print!("{}", response::markdown_table(&points));
         if let Some(dir) = &args.plot {
-            println!("plots: {}/daq-sweep.png, {}/daq-sweep.svg", dir.display(), dir.display());
+            println!(
+                "plots: {}/daq-sweep.png, {}/daq-sweep.svg",
+                dir.display(),
+                dir.display()
+            );
         }
     }
     Ok(())

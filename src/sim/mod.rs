@@ -16,7 +16,7 @@ pub mod results;
 pub use plant::{Plant, PlantState};
 pub use results::{Results, Row, Summary};
 
-use crate::control::{FeelController, Feedforward, LoopMode, Pid};
+use crate::control::{Feedforward, FeelController, LoopMode, Pid};
 use crate::device::DeviceConfig;
 use crate::pilot::{Hand, Task};
 use crate::scenario::Scenario;
@@ -51,6 +51,8 @@ impl<P: Plant> Loop<P> {
             fc0_n: device.param("fc0_n").unwrap_or(0.0),
             fc_gain_n_per_a: device.param("fc_gain_n_per_a").unwrap_or(0.0),
             c0_n_s_per_m: device.param("c0_n_s_per_m").unwrap_or(0.0),
+            te_s: device.param("te_s").unwrap_or(0.0),
+            tm_s: device.param("tm_s").unwrap_or(0.0),
         });
         let controller = FeelController::new(
             scn.feel.clone(),
@@ -89,7 +91,9 @@ impl<P: Plant> Loop<P> {
             if let Some(sample) = self.daq.acquire(t, s.load_cell_n, s.piston_x_m) {
                 // The controller runs on the sample's own time: with the latency line this is the same as
                 // computing at the sampling instant and writing the command `latency_samples` ticks later.
-                let out = self.controller.update(sample.sampled_t_s, &sample, self.daq.period_s());
+                let out = self
+                    .controller
+                    .update(sample.sampled_t_s, &sample, self.daq.period_s());
                 self.current_cmd_a = out.current_cmd_a;
                 self.desired_force_n = out.desired_force_n;
                 self.measured_force_n = sample.force_n;
@@ -138,7 +142,9 @@ pub fn run<P: Plant>(
     let mut lp = Loop::new(scn, device, plant);
     let dt = lp.plant.dt_s();
     let n = (scn.duration_s / dt).round() as usize;
-    let frame_every = opts.frames_hz.map(|hz| ((1.0 / (hz * dt)).round() as usize).max(1));
+    let frame_every = opts
+        .frames_hz
+        .map(|hz| ((1.0 / (hz * dt)).round() as usize).max(1));
     let mut rows = Vec::with_capacity(n + 1);
     let mut frames = Vec::new();
     let report_every = (n / 200).max(1);
@@ -160,7 +166,11 @@ pub fn run<P: Plant>(
         stroke_half_m: lp.plant.stroke_half_m(),
         current_max_a: scn.controller.gains.out_max,
         rows,
-        visuals: if frame_every.is_some() { lp.plant.visuals() } else { Vec::new() },
+        visuals: if frame_every.is_some() {
+            lp.plant.visuals()
+        } else {
+            Vec::new()
+        },
         frames,
     }
 }

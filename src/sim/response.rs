@@ -31,10 +31,18 @@ pub struct StepResponse {
 
 /// Responses to every valid step of a `ForceSteps` law in a run.
 pub fn step_responses(res: &Results, law: &FeelLaw) -> Vec<StepResponse> {
-    let FeelLaw::ForceSteps { period_s, .. } = *law else { return Vec::new() };
+    let FeelLaw::ForceSteps { period_s, .. } = *law else {
+        return Vec::new();
+    };
     let rows = &res.rows;
-    let Some(last) = rows.last() else { return Vec::new() };
-    let dt = if rows.len() > 1 { rows[1].t_s - rows[0].t_s } else { return Vec::new() };
+    let Some(last) = rows.last() else {
+        return Vec::new();
+    };
+    let dt = if rows.len() > 1 {
+        rows[1].t_s - rows[0].t_s
+    } else {
+        return Vec::new();
+    };
     let mut out = Vec::new();
     for t_k in law.step_times_s(last.t_s) {
         let f0 = law.step_level_n(t_k - 0.5 * dt);
@@ -49,16 +57,18 @@ pub fn step_responses(res: &Results, law: &FeelLaw) -> Vec<StepResponse> {
         }
         let w = &rows[i0..i1];
         let dir = w[0].piston_v_m_s.signum();
-        let steady = w.iter().all(|r| {
-            r.piston_v_m_s * dir >= res.rest_speed_m_s && r.mode != LoopMode::Released
-        });
+        let steady = w
+            .iter()
+            .all(|r| r.piston_v_m_s * dir >= res.rest_speed_m_s && r.mode != LoopMode::Released);
         if !steady || dir == 0.0 {
             continue;
         }
         let frac = |r: &crate::sim::Row| (r.load_cell_true_n * dir - f0) / (f1 - f0);
         let t10 = w.iter().find(|r| frac(r) >= 0.1).map(|r| r.t_s);
         let t90 = w.iter().find(|r| frac(r) >= 0.9).map(|r| r.t_s);
-        let (Some(t10), Some(t90)) = (t10, t90) else { continue };
+        let (Some(t10), Some(t90)) = (t10, t90) else {
+            continue;
+        };
         let band = 0.05 * (f1 - f0).abs();
         let outside = |r: &crate::sim::Row| (r.load_cell_true_n * dir - f1).abs() > band;
         let settling_s = if outside(&w[w.len() - 1]) {
@@ -70,7 +80,14 @@ pub fn step_responses(res: &Results, law: &FeelLaw) -> Vec<StepResponse> {
                 None => 0.0,
             })
         };
-        out.push(StepResponse { t_step_s: t_k, from_n: f0, to_n: f1, delay_s: t10 - t_k, rise_s: t90 - t10, settling_s });
+        out.push(StepResponse {
+            t_step_s: t_k,
+            from_n: f0,
+            to_n: f1,
+            delay_s: t10 - t_k,
+            rise_s: t90 - t10,
+            settling_s,
+        });
     }
     out
 }
@@ -100,8 +117,10 @@ pub fn summarise(rate_hz: f64, steps: &[StepResponse], res: &Results) -> SweepPo
         mean_delay_ms: 1e3 * steps.iter().map(|s| s.delay_s).sum::<f64>() / n,
         mean_rise_ms: 1e3 * steps.iter().map(|s| s.rise_s).sum::<f64>() / n,
         max_rise_ms: 1e3 * steps.iter().map(|s| s.rise_s).fold(0.0, f64::max),
-        mean_settling_ms: (!settled.is_empty()).then(|| 1e3 * settled.iter().sum::<f64>() / settled.len() as f64),
-        max_settling_ms: (!settled.is_empty()).then(|| 1e3 * settled.iter().copied().fold(0.0, f64::max)),
+        mean_settling_ms: (!settled.is_empty())
+            .then(|| 1e3 * settled.iter().sum::<f64>() / settled.len() as f64),
+        max_settling_ms: (!settled.is_empty())
+            .then(|| 1e3 * settled.iter().copied().fold(0.0, f64::max)),
         unsettled: steps.len() - settled.len(),
         tracking_nrmse: res.summary().tracking_nrmse,
     }
@@ -137,10 +156,18 @@ pub fn plot(points: &[SweepPoint], dir: &Path, title: &str) -> Result<(), String
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let ymax = points
         .iter()
-        .flat_map(|p| [p.max_rise_ms, p.mean_delay_ms, p.max_settling_ms.unwrap_or(0.0)])
+        .flat_map(|p| {
+            [
+                p.max_rise_ms,
+                p.mean_delay_ms,
+                p.max_settling_ms.unwrap_or(0.0),
+            ]
+        })
         .fold(1.0, f64::max)
         * 1.15;
-    let (xlo, xhi) = points.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.daq_rate_hz), b.max(p.daq_rate_hz)));
+    let (xlo, xhi) = points.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
+        (a.min(p.daq_rate_hz), b.max(p.daq_rate_hz))
+    });
     fn draw<DB: DrawingBackend>(
         root: DrawingArea<DB, plotters::coord::Shift>,
         points: &[SweepPoint],
@@ -164,23 +191,34 @@ pub fn plot(points: &[SweepPoint], dir: &Path, title: &str) -> Result<(), String
             .configure_mesh()
             .x_desc("DAQ sample rate (Hz)")
             .y_desc("time (ms)")
+            .x_labels(6)
+            .x_label_formatter(&|x| format!("{x:.0}"))
+            .y_label_formatter(&|y| format!("{y:.0}"))
             .label_style(("sans-serif", 14))
             .draw()
             .map_err(e)?;
-        let series: [(&str, RGBColor, Box<dyn Fn(&SweepPoint) -> Option<f64>>); 4] = [
-            ("settling ±5 %, mean", RED, Box::new(|p| p.mean_settling_ms)),
-            ("rise 10–90 %, mean", BLUE, Box::new(|p| Some(p.mean_rise_ms))),
-            ("rise 10–90 %, max", CYAN, Box::new(|p| Some(p.max_rise_ms))),
-            ("delay to 10 %", GREEN, Box::new(|p| Some(p.mean_delay_ms))),
+        type Pick = fn(&SweepPoint) -> Option<f64>;
+        let series: [(&str, RGBColor, Pick); 4] = [
+            ("settling ±5 %, mean", RED, |p| p.mean_settling_ms),
+            ("rise 10–90 %, mean", BLUE, |p| Some(p.mean_rise_ms)),
+            ("rise 10–90 %, max", CYAN, |p| Some(p.max_rise_ms)),
+            ("delay to 10 %", GREEN, |p| Some(p.mean_delay_ms)),
         ];
         for (name, color, f) in series {
-            let pts: Vec<(f64, f64)> = points.iter().filter_map(|p| f(p).map(|y| (p.daq_rate_hz, y))).collect();
+            let pts: Vec<(f64, f64)> = points
+                .iter()
+                .filter_map(|p| f(p).map(|y| (p.daq_rate_hz, y)))
+                .collect();
             chart
                 .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
                 .map_err(e)?
                 .label(name)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
-            chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, color.filled()))).map_err(e)?;
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+                });
+            chart
+                .draw_series(pts.iter().map(|&p| Circle::new(p, 4, color.filled())))
+                .map_err(e)?;
         }
         chart
             .configure_series_labels()
@@ -194,7 +232,19 @@ pub fn plot(points: &[SweepPoint], dir: &Path, title: &str) -> Result<(), String
     }
     let png = dir.join("daq-sweep.png");
     let svg = dir.join("daq-sweep.svg");
-    draw(BitMapBackend::new(&png, (900, 600)).into_drawing_area(), points, title, (xlo, xhi), ymax)?;
-    draw(SVGBackend::new(&svg, (900, 600)).into_drawing_area(), points, title, (xlo, xhi), ymax)?;
+    draw(
+        BitMapBackend::new(&png, (900, 600)).into_drawing_area(),
+        points,
+        title,
+        (xlo, xhi),
+        ymax,
+    )?;
+    draw(
+        SVGBackend::new(&svg, (900, 600)).into_drawing_area(),
+        points,
+        title,
+        (xlo, xhi),
+        ymax,
+    )?;
     Ok(())
 }

@@ -4,8 +4,8 @@ use std::io::Write;
 
 use serde::Serialize;
 
-use crate::rig::{BodyPose, LinkVisuals};
 use crate::control::LoopMode;
+use crate::rig::{BodyPose, LinkVisuals};
 
 /// One physics step: the state at its start and what was applied over it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -113,9 +113,15 @@ impl Results {
                 n += 1;
             }
         }
-        let rmse = if n > 0 { (se / n as f64).sqrt() } else { f64::NAN };
+        let rmse = if n > 0 {
+            (se / n as f64).sqrt()
+        } else {
+            f64::NAN
+        };
         let nrmse = if sd > 0.0 { (se / sd).sqrt() } else { f64::NAN };
-        let fold = |f: fn(&Row) -> f64, init: f64, op: fn(f64, f64) -> f64| rows.iter().map(f).fold(init, op);
+        let fold = |f: fn(&Row) -> f64, init: f64, op: fn(f64, f64) -> f64| {
+            rows.iter().map(f).fold(init, op)
+        };
         let (first, last) = match (rows.first(), rows.last()) {
             (Some(a), Some(b)) => (*a, *b),
             _ => (Row::zero(), Row::zero()),
@@ -139,7 +145,11 @@ impl Results {
             kinetic_energy_change_j: dke,
             potential_energy_change_j: dpe,
             dissipated_j: diss,
-            energy_residual: if w != 0.0 { (w - dke - dpe - diss) / w } else { f64::NAN },
+            energy_residual: if w != 0.0 {
+                (w - dke - dpe - diss) / w
+            } else {
+                f64::NAN
+            },
         }
     }
 
@@ -221,7 +231,11 @@ impl std::fmt::Display for Summary {
             self.max_abs_piston_x_m / crate::units::IN_TO_M,
             self.stroke_half_m / crate::units::IN_TO_M
         )?;
-        writeln!(f, "  current command {:.2} .. {:.2} A", self.current_min_a, self.current_max_a)?;
+        writeln!(
+            f,
+            "  current command {:.2} .. {:.2} A",
+            self.current_min_a, self.current_max_a
+        )?;
         writeln!(f, "  max |load cell| {:.1} N", self.max_abs_load_cell_n)?;
         write!(
             f,

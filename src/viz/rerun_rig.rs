@@ -35,7 +35,9 @@ fn err(e: impl std::fmt::Display) -> VizError {
 
 /// A recording stream that writes `path`.
 pub fn to_file(path: &Path) -> Result<RecordingStream, VizError> {
-    rerun::RecordingStreamBuilder::new("mrfeel").save(path).map_err(err)
+    rerun::RecordingStreamBuilder::new("mrfeel")
+        .save(path)
+        .map_err(err)
 }
 
 /// A recording stream into a freshly spawned viewer; fails with a clear message if none is installed.
@@ -47,7 +49,9 @@ pub fn spawn() -> Result<RecordingStream, VizError> {
     if !found {
         return Err(VizError::Spawn(format!("no `{exe}` executable on PATH")));
     }
-    rerun::RecordingStreamBuilder::new("mrfeel").spawn().map_err(|e| VizError::Spawn(e.to_string()))
+    rerun::RecordingStreamBuilder::new("mrfeel")
+        .spawn()
+        .map_err(|e| VizError::Spawn(e.to_string()))
 }
 
 /// Log one run.
@@ -77,7 +81,9 @@ fn log_series(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
         rec.send_columns(
             path,
             [TimeColumn::new_duration_secs("time", times.iter().copied())],
-            rerun::Scalars::new(values).columns_of_unit_batches().map_err(err)?,
+            rerun::Scalars::new(values)
+                .columns_of_unit_batches()
+                .map_err(err)?,
         )
         .map_err(err)?;
     }
@@ -98,21 +104,32 @@ fn log_bodies(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
                 VisualShape::Box { size_m } => rec
                     .log_static(path.as_str(), &rerun::Boxes3D::from_sizes([f32x3(*size_m)]))
                     .map_err(err)?,
-                VisualShape::Cylinder { radius_m, length_m } | VisualShape::Capsule { radius_m, length_m } => rec
+                VisualShape::Cylinder { radius_m, length_m }
+                | VisualShape::Capsule { radius_m, length_m } => rec
                     .log_static(
                         path.as_str(),
-                        &rerun::Cylinders3D::from_lengths_and_radii([*length_m as f32], [*radius_m as f32]),
+                        &rerun::Cylinders3D::from_lengths_and_radii(
+                            [*length_m as f32],
+                            [*radius_m as f32],
+                        ),
                     )
                     .map_err(err)?,
                 VisualShape::Sphere { radius_m } => rec
-                    .log_static(path.as_str(), &rerun::Ellipsoids3D::from_radii([*radius_m as f32]))
+                    .log_static(
+                        path.as_str(),
+                        &rerun::Ellipsoids3D::from_radii([*radius_m as f32]),
+                    )
                     .map_err(err)?,
                 VisualShape::Mesh { .. } => {}
             }
         }
     }
     // Link poses over time, and the load-cell force as an arrow at the piston along +x.
-    let dt = if res.rows.len() > 1 { res.rows[1].t_s - res.rows[0].t_s } else { 1.0 };
+    let dt = if res.rows.len() > 1 {
+        res.rows[1].t_s - res.rows[0].t_s
+    } else {
+        1.0
+    };
     for (t, poses) in &res.frames {
         rec.set_duration_secs("time", *t);
         for p in poses {
@@ -126,11 +143,17 @@ fn log_bodies(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
             .map_err(err)?;
         }
         let k = ((t / dt).round() as usize).min(res.rows.len().saturating_sub(1));
-        if let (Some(row), Some(piston)) = (res.rows.get(k), poses.iter().find(|p| p.name == "piston")) {
+        if let (Some(row), Some(piston)) =
+            (res.rows.get(k), poses.iter().find(|p| p.name == "piston"))
+        {
             rec.log(
                 "forces/load_cell",
-                &rerun::Arrows3D::from_vectors([[row.load_cell_true_n as f32 * ARROW_M_PER_N, 0.0, 0.0]])
-                    .with_origins([f32x3(piston.translation_m)]),
+                &rerun::Arrows3D::from_vectors([[
+                    row.load_cell_true_n as f32 * ARROW_M_PER_N,
+                    0.0,
+                    0.0,
+                ]])
+                .with_origins([f32x3(piston.translation_m)]),
             )
             .map_err(err)?;
         }
