@@ -15,12 +15,18 @@ struct Cli {
 enum Command {
     /// Virtual MTS machine: drive the damper with a displacement protocol and record the force (CSV).
     Mts(mrfeel::mts::cli::MtsArgs),
+    /// Run a stick-rig scenario headless (CSV, Rerun recording, summary).
+    Run(mrfeel::sim::cli::RunArgs),
+    /// Force response time of the feel loop against the DAQ sample rate.
+    DaqSweep(mrfeel::sim::cli::DaqSweepArgs),
 }
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Mts(a) => mrfeel::mts::cli::run(a),
+        Command::Run(a) => mrfeel::sim::cli::run_cmd(&a),
+        Command::DaqSweep(a) => mrfeel::sim::cli::daq_sweep_cmd(&a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
