@@ -1,6 +1,8 @@
 //! mrfeel: simulation and model discovery for magneto-rheological artificial feel systems.
+pub mod compare;
 pub mod control;
 pub mod device;
+pub mod faults;
 pub mod measurement;
 pub mod mts;
 pub mod rig;

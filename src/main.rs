@@ -15,12 +15,15 @@ struct Cli {
 enum Command {
     /// Virtual MTS machine: drive the damper with a displacement protocol and record the force (CSV).
     Mts(mrfeel::mts::cli::MtsArgs),
+    /// Compare feel systems (springs, MR damper, hybrid) on the same rig and pilot task, with faults.
+    Compare(mrfeel::compare::cli::CompareArgs),
 }
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Mts(a) => mrfeel::mts::cli::run(a),
+        Command::Compare(a) => mrfeel::compare::cli::run_cmd(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
