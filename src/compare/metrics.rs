@@ -45,7 +45,7 @@ pub struct SystemMetrics {
 }
 
 /// Rows of the sinusoidal segment (index 0) after its first cycle.
-fn sweep_rows<'a>(tr: &'a Trace) -> (&'a [Row], f64) {
+fn sweep_rows(tr: &Trace) -> (&[Row], f64) {
     let f = match tr.task.segments.first() {
         Some(Segment::Sine { frequency_hz, .. }) => *frequency_hz,
         _ => return (&[], 0.0),

@@ -504,7 +504,7 @@ impl CompareScenario {
             500.0,
             "lbf",
         )?;
-        let task_s = main_task(&k).duration_s();
+        let task_s = main_task(k).duration_s();
         chk(
             "fault_test",
             "start_s",
