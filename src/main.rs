@@ -19,6 +19,8 @@ enum Command {
     Run(mrfeel::sim::cli::RunArgs),
     /// Force response time of the feel loop against the DAQ sample rate.
     DaqSweep(mrfeel::sim::cli::DaqSweepArgs),
+    /// Compare feel systems (springs, MR damper, hybrid) on the same rig and pilot task, with faults.
+    Compare(mrfeel::compare::cli::CompareArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -27,6 +29,7 @@ fn main() -> std::process::ExitCode {
         Command::Mts(a) => mrfeel::mts::cli::run(a),
         Command::Run(a) => mrfeel::sim::cli::run_cmd(&a),
         Command::DaqSweep(a) => mrfeel::sim::cli::daq_sweep_cmd(&a),
+        Command::Compare(a) => mrfeel::compare::cli::run_cmd(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
