@@ -15,12 +15,15 @@ struct Cli {
 enum Command {
     /// Virtual MTS machine: drive the damper with a displacement protocol and record the force (CSV).
     Mts(mrfeel::mts::cli::MtsArgs),
+    /// Pilot-in-the-loop flight on the stick rig (aircraft embedded or live JSBSim).
+    Fly(mrfeel::aero::flight_loop::FlyArgs),
 }
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Mts(a) => mrfeel::mts::cli::run(a),
+        Command::Fly(a) => mrfeel::aero::flight_loop::run_cli(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -14,10 +14,15 @@
 //! elevator positive trailing edge down (JSBSim's convention: positive elevator pitches nose-down).
 
 pub mod atmosphere;
+pub mod backend;
 pub mod certification;
+pub mod flight_loop;
+pub mod flight_rerun;
 pub mod hinge;
+pub mod jsbsim_bridge;
 pub mod longitudinal;
 pub mod model;
+pub mod pilot_task;
 pub mod reference;
 pub mod table;
 
