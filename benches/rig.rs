@@ -51,9 +51,7 @@ fn bench(c: &mut Criterion) {
     {
         // Baseline: the bare rapier step of the same multibody and loop closure (no device, no bookkeeping).
         let mut r = rig(3.0, 5.0, 300.0);
-        g.bench_function("baseline_rapier_step_only", |b| {
-            b.iter(|| r.step_rapier_only())
-        });
+        g.bench_function("baseline_rapier_step_only", |b| b.iter(|| r.step_rapier_only()));
     }
     g.finish();
 }

@@ -4,6 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
+use mrfeel::control::feel::{self, FeelSprings, FeelSystem};
 use mrfeel::device::{DeviceConfig, Registry};
 use mrfeel::rig::{Rig, RigConfig};
 
@@ -57,9 +58,7 @@ fn urdf_masses_limits_and_axes_match_table_1() {
     // Stroke ±2 in on a prismatic joint along +x.
     let slide = joint("piston_slide");
     assert!(matches!(slide.joint_type, urdf_rs::JointType::Prismatic));
-    assert!(
-        (slide.limit.upper - 2.0 * IN).abs() < 1e-9 && (slide.limit.lower + 2.0 * IN).abs() < 1e-9
-    );
+    assert!((slide.limit.upper - 2.0 * IN).abs() < 1e-9 && (slide.limit.lower + 2.0 * IN).abs() < 1e-9);
     assert_eq!(slide.axis.xyz.0, [1.0, 0.0, 0.0]);
     // Stick: revolute about the lateral axis, ±18° travel.
     let pivot = joint("stick_pivot");
@@ -80,10 +79,7 @@ fn stick_stops_keep_the_piston_inside_its_stroke() {
     let stroke = r.stroke_limit_m();
     for t in [lo, hi] {
         let x = r.linkage().piston_x_m(t).unwrap();
-        assert!(
-            x.abs() < stroke,
-            "stick stop {t} rad drives the piston to {x} m"
-        );
+        assert!(x.abs() < stroke, "stick stop {t} rad drives the piston to {x} m");
     }
     // The gearing near centre is the clevis height (slider-crank): 0.15 m/rad.
     assert!((r.gearing_m_per_rad() - 0.15).abs() < 1e-6);
@@ -118,13 +114,8 @@ fn stops_that_would_fight_are_rejected_with_the_line() {
 fn physics_rate_outside_its_range_is_an_error() {
     let mut cfg = RigConfig::new(urdf_path());
     cfg.physics_hz = 10.0;
-    let e = Rig::new(&cfg, damper(2.0, 5.0, 300.0))
-        .unwrap_err()
-        .to_string();
-    assert!(
-        e.contains("physics_hz") && e.contains("[100, 100000]"),
-        "{e}"
-    );
+    let e = Rig::new(&cfg, damper(2.0, 5.0, 300.0)).unwrap_err().to_string();
+    assert!(e.contains("physics_hz") && e.contains("[100, 100000]"), "{e}");
 }
 
 #[test]
@@ -217,10 +208,7 @@ fn hand_force_below_yield_does_not_move_the_stick() {
         s.load_cell_n
     );
     // The fluid holds it: the damper force balances the load cell.
-    assert!(
-        (s.damper_force_n - s.load_cell_n).abs() < 0.02 * expect,
-        "{s:?}"
-    );
+    assert!((s.damper_force_n - s.load_cell_n).abs() < 0.02 * expect, "{s:?}");
     assert!(max_load < 1.1 * expect);
 }
 
@@ -314,10 +302,7 @@ fn hand_work_equals_energy_change_plus_damper_dissipation() {
         (lhs - rhs).abs() < 0.01 * lhs,
         "hand work {lhs} J vs ΔE + dissipated {rhs} J"
     );
-    assert!(
-        min_step >= -1e-9,
-        "damper gave back {min_step} J in one step"
-    );
+    assert!(min_step >= -1e-9, "damper gave back {min_step} J in one step");
 }
 
 #[test]
@@ -341,10 +326,7 @@ fn damper_never_returns_energy_to_the_mechanism() {
             .max(s.damper_power_w)
             .max((before - s.damper_dissipated_j) / r.dt_s());
     }
-    assert!(
-        r.state().damper_dissipated_j > 1.0,
-        "too little motion to test"
-    );
+    assert!(r.state().damper_dissipated_j > 1.0, "too little motion to test");
     // Numerical zero: f32 velocities of a stuck piston are ~1e-10 m/s, times tens of newtons.
     assert!(worst <= 1e-6, "the damper returned energy: {worst}");
 }
@@ -392,9 +374,7 @@ fn piston_never_passes_its_stroke_when_pushed_hard_into_the_stop() {
             r.step(f, 0.0);
             let s = r.state();
             x_max = x_max.max(s.piston_x_m.abs());
-            overshoot = overshoot
-                .max(s.stick_angle_rad - hi)
-                .max(lo - s.stick_angle_rad);
+            overshoot = overshoot.max(s.stick_angle_rad - hi).max(lo - s.stick_angle_rad);
         }
         // It rests on the stick's stop.
         let s = r.state();
@@ -405,10 +385,7 @@ fn piston_never_passes_its_stroke_when_pushed_hard_into_the_stop() {
         );
     }
     println!("max |piston x| {x_max} m, max stop overshoot {overshoot} rad");
-    assert!(
-        x_max < stroke,
-        "piston reached {x_max} m, stroke {stroke} m"
-    );
+    assert!(x_max < stroke, "piston reached {x_max} m, stroke {stroke} m");
     // The stop is a stiff constraint, not a wall: at 1 kHz its overshoot on impact stays below 2°.
     assert!(
         overshoot < 2f64.to_radians(),
@@ -421,14 +398,7 @@ fn body_poses_name_every_link_with_its_visuals() {
     let r = rig(true, 3.0, 5.0, 300.0);
     let poses = r.poses();
     let names: Vec<&str> = poses.iter().map(|p| p.name.as_str()).collect();
-    for n in [
-        "base",
-        "stick",
-        "push_rod",
-        "load_cell",
-        "piston",
-        "cylinder",
-    ] {
+    for n in ["base", "stick", "push_rod", "load_cell", "piston", "cylinder"] {
         assert!(names.contains(&n), "{n} missing from {names:?}");
         let v = r.visuals().iter().find(|l| l.name == n).unwrap();
         assert!(!v.visuals.is_empty());
@@ -436,4 +406,125 @@ fn body_poses_name_every_link_with_its_visuals() {
     // The cylinder's frame sits on the damper axis, 0.5221 m forward of the pivot, 0.15 m up.
     let c = poses.iter().find(|p| p.name == "cylinder").unwrap();
     assert!((c.translation_m[0] + 0.5221).abs() < 1e-6 && (c.translation_m[2] - 0.15).abs() < 1e-6);
+}
+
+fn feel_springs() -> FeelSprings {
+    FeelSprings::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("models/feel-springs.toml")).unwrap()
+}
+
+/// Step the rig with a feel element on the piston joint.
+fn step_feel(r: &mut Rig, f: &dyn FeelSystem, hand_n: f64) {
+    feel::apply(f, r);
+    r.step(hand_n, 0.0);
+}
+
+#[test]
+fn centring_spring_recentres_the_stick_when_the_hand_lets_go() {
+    // Unpowered damper: 1 N of residual friction, 60 N·s/m. Gravity on.
+    let (fc0, c0) = (1.0, 60.0);
+    let mut r = rig(true, fc0, 0.0, c0);
+    let spring = feel_springs().centring;
+    for _ in 0..steps(&r, 1.0) {
+        step_feel(&mut r, &spring, 25.0);
+    }
+    let x_held = r.state().piston_x_m;
+    assert!(x_held > 0.02, "pushed only to {x_held} m");
+    for _ in 0..steps(&r, 3.0) {
+        step_feel(&mut r, &spring, 0.0);
+    }
+    let x = r.state().piston_x_m;
+    // The stick's weight acts as a negative spring at the piston: (m_s g z_s + m_r g z_r) / gearing².
+    let k_grav = (0.383035 * 9.80665 * 0.330536 + 0.042412 * 9.80665 * 0.15) / (0.15 * 0.15);
+    let dead_band = fc0 / (spring.k_n_per_m - k_grav);
+    assert!(
+        x.abs() <= 1.05 * dead_band,
+        "stick rests at x = {x} m, dead band {dead_band} m"
+    );
+    assert!(r.state().piston_v_m_s.abs() < 1e-4);
+}
+
+#[test]
+fn passive_feel_systems_never_inject_energy() {
+    let springs = feel_springs();
+    let mut q = springs.q_feel;
+    q.set_dynamic_pressure(10_000.0);
+    let systems: [(&str, &dyn FeelSystem); 3] = [
+        ("centring", &springs.centring),
+        ("variable gradient", &springs.variable_gradient),
+        ("q-feel", &q),
+    ];
+    for (name, f) in systems {
+        let mut r = rig(true, 0.5, 0.0, 20.0);
+        let e0 = r.state().kinetic_energy_j + r.state().potential_energy_j + f.stored_energy_j(0.0);
+        let mut worst_gain = f64::MIN;
+        let mut worst_loss = 0.0f64;
+        for k in 0..steps(&r, 4.0) {
+            let t = k as f64 * r.dt_s();
+            let hand = if t < 1.5 { 20.0 * (2.0 * PI * t).sin() } else { 0.0 };
+            step_feel(&mut r, f, hand);
+            let s = r.state();
+            let e = s.kinetic_energy_j + s.potential_energy_j + f.stored_energy_j(s.piston_x_m);
+            // Mechanical + stored energy never exceeds what the hand put in.
+            worst_gain = worst_gain.max((e - e0) - s.hand_work_j);
+            // The element is conservative: its work is minus the change of its stored energy.
+            let w_spring = s.external_work_j;
+            let du = f.stored_energy_j(s.piston_x_m) - f.stored_energy_j(0.0);
+            // The element only stores and returns energy: its work never exceeds its energy drop.
+            assert!(
+                w_spring <= -du + 1e-9,
+                "{name}: spring did {w_spring} J, its energy fell by {} J",
+                -du
+            );
+            worst_loss = worst_loss.max(-(w_spring + du) / s.hand_work_j.abs().max(1e-3));
+        }
+        println!(
+            "{name}: worst energy gain over hand work {worst_gain} J, spring's numerical loss {worst_loss}"
+        );
+        // The implicit tangent's dissipation stays a small part of the energy put in.
+        assert!(
+            worst_loss < 0.05,
+            "{name}: the spring lost {worst_loss} of the hand's work"
+        );
+        assert!(worst_gain < 1e-3, "{name} injected {worst_gain} J");
+    }
+}
+
+#[test]
+fn q_feel_static_deflection_scales_inversely_with_dynamic_pressure() {
+    let mut q = feel_springs().q_feel;
+    let mut x_at = |qbar: f64| {
+        q.set_dynamic_pressure(qbar);
+        let mut r = rig(false, 0.05, 0.0, 150.0);
+        for _ in 0..steps(&r, 2.0) {
+            step_feel(&mut r, &q, 6.0);
+        }
+        (r.state().piston_x_m, q.stiffness_n_per_m())
+    };
+    let (x1, k1) = x_at(10_000.0);
+    let (x2, k2) = x_at(20_000.0);
+    assert!(k2 > k1, "stiffness did not rise with q");
+    let ratio = x1 / x2;
+    assert!(
+        (ratio - k2 / k1).abs() < 0.03 * k2 / k1,
+        "deflection ratio {ratio}, stiffness ratio {}",
+        k2 / k1
+    );
+}
+
+#[test]
+fn same_inputs_give_bit_identical_runs_on_any_thread() {
+    // Determinism (design rule) and `Send` (scenarios run in parallel): two rigs on two threads.
+    let run = || {
+        let mut r = rig(true, 3.0, 5.0, 300.0);
+        for k in 0..steps(&r, 1.0) {
+            let t = k as f64 * r.dt_s();
+            r.step(25.0 * (2.0 * PI * 1.3 * t).sin(), 2.0 + (3.0 * t).sin());
+        }
+        r.state()
+    };
+    let a = std::thread::spawn(run);
+    let b = std::thread::spawn(run);
+    let (a, b) = (a.join().unwrap(), b.join().unwrap());
+    assert!(a.stick_angle_rad.abs() > 1e-3, "the stick did not move");
+    assert_eq!(a, b);
 }

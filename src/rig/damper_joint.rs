@@ -101,3 +101,72 @@ impl DamperJoint {
         self.damper.fluid_excitation_a()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use super::*;
+    use crate::device::{DataStats, Effect, Model, ParamSpec, Registry};
+
+    /// A smooth direction function (a pre-yield state in [-1, 1]), standing in for hysteresis.
+    struct SmoothDirection;
+    impl Effect for SmoothDirection {
+        fn name(&self) -> &'static str {
+            "smooth_direction"
+        }
+        fn describe(&self) -> &'static str {
+            "test: direction = tanh(v / 0.01 m/s)"
+        }
+        fn stage(&self) -> EffectStage {
+            EffectStage::Direction
+        }
+        fn params(&self) -> &'static [ParamSpec] {
+            &[]
+        }
+        fn initial_guess(&self, _: &DataStats) -> Vec<f64> {
+            Vec::new()
+        }
+        fn apply(&self, _: &[f64], _: &[f64], inp: &Inputs, stage: &mut Stage) {
+            stage.direction = (inp.v_m_s / 0.01).tanh();
+        }
+    }
+
+    fn damper(spec: &str) -> Damper {
+        let mut reg = Registry::builtin();
+        reg.register(SmoothDirection);
+        let model = Arc::new(Model::from_spec(spec, &reg, 14.0).unwrap());
+        // fc0 2 N, 5 N/A, C0 300 N·s/m, no lags.
+        let mut p = vec![2.0, 5.0, 300.0, 0.0, 0.0];
+        p.truncate(model.n_params());
+        Damper::new(model, p).unwrap()
+    }
+
+    #[test]
+    fn bingham_yield_is_the_implicit_friction_bound_and_c0_the_implicit_damping() {
+        let mut j = DamperJoint::new(damper("bingham"));
+        assert!(j.implicit_yield());
+        // At rest (sgn 0 = 0): the bound is still the full yield force, 2 + 5·3 = 17 N.
+        let f = j.begin_step(Inputs {
+            v_m_s: 0.0,
+            current_cmd_a: 3.0,
+            ..Default::default()
+        });
+        assert!((f.friction_n - 17.0).abs() < 1e-12 && (f.damping_n_s_per_m - 300.0).abs() < 1e-12);
+        assert_eq!(f.explicit_on_piston_n, 0.0);
+    }
+
+    #[test]
+    fn a_state_direction_function_is_applied_explicitly_against_the_motion() {
+        let mut j = DamperJoint::new(damper("bingham+smooth_direction"));
+        assert!(!j.implicit_yield());
+        let f = j.begin_step(Inputs {
+            v_m_s: 0.01,
+            current_cmd_a: 3.0,
+            ..Default::default()
+        });
+        assert_eq!(f.friction_n, 0.0);
+        // The fluid pushes the piston back: −17 · tanh(1).
+        assert!((f.explicit_on_piston_n + 17.0 * 1f64.tanh()).abs() < 1e-12);
+    }
+}

@@ -184,8 +184,7 @@ mod tests {
 
     #[test]
     fn rodrigues_quarter_turn_about_y_takes_z_to_x() {
-        let v = V3::new(0.0, 0.0, 1.0)
-            .rotated_about(V3::new(0.0, 1.0, 0.0), std::f64::consts::FRAC_PI_2);
+        let v = V3::new(0.0, 0.0, 1.0).rotated_about(V3::new(0.0, 1.0, 0.0), std::f64::consts::FRAC_PI_2);
         assert!((v - V3::new(1.0, 0.0, 0.0)).norm() < 1e-15);
     }
 

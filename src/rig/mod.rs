@@ -27,8 +27,8 @@ pub mod urdf;
 use std::path::{Path, PathBuf};
 
 use rapier3d::prelude::{
-    GenericJoint, GenericJointBuilder, ImpulseJointHandle, JointAxesMask, MultibodyJointHandle,
-    PhysicsWorld, RigidBodyBuilder, RigidBodyHandle, SpringCoefficients, Vector,
+    GenericJoint, GenericJointBuilder, ImpulseJointHandle, JointAxesMask, MultibodyJointHandle, PhysicsWorld,
+    RigidBodyBuilder, RigidBodyHandle, SpringCoefficients, Vector,
 };
 use rapier3d_urdf::{UrdfLoaderOptions, UrdfMultibodyOptions, UrdfRobot};
 use serde::Deserialize;
@@ -46,11 +46,7 @@ pub enum RigError {
     #[error("{}: {msg}", path.display())]
     Io { path: PathBuf, msg: String },
     #[error("{}:{line}: {msg}", path.display())]
-    Urdf {
-        path: PathBuf,
-        line: usize,
-        msg: String,
-    },
+    Urdf { path: PathBuf, line: usize, msg: String },
     #[error("{}:{line}: {field}: {msg}", path.display())]
     Field {
         path: PathBuf,
@@ -148,6 +144,20 @@ impl RigConfig {
         }
     }
 
+    /// Defaults for the given URDF at the given physics rate, checked (rate range, file readable).
+    pub fn load(urdf: &Path, physics_hz: f64) -> Result<Self, RigError> {
+        let cfg = Self {
+            physics_hz,
+            ..Self::new(urdf)
+        };
+        cfg.check()?;
+        std::fs::metadata(urdf).map_err(|e| RigError::Io {
+            path: urdf.to_path_buf(),
+            msg: e.to_string(),
+        })?;
+        Ok(cfg)
+    }
+
     fn check(&self) -> Result<(), RigError> {
         if !(self.physics_hz.is_finite() && (100.0..=100_000.0).contains(&self.physics_hz)) {
             return Err(RigError::Config {
@@ -215,6 +225,7 @@ pub struct RigState {
     pub t_s: f64,
     /// Stick angle about the pivot, rad, + = aft (pull).
     pub stick_angle_rad: f64,
+    /// Stick angle change over the last step divided by the step, rad/s.
     pub stick_rate_rad_s: f64,
     /// Grip reference point, world, m.
     pub grip_pos_m: [f64; 3],
@@ -239,7 +250,8 @@ pub struct RigState {
     pub fluid_current_a: f64,
     /// Hand force at the grip (tangential, + = aft), N.
     pub hand_force_n: f64,
-    /// External force element on the piston (issue 6 feel springs), N along +x.
+    /// External force elements on the piston (issue 6 feel springs: explicit force + implicit spring at the
+    /// end of the step), N along +x.
     pub external_force_n: f64,
     /// Work done by the hand since the start, J.
     pub hand_work_j: f64,
@@ -290,6 +302,8 @@ pub struct Rig {
     substep_dt_s: f64,
     steps: u64,
     external_force_n: f64,
+    spring_k_n_per_m: f64,
+    spring_rest_m: f64,
     pe0_j: f64,
     state: RigState,
 }
@@ -355,11 +369,7 @@ impl Rig {
                 ),
             ));
         }
-        for (j, element) in [
-            (stick_j, "joint"),
-            (piston_j, "joint"),
-            (loop_j, "loop_joint"),
-        ] {
+        for (j, element) in [(stick_j, "joint"), (piston_j, "joint"), (loop_j, "loop_joint")] {
             if V3::from_array(j.axis.xyz.0).norm() < 1e-9 {
                 return Err(model.field_error(element, &j.name, "axis", "zero axis"));
             }
@@ -414,6 +424,24 @@ impl Rig {
         );
         check_stops_agree(model, stick_j, piston_j, &linkage)?;
 
+        // The damper force is recovered from the piston's momentum, which needs the cylinder fixed to the
+        // world: every joint from the piston's parent up to the root must be fixed.
+        let mut link = piston_j.parent.link.clone();
+        for _ in 0..model.robot.joints.len() {
+            let Some(j) = model.robot.joints.iter().find(|j| j.child.link == link) else {
+                break;
+            };
+            if !matches!(j.joint_type, urdf_rs::JointType::Fixed) {
+                return Err(model.field_error(
+                    "joint",
+                    &j.name,
+                    "type",
+                    format!("the cylinder must be fixed to the base; `{}` moves it", j.name),
+                ));
+            }
+            link = j.parent.link.clone();
+        }
+
         // The piston group: the piston link and every link fixed to it (the load cell).
         let mut group = vec![piston_j.child.link.clone()];
         loop {
@@ -457,10 +485,7 @@ impl Rig {
                     "link",
                     &stick_link,
                     "visual",
-                    format!(
-                        "no <visual name=\"{}\"> marking the grip",
-                        roles.grip_visual
-                    ),
+                    format!("no <visual name=\"{}\"> marking the grip", roles.grip_visual),
                 )
             })?;
         let grip_local_f64 = V3::from_array(grip.origin.xyz.0);
@@ -622,9 +647,7 @@ impl Rig {
             .local_frame2(frame2)
             .contacts_enabled(false)
             .build();
-        let loop_joint = world
-            .impulse_joints
-            .insert(load_cell_body, rod_body, joint, true);
+        let loop_joint = world.impulse_joints.insert(load_cell_body, rod_body, joint, true);
 
         let grip_local = Vector::new(
             grip_local_f64.x as f32,
@@ -668,6 +691,8 @@ impl Rig {
             substep_dt_s,
             steps: 0,
             external_force_n: 0.0,
+            spring_k_n_per_m: 0.0,
+            spring_rest_m: 0.0,
             pe0_j: 0.0,
             state: RigState::default(),
         };
@@ -697,10 +722,15 @@ impl Rig {
         let jf = self.damper.begin_step(inp);
 
         // The damper on the piston DoF: implicit yield (dry friction) and viscous damping.
+        // The feel-system spring on the same DoF, implicit: −k (x⁺ − rest).
         if let Some((mb, link_id)) = self.world.multibody_joints.get_mut(self.piston_joint) {
             if let Some(k) = mb.link(link_id).map(|l| l.assembly_id()) {
                 mb.frictions_mut()[k] = (jf.friction_n + self.piston_friction_n) as f32;
                 mb.damping_mut()[k] = (jf.damping_n_s_per_m + self.piston_damping_n_s_per_m) as f32;
+            }
+            if let Some(link) = mb.link_mut(link_id) {
+                link.joint
+                    .set_spring(0, self.spring_k_n_per_m as f32, self.spring_rest_m as f32);
             }
         }
         // Explicit forces (forces persist in rapier until reset).
@@ -754,21 +784,27 @@ impl Rig {
         let dx = s.piston_x_m - x0;
         let dv = s.piston_v_m_s - v0;
         s.piston_a_m_s2 = dv / self.dt_s;
+        // The stick's rate as its motion over the step (an encoder's view). The solver's generalized
+        // velocity equals it in smooth motion, but holds a spurious value while the soft stop is loaded
+        // (the stop's compliance term), with the stick at rest.
+        s.stick_rate_rad_s = (s.stick_angle_rad - theta0) / self.dt_s;
         // The fluid's force on the piston from the piston group's momentum balance along the slide:
         // m Δv/Δt = F_load_cell + F_fluid + F_external + m g·u.
         let g_along = -self.gravity_m_s2 * u.z;
+        let spring_n = -self.spring_k_n_per_m * (s.piston_x_m - self.spring_rest_m);
         let fluid_on_piston = self.piston_group_mass_kg * s.piston_a_m_s2
             - s.load_cell_n
             - self.external_force_n
+            - spring_n
             - self.piston_group_mass_kg * g_along;
         s.damper_force_n = -fluid_on_piston;
         // Power at the end-of-step velocity, the one the implicit yield and damping act on (positions may
         // also move by the solver's constraint stabilisation at an impact on a stop).
         s.damper_power_w = fluid_on_piston * s.piston_v_m_s;
         s.damper_dissipated_j = before.damper_dissipated_j - s.damper_power_w * self.dt_s;
-        s.hand_work_j =
-            before.hand_work_j + hand_force_n * self.grip_lever_m * (s.stick_angle_rad - theta0);
-        s.external_work_j = before.external_work_j + self.external_force_n * dx;
+        s.hand_work_j = before.hand_work_j + hand_force_n * self.grip_lever_m * (s.stick_angle_rad - theta0);
+        s.external_force_n = self.external_force_n + spring_n;
+        s.external_work_j = before.external_work_j + (self.external_force_n + spring_n) * dx;
         self.damper.end_step(self.dt_s, dx);
         s.coil_current_a = self.damper.coil_current_a();
         s.fluid_current_a = self.damper.fluid_current_a();
@@ -790,9 +826,7 @@ impl Rig {
                 s.piston_v_m_s = mb.generalized_velocity()[link.assembly_id()] as f64;
             }
         }
-        let grip = b[self.stick_body]
-            .position()
-            .transform_point(self.grip_local);
+        let grip = b[self.stick_body].position().transform_point(self.grip_local);
         s.grip_pos_m = [grip.x as f64, grip.y as f64, grip.z as f64];
         if let Some(j) = self.world.impulse_joints.get(self.loop_joint) {
             let rot = b[self.load_cell_body].rotation() * self.loop_frame1_rot;
@@ -801,11 +835,7 @@ impl Rig {
             let along = imp.x as f64 * u.x + imp.y as f64 * u.y + imp.z as f64 * u.z;
             s.load_cell_n = along / self.substep_dt_s;
         }
-        s.kinetic_energy_j = self
-            .links
-            .iter()
-            .map(|l| b[l.body].kinetic_energy() as f64)
-            .sum();
+        s.kinetic_energy_j = self.links.iter().map(|l| b[l.body].kinetic_energy() as f64).sum();
         s.potential_energy_j = self.potential_energy_abs_j() - self.pe0_j;
         s.coil_current_a = self.damper.coil_current_a();
         s.fluid_current_a = self.damper.fluid_current_a();
@@ -879,6 +909,16 @@ impl Rig {
         self.external_force_n = force_n;
     }
 
+    /// Hook for spring feel systems (issue 6): a linear spring on the piston joint, `F = −k (x − rest)`
+    /// along +x, integrated implicitly by the multibody (backward Euler: it can store and return energy
+    /// but never inject it, whatever `k` and the step). Held until set again; `k = 0` removes it. A
+    /// nonlinear spring is applied as its tangent at the present displacement (see
+    /// `crate::control::feel::apply`).
+    pub fn set_external_spring(&mut self, stiffness_n_per_m: f64, rest_x_m: f64) {
+        self.spring_k_n_per_m = stiffness_n_per_m.max(0.0);
+        self.spring_rest_m = rest_x_m;
+    }
+
     /// Link names and visual shapes (static), in URDF order.
     pub fn visuals(&self) -> &[LinkVisuals] {
         &self.visuals
@@ -942,8 +982,7 @@ fn check_stops_agree(
 }
 
 fn quat(q: [f64; 4]) -> rapier3d::math::Rotation {
-    rapier3d::math::Rotation::from_xyzw(q[0] as f32, q[1] as f32, q[2] as f32, q[3] as f32)
-        .normalize()
+    rapier3d::math::Rotation::from_xyzw(q[0] as f32, q[1] as f32, q[2] as f32, q[3] as f32).normalize()
 }
 
 fn visual_of(v: &urdf_rs::Visual) -> Visual {

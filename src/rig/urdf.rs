@@ -73,13 +73,7 @@ impl UrdfModel {
     }
 
     /// An error about a field of a named element.
-    pub fn field_error(
-        &self,
-        element: &str,
-        name: &str,
-        field: &str,
-        msg: impl Into<String>,
-    ) -> RigError {
+    pub fn field_error(&self, element: &str, name: &str, field: &str, msg: impl Into<String>) -> RigError {
         RigError::Field {
             path: self.path.clone(),
             line: self.line_of(element, name),
@@ -157,12 +151,7 @@ impl UrdfModel {
             };
             for (field, link) in [("parent", &j.parent.link), ("child", &j.child.link)] {
                 if !self.robot.links.iter().any(|l| &l.name == link) {
-                    return Err(self.field_error(
-                        element,
-                        &j.name,
-                        field,
-                        format!("no link named `{link}`"),
-                    ));
+                    return Err(self.field_error(element, &j.name, field, format!("no link named `{link}`")));
                 }
             }
         }
@@ -231,10 +220,7 @@ fn find_element(text: &str, element: &str, name: &str) -> Option<usize> {
         // The tag name must end here (`<joint` must not match `<jointx`).
         let next = text[after..].chars().next();
         if matches!(next, Some(c) if c.is_whitespace() || c == '>' || c == '/') {
-            let end = text[after..]
-                .find('>')
-                .map(|e| after + e)
-                .unwrap_or(text.len());
+            let end = text[after..].find('>').map(|e| after + e).unwrap_or(text.len());
             let tag = &text[after..end];
             if tag_name_is(tag, name) {
                 return Some(start);
@@ -342,9 +328,7 @@ mod tests {
         };
         let uv = c(u, v);
         let uuv = c(u, uv);
-        let r: Vec<f64> = (0..3)
-            .map(|k| v[k] + 2.0 * w * uv[k] + 2.0 * uuv[k])
-            .collect();
+        let r: Vec<f64> = (0..3).map(|k| v[k] + 2.0 * w * uv[k] + 2.0 * uuv[k]).collect();
         assert!(
             (r[0] - 1.0).abs() < 1e-12 && r[1].abs() < 1e-12 && r[2].abs() < 1e-12,
             "{r:?}"
