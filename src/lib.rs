@@ -1,6 +1,9 @@
 //! mrfeel: simulation and model discovery for magneto-rheological artificial feel systems.
+pub mod aero;
 pub mod control;
 pub mod device;
+pub mod measurement;
+pub mod mts;
 pub mod pilot;
 pub mod rig;
 pub mod scenario;

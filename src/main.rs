@@ -1,24 +1,38 @@
+//! The `mrfeel` command line: parse, call the library, print. All work is in the library.
+
 use clap::{Parser, Subcommand};
 
-/// mrfeel: simulation and model discovery for MR artificial feel systems.
-#[derive(Debug, Parser)]
-#[command(name = "mrfeel", version, about)]
+/// Simulation and model discovery for magneto-rheological (MR) artificial feel systems on aircraft
+/// control sticks.
+#[derive(Parser)]
+#[command(name = "mrfeel", version, about, long_about = None)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
 }
 
-#[derive(Debug, Subcommand)]
+#[derive(Subcommand)]
 enum Command {
+    /// Virtual MTS machine: drive the damper with a displacement protocol and record the force (CSV).
+    Mts(mrfeel::mts::cli::MtsArgs),
     /// Run a stick-rig scenario headless (CSV, Rerun recording, summary).
     Run(mrfeel::sim::cli::RunArgs),
-    /// Force response time of the feel loop against the DAQ sample rate.
+    /// Force response time of the feel loop against the DAQ sample rate (table, plot).
     DaqSweep(mrfeel::sim::cli::DaqSweepArgs),
 }
 
-fn main() -> anyhow::Result<()> {
-    match Cli::parse().command {
+fn main() -> std::process::ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Mts(a) => mrfeel::mts::cli::run(a),
         Command::Run(a) => mrfeel::sim::cli::run_cmd(&a),
         Command::DaqSweep(a) => mrfeel::sim::cli::daq_sweep_cmd(&a),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
     }
 }

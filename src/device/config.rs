@@ -53,8 +53,7 @@ impl DeviceConfig {
 
     /// A damper in its initial state, ready to be stepped.
     pub fn damper(&self) -> Damper {
-        Damper::new(self.model.clone(), self.params.clone())
-            .expect("parameter count checked on load")
+        Damper::new(self.model.clone(), self.params.clone()).expect("parameter count checked on load")
     }
 
     /// Value of a named parameter.
@@ -122,18 +121,14 @@ impl DeviceConfig {
             msg: e.to_string(),
         })?;
         let limit = file.current_limit_a.unwrap_or(PAPER_CURRENT_LIMIT_A);
-        let model =
-            Model::from_spec(&file.model, registry, limit).map_err(|e| DeviceError::Field {
-                path: path.to_path_buf(),
-                line: 0,
-                field: "model".into(),
-                msg: e.to_string(),
-            })?;
-        let values: BTreeMap<String, (f64, usize)> = file
-            .params
-            .into_iter()
-            .map(|(k, v)| (k, (v.value, 0)))
-            .collect();
+        let model = Model::from_spec(&file.model, registry, limit).map_err(|e| DeviceError::Field {
+            path: path.to_path_buf(),
+            line: 0,
+            field: "model".into(),
+            msg: e.to_string(),
+        })?;
+        let values: BTreeMap<String, (f64, usize)> =
+            file.params.into_iter().map(|(k, v)| (k, (v.value, 0))).collect();
         let params = assign_params(&model, &values, path)?;
         Ok(Self {
             model: Arc::new(model),

@@ -35,6 +35,10 @@ pub struct Stage {
     pub current_a: f64,
     /// Yield (Coulomb) force magnitude, N, ≥ 0.
     pub yield_n: f64,
+    /// The part of `yield_n` that the magnetic field produces (`fc_gain·|h|` in the base model), N, so that
+    /// an effect can reshape the field-driven yield (saturation) without knowing the base parameters.
+    /// Effects that scale `yield_n` scale this part with it.
+    pub yield_field_n: f64,
     /// Direction function in [-1, 1]: `sgn v` for the Bingham model.
     pub direction: f64,
     /// Post-yield viscous damping, N·s/m.
@@ -88,8 +92,14 @@ pub trait Effect: Send + Sync {
     fn stage(&self) -> EffectStage;
     /// Parameter declarations (unique names across all effects; prefix them with the effect's tag).
     fn params(&self) -> &'static [ParamSpec];
-    /// Data-derived starting values, one per parameter, inside the bounds.
+    /// Data-derived starting values for a fit, one per parameter, inside the bounds.
     fn initial_guess(&self, stats: &DataStats) -> Vec<f64>;
+    /// A plausible, clearly visible strength of the effect for data with these statistics: the hidden truth
+    /// of synthetic tests (`mrfeel mts --effects NAME`). Differs from [`Effect::initial_guess`] so a fit has
+    /// something to find. Defaults to the initial guess for effects that do not say.
+    fn typical_params(&self, stats: &DataStats) -> Vec<f64> {
+        self.initial_guess(stats)
+    }
     /// Number of internal states (hysteresis, temperature, …).
     fn n_states(&self) -> usize {
         0
@@ -99,15 +109,7 @@ pub trait Effect: Send + Sync {
     /// Edit the force assembly at this sample.
     fn apply(&self, p: &[f64], s: &[f64], inp: &Inputs, stage: &mut Stage);
     /// Advance internal states from this sample to the next, given the force this sample produced.
-    fn advance(
-        &self,
-        _p: &[f64],
-        _s: &mut [f64],
-        _inp: &Inputs,
-        _stage: &Stage,
-        _force_n: f64,
-        _step: Step,
-    ) {
+    fn advance(&self, _p: &[f64], _s: &mut [f64], _inp: &Inputs, _stage: &Stage, _force_n: f64, _step: Step) {
     }
     /// Words a diagnosis can use: how its absence shows in a residual (from the effect vocabulary).
     fn residual_signature(&self) -> &'static str {

@@ -30,11 +30,7 @@ pub enum DeviceError {
     #[error("{}: {msg}", path.display())]
     Io { path: PathBuf, msg: String },
     #[error("{}:{line}: {msg}", path.display())]
-    Parse {
-        path: PathBuf,
-        line: usize,
-        msg: String,
-    },
+    Parse { path: PathBuf, line: usize, msg: String },
     #[error("{}:{line}: field `{field}`: {msg}", path.display())]
     Field {
         path: PathBuf,

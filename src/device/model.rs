@@ -144,21 +144,15 @@ impl std::fmt::Debug for Model {
 
 impl Model {
     /// Build a model from a spec; unknown effects are an error that lists the known ones.
-    pub fn new(
-        spec: &ModelSpec,
-        registry: &Registry,
-        current_limit_a: f64,
-    ) -> Result<Self, DeviceError> {
+    pub fn new(spec: &ModelSpec, registry: &Registry, current_limit_a: f64) -> Result<Self, DeviceError> {
         let mut param_specs: Vec<ParamSpec> = bingham::PARAMS.to_vec();
         let mut n_states = bingham::N_STATES;
         let mut slots = Vec::new();
         for name in &spec.effects {
-            let effect = registry
-                .get(name)
-                .ok_or_else(|| DeviceError::UnknownEffect {
-                    name: name.clone(),
-                    known: registry.names().join(", "),
-                })?;
+            let effect = registry.get(name).ok_or_else(|| DeviceError::UnknownEffect {
+                name: name.clone(),
+                known: registry.names().join(", "),
+            })?;
             let p0 = param_specs.len();
             for ps in effect.params() {
                 if param_specs.iter().any(|q| q.name == ps.name) {
@@ -193,11 +187,7 @@ impl Model {
     }
 
     /// Parse and build in one call.
-    pub fn from_spec(
-        spec: &str,
-        registry: &Registry,
-        current_limit_a: f64,
-    ) -> Result<Self, DeviceError> {
+    pub fn from_spec(spec: &str, registry: &Registry, current_limit_a: f64) -> Result<Self, DeviceError> {
         Self::new(&ModelSpec::parse(spec)?, registry, current_limit_a)
     }
 
@@ -250,6 +240,41 @@ impl Model {
             .collect()
     }
 
+    /// Base parameters followed by each effect's [`Effect::typical_params`], clamped into the bounds: the hidden
+    /// truth of a synthetic test of this model. `base` holds the five base parameters.
+    pub fn typical_params(&self, base: &[f64], stats: &DataStats) -> Result<Vec<f64>, DeviceError> {
+        if base.len() != bingham::PARAMS.len() {
+            return Err(DeviceError::BadSpec {
+                spec: self.name(),
+                why: format!(
+                    "{} base parameter values for {} base parameters",
+                    base.len(),
+                    bingham::PARAMS.len()
+                ),
+            });
+        }
+        let mut p = base.to_vec();
+        for slot in &self.slots {
+            let g = slot.effect.typical_params(stats);
+            if g.len() != slot.params.len() {
+                return Err(DeviceError::BadSpec {
+                    spec: self.name(),
+                    why: format!(
+                        "effect `{}` gives {} typical values for {} parameters",
+                        slot.effect.name(),
+                        g.len(),
+                        slot.params.len()
+                    ),
+                });
+            }
+            p.extend(g);
+        }
+        Ok(p.iter()
+            .zip(&self.param_specs)
+            .map(|(v, s)| s.clamp(*v))
+            .collect())
+    }
+
     /// States at the first sample of a test: lags at rest for the first command, effects initialised.
     pub fn init_state(&self, p: &[f64], first: &Inputs) -> Vec<f64> {
         let mut s = vec![0.0; self.n_states];
@@ -273,26 +298,14 @@ impl Model {
         let mut stage = bingham::stage(p, s, inp);
         for &k in &self.apply_order {
             let slot = &self.slots[k];
-            slot.effect.apply(
-                &p[slot.params.clone()],
-                &s[slot.states.clone()],
-                inp,
-                &mut stage,
-            );
+            slot.effect
+                .apply(&p[slot.params.clone()], &s[slot.states.clone()], inp, &mut stage);
         }
         stage
     }
 
     /// Advance every state from this sample to the next.
-    pub fn advance(
-        &self,
-        p: &[f64],
-        s: &mut [f64],
-        inp: &Inputs,
-        stage: &Stage,
-        force_n: f64,
-        step: Step,
-    ) {
+    pub fn advance(&self, p: &[f64], s: &mut [f64], inp: &Inputs, stage: &Stage, force_n: f64, step: Step) {
         for &k in &self.apply_order {
             let slot = &self.slots[k];
             slot.effect.advance(

@@ -2,7 +2,6 @@
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
-use std::sync::Once;
 
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -50,20 +49,6 @@ pub struct DaqSweepArgs {
     /// Print the table as JSON on stdout (nothing else on stdout).
     #[arg(long)]
     pub json: bool,
-}
-
-/// Register the bundled font once for plotters.
-pub fn register_font() {
-    static ONCE: Once = Once::new();
-    ONCE.call_once(|| {
-        let bytes: &'static [u8] = include_bytes!(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/assets/DejaVuSans.ttf"
-        ));
-        // The bundled font is valid; a failure would only lose text in plots.
-        let _ =
-            plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, bytes);
-    });
 }
 
 /// Load the scenario's device and build its rig.
@@ -196,12 +181,7 @@ pub fn daq_sweep_cmd(args: &DaqSweepArgs) -> anyhow::Result<()> {
         .with_context(|| format!("device of scenario {}", args.scenario.display()))?;
     let points = sweep(&scn, &device, &args.rates)?;
     if let Some(dir) = &args.plot {
-        response::plot(
-            &points,
-            dir,
-            &format!("Feel-loop force response vs DAQ rate ({})", scn.name),
-        )
-        .map_err(anyhow::Error::msg)?;
+        response::plot(&points, dir, &format!("Feel-loop force response vs DAQ period ({})", scn.name))?;
     }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&points)?);

@@ -1,3 +1,3 @@
-//! Views of results: Rerun recordings and static plots.
-
+//! Read-only views of results: static plots and Rerun recordings.
+pub mod plot;
 pub mod rerun_rig;
