@@ -15,6 +15,10 @@ struct Cli {
 enum Command {
     /// Virtual MTS machine: drive the damper with a displacement protocol and record the force (CSV).
     Mts(mrfeel::mts::cli::MtsArgs),
+    /// Run a stick-rig scenario headless (CSV, Rerun recording, summary).
+    Run(mrfeel::sim::cli::RunArgs),
+    /// Force response time of the feel loop against the DAQ sample rate (table, plot).
+    DaqSweep(mrfeel::sim::cli::DaqSweepArgs),
     /// Pilot-in-the-loop flight on the stick rig (aircraft embedded or live JSBSim).
     Fly(mrfeel::aero::flight_loop::FlyArgs),
 }
@@ -23,6 +27,8 @@ fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Mts(a) => mrfeel::mts::cli::run(a),
+        Command::Run(a) => mrfeel::sim::cli::run_cmd(&a),
+        Command::DaqSweep(a) => mrfeel::sim::cli::daq_sweep_cmd(&a),
         Command::Fly(a) => mrfeel::aero::flight_loop::run_cli(a),
     };
     match result {
