@@ -1,6 +1,8 @@
-//! Pilot-in-the-loop flights on the stick rig, self-contained (the loop engineer's `sim` had not landed
-//! when this was written; this loop uses [`crate::rig::Rig`] directly and carries stand-ins, marked
-//! below, for the hand and the force controller that `crate::pilot` / `crate::control` provide there).
+//! Pilot-in-the-loop flights on the stick rig. A self-contained loop on [`crate::rig::Rig`] (written
+//! before the loop engineer's `sim` landed): the hand is `crate::pilot::Hand` (position task), the
+//! pilot's outer loop `crate::pilot::attitude`; the force controller here is a stand-in (feedforward
+//! through the yield law + PI, the same semi-active logic as `crate::control::controller`) and the
+//! load cell is read without the DAQ model of `crate::sensors`.
 //!
 //! Per physics step (the rig's rate, 1 kHz):
 //! 1. read the rig's true state;
@@ -22,9 +24,10 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 
 use super::backend::{self, AircraftBackend};
-use super::pilot_task::{CrossoverPilot, CrossoverPilotConfig, PilotLoop, Schedule};
 use super::{AeroError, AircraftState};
 use crate::device::{DeviceConfig, Registry};
+use crate::pilot::attitude::{CrossoverPilot, CrossoverPilotConfig, PilotLoop, Schedule};
+use crate::pilot::{Hand, HandConfig, Task};
 use crate::rig::{BodyPose, LinkVisuals, Rig, RigConfig};
 
 /// Errors of a flight scenario (file, line and field where they come from the file).
@@ -98,19 +101,11 @@ pub struct FeelSection {
     pub rest_speed_m_s: f64,
 }
 
-/// `[hand]`: the arm at the grip (stand-in with the structure of the loop's `crate::pilot::Hand`
-/// position task: activation lag, arm spring-damper about the intended position, palm compliance).
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+/// `[hand]`: the pilot's arm model file (`models/pilot-hand.toml`, read by `crate::scenario::load_hand`).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct HandSection {
-    pub mass_kg: f64,
-    pub stiffness_n_per_m: f64,
-    pub damping_n_s_per_m: f64,
-    pub activation_tau_s: f64,
-    pub grip_stiffness_n_per_m: f64,
-    pub grip_damping_n_s_per_m: f64,
-    /// Slow voluntary correction of the grip's position error, 1/s (`z' = g (x_cmd − x_g)`).
-    pub tracking_gain_per_s: f64,
+    pub file: PathBuf,
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -141,7 +136,7 @@ pub struct FlightScenario {
     pub device_path: PathBuf,
     pub aircraft: AircraftSection,
     pub feel: FeelSection,
-    pub hand: HandSection,
+    pub hand: HandConfig,
     pub pilot_loop: PilotLoop,
     pub pilot: CrossoverPilotConfig,
     /// Command in the loop's unit: pitch in **rad** relative to trim (converted from the file's
@@ -271,32 +266,8 @@ impl FlightScenario {
             "A (at least current_min_a)",
         )?;
         c.range("feel.rest_speed_m_s", k.rest_speed_m_s, 0.0, 1.0, "m/s")?;
-        let h = f.hand;
-        c.range("hand.mass_kg", h.mass_kg, 0.1, 20.0, "kg")?;
-        c.range("hand.stiffness_n_per_m", h.stiffness_n_per_m, 1.0, 1e5, "N/m")?;
-        c.range("hand.damping_n_s_per_m", h.damping_n_s_per_m, 0.0, 1e4, "N·s/m")?;
-        c.range("hand.activation_tau_s", h.activation_tau_s, 1e-3, 1.0, "s")?;
-        c.range(
-            "hand.grip_stiffness_n_per_m",
-            h.grip_stiffness_n_per_m,
-            1.0,
-            1e6,
-            "N/m",
-        )?;
-        c.range(
-            "hand.grip_damping_n_s_per_m",
-            h.grip_damping_n_s_per_m,
-            0.0,
-            1e4,
-            "N·s/m",
-        )?;
-        c.range(
-            "hand.tracking_gain_per_s",
-            h.tracking_gain_per_s,
-            0.0,
-            100.0,
-            "1/s",
-        )?;
+        let hand = crate::scenario::load_hand(&dir.join(&f.hand.file))
+            .map_err(|e| c.err("hand.file", e.to_string()))?;
         let p = &f.pilot;
         c.range("pilot.gain", p.gain, 0.0, 100.0, "stick rad per rad (or per g)")?;
         c.range("pilot.lead_s", p.lead_s, 0.0, 10.0, "s")?;
@@ -327,7 +298,7 @@ impl FlightScenario {
             device_path: dir.join(&f.device.file),
             aircraft: a.clone(),
             feel: k,
-            hand: h,
+            hand,
             pilot_loop: p.loop_,
             pilot: CrossoverPilotConfig {
                 gain: p.gain,
@@ -348,43 +319,6 @@ impl FlightScenario {
         let mut s = self.clone();
         s.aircraft.model = model.to_string();
         s
-    }
-}
-
-/// The hand at the grip (**stand-in** for the loop engineer's `crate::pilot::Hand`, position task;
-/// same equations: activation lag `τ a' = u − a`, arm `F_m = k (a − x_h) + c (a' − v_h)`, palm
-/// `F_g = k_g (x_h − x_g) + c_g (v_h − v_g)`, `m v_h' = F_m − F_g`, intended position `u = x_cmd + z`
-/// with the slow correction `z' = g (x_cmd − x_g)`).
-#[derive(Debug, Clone)]
-struct Hand {
-    c: HandSection,
-    x_h: f64,
-    v_h: f64,
-    act: f64,
-    z: f64,
-    started: bool,
-}
-
-impl Hand {
-    fn step(&mut self, cmd_m: f64, grip_x_m: f64, grip_v_m_s: f64, dt: f64) -> f64 {
-        let c = self.c;
-        if !self.started {
-            self.x_h = grip_x_m;
-            self.v_h = grip_v_m_s;
-            self.act = cmd_m;
-            self.started = true;
-        }
-        let f_grip = c.grip_stiffness_n_per_m * (self.x_h - grip_x_m)
-            + c.grip_damping_n_s_per_m * (self.v_h - grip_v_m_s);
-        self.z += c.tracking_gain_per_s * (cmd_m - grip_x_m) * dt;
-        let u = cmd_m + self.z;
-        let a0 = self.act;
-        self.act = u + (a0 - u) * (-dt / c.activation_tau_s).exp();
-        let act_rate = (self.act - a0) / dt;
-        let f_m = c.stiffness_n_per_m * (self.act - self.x_h) + c.damping_n_s_per_m * (act_rate - self.v_h);
-        self.v_h += dt * (f_m - f_grip) / c.mass_kg;
-        self.x_h += dt * self.v_h;
-        f_grip
     }
 }
 
@@ -513,14 +447,7 @@ pub fn fly(scn: &FlightScenario, mut progress: impl FnMut(f64)) -> Result<Flight
         ..scn.pilot
     };
     let mut pilot = CrossoverPilot::new(pilot_cfg, ac_dt);
-    let mut hand = Hand {
-        c: scn.hand,
-        x_h: 0.0,
-        v_h: 0.0,
-        act: 0.0,
-        z: 0.0,
-        started: false,
-    };
+    let mut hand = Hand::new(scn.hand, Task::Position);
     let fc0 = device.param("fc0_n").unwrap_or(0.0);
     let fc_gain = device.param("fc_gain_n_per_a").unwrap_or(0.0);
     let c0 = device.param("c0_n_s_per_m").unwrap_or(0.0);

@@ -22,7 +22,6 @@ pub mod hinge;
 pub mod jsbsim_bridge;
 pub mod longitudinal;
 pub mod model;
-pub mod pilot_task;
 pub mod reference;
 pub mod table;
 
