@@ -300,14 +300,22 @@ impl Drop for JsbsimBridge {
 mod tests {
     use super::*;
 
-    /// A missing interpreter is an immediate error that says how to install it (no hang, no panic).
+    /// A missing interpreter, or one that exits without answering (no jsbsim), is an immediate error
+    /// that says how to install it: no hang, no panic. (One test: both set the process's environment.)
     #[test]
-    fn missing_python_says_how_to_install() {
+    fn missing_or_silent_python_says_how_to_install() {
         let model = Arc::new(AircraftModel::load(&AircraftModel::builtin_path("c172p")).unwrap());
         std::env::set_var("MRFEEL_PYTHON", "/nonexistent/mrfeel/python");
-        let r = JsbsimBridge::spawn("c172p", model);
+        let missing = JsbsimBridge::spawn("c172p", Arc::clone(&model)).err();
+        std::env::set_var("MRFEEL_PYTHON", "/bin/true");
+        let t0 = Instant::now();
+        let silent = JsbsimBridge::spawn("c172p", model).err();
+        let waited = t0.elapsed();
         std::env::remove_var("MRFEEL_PYTHON");
-        let e = r.err().map(|e| e.to_string()).unwrap_or_default();
-        assert!(e.contains("scripts/python-env.sh"), "{e}");
+        for e in [missing, silent] {
+            let e = e.map(|e| e.to_string()).unwrap_or_default();
+            assert!(e.contains("scripts/python-env.sh"), "{e}");
+        }
+        assert!(waited < Duration::from_secs(10), "waited {waited:?}");
     }
 }
