@@ -21,6 +21,8 @@ enum Command {
     DaqSweep(mrfeel::sim::cli::DaqSweepArgs),
     /// Compare feel systems (springs, MR damper, hybrid) on the same rig and pilot task, with faults.
     Compare(mrfeel::compare::cli::CompareArgs),
+    /// Pilot-in-the-loop flight on the stick rig (aircraft embedded or live JSBSim).
+    Fly(mrfeel::aero::flight_loop::FlyArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -30,6 +32,7 @@ fn main() -> std::process::ExitCode {
         Command::Run(a) => mrfeel::sim::cli::run_cmd(&a),
         Command::DaqSweep(a) => mrfeel::sim::cli::daq_sweep_cmd(&a),
         Command::Compare(a) => mrfeel::compare::cli::run_cmd(a),
+        Command::Fly(a) => mrfeel::aero::flight_loop::run_cli(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

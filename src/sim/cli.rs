@@ -2,7 +2,6 @@
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
-use std::sync::Once;
 
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -46,17 +45,6 @@ pub struct DaqSweepArgs {
     /// Print the table as JSON on stdout (nothing else on stdout).
     #[arg(long)]
     pub json: bool,
-}
-
-/// Register the bundled font once for plotters.
-pub fn register_font() {
-    static ONCE: Once = Once::new();
-    ONCE.call_once(|| {
-        let bytes: &'static [u8] =
-            include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/DejaVuSans.ttf"));
-        // The bundled font is valid; a failure would only lose text in plots.
-        let _ = plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, bytes);
-    });
 }
 
 /// Load the scenario's device and build its rig.
@@ -181,9 +169,8 @@ pub fn daq_sweep_cmd(args: &DaqSweepArgs) -> anyhow::Result<()> {
         response::plot(
             &points,
             dir,
-            &format!("Feel-loop force response vs DAQ rate ({})", scn.name),
-        )
-        .map_err(anyhow::Error::msg)?;
+            &format!("Feel-loop force response vs DAQ period ({})", scn.name),
+        )?;
     }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&points)?);

@@ -17,6 +17,7 @@ use serde::Serialize;
 use super::results::Results;
 use crate::control::FeelLaw;
 use crate::control::LoopMode;
+use crate::viz::plot::{save_charts, Chart, PlotError, Series};
 
 #[derive(Debug, Clone, Copy, Serialize, PartialEq)]
 pub struct StepResponse {
@@ -148,94 +149,19 @@ pub fn markdown_table(points: &[SweepPoint]) -> String {
     s
 }
 
-/// Plot rise and settling time against the DAQ rate (log axis) as `daq-sweep.png` and `daq-sweep.svg`.
-pub fn plot(points: &[SweepPoint], dir: &Path, title: &str) -> Result<(), String> {
-    use plotters::prelude::*;
-    crate::sim::cli::register_font();
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    let ymax = points
-        .iter()
-        .flat_map(|p| [p.max_rise_ms, p.mean_delay_ms, p.max_settling_ms.unwrap_or(0.0)])
-        .fold(1.0, f64::max)
-        * 1.15;
-    let (xlo, xhi) = points.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
-        (a.min(p.daq_rate_hz), b.max(p.daq_rate_hz))
-    });
-    fn draw<DB: DrawingBackend>(
-        root: DrawingArea<DB, plotters::coord::Shift>,
-        points: &[SweepPoint],
-        title: &str,
-        x: (f64, f64),
-        ymax: f64,
-    ) -> Result<(), String>
-    where
-        DB::ErrorType: 'static,
-    {
-        let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
-        root.fill(&WHITE).map_err(e)?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 22))
-            .margin(15)
-            .x_label_area_size(45)
-            .y_label_area_size(60)
-            .build_cartesian_2d((x.0 * 0.8..x.1 * 1.25).log_scale(), 0.0..ymax)
-            .map_err(e)?;
-        chart
-            .configure_mesh()
-            .x_desc("DAQ sample rate (Hz)")
-            .y_desc("time (ms)")
-            .x_labels(6)
-            .x_label_formatter(&|x| format!("{x:.0}"))
-            .y_label_formatter(&|y| format!("{y:.0}"))
-            .label_style(("sans-serif", 14))
-            .draw()
-            .map_err(e)?;
-        type Pick = fn(&SweepPoint) -> Option<f64>;
-        let series: [(&str, RGBColor, Pick); 4] = [
-            ("settling ±5 %, mean", RED, |p| p.mean_settling_ms),
-            ("rise 10–90 %, mean", BLUE, |p| Some(p.mean_rise_ms)),
-            ("rise 10–90 %, max", CYAN, |p| Some(p.max_rise_ms)),
-            ("delay to 10 %", GREEN, |p| Some(p.mean_delay_ms)),
-        ];
-        for (name, color, f) in series {
-            let pts: Vec<(f64, f64)> = points
-                .iter()
-                .filter_map(|p| f(p).map(|y| (p.daq_rate_hz, y)))
-                .collect();
-            chart
-                .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
-                .map_err(e)?
-                .label(name)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
-            chart
-                .draw_series(pts.iter().map(|&p| Circle::new(p, 4, color.filled())))
-                .map_err(e)?;
-        }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 14))
-            .draw()
-            .map_err(e)?;
-        root.present().map_err(e)?;
-        Ok(())
-    }
-    let png = dir.join("daq-sweep.png");
-    let svg = dir.join("daq-sweep.svg");
-    draw(
-        BitMapBackend::new(&png, (900, 600)).into_drawing_area(),
-        points,
-        title,
-        (xlo, xhi),
-        ymax,
-    )?;
-    draw(
-        SVGBackend::new(&svg, (900, 600)).into_drawing_area(),
-        points,
-        title,
-        (xlo, xhi),
-        ymax,
-    )?;
-    Ok(())
+/// Plot delay, rise and settling time against the DAQ period (1/rate, linear: the latency is linear in it)
+/// as `daq-sweep.png` and `daq-sweep.svg` in `dir`.
+pub fn plot(points: &[SweepPoint], dir: &Path, title: &str) -> Result<Vec<std::path::PathBuf>, PlotError> {
+    let per = |f: fn(&SweepPoint) -> Option<f64>| -> Vec<(f64, f64)> {
+        points
+            .iter()
+            .filter_map(|p| f(p).map(|y| (1e3 / p.daq_rate_hz, y)))
+            .collect()
+    };
+    let chart = Chart::new(title, "DAQ period (ms) = 1000 / rate (Hz)", "time (ms)")
+        .with(Series::line("delay to 10 %", per(|p| Some(p.mean_delay_ms))))
+        .with(Series::line("rise 10–90 %, mean", per(|p| Some(p.mean_rise_ms))))
+        .with(Series::points("rise 10–90 %, max", per(|p| Some(p.max_rise_ms))))
+        .with(Series::line("settling ±5 %, mean", per(|p| p.mean_settling_ms)));
+    save_charts(&[chart], 1, dir, "daq-sweep")
 }
