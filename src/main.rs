@@ -17,6 +17,10 @@ enum Command {
     Mts(mrfeel::mts::cli::MtsArgs),
     /// Compare feel systems (springs, MR damper, hybrid) on the same rig and pilot task, with faults.
     Compare(mrfeel::compare::cli::CompareArgs),
+    /// Run a stick-rig scenario headless (CSV, Rerun recording, summary).
+    Run(mrfeel::sim::cli::RunArgs),
+    /// Force response time of the feel loop against the DAQ sample rate.
+    DaqSweep(mrfeel::sim::cli::DaqSweepArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -24,6 +28,8 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Mts(a) => mrfeel::mts::cli::run(a),
         Command::Compare(a) => mrfeel::compare::cli::run_cmd(a),
+        Command::Run(a) => mrfeel::sim::cli::run_cmd(&a),
+        Command::DaqSweep(a) => mrfeel::sim::cli::daq_sweep_cmd(&a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
