@@ -325,3 +325,40 @@ fn coil_open_hands_off_leaves_a_free_stick_that_gravity_moves() {
     assert!(last.theta_rad.abs() > first_off.theta_rad.abs());
     assert_eq!(last.theta_rad.signum(), release_angle(&scn).signum());
 }
+
+#[test]
+fn a_fault_scheduled_in_a_loop_scenario_reaches_the_coil_in_mrfeel_run() {
+    // `[[fault]]` in any `mrfeel run` scenario: the coil-open window drops the yield to the zero-current
+    // value while the loop keeps commanding current; outside it the loop works as before.
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios");
+    let base = std::fs::read_to_string(format!("{dir}/paper-feel-loop.toml")).unwrap();
+    let text = format!("{base}\n[[fault]]\nkind = \"coil_open\"\nstart_s = 2.0\nend_s = 3.0\n");
+    let path = Path::new(dir).join("paper-feel-loop-coil-open.toml");
+    let mut scn = mrfeel::scenario::Scenario::parse(&text, &path).unwrap();
+    scn.duration_s = 3.5; // the triangle moves out from the centre over 0–1 s and 2–3 s
+    assert_eq!(scn.faults.faults.len(), 1);
+    let device =
+        mrfeel::device::DeviceConfig::load(&scn.device_path, &mrfeel::device::Registry::builtin()).unwrap();
+    let fc0 = device.param("fc0_n").unwrap();
+    let rig = mrfeel::rig::Rig::new(&scn.rig, device.damper()).unwrap();
+    let res = mrfeel::sim::run(&scn, &device, rig, Default::default(), |_| {});
+    let inside: Vec<_> = res.rows.iter().filter(|r| r.t_s >= 2.2 && r.t_s < 3.0).collect();
+    assert!(
+        inside.iter().all(|r| (r.yield_force_n - fc0).abs() < 0.5),
+        "yield not at fc0 with the coil open"
+    );
+    assert!(
+        inside.iter().any(|r| r.current_a > 1.0),
+        "the loop should still command current"
+    );
+    let before = res
+        .rows
+        .iter()
+        .filter(|r| r.t_s >= 0.2 && r.t_s < 1.0)
+        .map(|r| r.yield_force_n)
+        .fold(0.0, f64::max);
+    assert!(
+        before > 5.0 + fc0,
+        "the healthy loop yields {before} N before the fault"
+    );
+}
