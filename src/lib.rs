@@ -1,3 +1,4 @@
 //! mrfeel: simulation and model discovery for magneto-rheological artificial feel systems.
 pub mod device;
+pub mod ident;
 pub mod units;
