@@ -57,6 +57,7 @@ pub fn stage(p: &[f64], s: &[f64], inp: &Inputs) -> Stage {
     Stage {
         current_a: h,
         yield_n: p[FC0] + p[FC_GAIN] * h.abs(),
+        yield_field_n: p[FC_GAIN] * h.abs(),
         direction: sgn(inp.v_m_s),
         damping_n_s_per_m: p[C0],
         extra_n: 0.0,

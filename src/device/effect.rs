@@ -35,6 +35,10 @@ pub struct Stage {
     pub current_a: f64,
     /// Yield (Coulomb) force magnitude, N, ≥ 0.
     pub yield_n: f64,
+    /// The part of `yield_n` that the magnetic field produces (`fc_gain·|h|` in the base model), N, so that
+    /// an effect can reshape the field-driven yield (saturation) without knowing the base parameters.
+    /// Effects that scale `yield_n` scale this part with it.
+    pub yield_field_n: f64,
     /// Direction function in [-1, 1]: `sgn v` for the Bingham model.
     pub direction: f64,
     /// Post-yield viscous damping, N·s/m.
@@ -90,6 +94,12 @@ pub trait Effect: Send + Sync {
     fn params(&self) -> &'static [ParamSpec];
     /// Data-derived starting values, one per parameter, inside the bounds.
     fn initial_guess(&self, stats: &DataStats) -> Vec<f64>;
+    /// A plausible, clearly visible strength of the effect for data with these statistics: the hidden truth
+    /// of synthetic tests (`mrfeel mts --effects NAME`). Differs from [`Effect::initial_guess`] so a fit has
+    /// something to find. Defaults to the initial guess for effects that do not say.
+    fn typical_params(&self, stats: &DataStats) -> Vec<f64> {
+        self.initial_guess(stats)
+    }
     /// Number of internal states (hysteresis, temperature, …).
     fn n_states(&self) -> usize {
         0

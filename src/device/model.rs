@@ -205,6 +205,34 @@ impl Model {
         p.iter().zip(&self.param_specs).map(|(v, s)| s.clamp(*v)).collect()
     }
 
+    /// Base parameters followed by each effect's [`Effect::typical_params`], clamped into the bounds: the hidden
+    /// truth of a synthetic test of this model. `base` holds the five base parameters.
+    pub fn typical_params(&self, base: &[f64], stats: &DataStats) -> Result<Vec<f64>, DeviceError> {
+        if base.len() != bingham::PARAMS.len() {
+            return Err(DeviceError::BadSpec {
+                spec: self.name(),
+                why: format!("{} base parameter values for {} base parameters", base.len(), bingham::PARAMS.len()),
+            });
+        }
+        let mut p = base.to_vec();
+        for slot in &self.slots {
+            let g = slot.effect.typical_params(stats);
+            if g.len() != slot.params.len() {
+                return Err(DeviceError::BadSpec {
+                    spec: self.name(),
+                    why: format!(
+                        "effect `{}` gives {} typical values for {} parameters",
+                        slot.effect.name(),
+                        g.len(),
+                        slot.params.len()
+                    ),
+                });
+            }
+            p.extend(g);
+        }
+        Ok(p.iter().zip(&self.param_specs).map(|(v, s)| s.clamp(*v)).collect())
+    }
+
     /// States at the first sample of a test: lags at rest for the first command, effects initialised.
     pub fn init_state(&self, p: &[f64], first: &Inputs) -> Vec<f64> {
         let mut s = vec![0.0; self.n_states];

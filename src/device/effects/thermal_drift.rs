@@ -1,0 +1,200 @@
+//! Thermal drift: the yield force falls as the energy the damper dissipates heats its fluid.
+//!
+//! Physics: all the work the damper absorbs becomes heat in the fluid and body. The MR fluid's yield stress
+//! (and its carrier oil's viscosity) fall as it warms, so on a long test the force amplitude drifts down; it
+//! recovers as the device cools to ambient through its surface. A lumped thermal capacity `C_th` behind a
+//! thermal resistance `R_th` to ambient describes it (the first-order thermal model of MR dampers, e.g.
+//! Gordaninejad & Breese 1999, J. Intell. Mater. Syst. Struct. 10(8); Dogruoz, Wang, Gordaninejad & Stipanovic
+//! 2003, same journal 14(2)), with a yield stress linear in temperature over the working range:
+//!
+//! `C_th dT/dt = P − (T − T0)/R_th`,  `P = (Fy d + C v) v` (the dissipated power),  `Fy ← Fy (1 − α (T − T0))`.
+//!
+//! Only `C_th/α` and `R_th C_th` can be told apart from force data (a temperature is never measured here),
+//! so the state is the stored heat `E = C_th (T − T0)` in joules and the parameters are
+//!
+//! `dE/dt = P − E/τ`,  `Fy ← Fy · max(0, 1 − E/E_th)`
+//!
+//! with `E_th` = `thermal_energy_j` (heat that would remove the whole yield force at the linear rate) and
+//! `τ` = `thermal_tau_s` (cooling time constant). Each test starts at ambient (`E = 0`) at its first sample.
+//! Integration is exact for the power held constant over a step, so any step size is stable. Power is
+//! clamped at zero: elastic energy a hysteresis loop hands back is not heat taken out of the fluid.
+
+use crate::device::effect::{Effect, EffectStage, Inputs, Stage, Step};
+use crate::device::params::{DataStats, ParamSpec};
+
+use super::Scales;
+
+/// Yield force falling with dissipated heat, see the module documentation.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ThermalDrift;
+
+/// Indices of the parameters in the effect's slice.
+pub const ENERGY: usize = 0;
+pub const TAU: usize = 1;
+
+const PARAMS: [ParamSpec; 2] = [
+    ParamSpec::new(
+        "thermal_energy_j",
+        "J",
+        // 1 mJ: a heat capacity far below any damper's (grams of fluid hold ~1 J/K); no upper limit (no drift).
+        1e-3,
+        f64::INFINITY,
+        "heat above ambient that would remove the yield force at the linear rate, C_th/α",
+    ),
+    ParamSpec::new(
+        "thermal_tau_s",
+        "s",
+        // Estimates: a damper body of grams to kilograms cools to ambient in seconds to hours, not faster than
+        // 1 s; below that the "drift" would be a velocity effect, not a thermal one.
+        1.0,
+        1e6,
+        "cooling time constant R_th·C_th",
+    ),
+];
+
+/// Relative yield force at stored heat `e_j`.
+pub fn yield_factor(e_j: f64, energy_j: f64) -> f64 {
+    (1.0 - e_j.max(0.0) / energy_j).max(0.0)
+}
+
+/// Exact step of `dE/dt = P − E/τ` with `P` held over `dt`.
+pub fn heat_step(e_j: f64, power_w: f64, tau_s: f64, dt_s: f64) -> f64 {
+    let steady = power_w * tau_s;
+    steady + (e_j - steady) * (-dt_s / tau_s).exp()
+}
+
+impl Effect for ThermalDrift {
+    fn name(&self) -> &'static str {
+        "thermal_drift"
+    }
+
+    fn describe(&self) -> &'static str {
+        "Yield force falling as dissipated energy heats the fluid: stored heat dE/dt = P - E/tau from the \
+         dissipated power P, yield scaled by 1 - E/E_th (lumped thermal model, Gordaninejad & Breese 1999), \
+         starting at ambient at each test's first sample."
+    }
+
+    fn stage(&self) -> EffectStage {
+        EffectStage::YieldScale
+    }
+
+    fn params(&self) -> &'static [ParamSpec] {
+        &PARAMS
+    }
+
+    /// Heat for a full loss 20× the energy dissipated in the longest test (a drift of a few %), cooling
+    /// over three test durations.
+    fn initial_guess(&self, stats: &DataStats) -> Vec<f64> {
+        let s = Scales::from(stats);
+        vec![20.0 * s.energy_j, 3.0 * s.duration_s]
+    }
+
+    /// 2.5× the dissipated energy and cooling over one test duration: the yield force falls by about a
+    /// quarter over the longest test.
+    fn typical_params(&self, stats: &DataStats) -> Vec<f64> {
+        let s = Scales::from(stats);
+        vec![2.5 * s.energy_j, s.duration_s]
+    }
+
+    fn n_states(&self) -> usize {
+        1
+    }
+
+    fn init_states(&self, _p: &[f64], s: &mut [f64], _inp: &Inputs, _stage: &Stage) {
+        s[0] = 0.0;
+    }
+
+    fn apply(&self, p: &[f64], s: &[f64], _inp: &Inputs, stage: &mut Stage) {
+        let k = yield_factor(s[0], p[ENERGY]);
+        stage.yield_n *= k;
+        stage.yield_field_n *= k;
+    }
+
+    fn advance(&self, p: &[f64], s: &mut [f64], inp: &Inputs, stage: &Stage, _force_n: f64, step: Step) {
+        let v = inp.v_m_s;
+        let power = ((stage.yield_n * stage.direction + stage.damping_n_s_per_m * v) * v).max(0.0);
+        s[0] = heat_step(s[0], power, p[TAU], step.dt_s);
+    }
+
+    fn residual_signature(&self) -> &'static str {
+        "residual that drifts with time within each test (and with cumulative dissipated energy): the measured \
+         force amplitude falls cycle after cycle, faster at high current and speed, and a model without it is \
+         too weak early and too strong late in every test"
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::device::effects::testkit::*;
+
+    /// Peak |F| per cycle of a sine.
+    fn cycle_peaks(f: &[f64], samples_per_cycle: usize) -> Vec<f64> {
+        f.chunks(samples_per_cycle).map(|c| c.iter().fold(0.0f64, |m, x| m.max(x.abs()))).collect()
+    }
+
+    #[test]
+    fn yield_falls_monotonically_as_energy_is_dissipated() {
+        let m = model("bingham+thermal_drift");
+        let mut p = params(&m, &[("thermal_energy_j", 200.0), ("thermal_tau_s", 1e6)]);
+        p[2] = 0.0;
+        let inputs = triangle(0.01, 0.05, 10.0, 1e-3, 16.0);
+        let f = m.simulate(&p, &inputs);
+        let peaks = cycle_peaks(&f, 800);
+        assert!(peaks.windows(2).all(|w| w[1] < w[0]), "not falling: {peaks:?}");
+        // Without cooling, E = ∫ Fy(E) |v| dt, so dE/ds = Fy0 (1 - E/E_th) along the path s:
+        // E(s) = E_th (1 - e^{-Fy0 s / E_th}), and the yield force is Fy0 e^{-Fy0 s / E_th}.
+        let fy0 = BASE[0] + BASE[1] * 10.0;
+        let s_path = 0.05 * inputs.last().expect("samples").t_s;
+        let expect = fy0 * (-fy0 * s_path / 200.0).exp();
+        let last = f.last().expect("samples").abs();
+        assert!((last - expect).abs() < 0.01 * fy0, "after {s_path} m of travel: {last} N vs {expect} N");
+    }
+
+    #[test]
+    fn recovers_by_cooling_at_zero_velocity() {
+        let m = model("bingham+thermal_drift");
+        let mut p = params(&m, &[("thermal_energy_j", 50.0), ("thermal_tau_s", 5.0)]);
+        p[2] = 0.0;
+        let mut inputs = triangle(0.01, 0.05, 10.0, 1e-3, 4.0);
+        // Hold still for 3τ, then move again for one sample.
+        let t_end = inputs.last().expect("samples").t_s;
+        for k in 1..=15000 {
+            inputs.push(Inputs { t_s: t_end + k as f64 * 1e-3, x_m: 0.0, v_m_s: 0.0, a_m_s2: 0.0, current_cmd_a: 10.0 });
+        }
+        inputs.push(Inputs { t_s: t_end + 15.001, x_m: 0.0, v_m_s: 0.05, a_m_s2: 0.0, current_cmd_a: 10.0 });
+        let f = m.simulate(&p, &inputs);
+        let fy0 = BASE[0] + BASE[1] * 10.0;
+        let heated = f[3999].abs();
+        let cooled = *f.last().expect("samples");
+        assert!(heated < 0.9 * fy0, "no drift while moving: {heated}");
+        // The heat decays as e^{-t/τ}: after 3τ 5 % of the loss remains.
+        let loss_expect = (fy0 - heated) * (-3.0f64).exp();
+        assert!(((fy0 - cooled) - loss_expect).abs() < 0.02 * fy0, "{cooled} N after cooling");
+    }
+
+    #[test]
+    fn each_test_starts_at_ambient() {
+        let m = model("bingham+thermal_drift");
+        let p = params(&m, &[("thermal_energy_j", 50.0), ("thermal_tau_s", 100.0)]);
+        let inputs = sine(0.01, 1.0, 10.0, 1e-3, 5.0);
+        let a = m.simulate(&p, &inputs);
+        let b = m.simulate(&p, &inputs);
+        assert_eq!(a, b, "a second test must not inherit the first one's heat");
+        let base = model("bingham").simulate(&BASE, &inputs);
+        assert_eq!(a[0], base[0], "the first sample sees no heat");
+    }
+
+    #[test]
+    fn heat_step_is_exact_at_any_step_size() {
+        let (p, tau) = (12.0, 7.0);
+        let mut e = 0.0;
+        for _ in 0..1000 {
+            e = heat_step(e, p, tau, 0.01);
+        }
+        let coarse = heat_step(0.0, p, tau, 10.0);
+        assert!((e - coarse).abs() < 1e-9 * coarse);
+        assert!((coarse - p * tau * (1.0 - (-10.0f64 / tau).exp())).abs() < 1e-9);
+        assert!(yield_factor(1e9, 1.0) == 0.0 && yield_factor(0.0, 1.0) == 1.0);
+    }
+}
