@@ -1,4 +1,3 @@
 //! mrfeel: simulation and model discovery for magneto-rheological artificial feel systems.
 pub mod device;
-pub mod ident;
 pub mod units;

@@ -440,6 +440,7 @@ pub fn diagnose(
         pruned,
         final_model: cur.spec.to_string(),
         final_heldout_nrmse: cur.heldout_nrmse(),
+        final_fit_nrmse: final_fit.nrmse(),
         final_params: final_fit.params,
         final_pred,
         final_fit_nrmse: final_fit.nrmse(),

@@ -14,7 +14,6 @@
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
 use rayon::prelude::*;
-use std::cell::RefCell;
 
 use super::{data_stats, Test};
 use crate::device::{bingham, DataStats, Model};
@@ -171,7 +170,8 @@ struct Problem<'a> {
     resid: DVector<f64>,
     /// Finite stand-in for a non-finite simulated force, N.
     blowup_n: f64,
-    best: RefCell<(f64, Vec<f64>)>,
+    /// Lowest sum of squares seen and its search vector (the search may end on a rejected trial).
+    best: (f64, Vec<f64>),
     evaluations: usize,
 }
 
@@ -200,7 +200,7 @@ impl<'a> Problem<'a> {
             sims: Vec::new(),
             resid: DVector::zeros(n_res),
             blowup_n: 1e3 * f_max.max(1.0),
-            best: RefCell::new((f64::INFINITY, Vec::new())),
+            best: (f64::INFINITY, Vec::new()),
             evaluations: 0,
         };
         p.update();
@@ -242,9 +242,8 @@ impl<'a> Problem<'a> {
         }
         self.evaluations += 1;
         let sse = self.resid.norm_squared();
-        let mut best = self.best.borrow_mut();
-        if sse < best.0 {
-            *best = (sse, self.z.clone());
+        if sse < self.best.0 {
+            self.best = (sse, self.z.clone());
         }
     }
 
@@ -352,7 +351,7 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
             let (done, report) = lm.minimize(prob);
             prob = done;
             termination = format!("{:?}", report.termination);
-            let best = prob.best.borrow().1.clone();
+            let best = prob.best.1.clone();
             if !best.is_empty() && best != prob.z {
                 prob.z = best;
                 prob.update();
