@@ -19,8 +19,20 @@ pub struct GasSpring;
 
 const PARAMS: [ParamSpec; 2] = [
     // Parameter names are unique across the model: prefix them with the effect's tag, unit in the name.
-    ParamSpec::new("gas_preload_n", "N", 0.0, f64::INFINITY, "gas force on the rod at mid-stroke"),
-    ParamSpec::new("gas_length_m", "m", 1e-3, 10.0, "gas volume at mid-stroke over rod area, V0/A"),
+    ParamSpec::new(
+        "gas_preload_n",
+        "N",
+        0.0,
+        f64::INFINITY,
+        "gas force on the rod at mid-stroke",
+    ),
+    ParamSpec::new(
+        "gas_length_m",
+        "m",
+        1e-3,
+        10.0,
+        "gas volume at mid-stroke over rod area, V0/A",
+    ),
 ];
 
 impl Effect for GasSpring {
@@ -70,7 +82,11 @@ fn main() -> anyhow::Result<()> {
     // The builtin vocabulary plus ours; the fitter and the diagnosis take any `Registry`.
     let mut registry = Registry::builtin();
     registry.register(GasSpring);
-    let model = Model::from_spec("bingham+gas_spring", &registry, mrfeel::device::PAPER_CURRENT_LIMIT_A)?;
+    let model = Model::from_spec(
+        "bingham+gas_spring",
+        &registry,
+        mrfeel::device::PAPER_CURRENT_LIMIT_A,
+    )?;
 
     // Base parameters (fc0, fc_gain, c0, Te, Tm) then ours, in `model.param_specs()` order.
     let params = [20.0, 5.0, 300.0, 0.01, 0.02, 40.0, 0.05];
@@ -96,7 +112,13 @@ fn main() -> anyhow::Result<()> {
     println!("\n   t_s     x_mm    v_mm_s   force_n");
     for k in (0..inputs.len()).step_by(250) {
         let i = &inputs[k];
-        println!("{:6.3} {:8.2} {:9.2} {:9.2}", i.t_s, i.x_m * 1e3, i.v_m_s * 1e3, force[k]);
+        println!(
+            "{:6.3} {:8.2} {:9.2} {:9.2}",
+            i.t_s,
+            i.x_m * 1e3,
+            i.v_m_s * 1e3,
+            force[k]
+        );
     }
     Ok(())
 }

@@ -1,27 +1,41 @@
-//! The `mrfeel` command line.
+//! The `mrfeel` command line: parse, call the library, print. All work is in the library.
+
 use clap::{Parser, Subcommand};
 
-#[derive(Parser, Debug)]
-#[command(name = "mrfeel", version, about = "Simulation and model discovery for MR artificial feel systems")]
+/// Simulation and model discovery for magneto-rheological (MR) artificial feel systems on aircraft
+/// control sticks.
+#[derive(Parser)]
+#[command(name = "mrfeel", version, about, long_about = None)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
 }
 
-#[derive(Subcommand, Debug)]
+#[derive(Subcommand)]
 enum Command {
-    /// Fit a model (`bingham+effect+...`) to measured tests, jointly.
+    /// Virtual MTS machine: drive the damper with a displacement protocol and record the force (CSV).
+    Mts(mrfeel::mts::cli::MtsArgs),
+    /// Fit a model (`bingham+effect+...`) to measured tests, jointly, each from its own start.
     Fit(mrfeel::ident::cli::FitArgs),
-    /// Run a saved model unchanged on other tests and report its error.
+    /// Run a saved model unchanged on other tests and report its error (no refit).
     Validate(mrfeel::ident::cli::ValidateArgs),
-    /// Find where a model fails and name the missing effects by held-out error.
+    /// Find where a model fails and name the missing effects by the held-out error they remove.
     Diagnose(mrfeel::ident::cli::DiagnoseArgs),
 }
 
-fn main() -> anyhow::Result<()> {
-    match Cli::parse().command {
+fn main() -> std::process::ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Mts(a) => mrfeel::mts::cli::run(a),
         Command::Fit(a) => mrfeel::ident::cli::run_fit(&a),
         Command::Validate(a) => mrfeel::ident::cli::run_validate(&a),
         Command::Diagnose(a) => mrfeel::ident::cli::run_diagnose(&a),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
     }
 }

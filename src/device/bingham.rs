@@ -19,7 +19,13 @@ pub const TM: usize = 4;
 /// ampere of (lagged) coil current. `fc0_n` is the yield force at zero current: the seal and foam friction a
 /// real damper shows with the coil off (Eq. 2's `Fc` at `H = 0`).
 pub const PARAMS: [ParamSpec; 5] = [
-    ParamSpec::new("fc0_n", "N", 0.0, f64::INFINITY, "yield (Coulomb) force at zero coil current, Eq. (2)"),
+    ParamSpec::new(
+        "fc0_n",
+        "N",
+        0.0,
+        f64::INFINITY,
+        "yield (Coulomb) force at zero coil current, Eq. (2)",
+    ),
     ParamSpec::new(
         "fc_gain_n_per_a",
         "N/A",
@@ -27,9 +33,27 @@ pub const PARAMS: [ParamSpec; 5] = [
         f64::INFINITY,
         "yield force per ampere of lagged coil current, bH·kH of Eq. (6)",
     ),
-    ParamSpec::new("c0_n_s_per_m", "N·s/m", 0.0, f64::INFINITY, "post-yield viscous damping C0, Eq. (2)"),
-    ParamSpec::new("te_s", "s", 0.0, 1.0, "coil electrical time constant Te = L/R, Eq. (3)"),
-    ParamSpec::new("tm_s", "s", 0.0, 1.0, "MR fluid response time constant Tm, Eq. (4)"),
+    ParamSpec::new(
+        "c0_n_s_per_m",
+        "N·s/m",
+        0.0,
+        f64::INFINITY,
+        "post-yield viscous damping C0, Eq. (2)",
+    ),
+    ParamSpec::new(
+        "te_s",
+        "s",
+        0.0,
+        1.0,
+        "coil electrical time constant Te = L/R, Eq. (3)",
+    ),
+    ParamSpec::new(
+        "tm_s",
+        "s",
+        0.0,
+        1.0,
+        "MR fluid response time constant Tm, Eq. (4)",
+    ),
 ];
 
 /// Number of base states: coil current (Eq. 3) and fluid excitation (Eq. 4), both in amperes.

@@ -40,8 +40,10 @@ pub struct DeviceConfig {
 impl DeviceConfig {
     /// Load a `.toml` device file or a `.json` parameter file written by `mrfeel fit --save`.
     pub fn load(path: &Path, registry: &Registry) -> Result<Self, DeviceError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| DeviceError::Io { path: path.to_path_buf(), msg: e.to_string() })?;
+        let text = std::fs::read_to_string(path).map_err(|e| DeviceError::Io {
+            path: path.to_path_buf(),
+            msg: e.to_string(),
+        })?;
         if path.extension().and_then(|e| e.to_str()) == Some("json") {
             Self::from_json(&text, path, registry)
         } else {
@@ -62,9 +64,17 @@ impl DeviceConfig {
     pub fn from_toml(text: &str, path: &Path, registry: &Registry) -> Result<Self, DeviceError> {
         let file: TomlDevice = toml::from_str(text).map_err(|e| {
             let line = e.span().map(|s| line_of(text, s.start)).unwrap_or(0);
-            DeviceError::Parse { path: path.to_path_buf(), line, msg: e.message().to_string() }
+            DeviceError::Parse {
+                path: path.to_path_buf(),
+                line,
+                msg: e.message().to_string(),
+            }
         })?;
-        let limit = file.driver.current_limit_a.map(|s| s.into_inner()).unwrap_or(PAPER_CURRENT_LIMIT_A);
+        let limit = file
+            .driver
+            .current_limit_a
+            .map(|s| s.into_inner())
+            .unwrap_or(PAPER_CURRENT_LIMIT_A);
         let spec = ModelSpec::parse(file.model.get_ref()).map_err(|e| DeviceError::Field {
             path: path.to_path_buf(),
             line: line_of(text, file.model.span().start),
@@ -146,7 +156,12 @@ fn assign_params(
                 msg: format!(
                     "unknown parameter for model `{}`; its parameters are: {}",
                     model.name(),
-                    model.param_specs().iter().map(|p| p.name).collect::<Vec<_>>().join(", ")
+                    model
+                        .param_specs()
+                        .iter()
+                        .map(|p| p.name)
+                        .collect::<Vec<_>>()
+                        .join(", ")
                 ),
             });
         }
@@ -166,7 +181,10 @@ fn assign_params(
                 path: path.to_path_buf(),
                 line: *line,
                 field: spec.name.to_string(),
-                msg: format!("value {v} outside the allowed range [{}, {}] {}", spec.lower, spec.upper, spec.unit),
+                msg: format!(
+                    "value {v} outside the allowed range [{}, {}] {}",
+                    spec.lower, spec.upper, spec.unit
+                ),
             });
         }
         out.push(*v);
@@ -176,7 +194,11 @@ fn assign_params(
 
 /// 1-based line of a byte offset.
 pub(crate) fn line_of(text: &str, offset: usize) -> usize {
-    text.as_bytes()[..offset.min(text.len())].iter().filter(|&&b| b == b'\n').count() + 1
+    text.as_bytes()[..offset.min(text.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
 }
 
 #[derive(Deserialize)]
@@ -242,6 +264,10 @@ impl ParamsFile {
                 )
             })
             .collect();
-        Self { model: model.name(), current_limit_a: Some(model.current_limit_a), params }
+        Self {
+            model: model.name(),
+            current_limit_a: Some(model.current_limit_a),
+            params,
+        }
     }
 }

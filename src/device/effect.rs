@@ -92,7 +92,7 @@ pub trait Effect: Send + Sync {
     fn stage(&self) -> EffectStage;
     /// Parameter declarations (unique names across all effects; prefix them with the effect's tag).
     fn params(&self) -> &'static [ParamSpec];
-    /// Data-derived starting values, one per parameter, inside the bounds.
+    /// Data-derived starting values for a fit, one per parameter, inside the bounds.
     fn initial_guess(&self, stats: &DataStats) -> Vec<f64>;
     /// A plausible, clearly visible strength of the effect for data with these statistics: the hidden truth
     /// of synthetic tests (`mrfeel mts --effects NAME`). Differs from [`Effect::initial_guess`] so a fit has
@@ -109,7 +109,8 @@ pub trait Effect: Send + Sync {
     /// Edit the force assembly at this sample.
     fn apply(&self, p: &[f64], s: &[f64], inp: &Inputs, stage: &mut Stage);
     /// Advance internal states from this sample to the next, given the force this sample produced.
-    fn advance(&self, _p: &[f64], _s: &mut [f64], _inp: &Inputs, _stage: &Stage, _force_n: f64, _step: Step) {}
+    fn advance(&self, _p: &[f64], _s: &mut [f64], _inp: &Inputs, _stage: &Stage, _force_n: f64, _step: Step) {
+    }
     /// Words a diagnosis can use: how its absence shows in a residual (from the effect vocabulary).
     fn residual_signature(&self) -> &'static str {
         ""

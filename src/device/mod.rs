@@ -32,5 +32,10 @@ pub enum DeviceError {
     #[error("{}:{line}: {msg}", path.display())]
     Parse { path: PathBuf, line: usize, msg: String },
     #[error("{}:{line}: field `{field}`: {msg}", path.display())]
-    Field { path: PathBuf, line: usize, field: String, msg: String },
+    Field {
+        path: PathBuf,
+        line: usize,
+        field: String,
+        msg: String,
+    },
 }

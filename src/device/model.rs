@@ -51,7 +51,9 @@ impl Registry {
 
 impl std::fmt::Debug for Registry {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Registry").field("effects", &self.names()).finish()
+        f.debug_struct("Registry")
+            .field("effects", &self.names())
+            .finish()
     }
 }
 
@@ -67,15 +69,24 @@ impl ModelSpec {
         let mut parts = spec.split('+').map(str::trim);
         let base = parts.next().unwrap_or_default();
         if base != BASE {
-            return Err(DeviceError::UnknownBase { spec: spec.to_string(), base: base.to_string() });
+            return Err(DeviceError::UnknownBase {
+                spec: spec.to_string(),
+                base: base.to_string(),
+            });
         }
         let mut effects: Vec<String> = Vec::new();
         for p in parts {
             if p.is_empty() {
-                return Err(DeviceError::BadSpec { spec: spec.to_string(), why: "empty effect name".into() });
+                return Err(DeviceError::BadSpec {
+                    spec: spec.to_string(),
+                    why: "empty effect name".into(),
+                });
             }
             if effects.iter().any(|e| e == p) {
-                return Err(DeviceError::BadSpec { spec: spec.to_string(), why: format!("effect `{p}` named twice") });
+                return Err(DeviceError::BadSpec {
+                    spec: spec.to_string(),
+                    why: format!("effect `{p}` named twice"),
+                });
             }
             effects.push(p.to_string());
         }
@@ -125,7 +136,9 @@ pub struct Model {
 
 impl std::fmt::Debug for Model {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Model").field("spec", &self.spec.to_string()).finish()
+        f.debug_struct("Model")
+            .field("spec", &self.spec.to_string())
+            .finish()
     }
 }
 
@@ -145,18 +158,32 @@ impl Model {
                 if param_specs.iter().any(|q| q.name == ps.name) {
                     return Err(DeviceError::BadSpec {
                         spec: spec.to_string(),
-                        why: format!("parameter `{}` of `{name}` clashes with another element's", ps.name),
+                        why: format!(
+                            "parameter `{}` of `{name}` clashes with another element's",
+                            ps.name
+                        ),
                     });
                 }
                 param_specs.push(ps.clone());
             }
             let s0 = n_states;
             n_states += effect.n_states();
-            slots.push(Slot { params: p0..param_specs.len(), states: s0..n_states, effect });
+            slots.push(Slot {
+                params: p0..param_specs.len(),
+                states: s0..n_states,
+                effect,
+            });
         }
         let mut apply_order: Vec<usize> = (0..slots.len()).collect();
         apply_order.sort_by_key(|&k| slots[k].effect.stage());
-        Ok(Self { spec: spec.clone(), slots, apply_order, param_specs, n_states, current_limit_a })
+        Ok(Self {
+            spec: spec.clone(),
+            slots,
+            apply_order,
+            param_specs,
+            n_states,
+            current_limit_a,
+        })
     }
 
     /// Parse and build in one call.
@@ -199,10 +226,18 @@ impl Model {
         let mut p = bingham::initial_guess(stats);
         for slot in &self.slots {
             let g = slot.effect.initial_guess(stats);
-            debug_assert_eq!(g.len(), slot.params.len(), "{} initial guess length", slot.effect.name());
+            debug_assert_eq!(
+                g.len(),
+                slot.params.len(),
+                "{} initial guess length",
+                slot.effect.name()
+            );
             p.extend(g);
         }
-        p.iter().zip(&self.param_specs).map(|(v, s)| s.clamp(*v)).collect()
+        p.iter()
+            .zip(&self.param_specs)
+            .map(|(v, s)| s.clamp(*v))
+            .collect()
     }
 
     /// Base parameters followed by each effect's [`Effect::typical_params`], clamped into the bounds: the hidden
@@ -211,7 +246,11 @@ impl Model {
         if base.len() != bingham::PARAMS.len() {
             return Err(DeviceError::BadSpec {
                 spec: self.name(),
-                why: format!("{} base parameter values for {} base parameters", base.len(), bingham::PARAMS.len()),
+                why: format!(
+                    "{} base parameter values for {} base parameters",
+                    base.len(),
+                    bingham::PARAMS.len()
+                ),
             });
         }
         let mut p = base.to_vec();
@@ -230,7 +269,10 @@ impl Model {
             }
             p.extend(g);
         }
-        Ok(p.iter().zip(&self.param_specs).map(|(v, s)| s.clamp(*v)).collect())
+        Ok(p.iter()
+            .zip(&self.param_specs)
+            .map(|(v, s)| s.clamp(*v))
+            .collect())
     }
 
     /// States at the first sample of a test: lags at rest for the first command, effects initialised.
@@ -256,7 +298,8 @@ impl Model {
         let mut stage = bingham::stage(p, s, inp);
         for &k in &self.apply_order {
             let slot = &self.slots[k];
-            slot.effect.apply(&p[slot.params.clone()], &s[slot.states.clone()], inp, &mut stage);
+            slot.effect
+                .apply(&p[slot.params.clone()], &s[slot.states.clone()], inp, &mut stage);
         }
         stage
     }
@@ -265,7 +308,14 @@ impl Model {
     pub fn advance(&self, p: &[f64], s: &mut [f64], inp: &Inputs, stage: &Stage, force_n: f64, step: Step) {
         for &k in &self.apply_order {
             let slot = &self.slots[k];
-            slot.effect.advance(&p[slot.params.clone()], &mut s[slot.states.clone()], inp, stage, force_n, step);
+            slot.effect.advance(
+                &p[slot.params.clone()],
+                &mut s[slot.states.clone()],
+                inp,
+                stage,
+                force_n,
+                step,
+            );
         }
         bingham::advance(p, s, inp.current_cmd_a, self.current_limit_a, step.dt_s);
     }
@@ -281,7 +331,10 @@ impl Model {
             let f = stage.force_n(inp.v_m_s);
             out[k] = f;
             if let Some(next) = inputs.get(k + 1) {
-                let step = Step { dt_s: next.t_s - inp.t_s, dx_m: next.x_m - inp.x_m };
+                let step = Step {
+                    dt_s: next.t_s - inp.t_s,
+                    dx_m: next.x_m - inp.x_m,
+                };
                 self.advance(p, &mut s, inp, &stage, f, step);
             }
         }
@@ -310,11 +363,20 @@ impl Damper {
         if params.len() != model.n_params() {
             return Err(DeviceError::BadSpec {
                 spec: model.name(),
-                why: format!("{} parameter values for {} parameters", params.len(), model.n_params()),
+                why: format!(
+                    "{} parameter values for {} parameters",
+                    params.len(),
+                    model.n_params()
+                ),
             });
         }
         let state = vec![0.0; model.n_states()];
-        Ok(Self { model, params, state, started: false })
+        Ok(Self {
+            model,
+            params,
+            state,
+            started: false,
+        })
     }
 
     pub fn model(&self) -> &Model {
@@ -347,7 +409,8 @@ impl Damper {
     /// Advance the state over a step after `eval` at `inp` produced `stage`.
     pub fn advance(&mut self, inp: &Inputs, stage: &Stage, step: Step) {
         let f = stage.force_n(inp.v_m_s);
-        self.model.advance(&self.params, &mut self.state, inp, stage, f, step);
+        self.model
+            .advance(&self.params, &mut self.state, inp, stage, f, step);
     }
 
     /// Coil current (Eq. 3 state), A.

@@ -22,7 +22,13 @@ impl ParamSpec {
         upper: f64,
         doc: &'static str,
     ) -> Self {
-        Self { name, unit, lower, upper, doc }
+        Self {
+            name,
+            unit,
+            lower,
+            upper,
+            doc,
+        }
     }
 
     /// Clamp a value into the bounds.
@@ -68,4 +74,113 @@ pub struct DataStats {
     pub fc0_n: f64,
     pub fc_gain_n_per_a: f64,
     pub c0_n_s_per_m: f64,
+}
+
+/// Signals of one test, borrowed, for [`DataStats::from_tests`].
+#[derive(Debug, Clone, Copy)]
+pub struct TestSignals<'a> {
+    pub t_s: &'a [f64],
+    pub x_m: &'a [f64],
+    pub v_m_s: &'a [f64],
+    pub a_m_s2: &'a [f64],
+    pub i_a: &'a [f64],
+    pub f_n: &'a [f64],
+}
+
+impl DataStats {
+    /// Statistics over several tests, including a linear least-squares Bingham estimate
+    /// `F ≈ (fc0 + k |i|) sgn v + c v` (non-negative coefficients), the starting point of every fit.
+    pub fn from_tests(tests: &[TestSignals<'_>]) -> Self {
+        let mut s = DataStats::default();
+        let (mut n, mut f2, mut v2, mut isum) = (0usize, 0.0, 0.0, 0.0);
+        let mut dts = Vec::new();
+        // Normal equations of the 3-parameter linear Bingham fit.
+        let mut ata = [[0.0f64; 3]; 3];
+        let mut atb = [0.0f64; 3];
+        for t in tests {
+            for k in 0..t.t_s.len() {
+                let (f, v, i) = (t.f_n[k], t.v_m_s[k], t.i_a[k].abs());
+                n += 1;
+                f2 += f * f;
+                v2 += v * v;
+                isum += i;
+                s.f_max_n = s.f_max_n.max(f.abs());
+                s.v_max_m_s = s.v_max_m_s.max(v.abs());
+                s.x_max_m = s.x_max_m.max(t.x_m[k].abs());
+                s.a_max_m_s2 = s.a_max_m_s2.max(t.a_m_s2[k].abs());
+                s.i_max_a = s.i_max_a.max(i);
+                let sg = if v > 0.0 {
+                    1.0
+                } else if v < 0.0 {
+                    -1.0
+                } else {
+                    0.0
+                };
+                let row = [sg, sg * i, v];
+                for a in 0..3 {
+                    atb[a] += row[a] * f;
+                    for b in 0..3 {
+                        ata[a][b] += row[a] * row[b];
+                    }
+                }
+            }
+            dts.extend(t.t_s.windows(2).map(|w| w[1] - w[0]));
+            if let (Some(a), Some(b)) = (t.t_s.first(), t.t_s.last()) {
+                s.duration_s = s.duration_s.max(b - a);
+            }
+        }
+        if n == 0 {
+            return s;
+        }
+        s.f_rms_n = (f2 / n as f64).sqrt();
+        s.v_rms_m_s = (v2 / n as f64).sqrt();
+        s.i_mean_a = isum / n as f64;
+        dts.sort_by(f64::total_cmp);
+        s.dt_s = dts.get(dts.len() / 2).copied().unwrap_or(1e-3);
+        let coef = nonneg_lstsq3(ata, atb);
+        s.fc0_n = coef[0];
+        s.fc_gain_n_per_a = coef[1];
+        s.c0_n_s_per_m = coef[2];
+        s
+    }
+}
+
+/// Least squares with non-negative coefficients for a 3-unknown problem given its normal equations:
+/// solve every subset of active coefficients and keep the best feasible one (8 subsets).
+fn nonneg_lstsq3(ata: [[f64; 3]; 3], atb: [f64; 3]) -> [f64; 3] {
+    let mut best = ([0.0; 3], 0.0f64); // objective relative to zero: -(2 x·atb - x·ata·x)
+    for mask in 1u8..8 {
+        let idx: Vec<usize> = (0..3).filter(|k| mask & (1 << k) != 0).collect();
+        let m = idx.len();
+        let mut a = nalgebra::DMatrix::<f64>::zeros(m, m);
+        let mut b = nalgebra::DVector::<f64>::zeros(m);
+        for (r, &i) in idx.iter().enumerate() {
+            b[r] = atb[i];
+            for (c, &j) in idx.iter().enumerate() {
+                a[(r, c)] = ata[i][j];
+            }
+        }
+        let Some(sol) = a.clone().lu().solve(&b) else {
+            continue;
+        };
+        if sol.iter().any(|v| !v.is_finite() || *v < 0.0) {
+            continue;
+        }
+        let mut x = [0.0; 3];
+        for (r, &i) in idx.iter().enumerate() {
+            x[i] = sol[r];
+        }
+        // Reduction in sum of squares: 2 x·atb - x·ata·x
+        let mut gain = 0.0;
+        for i in 0..3 {
+            gain += 2.0 * x[i] * atb[i];
+            for j in 0..3 {
+                gain -= x[i] * ata[i][j] * x[j];
+            }
+        }
+        if gain > best.1 {
+            best = (x, gain);
+        }
+    }
+    best.0
 }

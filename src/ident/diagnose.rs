@@ -443,7 +443,6 @@ pub fn diagnose(
         final_fit_nrmse: final_fit.nrmse(),
         final_params: final_fit.params,
         final_pred,
-        final_fit_nrmse: final_fit.nrmse(),
         steps,
         cv_scheme,
         noise_floor_n: noise,

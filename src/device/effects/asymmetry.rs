@@ -80,7 +80,6 @@ impl Effect for Asymmetry {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use crate::device::effects::testkit::*;
 
     #[test]
@@ -111,12 +110,16 @@ mod tests {
         let diff = |i: f64| {
             let inputs = triangle(0.01, 0.05, i, 1e-3, 2.0);
             let f = m.simulate(&p, &inputs);
-            mean_where(&f, &inputs, |k| k.v_m_s > 0.0).abs() - mean_where(&f, &inputs, |k| k.v_m_s < 0.0).abs()
+            mean_where(&f, &inputs, |k| k.v_m_s > 0.0).abs()
+                - mean_where(&f, &inputs, |k| k.v_m_s < 0.0).abs()
         };
         let (d2, d6, d10) = (diff(2.0), diff(6.0), diff(10.0));
         // |F+| - |F-| = 2 a (fc0 + k i): equal increments for equal current steps, slope 2 a k.
         assert!(d2 > 0.0 && d10 > d6 && d6 > d2);
-        assert!(((d10 - d6) - (d6 - d2)).abs() < 1e-6 * d10, "not linear: {d2} {d6} {d10}");
+        assert!(
+            ((d10 - d6) - (d6 - d2)).abs() < 1e-6 * d10,
+            "not linear: {d2} {d6} {d10}"
+        );
         let slope = (d10 - d2) / 8.0;
         assert!((slope - 2.0 * a * BASE[1]).abs() < 1e-6, "slope {slope} N/A");
     }

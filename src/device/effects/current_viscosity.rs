@@ -53,13 +53,13 @@ impl Effect for CurrentViscosity {
 
     /// Adds 2 % of the force scale at the largest velocity and current: a small, non-zero start.
     fn initial_guess(&self, stats: &DataStats) -> Vec<f64> {
-        let s = Scales::from(stats);
+        let s = Scales::of(stats);
         vec![0.02 * s.force_n / (s.v_m_s * s.i_a)]
     }
 
     /// Adds 25 % of the force scale at the largest velocity and current.
     fn typical_params(&self, stats: &DataStats) -> Vec<f64> {
-        let s = Scales::from(stats);
+        let s = Scales::of(stats);
         vec![0.25 * s.force_n / (s.v_m_s * s.i_a)]
     }
 
@@ -76,7 +76,6 @@ impl Effect for CurrentViscosity {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use crate::device::effects::testkit::*;
 
     /// Post-yield slope dF/dv at a current, from two triangles at different speeds (same yield branch).
@@ -97,9 +96,18 @@ mod tests {
         let s0 = slope_at(0.0, c1);
         let s5 = slope_at(5.0, c1);
         let s10 = slope_at(10.0, c1);
-        assert!((s0 - BASE[2]).abs() < 1e-6 * BASE[2], "zero-current slope {s0} is C0");
-        assert!((s5 - (BASE[2] + 5.0 * c1)).abs() < 1e-6 * s5, "slope at 5 A: {s5}");
-        assert!(((s10 - s5) - (s5 - s0)).abs() < 1e-6 * s10, "not linear: {s0} {s5} {s10}");
+        assert!(
+            (s0 - BASE[2]).abs() < 1e-6 * BASE[2],
+            "zero-current slope {s0} is C0"
+        );
+        assert!(
+            (s5 - (BASE[2] + 5.0 * c1)).abs() < 1e-6 * s5,
+            "slope at 5 A: {s5}"
+        );
+        assert!(
+            ((s10 - s5) - (s5 - s0)).abs() < 1e-6 * s10,
+            "not linear: {s0} {s5} {s10}"
+        );
     }
 
     #[test]
@@ -113,6 +121,9 @@ mod tests {
             mean_where(&m.simulate(&p, &inputs), &inputs, |k| k.v_m_s > 0.0)
         };
         let intercept = f_at(0.02) - 0.02 * (f_at(0.08) - f_at(0.02)) / 0.06;
-        assert!((intercept - (BASE[0] + BASE[1] * i)).abs() < 1e-6 * intercept, "intercept {intercept}");
+        assert!(
+            (intercept - (BASE[0] + BASE[1] * i)).abs() < 1e-6 * intercept,
+            "intercept {intercept}"
+        );
     }
 }

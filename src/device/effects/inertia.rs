@@ -48,13 +48,13 @@ impl Effect for Inertia {
 
     /// A mass giving 1 % of the force scale at the largest acceleration.
     fn initial_guess(&self, stats: &DataStats) -> Vec<f64> {
-        let s = Scales::from(stats);
+        let s = Scales::of(stats);
         vec![0.01 * s.force_n / s.a_m_s2]
     }
 
     /// A mass giving 15 % of the force scale at the largest acceleration.
     fn typical_params(&self, stats: &DataStats) -> Vec<f64> {
-        let s = Scales::from(stats);
+        let s = Scales::of(stats);
         vec![0.15 * s.force_n / s.a_m_s2]
     }
 
@@ -71,7 +71,6 @@ impl Effect for Inertia {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use crate::device::effects::testkit::*;
 
     #[test]

@@ -68,12 +68,12 @@ impl Effect for MagneticSaturation {
 
     /// Four times the largest current: a 2 % curvature at the top of the data, close to the linear model.
     fn initial_guess(&self, stats: &DataStats) -> Vec<f64> {
-        vec![4.0 * Scales::from(stats).i_a]
+        vec![4.0 * Scales::of(stats).i_a]
     }
 
     /// The largest current: at the top of the data the yield force is 24 % below the linear map.
     fn typical_params(&self, stats: &DataStats) -> Vec<f64> {
-        vec![Scales::from(stats).i_a]
+        vec![Scales::of(stats).i_a]
     }
 
     fn apply(&self, p: &[f64], _s: &[f64], _inp: &Inputs, stage: &mut Stage) {
@@ -92,7 +92,6 @@ impl Effect for MagneticSaturation {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use crate::device::effects::testkit::*;
 
     /// Yield force at steady current, from a triangle at constant speed without viscosity.
@@ -120,7 +119,11 @@ mod tests {
         let i_sat = 5.0;
         let (i1, i2) = (0.01, 0.02);
         let slope = (yield_at(i2, i_sat) - yield_at(i1, i_sat)) / (i2 - i1);
-        assert!((slope - BASE[1]).abs() < 1e-4 * BASE[1], "slope {slope} N/A vs {}", BASE[1]);
+        assert!(
+            (slope - BASE[1]).abs() < 1e-4 * BASE[1],
+            "slope {slope} N/A vs {}",
+            BASE[1]
+        );
     }
 
     #[test]

@@ -74,18 +74,29 @@ pub(crate) struct Scales {
 }
 
 impl Scales {
-    pub fn from(stats: &DataStats) -> Self {
+    pub fn of(stats: &DataStats) -> Self {
         let force_n = positive_or(stats.f_max_n, positive_or(stats.f_rms_n, 1.0));
         let f_rms = positive_or(stats.f_rms_n, force_n / std::f64::consts::SQRT_2);
         let x_m = positive_or(stats.x_max_m, 0.01);
-        let v_m_s = positive_or(stats.v_max_m_s, positive_or(stats.v_rms_m_s * std::f64::consts::SQRT_2, 0.1));
+        let v_m_s = positive_or(
+            stats.v_max_m_s,
+            positive_or(stats.v_rms_m_s * std::f64::consts::SQRT_2, 0.1),
+        );
         let v_rms = positive_or(stats.v_rms_m_s, v_m_s / std::f64::consts::SQRT_2);
         // A sine of amplitude x and peak velocity v has peak acceleration v²/x.
         let a_m_s2 = positive_or(stats.a_max_m_s2, v_m_s * v_m_s / x_m);
         let i_a = positive_or(stats.i_max_a, 1.0);
         let duration_s = positive_or(stats.duration_s, 10.0);
         let energy_j = f_rms * v_rms * duration_s;
-        Self { force_n, v_m_s, x_m, a_m_s2, i_a, duration_s, energy_j }
+        Self {
+            force_n,
+            v_m_s,
+            x_m,
+            a_m_s2,
+            i_a,
+            duration_s,
+            energy_j,
+        }
     }
 }
 
@@ -133,7 +144,13 @@ pub(crate) mod testkit {
                 } else {
                     (-amp_m + (ph - 0.75) * period * speed_m_s, speed_m_s)
                 };
-                Inputs { t_s: t, x_m: x, v_m_s: v, a_m_s2: 0.0, current_cmd_a: current_a }
+                Inputs {
+                    t_s: t,
+                    x_m: x,
+                    v_m_s: v,
+                    a_m_s2: 0.0,
+                    current_cmd_a: current_a,
+                }
             })
             .collect()
     }
@@ -151,7 +168,9 @@ pub(crate) mod testkit {
         let mut p = m.initial_guess(&stats());
         p[..5].copy_from_slice(&BASE);
         for (name, v) in named {
-            let k = m.param_index(name).unwrap_or_else(|| panic!("no parameter {name} in {}", m.name()));
+            let k = m
+                .param_index(name)
+                .unwrap_or_else(|| panic!("no parameter {name} in {}", m.name()));
             p[k] = *v;
         }
         p
@@ -179,8 +198,12 @@ pub(crate) mod testkit {
     }
 
     /// Mean of the values where the mask holds.
-    pub fn mean_where(f: &[f64], inputs: &[super::super::effect::Inputs], keep: impl Fn(&Inputs) -> bool) -> f64 {
-        let (s, n) = f.iter().zip(inputs).filter(|(_, i)| keep(i)).fold((0.0, 0usize), |(s, n), (f, _)| (s + f, n + 1));
+    pub fn mean_where(f: &[f64], inputs: &[Inputs], keep: impl Fn(&Inputs) -> bool) -> f64 {
+        let (s, n) = f
+            .iter()
+            .zip(inputs)
+            .filter(|(_, i)| keep(i))
+            .fold((0.0, 0usize), |(s, n), (f, _)| (s + f, n + 1));
         assert!(n > 0, "no sample selected");
         s / n as f64
     }
@@ -190,7 +213,7 @@ pub(crate) mod testkit {
 mod tests {
     use super::testkit::*;
     use super::*;
-    use crate::device::model::ModelSpec;
+    use crate::device::model::{Model, ModelSpec};
 
     const NAMES: [&str; 7] = [
         "hysteresis",
@@ -206,11 +229,16 @@ mod tests {
     fn every_vocabulary_effect_is_registered_with_tagged_unique_parameters() {
         let r = Registry::builtin();
         assert_eq!(r.names().len(), NAMES.len());
-        let tags = ["hyst_", "asym_", "sat_", "visc_", "stiff_", "inertia_", "thermal_"];
+        let tags = [
+            "hyst_", "asym_", "sat_", "visc_", "stiff_", "inertia_", "thermal_",
+        ];
         let mut all = Vec::new();
         for (name, tag) in NAMES.iter().zip(tags) {
             let e = r.get(name).unwrap_or_else(|| panic!("{name} not registered"));
-            assert!(!e.describe().is_empty() && !e.residual_signature().is_empty(), "{name} undocumented");
+            assert!(
+                !e.describe().is_empty() && !e.residual_signature().is_empty(),
+                "{name} undocumented"
+            );
             for p in e.params() {
                 assert!(p.name.starts_with(tag), "{} lacks the tag {tag}", p.name);
                 assert!(p.lower < p.upper, "{}: empty bounds", p.name);
@@ -235,8 +263,16 @@ mod tests {
                 assert_eq!(g.len(), e.params().len());
                 assert_eq!(t.len(), e.params().len());
                 for ((ps, g), t) in e.params().iter().zip(&g).zip(&t) {
-                    assert!(g.is_finite() && *g >= ps.lower && *g <= ps.upper, "{}: guess {g}", ps.name);
-                    assert!(t.is_finite() && *t >= ps.lower && *t <= ps.upper, "{}: typical {t}", ps.name);
+                    assert!(
+                        g.is_finite() && *g >= ps.lower && *g <= ps.upper,
+                        "{}: guess {g}",
+                        ps.name
+                    );
+                    assert!(
+                        t.is_finite() && *t >= ps.lower && *t <= ps.upper,
+                        "{}: typical {t}",
+                        ps.name
+                    );
                 }
                 assert_ne!(g, t, "{name}: the typical strength equals the initial guess");
             }
@@ -270,12 +306,19 @@ mod tests {
                 let fab = ab.simulate(&pab, &inputs);
                 let fba = ba.simulate(&pba, &inputs);
                 for (x, y) in fab.iter().zip(&fba) {
-                    assert!((x - y).abs() <= 1e-9 * (1.0 + x.abs()), "{a}+{b}: {x} vs {b}+{a}: {y}");
+                    assert!(
+                        (x - y).abs() <= 1e-9 * (1.0 + x.abs()),
+                        "{a}+{b}: {x} vs {b}+{a}: {y}"
+                    );
                 }
                 // And the effect really acts: the pair differs from the base.
                 let base = model("bingham");
                 let f0 = base.simulate(&BASE, &inputs);
-                let diff = fab.iter().zip(&f0).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+                let diff = fab
+                    .iter()
+                    .zip(&f0)
+                    .map(|(x, y)| (x - y).abs())
+                    .fold(0.0, f64::max);
                 assert!(diff > 1.0, "{a}+{b} indistinguishable from bingham ({diff} N)");
             }
         }
@@ -294,7 +337,12 @@ mod tests {
         for inputs in &protocols {
             let f = m.simulate(&p, inputs);
             for (f, inp) in f.iter().zip(inputs) {
-                assert!(f * inp.v_m_s >= -1e-9, "{spec}: F·v = {} < 0 at t = {}", f * inp.v_m_s, inp.t_s);
+                assert!(
+                    f * inp.v_m_s >= -1e-9,
+                    "{spec}: F·v = {} < 0 at t = {}",
+                    f * inp.v_m_s,
+                    inp.t_s
+                );
             }
         }
     }
@@ -310,10 +358,17 @@ mod tests {
         assert_passive("bingham+asymmetry", &[("asym_fraction", -0.5)]);
         assert_passive("bingham+magnetic_saturation", &[("sat_current_a", 2.0)]);
         assert_passive("bingham+current_viscosity", &[("visc_c1_n_s_per_m_per_a", 100.0)]);
-        assert_passive("bingham+thermal_drift", &[("thermal_energy_j", 20.0), ("thermal_tau_s", 5.0)]);
+        assert_passive(
+            "bingham+thermal_drift",
+            &[("thermal_energy_j", 20.0), ("thermal_tau_s", 5.0)],
+        );
         assert_passive(
             "bingham+asymmetry+magnetic_saturation+current_viscosity+thermal_drift",
-            &[("asym_fraction", 0.3), ("sat_current_a", 3.0), ("thermal_energy_j", 50.0)],
+            &[
+                ("asym_fraction", 0.3),
+                ("sat_current_a", 3.0),
+                ("thermal_energy_j", 50.0),
+            ],
         );
     }
 }

@@ -66,13 +66,13 @@ impl Effect for Stiffness {
 
     /// A spring giving 2 % of the force scale at the largest displacement, no preload (its sign is unknown).
     fn initial_guess(&self, stats: &DataStats) -> Vec<f64> {
-        let s = Scales::from(stats);
+        let s = Scales::of(stats);
         vec![0.02 * s.force_n / s.x_m, 0.0]
     }
 
     /// 15 % of the force scale at the largest displacement, and a preload of 5 % of it.
     fn typical_params(&self, stats: &DataStats) -> Vec<f64> {
-        let s = Scales::from(stats);
+        let s = Scales::of(stats);
         vec![0.15 * s.force_n / s.x_m, 0.05 * s.force_n]
     }
 
@@ -98,7 +98,13 @@ mod tests {
         let (k, f0) = (2000.0, 15.0);
         let p = params(&m, &[("stiff_k_n_per_m", k), ("stiff_preload_n", f0)]);
         for x in [-0.02, -0.005, 0.0, 0.013] {
-            let rest = [Inputs { t_s: 0.0, x_m: x, v_m_s: 0.0, a_m_s2: 0.0, current_cmd_a: 7.0 }];
+            let rest = [Inputs {
+                t_s: 0.0,
+                x_m: x,
+                v_m_s: 0.0,
+                a_m_s2: 0.0,
+                current_cmd_a: 7.0,
+            }];
             let f = m.simulate(&p, &rest)[0];
             // At v = 0 the Bingham yield has no direction: only the spring remains.
             assert!((f - (k * x + f0)).abs() < 1e-9, "at x = {x}: {f}");
@@ -129,10 +135,15 @@ mod tests {
         let p = params(&m, &[("stiff_k_n_per_m", 5000.0), ("stiff_preload_n", 30.0)]);
         let inputs = sine(0.01, 1.0, 4.0, 1e-4, 1.0);
         let work = |f: &[f64]| -> f64 {
-            (0..inputs.len() - 1).map(|k| 0.5 * (f[k] + f[k + 1]) * (inputs[k + 1].x_m - inputs[k].x_m)).sum()
+            (0..inputs.len() - 1)
+                .map(|k| 0.5 * (f[k] + f[k + 1]) * (inputs[k + 1].x_m - inputs[k].x_m))
+                .sum()
         };
         let w = work(&m.simulate(&p, &inputs));
         let w0 = work(&base.simulate(&BASE, &inputs));
-        assert!((w - w0).abs() < 1e-6 * w0.abs(), "cycle work {w} J vs base {w0} J");
+        assert!(
+            (w - w0).abs() < 1e-6 * w0.abs(),
+            "cycle work {w} J vs base {w0} J"
+        );
     }
 }

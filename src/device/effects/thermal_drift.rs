@@ -85,14 +85,14 @@ impl Effect for ThermalDrift {
     /// Heat for a full loss 20× the energy dissipated in the longest test (a drift of a few %), cooling
     /// over three test durations.
     fn initial_guess(&self, stats: &DataStats) -> Vec<f64> {
-        let s = Scales::from(stats);
+        let s = Scales::of(stats);
         vec![20.0 * s.energy_j, 3.0 * s.duration_s]
     }
 
     /// 2.5× the dissipated energy and cooling over one test duration: the yield force falls by about a
     /// quarter over the longest test.
     fn typical_params(&self, stats: &DataStats) -> Vec<f64> {
-        let s = Scales::from(stats);
+        let s = Scales::of(stats);
         vec![2.5 * s.energy_j, s.duration_s]
     }
 
@@ -130,7 +130,9 @@ mod tests {
 
     /// Peak |F| per cycle of a sine.
     fn cycle_peaks(f: &[f64], samples_per_cycle: usize) -> Vec<f64> {
-        f.chunks(samples_per_cycle).map(|c| c.iter().fold(0.0f64, |m, x| m.max(x.abs()))).collect()
+        f.chunks(samples_per_cycle)
+            .map(|c| c.iter().fold(0.0f64, |m, x| m.max(x.abs())))
+            .collect()
     }
 
     #[test]
@@ -148,7 +150,10 @@ mod tests {
         let s_path = 0.05 * inputs.last().expect("samples").t_s;
         let expect = fy0 * (-fy0 * s_path / 200.0).exp();
         let last = f.last().expect("samples").abs();
-        assert!((last - expect).abs() < 0.01 * fy0, "after {s_path} m of travel: {last} N vs {expect} N");
+        assert!(
+            (last - expect).abs() < 0.01 * fy0,
+            "after {s_path} m of travel: {last} N vs {expect} N"
+        );
     }
 
     #[test]
@@ -160,9 +165,21 @@ mod tests {
         // Hold still for 3τ, then move again for one sample.
         let t_end = inputs.last().expect("samples").t_s;
         for k in 1..=15000 {
-            inputs.push(Inputs { t_s: t_end + k as f64 * 1e-3, x_m: 0.0, v_m_s: 0.0, a_m_s2: 0.0, current_cmd_a: 10.0 });
+            inputs.push(Inputs {
+                t_s: t_end + k as f64 * 1e-3,
+                x_m: 0.0,
+                v_m_s: 0.0,
+                a_m_s2: 0.0,
+                current_cmd_a: 10.0,
+            });
         }
-        inputs.push(Inputs { t_s: t_end + 15.001, x_m: 0.0, v_m_s: 0.05, a_m_s2: 0.0, current_cmd_a: 10.0 });
+        inputs.push(Inputs {
+            t_s: t_end + 15.001,
+            x_m: 0.0,
+            v_m_s: 0.05,
+            a_m_s2: 0.0,
+            current_cmd_a: 10.0,
+        });
         let f = m.simulate(&p, &inputs);
         let fy0 = BASE[0] + BASE[1] * 10.0;
         let heated = f[3999].abs();
@@ -170,7 +187,10 @@ mod tests {
         assert!(heated < 0.9 * fy0, "no drift while moving: {heated}");
         // The heat decays as e^{-t/τ}: after 3τ 5 % of the loss remains.
         let loss_expect = (fy0 - heated) * (-3.0f64).exp();
-        assert!(((fy0 - cooled) - loss_expect).abs() < 0.02 * fy0, "{cooled} N after cooling");
+        assert!(
+            ((fy0 - cooled) - loss_expect).abs() < 0.02 * fy0,
+            "{cooled} N after cooling"
+        );
     }
 
     #[test]

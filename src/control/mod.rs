@@ -1,0 +1,3 @@
+//! Control: feel laws, the PID and passive feel systems.
+
+pub mod feel;

@@ -1,0 +1,263 @@
+//! `mrfeel mts`: the virtual MTS machine on the command line.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+
+use super::{with_hidden_effects, MtsTest, Protocol, SensorSpec};
+use crate::device::{DeviceConfig, Registry};
+use crate::measurement::Measurement;
+use crate::viz::plot::{save_charts, Chart, Series};
+
+/// The paper's device, compiled in so that `mrfeel mts` works from any directory.
+pub const PAPER_DEVICE_TOML: &str = include_str!("../../models/paper-device.toml");
+
+/// The paper's Section 4 measurements: (current A, force N).
+pub const PAPER_POINTS: [(f64, f64); 3] = [(2.2, 10.0), (5.0, 25.0), (14.0, 70.0)];
+
+#[derive(Args, Debug, Clone)]
+pub struct MtsArgs {
+    /// Device file (`models/*.toml` or a fitted PARAMS.json); default: the paper's device (models/paper-device.toml).
+    #[arg(long)]
+    pub device: Option<PathBuf>,
+    /// Current levels, A, one per block, comma-separated (the current steps between blocks).
+    #[arg(long, value_delimiter = ',', required = true)]
+    pub current: Vec<f64>,
+    /// Displacement protocol: sine, triangle (constant velocity) or multisine.
+    #[arg(long, default_value = "sine")]
+    pub protocol: String,
+    /// Displacement amplitude, m (peak, from mid-stroke).
+    #[arg(long, default_value_t = 0.0254)]
+    pub amplitude_m: f64,
+    /// Frequency, Hz (the lowest tone for a multisine, whose tones span a decade).
+    #[arg(long, default_value_t = 0.5)]
+    pub frequency_hz: f64,
+    /// Protocol cycles per current block.
+    #[arg(long, default_value_t = 3.0)]
+    pub cycles: f64,
+    /// DAQ sample rate, Hz.
+    #[arg(long, default_value_t = 1000.0)]
+    pub sample_rate_hz: f64,
+    /// Integration rate of the device model, Hz.
+    #[arg(long, default_value_t = 10_000.0)]
+    pub physics_hz: f64,
+    /// Seed of the sensor noise.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Load-cell noise, N (standard deviation).
+    #[arg(long, default_value_t = 0.15)]
+    pub force_noise_n: f64,
+    /// Load-cell range, N (±); default: the device file's load cell, else 250 N.
+    #[arg(long)]
+    pub load_cell_range_n: Option<f64>,
+    /// Displacement-sensor noise, m (standard deviation).
+    #[arg(long, default_value_t = 2e-6)]
+    pub position_noise_m: f64,
+    /// Velocity-channel noise, m/s (standard deviation).
+    #[arg(long, default_value_t = 2e-4)]
+    pub velocity_noise_m_s: f64,
+    /// ADC resolution of every channel, bits (0: no quantisation).
+    #[arg(long, default_value_t = 16)]
+    pub adc_bits: u32,
+    /// Do not record velocity (readers then derive it from displacement).
+    #[arg(long)]
+    pub no_velocity: bool,
+    /// Also record the coil current (the Eq. 3 state) as `i_meas_a`.
+    #[arg(long)]
+    pub coil_current: bool,
+    /// Hidden effects added to the device for synthetic data, comma-separated (e.g. hysteresis,asymmetry).
+    #[arg(long, value_delimiter = ',')]
+    pub effects: Vec<String>,
+    /// Set a model parameter, NAME=VALUE (repeatable), e.g. --set hyst_x_yield_m=0.001.
+    #[arg(long = "set", value_name = "NAME=VALUE")]
+    pub set: Vec<String>,
+    /// Output CSV (measurement format).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Write force–displacement, force–velocity and force–time plots per current (PNG and SVG) here.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+}
+
+/// Load the device named on the command line, or the paper's.
+pub fn load_device(path: Option<&Path>, registry: &Registry) -> Result<DeviceConfig> {
+    Ok(match path {
+        Some(p) => DeviceConfig::load(p, registry)?,
+        None => DeviceConfig::from_toml(PAPER_DEVICE_TOML, Path::new("models/paper-device.toml"), registry)?,
+    })
+}
+
+fn parse_set(items: &[String]) -> Result<Vec<(String, f64)>> {
+    items
+        .iter()
+        .map(|s| {
+            let (k, v) = s
+                .split_once('=')
+                .with_context(|| format!("--set `{s}`: expected NAME=VALUE"))?;
+            let v: f64 = v
+                .trim()
+                .parse()
+                .with_context(|| format!("--set `{s}`: `{v}` is not a number"))?;
+            Ok((k.trim().to_string(), v))
+        })
+        .collect()
+}
+
+pub fn run(a: MtsArgs) -> Result<()> {
+    let registry = Registry::builtin();
+    let device = load_device(a.device.as_deref(), &registry)?;
+    let protocol = Protocol::from_name(&a.protocol, a.amplitude_m, a.frequency_hz)?;
+    let range_n = a.load_cell_range_n.or(device.load_cell_range_n).unwrap_or(250.0);
+    let stroke = device.geometry.map(|g| g.stroke_half_m);
+    let test = MtsTest {
+        protocol,
+        currents_a: a.current.clone(),
+        cycles_per_block: a.cycles,
+        sample_rate_hz: a.sample_rate_hz,
+        physics_hz: a.physics_hz,
+        load_cell: SensorSpec {
+            noise_std: a.force_noise_n,
+            range: range_n,
+            bits: a.adc_bits,
+        },
+        displacement: SensorSpec {
+            noise_std: a.position_noise_m,
+            range: stroke.unwrap_or(a.amplitude_m * 1.25).max(a.amplitude_m * 1.01),
+            bits: a.adc_bits,
+        },
+        velocity: SensorSpec {
+            noise_std: a.velocity_noise_m_s,
+            range: 10.0,
+            bits: a.adc_bits,
+        },
+        record_velocity: !a.no_velocity,
+        record_coil_current: a.coil_current,
+        stroke_limit_m: stroke,
+        seed: a.seed,
+    };
+    let overrides = parse_set(&a.set)?;
+    let mut damper = if a.effects.is_empty() && overrides.is_empty() {
+        device.damper()
+    } else {
+        with_hidden_effects(
+            &device.model,
+            &device.params,
+            &a.effects,
+            &overrides,
+            &test,
+            &registry,
+        )?
+    };
+    let m = test.run(&mut damper)?;
+    let saturated = m.f_n.iter().filter(|f| f.abs() >= range_n * 0.999).count();
+    if saturated > 0 {
+        bail!(
+            "the load cell saturated at ±{range_n} N on {saturated} samples: raise --load-cell-range-n or lower the current/velocity (nothing written)"
+        );
+    }
+    m.write(&a.out)?;
+    eprintln!(
+        "wrote {} samples of `{}` to {}",
+        m.len(),
+        damper.model().name(),
+        a.out.display()
+    );
+    print_summary(&m, &test);
+    if let Some(dir) = &a.plot {
+        let files = plot_test(&m, &test, dir)?;
+        for f in files {
+            eprintln!("plot: {}", f.display());
+        }
+    }
+    Ok(())
+}
+
+/// Per current block: the mean |force| over samples at more than 80 % of the block's peak speed, skipping
+/// the first cycle (lags settling). Returns (current, force, samples used).
+pub fn steady_force_per_block(m: &Measurement, test: &MtsTest) -> Vec<(f64, f64, usize)> {
+    let block = test.block_s();
+    let cycle = 1.0 / test.protocol.base_frequency_hz();
+    test.currents_a
+        .iter()
+        .enumerate()
+        .map(|(b, &i)| {
+            let (t0, t1) = (b as f64 * block + cycle.min(block * 0.5), (b + 1) as f64 * block);
+            let idx: Vec<usize> = (0..m.len())
+                .filter(|&k| m.t_s[k] >= t0 && m.t_s[k] < t1)
+                .collect();
+            let vmax = idx.iter().map(|&k| m.v_m_s[k].abs()).fold(0.0, f64::max);
+            let sel: Vec<usize> = idx
+                .into_iter()
+                .filter(|&k| m.v_m_s[k].abs() > 0.8 * vmax)
+                .collect();
+            let f = sel.iter().map(|&k| m.f_n[k].abs()).sum::<f64>() / sel.len().max(1) as f64;
+            (i, f, sel.len())
+        })
+        .collect()
+}
+
+fn print_summary(m: &Measurement, test: &MtsTest) {
+    println!(
+        "{:>10}  {:>16}  {:>16}",
+        "current_a", "force_n (steady)", "paper (Sec. 4)"
+    );
+    for (i, f, _) in steady_force_per_block(m, test) {
+        let paper = PAPER_POINTS
+            .iter()
+            .find(|(pi, _)| (pi - i).abs() < 1e-9)
+            .map(|(_, pf)| format!("{pf:.0} N"))
+            .unwrap_or_else(|| "-".into());
+        println!("{i:>10.2}  {f:>16.2}  {paper:>16}");
+    }
+}
+
+/// Force–displacement (the paper's Fig. 8), force–velocity (Fig. 9 / 11) and force–time plots, one series
+/// per current block, with the paper's measured forces as dashed reference lines in the force–velocity panel.
+pub fn plot_test(m: &Measurement, test: &MtsTest, dir: &Path) -> Result<Vec<PathBuf>> {
+    let block = test.block_s();
+    let mut fx = Chart::new(
+        "Force vs displacement (cf. paper Fig. 8)",
+        "displacement x [mm]",
+        "force [N]",
+    );
+    let mut fv = Chart::new(
+        "Force vs velocity (cf. paper Fig. 9, 11)",
+        "velocity v [mm/s]",
+        "force [N]",
+    );
+    let mut ft = Chart::new("Force and current vs time", "time [s]", "force [N]");
+    for (b, &i) in test.currents_a.iter().enumerate() {
+        let idx: Vec<usize> = (0..m.len())
+            .filter(|&k| m.t_s[k] >= b as f64 * block && m.t_s[k] < (b + 1) as f64 * block)
+            .collect();
+        let name = format!("{i} A");
+        fx.series.push(Series::line(
+            &name,
+            idx.iter().map(|&k| (m.x_m[k] * 1e3, m.f_n[k])).collect(),
+        ));
+        fv.series.push(Series::points(
+            &name,
+            idx.iter().map(|&k| (m.v_m_s[k] * 1e3, m.f_n[k])).collect(),
+        ));
+        ft.series.push(Series::line(
+            &name,
+            idx.iter().map(|&k| (m.t_s[k], m.f_n[k])).collect(),
+        ));
+    }
+    let vmax = m.v_m_s.iter().fold(0.0f64, |a, v| a.max(v.abs())) * 1e3;
+    let mut named = false;
+    for (i, f) in PAPER_POINTS {
+        if test.currents_a.iter().any(|c| (c - i).abs() < 1e-9) {
+            let name = if named {
+                String::new()
+            } else {
+                "paper, Sec. 4".to_string()
+            };
+            named = true;
+            fv.series.push(Series::dashed(name, vec![(0.0, f), (vmax, f)]));
+            fv.series.push(Series::dashed("", vec![(-vmax, -f), (0.0, -f)]));
+        }
+    }
+    Ok(save_charts(&[fx, fv, ft], 3, dir, "mts")?)
+}

@@ -1,0 +1,2 @@
+//! Read-only views of results: static plots and Rerun recordings.
+pub mod plot;

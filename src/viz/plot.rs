@@ -1,0 +1,407 @@
+//! Static plots (PNG and SVG) with plotters: line/point charts in a grid of panels, and heatmaps.
+//!
+//! Every figure is written twice, `STEM.png` for a quick look and `STEM.svg` for reports. Text uses the
+//! bundled DejaVu Sans (registered once), so plots render the same on a machine with no fonts installed.
+
+use std::path::{Path, PathBuf};
+use std::sync::Once;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+
+/// Errors writing a plot.
+#[derive(Debug, thiserror::Error)]
+#[error("{}: cannot write plot: {msg}", path.display())]
+pub struct PlotError {
+    pub path: PathBuf,
+    pub msg: String,
+}
+
+/// How a series is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    Line,
+    Points,
+    /// A dashed dark-grey line: a reference (a paper's value, a target, a limit).
+    Dashed,
+}
+
+/// One named series of (x, y) points.
+#[derive(Debug, Clone)]
+pub struct Series {
+    pub name: String,
+    pub points: Vec<(f64, f64)>,
+    pub kind: Kind,
+}
+
+impl Series {
+    pub fn line(name: impl Into<String>, points: Vec<(f64, f64)>) -> Self {
+        Self {
+            name: name.into(),
+            points,
+            kind: Kind::Line,
+        }
+    }
+    pub fn points(name: impl Into<String>, points: Vec<(f64, f64)>) -> Self {
+        Self {
+            name: name.into(),
+            points,
+            kind: Kind::Points,
+        }
+    }
+    pub fn dashed(name: impl Into<String>, points: Vec<(f64, f64)>) -> Self {
+        Self {
+            name: name.into(),
+            points,
+            kind: Kind::Dashed,
+        }
+    }
+}
+
+/// One panel: title, axis labels (with units) and series.
+#[derive(Debug, Clone, Default)]
+pub struct Chart {
+    pub title: String,
+    pub x_label: String,
+    pub y_label: String,
+    pub series: Vec<Series>,
+}
+
+impl Chart {
+    pub fn new(title: impl Into<String>, x_label: impl Into<String>, y_label: impl Into<String>) -> Self {
+        Self {
+            title: title.into(),
+            x_label: x_label.into(),
+            y_label: y_label.into(),
+            series: Vec::new(),
+        }
+    }
+    pub fn with(mut self, s: Series) -> Self {
+        self.series.push(s);
+        self
+    }
+}
+
+/// A heatmap: values on a grid of `x_edges.len()-1` × `y_edges.len()-1` cells (`None` = no data).
+#[derive(Debug, Clone)]
+pub struct Heatmap {
+    pub title: String,
+    pub x_label: String,
+    pub y_label: String,
+    pub value_label: String,
+    pub x_edges: Vec<f64>,
+    pub y_edges: Vec<f64>,
+    /// `cells[ix][iy]`.
+    pub cells: Vec<Vec<Option<f64>>>,
+}
+
+const FONT: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
+static FONT_ONCE: Once = Once::new();
+
+fn register_font() {
+    FONT_ONCE.call_once(|| {
+        // The font is compiled in; registration can only fail on a corrupt build.
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
+    });
+}
+
+/// A colour per series index, distinguishable and colour-blind friendly (Okabe–Ito).
+pub fn palette(k: usize) -> RGBColor {
+    const C: [RGBColor; 8] = [
+        RGBColor(0, 114, 178),
+        RGBColor(213, 94, 0),
+        RGBColor(0, 158, 115),
+        RGBColor(204, 121, 167),
+        RGBColor(230, 159, 0),
+        RGBColor(86, 180, 233),
+        RGBColor(0, 0, 0),
+        RGBColor(240, 228, 66),
+    ];
+    C[k % C.len()]
+}
+
+/// Write charts as a grid of panels (`cols` wide) to `DIR/STEM.png` and `DIR/STEM.svg`.
+pub fn save_charts(charts: &[Chart], cols: usize, dir: &Path, stem: &str) -> Result<Vec<PathBuf>, PlotError> {
+    register_font();
+    std::fs::create_dir_all(dir).map_err(|e| PlotError {
+        path: dir.into(),
+        msg: e.to_string(),
+    })?;
+    let cols = cols.max(1).min(charts.len().max(1));
+    let rows = charts.len().div_ceil(cols).max(1);
+    let size = (560 * cols as u32, 420 * rows as u32);
+    let png = dir.join(format!("{stem}.png"));
+    let svg = dir.join(format!("{stem}.svg"));
+    {
+        let root = BitMapBackend::new(&png, size).into_drawing_area();
+        draw_grid(&root, charts, rows, cols).map_err(|msg| PlotError {
+            path: png.clone(),
+            msg,
+        })?;
+        root.present().map_err(|e| PlotError {
+            path: png.clone(),
+            msg: e.to_string(),
+        })?;
+    }
+    {
+        let root = SVGBackend::new(&svg, size).into_drawing_area();
+        draw_grid(&root, charts, rows, cols).map_err(|msg| PlotError {
+            path: svg.clone(),
+            msg,
+        })?;
+        root.present().map_err(|e| PlotError {
+            path: svg.clone(),
+            msg: e.to_string(),
+        })?;
+    }
+    Ok(vec![png, svg])
+}
+
+/// Write a heatmap to `DIR/STEM.png` and `DIR/STEM.svg`.
+pub fn save_heatmap(map: &Heatmap, dir: &Path, stem: &str) -> Result<Vec<PathBuf>, PlotError> {
+    register_font();
+    std::fs::create_dir_all(dir).map_err(|e| PlotError {
+        path: dir.into(),
+        msg: e.to_string(),
+    })?;
+    let png = dir.join(format!("{stem}.png"));
+    let svg = dir.join(format!("{stem}.svg"));
+    let size = (760, 520);
+    {
+        let root = BitMapBackend::new(&png, size).into_drawing_area();
+        draw_heatmap(&root, map).map_err(|msg| PlotError {
+            path: png.clone(),
+            msg,
+        })?;
+        root.present().map_err(|e| PlotError {
+            path: png.clone(),
+            msg: e.to_string(),
+        })?;
+    }
+    {
+        let root = SVGBackend::new(&svg, size).into_drawing_area();
+        draw_heatmap(&root, map).map_err(|msg| PlotError {
+            path: svg.clone(),
+            msg,
+        })?;
+        root.present().map_err(|e| PlotError {
+            path: svg.clone(),
+            msg: e.to_string(),
+        })?;
+    }
+    Ok(vec![png, svg])
+}
+
+fn bounds(points: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in points.filter(|v| v.is_finite()) {
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    if !lo.is_finite() {
+        return (0.0, 1.0);
+    }
+    if hi - lo < 1e-12 * (1.0 + lo.abs()) {
+        let d = 0.5 * (1.0 + lo.abs());
+        return (lo - d, hi + d);
+    }
+    let pad = 0.04 * (hi - lo);
+    (lo - pad, hi + pad)
+}
+
+fn draw_grid<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    charts: &[Chart],
+    rows: usize,
+    cols: usize,
+) -> Result<(), String> {
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let areas = root.split_evenly((rows, cols));
+    for (chart, area) in charts.iter().zip(areas.iter()) {
+        draw_chart(area, chart)?;
+    }
+    Ok(())
+}
+
+fn draw_chart<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, chart: &Chart) -> Result<(), String> {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    let xs = bounds(chart.series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
+    let ys = bounds(chart.series.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
+    let mut c = ChartBuilder::on(area)
+        .caption(&chart.title, ("sans-serif", 17))
+        .margin(10)
+        .x_label_area_size(38)
+        .y_label_area_size(62)
+        .build_cartesian_2d(xs.0..xs.1, ys.0..ys.1)
+        .map_err(e)?;
+    c.configure_mesh()
+        .x_desc(&chart.x_label)
+        .y_desc(&chart.y_label)
+        .label_style(("sans-serif", 13))
+        .light_line_style(RGBColor(235, 235, 235))
+        .draw()
+        .map_err(e)?;
+    for (k, s) in chart.series.iter().enumerate() {
+        let color = if s.kind == Kind::Dashed {
+            RGBColor(90, 90, 90)
+        } else {
+            palette(k)
+        };
+        let pts = s
+            .points
+            .iter()
+            .copied()
+            .filter(|p| p.0.is_finite() && p.1.is_finite());
+        let drawn = match s.kind {
+            Kind::Line => c
+                .draw_series(LineSeries::new(pts, color.stroke_width(2)))
+                .map_err(e)?,
+            Kind::Dashed => c
+                .draw_series(DashedLineSeries::new(pts, 6, 4, color.stroke_width(2)))
+                .map_err(e)?,
+            Kind::Points => c
+                .draw_series(pts.map(|p| Circle::new(p, 2, color.mix(0.5).filled())))
+                .map_err(e)?,
+        };
+        if !s.name.is_empty() {
+            drawn
+                .label(s.name.clone())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(3)));
+        }
+    }
+    if chart.series.iter().any(|s| !s.name.is_empty()) {
+        c.configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK.mix(0.3))
+            .label_font(("sans-serif", 12))
+            .position(SeriesLabelPosition::UpperLeft)
+            .draw()
+            .map_err(e)?;
+    }
+    Ok(())
+}
+
+/// Viridis-like colour scale for v in [0, 1].
+pub fn colormap(v: f64) -> RGBColor {
+    let v = v.clamp(0.0, 1.0);
+    const STOPS: [(f64, f64, f64); 5] = [
+        (68.0, 1.0, 84.0),
+        (59.0, 82.0, 139.0),
+        (33.0, 145.0, 140.0),
+        (94.0, 201.0, 98.0),
+        (253.0, 231.0, 37.0),
+    ];
+    let x = v * (STOPS.len() - 1) as f64;
+    let k = (x.floor() as usize).min(STOPS.len() - 2);
+    let f = x - k as f64;
+    let (a, b) = (STOPS[k], STOPS[k + 1]);
+    RGBColor(
+        (a.0 + f * (b.0 - a.0)) as u8,
+        (a.1 + f * (b.1 - a.1)) as u8,
+        (a.2 + f * (b.2 - a.2)) as u8,
+    )
+}
+
+fn draw_heatmap<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, map: &Heatmap) -> Result<(), String> {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    root.fill(&WHITE).map_err(e)?;
+    let (main, legend) = root.split_horizontally(640);
+    let xs = (map.x_edges[0], *map.x_edges.last().unwrap_or(&1.0));
+    let ys = (map.y_edges[0], *map.y_edges.last().unwrap_or(&1.0));
+    let vmax = map
+        .cells
+        .iter()
+        .flatten()
+        .flatten()
+        .fold(0.0f64, |a, &b| a.max(b))
+        .max(1e-300);
+    let mut c = ChartBuilder::on(&main)
+        .caption(&map.title, ("sans-serif", 17))
+        .margin(10)
+        .x_label_area_size(38)
+        .y_label_area_size(62)
+        .build_cartesian_2d(xs.0..xs.1, ys.0..ys.1)
+        .map_err(e)?;
+    c.configure_mesh()
+        .x_desc(&map.x_label)
+        .y_desc(&map.y_label)
+        .label_style(("sans-serif", 13))
+        .disable_mesh()
+        .draw()
+        .map_err(e)?;
+    for (ix, col) in map.cells.iter().enumerate() {
+        for (iy, cell) in col.iter().enumerate() {
+            let Some(v) = cell else { continue };
+            let r = [
+                (map.x_edges[ix], map.y_edges[iy]),
+                (map.x_edges[ix + 1], map.y_edges[iy + 1]),
+            ];
+            c.draw_series(std::iter::once(Rectangle::new(r, colormap(v / vmax).filled())))
+                .map_err(e)?;
+        }
+    }
+    // Colour bar.
+    let steps = 50;
+    let mut bar = ChartBuilder::on(&legend)
+        .margin_top(40)
+        .margin_bottom(48)
+        .margin_right(50)
+        .y_label_area_size(0)
+        .right_y_label_area_size(45)
+        .caption(&map.value_label, ("sans-serif", 13))
+        .build_cartesian_2d(0.0..1.0, 0.0..vmax)
+        .map_err(e)?;
+    bar.configure_mesh()
+        .disable_x_axis()
+        .disable_mesh()
+        .label_style(("sans-serif", 12))
+        .draw()
+        .map_err(e)?;
+    bar.draw_series((0..steps).map(|k| {
+        let a = k as f64 / steps as f64 * vmax;
+        let b = (k + 1) as f64 / steps as f64 * vmax;
+        Rectangle::new([(0.0, a), (1.0, b)], colormap(a / vmax).filled())
+    }))
+    .map_err(e)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn writes_png_and_svg_with_each_series_drawn() {
+        let dir = tempfile::tempdir().unwrap();
+        let pts: Vec<(f64, f64)> = (0..100).map(|k| (k as f64, (k as f64 / 10.0).sin())).collect();
+        let one = Chart::new("sine", "t [s]", "y [-]").with(Series::line("y", pts.clone()));
+        let two = one
+            .clone()
+            .with(Series::line("y2", pts.iter().map(|p| (p.0, 2.0 * p.1)).collect()));
+        let f1 = save_charts(&[one], 1, dir.path(), "one").unwrap();
+        let f2 = save_charts(&[two], 1, dir.path(), "two").unwrap();
+        let png = std::fs::read(&f1[0]).unwrap();
+        assert_eq!(&png[1..4], b"PNG");
+        // Each series is drawn in its palette colour: once as the line, once as its legend mark.
+        let strokes = |f: &PathBuf, c: RGBColor| {
+            let hex = format!("stroke=\"#{:02X}{:02X}{:02X}\"", c.0, c.1, c.2);
+            std::fs::read_to_string(f).unwrap().matches(&hex).count()
+        };
+        assert_eq!((strokes(&f1[1], palette(0)), strokes(&f1[1], palette(1))), (2, 0));
+        assert_eq!((strokes(&f2[1], palette(0)), strokes(&f2[1], palette(1))), (2, 2));
+        let svg = std::fs::read_to_string(&f2[1]).unwrap();
+        assert!(svg.contains("t [s]") && svg.contains("y2"));
+    }
+
+    #[test]
+    fn colormap_is_monotone_in_brightness() {
+        let lum = |c: RGBColor| 0.2126 * c.0 as f64 + 0.7152 * c.1 as f64 + 0.0722 * c.2 as f64;
+        let mut last = -1.0;
+        for k in 0..=20 {
+            let l = lum(colormap(k as f64 / 20.0));
+            assert!(l > last, "luminance must rise along the scale");
+            last = l;
+        }
+    }
+}
