@@ -18,7 +18,10 @@ use mrfeel::ident::fit::{all_spans, fit, FitOptions};
 use mrfeel::ident::{data_stats, diagnose, load_tests, DiagnoseOptions, Test};
 
 fn real_tests() -> Vec<Test> {
-    let dir = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/utfsm-mr-damper"));
+    let dir = PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../shared/data/utfsm-mr-damper"
+    ));
     load_tests(&[dir]).expect("real data in ../shared/data/utfsm-mr-damper")
 }
 
@@ -35,8 +38,12 @@ fn bench_fit(c: &mut Criterion) {
     g.bench_function("one simulation pass (bingham+hysteresis)", |b| {
         b.iter(|| mrfeel::ident::evaluate(&hyst, &p, &tests))
     });
-    g.bench_function("fit bingham", |b| b.iter(|| fit(&bing, &tests, &spans, &FitOptions::default())));
-    g.bench_function("fit bingham+hysteresis", |b| b.iter(|| fit(&hyst, &tests, &spans, &FitOptions::default())));
+    g.bench_function("fit bingham", |b| {
+        b.iter(|| fit(&bing, &tests, &spans, &FitOptions::default()))
+    });
+    g.bench_function("fit bingham+hysteresis", |b| {
+        b.iter(|| fit(&hyst, &tests, &spans, &FitOptions::default()))
+    });
     g.finish();
 }
 
@@ -73,9 +80,15 @@ fn synthetic_60k(registry: &Registry) -> Vec<Test> {
         })
         .collect();
     let stats = data_stats(&tests);
-    let p = model.typical_params(&[2.0, 4.83, 60.0, 0.015, 0.008], &stats).expect("typical");
+    let p = model
+        .typical_params(&[2.0, 4.83, 60.0, 0.015, 0.008], &stats)
+        .expect("typical");
     for t in &mut tests {
-        t.f_n = model.simulate(&p, &t.inputs).into_iter().map(|f| f + noise.sample(&mut rng)).collect();
+        t.f_n = model
+            .simulate(&p, &t.inputs)
+            .into_iter()
+            .map(|f| f + noise.sample(&mut rng))
+            .collect();
     }
     tests
 }
@@ -86,10 +99,15 @@ fn bench_diagnose(c: &mut Criterion) {
     let bing = Model::from_spec("bingham", &registry, 14.0).expect("model");
     let spans = all_spans(&tests);
     let base = ModelSpec::parse("bingham").expect("spec");
-    let opts = DiagnoseOptions { current_limit_a: 14.0, ..Default::default() };
+    let opts = DiagnoseOptions {
+        current_limit_a: 14.0,
+        ..Default::default()
+    };
     let mut g = c.benchmark_group("diagnose/60000_samples");
     g.sample_size(10).measurement_time(Duration::from_secs(60));
-    g.bench_function("fit bingham", |b| b.iter(|| fit(&bing, &tests, &spans, &FitOptions::default())));
+    g.bench_function("fit bingham", |b| {
+        b.iter(|| fit(&bing, &tests, &spans, &FitOptions::default()))
+    });
     g.bench_function("diagnose whole vocabulary", |b| {
         b.iter(|| diagnose(&tests, &base, &registry, &opts).expect("diagnose"))
     });

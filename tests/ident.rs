@@ -33,14 +33,24 @@ fn motion(p: Protocol, k: usize, t: f64) -> (f64, f64, f64) {
     match p {
         Protocol::Sine => {
             let (a, w) = (0.02 / s.sqrt(), 2.0 * PI * 1.2 * s);
-            (a * (w * t).sin(), a * w * (w * t).cos(), -a * w * w * (w * t).sin())
+            (
+                a * (w * t).sin(),
+                a * w * (w * t).cos(),
+                -a * w * w * (w * t).sin(),
+            )
         }
         Protocol::Triangle => {
             // Constant speed ramps between ±a with rounded (half-sine) turnarounds of 60 ms.
             let (a, v) = (0.02, 0.08 * s);
             let period = 4.0 * a / v;
             let ph = (t / period).fract();
-            let tri = |ph: f64| if ph < 0.5 { -a + 4.0 * a * ph } else { 3.0 * a - 4.0 * a * ph };
+            let tri = |ph: f64| {
+                if ph < 0.5 {
+                    -a + 4.0 * a * ph
+                } else {
+                    3.0 * a - 4.0 * a * ph
+                }
+            };
             let h = 1e-4;
             let x = tri(ph);
             let vv = (tri((ph + h / period).fract()) - tri((ph - h / period + 1.0).fract())) / (2.0 * h);
@@ -92,7 +102,13 @@ fn make_inputs(c: &Case, file: usize, rng: &mut ChaCha8Rng) -> (Vec<Inputs>, Mea
     for (k, &i) in cur.iter().enumerate() {
         let t = k as f64 * dt;
         let (x, v, a) = motion(c.protocol, file, t);
-        truth.push(Inputs { t_s: t, x_m: x, v_m_s: v, a_m_s2: a, current_cmd_a: i });
+        truth.push(Inputs {
+            t_s: t,
+            x_m: x,
+            v_m_s: v,
+            a_m_s2: a,
+            current_cmd_a: i,
+        });
     }
     // Triangle acceleration from the velocity (its analytic form is a spike train).
     if matches!(c.protocol, Protocol::Triangle) {
@@ -148,7 +164,10 @@ fn synth(c: &Case, hidden: &[&str], registry: &Registry, noise_n: f64) -> Vec<Te
         .map(|(tr, mut m)| {
             let f = model.simulate(&p, &tr);
             // Load-cell noise and 0.01 N quantisation.
-            m.f_n = f.iter().map(|f| ((f + nd.sample(&mut rng)) / 0.01).round() * 0.01).collect();
+            m.f_n = f
+                .iter()
+                .map(|f| ((f + nd.sample(&mut rng)) / 0.01).round() * 0.01)
+                .collect();
             Test::from_measurement(&m)
         })
         .collect()
@@ -158,15 +177,29 @@ fn check_diagnosis(c: Case, hidden: &[&str]) {
     let registry = Registry::builtin();
     let tests = synth(&c, hidden, &registry, 0.4);
     let base = ModelSpec::parse("bingham").expect("spec");
-    let d = diagnose(&tests, &base, &registry, &DiagnoseOptions { current_limit_a: LIMIT_A, ..Default::default() })
-        .expect("diagnose");
+    let d = diagnose(
+        &tests,
+        &base,
+        &registry,
+        &DiagnoseOptions {
+            current_limit_a: LIMIT_A,
+            ..Default::default()
+        },
+    )
+    .expect("diagnose");
     let report = mrfeel::ident::report::diagnose_table(&d);
     let mut found = d.missing.clone();
     found.sort();
     let mut want: Vec<String> = hidden.iter().map(|s| s.to_string()).collect();
     want.sort();
-    assert_eq!(found, want, "hidden {hidden:?} ({c_desc}):\n{report}", c_desc = describe(&c));
-    let ok = d.final_heldout_nrmse <= 0.5 * d.base_heldout_nrmse || d.final_heldout_nrmse <= 1.2 * d.noise_floor_nrmse;
+    assert_eq!(
+        found,
+        want,
+        "hidden {hidden:?} ({c_desc}):\n{report}",
+        c_desc = describe(&c)
+    );
+    let ok = d.final_heldout_nrmse <= 0.5 * d.base_heldout_nrmse
+        || d.final_heldout_nrmse <= 1.2 * d.noise_floor_nrmse;
     assert!(ok, "held-out error did not fall enough:\n{report}");
 }
 
@@ -175,14 +208,32 @@ fn describe(c: &Case) -> String {
         "{:?}, {} Hz, velocity {}, {} file(s) of {} s",
         c.protocol,
         c.rate_hz,
-        if c.velocity_measured { "measured" } else { "derived" },
+        if c.velocity_measured {
+            "measured"
+        } else {
+            "derived"
+        },
         c.files,
         c.seconds_per_file
     )
 }
 
-fn case(protocol: Protocol, rate_hz: f64, velocity_measured: bool, files: usize, secs: f64, seed: u64) -> Case {
-    Case { protocol, rate_hz, velocity_measured, files, seconds_per_file: secs, seed }
+fn case(
+    protocol: Protocol,
+    rate_hz: f64,
+    velocity_measured: bool,
+    files: usize,
+    secs: f64,
+    seed: u64,
+) -> Case {
+    Case {
+        protocol,
+        rate_hz,
+        velocity_measured,
+        files,
+        seconds_per_file: secs,
+        seed,
+    }
 }
 
 #[test]
@@ -197,22 +248,34 @@ fn diagnosis_finds_hidden_hysteresis() {
 
 #[test]
 fn diagnosis_finds_hidden_asymmetry() {
-    check_diagnosis(case(Protocol::Multisine, 2000.0, false, 1, 5.0, 3), &["asymmetry"]);
+    check_diagnosis(
+        case(Protocol::Multisine, 2000.0, false, 1, 5.0, 3),
+        &["asymmetry"],
+    );
 }
 
 #[test]
 fn diagnosis_finds_hidden_magnetic_saturation() {
-    check_diagnosis(case(Protocol::Sine, 500.0, false, 3, 6.0, 4), &["magnetic_saturation"]);
+    check_diagnosis(
+        case(Protocol::Sine, 500.0, false, 3, 6.0, 4),
+        &["magnetic_saturation"],
+    );
 }
 
 #[test]
 fn diagnosis_finds_hidden_current_viscosity() {
-    check_diagnosis(case(Protocol::Triangle, 1000.0, true, 1, 8.0, 5), &["current_viscosity"]);
+    check_diagnosis(
+        case(Protocol::Triangle, 1000.0, true, 1, 8.0, 5),
+        &["current_viscosity"],
+    );
 }
 
 #[test]
 fn diagnosis_finds_hidden_stiffness() {
-    check_diagnosis(case(Protocol::Multisine, 1000.0, false, 1, 8.0, 6), &["stiffness"]);
+    check_diagnosis(
+        case(Protocol::Multisine, 1000.0, false, 1, 8.0, 6),
+        &["stiffness"],
+    );
 }
 
 #[test]
@@ -227,12 +290,18 @@ fn diagnosis_finds_hidden_thermal_drift() {
 
 #[test]
 fn diagnosis_finds_hidden_hysteresis_and_stiffness_together() {
-    check_diagnosis(case(Protocol::Sine, 1000.0, false, 3, 3.0, 9), &["hysteresis", "stiffness"]);
+    check_diagnosis(
+        case(Protocol::Sine, 1000.0, false, 3, 3.0, 9),
+        &["hysteresis", "stiffness"],
+    );
 }
 
 #[test]
 fn diagnosis_finds_hidden_asymmetry_and_magnetic_saturation_together() {
-    check_diagnosis(case(Protocol::Triangle, 500.0, true, 1, 16.0, 10), &["asymmetry", "magnetic_saturation"]);
+    check_diagnosis(
+        case(Protocol::Triangle, 500.0, true, 1, 16.0, 10),
+        &["asymmetry", "magnetic_saturation"],
+    );
 }
 
 #[test]
@@ -244,8 +313,16 @@ fn fit_recovers_the_paper_device_parameters_from_noise_free_data() {
     let r = fit(&model, &tests, &all_spans(&tests), &FitOptions::default());
     for (k, (got, want)) in r.params.iter().zip(PAPER_BASE).enumerate() {
         // Quantisation of force (0.01 N) and displacement (1 µm) limit the precision.
-        assert!((got - want).abs() <= 0.03 * want, "{}: {got} vs {want}", model.param_specs()[k].name);
-        assert!(r.std_err[k].is_some(), "{} should be determined", model.param_specs()[k].name);
+        assert!(
+            (got - want).abs() <= 0.03 * want,
+            "{}: {got} vs {want}",
+            model.param_specs()[k].name
+        );
+        assert!(
+            r.std_err[k].is_some(),
+            "{} should be determined",
+            model.param_specs()[k].name
+        );
     }
     assert!(r.nrmse() < 0.01, "nrmse {}", r.nrmse());
 }
@@ -261,7 +338,13 @@ fn lag_time_constants_are_held_with_a_note_when_the_current_never_changes() {
             .map(|k| {
                 let t = k as f64 * 1e-3;
                 let (x, v, a) = motion(Protocol::Sine, j, t);
-                Inputs { t_s: t, x_m: x, v_m_s: v, a_m_s2: a, current_cmd_a: amps }
+                Inputs {
+                    t_s: t,
+                    x_m: x,
+                    v_m_s: v,
+                    a_m_s2: a,
+                    current_cmd_a: amps,
+                }
             })
             .collect();
         let f = model.simulate(&PAPER_BASE, &inputs);
@@ -278,13 +361,21 @@ fn lag_time_constants_are_held_with_a_note_when_the_current_never_changes() {
     let start = model.initial_guess(&data_stats(&tests));
     for name in ["te_s", "tm_s"] {
         let k = model.param_index(name).expect("param");
-        assert!(r.std_err[k].is_none(), "{name} has a std error {:?}", r.std_err[k]);
+        assert!(
+            r.std_err[k].is_none(),
+            "{name} has a std error {:?}",
+            r.std_err[k]
+        );
         assert!(!r.notes[k].is_empty(), "{name} has no note");
         assert_eq!(r.params[k], start[k], "{name} wandered from its initial value");
     }
     for name in ["fc_gain_n_per_a", "c0_n_s_per_m"] {
         let k = model.param_index(name).expect("param");
-        assert!((r.params[k] - PAPER_BASE[k]).abs() < 1e-3 * PAPER_BASE[k], "{name} {}", r.params[k]);
+        assert!(
+            (r.params[k] - PAPER_BASE[k]).abs() < 1e-3 * PAPER_BASE[k],
+            "{name} {}",
+            r.params[k]
+        );
     }
 }
 
@@ -292,7 +383,13 @@ fn lag_time_constants_are_held_with_a_note_when_the_current_never_changes() {
 /// only within ±2 mm (a magnetic latch).
 struct Detent;
 
-const DETENT: [ParamSpec; 1] = [ParamSpec::new("detent_peak_n", "N", 0.0, f64::INFINITY, "peak latch force")];
+const DETENT: [ParamSpec; 1] = [ParamSpec::new(
+    "detent_peak_n",
+    "N",
+    0.0,
+    f64::INFINITY,
+    "peak latch force",
+)];
 
 impl Effect for Detent {
     fn name(&self) -> &'static str {
@@ -324,7 +421,13 @@ impl Effect for Detent {
 /// A second user effect that is not in the data: a constant offset force.
 struct Offset;
 
-const OFFSET: [ParamSpec; 1] = [ParamSpec::new("offset_n", "N", f64::NEG_INFINITY, f64::INFINITY, "force offset")];
+const OFFSET: [ParamSpec; 1] = [ParamSpec::new(
+    "offset_n",
+    "N",
+    f64::NEG_INFINITY,
+    f64::INFINITY,
+    "force offset",
+)];
 
 impl Effect for Offset {
     fn name(&self) -> &'static str {
@@ -354,8 +457,16 @@ fn a_users_own_effect_is_diagnosed_like_the_built_in_ones() {
     let c = case(Protocol::Sine, 1000.0, true, 1, 6.0, 12);
     let tests = synth(&c, &["detent"], &registry, 0.4);
     let base = ModelSpec::parse("bingham").expect("spec");
-    let d = diagnose(&tests, &base, &registry, &DiagnoseOptions { current_limit_a: LIMIT_A, ..Default::default() })
-        .expect("diagnose");
+    let d = diagnose(
+        &tests,
+        &base,
+        &registry,
+        &DiagnoseOptions {
+            current_limit_a: LIMIT_A,
+            ..Default::default()
+        },
+    )
+    .expect("diagnose");
     let report = mrfeel::ident::report::diagnose_table(&d);
     assert_eq!(d.missing, vec!["detent".to_string()], "{report}");
     assert!(d.final_heldout_nrmse < 0.5 * d.base_heldout_nrmse, "{report}");
@@ -364,7 +475,10 @@ fn a_users_own_effect_is_diagnosed_like_the_built_in_ones() {
 // ---------------------------------------------------------------- CLI contract
 
 fn mrfeel(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_mrfeel")).args(args).output().expect("run mrfeel")
+    Command::new(env!("CARGO_BIN_EXE_mrfeel"))
+        .args(args)
+        .output()
+        .expect("run mrfeel")
 }
 
 fn write_tests(dir: &Path, tests: &[Test]) -> Vec<String> {
@@ -392,12 +506,26 @@ fn write_tests(dir: &Path, tests: &[Test]) -> Vec<String> {
 fn fit_save_then_validate_reports_the_same_error_without_refitting() {
     let dir = tempfile::tempdir().expect("tempdir");
     let registry = Registry::builtin();
-    let tests = synth(&case(Protocol::Sine, 500.0, true, 2, 3.0, 13), &["hysteresis"], &registry, 0.3);
+    let tests = synth(
+        &case(Protocol::Sine, 500.0, true, 2, 3.0, 13),
+        &["hysteresis"],
+        &registry,
+        0.3,
+    );
     let files = write_tests(dir.path(), &tests);
     let params = dir.path().join("params.json");
-    let out = mrfeel(&["fit", &files[0], "--model", "bingham+hysteresis", "--json", "--save", params.to_str().unwrap()]);
+    let out = mrfeel(&[
+        "fit",
+        &files[0],
+        "--model",
+        "bingham+hysteresis",
+        "--json",
+        "--save",
+        params.to_str().unwrap(),
+    ]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let fit: serde_json::Value = serde_json::from_slice(&out.stdout).expect("fit --json is JSON, alone on stdout");
+    let fit: serde_json::Value =
+        serde_json::from_slice(&out.stdout).expect("fit --json is JSON, alone on stdout");
     assert_eq!(fit["model"], "bingham+hysteresis");
     assert_eq!(fit["samples"], tests[0].len());
     let x = &fit["params"]["hyst_x_yield_m"];
@@ -405,12 +533,27 @@ fn fit_save_then_validate_reports_the_same_error_without_refitting() {
     assert!(fit["nrmse"].as_f64().unwrap() < 0.05, "{fit}");
 
     // Validate on the file it was fitted on: the same figures, to rounding (no refit).
-    let out = mrfeel(&["validate", &files[0], "--params", params.to_str().unwrap(), "--json"]);
+    let out = mrfeel(&[
+        "validate",
+        &files[0],
+        "--params",
+        params.to_str().unwrap(),
+        "--json",
+    ]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("validate --json");
-    assert!((v["nrmse"].as_f64().unwrap() - fit["nrmse"].as_f64().unwrap()).abs() < 1e-9, "{v}");
+    assert!(
+        (v["nrmse"].as_f64().unwrap() - fit["nrmse"].as_f64().unwrap()).abs() < 1e-9,
+        "{v}"
+    );
     // And on a test it never saw: the same device, so the error stays near the noise.
-    let out = mrfeel(&["validate", &files[1], "--params", params.to_str().unwrap(), "--json"]);
+    let out = mrfeel(&[
+        "validate",
+        &files[1],
+        "--params",
+        params.to_str().unwrap(),
+        "--json",
+    ]);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("validate --json");
     assert!(v["nrmse"].as_f64().unwrap() < 0.05, "{v}");
     assert_eq!(v["files"][0]["path"], files[1]);
@@ -419,12 +562,20 @@ fn fit_save_then_validate_reports_the_same_error_without_refitting() {
 #[test]
 fn unknown_effect_is_an_error_listing_the_known_ones() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let tests = synth(&case(Protocol::Sine, 500.0, true, 1, 1.0, 14), &[], &Registry::builtin(), 0.3);
+    let tests = synth(
+        &case(Protocol::Sine, 500.0, true, 1, 1.0, 14),
+        &[],
+        &Registry::builtin(),
+        0.3,
+    );
     let files = write_tests(dir.path(), &tests);
     let out = mrfeel(&["fit", &files[0], "--model", "bingham+wobble"]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("wobble") && err.contains("hysteresis") && err.contains("thermal_drift"), "{err}");
+    assert!(
+        err.contains("wobble") && err.contains("hysteresis") && err.contains("thermal_drift"),
+        "{err}"
+    );
     assert!(out.stdout.is_empty());
 }
 
@@ -432,18 +583,30 @@ fn unknown_effect_is_an_error_listing_the_known_ones() {
 fn too_few_samples_is_an_error_naming_the_file() {
     let dir = tempfile::tempdir().expect("tempdir");
     let path = dir.path().join("short.csv");
-    std::fs::write(&path, "t_s,x_m,i_a,f_n\n0,0,1,1\n0.001,0.0001,1,2\n0.002,0.0002,1,3\n").unwrap();
+    std::fs::write(
+        &path,
+        "t_s,x_m,i_a,f_n\n0,0,1,1\n0.001,0.0001,1,2\n0.002,0.0002,1,3\n",
+    )
+    .unwrap();
     let out = mrfeel(&["fit", path.to_str().unwrap()]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("short.csv") && err.contains("3 samples") && err.contains("parameters"), "{err}");
+    assert!(
+        err.contains("short.csv") && err.contains("3 samples") && err.contains("parameters"),
+        "{err}"
+    );
 }
 
 #[test]
 fn diagnose_json_follows_the_contract() {
     let dir = tempfile::tempdir().expect("tempdir");
     let registry = Registry::builtin();
-    let tests = synth(&case(Protocol::Sine, 500.0, true, 3, 2.0, 15), &["stiffness"], &registry, 0.3);
+    let tests = synth(
+        &case(Protocol::Sine, 500.0, true, 3, 2.0, 15),
+        &["stiffness"],
+        &registry,
+        0.3,
+    );
     let files = write_tests(dir.path(), &tests);
     let plots = dir.path().join("plots");
     let mut args = vec!["diagnose"];
@@ -459,8 +622,14 @@ fn diagnose_json_follows_the_contract() {
     }
     let cands = d["candidates"].as_array().expect("candidates");
     assert_eq!(cands.len(), registry.names().len());
-    let h: Vec<f64> = cands.iter().map(|c| c["heldout_nrmse"].as_f64().unwrap()).collect();
-    assert!(h.windows(2).all(|w| w[0] <= w[1]), "candidates sorted best first: {h:?}");
+    let h: Vec<f64> = cands
+        .iter()
+        .map(|c| c["heldout_nrmse"].as_f64().unwrap())
+        .collect();
+    assert!(
+        h.windows(2).all(|w| w[0] <= w[1]),
+        "candidates sorted best first: {h:?}"
+    );
     let base_h = d["base"]["heldout_nrmse"].as_f64().unwrap();
     for c in cands {
         let imp = 1.0 - c["heldout_nrmse"].as_f64().unwrap() / base_h;
@@ -470,7 +639,12 @@ fn diagnose_json_follows_the_contract() {
     assert_eq!(d["missing"], serde_json::json!(["stiffness"]));
     assert_eq!(d["final"]["model"], "bingham+stiffness");
     assert!(d["where"][0]["region"].as_str().unwrap().contains("m/s"));
-    for f in ["error_falling.png", "error_falling.svg", "base_residual_heatmap.png", "final_force_velocity.svg"] {
+    for f in [
+        "error_falling.png",
+        "error_falling.svg",
+        "base_residual_heatmap.png",
+        "final_force_velocity.svg",
+    ] {
         assert!(plots.join(f).exists(), "{f} missing");
     }
 }
@@ -481,12 +655,23 @@ fn diagnose_json_follows_the_contract() {
 #[test]
 #[ignore]
 fn real_damper_diagnosis_finds_hysteresis() {
-    let dir = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/utfsm-mr-damper"));
+    let dir = PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../shared/data/utfsm-mr-damper"
+    ));
     let tests = mrfeel::ident::load_tests(&[dir]).expect("real data");
     let registry = Registry::builtin();
     let base = ModelSpec::parse("bingham").expect("spec");
-    let d = diagnose(&tests, &base, &registry, &DiagnoseOptions { current_limit_a: 14.0, ..Default::default() })
-        .expect("diagnose");
+    let d = diagnose(
+        &tests,
+        &base,
+        &registry,
+        &DiagnoseOptions {
+            current_limit_a: 14.0,
+            ..Default::default()
+        },
+    )
+    .expect("diagnose");
     let report = mrfeel::ident::report::diagnose_table(&d);
     eprintln!("{report}");
     assert!(d.missing.iter().any(|m| m == "hysteresis"), "{report}");

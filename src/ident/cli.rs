@@ -100,7 +100,9 @@ fn require(tests_m: &[Test], n: usize) -> anyhow::Result<()> {
 
 fn limit_of(arg: Option<f64>, tests: &[Test]) -> anyhow::Result<f64> {
     match arg {
-        Some(l) if !(l.is_finite() && l > 0.0) => anyhow::bail!("--current-limit-a {l}: must be a positive number of amperes"),
+        Some(l) if !(l.is_finite() && l > 0.0) => {
+            anyhow::bail!("--current-limit-a {l}: must be a positive number of amperes")
+        }
         Some(l) => Ok(l),
         None => Ok(default_current_limit_a(tests)),
     }
@@ -113,13 +115,31 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
     let model = build_model(&a.model, &registry, limit)?;
     require(&tests, model.n_params())?;
     let n: usize = tests.iter().map(Test::len).sum();
-    eprintln!("fitting {} ({} parameters) to {} tests, {n} samples", model.name(), model.n_params(), tests.len());
+    eprintln!(
+        "fitting {} ({} parameters) to {} tests, {n} samples",
+        model.name(),
+        model.n_params(),
+        tests.len()
+    );
     let t0 = std::time::Instant::now();
     let fr = fit(&model, &tests, &all_spans(&tests), &FitOptions::default());
-    eprintln!("fitted in {:.2} s ({} simulations of the data, {})", t0.elapsed().as_secs_f64(), fr.evaluations, fr.termination);
+    eprintln!(
+        "fitted in {:.2} s ({} simulations of the data, {})",
+        t0.elapsed().as_secs_f64(),
+        fr.evaluations,
+        fr.termination
+    );
     let pred = evaluate(&model, &fr.params, &tests);
     let (per, total) = figures(&pred, &tests);
-    let out = FitJson::new(&model, &fr.params, Some(&fr), &tests, &per, &total, where_regions(&tests, &pred));
+    let out = FitJson::new(
+        &model,
+        &fr.params,
+        Some(&fr),
+        &tests,
+        &per,
+        &total,
+        where_regions(&tests, &pred),
+    );
     if let Some(path) = &a.save {
         let pf = ParamsFile::new(&model, &fr.params, Some(&fr.std_err));
         let text = serde_json::to_string_pretty(&pf)?;
@@ -130,12 +150,24 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
         let (folds, how) = make_folds(&tests, 4, 5);
         let bar = indicatif::ProgressBar::hidden();
         let cv = super::diagnose::cross_validate(&model, &tests, &folds, None, &FitOptions::default(), &bar);
-        eprintln!("held-out NRMSE {:.4} (RMSE {:.3} N), {how}", cv.heldout_nrmse(), cv.total.rmse_n());
+        eprintln!(
+            "held-out NRMSE {:.4} (RMSE {:.3} N), {how}",
+            cv.heldout_nrmse(),
+            cv.total.rmse_n()
+        );
         for (f, fig) in folds.iter().zip(&cv.per_fold) {
             eprintln!("  {:<32} held-out NRMSE {:.4}", f.label, fig.nrmse());
         }
     }
-    outputs(&out, "fit", a.json, a.plot.as_ref(), a.rerun.as_ref(), &tests, &pred)
+    outputs(
+        &out,
+        "fit",
+        a.json,
+        a.plot.as_ref(),
+        a.rerun.as_ref(),
+        &tests,
+        &pred,
+    )
 }
 
 fn outputs(
@@ -168,16 +200,34 @@ pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
     let tests = load_tests(&a.data)?;
     let cfg = DeviceConfig::load(&a.params, &registry)?;
     // Standard errors as saved, where the file is a PARAMS.json.
-    let saved: Option<ParamsFile> = std::fs::read_to_string(&a.params).ok().and_then(|s| serde_json::from_str(&s).ok());
+    let saved: Option<ParamsFile> = std::fs::read_to_string(&a.params)
+        .ok()
+        .and_then(|s| serde_json::from_str(&s).ok());
     let pred = evaluate(&cfg.model, &cfg.params, &tests);
     let (per, total) = figures(&pred, &tests);
-    let mut out = FitJson::new(&cfg.model, &cfg.params, None, &tests, &per, &total, where_regions(&tests, &pred));
+    let mut out = FitJson::new(
+        &cfg.model,
+        &cfg.params,
+        None,
+        &tests,
+        &per,
+        &total,
+        where_regions(&tests, &pred),
+    );
     if let Some(s) = saved {
         for (name, p) in out.params.iter_mut() {
             p.std_err = s.params.get(name).and_then(|v| v.std_err);
         }
     }
-    outputs(&out, "validate", a.json, a.plot.as_ref(), a.rerun.as_ref(), &tests, &pred)
+    outputs(
+        &out,
+        "validate",
+        a.json,
+        a.plot.as_ref(),
+        a.rerun.as_ref(),
+        &tests,
+        &pred,
+    )
 }
 
 pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
@@ -195,7 +245,11 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
         .sum::<usize>()
         + base.n_params();
     require(&tests, most)?;
-    let opts = DiagnoseOptions { current_limit_a: limit, progress: std::io::stderr().is_terminal(), ..Default::default() };
+    let opts = DiagnoseOptions {
+        current_limit_a: limit,
+        progress: std::io::stderr().is_terminal(),
+        ..Default::default()
+    };
     let t0 = std::time::Instant::now();
     let d = diagnose(&tests, base.spec(), &registry, &opts)?;
     eprintln!("diagnosed in {:.1} s", t0.elapsed().as_secs_f64());

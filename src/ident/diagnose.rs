@@ -79,13 +79,24 @@ pub fn make_folds(tests: &[Test], blocks: usize, max_folds: usize) -> (Vec<Fold>
             .map(|b| Fold {
                 train: (0..k)
                     .filter(|&c| c != b)
-                    .map(|c| Span { test: 0, start: edges[c], end: edges[c + 1] })
+                    .map(|c| Span {
+                        test: 0,
+                        start: edges[c],
+                        end: edges[c + 1],
+                    })
                     .collect(),
-                test: vec![Span { test: 0, start: edges[b], end: edges[b + 1] }],
+                test: vec![Span {
+                    test: 0,
+                    start: edges[b],
+                    end: edges[b + 1],
+                }],
                 label: format!("block {}/{k}", b + 1),
             })
             .collect();
-        return (folds, format!("blocked cross-validation over {k} contiguous time blocks of the one test"));
+        return (
+            folds,
+            format!("blocked cross-validation over {k} contiguous time blocks of the one test"),
+        );
     }
     // Groups in order of first appearance; one group per test when the names give a single group.
     let mut groups: Vec<String> = Vec::new();
@@ -95,7 +106,13 @@ pub fn make_folds(tests: &[Test], blocks: usize, max_folds: usize) -> (Vec<Fold>
         }
     }
     let by_file = groups.len() < 2;
-    let key = |j: usize| if by_file { j } else { groups.iter().position(|g| *g == tests[j].group).unwrap_or(0) };
+    let key = |j: usize| {
+        if by_file {
+            j
+        } else {
+            groups.iter().position(|g| *g == tests[j].group).unwrap_or(0)
+        }
+    };
     let ng = if by_file { tests.len() } else { groups.len() };
     let k = ng.min(max_folds.max(2));
     let folds = (0..k)
@@ -111,9 +128,20 @@ pub fn make_folds(tests: &[Test], blocks: usize, max_folds: usize) -> (Vec<Fold>
             Fold {
                 train: (0..tests.len())
                     .filter(|j| !held.contains(j))
-                    .map(|j| Span { test: j, start: 0, end: tests[j].len() })
+                    .map(|j| Span {
+                        test: j,
+                        start: 0,
+                        end: tests[j].len(),
+                    })
                     .collect(),
-                test: held.iter().map(|&j| Span { test: j, start: 0, end: tests[j].len() }).collect(),
+                test: held
+                    .iter()
+                    .map(|&j| Span {
+                        test: j,
+                        start: 0,
+                        end: tests[j].len(),
+                    })
+                    .collect(),
                 label,
             }
         })
@@ -146,7 +174,12 @@ impl CvResult {
 }
 
 /// Starting values for `model` from a fitted `parent` (matching parameter names), the rest data-derived.
-fn start_from(model: &Model, parent: Option<(&Model, &[f64])>, tests: &[Test], spans: &[Span]) -> Option<Vec<f64>> {
+fn start_from(
+    model: &Model,
+    parent: Option<(&Model, &[f64])>,
+    tests: &[Test],
+    spans: &[Span],
+) -> Option<Vec<f64>> {
     let (pm, pp) = parent?;
     let mut p = model.initial_guess(&span_stats(tests, spans));
     for (k, s) in model.param_specs().iter().enumerate() {
@@ -176,7 +209,15 @@ pub fn cross_validate(
                 tests,
                 &fold.train,
             );
-            let fr = fit(model, tests, &fold.train, &FitOptions { start, ..opts.clone() });
+            let fr = fit(
+                model,
+                tests,
+                &fold.train,
+                &FitOptions {
+                    start,
+                    ..opts.clone()
+                },
+            );
             let mut fig = Figures::default();
             let mut preds = Vec::new();
             for s in &fold.test {
@@ -202,7 +243,13 @@ pub fn cross_validate(
             oof[s.test][s.start..s.end].copy_from_slice(&pr);
         }
     }
-    CvResult { spec: model.spec().clone(), per_fold, total, fold_params, oof }
+    CvResult {
+        spec: model.spec().clone(),
+        per_fold,
+        total,
+        fold_params,
+        oof,
+    }
 }
 
 /// One candidate effect judged against the model it would extend.
@@ -313,7 +360,11 @@ pub fn diagnose(
     path_cv.insert(cur.spec.to_string(), cur.clone());
 
     loop {
-        let names: Vec<&'static str> = registry.names().into_iter().filter(|n| !cur.spec.has(n)).collect();
+        let names: Vec<&'static str> = registry
+            .names()
+            .into_iter()
+            .filter(|n| !cur.spec.has(n))
+            .collect();
         if names.is_empty() {
             break;
         }
@@ -335,7 +386,10 @@ pub fn diagnose(
             let effect = m.spec().effects.last().cloned().unwrap_or_default();
             let (significant, folds_better) = judge(&cur, cv, noise_mse, opts, at_floor);
             let sig = Signatures::of(tests, &cv.oof);
-            let signature = registry.get(&effect).map(|e| e.residual_signature()).unwrap_or_default();
+            let signature = registry
+                .get(&effect)
+                .map(|e| e.residual_signature())
+                .unwrap_or_default();
             cands.push(Candidate {
                 heldout_nrmse: cv.heldout_nrmse(),
                 improvement: 1.0 - cv.heldout_nrmse() / cur.heldout_nrmse().max(f64::MIN_POSITIVE),
@@ -378,11 +432,16 @@ pub fn diagnose(
     // Backward pass: drop an added effect whose removal does not significantly raise the held-out error.
     let mut pruned = Vec::new();
     while missing.len() >= 2 {
-        bar.set_message(format!("checking each of {} added effects is still needed", missing.len()));
+        bar.set_message(format!(
+            "checking each of {} added effects is still needed",
+            missing.len()
+        ));
         let without: Vec<Result<(String, Model, CvResult), IdentError>> = missing
             .par_iter()
             .map(|e| {
-                let spec = ModelSpec { effects: cur.spec.effects.iter().filter(|x| *x != e).cloned().collect() };
+                let spec = ModelSpec {
+                    effects: cur.spec.effects.iter().filter(|x| *x != e).cloned().collect(),
+                };
                 let m = build(&spec)?;
                 let cv = match path_cv.get(&spec.to_string()) {
                     Some(cv) => cv.clone(),
@@ -393,7 +452,10 @@ pub fn diagnose(
             .collect();
         let without: Vec<(String, Model, CvResult)> = without.into_iter().collect::<Result<_, _>>()?;
         // The removal that costs least; drop it unless the full model is significantly better.
-        let Some((e, m, cv)) = without.into_iter().min_by(|a, b| a.2.total.sse.total_cmp(&b.2.total.sse)) else {
+        let Some((e, m, cv)) = without
+            .into_iter()
+            .min_by(|a, b| a.2.total.sse.total_cmp(&b.2.total.sse))
+        else {
             break;
         };
         let at_floor = cv.total.rmse_n() <= opts.floor_ratio * noise;
@@ -452,7 +514,13 @@ pub fn diagnose(
 
 /// Is `cand` significantly better than `cur` on held-out data? Returns the verdict and the number of folds
 /// in which it was better.
-fn judge(cur: &CvResult, cand: &CvResult, noise_mse: f64, opts: &DiagnoseOptions, at_floor: bool) -> (bool, usize) {
+fn judge(
+    cur: &CvResult,
+    cand: &CvResult,
+    noise_mse: f64,
+    opts: &DiagnoseOptions,
+    at_floor: bool,
+) -> (bool, usize) {
     let folds_better = cur
         .per_fold
         .iter()
@@ -492,12 +560,18 @@ fn evidence(
     if !signature.is_empty() {
         s.push_str(&format!("expected signature: {signature}. "));
     }
-    let shown: Vec<String> =
-        changes.iter().take(2).map(|(_, n, b, a)| format!("{n}: {b:.3} → {a:.3}")).collect();
+    let shown: Vec<String> = changes
+        .iter()
+        .take(2)
+        .map(|(_, n, b, a)| format!("{n}: {b:.3} → {a:.3}"))
+        .collect();
     if shown.is_empty() {
         s.push_str("removes none of the measured residual signatures");
     } else {
-        s.push_str(&format!("measured in the held-out residual, it removes {}", shown.join("; ")));
+        s.push_str(&format!(
+            "measured in the held-out residual, it removes {}",
+            shown.join("; ")
+        ));
     }
     s.push_str(&format!(
         "; held-out RMSE {:.4} → {:.4} N, lower in {folds_better} of {} folds",

@@ -39,7 +39,15 @@ impl Span {
 
 /// Every sample of every test.
 pub fn all_spans(tests: &[Test]) -> Vec<Span> {
-    tests.iter().enumerate().map(|(k, t)| Span { test: k, start: 0, end: t.len() }).collect()
+    tests
+        .iter()
+        .enumerate()
+        .map(|(k, t)| Span {
+            test: k,
+            start: 0,
+            end: t.len(),
+        })
+        .collect()
 }
 
 /// Settings of one fit.
@@ -55,7 +63,11 @@ pub struct FitOptions {
 
 impl Default for FitOptions {
     fn default() -> Self {
-        Self { start: None, tol: 1e-7, max_iterations: 40 }
+        Self {
+            start: None,
+            tol: 1e-7,
+            max_iterations: 40,
+        }
     }
 }
 
@@ -185,7 +197,9 @@ impl<'a> Problem<'a> {
             sim_len[s.test] = sim_len[s.test].max(s.end);
             offsets.push(n_res);
             n_res += s.len();
-            f_max = tests[s.test].f_n[s.start..s.end].iter().fold(f_max, |m, f| m.max(f.abs()));
+            f_max = tests[s.test].f_n[s.start..s.end]
+                .iter()
+                .fold(f_max, |m, f| m.max(f.abs()));
         }
         let mut p = Self {
             model,
@@ -250,8 +264,9 @@ impl<'a> Problem<'a> {
     /// Forward-difference Jacobian of the residual w.r.t. `z[cols]`, parallel over (parameter, test).
     fn jacobian_cols(&self, cols: &[usize]) -> DMatrix<f64> {
         let used: Vec<usize> = (0..self.tests.len()).filter(|&j| self.sim_len[j] > 0).collect();
-        let tasks: Vec<(usize, usize)> =
-            (0..cols.len()).flat_map(|c| used.iter().map(move |&j| (c, j))).collect();
+        let tasks: Vec<(usize, usize)> = (0..cols.len())
+            .flat_map(|c| used.iter().map(move |&j| (c, j)))
+            .collect();
         let cols_out: Vec<(usize, usize, f64, Vec<f64>)> = tasks
             .par_iter()
             .map(|&(c, j)| {
@@ -312,7 +327,10 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
 pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> FitResult {
     let stats = span_stats(tests, spans);
     let specs = model.param_specs();
-    let tf: Vec<Transform> = specs.iter().map(|s| Transform::for_bounds(s.lower, s.upper)).collect();
+    let tf: Vec<Transform> = specs
+        .iter()
+        .map(|s| Transform::for_bounds(s.lower, s.upper))
+        .collect();
     let mut p0 = match &opts.start {
         Some(p) if p.len() == model.n_params() => p.iter().zip(specs).map(|(v, s)| s.clamp(*v)).collect(),
         _ => model.initial_guess(&stats),
@@ -327,7 +345,16 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
     let mut prob = Problem::new(model, tests, spans, tf.clone(), z0.clone());
     let all: Vec<usize> = (0..n).collect();
     let j0 = prob.jacobian_cols(&all);
-    let f_norm = spans.iter().map(|s| tests[s.test].f_n[s.start..s.end].iter().map(|f| f * f).sum::<f64>()).sum::<f64>().sqrt();
+    let f_norm = spans
+        .iter()
+        .map(|s| {
+            tests[s.test].f_n[s.start..s.end]
+                .iter()
+                .map(|f| f * f)
+                .sum::<f64>()
+        })
+        .sum::<f64>()
+        .sqrt();
     for k in 0..n {
         let cn = j0.column(k).norm();
         if cn <= 1e-13 * f_norm.max(f64::MIN_POSITIVE) {
@@ -336,11 +363,13 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
         }
     }
 
+    let mut z_start = z0.clone();
     let mut evaluations = 0;
     let mut termination = String::from("no free parameters");
-    for _round in 0..3 {
+    let mut bound_note = vec![String::new(); n];
+    for round in 0..4 {
         let free: Vec<usize> = (0..n).filter(|&k| !held[k]).collect();
-        prob = Problem::new(model, tests, spans, tf.clone(), z0.clone());
+        prob = Problem::new(model, tests, spans, tf.clone(), z_start.clone());
         prob.free = free.clone();
         if !free.is_empty() && prob.n_res > 0 {
             let lm = LevenbergMarquardt::new()
@@ -358,35 +387,75 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
             }
         }
         evaluations += prob.evaluations;
-        // Standard errors; parameters with an enormous one are held and the fit repeated.
-        let (se_z, newly_held) = std_errors(&prob, &free);
-        if newly_held.is_empty() {
-            let params = prob.params_of(&prob.z);
-            let sse = prob.resid.norm_squared();
-            let mut std_err = vec![None; n];
-            for (c, &k) in free.iter().enumerate() {
-                std_err[k] = se_z[c].map(|s| s * tf[k].dp_dz(prob.z[k]).abs());
+        let params = prob.params_of(&prob.z);
+        // A parameter on a bound has an enormous error in `z` (the transform flattens there): it is reported
+        // at the bound, not held at its start.
+        let on_bound = |k: usize| {
+            let (p, s) = (params[k], &specs[k]);
+            (s.lower.is_finite() && (p - s.lower).abs() <= 2.0 * inside(s.lower, p))
+                || (s.upper.is_finite() && (p - s.upper).abs() <= 2.0 * inside(s.upper, p))
+        };
+        let (se_z, enormous) = std_errors(&prob, &free);
+        let newly_held: Vec<usize> = enormous.iter().copied().filter(|&k| !on_bound(k)).collect();
+        if !newly_held.is_empty() && round < 3 {
+            for k in newly_held {
+                held[k] = true;
+                notes[k] =
+                    "the data barely determine it (enormous standard error); held at its initial value"
+                        .into();
+                z_start[k] = z0[k];
             }
-            return FitResult {
-                params,
-                std_err,
-                notes,
-                sse,
-                n: prob.n_res,
-                f_ss: f_norm * f_norm,
-                evaluations,
-                termination,
-            };
+            for &k in &free {
+                if !held[k] {
+                    z_start[k] = prob.z[k];
+                }
+            }
+            continue;
         }
-        for k in newly_held {
-            held[k] = true;
-            notes[k] = "the data barely determine it (enormous standard error); held at its initial value".into();
+        // The transforms make a bound hard to leave: a bounded linear least-squares step on the base's linear
+        // gains finds out whether the data pull one of them back inside; if it lowers the error, refit from there.
+        let sse = prob.resid.norm_squared();
+        let mut p_lin = params.clone();
+        if round < 3 && enormous.iter().any(|&k| on_bound(k)) {
+            linear_warm_start(model, tests, spans, &mut p_lin);
+            let z_lin: Vec<f64> = p_lin.iter().zip(&tf).map(|(p, t)| t.z(*p)).collect();
+            let trial = Problem::new(model, tests, spans, tf.clone(), z_lin.clone());
+            evaluations += 1;
+            if trial.resid.norm_squared() < sse * (1.0 - 1e-6) {
+                z_start = z_lin;
+                continue;
+            }
         }
+        let mut std_err = vec![None; n];
+        for (c, &k) in free.iter().enumerate() {
+            std_err[k] = se_z[c].map(|s| s * tf[k].dp_dz(prob.z[k]).abs());
+            if on_bound(k) && std_err[k].is_none() {
+                let s = &specs[k];
+                let b = if (params[k] - s.lower).abs() <= (params[k] - s.upper).abs() {
+                    s.lower
+                } else {
+                    s.upper
+                };
+                bound_note[k] = format!("at its bound {b} {}: the data push it beyond", s.unit);
+            }
+        }
+        for k in 0..n {
+            if notes[k].is_empty() {
+                notes[k] = std::mem::take(&mut bound_note[k]);
+            }
+        }
+        return FitResult {
+            params,
+            std_err,
+            notes,
+            sse,
+            n: prob.n_res,
+            f_ss: f_norm * f_norm,
+            evaluations,
+            termination,
+        };
     }
-    // Unreachable in practice (each round holds at least one more parameter); report the last state.
-    let params = prob.params_of(&prob.z);
-    let sse = prob.resid.norm_squared();
-    FitResult { params, std_err: vec![None; n], notes, sse, n: prob.n_res, f_ss: f_norm * f_norm, evaluations, termination }
+    unreachable!("the last round always returns")
 }
 
 /// Standard errors in `z` of the free parameters and the free parameters whose error is enormous.
@@ -398,26 +467,38 @@ fn std_errors(prob: &Problem<'_>, free: &[usize]) -> (Vec<Option<f64>>, Vec<usiz
     }
     let jac = prob.jacobian_cols(free);
     let s2 = prob.resid.norm_squared() / (m - nf) as f64;
-    // Column-scaled normal matrix for conditioning.
-    let norms: Vec<f64> = (0..nf).map(|c| jac.column(c).norm().max(1e-300)).collect();
-    let mut a = jac.transpose() * &jac;
-    for r in 0..nf {
-        for c in 0..nf {
-            a[(r, c)] /= norms[r] * norms[c];
+    let norms: Vec<f64> = (0..nf).map(|c| jac.column(c).norm()).collect();
+    let nmax = norms.iter().fold(0.0f64, |m, v| m.max(*v));
+    // A column that vanished (relative to the others) is a parameter the data do not determine here.
+    let live: Vec<usize> = (0..nf).filter(|&c| norms[c] > 1e-12 * nmax).collect();
+    let mut se = vec![None; nf];
+    let mut enormous: Vec<usize> = (0..nf).filter(|c| !live.contains(c)).map(|c| free[c]).collect();
+    let nl = live.len();
+    if nl == 0 {
+        return (se, enormous);
+    }
+    // Column-scaled normal matrix of the live columns, for conditioning.
+    let mut a = nalgebra::DMatrix::<f64>::zeros(nl, nl);
+    for (r, &cr) in live.iter().enumerate() {
+        for (c, &cc) in live.iter().enumerate() {
+            a[(r, c)] = jac.column(cr).dot(&jac.column(cc)) / (norms[cr] * norms[cc]);
         }
     }
-    let svd = a.svd(true, true);
+    if a.iter().any(|v| !v.is_finite()) {
+        return (vec![None; nf], Vec::new());
+    }
+    let Some(svd) = a.try_svd(true, true, 1e-15, 500) else {
+        return (vec![None; nf], Vec::new());
+    };
     let (Some(v), sv) = (svd.v_t.map(|vt| vt.transpose()), svd.singular_values) else {
         return (vec![None; nf], Vec::new());
     };
     let smax = sv.max().max(1e-300);
-    let mut se = vec![None; nf];
-    let mut enormous = Vec::new();
-    for c in 0..nf {
+    for (r, &c) in live.iter().enumerate() {
         let mut var = 0.0;
-        for i in 0..nf {
+        for i in 0..nl {
             let s = sv[i].max(1e-14 * smax);
-            var += v[(c, i)] * v[(c, i)] / s;
+            var += v[(r, i)] * v[(r, i)] / s;
         }
         let sez = (s2 * var).sqrt() / norms[c];
         let k = free[c];
@@ -498,7 +579,9 @@ fn linear_warm_start(model: &Model, tests: &[Test], spans: &[Span], p: &mut [f64
         }
         let lo: Vec<f64> = idx.iter().map(|&k| specs[k].lower - p[k]).collect();
         let hi: Vec<f64> = idx.iter().map(|&k| specs[k].upper - p[k]).collect();
-        let Some(d) = bounded_lstsq3(ata, atb, &lo, &hi) else { return };
+        let Some(d) = bounded_lstsq3(ata, atb, &lo, &hi) else {
+            return;
+        };
         for (a, &k) in idx.iter().enumerate() {
             p[k] = specs[k].clamp(p[k] + d[a]);
         }
@@ -575,7 +658,12 @@ mod tests {
 
     #[test]
     fn transforms_round_trip_inside_bounds_and_never_leave_them() {
-        for tf in [Transform::Free, Transform::Lower(0.0), Transform::Upper(2.0), Transform::Both(-1.0, 3.0)] {
+        for tf in [
+            Transform::Free,
+            Transform::Lower(0.0),
+            Transform::Upper(2.0),
+            Transform::Both(-1.0, 3.0),
+        ] {
             for p in [-0.5, 0.3, 1.7] {
                 let inside = match tf {
                     Transform::Lower(lo) => p > lo,
@@ -591,7 +679,10 @@ mod tests {
                 let p = tf.p(z);
                 let h = 1e-6;
                 let num = (tf.p(z + h) - tf.p(z - h)) / (2.0 * h);
-                assert!((num - tf.dp_dz(z)).abs() <= 1e-5 * (1.0 + num.abs()), "{tf:?} z={z}");
+                assert!(
+                    (num - tf.dp_dz(z)).abs() <= 1e-5 * (1.0 + num.abs()),
+                    "{tf:?} z={z}"
+                );
                 match tf {
                     Transform::Lower(lo) => assert!(p >= lo),
                     Transform::Upper(hi) => assert!(p <= hi),

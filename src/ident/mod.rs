@@ -53,7 +53,11 @@ pub struct Test {
 
 impl Test {
     pub fn from_measurement(m: &Measurement) -> Self {
-        let name = m.path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        let name = m
+            .path
+            .file_name()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
         Self {
             path: m.path.clone(),
             group: group_of(m),
@@ -80,7 +84,11 @@ pub fn group_of(m: &Measurement) -> String {
     if let Some(g) = m.meta.get("group") {
         return g.trim().to_string();
     }
-    let stem = m.path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let stem = m
+        .path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
     match stem.rsplit_once('_') {
         Some((head, _)) if !head.is_empty() => head.to_string(),
         _ => stem,
@@ -113,7 +121,14 @@ pub fn data_stats(tests: &[Test]) -> DataStats {
     let sig: Vec<TestSignals<'_>> = cols
         .iter()
         .zip(tests)
-        .map(|(c, t)| TestSignals { t_s: &c[0], x_m: &c[1], v_m_s: &c[2], a_m_s2: &c[3], i_a: &c[4], f_n: &t.f_n })
+        .map(|(c, t)| TestSignals {
+            t_s: &c[0],
+            x_m: &c[1],
+            v_m_s: &c[2],
+            a_m_s2: &c[3],
+            i_a: &c[4],
+            f_n: &t.f_n,
+        })
         .collect();
     DataStats::from_tests(&sig)
 }
@@ -121,7 +136,10 @@ pub fn data_stats(tests: &[Test]) -> DataStats {
 /// Driver saturation to build models with when the user gives none: the paper's 14 A, or the largest
 /// command in the data when that is higher (a command the rig applied was not saturated by our model).
 pub fn default_current_limit_a(tests: &[Test]) -> f64 {
-    let imax = tests.iter().flat_map(|t| t.inputs.iter()).fold(0.0f64, |m, i| m.max(i.current_cmd_a.abs()));
+    let imax = tests
+        .iter()
+        .flat_map(|t| t.inputs.iter())
+        .fold(0.0f64, |m, i| m.max(i.current_cmd_a.abs()));
     imax.max(crate::device::PAPER_CURRENT_LIMIT_A)
 }
 

@@ -117,11 +117,15 @@ fn draw_panels<DB: DrawingBackend>(
             segs.push(seg);
             let mut first = true;
             for s in segs {
-                let series = chart.draw_series(LineSeries::new(s, color.stroke_width(1))).map_err(e2s)?;
+                let series = chart
+                    .draw_series(LineSeries::new(s, color.stroke_width(1)))
+                    .map_err(e2s)?;
                 if first {
-                    series.label(if k == 1 { "measured" } else { "model" }).legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2))
-                    });
+                    series
+                        .label(if k == 1 { "measured" } else { "model" })
+                        .legend(move |(x, y)| {
+                            PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2))
+                        });
                     first = false;
                 }
             }
@@ -179,19 +183,32 @@ fn panels_by_current(
                 }
                 pts.push((f64::NAN, 0.0, 0.0));
             }
-            let title =
-                if one_test { format!("{} ({})", cb.label(b), tests[best].name) } else { cb.label(b) };
+            let title = if one_test {
+                format!("{} ({})", cb.label(b), tests[best].name)
+            } else {
+                cb.label(b)
+            };
             Some(Panel { title, pts })
         })
         .collect()
 }
 
 /// Measured vs model plots and residual maps for one model on some tests. Returns the files written.
-pub fn plot_model(dir: &Path, tests: &[Test], pred: &[Vec<f64>], model: &str, prefix: &str) -> Result<Vec<PathBuf>, IdentError> {
+pub fn plot_model(
+    dir: &Path,
+    tests: &[Test],
+    pred: &[Vec<f64>],
+    model: &str,
+    prefix: &str,
+) -> Result<Vec<PathBuf>, IdentError> {
     std::fs::create_dir_all(dir).map_err(|e| IdentError::Other(format!("{}: {e}", dir.display())))?;
     let mut out = Vec::new();
     let size = (1500, 900);
-    let pfx = if prefix.is_empty() { String::new() } else { format!("{prefix}_") };
+    let pfx = if prefix.is_empty() {
+        String::new()
+    } else {
+        format!("{prefix}_")
+    };
     let ft = panels_by_current(tests, pred, |t, k| t.inputs[k].t_s, true);
     both!(dir, format!("{pfx}force_time"), size, out, |root| draw_panels(
         &root,
@@ -200,22 +217,34 @@ pub fn plot_model(dir: &Path, tests: &[Test], pred: &[Vec<f64>], model: &str, pr
         &ft
     ));
     let fx = panels_by_current(tests, pred, |t, k| t.inputs[k].x_m * 1e3, false);
-    both!(dir, format!("{pfx}force_displacement"), size, out, |root| draw_panels(
-        &root,
-        &format!("{model}: force vs displacement"),
-        "displacement, mm",
-        &fx
-    ));
+    both!(dir, format!("{pfx}force_displacement"), size, out, |root| {
+        draw_panels(
+            &root,
+            &format!("{model}: force vs displacement"),
+            "displacement, mm",
+            &fx,
+        )
+    });
     let fv = panels_by_current(tests, pred, |t, k| t.inputs[k].v_m_s, false);
-    both!(dir, format!("{pfx}force_velocity"), size, out, |root| draw_panels(
-        &root,
-        &format!("{model}: force vs velocity"),
-        "velocity, m/s",
-        &fv
-    ));
+    both!(
+        dir,
+        format!("{pfx}force_velocity"),
+        size,
+        out,
+        |root| draw_panels(
+            &root,
+            &format!("{model}: force vs velocity"),
+            "velocity, m/s",
+            &fv
+        )
+    );
     let hm = heatmap(tests, pred, 12);
-    both!(dir, format!("{pfx}residual_heatmap"), (1000, 600), out, |root| draw_heatmap(&root, model, &hm));
-    both!(dir, format!("{pfx}residual_time"), (1400, 500), out, |root| draw_residual_time(&root, model, tests, pred));
+    both!(dir, format!("{pfx}residual_heatmap"), (1000, 600), out, |root| {
+        draw_heatmap(&root, model, &hm)
+    });
+    both!(dir, format!("{pfx}residual_time"), (1400, 500), out, |root| {
+        draw_residual_time(&root, model, tests, pred)
+    });
     Ok(out)
 }
 
@@ -227,11 +256,20 @@ fn draw_heatmap<DB: DrawingBackend>(
     let nv = hm.v_edges_m_s.len() - 1;
     let ni = hm.current_labels.len();
     let vmax = *hm.v_edges_m_s.last().unwrap_or(&1.0);
-    let rmax = hm.rms_n.iter().flatten().filter(|v| v.is_finite()).fold(0.0f64, |m, v| m.max(*v)).max(1e-12);
+    let rmax = hm
+        .rms_n
+        .iter()
+        .flatten()
+        .filter(|v| v.is_finite())
+        .fold(0.0f64, |m, v| m.max(*v))
+        .max(1e-12);
     let (main, bar) = root.split_horizontally(880);
     let labels = hm.current_labels.clone();
     let mut chart = ChartBuilder::on(&main)
-        .caption(format!("{model}: RMS residual over |v| × current (max {rmax:.3} N)"), ("sans-serif", 18))
+        .caption(
+            format!("{model}: RMS residual over |v| × current (max {rmax:.3} N)"),
+            ("sans-serif", 18),
+        )
         .margin(10)
         .x_label_area_size(36)
         .y_label_area_size(110)
@@ -269,7 +307,12 @@ fn draw_heatmap<DB: DrawingBackend>(
         .caption("N", ("sans-serif", 14))
         .build_cartesian_2d(0.0..1.0, 0.0..rmax)
         .map_err(e2s)?;
-    cb.configure_mesh().disable_mesh().disable_x_axis().label_style(("sans-serif", 12)).draw().map_err(e2s)?;
+    cb.configure_mesh()
+        .disable_mesh()
+        .disable_x_axis()
+        .label_style(("sans-serif", 12))
+        .draw()
+        .map_err(e2s)?;
     cb.draw_series((0..50).map(|k| {
         let a = rmax * k as f64 / 50.0;
         let b = rmax * (k + 1) as f64 / 50.0;
@@ -295,14 +338,19 @@ fn draw_residual_time<DB: DrawingBackend>(
         }
         let t0 = t.inputs[0].t_s;
         let s = stride(n, 20_000 / tests.len().max(1));
-        let pts: Vec<(f64, f64)> =
-            (0..n).step_by(s).map(|k| (offset + t.inputs[k].t_s - t0, p[k] - t.f_n[k])).collect();
+        let pts: Vec<(f64, f64)> = (0..n)
+            .step_by(s)
+            .map(|k| (offset + t.inputs[k].t_s - t0, p[k] - t.f_n[k]))
+            .collect();
         offset += t.inputs[n - 1].t_s - t0;
         series.push((t.name.clone(), pts));
     }
     let (y0, y1) = range(series.iter().flat_map(|s| s.1.iter().map(|q| q.1)));
     let mut chart = ChartBuilder::on(root)
-        .caption(format!("{model}: residual (model − measured) over time, tests one after another"), ("sans-serif", 18))
+        .caption(
+            format!("{model}: residual (model − measured) over time, tests one after another"),
+            ("sans-serif", 18),
+        )
         .margin(10)
         .x_label_area_size(36)
         .y_label_area_size(60)
@@ -317,7 +365,9 @@ fn draw_residual_time<DB: DrawingBackend>(
         .map_err(e2s)?;
     for (k, (_, pts)) in series.into_iter().enumerate() {
         let c = Palette99::pick(k).to_rgba();
-        chart.draw_series(LineSeries::new(pts, c.stroke_width(1))).map_err(e2s)?;
+        chart
+            .draw_series(LineSeries::new(pts, c.stroke_width(1)))
+            .map_err(e2s)?;
     }
     Ok(())
 }
@@ -352,7 +402,11 @@ pub fn plot_diagnosis(dir: &Path, tests: &[Test], d: &Diagnosis) -> Result<Vec<P
         d.noise_floor_nrmse
     ));
     let mut cands: Vec<(String, f64)> = vec![(d.base_model.clone(), d.base_heldout_nrmse)];
-    cands.extend(d.candidates.iter().map(|c| (format!("+{}", c.effect), c.heldout_nrmse)));
+    cands.extend(
+        d.candidates
+            .iter()
+            .map(|c| (format!("+{}", c.effect), c.heldout_nrmse)),
+    );
     both!(dir, "candidates", (1200, 600), out, |root| draw_bars(
         &root,
         &format!("held-out NRMSE of {} with each effect added", d.base_model),
@@ -396,21 +450,36 @@ fn draw_bars<DB: DrawingBackend>(
         .map_err(e2s)?;
     chart
         .draw_series(bars.iter().enumerate().map(|(k, b)| {
-            Rectangle::new([(k as f64 + 0.15, 0.0), (k as f64 + 0.85, b.1)], RGBColor(60, 110, 200).filled())
+            Rectangle::new(
+                [(k as f64 + 0.15, 0.0), (k as f64 + 0.85, b.1)],
+                RGBColor(60, 110, 200).filled(),
+            )
         }))
         .map_err(e2s)?;
     chart
         .draw_series(bars.iter().enumerate().map(|(k, b)| {
-            Text::new(format!("{:.4}", b.1), (k as f64 + 0.3, b.1 + 0.02 * ymax), ("sans-serif", 12))
+            Text::new(
+                format!("{:.4}", b.1),
+                (k as f64 + 0.3, b.1 + 0.02 * ymax),
+                ("sans-serif", 12),
+            )
         }))
         .map_err(e2s)?;
     if floor > 0.0 {
         chart
-            .draw_series(LineSeries::new(vec![(0.0, floor), (n as f64, floor)], RED.stroke_width(1)))
+            .draw_series(LineSeries::new(
+                vec![(0.0, floor), (n as f64, floor)],
+                RED.stroke_width(1),
+            ))
             .map_err(e2s)?
             .label("noise floor")
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], RED));
-        chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(e2s)?;
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(e2s)?;
     }
     Ok(())
 }

@@ -77,7 +77,11 @@ impl FitJson {
             files: tests
                 .iter()
                 .zip(per)
-                .map(|(t, f)| FileJson { path: t.path.display().to_string(), nrmse: f.nrmse(), rmse_n: f.rmse_n() })
+                .map(|(t, f)| FileJson {
+                    path: t.path.display().to_string(),
+                    nrmse: f.nrmse(),
+                    rmse_n: f.rmse_n(),
+                })
                 .collect(),
             r#where: where_,
         }
@@ -86,10 +90,21 @@ impl FitJson {
     /// The table printed without `--json`.
     pub fn table(&self, title: &str) -> String {
         let mut s = String::new();
-        let _ = writeln!(s, "{title} {}: {} samples, NRMSE {:.4}, RMSE {:.3} N", self.model, self.samples, self.nrmse, self.rmse_n);
-        let _ = writeln!(s, "\n{:<28} {:>14} {:>12}  {}", "parameter", "value", "std err", "unit");
+        let _ = writeln!(
+            s,
+            "{title} {}: {} samples, NRMSE {:.4}, RMSE {:.3} N",
+            self.model, self.samples, self.nrmse, self.rmse_n
+        );
+        let _ = writeln!(
+            s,
+            "\n{:<28} {:>14} {:>12}  {}",
+            "parameter", "value", "std err", "unit"
+        );
         for (name, p) in &self.params {
-            let se = p.std_err.map(|e| format!("{e:.4e}")).unwrap_or_else(|| "—".into());
+            let se = p
+                .std_err
+                .map(|e| format!("{e:.4e}"))
+                .unwrap_or_else(|| "—".into());
             let _ = writeln!(s, "{name:<28} {:>14.6e} {se:>12}  {}", p.value, p.unit);
             if !p.note.is_empty() {
                 let _ = writeln!(s, "{:<28} ({})", "", p.note);
@@ -97,12 +112,24 @@ impl FitJson {
         }
         let _ = writeln!(s, "\n{:<40} {:>8} {:>10}", "file", "NRMSE", "RMSE N");
         for f in &self.files {
-            let _ = writeln!(s, "{:<40} {:>8.4} {:>10.3}", short(&f.path, 40), f.nrmse, f.rmse_n);
+            let _ = writeln!(
+                s,
+                "{:<40} {:>8.4} {:>10.3}",
+                short(&f.path, 40),
+                f.nrmse,
+                f.rmse_n
+            );
         }
         if !self.r#where.is_empty() {
             let _ = writeln!(s, "\nwhere the error is:");
             for r in &self.r#where {
-                let _ = writeln!(s, "  {:<44} {:>5.1} % of the squared error, RMSE {:.3} N", r.region, 100.0 * r.share_of_error, r.rmse_n);
+                let _ = writeln!(
+                    s,
+                    "  {:<44} {:>5.1} % of the squared error, RMSE {:.3} N",
+                    r.region,
+                    100.0 * r.share_of_error,
+                    r.rmse_n
+                );
             }
         }
         s
@@ -169,7 +196,11 @@ impl DiagnoseJson {
         Self {
             base_model: d.base_model.clone(),
             samples: d.samples,
-            base: BaseJson { nrmse: d.base_fit_nrmse, rmse_n: d.base_fit_rmse_n, heldout_nrmse: d.base_heldout_nrmse },
+            base: BaseJson {
+                nrmse: d.base_fit_nrmse,
+                rmse_n: d.base_fit_rmse_n,
+                heldout_nrmse: d.base_heldout_nrmse,
+            },
             r#where: d.where_.clone(),
             candidates: d
                 .candidates
@@ -183,8 +214,18 @@ impl DiagnoseJson {
                 })
                 .collect(),
             missing: d.missing.clone(),
-            final_: FinalJson { model: d.final_model.clone(), heldout_nrmse: d.final_heldout_nrmse },
-            steps: d.steps.iter().map(|s| StepJson { model: s.model.clone(), heldout_nrmse: s.heldout_nrmse }).collect(),
+            final_: FinalJson {
+                model: d.final_model.clone(),
+                heldout_nrmse: d.final_heldout_nrmse,
+            },
+            steps: d
+                .steps
+                .iter()
+                .map(|s| StepJson {
+                    model: s.model.clone(),
+                    heldout_nrmse: s.heldout_nrmse,
+                })
+                .collect(),
             cross_validation: d.cv_scheme.clone(),
             noise_floor_nrmse: d.noise_floor_nrmse,
             pruned: d.pruned.clone(),
@@ -203,15 +244,29 @@ pub fn diagnose_table(d: &Diagnosis) -> String {
     if !d.where_.is_empty() {
         let _ = writeln!(s, "\nwhere {} fails:", d.base_model);
         for r in &d.where_ {
-            let _ = writeln!(s, "  {:<44} {:>5.1} % of the squared error, RMSE {:.3} N", r.region, 100.0 * r.share_of_error, r.rmse_n);
+            let _ = writeln!(
+                s,
+                "  {:<44} {:>5.1} % of the squared error, RMSE {:.3} N",
+                r.region,
+                100.0 * r.share_of_error,
+                r.rmse_n
+            );
         }
     }
     for st in &d.steps {
         if st.candidates.is_empty() {
             continue;
         }
-        let _ = writeln!(s, "\neffects added to {} (held-out NRMSE {:.4}):", st.model, st.heldout_nrmse);
-        let _ = writeln!(s, "  {:<22} {:>10} {:>11} {:>7} {:>12}", "effect", "held-out", "improvement", "folds", "significant");
+        let _ = writeln!(
+            s,
+            "\neffects added to {} (held-out NRMSE {:.4}):",
+            st.model, st.heldout_nrmse
+        );
+        let _ = writeln!(
+            s,
+            "  {:<22} {:>10} {:>11} {:>7} {:>12}",
+            "effect", "held-out", "improvement", "folds", "significant"
+        );
         for c in &st.candidates {
             let _ = writeln!(
                 s,
@@ -231,7 +286,11 @@ pub fn diagnose_table(d: &Diagnosis) -> String {
     let _ = writeln!(s, "\nthe error falling:");
     let _ = writeln!(s, "  {:<48} {:>10}", "model", "held-out NRMSE");
     for st in &d.steps {
-        let bar = "█".repeat((40.0 * st.heldout_nrmse / d.base_heldout_nrmse.max(1e-300)).round().clamp(0.0, 60.0) as usize);
+        let bar = "█".repeat(
+            (40.0 * st.heldout_nrmse / d.base_heldout_nrmse.max(1e-300))
+                .round()
+                .clamp(0.0, 60.0) as usize,
+        );
         let _ = writeln!(s, "  {:<48} {:>10.4}  {bar}", st.model, st.heldout_nrmse);
     }
     if !d.pruned.is_empty() {
@@ -240,7 +299,11 @@ pub fn diagnose_table(d: &Diagnosis) -> String {
     let _ = writeln!(
         s,
         "\nmissing: {}\nfinal: {} (held-out NRMSE {:.4}, fitted on all {:.4})",
-        if d.missing.is_empty() { "none (the residual is explained)".to_string() } else { d.missing.join(", ") },
+        if d.missing.is_empty() {
+            "none (the residual is explained)".to_string()
+        } else {
+            d.missing.join(", ")
+        },
         d.final_model,
         d.final_heldout_nrmse,
         d.final_fit_nrmse

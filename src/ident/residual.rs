@@ -24,19 +24,34 @@ pub enum CurrentBins {
 impl CurrentBins {
     /// Bins for the current commands (|i|) of these tests.
     pub fn of(tests: &[Test]) -> Self {
-        let imax = tests.iter().flat_map(|t| &t.inputs).fold(0.0f64, |m, i| m.max(i.current_cmd_a.abs()));
+        let imax = tests
+            .iter()
+            .flat_map(|t| &t.inputs)
+            .fold(0.0f64, |m, i| m.max(i.current_cmd_a.abs()));
         let q = (imax * 1e-3).max(1e-9);
-        let mut levels: Vec<i64> =
-            tests.iter().flat_map(|t| &t.inputs).map(|i| (i.current_cmd_a.abs() / q).round() as i64).collect();
+        let mut levels: Vec<i64> = tests
+            .iter()
+            .flat_map(|t| &t.inputs)
+            .map(|i| (i.current_cmd_a.abs() / q).round() as i64)
+            .collect();
         levels.sort_unstable();
         levels.dedup();
         if levels.len() <= 8 {
             return CurrentBins::Levels(levels.iter().map(|&l| l as f64 * q).collect());
         }
-        let mut all: Vec<f64> = tests.iter().flat_map(|t| &t.inputs).map(|i| i.current_cmd_a.abs()).collect();
+        let mut all: Vec<f64> = tests
+            .iter()
+            .flat_map(|t| &t.inputs)
+            .map(|i| i.current_cmd_a.abs())
+            .collect();
         all.sort_by(f64::total_cmp);
         let qt = |f: f64| all[((all.len() - 1) as f64 * f) as usize];
-        let mut edges = vec![qt(0.0), qt(1.0 / 3.0), qt(2.0 / 3.0), qt(1.0) * (1.0 + 1e-12) + 1e-12];
+        let mut edges = vec![
+            qt(0.0),
+            qt(1.0 / 3.0),
+            qt(2.0 / 3.0),
+            qt(1.0) * (1.0 + 1e-12) + 1e-12,
+        ];
         edges.dedup();
         CurrentBins::Ranges(edges)
     }
@@ -114,7 +129,11 @@ pub fn sig(x: f64) -> String {
 pub const V_EDGES_FRAC: [f64; 5] = [0.0, 0.05, 0.2, 0.5, 1.0];
 
 fn v_max(tests: &[Test]) -> f64 {
-    tests.iter().flat_map(|t| &t.inputs).fold(0.0f64, |m, i| m.max(i.v_m_s.abs())).max(1e-12)
+    tests
+        .iter()
+        .flat_map(|t| &t.inputs)
+        .fold(0.0f64, |m, i| m.max(i.v_m_s.abs()))
+        .max(1e-12)
 }
 
 /// The regions (|v| bin × current bin, and a part of each test's duration) that carry most of the squared
@@ -134,7 +153,9 @@ pub fn where_regions(tests: &[Test], pred: &[Vec<f64>]) -> Vec<Region> {
             let r = p[k] - t.f_n[k];
             let r2 = r * r;
             let inp = &t.inputs[k];
-            let vb = (0..nv).find(|&b| inp.v_m_s.abs() < edges[b + 1]).unwrap_or(nv - 1);
+            let vb = (0..nv)
+                .find(|&b| inp.v_m_s.abs() < edges[b + 1])
+                .unwrap_or(nv - 1);
             let ib = cb.index(inp.current_cmd_a);
             sse[vb][ib] += r2;
             cnt[vb][ib] += 1;
@@ -218,7 +239,12 @@ pub fn heatmap(tests: &[Test], pred: &[Vec<f64>], nv: usize) -> Heatmap {
     let rms_n = s
         .iter()
         .zip(&c)
-        .map(|(sr, cr)| sr.iter().zip(cr).map(|(s, &c)| if c > 0 { (s / c as f64).sqrt() } else { f64::NAN }).collect())
+        .map(|(sr, cr)| {
+            sr.iter()
+                .zip(cr)
+                .map(|(s, &c)| if c > 0 { (s / c as f64).sqrt() } else { f64::NAN })
+                .collect()
+        })
         .collect();
     Heatmap {
         v_edges_m_s: (0..=nv).map(|k| vmax * k as f64 / nv as f64).collect(),
@@ -252,13 +278,34 @@ impl Signatures {
     /// Names and values, in a fixed order.
     pub fn named(&self) -> [(&'static str, f64); 7] {
         [
-            ("loop near v = 0 (residual × sgn a at low |v|, of rms force)", self.loop_near_zero_velocity),
-            ("direction offset growing with current (of rms force)", self.direction_offset_vs_current),
-            ("curvature of the residual vs current (of rms force)", self.curvature_vs_current),
-            ("residual slope vs velocity changing with current (of rms force)", self.velocity_slope_vs_current),
-            ("correlation of the residual with displacement", self.correlation_with_x),
-            ("correlation of the residual with acceleration", self.correlation_with_acceleration),
-            ("drift of the residual with dissipated energy (correlation)", self.drift_with_energy),
+            (
+                "loop near v = 0 (residual × sgn a at low |v|, of rms force)",
+                self.loop_near_zero_velocity,
+            ),
+            (
+                "direction offset growing with current (of rms force)",
+                self.direction_offset_vs_current,
+            ),
+            (
+                "curvature of the residual vs current (of rms force)",
+                self.curvature_vs_current,
+            ),
+            (
+                "residual slope vs velocity changing with current (of rms force)",
+                self.velocity_slope_vs_current,
+            ),
+            (
+                "correlation of the residual with displacement",
+                self.correlation_with_x,
+            ),
+            (
+                "correlation of the residual with acceleration",
+                self.correlation_with_acceleration,
+            ),
+            (
+                "drift of the residual with dissipated energy (correlation)",
+                self.drift_with_energy,
+            ),
         ]
     }
 
@@ -320,7 +367,11 @@ impl Signatures {
         let vrms = (v2 / n.max(1) as f64).sqrt();
         let mean = |(s, c): (f64, usize)| if c > 0 { s / c as f64 } else { 0.0 };
         let mut sig = Signatures {
-            loop_near_zero_velocity: if loop_n > 0 { loop_s / loop_n as f64 / frms } else { 0.0 },
+            loop_near_zero_velocity: if loop_n > 0 {
+                loop_s / loop_n as f64 / frms
+            } else {
+                0.0
+            },
             correlation_with_x: cx.value(),
             correlation_with_acceleration: ca.value(),
             drift_with_energy: ce.value(),
@@ -409,7 +460,11 @@ impl Corr {
 pub fn noise_floor_n(tests: &[Test]) -> f64 {
     let mut d: Vec<f64> = tests
         .iter()
-        .flat_map(|t| t.f_n.windows(4).map(|w| (w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]).abs()))
+        .flat_map(|t| {
+            t.f_n
+                .windows(4)
+                .map(|w| (w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]).abs())
+        })
         .collect();
     if d.is_empty() {
         return 0.0;
@@ -431,7 +486,12 @@ mod tests {
             .iter()
             .zip(&i)
             .enumerate()
-            .map(|(k, (v, i))| Inputs { t_s: k as f64 * 1e-3, v_m_s: *v, current_cmd_a: *i, ..Default::default() })
+            .map(|(k, (v, i))| Inputs {
+                t_s: k as f64 * 1e-3,
+                v_m_s: *v,
+                current_cmd_a: *i,
+                ..Default::default()
+            })
             .collect();
         Test {
             path: "t.csv".into(),
@@ -464,13 +524,20 @@ mod tests {
     fn where_names_the_slow_high_current_region_that_holds_the_error() {
         // Error only where |v| is small and the current is high.
         let n = 4000;
-        let v: Vec<f64> = (0..n).map(|k| (2.0 * std::f64::consts::PI * k as f64 / 1000.0).sin()).collect();
+        let v: Vec<f64> = (0..n)
+            .map(|k| (2.0 * std::f64::consts::PI * k as f64 / 1000.0).sin())
+            .collect();
         let i: Vec<f64> = (0..n).map(|k| if k < n / 2 { 1.0 } else { 10.0 }).collect();
         let f = vec![0.0; n];
-        let pred: Vec<f64> = (0..n).map(|k| if v[k].abs() < 0.04 && i[k] > 5.0 { 5.0 } else { 0.1 }).collect();
+        let pred: Vec<f64> = (0..n)
+            .map(|k| if v[k].abs() < 0.04 && i[k] > 5.0 { 5.0 } else { 0.1 })
+            .collect();
         let t = test_of(f, v, i);
         let w = where_regions(&[t], &[pred]);
-        assert!(w[0].region.contains("|v| < 0.05 m/s") && w[0].region.contains("i = 10 A"), "{w:?}");
+        assert!(
+            w[0].region.contains("|v| < 0.05 m/s") && w[0].region.contains("i = 10 A"),
+            "{w:?}"
+        );
         assert!(w[0].share_of_error > 0.8, "{w:?}");
     }
 

@@ -7,7 +7,10 @@ use crate::device::Model;
 
 /// Model force at every sample of every test, each test integrated from its own start (parallel, in order).
 pub fn evaluate(model: &Model, params: &[f64], tests: &[Test]) -> Vec<Vec<f64>> {
-    tests.par_iter().map(|t| model.simulate(params, &t.inputs)).collect()
+    tests
+        .par_iter()
+        .map(|t| model.simulate(params, &t.inputs))
+        .collect()
 }
 
 /// Error figures of one test or of all of them (measurement-format.md: `rmse_n` of model − measured,
@@ -23,7 +26,10 @@ pub struct Figures {
 
 impl Figures {
     pub fn of(model_n: &[f64], measured_n: &[f64]) -> Self {
-        let mut f = Figures { samples: model_n.len(), ..Default::default() };
+        let mut f = Figures {
+            samples: model_n.len(),
+            ..Default::default()
+        };
         for (m, y) in model_n.iter().zip(measured_n) {
             let r = m - y;
             f.sse += if r.is_finite() { r * r } else { f64::INFINITY };
@@ -53,7 +59,11 @@ impl Figures {
 
 /// Per-test figures and their total.
 pub fn figures(pred: &[Vec<f64>], tests: &[Test]) -> (Vec<Figures>, Figures) {
-    let per: Vec<Figures> = pred.iter().zip(tests).map(|(p, t)| Figures::of(p, &t.f_n)).collect();
+    let per: Vec<Figures> = pred
+        .iter()
+        .zip(tests)
+        .map(|(p, t)| Figures::of(p, &t.f_n))
+        .collect();
     let mut tot = Figures::default();
     for f in &per {
         tot.add(f);
