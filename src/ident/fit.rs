@@ -416,12 +416,12 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
         // gains finds out whether the data pull one of them back inside; if it lowers the error, refit from there.
         let sse = prob.resid.norm_squared();
         let mut p_lin = params.clone();
-        if round < 3 && enormous.iter().any(|&k| on_bound(k)) {
+        if round < 3 {
             linear_warm_start(model, tests, spans, &mut p_lin);
             let z_lin: Vec<f64> = p_lin.iter().zip(&tf).map(|(p, t)| t.z(*p)).collect();
             let trial = Problem::new(model, tests, spans, tf.clone(), z_lin.clone());
             evaluations += 1;
-            if trial.resid.norm_squared() < sse * (1.0 - 1e-6) {
+            if trial.resid.norm_squared() < sse * (1.0 - 1e-4) {
                 z_start = z_lin;
                 continue;
             }
