@@ -190,6 +190,9 @@ fn start_from(
     Some(p)
 }
 
+/// A fold's fitted parameters, held-out figures and held-out predictions.
+type FoldOutcome = (Vec<f64>, Figures, Vec<(Span, Vec<f64>)>);
+
 /// Cross-validate one model over the folds (parallel over folds, results in fold order).
 pub fn cross_validate(
     model: &Model,
@@ -199,7 +202,7 @@ pub fn cross_validate(
     opts: &FitOptions,
     bar: &ProgressBar,
 ) -> CvResult {
-    let out: Vec<(Vec<f64>, Figures, Vec<(Span, Vec<f64>)>)> = folds
+    let out: Vec<FoldOutcome> = folds
         .par_iter()
         .enumerate()
         .map(|(fi, fold)| {

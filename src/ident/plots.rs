@@ -143,6 +143,7 @@ fn draw_panels<DB: DrawingBackend>(
 
 /// Panels per current level: `x_of` picks the abscissa of a sample; `one_test` keeps only the test with the
 /// most samples at that level (for time plots).
+#[allow(clippy::needless_range_loop)] // several parallel per-sample arrays
 fn panels_by_current(
     tests: &[Test],
     pred: &[Vec<f64>],
@@ -172,7 +173,7 @@ fn panels_by_current(
                 for k in 0..t.len() {
                     let inside = cb.index(t.inputs[k].current_cmd_a) == b;
                     if inside {
-                        if seen % keep == 0 {
+                        if seen.is_multiple_of(keep) {
                             pts.push((x_of(t, k), t.f_n[k], p[k]));
                         }
                         seen += 1;

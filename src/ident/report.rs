@@ -95,11 +95,7 @@ impl FitJson {
             "{title} {}: {} samples, NRMSE {:.4}, RMSE {:.3} N",
             self.model, self.samples, self.nrmse, self.rmse_n
         );
-        let _ = writeln!(
-            s,
-            "\n{:<28} {:>14} {:>12}  {}",
-            "parameter", "value", "std err", "unit"
-        );
+        let _ = writeln!(s, "\n{:<28} {:>14} {:>12}  unit", "parameter", "value", "std err");
         for (name, p) in &self.params {
             let se = p
                 .std_err

@@ -138,6 +138,7 @@ fn v_max(tests: &[Test]) -> f64 {
 
 /// The regions (|v| bin × current bin, and a part of each test's duration) that carry most of the squared
 /// residual, largest first, until they cover most of it.
+#[allow(clippy::needless_range_loop)] // several parallel per-sample arrays
 pub fn where_regions(tests: &[Test], pred: &[Vec<f64>]) -> Vec<Region> {
     let cb = CurrentBins::of(tests);
     let vmax = v_max(tests);
@@ -221,6 +222,7 @@ pub struct Heatmap {
     pub rms_n: Vec<Vec<f64>>,
 }
 
+#[allow(clippy::needless_range_loop)] // several parallel per-sample arrays
 pub fn heatmap(tests: &[Test], pred: &[Vec<f64>], nv: usize) -> Heatmap {
     let cb = CurrentBins::of(tests);
     let vmax = v_max(tests);
@@ -309,6 +311,7 @@ impl Signatures {
         ]
     }
 
+    #[allow(clippy::needless_range_loop)] // several parallel per-sample arrays
     pub fn of(tests: &[Test], pred: &[Vec<f64>]) -> Self {
         let cb = CurrentBins::of(tests);
         let nb = cb.len();
