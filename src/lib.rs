@@ -4,6 +4,7 @@ pub mod compare;
 pub mod control;
 pub mod device;
 pub mod faults;
+pub mod ident;
 pub mod measurement;
 pub mod mts;
 pub mod pilot;

@@ -23,6 +23,12 @@ enum Command {
     Compare(mrfeel::compare::cli::CompareArgs),
     /// Pilot-in-the-loop flight on the stick rig (aircraft embedded or live JSBSim).
     Fly(mrfeel::aero::flight_loop::FlyArgs),
+    /// Fit a model (`bingham+effect+...`) to measured tests, jointly, each from its own start.
+    Fit(mrfeel::ident::cli::FitArgs),
+    /// Run a saved model unchanged on other tests and report its error (no refit).
+    Validate(mrfeel::ident::cli::ValidateArgs),
+    /// Find where a model fails and name the missing effects by the held-out error they remove.
+    Diagnose(mrfeel::ident::cli::DiagnoseArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -33,6 +39,9 @@ fn main() -> std::process::ExitCode {
         Command::DaqSweep(a) => mrfeel::sim::cli::daq_sweep_cmd(&a),
         Command::Compare(a) => mrfeel::compare::cli::run_cmd(a),
         Command::Fly(a) => mrfeel::aero::flight_loop::run_cli(a),
+        Command::Fit(a) => mrfeel::ident::cli::run_fit(&a),
+        Command::Validate(a) => mrfeel::ident::cli::run_validate(&a),
+        Command::Diagnose(a) => mrfeel::ident::cli::run_diagnose(&a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
