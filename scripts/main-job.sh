@@ -20,3 +20,15 @@ step "2. The paper's feel loop (Section 6): pilot moves the stick, PID asks the 
 
 step "3. Force response time against the DAQ sample rate (100 Hz to 5 kHz)"
 "$mrfeel" daq-sweep scenarios/response-time.toml --plot "$out/daq-sweep"
+
+step "4. Model discovery on the real MR damper: where Bingham fails, the missing effect, the error falling"
+"$mrfeel" diagnose "$data" --plot "$out/diagnose" --rerun "$out/diagnose.rrd"
+"$mrfeel" fit "$data" --model bingham+hysteresis --save "$out/utfsm-bingham+hysteresis.json" --plot "$out/fit"
+
+step "5. Pilot-in-the-loop flight: c172p pitch tracking, the hinge moment chooses the feel force"
+"$mrfeel" fly scenarios/c172p-pitch-tracking.toml --out "$out/c172p-pitch-tracking.csv" --rerun "$out/c172p-pitch-tracking.rrd"
+
+step "6. Feel systems compared (springs, MR, hybrid) and under faults"
+"$mrfeel" compare scenarios/compare-feel.toml --plot "$out/compare" --rerun "$out/compare.rrd" --faults
+
+printf '\nAll results are in %s/\n' "$out"
