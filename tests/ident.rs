@@ -40,21 +40,13 @@ fn motion(p: Protocol, k: usize, t: f64) -> (f64, f64, f64) {
             )
         }
         Protocol::Triangle => {
-            // Constant speed ramps between ±a with rounded (half-sine) turnarounds of 60 ms.
-            let (a, v) = (0.02, 0.08 * s);
-            let period = 4.0 * a / v;
-            let ph = (t / period).fract();
-            let tri = |ph: f64| {
-                if ph < 0.5 {
-                    -a + 4.0 * a * ph
-                } else {
-                    3.0 * a - 4.0 * a * ph
-                }
-            };
-            let h = 1e-4;
-            let x = tri(ph);
-            let vv = (tri((ph + h / period).fract()) - tri((ph - h / period + 1.0).fract())) / (2.0 * h);
-            (x, vv, 0.0)
+            // Constant-speed ramps with rounded turnarounds: x = a·asin(k sin wt)/asin(k), k = 0.97.
+            let (a, w, k) = (0.02, 2.0 * PI * 1.0 * s, 0.97f64);
+            let sn = (w * t).sin();
+            let norm = k.asin();
+            let x = a * (k * sn).asin() / norm;
+            let v = a * k * w * (w * t).cos() / ((1.0 - k * k * sn * sn).sqrt() * norm);
+            (x, v, 0.0)
         }
         Protocol::Multisine => {
             let comps = [(0.012, 0.8, 0.0), (0.006, 2.3, 1.0), (0.003, 4.1, 2.0)];
@@ -110,7 +102,7 @@ fn make_inputs(c: &Case, file: usize, rng: &mut ChaCha8Rng) -> (Vec<Inputs>, Mea
             current_cmd_a: i,
         });
     }
-    // Triangle acceleration from the velocity (its analytic form is a spike train).
+    // Triangle acceleration from the velocity.
     if matches!(c.protocol, Protocol::Triangle) {
         let t: Vec<f64> = truth.iter().map(|i| i.t_s).collect();
         let v: Vec<f64> = truth.iter().map(|i| i.v_m_s).collect();
@@ -118,12 +110,11 @@ fn make_inputs(c: &Case, file: usize, rng: &mut ChaCha8Rng) -> (Vec<Inputs>, Mea
             i.a_m_s2 = a;
         }
     }
-    let vn = Normal::new(0.0, 2e-4).expect("valid sigma");
     let m = Measurement {
         path: PathBuf::from(format!("case{}_file{file}_{}.csv", c.seed, file)),
         t_s: truth.iter().map(|i| i.t_s).collect(),
         x_m: truth.iter().map(|i| (i.x_m / 1e-6).round() * 1e-6).collect(),
-        v_m_s: truth.iter().map(|i| i.v_m_s + vn.sample(rng)).collect(),
+        v_m_s: truth.iter().map(|i| (i.v_m_s / 1e-6).round() * 1e-6).collect(),
         velocity_measured: true,
         i_a: cur,
         f_n: vec![0.0; n],
@@ -198,8 +189,12 @@ fn check_diagnosis(c: Case, hidden: &[&str]) {
         "hidden {hidden:?} ({c_desc}):\n{report}",
         c_desc = describe(&c)
     );
-    let ok = d.final_heldout_nrmse <= 0.5 * d.base_heldout_nrmse
-        || d.final_heldout_nrmse <= 1.2 * d.noise_floor_nrmse;
+    let ok = if hidden.is_empty() {
+        d.final_model == d.base_model
+    } else {
+        d.final_heldout_nrmse <= 0.5 * d.base_heldout_nrmse
+            || d.final_heldout_nrmse <= 1.2 * d.noise_floor_nrmse
+    };
     assert!(ok, "held-out error did not fall enough:\n{report}");
 }
 
@@ -311,7 +306,11 @@ fn fit_recovers_the_paper_device_parameters_from_noise_free_data() {
     let tests = synth(&c, &[], &registry, 1e-9);
     let model = Model::from_spec("bingham", &registry, LIMIT_A).expect("model");
     let r = fit(&model, &tests, &all_spans(&tests), &FitOptions::default());
-    for (k, (got, want)) in r.params.iter().zip(PAPER_BASE).enumerate() {
+    // Eq. (6)'s two lags in series are symmetric in Te and Tm: the data give the pair, not which is which.
+    let (te, tm) = (r.params[3].max(r.params[4]), r.params[3].min(r.params[4]));
+    let mut params = r.params.clone();
+    (params[3], params[4]) = (te, tm);
+    for (k, (got, want)) in params.iter().zip(PAPER_BASE).enumerate() {
         // Quantisation of force (0.01 N) and displacement (1 µm) limit the precision.
         assert!(
             (got - want).abs() <= 0.03 * want,
@@ -367,7 +366,10 @@ fn lag_time_constants_are_held_with_a_note_when_the_current_never_changes() {
             r.std_err[k]
         );
         assert!(!r.notes[k].is_empty(), "{name} has no note");
-        assert_eq!(r.params[k], start[k], "{name} wandered from its initial value");
+        assert!(
+            (r.params[k] - start[k]).abs() <= 1e-12 * start[k],
+            "{name} wandered from its initial value"
+        );
     }
     for name in ["fc_gain_n_per_a", "c0_n_s_per_m"] {
         let k = model.param_index(name).expect("param");
