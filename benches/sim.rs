@@ -16,7 +16,9 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("sim_step_1khz");
     {
         let mut lp = Loop::new(&scn, &device, cli::build_rig(&scn, &device).unwrap());
-        g.bench_function("full_loop_step", |b| b.iter(|| black_box(lp.step().load_cell_true_n)));
+        g.bench_function("full_loop_step", |b| {
+            b.iter(|| black_box(lp.step().load_cell_true_n))
+        });
     }
     {
         // Baseline: the rig step alone, driven by a 0.25 Hz push so it moves as in the scenario.
@@ -37,7 +39,11 @@ fn bench(c: &mut Criterion) {
     g.bench_function("paper_feel_loop_12s_at_1khz", |b| {
         b.iter(|| {
             let rig = cli::build_rig(&scn, &device).unwrap();
-            black_box(sim::run(&scn, &device, rig, RunOptions::default(), |_| {}).rows.len())
+            black_box(
+                sim::run(&scn, &device, rig, RunOptions::default(), |_| {})
+                    .rows
+                    .len(),
+            )
         })
     });
     g.finish();

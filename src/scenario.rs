@@ -20,11 +20,7 @@ pub enum ScenarioError {
     #[error("{}: {msg}", path.display())]
     Io { path: PathBuf, msg: String },
     #[error("{}:{line}: {msg}", path.display())]
-    Parse {
-        path: PathBuf,
-        line: usize,
-        msg: String,
-    },
+    Parse { path: PathBuf, line: usize, msg: String },
     #[error("{}:{line}: `{key}`: {msg}", path.display())]
     Field {
         path: PathBuf,
@@ -106,20 +102,8 @@ impl Scenario {
             load_cell: LoadCellConfig {
                 range_n: c.num(&f.load_cell.range_n, "load_cell.range_n", 1.0, 1e5, "N")?,
                 gain: c.num(&f.load_cell.gain, "load_cell.gain", 0.5, 2.0, "")?,
-                offset_n: c.num(
-                    &f.load_cell.offset_n,
-                    "load_cell.offset_n",
-                    -50.0,
-                    50.0,
-                    "N",
-                )?,
-                noise_rms_n: c.num(
-                    &f.load_cell.noise_rms_n,
-                    "load_cell.noise_rms_n",
-                    0.0,
-                    50.0,
-                    "N",
-                )?,
+                offset_n: c.num(&f.load_cell.offset_n, "load_cell.offset_n", -50.0, 50.0, "N")?,
+                noise_rms_n: c.num(&f.load_cell.noise_rms_n, "load_cell.noise_rms_n", 0.0, 50.0, "N")?,
             },
             laser: LaserConfig {
                 range_m: c.num(&f.laser.range_m, "laser.range_m", 1e-3, 1.0, "m")?,
@@ -140,8 +124,7 @@ impl Scenario {
                     physics_rate_hz,
                     "Hz (at most rig.physics_hz)",
                 )?,
-                latency_samples: c.int(&f.daq.latency_samples, "daq.latency_samples", 0, 1000)?
-                    as usize,
+                latency_samples: c.int(&f.daq.latency_samples, "daq.latency_samples", 0, 1000)? as usize,
                 adc_bits: c.int(&f.daq.adc_bits, "daq.adc_bits", 0, 32)? as u32,
             },
         };
@@ -180,20 +163,8 @@ impl Scenario {
         let controller = ControllerConfig {
             gains: PidGains {
                 kp: c.num(&k.kp_a_per_n, "controller.kp_a_per_n", 0.0, 10.0, "A/N")?,
-                ki: c.num(
-                    &k.ki_a_per_n_s,
-                    "controller.ki_a_per_n_s",
-                    0.0,
-                    1000.0,
-                    "A/(N·s)",
-                )?,
-                kd: c.num(
-                    &k.kd_a_s_per_n,
-                    "controller.kd_a_s_per_n",
-                    0.0,
-                    1.0,
-                    "A·s/N",
-                )?,
+                ki: c.num(&k.ki_a_per_n_s, "controller.ki_a_per_n_s", 0.0, 1000.0, "A/(N·s)")?,
+                kd: c.num(&k.kd_a_s_per_n, "controller.kd_a_s_per_n", 0.0, 1.0, "A·s/N")?,
                 derivative_filter_s: c.num(
                     &k.derivative_filter_s,
                     "controller.derivative_filter_s",
@@ -206,13 +177,7 @@ impl Scenario {
                 anti_windup,
             },
             feedforward: *k.feedforward.get_ref(),
-            rest_speed_m_s: c.num(
-                &k.rest_speed_m_s,
-                "controller.rest_speed_m_s",
-                0.0,
-                1.0,
-                "m/s",
-            )?,
+            rest_speed_m_s: c.num(&k.rest_speed_m_s, "controller.rest_speed_m_s", 0.0, 1.0, "m/s")?,
             rest_force_n: c.num(&k.rest_force_n, "controller.rest_force_n", 0.0, 250.0, "N")?,
         };
 
@@ -236,14 +201,7 @@ impl Scenario {
                     1e5,
                     "N·s/m",
                 )?,
-                max_force_n: c.req(
-                    &fl.max_force_n,
-                    &fl.law,
-                    "feel.max_force_n",
-                    0.0,
-                    250.0,
-                    "N",
-                )?,
+                max_force_n: c.req(&fl.max_force_n, &fl.law, "feel.max_force_n", 0.0, 250.0, "N")?,
             },
             "force-steps" => FeelLaw::ForceSteps {
                 low_n: c.req(&fl.low_n, &fl.law, "feel.low_n", 0.0, 250.0, "N")?,
@@ -354,21 +312,17 @@ fn parse_pilot(
             )
         })
     };
-    let need_t = |v: &Option<Spanned<f64>>,
-                  key: &str,
-                  lo: f64,
-                  hi: f64,
-                  u: &str|
-     -> Result<f64, ScenarioError> {
-        match v {
-            Some(v) => c.num(v, key, lo, hi, u),
-            None => Err(c.err(
-                &p.signal,
-                key,
-                &format!("required by signal = \"{}\"", p.signal.get_ref()),
-            )),
-        }
-    };
+    let need_t =
+        |v: &Option<Spanned<f64>>, key: &str, lo: f64, hi: f64, u: &str| -> Result<f64, ScenarioError> {
+            match v {
+                Some(v) => c.num(v, key, lo, hi, u),
+                None => Err(c.err(
+                    &p.signal,
+                    key,
+                    &format!("required by signal = \"{}\"", p.signal.get_ref()),
+                )),
+            }
+        };
     let command = match p.signal.get_ref().as_str() {
         "hold" => Signal::Hold {
             value: need("value")?,
@@ -382,13 +336,7 @@ fn parse_pilot(
             from: need("from")?,
             to: need("to")?,
             start_s: need_t(&p.start_s, "pilot.start_s", 0.0, duration_s, "s")?,
-            duration_s: need_t(
-                &p.ramp_duration_s,
-                "pilot.ramp_duration_s",
-                1e-3,
-                3600.0,
-                "s",
-            )?,
+            duration_s: need_t(&p.ramp_duration_s, "pilot.ramp_duration_s", 1e-3, 3600.0, "s")?,
         },
         "sine" => Signal::Sine {
             offset: val("offset")?.unwrap_or(0.0),
@@ -448,13 +396,7 @@ pub fn load_hand(path: &Path) -> Result<HandConfig, ScenarioError> {
             1e4,
             "N·s/m",
         )?,
-        tracking_gain_per_s: c.num(
-            &h.tracking_gain_per_s,
-            "tracking_gain_per_s",
-            0.0,
-            100.0,
-            "1/s",
-        )?,
+        tracking_gain_per_s: c.num(&h.tracking_gain_per_s, "tracking_gain_per_s", 0.0, 100.0, "1/s")?,
     })
 }
 
@@ -500,14 +442,7 @@ impl Ctx<'_> {
         }
     }
 
-    fn num(
-        &self,
-        v: &Spanned<f64>,
-        key: &str,
-        lo: f64,
-        hi: f64,
-        unit: &str,
-    ) -> Result<f64, ScenarioError> {
+    fn num(&self, v: &Spanned<f64>, key: &str, lo: f64, hi: f64, unit: &str) -> Result<f64, ScenarioError> {
         let x = *v.get_ref();
         if !x.is_finite() || x < lo || x > hi {
             return Err(self.err(

@@ -260,11 +260,7 @@ mod tests {
         }
         assert!((v - rate).abs() < 1e-9 * rate.max(1.0));
         let tau = 1.0 / (2.0 * std::f64::consts::PI * 20.0);
-        assert!(
-            (t63.unwrap() - tau).abs() < 1.5 * dt,
-            "t63 {:?} tau {tau}",
-            t63
-        );
+        assert!((t63.unwrap() - tau).abs() < 1.5 * dt, "t63 {:?} tau {tau}", t63);
     }
 
     #[test]

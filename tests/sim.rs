@@ -12,14 +12,11 @@ use mrfeel::sim::{self, cli, Results, RunOptions};
 use mrfeel::units::IN_TO_M;
 
 fn scenario_path(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenarios")
-        .join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios").join(name)
 }
 
 fn load(name: &str) -> (Scenario, DeviceConfig) {
-    let (scn, device, _) =
-        cli::load(&scenario_path(name)).unwrap_or_else(|e| panic!("{name}: {e:#}"));
+    let (scn, device, _) = cli::load(&scenario_path(name)).unwrap_or_else(|e| panic!("{name}: {e:#}"));
     (scn, device)
 }
 
@@ -47,11 +44,7 @@ fn paper_loop_load_cell_tracks_the_resisting_feel_force_within_10_percent_rms() 
         "only {} resisting samples",
         s.resisting_samples
     );
-    assert!(
-        s.tracking_nrmse < 0.10,
-        "tracking NRMSE {:.3}",
-        s.tracking_nrmse
-    );
+    assert!(s.tracking_nrmse < 0.10, "tracking NRMSE {:.3}", s.tracking_nrmse);
     // The law asks for up to 70 N, and the loop delivers it.
     assert!(
         s.max_abs_load_cell_n > 60.0,
@@ -269,23 +262,15 @@ fn scenario_with_an_out_of_range_value_names_the_key_and_the_allowed_range() {
     let p = write_variant(dir.path(), "current_max_a = 14.0", "current_max_a = 17.0");
     let e = Scenario::load(&p).unwrap_err().to_string();
     assert!(
-        e.contains("controller.current_max_a")
-            && e.contains("[0, 14]")
-            && e.contains("variant.toml:"),
+        e.contains("controller.current_max_a") && e.contains("[0, 14]") && e.contains("variant.toml:"),
         "{e}"
     );
     let p = write_variant(dir.path(), "law = \"spring\"", "law = \"sprung\"");
     let e = Scenario::load(&p).unwrap_err().to_string();
-    assert!(
-        e.contains("feel.law") && e.contains("spring, force-steps"),
-        "{e}"
-    );
+    assert!(e.contains("feel.law") && e.contains("spring, force-steps"), "{e}");
     let p = write_variant(dir.path(), "amplitude_rad = 0.28", "amplitude_n = 10.0");
     let e = Scenario::load(&p).unwrap_err().to_string();
-    assert!(
-        e.contains("amplitude_n") && e.contains("amplitude_rad"),
-        "{e}"
-    );
+    assert!(e.contains("amplitude_n") && e.contains("amplitude_rad"), "{e}");
 }
 
 #[test]

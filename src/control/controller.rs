@@ -111,11 +111,7 @@ impl FeelController {
             0.0
         };
         let desired = self.law.force_n(t_s, s.x_m, s.v_m_s, dir);
-        let ff = |force: f64, speed: f64| {
-            self.feedforward
-                .map(|f| f.current_a(force, speed))
-                .unwrap_or(0.0)
-        };
+        let ff = |force: f64, speed: f64| self.feedforward.map(|f| f.current_a(force, speed)).unwrap_or(0.0);
         let (mode, current) = if dir == 0.0 {
             let hold = self.law.holding_force_n(t_s, s.x_m);
             (LoopMode::Holding, ff(hold, 0.0).clamp(lo, hi))
@@ -222,11 +218,7 @@ mod tests {
             1e-3,
         );
         assert_eq!(out.mode, LoopMode::Tracking);
-        assert!(
-            (out.current_cmd_a - 6.6).abs() < 1e-9,
-            "{}",
-            out.current_cmd_a
-        );
+        assert!((out.current_cmd_a - 6.6).abs() < 1e-9, "{}", out.current_cmd_a);
     }
 
     #[test]

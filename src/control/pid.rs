@@ -187,10 +187,7 @@ mod tests {
         );
         // Without protection the integrator gains ≈ ki·(100 − 70)·1 s = 60 A of excess that unwinds at
         // ki·(30 − 70) = −80 A/s: ≈ 0.75 s lost. With protection the loop recovers in about its own time.
-        assert!(
-            clamp < 1.2 * own + 0.01,
-            "clamping {clamp} s vs own step {own} s"
-        );
+        assert!(clamp < 1.2 * own + 0.01, "clamping {clamp} s vs own step {own} s");
         assert!(
             back < 1.2 * own + 0.01,
             "back-calculation {back} s vs own step {own} s"

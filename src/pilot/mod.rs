@@ -106,8 +106,7 @@ impl Hand {
         self.act_rate = (self.act - a0) / dt_s;
         let f_muscle = match self.task {
             Task::Position => {
-                c.stiffness_n_per_m * (self.act - self.x_h)
-                    + c.damping_n_s_per_m * (self.act_rate - self.v_h)
+                c.stiffness_n_per_m * (self.act - self.x_h) + c.damping_n_s_per_m * (self.act_rate - self.v_h)
             }
             Task::Force => self.act - c.damping_n_s_per_m * self.v_h,
         };
@@ -146,10 +145,7 @@ mod tests {
             f = h.step(0.01, 0.0, 0.0, dt);
         }
         let k_series = 1200.0 * 20000.0 / (1200.0 + 20000.0);
-        assert!(
-            (f - 0.01 * k_series).abs() < 0.01 * 0.01 * k_series,
-            "force {f}"
-        );
+        assert!((f - 0.01 * k_series).abs() < 0.01 * 0.01 * k_series, "force {f}");
     }
 
     /// The neuromuscular lag: a force step against a wall reaches 63 % after ≈ τ (plus the palm's fast

@@ -44,14 +44,7 @@ pub enum Signal {
 
 impl Signal {
     /// Build the seeded random tracking signal over `duration_s` on the grid `dt_s`.
-    pub fn random(
-        offset: f64,
-        rms: f64,
-        cutoff_hz: f64,
-        duration_s: f64,
-        dt_s: f64,
-        seed: u64,
-    ) -> Self {
+    pub fn random(offset: f64, rms: f64, cutoff_hz: f64, duration_s: f64, dt_s: f64, seed: u64) -> Self {
         let n = (duration_s / dt_s).ceil() as usize + 2;
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let a = (-2.0 * std::f64::consts::PI * cutoff_hz * dt_s).exp();
@@ -83,11 +76,7 @@ impl Signal {
     pub fn value(&self, t_s: f64) -> f64 {
         match self {
             Signal::Hold { value } => *value,
-            Signal::Step {
-                initial,
-                last,
-                at_s,
-            } => {
+            Signal::Step { initial, last, at_s } => {
                 if t_s < *at_s {
                     *initial
                 } else {
@@ -114,11 +103,7 @@ impl Signal {
                 frequency_hz,
             } => {
                 let p = (t_s * frequency_hz + 0.25).rem_euclid(1.0); // 0.25: start at the offset, rising
-                let tri = if p < 0.5 {
-                    4.0 * p - 1.0
-                } else {
-                    3.0 - 4.0 * p
-                };
+                let tri = if p < 0.5 { 4.0 * p - 1.0 } else { 3.0 - 4.0 * p };
                 offset + amplitude * tri
             }
             Signal::Random {
@@ -163,10 +148,7 @@ mod tests {
         let rms = (xs.iter().map(|x| x * x).sum::<f64>() / xs.len() as f64).sqrt();
         assert!((rms - 0.05).abs() < 0.002, "rms {rms}");
         // Band-limited: the RMS rate is of order 2π·fc·rms (a 1 Hz-wide signal), far below white noise.
-        let rate_rms = (xs
-            .windows(2)
-            .map(|w| ((w[1] - w[0]) / 1e-3).powi(2))
-            .sum::<f64>()
+        let rate_rms = (xs.windows(2).map(|w| ((w[1] - w[0]) / 1e-3).powi(2)).sum::<f64>()
             / (xs.len() - 1) as f64)
             .sqrt();
         assert!(

@@ -37,11 +37,7 @@ pub struct DaqSweepArgs {
     /// Scenario with a `force-steps` feel law (e.g. `scenarios/response-time.toml`).
     pub scenario: PathBuf,
     /// DAQ rates to run, Hz (each at most the scenario's physics rate).
-    #[arg(
-        long,
-        value_delimiter = ',',
-        default_value = "100,200,500,1000,2000,5000"
-    )]
+    #[arg(long, value_delimiter = ',', default_value = "100,200,500,1000,2000,5000")]
     pub rates: Vec<f64>,
     /// Write `daq-sweep.png` and `daq-sweep.svg` into this directory.
     #[arg(long)]
@@ -92,9 +88,7 @@ pub fn run_with_progress<P: Plant>(
     opts: RunOptions,
 ) -> Results {
     let pb = progress_bar(1000, &scn.name);
-    let res = run(scn, device, plant, opts, |f| {
-        pb.set_position((f * 1000.0) as u64)
-    });
+    let res = run(scn, device, plant, opts, |f| pb.set_position((f * 1000.0) as u64));
     pb.finish_and_clear();
     res
 }
@@ -114,8 +108,7 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
     };
     let res = run_with_progress(&scn, &device, rig, opts);
     if let Some(path) = &args.out {
-        let f =
-            std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
+        let f = std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
         res.write_csv(std::io::BufWriter::new(f))
             .with_context(|| format!("writing {}", path.display()))?;
     }
@@ -131,22 +124,14 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
             println!("  results: {}", p.display());
         }
         if let Some(p) = &args.rerun {
-            println!(
-                "  recording: {} (open with `rerun {}`)",
-                p.display(),
-                p.display()
-            );
+            println!("  recording: {} (open with `rerun {}`)", p.display(), p.display());
         }
     }
     Ok(())
 }
 
 /// Run the scenario at each DAQ rate (in parallel, results in order) and measure the step responses.
-pub fn sweep(
-    scn: &Scenario,
-    device: &DeviceConfig,
-    rates: &[f64],
-) -> anyhow::Result<Vec<SweepPoint>> {
+pub fn sweep(scn: &Scenario, device: &DeviceConfig, rates: &[f64]) -> anyhow::Result<Vec<SweepPoint>> {
     for &r in rates {
         anyhow::ensure!(
             r > 0.0 && r <= scn.physics_rate_hz(),
@@ -181,7 +166,11 @@ pub fn daq_sweep_cmd(args: &DaqSweepArgs) -> anyhow::Result<()> {
         .with_context(|| format!("device of scenario {}", args.scenario.display()))?;
     let points = sweep(&scn, &device, &args.rates)?;
     if let Some(dir) = &args.plot {
-        response::plot(&points, dir, &format!("Feel-loop force response vs DAQ period ({})", scn.name))?;
+        response::plot(
+            &points,
+            dir,
+            &format!("Feel-loop force response vs DAQ period ({})", scn.name),
+        )?;
     }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&points)?);

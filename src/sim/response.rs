@@ -120,8 +120,7 @@ pub fn summarise(rate_hz: f64, steps: &[StepResponse], res: &Results) -> SweepPo
         max_rise_ms: 1e3 * steps.iter().map(|s| s.rise_s).fold(0.0, f64::max),
         mean_settling_ms: (!settled.is_empty())
             .then(|| 1e3 * settled.iter().sum::<f64>() / settled.len() as f64),
-        max_settling_ms: (!settled.is_empty())
-            .then(|| 1e3 * settled.iter().copied().fold(0.0, f64::max)),
+        max_settling_ms: (!settled.is_empty()).then(|| 1e3 * settled.iter().copied().fold(0.0, f64::max)),
         unsettled: steps.len() - settled.len(),
         tracking_nrmse: res.summary().tracking_nrmse,
     }
@@ -154,7 +153,10 @@ pub fn markdown_table(points: &[SweepPoint]) -> String {
 /// as `daq-sweep.png` and `daq-sweep.svg` in `dir`.
 pub fn plot(points: &[SweepPoint], dir: &Path, title: &str) -> Result<Vec<std::path::PathBuf>, PlotError> {
     let per = |f: fn(&SweepPoint) -> Option<f64>| -> Vec<(f64, f64)> {
-        points.iter().filter_map(|p| f(p).map(|y| (1e3 / p.daq_rate_hz, y))).collect()
+        points
+            .iter()
+            .filter_map(|p| f(p).map(|y| (1e3 / p.daq_rate_hz, y)))
+            .collect()
     };
     let chart = Chart::new(title, "DAQ period (ms) = 1000 / rate (Hz)", "time (ms)")
         .with(Series::line("delay to 10 %", per(|p| Some(p.mean_delay_ms))))

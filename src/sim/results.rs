@@ -113,15 +113,9 @@ impl Results {
                 n += 1;
             }
         }
-        let rmse = if n > 0 {
-            (se / n as f64).sqrt()
-        } else {
-            f64::NAN
-        };
+        let rmse = if n > 0 { (se / n as f64).sqrt() } else { f64::NAN };
         let nrmse = if sd > 0.0 { (se / sd).sqrt() } else { f64::NAN };
-        let fold = |f: fn(&Row) -> f64, init: f64, op: fn(f64, f64) -> f64| {
-            rows.iter().map(f).fold(init, op)
-        };
+        let fold = |f: fn(&Row) -> f64, init: f64, op: fn(f64, f64) -> f64| rows.iter().map(f).fold(init, op);
         let (first, last) = match (rows.first(), rows.last()) {
             (Some(a), Some(b)) => (*a, *b),
             _ => (Row::zero(), Row::zero()),
@@ -158,7 +152,10 @@ impl Results {
     pub fn write_csv(&self, mut w: impl Write) -> std::io::Result<()> {
         writeln!(w, "# source: mrfeel run")?;
         writeln!(w, "# scenario: {}", self.scenario)?;
-        writeln!(w, "# forces: along +x on the piston (load cell, desired, damper); pilot force along the grip path")?;
+        writeln!(
+            w,
+            "# forces: along +x on the piston (load cell, desired, damper); pilot force along the grip path"
+        )?;
         writeln!(w, "{}", CSV_COLUMNS.join(","))?;
         for r in &self.rows {
             writeln!(

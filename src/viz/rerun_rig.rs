@@ -108,10 +108,7 @@ fn log_bodies(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
                 | VisualShape::Capsule { radius_m, length_m } => rec
                     .log_static(
                         path.as_str(),
-                        &rerun::Cylinders3D::from_lengths_and_radii(
-                            [*length_m as f32],
-                            [*radius_m as f32],
-                        ),
+                        &rerun::Cylinders3D::from_lengths_and_radii([*length_m as f32], [*radius_m as f32]),
                     )
                     .map_err(err)?,
                 VisualShape::Sphere { radius_m } => rec
@@ -143,17 +140,11 @@ fn log_bodies(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
             .map_err(err)?;
         }
         let k = ((t / dt).round() as usize).min(res.rows.len().saturating_sub(1));
-        if let (Some(row), Some(piston)) =
-            (res.rows.get(k), poses.iter().find(|p| p.name == "piston"))
-        {
+        if let (Some(row), Some(piston)) = (res.rows.get(k), poses.iter().find(|p| p.name == "piston")) {
             rec.log(
                 "forces/load_cell",
-                &rerun::Arrows3D::from_vectors([[
-                    row.load_cell_true_n as f32 * ARROW_M_PER_N,
-                    0.0,
-                    0.0,
-                ]])
-                .with_origins([f32x3(piston.translation_m)]),
+                &rerun::Arrows3D::from_vectors([[row.load_cell_true_n as f32 * ARROW_M_PER_N, 0.0, 0.0]])
+                    .with_origins([f32x3(piston.translation_m)]),
             )
             .map_err(err)?;
         }
