@@ -1,7 +1,10 @@
 //! mrfeel: simulation and model discovery for magneto-rheological artificial feel systems.
 pub mod aero;
+pub mod compare;
 pub mod control;
 pub mod device;
+pub mod faults;
+pub mod ident;
 pub mod measurement;
 pub mod mts;
 pub mod pilot;

@@ -21,6 +21,9 @@ pub enum ScenarioError {
     Io { path: PathBuf, msg: String },
     #[error("{}:{line}: {msg}", path.display())]
     Parse { path: PathBuf, line: usize, msg: String },
+    /// `[[fault]]` tables (issue 6 hook, read by `crate::faults`).
+    #[error(transparent)]
+    Faults(#[from] crate::faults::FaultError),
     #[error("{}:{line}: `{key}`: {msg}", path.display())]
     Field {
         path: PathBuf,
@@ -62,6 +65,8 @@ pub struct Scenario {
     pub controller: ControllerConfig,
     pub feel: FeelLaw,
     pub pilot: PilotConfig,
+    /// Scheduled faults (`[[fault]]` tables; issue 6 hook, see `crate::faults`).
+    pub faults: crate::faults::FaultSchedule,
 }
 
 impl Scenario {
@@ -261,6 +266,8 @@ impl Scenario {
             controller,
             feel,
             pilot,
+            // issue 6 hook: `[[fault]]` tables.
+            faults: crate::faults::FaultSchedule::from_scenario_text(text, path, duration_s)?,
         })
     }
 }
@@ -523,6 +530,10 @@ struct File {
     controller: ControllerSection,
     feel: FeelSection,
     pilot: PilotSection,
+    /// `[[fault]]` tables, parsed by `crate::faults` (issue 6 hook).
+    #[serde(default)]
+    #[allow(dead_code)]
+    fault: Option<toml::Value>,
 }
 
 #[derive(Deserialize)]

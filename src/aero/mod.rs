@@ -14,8 +14,12 @@
 //! elevator positive trailing edge down (JSBSim's convention: positive elevator pitches nose-down).
 
 pub mod atmosphere;
+pub mod backend;
 pub mod certification;
+pub mod flight_loop;
+pub mod flight_rerun;
 pub mod hinge;
+pub mod jsbsim_bridge;
 pub mod longitudinal;
 pub mod model;
 pub mod reference;

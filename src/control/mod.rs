@@ -1,5 +1,5 @@
-//! Control: feel laws, the PID, the MR feel loop (signals only: the loop sees sensor samples) and passive
-//! feel systems.
+//! Control: feel laws, the PID and the MR feel loop (signals only: the loop sees sensor samples), and the
+//! passive spring feel systems it is compared with.
 
 pub mod controller;
 pub mod feel;

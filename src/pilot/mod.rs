@@ -12,6 +12,7 @@
 //!
 //! The parameters live in `models/pilot-hand.toml` with their sources.
 
+pub mod attitude; // flight engineer: McRuer crossover pilot (outer loop on pitch / load factor)
 pub mod signal;
 
 pub use signal::Signal;

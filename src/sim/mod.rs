@@ -43,6 +43,9 @@ pub struct Loop<P: Plant> {
     measured_force_n: f64,
     mode: LoopMode,
     pilot_work_j: f64,
+    /// issue 6 hook: scheduled faults in the driver and sensor path (`crate::faults`).
+    faults: crate::faults::FaultInjector,
+    current_limit_a: f64,
 }
 
 impl<P: Plant> Loop<P> {
@@ -78,6 +81,8 @@ impl<P: Plant> Loop<P> {
             measured_force_n: 0.0,
             mode: LoopMode::Holding,
             pilot_work_j: 0.0,
+            faults: crate::faults::FaultInjector::new(scn.faults.clone(), scn.seed),
+            current_limit_a: device.model.current_limit_a,
         }
     }
 
@@ -88,7 +93,10 @@ impl<P: Plant> Loop<P> {
         let t = self.step_index as f64 * dt;
         let s = self.plant.state();
         if self.daq.due(t) {
-            if let Some(sample) = self.daq.acquire(t, s.load_cell_n, s.piston_x_m) {
+            // issue 6 hook: sensor faults between the transducers and the DAQ.
+            let load_cell_n = self.faults.load_cell_n(t, s.load_cell_n);
+            let piston_x_m = self.faults.displacement_m(t, s.piston_x_m);
+            if let Some(sample) = self.daq.acquire(t, load_cell_n, piston_x_m) {
                 // The controller runs on the sample's own time: with the latency line this is the same as
                 // computing at the sampling instant and writing the command `latency_samples` ticks later.
                 let out = self
@@ -122,7 +130,11 @@ impl<P: Plant> Loop<P> {
             dissipated_j: s.dissipated_j,
             pilot_work_j: self.pilot_work_j,
         };
-        self.plant.step(hand_force, self.current_cmd_a);
+        // issue 6 hook: driver faults between the command and the coil.
+        let coil_cmd_a = self
+            .faults
+            .coil_command_a(t, self.current_cmd_a, self.current_limit_a);
+        self.plant.step(hand_force, coil_cmd_a);
         let after = self.plant.state();
         // Work of a force held over the step: F·Δx along the grip path (exact for the zero-order hold).
         self.pilot_work_j += hand_force * (after.grip_x_m - s.grip_x_m);
