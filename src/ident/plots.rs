@@ -3,27 +3,17 @@
 //! and the held-out error falling as effects are added.
 
 use std::path::{Path, PathBuf};
-use std::sync::Once;
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use plotters::style::FontStyle;
 
 use super::diagnose::Diagnosis;
 use super::residual::{heatmap, CurrentBins};
 use super::{IdentError, Test};
 
-static FONT: Once = Once::new();
-
-/// Register the bundled font once (plotters' ab_glyph backend has no system fonts).
+/// The bundled font, registered once by the shared plot helpers.
 fn font() {
-    FONT.call_once(|| {
-        let _ = plotters::style::register_font(
-            "sans-serif",
-            FontStyle::Normal,
-            include_bytes!("../../assets/DejaVuSans.ttf"),
-        );
-    });
+    crate::viz::plot::register_font();
 }
 
 fn e2s<E: std::fmt::Display>(e: E) -> IdentError {

@@ -99,7 +99,8 @@ pub struct Heatmap {
 const FONT: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
 static FONT_ONCE: Once = Once::new();
 
-fn register_font() {
+/// Register the bundled font for plotters' text (idempotent; every module that draws text calls it).
+pub fn register_font() {
     FONT_ONCE.call_once(|| {
         // The font is compiled in; registration can only fail on a corrupt build.
         let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
