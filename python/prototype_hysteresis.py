@@ -325,7 +325,7 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--data", default=DATA)
     ap.add_argument("--cvisc", action="store_true", help="base + current_viscosity: C = c0 + c1 |i|")
-    ap.add_argument("--forms", default="bingham,dahl,tanh,kwok,lugre,lag,lag_out,maxwell,mix,hyst_tanh")
+    ap.add_argument("--forms", default="bingham,dahl,tanh,kwok,lugre,lag,lag_out,mix,spencer")
     ap.add_argument("--decimate", type=float, default=0.005, help="resample faster tests to this interval, s (0: off)")
     ap.add_argument("--one-start", action="store_true", help="only the data-derived initial guess (faster)")
     a = ap.parse_args()
