@@ -1,0 +1,118 @@
+//! Speed of model discovery, each figure with its baseline in the same run:
+//! - `fit/real`: one simulation pass of `bingham+hysteresis` over the 15 real tests (82,638 samples, the
+//!   unit of work), the plain `bingham` fit, and the `bingham+hysteresis` fit (goal < 0.5 s; scipy ~10 s);
+//! - `diagnose/60k`: a `bingham` fit of 60,000 synthetic samples (baseline) and `diagnose` over the whole
+//!   effect vocabulary on them (goal < 10 s on 2 cores).
+//!
+//! `cargo bench --bench ident`
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal};
+
+use mrfeel::device::{Inputs, Model, ModelSpec, Registry};
+use mrfeel::ident::fit::{all_spans, fit, FitOptions};
+use mrfeel::ident::{data_stats, diagnose, load_tests, DiagnoseOptions, Test};
+
+fn real_tests() -> Vec<Test> {
+    let dir = PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../shared/data/utfsm-mr-damper"
+    ));
+    load_tests(&[dir]).expect("real data in ../shared/data/utfsm-mr-damper")
+}
+
+fn bench_fit(c: &mut Criterion) {
+    let tests = real_tests();
+    let registry = Registry::builtin();
+    let limit = mrfeel::ident::default_current_limit_a(&tests);
+    let bing = Model::from_spec("bingham", &registry, limit).expect("model");
+    let hyst = Model::from_spec("bingham+hysteresis", &registry, limit).expect("model");
+    let spans = all_spans(&tests);
+    let p = hyst.initial_guess(&data_stats(&tests));
+    let mut g = c.benchmark_group("fit/real_15_files_82638_samples");
+    g.sample_size(10).measurement_time(Duration::from_secs(20));
+    g.bench_function("one simulation pass (bingham+hysteresis)", |b| {
+        b.iter(|| mrfeel::ident::evaluate(&hyst, &p, &tests))
+    });
+    g.bench_function("fit bingham", |b| {
+        b.iter(|| fit(&bing, &tests, &spans, &FitOptions::default()))
+    });
+    g.bench_function("fit bingham+hysteresis", |b| {
+        b.iter(|| fit(&hyst, &tests, &spans, &FitOptions::default()))
+    });
+    g.finish();
+}
+
+/// 60,000 samples: 4 tests of 15 s at 1 kHz, sine displacement at four amplitude/frequency pairs, current
+/// stepping over 0–14 A, the paper's device with hidden hysteresis, 0.4 N noise.
+fn synthetic_60k(registry: &Registry) -> Vec<Test> {
+    let model = Model::from_spec("bingham+hysteresis", registry, 14.0).expect("model");
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(60_000);
+    let noise = Normal::new(0.0, 0.4).expect("sigma");
+    let mut tests: Vec<Test> = (0..4)
+        .map(|j| {
+            let (a, f) = (0.02 / (1.0 + 0.3 * j as f64), 1.0 + 0.5 * j as f64);
+            let w = 2.0 * std::f64::consts::PI * f;
+            let inputs: Vec<Inputs> = (0..15_000)
+                .map(|k| {
+                    let t = k as f64 * 1e-3;
+                    Inputs {
+                        t_s: t,
+                        x_m: a * (w * t).sin(),
+                        v_m_s: a * w * (w * t).cos(),
+                        a_m_s2: -a * w * w * (w * t).sin(),
+                        current_cmd_a: 3.5 * ((k / 400 + j) % 5) as f64,
+                    }
+                })
+                .collect();
+            Test {
+                path: format!("g{j}_run.csv").into(),
+                name: format!("g{j}_run.csv"),
+                group: format!("g{j}"),
+                inputs,
+                f_n: Vec::new(),
+                velocity_measured: true,
+            }
+        })
+        .collect();
+    let stats = data_stats(&tests);
+    let p = model
+        .typical_params(&[2.0, 4.83, 60.0, 0.015, 0.008], &stats)
+        .expect("typical");
+    for t in &mut tests {
+        t.f_n = model
+            .simulate(&p, &t.inputs)
+            .into_iter()
+            .map(|f| f + noise.sample(&mut rng))
+            .collect();
+    }
+    tests
+}
+
+fn bench_diagnose(c: &mut Criterion) {
+    let registry = Registry::builtin();
+    let tests = synthetic_60k(&registry);
+    let bing = Model::from_spec("bingham", &registry, 14.0).expect("model");
+    let spans = all_spans(&tests);
+    let base = ModelSpec::parse("bingham").expect("spec");
+    let opts = DiagnoseOptions {
+        current_limit_a: 14.0,
+        ..Default::default()
+    };
+    let mut g = c.benchmark_group("diagnose/60000_samples");
+    g.sample_size(10).measurement_time(Duration::from_secs(60));
+    g.bench_function("fit bingham", |b| {
+        b.iter(|| fit(&bing, &tests, &spans, &FitOptions::default()))
+    });
+    g.bench_function("diagnose whole vocabulary", |b| {
+        b.iter(|| diagnose(&tests, &base, &registry, &opts).expect("diagnose"))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench_fit, bench_diagnose);
+criterion_main!(benches);

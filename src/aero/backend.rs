@@ -1,0 +1,140 @@
+//! Aircraft backends behind one trait: the embedded Rust model ([`Embedded`], the default, no Python)
+//! and the live JSBSim co-simulation ([`super::jsbsim_bridge::JsbsimBridge`], a Python subprocess).
+//!
+//! A scenario names its backend with one string: `"c172p"` (embedded, `models/aircraft/c172p.toml`),
+//! `"jsbsim:c172p"` (live JSBSim 1.3.3). Both report the same [`AircraftState`]; the hinge moment and
+//! stick force come from the same [`HingeModel`] in both cases (JSBSim has no hinge moments), with the
+//! trim tab set at trim so the stick force is zero there.
+
+use std::sync::Arc;
+
+use super::jsbsim_bridge::JsbsimBridge;
+use super::{AeroError, Aircraft, AircraftModel, AircraftState, HingeModel};
+
+/// What the flight loop needs from an aircraft.
+pub trait AircraftBackend {
+    /// The scenario string that selected it (`"c172p"`, `"jsbsim:c172p"`).
+    fn label(&self) -> &str;
+    /// The hinge and stick gearing used for the stick force.
+    fn hinge(&self) -> &HingeModel;
+    /// Level 1-g trim at a true airspeed and altitude; time restarts at 0. Sets the trim tab.
+    fn trim(&mut self, airspeed_m_s: f64, altitude_m: f64, dt_s: f64) -> Result<AircraftState, AeroError>;
+    /// One step of `dt_s` (the `dt_s` given to [`AircraftBackend::trim`]) with the elevator (rad,
+    /// positive trailing edge down) and the throttle as a ratio of the trim throttle held over it.
+    fn step(&mut self, elevator_rad: f64, throttle_ratio: f64) -> Result<AircraftState, AeroError>;
+    /// Round trips of the `step` requests for a co-simulation: (count, mean µs, max µs).
+    fn round_trip_us(&self) -> Option<(u64, f64, f64)> {
+        None
+    }
+}
+
+/// Open the backend a scenario names: `"<name>"` (embedded model `models/aircraft/<name>.toml`) or
+/// `"jsbsim:<name>"` (live JSBSim through `python/jsbsim_bridge.py`).
+pub fn open(spec: &str) -> Result<Box<dyn AircraftBackend>, AeroError> {
+    match spec.split_once(':') {
+        Some(("jsbsim", name)) => {
+            let model = Arc::new(AircraftModel::load(&AircraftModel::builtin_path(name))?);
+            Ok(Box::new(JsbsimBridge::spawn(name, model)?))
+        }
+        Some((other, _)) => Err(AeroError::Input {
+            what: format!("aircraft `{spec}`"),
+            why: format!("unknown backend `{other}` (use `<name>` or `jsbsim:<name>`)"),
+        }),
+        None => {
+            let model = Arc::new(AircraftModel::load(&AircraftModel::builtin_path(spec))?);
+            Ok(Box::new(Embedded::new(spec, model)))
+        }
+    }
+}
+
+/// The embedded nonlinear 3-DOF model ([`Aircraft`]).
+pub struct Embedded {
+    label: String,
+    aircraft: Aircraft,
+    trim_throttle: f64,
+    dt_s: f64,
+}
+
+impl Embedded {
+    pub fn new(label: &str, model: Arc<AircraftModel>) -> Self {
+        Self {
+            label: label.to_string(),
+            aircraft: Aircraft::new(model),
+            trim_throttle: 0.0,
+            dt_s: 1.0 / 120.0,
+        }
+    }
+
+    pub fn aircraft(&self) -> &Aircraft {
+        &self.aircraft
+    }
+}
+
+impl AircraftBackend for Embedded {
+    fn label(&self) -> &str {
+        &self.label
+    }
+
+    fn hinge(&self) -> &HingeModel {
+        self.aircraft.hinge()
+    }
+
+    fn trim(&mut self, airspeed_m_s: f64, altitude_m: f64, dt_s: f64) -> Result<AircraftState, AeroError> {
+        let s = self.aircraft.trim(airspeed_m_s, altitude_m)?;
+        self.trim_throttle = s.throttle;
+        self.dt_s = dt_s;
+        Ok(s)
+    }
+
+    fn step(&mut self, elevator_rad: f64, throttle_ratio: f64) -> Result<AircraftState, AeroError> {
+        Ok(*self
+            .aircraft
+            .step(elevator_rad, self.trim_throttle * throttle_ratio, self.dt_s))
+    }
+}
+
+/// Fill the hinge-moment fields of a state from the hinge model (for backends without hinge moments):
+/// tail angle of attack, hinge moment at the elevator's dynamic pressure and the stick force.
+pub fn with_hinge(hinge: &HingeModel, mut s: AircraftState) -> AircraftState {
+    s.alpha_tail_rad = hinge.alpha_tail_rad(s.alpha_rad, s.q_rad_s, s.airspeed_m_s);
+    s.hinge_moment_nm =
+        hinge.hinge_moment_nm(s.qbar_elevator_pa, s.alpha_tail_rad, s.elevator_rad, s.tab_rad);
+    s.stick_force_n = hinge.stick_force_n(s.hinge_moment_nm);
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The embedded backend's hinge moment equals the hinge model applied to its own state (the same
+    /// formula a JSBSim state goes through), so the two backends' stick forces are comparable.
+    #[test]
+    fn hinge_fill_reproduces_the_embedded_models_stick_force() {
+        let mut b = match open("c172p") {
+            Ok(b) => b,
+            Err(e) => panic!("{e}"),
+        };
+        b.trim(50.0, 1000.0, 1.0 / 120.0).unwrap();
+        let mut s = b.step(-0.08, 1.0).unwrap();
+        for _ in 0..60 {
+            s = b.step(-0.08, 1.0).unwrap();
+        }
+        let filled = with_hinge(b.hinge(), s);
+        assert!(
+            s.stick_force_n.abs() > 10.0,
+            "a pulled elevator needs a pull: {}",
+            s.stick_force_n
+        );
+        assert!((filled.stick_force_n - s.stick_force_n).abs() < 1e-9 * s.stick_force_n.abs().max(1.0));
+    }
+
+    #[test]
+    fn unknown_backend_is_an_error_naming_the_choices() {
+        let e = open("xplane:c172p")
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(e.contains("jsbsim:<name>"), "{e}");
+    }
+}

@@ -1,0 +1,237 @@
+//! Certification limits on pitch control forces and where an aircraft's feel sits against them.
+//!
+//! Limits (pounds-force in the regulations, converted once with [`LBF_TO_N`]):
+//! - 14 CFR 23.143(c) (pre-Amendment 23-64 text) and 25.143(d): maximum pitch force for short-term
+//!   (temporary) application, one or two hands on the wheel (stick: 60 lbf, Part 23 only), and for
+//!   prolonged / long-term application.
+//! - 14 CFR 23.155(a): the force to reach the positive limit manoeuvring load factor may not be less
+//!   than W/100 or 20 lbf for wheel controls (W/140 or 15 lbf for a stick), whichever is greater,
+//!   but need not exceed 50 lbf (35 lbf for a stick).
+//! - 14 CFR 25.173(c): the average stable stick-force-versus-speed gradient may not be less than
+//!   1 lbf per 6 knots.
+//!
+//! Reading used here: the pull to the limit load factor from trim is a short-term force, so it must
+//! stay within the short-term two-hand limit; the stick force per g must be positive; Part 23's
+//! minimum applies at the limit load factor.
+
+use super::longitudinal::Aircraft;
+use super::model::{AircraftModel, CertificationPart, ControlType};
+use super::AeroError;
+use crate::units::{G0_M_S2, LBF_TO_N};
+
+/// Knot to m/s (exact: 1852 m per nautical mile).
+pub const KT_TO_M_S: f64 = 1852.0 / 3600.0;
+
+/// Pitch-force limits of one certification basis, N.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CertificationBasis {
+    pub part: CertificationPart,
+    pub control: ControlType,
+    /// Short-term (temporary) maximum, two hands (or a stick), N.
+    pub short_term_two_hands_n: f64,
+    /// Short-term maximum, one hand, N.
+    pub short_term_one_hand_n: f64,
+    /// Prolonged / long-term maximum, N.
+    pub long_term_n: f64,
+    /// Minimum force to reach the limit load factor (23.155), N; `None` under Part 25.
+    pub min_force_at_limit_n: Option<f64>,
+    /// Minimum stick-force-versus-speed gradient (25.173(c)), N per m/s; `None` under Part 23.
+    pub min_speed_gradient_n_per_m_s: Option<f64>,
+}
+
+impl CertificationBasis {
+    /// The limits for a part, control type and maximum weight.
+    pub fn new(part: CertificationPart, control: ControlType, max_weight_kg: f64) -> Self {
+        let w_lbf = max_weight_kg * G0_M_S2 / LBF_TO_N;
+        match part {
+            CertificationPart::Part23 => {
+                let (two, one, min_lbf) = match control {
+                    // 23.143(c): wheel 75 (two hands) / 50 (one hand); 23.155(a)(1)
+                    ControlType::Wheel => (75.0, 50.0, (w_lbf / 100.0).clamp(20.0, 50.0)),
+                    // 23.143(c): stick 60; 23.155(a)(2)
+                    ControlType::Stick => (60.0, 60.0, (w_lbf / 140.0).clamp(15.0, 35.0)),
+                };
+                Self {
+                    part,
+                    control,
+                    short_term_two_hands_n: two * LBF_TO_N,
+                    short_term_one_hand_n: one * LBF_TO_N,
+                    long_term_n: 10.0 * LBF_TO_N,
+                    min_force_at_limit_n: Some(min_lbf * LBF_TO_N),
+                    min_speed_gradient_n_per_m_s: None,
+                }
+            }
+            CertificationPart::Part25 => Self {
+                part,
+                control,
+                // 25.143(d)
+                short_term_two_hands_n: 75.0 * LBF_TO_N,
+                short_term_one_hand_n: 50.0 * LBF_TO_N,
+                long_term_n: 10.0 * LBF_TO_N,
+                min_force_at_limit_n: None,
+                // 25.173(c): 1 lbf per 6 kt
+                min_speed_gradient_n_per_m_s: Some(LBF_TO_N / (6.0 * KT_TO_M_S)),
+            },
+        }
+    }
+
+    pub fn for_model(m: &AircraftModel) -> Self {
+        Self::new(m.part, m.control, m.max_weight_kg)
+    }
+}
+
+/// Where an aircraft's stick forces sit at one flight condition.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FeelAssessment {
+    pub airspeed_m_s: f64,
+    pub altitude_m: f64,
+    pub basis: CertificationBasis,
+    pub limit_load_factor: f64,
+    /// Secant stick force per g between 1 g and `per_g_at_nz` (2 g, or less where the limit load
+    /// factor or the stall come first), N/g.
+    pub stick_force_per_g_n: f64,
+    pub per_g_at_nz: f64,
+    /// Pull from trim to the limit load factor, N (from the model's steady pull-up; extrapolated
+    /// with the stick force per g when the wing stalls before the limit).
+    pub force_at_limit_n: f64,
+    pub force_at_limit_extrapolated: bool,
+    /// Stick-force-versus-speed gradient around the trim speed (±10 %), N per m/s, positive when
+    /// stable (a pull below the trim speed).
+    pub speed_gradient_n_per_m_s: f64,
+    /// Allowed stick force per g band implied by the limits: [min, max] N/g.
+    pub allowed_per_g_n: (f64, f64),
+}
+
+impl FeelAssessment {
+    /// Assess `aircraft` trimmed at `airspeed_m_s`, `altitude_m`.
+    pub fn assess(aircraft: &Aircraft, airspeed_m_s: f64, altitude_m: f64) -> Result<Self, AeroError> {
+        let m = aircraft.model();
+        let basis = CertificationBasis::for_model(m);
+        let n_lim = m.limit_load_factor;
+        // stick force per g between 1 g and 2 g, or 80 % of the way to the stall load factor
+        // when the wing cannot reach 2 g at this speed
+        let air = super::atmosphere::isa(altitude_m);
+        let cl_1g = m.mass_kg * G0_M_S2 / (0.5 * air.density_kg_m3 * airspeed_m_s.powi(2) * m.wing_area_m2);
+        let n_stall = m.cl_max() / cl_1g;
+        let n_ref = 2.0_f64.min(n_lim).min(1.0 + 0.8 * (n_stall - 1.0));
+        if n_ref <= 1.05 {
+            return Err(AeroError::Input {
+                what: format!("{} at {airspeed_m_s} m/s, {altitude_m} m", m.name),
+                why: format!("too close to the stall for a pull-up (stall load factor {n_stall:.2})"),
+            });
+        }
+        let per_g = aircraft.stick_force_per_g(airspeed_m_s, altitude_m, n_ref)?;
+        let (force_at_limit_n, extrapolated) =
+            match aircraft.pull_up_stick_force_n(airspeed_m_s, altitude_m, n_lim) {
+                Ok(f) => (f, false),
+                Err(AeroError::Trim { .. }) => (per_g * (n_lim - 1.0), true),
+                Err(e) => return Err(e),
+            };
+        let dv = 0.1 * airspeed_m_s;
+        let f_slow = aircraft.off_trim_stick_force_n(airspeed_m_s, airspeed_m_s - dv, altitude_m)?;
+        let f_fast = aircraft.off_trim_stick_force_n(airspeed_m_s, airspeed_m_s + dv, altitude_m)?;
+        let speed_gradient = (f_slow - f_fast) / (2.0 * dv);
+        let min_per_g = basis
+            .min_force_at_limit_n
+            .map(|f| f / (n_lim - 1.0))
+            .unwrap_or(0.0);
+        let max_per_g = basis.short_term_two_hands_n / (n_lim - 1.0);
+        Ok(Self {
+            airspeed_m_s,
+            altitude_m,
+            basis,
+            limit_load_factor: n_lim,
+            stick_force_per_g_n: per_g,
+            per_g_at_nz: n_ref,
+            force_at_limit_n,
+            force_at_limit_extrapolated: extrapolated,
+            speed_gradient_n_per_m_s: speed_gradient,
+            allowed_per_g_n: (min_per_g, max_per_g),
+        })
+    }
+
+    /// Every limit met: positive stick force per g inside the band, the pull to the limit load
+    /// factor within the short-term force, a stable speed gradient (and the Part 25 minimum).
+    pub fn complies(&self) -> bool {
+        let (lo, hi) = self.allowed_per_g_n;
+        self.stick_force_per_g_n > 0.0
+            && self.stick_force_per_g_n >= lo
+            && self.stick_force_per_g_n <= hi
+            && self.force_at_limit_n <= self.basis.short_term_two_hands_n
+            && self
+                .basis
+                .min_force_at_limit_n
+                .is_none_or(|f| self.force_at_limit_n >= f)
+            && self.speed_gradient_n_per_m_s > 0.0
+            && self
+                .basis
+                .min_speed_gradient_n_per_m_s
+                .is_none_or(|g| self.speed_gradient_n_per_m_s >= g)
+    }
+
+    /// Position of the stick force per g in the allowed band: 0 at the minimum, 1 at the maximum.
+    pub fn band_position(&self) -> f64 {
+        let (lo, hi) = self.allowed_per_g_n;
+        (self.stick_force_per_g_n - lo) / (hi - lo)
+    }
+
+    /// A one-paragraph report in SI with pounds in brackets.
+    pub fn report(&self) -> String {
+        let lbf = |n: f64| n / LBF_TO_N;
+        let (lo, hi) = self.allowed_per_g_n;
+        let part = match self.basis.part {
+            CertificationPart::Part23 => "14 CFR 23",
+            CertificationPart::Part25 => "14 CFR 25",
+        };
+        format!(
+            "{:.1} m/s at {:.0} m ({part}): stick force per g {:.1} N/g ({:.1} lbf/g, 1 to {:.2} g), allowed [{:.1}, {:.1}] N/g \
+             ([{:.1}, {:.1}] lbf/g), band position {:.2}; pull to n = {:.1}: {:.0} N ({:.1} lbf{}); \
+             speed gradient {:.2} N per m/s ({:.2} lbf per 6 kt); complies: {}",
+            self.airspeed_m_s,
+            self.altitude_m,
+            self.stick_force_per_g_n,
+            lbf(self.stick_force_per_g_n),
+            self.per_g_at_nz,
+            lo,
+            hi,
+            lbf(lo),
+            lbf(hi),
+            self.band_position(),
+            self.limit_load_factor,
+            self.force_at_limit_n,
+            lbf(self.force_at_limit_n),
+            if self.force_at_limit_extrapolated { ", extrapolated: stall or elevator stop first" } else { "" },
+            self.speed_gradient_n_per_m_s,
+            lbf(self.speed_gradient_n_per_m_s * 6.0 * KT_TO_M_S),
+            self.complies()
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn part_23_wheel_limits_follow_the_regulation_table() {
+        // 2400 lbf maximum weight: W/100 = 24 lbf > 20 lbf.
+        let b = CertificationBasis::new(
+            CertificationPart::Part23,
+            ControlType::Wheel,
+            2400.0 * LBF_TO_N / G0_M_S2,
+        );
+        assert!((b.short_term_two_hands_n / LBF_TO_N - 75.0).abs() < 1e-9);
+        assert!((b.min_force_at_limit_n.unwrap() / LBF_TO_N - 24.0).abs() < 1e-9);
+        // a heavy Part 23 aircraft: the minimum need not exceed 50 lbf
+        let heavy = CertificationBasis::new(CertificationPart::Part23, ControlType::Wheel, 19_000.0);
+        assert!((heavy.min_force_at_limit_n.unwrap() / LBF_TO_N - 50.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn part_25_speed_gradient_is_one_pound_per_six_knots() {
+        let b = CertificationBasis::new(CertificationPart::Part25, ControlType::Wheel, 60_000.0);
+        // 4.448 N per 3.087 m/s = 1.441 N per m/s
+        assert!((b.min_speed_gradient_n_per_m_s.unwrap() - 1.4410).abs() < 1e-3);
+        assert!((b.short_term_one_hand_n - 222.41).abs() < 0.01);
+    }
+}

@@ -1,0 +1,497 @@
+//! Nonlinear 3-DOF longitudinal flight dynamics (surge, heave, pitch) over a flat, non-rotating
+//! earth in the ISA troposphere, with JSBSim's coefficient build-up for the bundled aircraft:
+//!
+//! ```text
+//! CL = CL(alpha) + CL_de de + (CL_q q + CL_adot adot) c/(2V)
+//! CD = CD0 + CD(alpha) + k CL^2 + CD_de |de| + CD(M)
+//! Cm = Cm0 + Cm_alpha alpha + (Cm_q q + Cm_adot adot) c/(2V) + (qbar_e/qbar) Cm_de(M) de
+//! ```
+//!
+//! Lift and drag act at the aerodynamic reference point and thrust along the body x axis at the
+//! thruster; both are carried to the centre of gravity. Body axes (x forward, z down):
+//!
+//! ```text
+//! du/dt = (X_a + T)/m - g sin(theta) - q w      dq/dt = M / Iyy
+//! dw/dt = Z_a/m + g cos(theta) + q u            dtheta/dt = q
+//! dh/dt = u sin(theta) - w cos(theta)           nz = -Z_a / (m g)
+//! ```
+//!
+//! The alpha-dot terms make the right-hand side implicit; it is solved exactly at every
+//! evaluation (the forces are affine in alpha-dot). Integration: classical Runge–Kutta 4.
+
+use std::sync::Arc;
+
+use nalgebra::{Matrix3, Vector3};
+
+use super::atmosphere::{isa, RHO0_KG_M3};
+use super::hinge::HingeModel;
+use super::model::{AircraftModel, Propulsion};
+use super::AeroError;
+use crate::units::G0_M_S2;
+
+/// What the rig and the feel law see of the aircraft after a step.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct AircraftState {
+    pub t_s: f64,
+    /// Body-axis velocities, m/s.
+    pub u_m_s: f64,
+    pub w_m_s: f64,
+    pub q_rad_s: f64,
+    pub theta_rad: f64,
+    pub altitude_m: f64,
+    pub airspeed_m_s: f64,
+    pub alpha_rad: f64,
+    pub alphadot_rad_s: f64,
+    pub qbar_pa: f64,
+    /// Dynamic pressure at the elevator (slipstream included where the model has one), Pa.
+    pub qbar_elevator_pa: f64,
+    pub mach: f64,
+    pub nz_g: f64,
+    pub elevator_rad: f64,
+    pub tab_rad: f64,
+    pub throttle: f64,
+    pub thrust_n: f64,
+    pub alpha_tail_rad: f64,
+    /// Elevator hinge moment, N·m, positive trailing edge down.
+    pub hinge_moment_nm: f64,
+    /// Stick force that holds the elevator against `hinge_moment_nm`, N, positive = pull (aft).
+    pub stick_force_n: f64,
+}
+
+/// Inputs held over one integration step.
+#[derive(Debug, Clone, Copy)]
+struct Controls {
+    elevator_rad: f64,
+    throttle: f64,
+}
+
+/// State vector `[u, w, q, theta, h]`.
+type X = [f64; 5];
+
+#[derive(Debug, Clone, Copy)]
+struct Eval {
+    dx: X,
+    alpha: f64,
+    alphadot: f64,
+    airspeed: f64,
+    qbar: f64,
+    qbar_e: f64,
+    mach: f64,
+    nz: f64,
+    thrust: f64,
+}
+
+/// An aircraft flying its longitudinal model, with its elevator hinge and stick.
+#[derive(Debug, Clone)]
+pub struct Aircraft {
+    model: Arc<AircraftModel>,
+    hinge: HingeModel,
+    x: X,
+    t_s: f64,
+    controls: Controls,
+    tab_rad: f64,
+    state: AircraftState,
+}
+
+impl Aircraft {
+    pub fn new(model: Arc<AircraftModel>) -> Self {
+        let hinge = HingeModel::from_model(&model);
+        let mut a = Self {
+            model,
+            hinge,
+            x: [50.0, 0.0, 0.0, 0.0, 1000.0],
+            t_s: 0.0,
+            controls: Controls {
+                elevator_rad: 0.0,
+                throttle: 0.0,
+            },
+            tab_rad: 0.0,
+            state: AircraftState::default(),
+        };
+        a.refresh();
+        a
+    }
+
+    /// Load `models/aircraft/<name>.toml` from a path.
+    pub fn load(path: &std::path::Path) -> Result<Self, AeroError> {
+        Ok(Self::new(Arc::new(AircraftModel::load(path)?)))
+    }
+
+    pub fn model(&self) -> &AircraftModel {
+        &self.model
+    }
+
+    pub fn hinge(&self) -> &HingeModel {
+        &self.hinge
+    }
+
+    pub fn state(&self) -> &AircraftState {
+        &self.state
+    }
+
+    /// Trim in wings-level, unaccelerated level flight at a true airspeed and altitude: solves
+    /// alpha, elevator and throttle, sets the trim tab so the stick force is zero, and resets time.
+    pub fn trim(&mut self, airspeed_m_s: f64, altitude_m: f64) -> Result<AircraftState, AeroError> {
+        let (x, c) = self.solve_trim(airspeed_m_s, altitude_m, 1.0, None)?;
+        self.x = x;
+        self.controls = c;
+        self.t_s = 0.0;
+        let alpha_t = self.hinge.alpha_tail_rad(x[1].atan2(x[0]), x[2], airspeed_m_s);
+        self.tab_rad = self
+            .hinge
+            .trim_tab_rad(alpha_t, c.elevator_rad)
+            .ok_or_else(|| AeroError::Trim {
+                aircraft: self.model.name.clone(),
+                airspeed_m_s,
+                altitude_m,
+                nz_g: 1.0,
+                why: format!(
+                    "the tab cannot zero the stick force (travel [{}, {}] rad)",
+                    self.hinge.tab_min_rad, self.hinge.tab_max_rad
+                ),
+            })?;
+        self.refresh();
+        Ok(self.state)
+    }
+
+    /// Advance by `dt_s` with the elevator (rad, positive trailing edge down; held at the stops)
+    /// and throttle (0–1) held over the step. Returns the new state.
+    pub fn step(&mut self, elevator_rad: f64, throttle: f64, dt_s: f64) -> &AircraftState {
+        self.controls = Controls {
+            elevator_rad: elevator_rad.clamp(self.model.elevator_min_rad, self.model.elevator_max_rad),
+            throttle: throttle.clamp(0.0, 1.0),
+        };
+        let c = self.controls;
+        let x = self.x;
+        let k1 = self.eval(&x, c).dx;
+        let k2 = self.eval(&add(&x, &k1, 0.5 * dt_s), c).dx;
+        let k3 = self.eval(&add(&x, &k2, 0.5 * dt_s), c).dx;
+        let k4 = self.eval(&add(&x, &k3, dt_s), c).dx;
+        for i in 0..5 {
+            self.x[i] += dt_s / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+        }
+        self.t_s += dt_s;
+        self.refresh();
+        &self.state
+    }
+
+    /// Set the trim tab (rad); the stick force changes, the flight path does not.
+    pub fn set_tab_rad(&mut self, tab_rad: f64) {
+        self.tab_rad = tab_rad.clamp(self.hinge.tab_min_rad, self.hinge.tab_max_rad);
+        self.refresh();
+    }
+
+    /// Stick force, N (pull positive), to hold a steady symmetric pull-up at load factor `nz_g`
+    /// through the bottom of the manoeuvre at the given speed and altitude, with the tab and throttle
+    /// left where the 1-g trim put them (the manoeuvre of 14 CFR 23.155 and stick force per g).
+    pub fn pull_up_stick_force_n(
+        &self,
+        airspeed_m_s: f64,
+        altitude_m: f64,
+        nz_g: f64,
+    ) -> Result<f64, AeroError> {
+        let mut trimmed = self.clone();
+        trimmed.trim(airspeed_m_s, altitude_m)?;
+        let throttle = trimmed.controls.throttle;
+        let (x, c) = trimmed.solve_trim(airspeed_m_s, altitude_m, nz_g, Some(throttle))?;
+        trimmed.x = x;
+        trimmed.controls = c;
+        trimmed.refresh();
+        Ok(trimmed.state.stick_force_n)
+    }
+
+    /// Stick force per g, N/g: the secant between 1 g and `nz_g` of [`Self::pull_up_stick_force_n`].
+    pub fn stick_force_per_g(&self, airspeed_m_s: f64, altitude_m: f64, nz_g: f64) -> Result<f64, AeroError> {
+        Ok(self.pull_up_stick_force_n(airspeed_m_s, altitude_m, nz_g)? / (nz_g - 1.0))
+    }
+
+    /// Stick force, N (pull positive), to hold level flight at `airspeed_m_s` with the tab left at
+    /// its trim for `trim_airspeed_m_s` (static longitudinal stability, 14 CFR 25.173).
+    pub fn off_trim_stick_force_n(
+        &self,
+        trim_airspeed_m_s: f64,
+        airspeed_m_s: f64,
+        altitude_m: f64,
+    ) -> Result<f64, AeroError> {
+        let mut a = self.clone();
+        a.trim(trim_airspeed_m_s, altitude_m)?;
+        let tab = a.tab_rad;
+        a.trim(airspeed_m_s, altitude_m)?;
+        a.tab_rad = tab;
+        a.refresh();
+        Ok(a.state.stick_force_n)
+    }
+
+    /// Eigenvalues of the longitudinal dynamics linearised about the current state with the
+    /// controls held (finite differences over `[u, w, q, theta]`; altitude frozen).
+    pub fn linear_modes(&self) -> Vec<(f64, f64)> {
+        let c = self.controls;
+        let f0 = self.eval(&self.x, c).dx;
+        let mut a = nalgebra::Matrix4::<f64>::zeros();
+        for j in 0..4 {
+            let h = 1e-6 * self.x[j].abs().max(1e-3);
+            let mut xp = self.x;
+            xp[j] += h;
+            let fp = self.eval(&xp, c).dx;
+            for i in 0..4 {
+                a[(i, j)] = (fp[i] - f0[i]) / h;
+            }
+        }
+        a.complex_eigenvalues().iter().map(|z| (z.re, z.im)).collect()
+    }
+
+    // ---------------------------------------------------------------------------------------
+
+    fn refresh(&mut self) {
+        let e = self.eval(&self.x, self.controls);
+        let [u, w, q, theta, h] = self.x;
+        let alpha_t = self.hinge.alpha_tail_rad(e.alpha, q, e.airspeed);
+        let hm = self
+            .hinge
+            .hinge_moment_nm(e.qbar_e, alpha_t, self.controls.elevator_rad, self.tab_rad);
+        self.state = AircraftState {
+            t_s: self.t_s,
+            u_m_s: u,
+            w_m_s: w,
+            q_rad_s: q,
+            theta_rad: theta,
+            altitude_m: h,
+            airspeed_m_s: e.airspeed,
+            alpha_rad: e.alpha,
+            alphadot_rad_s: e.alphadot,
+            qbar_pa: e.qbar,
+            qbar_elevator_pa: e.qbar_e,
+            mach: e.mach,
+            nz_g: e.nz,
+            elevator_rad: self.controls.elevator_rad,
+            tab_rad: self.tab_rad,
+            throttle: self.controls.throttle,
+            thrust_n: e.thrust,
+            alpha_tail_rad: alpha_t,
+            hinge_moment_nm: hm,
+            stick_force_n: self.hinge.stick_force_n(hm),
+        };
+    }
+
+    fn thrust_n(&self, throttle: f64, airspeed: f64, rho: f64) -> f64 {
+        let sigma = (rho / RHO0_KG_M3).powf(self.model.density_exponent);
+        match self.model.propulsion {
+            Propulsion::Propeller {
+                max_power_w,
+                efficiency,
+                min_airspeed_m_s,
+                ..
+            } => throttle * efficiency * max_power_w * sigma / airspeed.max(min_airspeed_m_s),
+            Propulsion::Jet { max_thrust_n } => throttle * max_thrust_n * sigma,
+        }
+    }
+
+    /// Derivatives and outputs at `x`, with the alpha-dot terms solved.
+    fn eval(&self, x: &X, c: Controls) -> Eval {
+        // forces are affine in alpha-dot: two evaluations give the fixed point exactly
+        // (up to the CL^2 drag term, which the secant handles to second order).
+        let g0 = self.eval_with_alphadot(x, c, 0.0);
+        let g1 = self.eval_with_alphadot(x, c, g0.alphadot_out);
+        let slope = if g0.alphadot_out.abs() > 1e-14 {
+            (g1.alphadot_out - g0.alphadot_out) / g0.alphadot_out
+        } else {
+            0.0
+        };
+        let ad = if (1.0 - slope).abs() > 1e-6 {
+            g0.alphadot_out / (1.0 - slope)
+        } else {
+            g1.alphadot_out
+        };
+        self.eval_with_alphadot(x, c, ad).eval
+    }
+
+    fn eval_with_alphadot(&self, x: &X, c: Controls, alphadot: f64) -> EvalAd {
+        let m = &*self.model;
+        let [u, w, q, theta, h] = *x;
+        let v = (u * u + w * w).sqrt().max(1e-3);
+        let alpha = w.atan2(u);
+        let air = isa(h);
+        let rho = air.density_kg_m3;
+        let qbar = 0.5 * rho * v * v;
+        let mach = v / air.speed_of_sound_m_s;
+        let ci2vel = m.chord_m / (2.0 * v);
+        let de = c.elevator_rad;
+
+        let cl = m.cl_alpha.eval(alpha)
+            + m.cl_elevator_per_rad * de
+            + (m.cl_q_per_rad * q + m.cl_alphadot_per_rad * alphadot) * ci2vel;
+        let cd = m.cd0
+            + m.cd_alpha.eval(alpha)
+            + m.cd_induced_per_cl2 * cl * cl
+            + m.cd_elevator_abs_per_rad * de.abs()
+            + m.cd_mach.eval(mach);
+        let thrust = self.thrust_n(c.throttle, v, rho);
+        let qbar_e = match m.propulsion {
+            Propulsion::Propeller { diameter_m, .. } if m.elevator_in_slipstream => {
+                slipstream_qbar_pa(u, thrust, rho, diameter_m)
+            }
+            _ => qbar,
+        };
+        let cm = m.cm0
+            + m.cm_alpha_per_rad * alpha
+            + (m.cm_q_per_rad * q + m.cm_alphadot_per_rad * alphadot) * ci2vel;
+        let cm_de = m.cm_elevator_per_rad.eval(mach) * de;
+
+        let s = m.wing_area_m2;
+        let lift = qbar * s * cl;
+        let drag = qbar * s * cd;
+        let (sa, ca) = alpha.sin_cos();
+        let xa = -drag * ca + lift * sa;
+        let za = -drag * sa - lift * ca;
+        // arms from the CG in body axes: structural frame is x aft, z up
+        let (rx_a, rz_a) = (-(m.aero_ref_x_m - m.cg_x_m), -(m.aero_ref_z_m - m.cg_z_m));
+        // thrust along body x: only the thruster's vertical offset from the CG makes a moment
+        let rz_t = -(m.thrust_z_m - m.cg_z_m);
+        let moment = qbar * s * m.chord_m * cm
+            + qbar_e * s * m.chord_m * cm_de
+            + (rz_a * xa - rx_a * za)
+            + rz_t * thrust;
+
+        let (st, ct) = theta.sin_cos();
+        let g = G0_M_S2;
+        let du = (xa + thrust) / m.mass_kg - g * st - q * w;
+        let dw = za / m.mass_kg + g * ct + q * u;
+        let dq = moment / m.iyy_kg_m2;
+        let dh = u * st - w * ct;
+        let alphadot_out = (u * dw - w * du) / (v * v);
+        EvalAd {
+            alphadot_out,
+            eval: Eval {
+                dx: [du, dw, dq, q, dh],
+                alpha,
+                alphadot,
+                airspeed: v,
+                qbar,
+                qbar_e,
+                mach,
+                nz: -za / (m.mass_kg * g),
+                thrust,
+            },
+        }
+    }
+
+    /// Solve a symmetric steady state at airspeed, altitude and load factor (level flight for
+    /// `nz_g = 1`; the bottom of a pull-up with `q = g (nz - 1) / V` otherwise). Unknowns: alpha,
+    /// elevator and, unless given, throttle (then surge is not balanced: speed is momentarily held).
+    fn solve_trim(
+        &self,
+        airspeed: f64,
+        altitude: f64,
+        nz_g: f64,
+        throttle: Option<f64>,
+    ) -> Result<(X, Controls), AeroError> {
+        let m = &*self.model;
+        let fail = |why: String| AeroError::Trim {
+            aircraft: m.name.clone(),
+            airspeed_m_s: airspeed,
+            altitude_m: altitude,
+            nz_g,
+            why,
+        };
+        if !(airspeed.is_finite() && airspeed > 1.0 && altitude.is_finite() && nz_g.is_finite()) {
+            return Err(fail("airspeed must exceed 1 m/s and all inputs be finite".into()));
+        }
+        let q = G0_M_S2 * (nz_g - 1.0) / airspeed;
+        let state = |p: &Vector3<f64>| -> (X, Controls) {
+            let alpha = p[0];
+            let x = [airspeed * alpha.cos(), airspeed * alpha.sin(), q, alpha, altitude];
+            let c = Controls {
+                elevator_rad: p[1],
+                throttle: throttle.unwrap_or(p[2]),
+            };
+            (x, c)
+        };
+        let residual = |p: &Vector3<f64>| -> Vector3<f64> {
+            let (x, c) = state(p);
+            let e = self.eval_with_alphadot(&x, c, 0.0).eval;
+            let r_u = if throttle.is_some() {
+                p[2]
+            } else {
+                e.dx[0] / G0_M_S2
+            };
+            Vector3::new(r_u, e.dx[1] / G0_M_S2, e.dx[2])
+        };
+        // initial alpha from the lift needed, on the rising part of the lift curve
+        let air = isa(altitude);
+        let cl_need =
+            nz_g * m.mass_kg * G0_M_S2 / (0.5 * air.density_kg_m3 * airspeed * airspeed * m.wing_area_m2);
+        let (a_lo, a_hi) = m.cl_alpha.x_range();
+        let mut alpha0 = 0.0;
+        let mut best = f64::INFINITY;
+        let mut a = a_lo;
+        while a <= a_hi {
+            if m.cl_alpha.slope(a) > 0.0 && (m.cl_alpha.eval(a) - cl_need).abs() < best {
+                best = (m.cl_alpha.eval(a) - cl_need).abs();
+                alpha0 = a;
+            }
+            a += 0.002;
+        }
+        let mut p = Vector3::new(alpha0, 0.0, throttle.map(|_| 0.0).unwrap_or(0.5));
+        for _ in 0..60 {
+            let r = residual(&p);
+            if r.norm() < 1e-11 {
+                let (x, c) = state(&p);
+                if c.elevator_rad < m.elevator_min_rad || c.elevator_rad > m.elevator_max_rad {
+                    return Err(fail(format!(
+                        "elevator {:.4} rad is beyond its stops [{}, {}]",
+                        c.elevator_rad, m.elevator_min_rad, m.elevator_max_rad
+                    )));
+                }
+                if !(0.0..=1.0).contains(&c.throttle) {
+                    return Err(fail(format!("throttle {:.3} is outside [0, 1]", c.throttle)));
+                }
+                if best > 0.05 || m.cl_alpha.slope(p[0]) <= 0.0 {
+                    return Err(fail(format!("needs CL = {cl_need:.3}: at or beyond the stall")));
+                }
+                return Ok((x, c));
+            }
+            let mut jac = Matrix3::<f64>::zeros();
+            for j in 0..3 {
+                let mut pp = p;
+                let hstep = 1e-7;
+                pp[j] += hstep;
+                let col = (residual(&pp) - r) / hstep;
+                jac.set_column(j, &col);
+            }
+            let Some(dp) = jac.lu().solve(&(-r)) else {
+                return Err(fail("singular trim Jacobian".into()));
+            };
+            // damp large steps
+            let scale = (0.1 / dp.amax()).min(1.0);
+            p += dp * scale;
+        }
+        Err(fail("no convergence in 60 Newton steps".into()))
+    }
+}
+
+/// Dynamic pressure in a propeller's fully developed slipstream, Pa: momentum theory gives the
+/// induced velocity at the disc `v_i = (-u + sqrt(u|u| + 2T/(rho A))) / 2` and the slipstream
+/// `u + 2 v_i` (as JSBSim's FGPropeller and the c172p's `qbar-induced-psf`).
+pub fn slipstream_qbar_pa(u_m_s: f64, thrust_n: f64, rho_kg_m3: f64, diameter_m: f64) -> f64 {
+    let area = std::f64::consts::PI * diameter_m * diameter_m / 4.0;
+    let s = u_m_s * u_m_s.abs() + 2.0 * thrust_n / (rho_kg_m3 * area);
+    let vi = if s > 0.0 {
+        0.5 * (-u_m_s + s.sqrt())
+    } else {
+        0.5 * (-u_m_s - (-s).sqrt())
+    };
+    0.5 * rho_kg_m3 * (u_m_s + 2.0 * vi).powi(2)
+}
+
+struct EvalAd {
+    alphadot_out: f64,
+    eval: Eval,
+}
+
+fn add(x: &X, k: &X, h: f64) -> X {
+    let mut y = *x;
+    for i in 0..5 {
+        y[i] += h * k[i];
+    }
+    y
+}

@@ -1,0 +1,69 @@
+//! Aircraft side of the feel system: longitudinal flight dynamics, elevator hinge moments and the
+//! stick force they ask of the feel device, checked against the certification force limits.
+//!
+//! - [`AircraftModel`] (`models/aircraft/<name>.toml`): aerodynamic tables and mass properties read
+//!   from JSBSim 1.3.3's bundled aircraft, plus the elevator hinge and stick gearing estimates.
+//! - [`Aircraft`]: a nonlinear 3-DOF longitudinal model (surge, heave, pitch) to fly in the
+//!   simulation loop without Python: [`Aircraft::trim`], [`Aircraft::step`], [`Aircraft::state`].
+//! - [`HingeModel`]: `H = qbar_t S_e c_e (Ch0 + Ch_alpha alpha_t + Ch_delta delta_e + Ch_tab delta_tab)`
+//!   and the stick force `F = H * gearing / arm * feedback` (pull = positive aft force).
+//! - [`certification`]: 14 CFR 23/25 control-force limits and where an aircraft sits.
+//! - [`reference`]: reader for the JSBSim reference tables in `scenarios/jsbsim/`.
+//!
+//! Axes: body x forward, z down; pitch rate, pitch angle and angle of attack positive nose-up;
+//! elevator positive trailing edge down (JSBSim's convention: positive elevator pitches nose-down).
+
+pub mod atmosphere;
+pub mod backend;
+pub mod certification;
+pub mod flight_loop;
+pub mod flight_rerun;
+pub mod hinge;
+pub mod jsbsim_bridge;
+pub mod longitudinal;
+pub mod model;
+pub mod reference;
+pub mod table;
+
+use std::path::PathBuf;
+
+pub use certification::{CertificationBasis, FeelAssessment};
+pub use hinge::HingeModel;
+pub use longitudinal::{Aircraft, AircraftState};
+pub use model::AircraftModel;
+pub use table::Table1;
+
+/// Errors from loading aircraft models or reference tables, or from trimming.
+#[derive(Debug, thiserror::Error)]
+pub enum AeroError {
+    #[error("{}: {msg}", path.display())]
+    Io { path: PathBuf, msg: String },
+    #[error("{}:{line}: {msg}", path.display())]
+    Parse { path: PathBuf, line: usize, msg: String },
+    #[error("{}:{line}: field `{field}`: {msg}", path.display())]
+    Field {
+        path: PathBuf,
+        line: usize,
+        field: String,
+        msg: String,
+    },
+    #[error("trim failed for {aircraft} at {airspeed_m_s} m/s, {altitude_m} m, {nz_g} g: {why}")]
+    Trim {
+        aircraft: String,
+        airspeed_m_s: f64,
+        altitude_m: f64,
+        nz_g: f64,
+        why: String,
+    },
+    #[error("{what}: {why}")]
+    Input { what: String, why: String },
+}
+
+/// 1-based line number of a byte offset in `text`.
+pub(crate) fn line_of(text: &str, offset: usize) -> usize {
+    text.as_bytes()[..offset.min(text.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
+}

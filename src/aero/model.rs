@@ -1,0 +1,424 @@
+//! Aircraft model files (`models/aircraft/<name>.toml`): what a user edits without recompiling.
+//!
+//! Every number in the shipped files carries its source in a comment (JSBSim 1.3.3's bundled
+//! aircraft XML, JSBSim's computed mass properties, or an estimate and how it was made). Loading
+//! rejects unknown fields and out-of-range values with the file, line and field.
+
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+use toml::Spanned;
+
+use super::table::Table1;
+use super::{line_of, AeroError};
+
+/// Which certification basis the aircraft's control forces are checked against.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+pub enum CertificationPart {
+    /// 14 CFR Part 23 (normal, utility, acrobatic, commuter), pre-Amendment 23-64 text.
+    #[serde(rename = "23")]
+    Part23,
+    /// 14 CFR Part 25 (transport category).
+    #[serde(rename = "25")]
+    Part25,
+}
+
+/// The pilot's control.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ControlType {
+    Wheel,
+    Stick,
+}
+
+/// Propulsion: enough to trim and to hold throttle in a manoeuvre.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Propulsion {
+    /// Constant power: `T = throttle * eta * P_max * sigma^k / max(V, V_min)`.
+    Propeller {
+        max_power_w: f64,
+        efficiency: f64,
+        min_airspeed_m_s: f64,
+        /// Disc diameter for the slipstream (momentum theory), m.
+        diameter_m: f64,
+    },
+    /// Constant thrust: `T = throttle * T_max * sigma^k`.
+    Jet { max_thrust_n: f64 },
+}
+
+/// A loaded, validated aircraft model in SI units.
+#[derive(Debug, Clone)]
+pub struct AircraftModel {
+    pub name: String,
+    pub path: PathBuf,
+    // geometry
+    pub wing_area_m2: f64,
+    pub chord_m: f64,
+    pub span_m: f64,
+    pub htail_arm_m: f64,
+    /// Aerodynamic reference point in JSBSim's structural frame (x aft, z up), m.
+    pub aero_ref_x_m: f64,
+    pub aero_ref_z_m: f64,
+    // mass
+    pub mass_kg: f64,
+    pub iyy_kg_m2: f64,
+    pub cg_x_m: f64,
+    pub cg_z_m: f64,
+    // propulsion
+    pub propulsion: Propulsion,
+    pub thrust_x_m: f64,
+    pub thrust_z_m: f64,
+    pub density_exponent: f64,
+    // aerodynamics (coefficients on wing area and chord)
+    pub cl_alpha: Table1,
+    pub cl_elevator_per_rad: f64,
+    pub cl_q_per_rad: f64,
+    pub cl_alphadot_per_rad: f64,
+    pub cd0: f64,
+    pub cd_alpha: Table1,
+    pub cd_induced_per_cl2: f64,
+    pub cd_elevator_abs_per_rad: f64,
+    pub cd_mach: Table1,
+    pub cm0: f64,
+    pub cm_alpha_per_rad: f64,
+    pub cm_q_per_rad: f64,
+    pub cm_alphadot_per_rad: f64,
+    /// Cm per radian of elevator, by Mach number.
+    pub cm_elevator_per_rad: Table1,
+    /// JSBSim's c172p scales the elevator's pitching moment with the propeller slipstream's qbar.
+    pub elevator_in_slipstream: bool,
+    // elevator, hinge and stick
+    pub elevator_min_rad: f64,
+    pub elevator_max_rad: f64,
+    pub elevator_area_m2: f64,
+    pub elevator_chord_m: f64,
+    pub ch0: f64,
+    pub ch_alpha_per_rad: f64,
+    pub ch_elevator_per_rad: f64,
+    pub ch_tab_per_rad: f64,
+    pub tab_min_rad: f64,
+    pub tab_max_rad: f64,
+    pub tail_dynamic_pressure_ratio: f64,
+    pub downwash_gradient: f64,
+    pub elevator_per_stick_rad_per_rad: f64,
+    pub stick_arm_m: f64,
+    pub force_feedback_ratio: f64,
+    // certification
+    pub part: CertificationPart,
+    pub control: ControlType,
+    pub max_weight_kg: f64,
+    pub limit_load_factor: f64,
+}
+
+type S<T> = Spanned<T>;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileModel {
+    name: S<String>,
+    geometry: FileGeometry,
+    mass: FileMass,
+    propulsion: FilePropulsion,
+    aero: FileAero,
+    elevator: FileElevator,
+    hinge: FileHinge,
+    stick: FileStick,
+    certification: FileCertification,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileGeometry {
+    wing_area_m2: S<f64>,
+    chord_m: S<f64>,
+    span_m: S<f64>,
+    htail_arm_m: S<f64>,
+    aero_ref_x_m: S<f64>,
+    aero_ref_z_m: S<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileMass {
+    mass_kg: S<f64>,
+    iyy_kg_m2: S<f64>,
+    cg_x_m: S<f64>,
+    cg_z_m: S<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FilePropulsion {
+    kind: S<String>,
+    thrust_x_m: S<f64>,
+    thrust_z_m: S<f64>,
+    density_exponent: S<f64>,
+    max_power_w: Option<S<f64>>,
+    efficiency: Option<S<f64>>,
+    min_airspeed_m_s: Option<S<f64>>,
+    diameter_m: Option<S<f64>>,
+    max_thrust_n: Option<S<f64>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileAero {
+    cl_alpha: S<Vec<[f64; 2]>>,
+    cl_elevator_per_rad: S<f64>,
+    cl_q_per_rad: S<f64>,
+    cl_alphadot_per_rad: S<f64>,
+    cd0: S<f64>,
+    cd_alpha: S<Vec<[f64; 2]>>,
+    cd_induced_per_cl2: S<f64>,
+    cd_elevator_abs_per_rad: S<f64>,
+    cd_mach: Option<S<Vec<[f64; 2]>>>,
+    cm0: S<f64>,
+    cm_alpha_per_rad: S<f64>,
+    cm_q_per_rad: S<f64>,
+    cm_alphadot_per_rad: S<f64>,
+    cm_elevator_per_rad: S<Vec<[f64; 2]>>,
+    elevator_in_slipstream: bool,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileElevator {
+    min_rad: S<f64>,
+    max_rad: S<f64>,
+    area_m2: S<f64>,
+    chord_m: S<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileHinge {
+    ch0: S<f64>,
+    ch_alpha_per_rad: S<f64>,
+    ch_elevator_per_rad: S<f64>,
+    ch_tab_per_rad: S<f64>,
+    tab_min_rad: S<f64>,
+    tab_max_rad: S<f64>,
+    tail_dynamic_pressure_ratio: S<f64>,
+    downwash_gradient: S<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileStick {
+    elevator_per_stick_rad_per_rad: S<f64>,
+    arm_m: S<f64>,
+    force_feedback_ratio: S<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileCertification {
+    part: CertificationPart,
+    control: ControlType,
+    max_weight_kg: S<f64>,
+    limit_load_factor: S<f64>,
+}
+
+struct Ctx<'a> {
+    text: &'a str,
+    path: &'a Path,
+}
+
+impl Ctx<'_> {
+    fn err(&self, span: std::ops::Range<usize>, field: &str, msg: String) -> AeroError {
+        AeroError::Field {
+            path: self.path.to_path_buf(),
+            line: line_of(self.text, span.start),
+            field: field.to_string(),
+            msg,
+        }
+    }
+
+    /// The value, checked to lie in `[lo, hi]` (the allowed range is named in the message).
+    fn num(&self, v: &S<f64>, field: &str, lo: f64, hi: f64) -> Result<f64, AeroError> {
+        let x = *v.get_ref();
+        if !x.is_finite() || x < lo || x > hi {
+            return Err(self.err(
+                v.span(),
+                field,
+                format!("{x} is outside the allowed range [{lo}, {hi}]"),
+            ));
+        }
+        Ok(x)
+    }
+
+    fn opt(&self, v: &Option<S<f64>>, field: &str, lo: f64, hi: f64, kind: &str) -> Result<f64, AeroError> {
+        match v {
+            Some(v) => self.num(v, field, lo, hi),
+            None => Err(AeroError::Field {
+                path: self.path.to_path_buf(),
+                line: 0,
+                field: field.to_string(),
+                msg: format!("required for propulsion kind \"{kind}\" (allowed range [{lo}, {hi}])"),
+            }),
+        }
+    }
+
+    fn table(&self, v: &S<Vec<[f64; 2]>>, field: &str) -> Result<Table1, AeroError> {
+        Table1::new(v.get_ref()).map_err(|m| self.err(v.span(), field, m))
+    }
+}
+
+impl AircraftModel {
+    /// Load `models/aircraft/<name>.toml`.
+    pub fn load(path: &Path) -> Result<Self, AeroError> {
+        let text = std::fs::read_to_string(path).map_err(|e| AeroError::Io {
+            path: path.to_path_buf(),
+            msg: e.to_string(),
+        })?;
+        Self::from_toml(&text, path)
+    }
+
+    /// Parse and validate model TOML; `path` is used in error messages.
+    pub fn from_toml(text: &str, path: &Path) -> Result<Self, AeroError> {
+        let f: FileModel = toml::from_str(text).map_err(|e| AeroError::Parse {
+            path: path.to_path_buf(),
+            line: e.span().map(|s| line_of(text, s.start)).unwrap_or(0),
+            msg: e.message().to_string(),
+        })?;
+        let c = Ctx { text, path };
+        let big = 1e12;
+        let g = &f.geometry;
+        let m = &f.mass;
+        let p = &f.propulsion;
+        let a = &f.aero;
+        let e = &f.elevator;
+        let h = &f.hinge;
+        let s = &f.stick;
+        let cert = &f.certification;
+        let kind = p.kind.get_ref().as_str();
+        let propulsion = match kind {
+            "propeller" => Propulsion::Propeller {
+                max_power_w: c.opt(&p.max_power_w, "propulsion.max_power_w", 1.0, big, kind)?,
+                efficiency: c.opt(&p.efficiency, "propulsion.efficiency", 0.05, 1.0, kind)?,
+                min_airspeed_m_s: c.opt(
+                    &p.min_airspeed_m_s,
+                    "propulsion.min_airspeed_m_s",
+                    0.1,
+                    100.0,
+                    kind,
+                )?,
+                diameter_m: c.opt(&p.diameter_m, "propulsion.diameter_m", 0.1, 10.0, kind)?,
+            },
+            "jet" => Propulsion::Jet {
+                max_thrust_n: c.opt(&p.max_thrust_n, "propulsion.max_thrust_n", 1.0, big, kind)?,
+            },
+            other => {
+                return Err(c.err(
+                    p.kind.span(),
+                    "propulsion.kind",
+                    format!("unknown kind \"{other}\" (allowed: \"propeller\", \"jet\")"),
+                ))
+            }
+        };
+        let model = AircraftModel {
+            name: f.name.get_ref().clone(),
+            path: path.to_path_buf(),
+            wing_area_m2: c.num(&g.wing_area_m2, "geometry.wing_area_m2", 0.1, 2000.0)?,
+            chord_m: c.num(&g.chord_m, "geometry.chord_m", 0.05, 50.0)?,
+            span_m: c.num(&g.span_m, "geometry.span_m", 0.1, 100.0)?,
+            htail_arm_m: c.num(&g.htail_arm_m, "geometry.htail_arm_m", 0.1, 100.0)?,
+            aero_ref_x_m: c.num(&g.aero_ref_x_m, "geometry.aero_ref_x_m", -100.0, 100.0)?,
+            aero_ref_z_m: c.num(&g.aero_ref_z_m, "geometry.aero_ref_z_m", -100.0, 100.0)?,
+            mass_kg: c.num(&m.mass_kg, "mass.mass_kg", 1.0, 1e6)?,
+            iyy_kg_m2: c.num(&m.iyy_kg_m2, "mass.iyy_kg_m2", 0.01, 1e9)?,
+            cg_x_m: c.num(&m.cg_x_m, "mass.cg_x_m", -100.0, 100.0)?,
+            cg_z_m: c.num(&m.cg_z_m, "mass.cg_z_m", -100.0, 100.0)?,
+            propulsion,
+            thrust_x_m: c.num(&p.thrust_x_m, "propulsion.thrust_x_m", -100.0, 100.0)?,
+            thrust_z_m: c.num(&p.thrust_z_m, "propulsion.thrust_z_m", -100.0, 100.0)?,
+            density_exponent: c.num(&p.density_exponent, "propulsion.density_exponent", 0.0, 2.0)?,
+            cl_alpha: c.table(&a.cl_alpha, "aero.cl_alpha")?,
+            cl_elevator_per_rad: c.num(&a.cl_elevator_per_rad, "aero.cl_elevator_per_rad", -5.0, 5.0)?,
+            cl_q_per_rad: c.num(&a.cl_q_per_rad, "aero.cl_q_per_rad", -50.0, 50.0)?,
+            cl_alphadot_per_rad: c.num(&a.cl_alphadot_per_rad, "aero.cl_alphadot_per_rad", -50.0, 50.0)?,
+            cd0: c.num(&a.cd0, "aero.cd0", 0.0, 1.0)?,
+            cd_alpha: c.table(&a.cd_alpha, "aero.cd_alpha")?,
+            cd_induced_per_cl2: c.num(&a.cd_induced_per_cl2, "aero.cd_induced_per_cl2", 0.0, 1.0)?,
+            cd_elevator_abs_per_rad: c.num(
+                &a.cd_elevator_abs_per_rad,
+                "aero.cd_elevator_abs_per_rad",
+                0.0,
+                1.0,
+            )?,
+            cd_mach: match &a.cd_mach {
+                Some(t) => c.table(t, "aero.cd_mach")?,
+                None => Table1::constant(0.0),
+            },
+            cm0: c.num(&a.cm0, "aero.cm0", -1.0, 1.0)?,
+            cm_alpha_per_rad: c.num(&a.cm_alpha_per_rad, "aero.cm_alpha_per_rad", -20.0, 20.0)?,
+            cm_q_per_rad: c.num(&a.cm_q_per_rad, "aero.cm_q_per_rad", -200.0, 0.0)?,
+            cm_alphadot_per_rad: c.num(&a.cm_alphadot_per_rad, "aero.cm_alphadot_per_rad", -200.0, 50.0)?,
+            cm_elevator_per_rad: c.table(&a.cm_elevator_per_rad, "aero.cm_elevator_per_rad")?,
+            elevator_in_slipstream: a.elevator_in_slipstream,
+            elevator_min_rad: c.num(&e.min_rad, "elevator.min_rad", -1.0, 0.0)?,
+            elevator_max_rad: c.num(&e.max_rad, "elevator.max_rad", 0.0, 1.0)?,
+            elevator_area_m2: c.num(&e.area_m2, "elevator.area_m2", 0.01, 100.0)?,
+            elevator_chord_m: c.num(&e.chord_m, "elevator.chord_m", 0.01, 10.0)?,
+            ch0: c.num(&h.ch0, "hinge.ch0", -0.5, 0.5)?,
+            ch_alpha_per_rad: c.num(&h.ch_alpha_per_rad, "hinge.ch_alpha_per_rad", -2.0, 0.5)?,
+            ch_elevator_per_rad: c.num(&h.ch_elevator_per_rad, "hinge.ch_elevator_per_rad", -2.0, 0.0)?,
+            ch_tab_per_rad: c.num(&h.ch_tab_per_rad, "hinge.ch_tab_per_rad", -2.0, 0.0)?,
+            tab_min_rad: c.num(&h.tab_min_rad, "hinge.tab_min_rad", -1.0, 0.0)?,
+            tab_max_rad: c.num(&h.tab_max_rad, "hinge.tab_max_rad", 0.0, 1.0)?,
+            tail_dynamic_pressure_ratio: c.num(
+                &h.tail_dynamic_pressure_ratio,
+                "hinge.tail_dynamic_pressure_ratio",
+                0.3,
+                1.5,
+            )?,
+            downwash_gradient: c.num(&h.downwash_gradient, "hinge.downwash_gradient", 0.0, 0.9)?,
+            elevator_per_stick_rad_per_rad: c.num(
+                &s.elevator_per_stick_rad_per_rad,
+                "stick.elevator_per_stick_rad_per_rad",
+                0.05,
+                20.0,
+            )?,
+            stick_arm_m: c.num(&s.arm_m, "stick.arm_m", 0.05, 2.0)?,
+            force_feedback_ratio: c.num(&s.force_feedback_ratio, "stick.force_feedback_ratio", 1e-4, 1.0)?,
+            part: cert.part,
+            control: cert.control,
+            max_weight_kg: c.num(&cert.max_weight_kg, "certification.max_weight_kg", 1.0, 1e6)?,
+            limit_load_factor: c.num(
+                &cert.limit_load_factor,
+                "certification.limit_load_factor",
+                1.5,
+                10.0,
+            )?,
+        };
+        if model.mass_kg > model.max_weight_kg {
+            return Err(c.err(
+                m.mass_kg.span(),
+                "mass.mass_kg",
+                format!(
+                    "{} kg exceeds certification.max_weight_kg = {} kg (allowed range [1, max_weight_kg])",
+                    model.mass_kg, model.max_weight_kg
+                ),
+            ));
+        }
+        Ok(model)
+    }
+
+    /// The model shipped in `models/aircraft/<name>.toml` of this crate.
+    pub fn builtin_path(name: &str) -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("models")
+            .join("aircraft")
+            .join(format!("{name}.toml"))
+    }
+
+    /// Maximum lift coefficient of the unstalled lift curve (largest value of `cl_alpha`).
+    pub fn cl_max(&self) -> f64 {
+        self.cl_alpha.max_value()
+    }
+
+    /// Aspect ratio b²/S.
+    pub fn aspect_ratio(&self) -> f64 {
+        self.span_m * self.span_m / self.wing_area_m2
+    }
+}

@@ -1,0 +1,266 @@
+//! The MR feel loop of the paper's Section 6: desired feel force (set point) against the load cell
+//! (measurement) through a PID to the coil current command, with the damper's passivity handled explicitly.
+//!
+//! Per DAQ tick, from the sensor sample only (never the true state):
+//! 1. `F* = law(t, x, v)` (see [`super::law`] for the law and why half of each cycle cannot be tracked);
+//! 2. direction `s = sgn v` when `|v| ≥ rest_speed`; at rest, the direction the pilot pushes, which is the
+//!    sign of the load-cell force when it exceeds `rest_force` (the damper's pre-yield reaction equals the
+//!    pilot's push); none if the pilot does not push;
+//! 3. `F*·s ≤ 0` (the law would need the stick to push, e.g. returning towards centre): 0 A, integrator
+//!    reset;
+//! 4. at rest (pushing in a direction the law resists, or not pushing at all): the damper holds the stick up
+//!    to its yield force, so the loop commands the static current for `|F*|` (feedforward only; the
+//!    integrator is frozen since the load cell reads the pilot's push, not a controllable force);
+//! 5. moving against the law: track in magnitude, `i = PID(|F*|, s·F_meas) + ff(|F*|, |v|)`, clipped to
+//!    0–14 A.
+//!
+//! The optional feedforward inverts the static Bingham force (Eq. 2 with Eq. 6 at steady state):
+//! `i_ff = (|F*| − fc0 − C0 |v|) / (bH kH)`, clipped at 0. Its force arrives through the coil and fluid lags
+//! of Eq. (6), so with feedforward the PID's set point is `|F*|` passed through the same two lags (a
+//! reference model): the feedback then corrects only what the feedforward gets wrong, instead of winding up
+//! on the lag itself and overshooting every step.
+
+use super::law::{sgn, FeelLaw};
+use super::pid::Pid;
+use crate::device::lag::advance_two_lags;
+use crate::sensors::DaqSample;
+
+/// Static inverse of the Bingham force (Eq. 2 with Eq. 6 at steady state) from the device's base parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Feedforward {
+    pub fc0_n: f64,
+    pub fc_gain_n_per_a: f64,
+    pub c0_n_s_per_m: f64,
+    /// The coil (Eq. 3) and fluid (Eq. 4) time constants, s: the feedforward's force arrives through them,
+    /// so the feedback compares the load cell with the desired force passed through the same lags.
+    pub te_s: f64,
+    pub tm_s: f64,
+}
+
+impl Feedforward {
+    /// Current for a force magnitude at a speed, A (≥ 0).
+    pub fn current_a(&self, force_n: f64, speed_m_s: f64) -> f64 {
+        if self.fc_gain_n_per_a <= 0.0 {
+            return 0.0;
+        }
+        ((force_n - self.fc0_n - self.c0_n_s_per_m * speed_m_s) / self.fc_gain_n_per_a).max(0.0)
+    }
+}
+
+/// What the loop decided at one tick.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LoopMode {
+    /// The law resists the motion: tracking.
+    Tracking,
+    /// The law would need the stick to push: 0 A.
+    Released,
+    /// The stick is (nearly) at rest: static holding current.
+    Holding,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ControlOutput {
+    pub desired_force_n: f64,
+    pub current_cmd_a: f64,
+    pub mode: LoopMode,
+}
+
+#[derive(Debug, Clone)]
+pub struct FeelController {
+    pub law: FeelLaw,
+    pub pid: Pid,
+    pub feedforward: Option<Feedforward>,
+    pub rest_speed_m_s: f64,
+    /// At rest, load-cell forces below this are "not pushing", N.
+    pub rest_force_n: f64,
+    last_mode: LoopMode,
+    /// Reference-model states (coil, fluid) of the desired force magnitude, N.
+    reference: (f64, f64),
+}
+
+impl FeelController {
+    pub fn new(
+        law: FeelLaw,
+        pid: Pid,
+        feedforward: Option<Feedforward>,
+        rest_speed_m_s: f64,
+        rest_force_n: f64,
+    ) -> Self {
+        Self {
+            law,
+            pid,
+            feedforward,
+            rest_speed_m_s,
+            rest_force_n,
+            last_mode: LoopMode::Holding,
+            reference: (0.0, 0.0),
+        }
+    }
+
+    /// One DAQ tick: `t_s` is the controller's clock (the sample's time), `dt_s` the DAQ period.
+    pub fn update(&mut self, t_s: f64, s: &DaqSample, dt_s: f64) -> ControlOutput {
+        let lo = self.pid.gains.out_min;
+        let hi = self.pid.gains.out_max;
+        let moving = s.v_m_s.abs() >= self.rest_speed_m_s;
+        // Direction of the motion, or at rest the direction the pilot pushes (the load cell's sign).
+        let dir = if moving {
+            sgn(s.v_m_s)
+        } else if s.force_n.abs() > self.rest_force_n {
+            sgn(s.force_n)
+        } else {
+            0.0
+        };
+        let desired = self.law.force_n(t_s, s.x_m, s.v_m_s, dir);
+        let ff = |force: f64, speed: f64| self.feedforward.map(|f| f.current_a(force, speed)).unwrap_or(0.0);
+        let (mode, current) = if dir == 0.0 {
+            let hold = self.law.holding_force_n(t_s, s.x_m);
+            (LoopMode::Holding, ff(hold, 0.0).clamp(lo, hi))
+        } else if desired * dir <= 0.0 {
+            self.pid.reset();
+            (LoopMode::Released, lo)
+        } else if !moving {
+            (LoopMode::Holding, ff(desired.abs(), 0.0).clamp(lo, hi))
+        } else {
+            let measured = dir * s.force_n;
+            if self.last_mode != LoopMode::Tracking {
+                self.pid.restart_derivative();
+                self.reference = (measured, measured);
+            }
+            let setpoint = match self.feedforward {
+                Some(f) => {
+                    self.reference = advance_two_lags(
+                        self.reference.0,
+                        self.reference.1,
+                        desired.abs(),
+                        f.te_s,
+                        f.tm_s,
+                        dt_s,
+                    );
+                    self.reference.1
+                }
+                None => desired.abs(),
+            };
+            let u = self
+                .pid
+                .update(setpoint, measured, ff(desired.abs(), s.v_m_s.abs()), dt_s);
+            (LoopMode::Tracking, u)
+        };
+        self.last_mode = mode;
+        ControlOutput {
+            desired_force_n: desired,
+            current_cmd_a: current,
+            mode,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::pid::{AntiWindup, PidGains};
+    use super::*;
+
+    fn ctl() -> FeelController {
+        let law = FeelLaw::Spring {
+            breakout_n: 5.0,
+            gradient_n_per_m: 1000.0,
+            damping_n_s_per_m: 0.0,
+            max_force_n: 70.0,
+        };
+        let pid = Pid::new(PidGains {
+            kp: 0.05,
+            ki: 2.0,
+            kd: 0.0,
+            derivative_filter_s: 0.0,
+            out_min: 0.0,
+            out_max: 14.0,
+            anti_windup: AntiWindup::Clamping,
+        });
+        let ff = Feedforward {
+            fc0_n: 1.0,
+            fc_gain_n_per_a: 5.0,
+            c0_n_s_per_m: 20.0,
+            te_s: 0.01,
+            tm_s: 0.008,
+        };
+        FeelController::new(law, pid, Some(ff), 0.002, 1.0)
+    }
+
+    #[test]
+    fn returning_to_centre_commands_zero_current() {
+        // x > 0 moving back (v < 0): the spring law asks for +F, the damper can only give -F.
+        let mut c = ctl();
+        let out = c.update(
+            0.0,
+            &DaqSample {
+                sampled_t_s: 0.0,
+                force_n: -3.0,
+                x_m: 0.03,
+                v_m_s: -0.05,
+            },
+            1e-3,
+        );
+        assert_eq!(out.mode, LoopMode::Released);
+        assert_eq!(out.current_cmd_a, 0.0);
+    }
+
+    #[test]
+    fn moving_away_tracks_with_feedforward_from_the_bingham_inverse() {
+        let mut c = ctl();
+        // x = 0.03 m: F* = 5 + 30 = 35 N; measured exactly 35 N: output = feedforward (35-1-20·0.05)/5 = 6.6 A.
+        let out = c.update(
+            0.0,
+            &DaqSample {
+                sampled_t_s: 0.0,
+                force_n: 35.0,
+                x_m: 0.03,
+                v_m_s: 0.05,
+            },
+            1e-3,
+        );
+        assert_eq!(out.mode, LoopMode::Tracking);
+        assert!((out.current_cmd_a - 6.6).abs() < 1e-9, "{}", out.current_cmd_a);
+    }
+
+    #[test]
+    fn at_rest_holds_with_the_static_current() {
+        let mut c = ctl();
+        // x = -0.02 m: F* = -25 N. The pilot pushes outwards (load cell -2 N): hold with (25 - 1)/5 = 4.8 A.
+        let out = c.update(
+            0.0,
+            &DaqSample {
+                sampled_t_s: 0.0,
+                force_n: -2.0,
+                x_m: -0.02,
+                v_m_s: 0.0005,
+            },
+            1e-3,
+        );
+        assert_eq!(out.mode, LoopMode::Holding);
+        assert!((out.current_cmd_a - 4.8).abs() < 1e-9);
+        // Not pushing (0.5 N < rest force): hold the same.
+        let out = c.update(
+            0.0,
+            &DaqSample {
+                sampled_t_s: 0.0,
+                force_n: 0.5,
+                x_m: -0.02,
+                v_m_s: 0.0,
+            },
+            1e-3,
+        );
+        assert!((out.current_cmd_a - 4.8).abs() < 1e-9);
+        // Pushing back towards centre (+2 N) from rest: release, so the stick can return.
+        let out = c.update(
+            0.0,
+            &DaqSample {
+                sampled_t_s: 0.0,
+                force_n: 2.0,
+                x_m: -0.02,
+                v_m_s: 0.0,
+            },
+            1e-3,
+        );
+        assert_eq!(out.mode, LoopMode::Released);
+        assert_eq!(out.current_cmd_a, 0.0);
+    }
+}

@@ -1,0 +1,280 @@
+//! Passive (spring) feel systems, as alternatives to the MR element on the same rig and linkage (issue 6).
+//!
+//! Each is a force element on the piston's joint (N along +x), applied by [`apply`] through the rig's
+//! implicit joint-spring hook ([`Rig::set_external_spring`]): the springs a conventional feel unit would
+//! put on the same push rod.
+//!
+//! * [`CentringSpring`]: the passive spring element of Hanlon et al. (U.S. Patent 8,056,432, 2011) that
+//!   "passively biased the control stick toward the null position": `F = −k x`.
+//! * [`VariableGradientSpring`]: Griffith's fail-safe feel unit (U.S. Patent 4,106,728, 1978): a spring
+//!   acting through a nonlinear linkage, so the force gradient felt at the stick rises with deflection.
+//!   Modelled by the linkage's spring stroke `s(x) = x (1 + a x² / (3 x_ref²))` (ratio
+//!   `s'(x) = 1 + a (x/x_ref)²`) and the potential `U = ½ k s(x)²`: `F = −k s s'`, conservative by
+//!   construction.
+//! * [`QFeelSpring`]: a q-feel unit, the spring gradient scheduled with dynamic pressure
+//!   `k(q) = k0 + kq q` (the classic bellows fed with pitot-static pressure difference).
+//!
+//! All three derive from a potential at a fixed flight condition, so they store and return energy but
+//! never inject it; the tests check that on the multibody rig.
+//!
+//! Parameters live in `models/feel-springs.toml` (estimates, with how they were made).
+
+use std::path::Path;
+
+use serde::Deserialize;
+
+use crate::rig::Rig;
+
+/// A passive feel element on the piston joint.
+pub trait FeelSystem {
+    /// Force on the piston along +x, N, at piston displacement `x_m` (+ = extension) from mid-stroke.
+    fn force_on_piston_n(&self, x_m: f64) -> f64;
+    /// Energy stored in the element at `x_m`, J (its potential: `F = −dU/dx`).
+    fn stored_energy_j(&self, x_m: f64) -> f64;
+    /// Local force gradient `−dF/dx`, N/m (what the pilot feels as stiffness, through the gearing).
+    fn gradient_n_per_m(&self, x_m: f64) -> f64 {
+        let h = 1e-7;
+        -(self.force_on_piston_n(x_m + h) - self.force_on_piston_n(x_m - h)) / (2.0 * h)
+    }
+}
+
+/// Hanlon et al.'s centring spring: `F = −k x`.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CentringSpring {
+    /// Stiffness at the piston, N/m.
+    pub k_n_per_m: f64,
+}
+
+impl FeelSystem for CentringSpring {
+    fn force_on_piston_n(&self, x_m: f64) -> f64 {
+        -self.k_n_per_m * x_m
+    }
+    fn stored_energy_j(&self, x_m: f64) -> f64 {
+        0.5 * self.k_n_per_m * x_m * x_m
+    }
+}
+
+/// Griffith's variable-gradient spring through a nonlinear linkage.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VariableGradientSpring {
+    /// Spring stiffness, N/m (the gradient at the centre).
+    pub k_n_per_m: f64,
+    /// Linkage nonlinearity `a`: the ratio `s'` grows from 1 at the centre to `1 + a` at `x_ref_m`.
+    pub nonlinearity: f64,
+    /// Reference displacement, m (full stroke of the linkage).
+    pub x_ref_m: f64,
+}
+
+impl VariableGradientSpring {
+    /// Spring stroke through the linkage, m.
+    pub fn spring_stroke_m(&self, x_m: f64) -> f64 {
+        x_m * (1.0 + self.nonlinearity * x_m * x_m / (3.0 * self.x_ref_m * self.x_ref_m))
+    }
+
+    /// Linkage ratio `ds/dx`.
+    pub fn ratio(&self, x_m: f64) -> f64 {
+        1.0 + self.nonlinearity * (x_m / self.x_ref_m).powi(2)
+    }
+}
+
+impl FeelSystem for VariableGradientSpring {
+    fn force_on_piston_n(&self, x_m: f64) -> f64 {
+        -self.k_n_per_m * self.spring_stroke_m(x_m) * self.ratio(x_m)
+    }
+    fn stored_energy_j(&self, x_m: f64) -> f64 {
+        0.5 * self.k_n_per_m * self.spring_stroke_m(x_m).powi(2)
+    }
+}
+
+/// A q-feel spring: gradient `k0 + kq q`, with `q` the dynamic pressure set by the flight condition.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct QFeelSpring {
+    /// Gradient at zero airspeed, N/m.
+    pub k0_n_per_m: f64,
+    /// Gradient per pascal of dynamic pressure, N/m/Pa.
+    pub kq_n_per_m_per_pa: f64,
+    /// Present dynamic pressure, Pa (0 in the file; set from the flight condition).
+    #[serde(default)]
+    pub qbar_pa: f64,
+}
+
+impl QFeelSpring {
+    /// Schedule the gradient with the dynamic pressure `½ ρ V²`, Pa.
+    pub fn set_dynamic_pressure(&mut self, qbar_pa: f64) {
+        self.qbar_pa = qbar_pa.max(0.0);
+    }
+
+    pub fn stiffness_n_per_m(&self) -> f64 {
+        self.k0_n_per_m + self.kq_n_per_m_per_pa * self.qbar_pa
+    }
+}
+
+impl FeelSystem for QFeelSpring {
+    fn force_on_piston_n(&self, x_m: f64) -> f64 {
+        -self.stiffness_n_per_m() * x_m
+    }
+    fn stored_energy_j(&self, x_m: f64) -> f64 {
+        0.5 * self.stiffness_n_per_m() * x_m * x_m
+    }
+}
+
+/// Put the feel system on the rig's piston joint for the next step (call before each [`Rig::step`]).
+///
+/// The element goes in as the rig's implicit joint spring, linearised at the present displacement `x`:
+/// stiffness `k = −dF/dx(x)` and rest point `x + F(x)/k`, so that `F(x⁺) ≈ F(x) − k (x⁺ − x)`. An explicit
+/// force `F(x)` held over the step would do `½ k Δx²` more work than the spring's energy drop each step
+/// (energy injection); the implicit tangent does `½ k Δx²` less (a tiny dissipation). An element with a
+/// non-positive local gradient is applied as an explicit force.
+pub fn apply(feel: &dyn FeelSystem, rig: &mut Rig) {
+    let x = rig.state().piston_x_m;
+    let f = feel.force_on_piston_n(x);
+    let k = feel.gradient_n_per_m(x);
+    if k > 0.0 {
+        rig.set_external_spring(k, x + f / k);
+        rig.set_external_force_n(0.0);
+    } else {
+        rig.set_external_spring(0.0, 0.0);
+        rig.set_external_force_n(f);
+    }
+}
+
+/// The three feel systems of `models/feel-springs.toml`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FeelSprings {
+    pub centring: CentringSpring,
+    pub variable_gradient: VariableGradientSpring,
+    pub q_feel: QFeelSpring,
+}
+
+/// Errors loading a feel-system file: file, line and field.
+#[derive(Debug, thiserror::Error)]
+pub enum FeelError {
+    #[error("{}: {msg}", path.display())]
+    Io { path: std::path::PathBuf, msg: String },
+    #[error("{}:{line}: {msg}", path.display())]
+    Parse {
+        path: std::path::PathBuf,
+        line: usize,
+        msg: String,
+    },
+    #[error("{}: field `{field}`: {msg}", path.display())]
+    Field {
+        path: std::path::PathBuf,
+        field: String,
+        msg: String,
+    },
+}
+
+impl FeelSprings {
+    pub fn load(path: &Path) -> Result<Self, FeelError> {
+        let text = std::fs::read_to_string(path).map_err(|e| FeelError::Io {
+            path: path.to_path_buf(),
+            msg: e.to_string(),
+        })?;
+        let f: FeelSprings = toml::from_str(&text).map_err(|e| FeelError::Parse {
+            path: path.to_path_buf(),
+            line: e
+                .span()
+                .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1)
+                .unwrap_or(0),
+            msg: e.message().to_string(),
+        })?;
+        let checks = [
+            ("centring.k_n_per_m", f.centring.k_n_per_m, 0.0, 1e6),
+            (
+                "variable_gradient.k_n_per_m",
+                f.variable_gradient.k_n_per_m,
+                0.0,
+                1e6,
+            ),
+            (
+                "variable_gradient.nonlinearity",
+                f.variable_gradient.nonlinearity,
+                0.0,
+                100.0,
+            ),
+            (
+                "variable_gradient.x_ref_m",
+                f.variable_gradient.x_ref_m,
+                1e-4,
+                1.0,
+            ),
+            ("q_feel.k0_n_per_m", f.q_feel.k0_n_per_m, 0.0, 1e6),
+            ("q_feel.kq_n_per_m_per_pa", f.q_feel.kq_n_per_m_per_pa, 0.0, 1e3),
+            ("q_feel.qbar_pa", f.q_feel.qbar_pa, 0.0, 1e6),
+        ];
+        for (field, v, lo, hi) in checks {
+            if !(v.is_finite() && v >= lo && v <= hi) {
+                return Err(FeelError::Field {
+                    path: path.to_path_buf(),
+                    field: field.into(),
+                    msg: format!("{v} outside the allowed range [{lo}, {hi}]"),
+                });
+            }
+        }
+        Ok(f)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn variable_gradient_force_is_minus_the_slope_of_its_energy_and_stiffens_outwards() {
+        let s = VariableGradientSpring {
+            k_n_per_m: 1000.0,
+            nonlinearity: 2.0,
+            x_ref_m: 0.045,
+        };
+        for x in [-0.04, -0.01, 0.0, 0.02, 0.045] {
+            let h = 1e-6;
+            let dudx = (s.stored_energy_j(x + h) - s.stored_energy_j(x - h)) / (2.0 * h);
+            assert!((s.force_on_piston_n(x) + dudx).abs() < 1e-6, "x {x}");
+        }
+        assert!((s.gradient_n_per_m(0.0) - 1000.0).abs() < 1e-3);
+        // Gradient at x_ref: k (s'² + s s''), s' = 1 + a, s'' = 2a/x_ref, s = x_ref (1 + a/3).
+        let (a, xr) = (2.0, 0.045);
+        let expect = 1000.0 * ((1.0 + a) * (1.0 + a) + xr * (1.0 + a / 3.0) * 2.0 * a / xr);
+        assert!((s.gradient_n_per_m(xr) - expect).abs() < 1e-3 * expect);
+        assert!(s.gradient_n_per_m(0.03) > s.gradient_n_per_m(0.01));
+    }
+
+    #[test]
+    fn q_feel_gradient_scales_with_dynamic_pressure() {
+        let mut q = QFeelSpring {
+            k0_n_per_m: 200.0,
+            kq_n_per_m_per_pa: 0.1,
+            qbar_pa: 0.0,
+        };
+        assert!((q.gradient_n_per_m(0.01) - 200.0).abs() < 1e-6);
+        q.set_dynamic_pressure(10_000.0); // ~ 130 m/s at sea level: ½·1.225·128²
+        assert!((q.gradient_n_per_m(0.01) - 1200.0).abs() < 1e-6);
+        q.set_dynamic_pressure(20_000.0);
+        assert!((q.gradient_n_per_m(-0.02) - 2200.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn feel_file_loads_and_bad_values_name_the_field() {
+        let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/models/feel-springs.toml"));
+        let f = FeelSprings::load(path).unwrap();
+        assert!(f.centring.k_n_per_m > 0.0);
+        let dir = std::env::temp_dir().join(format!("mrfeel-feel-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let bad = dir.join("bad.toml");
+        let text = std::fs::read_to_string(path)
+            .unwrap()
+            .replace("nonlinearity = ", "nonlinearity = -");
+        std::fs::write(&bad, text).unwrap();
+        let e = FeelSprings::load(&bad).unwrap_err().to_string();
+        assert!(
+            e.contains("variable_gradient.nonlinearity") && e.contains("[0, 100]"),
+            "{e}"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

@@ -1,0 +1,147 @@
+//! Feel laws: the force the pilot should feel, as a function of stick deflection and velocity, expressed as
+//! the force along +x on the piston (the load cell's sign convention, the measurement format's `f_n`).
+//!
+//! An MR damper is passive: its force always opposes the piston's motion relative to the cylinder, so it can
+//! only give a force with the sign of the piston velocity (`F·v ≥ 0`, Eq. 2). A centring spring law
+//! `F = breakout·sgn(x) + k x` therefore splits the stroke into two halves of each cycle:
+//! - moving **away** from centre (`x v > 0`): the law's force has the sign of `v`; the damper can give it,
+//!   the loop tracks it;
+//! - moving **back** towards centre (`x v < 0`): the law asks the stick to push the hand; a damper cannot, so
+//!   the controller commands 0 A and the pilot feels only the damper's zero-current friction.
+//!
+//! At rest the damper holds the stick up to its yield force in either direction; the controller then uses
+//! the direction the pilot pushes (the load cell's sign) in place of the velocity's, so a stick held at a
+//! deflection resists being pushed further out and is released when pushed back (see
+//! [`super::controller`]).
+//!
+//! The pilot feels a force that rises with deflection on the way out and vanishes on the way back: the
+//! feel of a spring with no stored energy, as a passive device must give.
+
+/// Desired-force law.
+#[derive(Debug, Clone, PartialEq)]
+pub enum FeelLaw {
+    /// `F = breakout_n·sgn(x) + gradient_n_per_m·x + damping_n_s_per_m·v`, clipped to ±`max_force_n`.
+    Spring {
+        breakout_n: f64,
+        gradient_n_per_m: f64,
+        damping_n_s_per_m: f64,
+        max_force_n: f64,
+    },
+    /// A force magnitude stepping between `low_n` and `high_n` every `period_s` from `start_s`, with the
+    /// sign of the velocity (always resisting): the response-time test signal.
+    ForceSteps {
+        low_n: f64,
+        high_n: f64,
+        start_s: f64,
+        period_s: f64,
+    },
+}
+
+impl FeelLaw {
+    /// Desired force at time `t_s`, deflection `x_m`, velocity `v_m_s`; `dir` is the direction of motion
+    /// (or of the pilot's push at rest), used by laws that always resist.
+    pub fn force_n(&self, t_s: f64, x_m: f64, v_m_s: f64, dir: f64) -> f64 {
+        match *self {
+            FeelLaw::Spring {
+                breakout_n,
+                gradient_n_per_m,
+                damping_n_s_per_m,
+                max_force_n,
+            } => {
+                let f = breakout_n * sgn(x_m) + gradient_n_per_m * x_m + damping_n_s_per_m * v_m_s;
+                f.clamp(-max_force_n, max_force_n)
+            }
+            FeelLaw::ForceSteps { .. } => self.step_level_n(t_s) * dir,
+        }
+    }
+
+    /// The force magnitude to hold the stick with at rest (where the direction of the next motion is
+    /// unknown and the damper's yield force acts either way).
+    pub fn holding_force_n(&self, t_s: f64, x_m: f64) -> f64 {
+        match self {
+            FeelLaw::Spring { .. } => self.force_n(t_s, x_m, 0.0, 0.0).abs(),
+            FeelLaw::ForceSteps { .. } => self.step_level_n(t_s),
+        }
+    }
+
+    /// For `ForceSteps`, the magnitude at `t_s`; for other laws 0.
+    pub fn step_level_n(&self, t_s: f64) -> f64 {
+        match *self {
+            FeelLaw::ForceSteps {
+                low_n,
+                high_n,
+                start_s,
+                period_s,
+            } => {
+                if t_s < start_s {
+                    low_n
+                } else if ((t_s - start_s) / period_s).floor() as i64 % 2 == 0 {
+                    high_n
+                } else {
+                    low_n
+                }
+            }
+            _ => 0.0,
+        }
+    }
+
+    /// Step times of a `ForceSteps` law within `[0, t_end_s)`.
+    pub fn step_times_s(&self, t_end_s: f64) -> Vec<f64> {
+        match *self {
+            FeelLaw::ForceSteps {
+                start_s, period_s, ..
+            } => (0..)
+                .map(|k| start_s + k as f64 * period_s)
+                .take_while(|&t| t < t_end_s)
+                .collect(),
+            _ => Vec::new(),
+        }
+    }
+}
+
+/// `sgn`, zero at zero.
+pub fn sgn(v: f64) -> f64 {
+    if v > 0.0 {
+        1.0
+    } else if v < 0.0 {
+        -1.0
+    } else {
+        0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spring_law_reaches_70_n_at_full_stroke_and_clips() {
+        // 70 N at 2 in = 0.0508 m with 5 N breakout: gradient = 65/0.0508.
+        let law = FeelLaw::Spring {
+            breakout_n: 5.0,
+            gradient_n_per_m: 65.0 / 0.0508,
+            damping_n_s_per_m: 0.0,
+            max_force_n: 70.0,
+        };
+        assert!((law.force_n(0.0, 0.0508, 0.0, sgn(0.0)) - 70.0).abs() < 1e-9);
+        assert!((law.force_n(0.0, -0.0508, 0.0, sgn(0.0)) + 70.0).abs() < 1e-9);
+        assert_eq!(law.force_n(0.0, 0.08, 0.0, sgn(0.0)), 70.0);
+        assert_eq!(law.force_n(0.0, 0.0, 0.3, sgn(0.3)), 0.0);
+    }
+
+    #[test]
+    fn force_steps_alternate_and_follow_velocity_sign() {
+        let law = FeelLaw::ForceSteps {
+            low_n: 20.0,
+            high_n: 50.0,
+            start_s: 0.5,
+            period_s: 0.3,
+        };
+        assert_eq!(law.force_n(0.4, 0.0, 0.1, sgn(0.1)), 20.0);
+        assert_eq!(law.force_n(0.6, 0.0, 0.1, sgn(0.1)), 50.0);
+        assert_eq!(law.force_n(0.9, 0.0, -0.1, sgn(-0.1)), -20.0);
+        let steps = law.step_times_s(1.2);
+        assert_eq!(steps.len(), 3);
+        assert!((steps[2] - 1.1).abs() < 1e-12);
+    }
+}

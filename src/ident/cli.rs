@@ -1,0 +1,274 @@
+//! `mrfeel fit`, `mrfeel validate`, `mrfeel diagnose` (`shared/spec/model-discovery.md`). JSON (with
+//! `--json`) or a table on stdout, nothing else; progress and notes on stderr.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+
+use anyhow::Context;
+
+use super::diagnose::{diagnose, make_folds, DiagnoseOptions};
+use super::fit::{all_spans, fit, FitOptions};
+use super::report::{diagnose_table, DiagnoseJson, FitJson};
+use super::residual::where_regions;
+use super::validate::{evaluate, figures};
+use super::{default_current_limit_a, load_tests, Test};
+use crate::device::{DeviceConfig, Model, ModelSpec, ParamsFile, Registry};
+
+#[derive(clap::Args, Debug, Clone)]
+pub struct FitArgs {
+    /// Measurement CSV files or directories of them (fitted jointly, each from its own start).
+    #[arg(required = true)]
+    pub data: Vec<PathBuf>,
+    /// Model spec: `bingham` plus effects joined by `+`.
+    #[arg(long, default_value = "bingham")]
+    pub model: String,
+    /// Write the model name and fitted parameters here (JSON, read by `validate --params`).
+    #[arg(long)]
+    pub save: Option<PathBuf>,
+    /// Print the contract's JSON on stdout instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// Write PNG + SVG plots into this directory.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Write a Rerun recording (.rrd) of measured vs model force.
+    #[arg(long)]
+    pub rerun: Option<PathBuf>,
+    /// Driver saturation of the current command, A (default: 14 A, the paper's driver, or the largest
+    /// command in the data if higher).
+    #[arg(long)]
+    pub current_limit_a: Option<f64>,
+    /// Also measure the held-out error: refit with each test group left out in turn (stderr).
+    #[arg(long)]
+    pub heldout: bool,
+}
+
+#[derive(clap::Args, Debug, Clone)]
+pub struct ValidateArgs {
+    /// Measurement CSV files or directories of them.
+    #[arg(required = true)]
+    pub data: Vec<PathBuf>,
+    /// Parameters written by `mrfeel fit --save` (or a device `.toml`); run unchanged, no refit.
+    #[arg(long)]
+    pub params: PathBuf,
+    #[arg(long)]
+    pub json: bool,
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    #[arg(long)]
+    pub rerun: Option<PathBuf>,
+}
+
+#[derive(clap::Args, Debug, Clone)]
+pub struct DiagnoseArgs {
+    /// Measurement CSV files or directories of them.
+    #[arg(required = true)]
+    pub data: Vec<PathBuf>,
+    /// The model to start from.
+    #[arg(long, default_value = "bingham")]
+    pub model: String,
+    #[arg(long)]
+    pub json: bool,
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    #[arg(long)]
+    pub rerun: Option<PathBuf>,
+    #[arg(long)]
+    pub current_limit_a: Option<f64>,
+}
+
+fn build_model(spec: &str, registry: &Registry, limit: f64) -> anyhow::Result<Model> {
+    let spec = ModelSpec::parse(spec)?;
+    Ok(Model::new(&spec, registry, limit)?)
+}
+
+/// Every file must have enough samples for a fit of `n` parameters.
+fn require(tests_m: &[Test], n: usize) -> anyhow::Result<()> {
+    for t in tests_m {
+        if t.len() < 2 * n {
+            return Err(crate::measurement::MeasurementError::TooFewSamples {
+                path: t.path.clone(),
+                found: t.len(),
+                need: 2 * n,
+                what: format!("a fit of {n} parameters"),
+            }
+            .into());
+        }
+    }
+    Ok(())
+}
+
+fn limit_of(arg: Option<f64>, tests: &[Test]) -> anyhow::Result<f64> {
+    match arg {
+        Some(l) if !(l.is_finite() && l > 0.0) => {
+            anyhow::bail!("--current-limit-a {l}: must be a positive number of amperes")
+        }
+        Some(l) => Ok(l),
+        None => Ok(default_current_limit_a(tests)),
+    }
+}
+
+pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
+    let registry = Registry::builtin();
+    let tests = load_tests(&a.data)?;
+    let limit = limit_of(a.current_limit_a, &tests)?;
+    let model = build_model(&a.model, &registry, limit)?;
+    require(&tests, model.n_params())?;
+    let n: usize = tests.iter().map(Test::len).sum();
+    eprintln!(
+        "fitting {} ({} parameters) to {} tests, {n} samples",
+        model.name(),
+        model.n_params(),
+        tests.len()
+    );
+    let t0 = std::time::Instant::now();
+    let fr = fit(&model, &tests, &all_spans(&tests), &FitOptions::default());
+    eprintln!(
+        "fitted in {:.2} s ({} simulations of the data, {})",
+        t0.elapsed().as_secs_f64(),
+        fr.evaluations,
+        fr.termination
+    );
+    let pred = evaluate(&model, &fr.params, &tests);
+    let (per, total) = figures(&pred, &tests);
+    let out = FitJson::new(
+        &model,
+        &fr.params,
+        Some(&fr),
+        &tests,
+        &per,
+        &total,
+        where_regions(&tests, &pred),
+    );
+    if let Some(path) = &a.save {
+        let pf = ParamsFile::new(&model, &fr.params, Some(&fr.std_err));
+        let text = serde_json::to_string_pretty(&pf)?;
+        std::fs::write(path, text + "\n").with_context(|| format!("writing {}", path.display()))?;
+        eprintln!("saved {}", path.display());
+    }
+    if a.heldout {
+        let (folds, how) = make_folds(&tests, 4, 5);
+        let bar = indicatif::ProgressBar::hidden();
+        let cv = super::diagnose::cross_validate(&model, &tests, &folds, None, &FitOptions::default(), &bar);
+        eprintln!(
+            "held-out NRMSE {:.4} (RMSE {:.3} N), {how}",
+            cv.heldout_nrmse(),
+            cv.total.rmse_n()
+        );
+        for (f, fig) in folds.iter().zip(&cv.per_fold) {
+            eprintln!("  {:<32} held-out NRMSE {:.4}", f.label, fig.nrmse());
+        }
+    }
+    outputs(
+        &out,
+        "fit",
+        a.json,
+        a.plot.as_ref(),
+        a.rerun.as_ref(),
+        &tests,
+        &pred,
+    )
+}
+
+fn outputs(
+    out: &FitJson,
+    title: &str,
+    json: bool,
+    plot: Option<&PathBuf>,
+    rerun: Option<&PathBuf>,
+    tests: &[Test],
+    pred: &[Vec<f64>],
+) -> anyhow::Result<()> {
+    if json {
+        println!("{}", serde_json::to_string_pretty(out)?);
+    } else {
+        print!("{}", out.table(title));
+    }
+    if let Some(dir) = plot {
+        let files = super::plots::plot_model(dir, tests, pred, &out.model, "")?;
+        eprintln!("wrote {} plot files into {}", files.len(), dir.display());
+    }
+    if let Some(path) = rerun {
+        super::rerun_log::record(path, tests, &[(&out.model, pred)])?;
+        eprintln!("wrote Rerun recording {}", path.display());
+    }
+    Ok(())
+}
+
+pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
+    let registry = Registry::builtin();
+    let tests = load_tests(&a.data)?;
+    let cfg = DeviceConfig::load(&a.params, &registry)?;
+    // Standard errors as saved, where the file is a PARAMS.json.
+    let saved: Option<ParamsFile> = std::fs::read_to_string(&a.params)
+        .ok()
+        .and_then(|s| serde_json::from_str(&s).ok());
+    let pred = evaluate(&cfg.model, &cfg.params, &tests);
+    let (per, total) = figures(&pred, &tests);
+    let mut out = FitJson::new(
+        &cfg.model,
+        &cfg.params,
+        None,
+        &tests,
+        &per,
+        &total,
+        where_regions(&tests, &pred),
+    );
+    if let Some(s) = saved {
+        for (name, p) in out.params.iter_mut() {
+            p.std_err = s.params.get(name).and_then(|v| v.std_err);
+        }
+    }
+    outputs(
+        &out,
+        "validate",
+        a.json,
+        a.plot.as_ref(),
+        a.rerun.as_ref(),
+        &tests,
+        &pred,
+    )
+}
+
+pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
+    let registry = Registry::builtin();
+    let tests = load_tests(&a.data)?;
+    let limit = limit_of(a.current_limit_a, &tests)?;
+    let base = build_model(&a.model, &registry, limit)?;
+    // The largest model the search can reach needs the most samples.
+    let most = registry
+        .names()
+        .iter()
+        .filter(|n| !base.spec().has(n))
+        .filter_map(|n| registry.get(n))
+        .map(|e| e.params().len())
+        .sum::<usize>()
+        + base.n_params();
+    require(&tests, most)?;
+    let opts = DiagnoseOptions {
+        current_limit_a: limit,
+        progress: std::io::stderr().is_terminal(),
+        ..Default::default()
+    };
+    let t0 = std::time::Instant::now();
+    let d = diagnose(&tests, base.spec(), &registry, &opts)?;
+    eprintln!("diagnosed in {:.1} s", t0.elapsed().as_secs_f64());
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&DiagnoseJson::new(&d))?);
+    } else {
+        print!("{}", diagnose_table(&d));
+    }
+    if let Some(dir) = &a.plot {
+        let files = super::plots::plot_diagnosis(dir, &tests, &d)?;
+        eprintln!("wrote {} plot files into {}", files.len(), dir.display());
+    }
+    if let Some(path) = &a.rerun {
+        let mut models: Vec<(&str, &[Vec<f64>])> = vec![(&d.base_model, &d.base_pred)];
+        if d.final_model != d.base_model {
+            models.push((&d.final_model, &d.final_pred));
+        }
+        super::rerun_log::record(path, &tests, &models)?;
+        eprintln!("wrote Rerun recording {}", path.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,586 @@
+//! Naming the missing effect: every registered effect not in the model is added in turn, fitted, and
+//! judged by the error it removes on data its fit never saw; the best significant one is kept and the
+//! search repeats until no candidate helps significantly; a final backward pass drops any kept effect the
+//! others make redundant.
+//!
+//! Held-out error: with two or more tests, folds are test groups (leave one group out; k-fold over groups
+//! when there are many); with one test, contiguous time blocks (blocked cross-validation: the test is still
+//! integrated from its start, but only the training blocks count in the fit and only the held-out block in
+//! the score).
+//!
+//! Significance: a candidate counts only when (a) it lowers the held-out error in every fold, (b) it removes
+//! at least [`DiagnoseOptions::min_gain`] of the held-out mean-square error, and (c) at least
+//! [`DiagnoseOptions::min_excess_removed`] of the part of it above the measurement noise floor (estimated
+//! from the data, see [`super::residual::noise_floor_n`]); nothing is added once the held-out error is
+//! within [`DiagnoseOptions::floor_ratio`] of the noise floor. A model that is already right leaves only
+//! noise, which no effect removes consistently across folds.
+
+use std::collections::BTreeMap;
+
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use rayon::prelude::*;
+
+use super::fit::{fit, span_stats, FitOptions, Span};
+use super::residual::{noise_floor_n, where_regions, Region, Signatures};
+use super::validate::{evaluate, Figures};
+use super::{IdentError, Test};
+use crate::device::{Model, ModelSpec, Registry};
+
+/// Settings of a diagnosis.
+#[derive(Debug, Clone)]
+pub struct DiagnoseOptions {
+    /// Driver saturation for every model, A.
+    pub current_limit_a: f64,
+    /// Smallest fraction of the held-out mean-square error an effect must remove.
+    pub min_gain: f64,
+    /// Smallest fraction of the held-out mean-square error above the noise floor an effect must remove.
+    pub min_excess_removed: f64,
+    /// Stop adding once held-out RMSE ≤ this × the noise floor.
+    pub floor_ratio: f64,
+    /// Time blocks for a single test.
+    pub blocks: usize,
+    /// Most folds over groups of tests.
+    pub max_folds: usize,
+    pub fit: FitOptions,
+    /// Show a progress bar on stderr (hidden when stderr is not a terminal).
+    pub progress: bool,
+}
+
+impl Default for DiagnoseOptions {
+    fn default() -> Self {
+        Self {
+            current_limit_a: crate::device::PAPER_CURRENT_LIMIT_A,
+            min_gain: 0.05,
+            min_excess_removed: 0.2,
+            floor_ratio: 1.1,
+            blocks: 4,
+            max_folds: 5,
+            fit: FitOptions::default(),
+            progress: false,
+        }
+    }
+}
+
+/// One cross-validation fold: the samples fitted and the samples scored.
+#[derive(Debug, Clone)]
+pub struct Fold {
+    pub train: Vec<Span>,
+    pub test: Vec<Span>,
+    pub label: String,
+}
+
+/// The folds for these tests and a sentence saying how they were made.
+pub fn make_folds(tests: &[Test], blocks: usize, max_folds: usize) -> (Vec<Fold>, String) {
+    if tests.len() == 1 {
+        let n = tests[0].len();
+        let k = blocks.clamp(2, n.max(2));
+        let edges: Vec<usize> = (0..=k).map(|b| b * n / k).collect();
+        let folds = (0..k)
+            .map(|b| Fold {
+                train: (0..k)
+                    .filter(|&c| c != b)
+                    .map(|c| Span {
+                        test: 0,
+                        start: edges[c],
+                        end: edges[c + 1],
+                    })
+                    .collect(),
+                test: vec![Span {
+                    test: 0,
+                    start: edges[b],
+                    end: edges[b + 1],
+                }],
+                label: format!("block {}/{k}", b + 1),
+            })
+            .collect();
+        return (
+            folds,
+            format!("blocked cross-validation over {k} contiguous time blocks of the one test"),
+        );
+    }
+    // Groups in order of first appearance; one group per test when the names give a single group.
+    let mut groups: Vec<String> = Vec::new();
+    for t in tests {
+        if !groups.contains(&t.group) {
+            groups.push(t.group.clone());
+        }
+    }
+    let by_file = groups.len() < 2;
+    let key = |j: usize| {
+        if by_file {
+            j
+        } else {
+            groups.iter().position(|g| *g == tests[j].group).unwrap_or(0)
+        }
+    };
+    let ng = if by_file { tests.len() } else { groups.len() };
+    let k = ng.min(max_folds.max(2));
+    let folds = (0..k)
+        .map(|f| {
+            let held: Vec<usize> = (0..tests.len()).filter(|&j| key(j) % k == f).collect();
+            let label = if ng == k && !by_file {
+                format!("group {}", groups[f])
+            } else if ng == k {
+                format!("test {}", tests[f].name)
+            } else {
+                format!("fold {}/{k}", f + 1)
+            };
+            Fold {
+                train: (0..tests.len())
+                    .filter(|j| !held.contains(j))
+                    .map(|j| Span {
+                        test: j,
+                        start: 0,
+                        end: tests[j].len(),
+                    })
+                    .collect(),
+                test: held
+                    .iter()
+                    .map(|&j| Span {
+                        test: j,
+                        start: 0,
+                        end: tests[j].len(),
+                    })
+                    .collect(),
+                label,
+            }
+        })
+        .collect();
+    let how = match (by_file, ng == k) {
+        (false, true) => format!("leave one group out over {k} test groups ({})", groups.join(", ")),
+        (false, false) => format!("{k}-fold over {ng} test groups"),
+        (true, true) => format!("leave one test out over {k} tests"),
+        (true, false) => format!("{k}-fold over {ng} tests"),
+    };
+    (folds, how)
+}
+
+/// Held-out performance of one model spec.
+#[derive(Debug, Clone)]
+pub struct CvResult {
+    pub spec: ModelSpec,
+    pub per_fold: Vec<Figures>,
+    pub total: Figures,
+    /// Fitted parameters of each fold's model (for warm starts).
+    pub fold_params: Vec<Vec<f64>>,
+    /// Out-of-fold prediction at every sample (each sample is scored by exactly one fold).
+    pub oof: Vec<Vec<f64>>,
+}
+
+impl CvResult {
+    pub fn heldout_nrmse(&self) -> f64 {
+        self.total.nrmse()
+    }
+}
+
+/// Starting values for `model` from a fitted `parent` (matching parameter names), the rest data-derived.
+fn start_from(
+    model: &Model,
+    parent: Option<(&Model, &[f64])>,
+    tests: &[Test],
+    spans: &[Span],
+) -> Option<Vec<f64>> {
+    let (pm, pp) = parent?;
+    let mut p = model.initial_guess(&span_stats(tests, spans));
+    for (k, s) in model.param_specs().iter().enumerate() {
+        if let Some(j) = pm.param_index(s.name) {
+            p[k] = pp[j];
+        }
+    }
+    Some(p)
+}
+
+/// A fold's fitted parameters, held-out figures and held-out predictions.
+type FoldOutcome = (Vec<f64>, Figures, Vec<(Span, Vec<f64>)>);
+
+/// Cross-validate one model over the folds (parallel over folds, results in fold order).
+pub fn cross_validate(
+    model: &Model,
+    tests: &[Test],
+    folds: &[Fold],
+    parent: Option<(&Model, &CvResult)>,
+    opts: &FitOptions,
+    bar: &ProgressBar,
+) -> CvResult {
+    let out: Vec<FoldOutcome> = folds
+        .par_iter()
+        .enumerate()
+        .map(|(fi, fold)| {
+            let start = start_from(
+                model,
+                parent.map(|(m, cv)| (m, cv.fold_params[fi].as_slice())),
+                tests,
+                &fold.train,
+            );
+            let fr = fit(
+                model,
+                tests,
+                &fold.train,
+                &FitOptions {
+                    start,
+                    ..opts.clone()
+                },
+            );
+            let mut fig = Figures::default();
+            let mut preds = Vec::new();
+            for s in &fold.test {
+                let t = &tests[s.test];
+                let sim = model.simulate(&fr.params, &t.inputs[..s.end]);
+                let p = sim[s.start..s.end].to_vec();
+                fig.add(&Figures::of(&p, &t.f_n[s.start..s.end]));
+                preds.push((*s, p));
+            }
+            bar.inc(1);
+            (fr.params, fig, preds)
+        })
+        .collect();
+    let mut oof: Vec<Vec<f64>> = tests.iter().map(|t| vec![f64::NAN; t.len()]).collect();
+    let mut total = Figures::default();
+    let mut per_fold = Vec::new();
+    let mut fold_params = Vec::new();
+    for (p, fig, preds) in out {
+        total.add(&fig);
+        per_fold.push(fig);
+        fold_params.push(p);
+        for (s, pr) in preds {
+            oof[s.test][s.start..s.end].copy_from_slice(&pr);
+        }
+    }
+    CvResult {
+        spec: model.spec().clone(),
+        per_fold,
+        total,
+        fold_params,
+        oof,
+    }
+}
+
+/// One candidate effect judged against the model it would extend.
+#[derive(Debug, Clone)]
+pub struct Candidate {
+    pub effect: String,
+    pub heldout_nrmse: f64,
+    /// 1 − held-out NRMSE / the held-out NRMSE of the model it extends.
+    pub improvement: f64,
+    pub significant: bool,
+    pub evidence: String,
+    /// Folds in which it lowered the held-out error, of all folds.
+    pub folds_better: usize,
+    pub folds: usize,
+}
+
+/// One step of the search: the model and its held-out error.
+#[derive(Debug, Clone)]
+pub struct StepResult {
+    pub model: String,
+    pub added: Option<String>,
+    pub heldout_nrmse: f64,
+    pub heldout_rmse_n: f64,
+    /// Candidates tried at this step (best first).
+    pub candidates: Vec<Candidate>,
+}
+
+/// Everything a diagnosis found.
+#[derive(Debug, Clone)]
+pub struct Diagnosis {
+    pub base_model: String,
+    pub samples: usize,
+    /// Base model fitted on all data.
+    pub base_fit_nrmse: f64,
+    pub base_fit_rmse_n: f64,
+    pub base_heldout_nrmse: f64,
+    pub base_params: Vec<f64>,
+    /// Base-model prediction (fitted on all data) at every sample.
+    pub base_pred: Vec<Vec<f64>>,
+    pub where_: Vec<Region>,
+    /// Candidates against the base model, best first.
+    pub candidates: Vec<Candidate>,
+    pub missing: Vec<String>,
+    /// Effects the backward pass removed again (made redundant by effects added later).
+    pub pruned: Vec<String>,
+    pub final_model: String,
+    pub final_heldout_nrmse: f64,
+    /// Final model fitted on all data.
+    pub final_params: Vec<f64>,
+    pub final_pred: Vec<Vec<f64>>,
+    pub final_fit_nrmse: f64,
+    pub steps: Vec<StepResult>,
+    pub cv_scheme: String,
+    pub noise_floor_n: f64,
+    pub noise_floor_nrmse: f64,
+}
+
+/// Run the diagnosis of `base` on `tests` with the effects of `registry`.
+pub fn diagnose(
+    tests: &[Test],
+    base: &ModelSpec,
+    registry: &Registry,
+    opts: &DiagnoseOptions,
+) -> Result<Diagnosis, IdentError> {
+    if tests.is_empty() {
+        return Err(IdentError::NoData);
+    }
+    let build = |spec: &ModelSpec| Model::new(spec, registry, opts.current_limit_a);
+    let base_model = build(base)?;
+    let (folds, cv_scheme) = make_folds(tests, opts.blocks, opts.max_folds);
+    let all: Vec<Span> = super::fit::all_spans(tests);
+    let samples: usize = tests.iter().map(Test::len).sum();
+    let f_ss: f64 = tests.iter().flat_map(|t| &t.f_n).map(|f| f * f).sum();
+    let f_rms = (f_ss / samples.max(1) as f64).sqrt();
+    let noise = noise_floor_n(tests);
+    let noise_mse = noise * noise;
+
+    let bar = if opts.progress {
+        let b = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
+        b.set_style(
+            ProgressStyle::with_template("{spinner} {msg} [{elapsed_precise}] {pos} fits")
+                .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+        );
+        b
+    } else {
+        ProgressBar::hidden()
+    };
+
+    bar.set_message(format!("fitting {base}"));
+    let base_fit = fit(&base_model, tests, &all, &opts.fit);
+    let base_pred = evaluate(&base_model, &base_fit.params, tests);
+    let where_ = where_regions(tests, &base_pred);
+
+    let mut cur_model = base_model;
+    let mut cur = cross_validate(&cur_model, tests, &folds, None, &opts.fit, &bar);
+    let base_heldout = cur.heldout_nrmse();
+    let mut steps = vec![StepResult {
+        model: base.to_string(),
+        added: None,
+        heldout_nrmse: base_heldout,
+        heldout_rmse_n: cur.total.rmse_n(),
+        candidates: Vec::new(),
+    }];
+    let mut missing: Vec<String> = Vec::new();
+    let mut first_candidates: Option<Vec<Candidate>> = None;
+    // Held-out results of the models on the path, by spec, for the backward pass.
+    let mut path_cv: BTreeMap<String, CvResult> = BTreeMap::new();
+    path_cv.insert(cur.spec.to_string(), cur.clone());
+
+    loop {
+        let names: Vec<&'static str> = registry
+            .names()
+            .into_iter()
+            .filter(|n| !cur.spec.has(n))
+            .collect();
+        if names.is_empty() {
+            break;
+        }
+        bar.set_message(format!("trying {} effects on {}", names.len(), cur.spec));
+        let cur_sig = Signatures::of(tests, &cur.oof);
+        let tried: Vec<Result<(Model, CvResult), IdentError>> = names
+            .par_iter()
+            .map(|n| {
+                let m = build(&cur.spec.with(n))?;
+                let cv = cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &opts.fit, &bar);
+                Ok((m, cv))
+            })
+            .collect();
+        let mut tried: Vec<(Model, CvResult)> = tried.into_iter().collect::<Result<_, _>>()?;
+        tried.sort_by(|a, b| a.1.total.sse.total_cmp(&b.1.total.sse));
+        let at_floor = cur.total.rmse_n() <= opts.floor_ratio * noise;
+        let mut cands = Vec::new();
+        for (m, cv) in &tried {
+            let effect = m.spec().effects.last().cloned().unwrap_or_default();
+            let (significant, folds_better) = judge(&cur, cv, noise_mse, opts, at_floor);
+            let sig = Signatures::of(tests, &cv.oof);
+            let signature = registry
+                .get(&effect)
+                .map(|e| e.residual_signature())
+                .unwrap_or_default();
+            cands.push(Candidate {
+                heldout_nrmse: cv.heldout_nrmse(),
+                improvement: 1.0 - cv.heldout_nrmse() / cur.heldout_nrmse().max(f64::MIN_POSITIVE),
+                significant,
+                evidence: evidence(signature, &cur_sig, &sig, &cur, cv, folds_better),
+                folds_better,
+                folds: folds.len(),
+                effect,
+            });
+        }
+        let best = cands.iter().position(|c| c.significant);
+        let step_cands = cands.clone();
+        if first_candidates.is_none() {
+            first_candidates = Some(cands);
+        }
+        let Some(bi) = best else {
+            if let Some(last) = steps.last_mut() {
+                last.candidates = step_cands;
+            }
+            break;
+        };
+        if let Some(last) = steps.last_mut() {
+            last.candidates = step_cands;
+        }
+        let (m, cv) = tried.swap_remove(bi);
+        let added = m.spec().effects.last().cloned().unwrap_or_default();
+        missing.push(added.clone());
+        steps.push(StepResult {
+            model: m.name(),
+            added: Some(added),
+            heldout_nrmse: cv.heldout_nrmse(),
+            heldout_rmse_n: cv.total.rmse_n(),
+            candidates: Vec::new(),
+        });
+        path_cv.insert(m.name(), cv.clone());
+        cur_model = m;
+        cur = cv;
+    }
+
+    // Backward pass: drop an added effect whose removal does not significantly raise the held-out error.
+    let mut pruned = Vec::new();
+    while missing.len() >= 2 {
+        bar.set_message(format!(
+            "checking each of {} added effects is still needed",
+            missing.len()
+        ));
+        let without: Vec<Result<(String, Model, CvResult), IdentError>> = missing
+            .par_iter()
+            .map(|e| {
+                let spec = ModelSpec {
+                    effects: cur.spec.effects.iter().filter(|x| *x != e).cloned().collect(),
+                };
+                let m = build(&spec)?;
+                let cv = match path_cv.get(&spec.to_string()) {
+                    Some(cv) => cv.clone(),
+                    None => cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &opts.fit, &bar),
+                };
+                Ok((e.clone(), m, cv))
+            })
+            .collect();
+        let without: Vec<(String, Model, CvResult)> = without.into_iter().collect::<Result<_, _>>()?;
+        // The removal that costs least; drop it unless the full model is significantly better.
+        let Some((e, m, cv)) = without
+            .into_iter()
+            .min_by(|a, b| a.2.total.sse.total_cmp(&b.2.total.sse))
+        else {
+            break;
+        };
+        let at_floor = cv.total.rmse_n() <= opts.floor_ratio * noise;
+        let (needed, _) = judge(&cv, &cur, noise_mse, opts, at_floor);
+        if needed {
+            break;
+        }
+        missing.retain(|x| *x != e);
+        pruned.push(e.clone());
+        steps.push(StepResult {
+            model: m.name(),
+            added: None,
+            heldout_nrmse: cv.heldout_nrmse(),
+            heldout_rmse_n: cv.total.rmse_n(),
+            candidates: Vec::new(),
+        });
+        cur_model = m;
+        cur = cv;
+    }
+
+    bar.set_message(format!("fitting {}", cur.spec));
+    let final_fit = fit(
+        &cur_model,
+        tests,
+        &all,
+        &FitOptions {
+            start: start_from(&cur_model, Some((&build(base)?, &base_fit.params)), tests, &all),
+            ..opts.fit.clone()
+        },
+    );
+    let final_pred = evaluate(&cur_model, &final_fit.params, tests);
+    bar.finish_and_clear();
+    Ok(Diagnosis {
+        base_model: base.to_string(),
+        samples,
+        base_fit_nrmse: base_fit.nrmse(),
+        base_fit_rmse_n: base_fit.rmse_n(),
+        base_heldout_nrmse: base_heldout,
+        base_params: base_fit.params,
+        base_pred,
+        where_,
+        candidates: first_candidates.unwrap_or_default(),
+        missing,
+        pruned,
+        final_model: cur.spec.to_string(),
+        final_heldout_nrmse: cur.heldout_nrmse(),
+        final_fit_nrmse: final_fit.nrmse(),
+        final_params: final_fit.params,
+        final_pred,
+        steps,
+        cv_scheme,
+        noise_floor_n: noise,
+        noise_floor_nrmse: noise / f_rms.max(f64::MIN_POSITIVE),
+    })
+}
+
+/// Is `cand` significantly better than `cur` on held-out data? Returns the verdict and the number of folds
+/// in which it was better.
+fn judge(
+    cur: &CvResult,
+    cand: &CvResult,
+    noise_mse: f64,
+    opts: &DiagnoseOptions,
+    at_floor: bool,
+) -> (bool, usize) {
+    let folds_better = cur
+        .per_fold
+        .iter()
+        .zip(&cand.per_fold)
+        .filter(|(a, b)| b.sse < a.sse)
+        .count();
+    let (m_cur, m_cand) = (cur.total.mse(), cand.total.mse());
+    let gain = 1.0 - m_cand / m_cur.max(f64::MIN_POSITIVE);
+    let excess = (m_cur - noise_mse).max(f64::MIN_POSITIVE);
+    let removed = (m_cur - m_cand) / excess;
+    let ok = !at_floor
+        && folds_better == cur.per_fold.len()
+        && gain >= opts.min_gain
+        && removed >= opts.min_excess_removed;
+    (ok, folds_better)
+}
+
+/// The evidence for a candidate in words: its residual signature, and the measured signatures of the
+/// held-out residual it removes.
+fn evidence(
+    signature: &str,
+    before: &Signatures,
+    after: &Signatures,
+    cur: &CvResult,
+    cand: &CvResult,
+    folds_better: usize,
+) -> String {
+    let mut changes: Vec<(f64, &str, f64, f64)> = before
+        .named()
+        .iter()
+        .zip(after.named())
+        .map(|((name, b), (_, a))| (b.abs() - a.abs(), *name, *b, a))
+        .filter(|c| c.0 > 0.0)
+        .collect();
+    changes.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let mut s = String::new();
+    if !signature.is_empty() {
+        s.push_str(&format!("expected signature: {signature}. "));
+    }
+    let shown: Vec<String> = changes
+        .iter()
+        .take(2)
+        .map(|(_, n, b, a)| format!("{n}: {b:.3} → {a:.3}"))
+        .collect();
+    if shown.is_empty() {
+        s.push_str("removes none of the measured residual signatures");
+    } else {
+        s.push_str(&format!(
+            "measured in the held-out residual, it removes {}",
+            shown.join("; ")
+        ));
+    }
+    s.push_str(&format!(
+        "; held-out RMSE {:.4} → {:.4} N, lower in {folds_better} of {} folds",
+        cur.total.rmse_n(),
+        cand.total.rmse_n(),
+        cur.per_fold.len()
+    ));
+    s
+}

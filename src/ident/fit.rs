@@ -1,0 +1,704 @@
+//! Nonlinear least squares on the simulated force of one or many tests, each integrated from its own start.
+//!
+//! - Bounds through smooth transforms: `p = lo + e^z` for a lower bound, `p = lo + (hi − lo)/(1 + e^−z)` for
+//!   two bounds, so the Levenberg–Marquardt search (`levenberg-marquardt` crate) is unconstrained in `z`.
+//! - Starting values from [`Model::initial_guess`] on the data's [`DataStats`], then a linear least-squares
+//!   warm start of the base model's linear gains (yield force at zero current, yield force per ampere,
+//!   viscous damping: Eq. 2 and 6 are linear in them), with non-negativity kept.
+//! - Residuals and the forward-difference Jacobian are computed in parallel over tests and parameters
+//!   (rayon, results collected in a fixed order: deterministic).
+//! - Standard errors `s² (JᵀJ)⁻¹`. A parameter the data do not determine (a zero Jacobian column, e.g. the
+//!   lag time constants when the current never changes, or an enormous standard error) is held at its
+//!   initial value and reported with no standard error and a note.
+
+use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
+use nalgebra::{DMatrix, DVector, Dyn, Owned};
+use rayon::prelude::*;
+
+use super::{data_stats, Test};
+use crate::device::{bingham, DataStats, Model};
+
+/// A contiguous run of samples of one test that counts in the loss (`start..end`). The test is still
+/// integrated from its own first sample, so states carry over from samples that do not count.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Span {
+    pub test: usize,
+    pub start: usize,
+    pub end: usize,
+}
+
+impl Span {
+    pub fn len(&self) -> usize {
+        self.end - self.start
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.end <= self.start
+    }
+}
+
+/// Every sample of every test.
+pub fn all_spans(tests: &[Test]) -> Vec<Span> {
+    tests
+        .iter()
+        .enumerate()
+        .map(|(k, t)| Span {
+            test: k,
+            start: 0,
+            end: t.len(),
+        })
+        .collect()
+}
+
+/// Settings of one fit.
+#[derive(Debug, Clone)]
+pub struct FitOptions {
+    /// Starting values; `None` = the model's data-derived initial guess.
+    pub start: Option<Vec<f64>>,
+    /// Stop when the relative reduction of the sum of squares in a step is below this.
+    pub tol: f64,
+    /// The search stops after about this many Jacobians.
+    pub max_iterations: usize,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        Self {
+            start: None,
+            tol: 1e-7,
+            max_iterations: 40,
+        }
+    }
+}
+
+/// Outcome of a fit.
+#[derive(Debug, Clone)]
+pub struct FitResult {
+    pub params: Vec<f64>,
+    /// Standard error of each parameter; `None` when the data do not determine it.
+    pub std_err: Vec<Option<f64>>,
+    /// Per parameter: why it was held (or empty).
+    pub notes: Vec<String>,
+    /// Sum of squared residuals over the fitted samples, N².
+    pub sse: f64,
+    /// Number of fitted samples.
+    pub n: usize,
+    /// Sum of squared measured force over the fitted samples, N².
+    pub f_ss: f64,
+    /// Residual evaluations (whole simulations of the data) the search used.
+    pub evaluations: usize,
+    pub termination: String,
+}
+
+impl FitResult {
+    pub fn rmse_n(&self) -> f64 {
+        (self.sse / self.n.max(1) as f64).sqrt()
+    }
+
+    pub fn nrmse(&self) -> f64 {
+        (self.sse / self.f_ss.max(f64::MIN_POSITIVE)).sqrt()
+    }
+}
+
+/// Smooth map from the unconstrained search variable `z` to a bounded parameter `p`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Transform {
+    Free,
+    /// `p = lo + e^z`
+    Lower(f64),
+    /// `p = hi − e^z`
+    Upper(f64),
+    /// `p = lo + (hi − lo) σ(z)`
+    Both(f64, f64),
+}
+
+impl Transform {
+    pub fn for_bounds(lo: f64, hi: f64) -> Self {
+        match (lo.is_finite(), hi.is_finite()) {
+            (true, true) => Transform::Both(lo, hi),
+            (true, false) => Transform::Lower(lo),
+            (false, true) => Transform::Upper(hi),
+            (false, false) => Transform::Free,
+        }
+    }
+
+    pub fn p(&self, z: f64) -> f64 {
+        match *self {
+            Transform::Free => z,
+            Transform::Lower(lo) => lo + z.exp(),
+            Transform::Upper(hi) => hi - z.exp(),
+            Transform::Both(lo, hi) => lo + (hi - lo) / (1.0 + (-z).exp()),
+        }
+    }
+
+    /// Inverse map; a value on (or beyond) a bound starts a tiny distance inside it.
+    pub fn z(&self, p: f64) -> f64 {
+        match *self {
+            Transform::Free => p,
+            Transform::Lower(lo) => (p - lo).max(inside(lo, p)).ln(),
+            Transform::Upper(hi) => (hi - p).max(inside(hi, p)).ln(),
+            Transform::Both(lo, hi) => {
+                let f = ((p - lo) / (hi - lo)).clamp(1e-6, 1.0 - 1e-6);
+                (f / (1.0 - f)).ln()
+            }
+        }
+    }
+
+    /// `dp/dz`.
+    pub fn dp_dz(&self, z: f64) -> f64 {
+        match *self {
+            Transform::Free => 1.0,
+            Transform::Lower(_) => z.exp(),
+            Transform::Upper(_) => -z.exp(),
+            Transform::Both(lo, hi) => {
+                let s = 1.0 / (1.0 + (-z).exp());
+                (hi - lo) * s * (1.0 - s)
+            }
+        }
+    }
+}
+
+/// Distance inside a one-sided bound for a start value on the bound.
+fn inside(bound: f64, p: f64) -> f64 {
+    1e-3 * bound.abs().max(p.abs()).max(1e-3)
+}
+
+/// The least-squares problem over a set of spans, with some parameters held.
+struct Problem<'a> {
+    model: &'a Model,
+    tests: &'a [Test],
+    spans: &'a [Span],
+    /// Samples simulated per test (0 = test not used).
+    sim_len: Vec<usize>,
+    /// Offset of each span in the residual vector.
+    offsets: Vec<usize>,
+    n_res: usize,
+    tf: Vec<Transform>,
+    free: Vec<usize>,
+    /// Full search vector (held entries stay put).
+    z: Vec<f64>,
+    /// Simulated force per test at `z`.
+    sims: Vec<Vec<f64>>,
+    resid: DVector<f64>,
+    /// Finite stand-in for a non-finite simulated force, N.
+    blowup_n: f64,
+    /// Lowest sum of squares seen and its search vector (the search may end on a rejected trial).
+    best: (f64, Vec<f64>),
+    evaluations: usize,
+}
+
+impl<'a> Problem<'a> {
+    fn new(model: &'a Model, tests: &'a [Test], spans: &'a [Span], tf: Vec<Transform>, z: Vec<f64>) -> Self {
+        let mut sim_len = vec![0usize; tests.len()];
+        let mut offsets = Vec::with_capacity(spans.len());
+        let mut n_res = 0;
+        let mut f_max = 0.0f64;
+        for s in spans {
+            sim_len[s.test] = sim_len[s.test].max(s.end);
+            offsets.push(n_res);
+            n_res += s.len();
+            f_max = tests[s.test].f_n[s.start..s.end]
+                .iter()
+                .fold(f_max, |m, f| m.max(f.abs()));
+        }
+        let mut p = Self {
+            model,
+            tests,
+            spans,
+            sim_len,
+            offsets,
+            n_res,
+            tf,
+            free: Vec::new(),
+            z,
+            sims: Vec::new(),
+            resid: DVector::zeros(n_res),
+            blowup_n: 1e3 * f_max.max(1.0),
+            best: (f64::INFINITY, Vec::new()),
+            evaluations: 0,
+        };
+        p.update();
+        p
+    }
+
+    fn params_of(&self, z: &[f64]) -> Vec<f64> {
+        z.iter().zip(&self.tf).map(|(z, t)| t.p(*z)).collect()
+    }
+
+    fn simulate(&self, z: &[f64]) -> Vec<Vec<f64>> {
+        let p = self.params_of(z);
+        (0..self.tests.len())
+            .into_par_iter()
+            .map(|j| {
+                let n = self.sim_len[j];
+                if n == 0 {
+                    return Vec::new();
+                }
+                let mut out = self.model.simulate(&p, &self.tests[j].inputs[..n]);
+                for v in &mut out {
+                    if !v.is_finite() {
+                        *v = self.blowup_n;
+                    }
+                }
+                out
+            })
+            .collect()
+    }
+
+    fn update(&mut self) {
+        self.sims = self.simulate(&self.z);
+        for (s, &o) in self.spans.iter().zip(&self.offsets) {
+            let sim = &self.sims[s.test];
+            let f = &self.tests[s.test].f_n;
+            for k in s.start..s.end {
+                self.resid[o + k - s.start] = sim[k] - f[k];
+            }
+        }
+        self.evaluations += 1;
+        let sse = self.resid.norm_squared();
+        if sse < self.best.0 {
+            self.best = (sse, self.z.clone());
+        }
+    }
+
+    /// Forward-difference Jacobian of the residual w.r.t. `z[cols]`, parallel over (parameter, test).
+    fn jacobian_cols(&self, cols: &[usize]) -> DMatrix<f64> {
+        let used: Vec<usize> = (0..self.tests.len()).filter(|&j| self.sim_len[j] > 0).collect();
+        let tasks: Vec<(usize, usize)> = (0..cols.len())
+            .flat_map(|c| used.iter().map(move |&j| (c, j)))
+            .collect();
+        let cols_out: Vec<(usize, usize, f64, Vec<f64>)> = tasks
+            .par_iter()
+            .map(|&(c, j)| {
+                let k = cols[c];
+                let h = 1e-6 * (1.0 + self.z[k].abs());
+                let mut z = self.z.clone();
+                z[k] += h;
+                let h = z[k] - self.z[k];
+                let p = self.params_of(&z);
+                let n = self.sim_len[j];
+                let out = self.model.simulate(&p, &self.tests[j].inputs[..n]);
+                (c, j, h, out)
+            })
+            .collect();
+        let mut jac = DMatrix::zeros(self.n_res, cols.len());
+        for (c, j, h, out) in cols_out {
+            for (s, &o) in self.spans.iter().zip(&self.offsets) {
+                if s.test != j {
+                    continue;
+                }
+                let base = &self.sims[j];
+                for k in s.start..s.end {
+                    let d = (out[k] - base[k]) / h;
+                    jac[(o + k - s.start, c)] = if d.is_finite() { d } else { 0.0 };
+                }
+            }
+        }
+        jac
+    }
+}
+
+impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
+    type ResidualStorage = Owned<f64, Dyn>;
+    type JacobianStorage = Owned<f64, Dyn, Dyn>;
+    type ParameterStorage = Owned<f64, Dyn>;
+
+    fn set_params(&mut self, x: &DVector<f64>) {
+        for (c, &k) in self.free.iter().enumerate() {
+            self.z[k] = x[c];
+        }
+        self.update();
+    }
+
+    fn params(&self) -> DVector<f64> {
+        DVector::from_iterator(self.free.len(), self.free.iter().map(|&k| self.z[k]))
+    }
+
+    fn residuals(&self) -> Option<DVector<f64>> {
+        Some(self.resid.clone())
+    }
+
+    fn jacobian(&self) -> Option<DMatrix<f64>> {
+        Some(self.jacobian_cols(&self.free))
+    }
+}
+
+/// Fit `model` to the samples in `spans` of `tests`.
+pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> FitResult {
+    let stats = span_stats(tests, spans);
+    let specs = model.param_specs();
+    let tf: Vec<Transform> = specs
+        .iter()
+        .map(|s| Transform::for_bounds(s.lower, s.upper))
+        .collect();
+    let mut p0 = match &opts.start {
+        Some(p) if p.len() == model.n_params() => p.iter().zip(specs).map(|(v, s)| s.clamp(*v)).collect(),
+        _ => model.initial_guess(&stats),
+    };
+    linear_warm_start(model, tests, spans, &mut p0);
+    let z0: Vec<f64> = p0.iter().zip(&tf).map(|(p, t)| t.z(*p)).collect();
+    let n = model.n_params();
+    let mut held = vec![false; n];
+    let mut notes = vec![String::new(); n];
+
+    // Parameters the force does not depend on in these data: a zero Jacobian column at the start.
+    let mut prob = Problem::new(model, tests, spans, tf.clone(), z0.clone());
+    let all: Vec<usize> = (0..n).collect();
+    let j0 = prob.jacobian_cols(&all);
+    let f_norm = spans
+        .iter()
+        .map(|s| {
+            tests[s.test].f_n[s.start..s.end]
+                .iter()
+                .map(|f| f * f)
+                .sum::<f64>()
+        })
+        .sum::<f64>()
+        .sqrt();
+    for k in 0..n {
+        let cn = j0.column(k).norm();
+        if cn <= 1e-13 * f_norm.max(f64::MIN_POSITIVE) {
+            held[k] = true;
+            notes[k] = "the force does not depend on it in these data; held at its initial value".into();
+        }
+    }
+
+    let mut z_start = z0.clone();
+    let mut evaluations = 0;
+    let mut termination = String::from("no free parameters");
+    let mut bound_note = vec![String::new(); n];
+    for round in 0..4 {
+        let free: Vec<usize> = (0..n).filter(|&k| !held[k]).collect();
+        prob = Problem::new(model, tests, spans, tf.clone(), z_start.clone());
+        prob.free = free.clone();
+        if !free.is_empty() && prob.n_res > 0 {
+            let lm = LevenbergMarquardt::new()
+                .with_ftol(opts.tol)
+                .with_xtol(opts.tol)
+                .with_gtol(1e-10)
+                .with_patience(opts.max_iterations.max(1));
+            let (done, report) = lm.minimize(prob);
+            prob = done;
+            termination = format!("{:?}", report.termination);
+            let best = prob.best.1.clone();
+            if !best.is_empty() && best != prob.z {
+                prob.z = best;
+                prob.update();
+            }
+        }
+        evaluations += prob.evaluations;
+        let params = prob.params_of(&prob.z);
+        // A parameter on a bound has an enormous error in `z` (the transform flattens there): it is reported
+        // at the bound, not held at its start.
+        let on_bound = |k: usize| {
+            let (p, s) = (params[k], &specs[k]);
+            (s.lower.is_finite() && (p - s.lower).abs() <= 2.0 * inside(s.lower, p))
+                || (s.upper.is_finite() && (p - s.upper).abs() <= 2.0 * inside(s.upper, p))
+        };
+        let (se_z, enormous) = std_errors(&prob, &free);
+        let newly_held: Vec<usize> = enormous.iter().copied().filter(|&k| !on_bound(k)).collect();
+        if !newly_held.is_empty() && round < 3 {
+            for k in newly_held {
+                held[k] = true;
+                notes[k] =
+                    "the data barely determine it (enormous standard error); held at its initial value"
+                        .into();
+                z_start[k] = z0[k];
+            }
+            for &k in &free {
+                if !held[k] {
+                    z_start[k] = prob.z[k];
+                }
+            }
+            continue;
+        }
+        // The transforms make a bound hard to leave: a bounded linear least-squares step on the base's linear
+        // gains finds out whether the data pull one of them back inside; if it lowers the error, refit from there.
+        let sse = prob.resid.norm_squared();
+        let mut p_lin = params.clone();
+        if round < 3 {
+            linear_warm_start(model, tests, spans, &mut p_lin);
+            let z_lin: Vec<f64> = p_lin.iter().zip(&tf).map(|(p, t)| t.z(*p)).collect();
+            let trial = Problem::new(model, tests, spans, tf.clone(), z_lin.clone());
+            evaluations += 1;
+            if trial.resid.norm_squared() < sse * (1.0 - 1e-4) {
+                z_start = z_lin;
+                continue;
+            }
+        }
+        let mut std_err = vec![None; n];
+        for (c, &k) in free.iter().enumerate() {
+            std_err[k] = se_z[c].map(|s| s * tf[k].dp_dz(prob.z[k]).abs());
+            if on_bound(k) && std_err[k].is_none() {
+                let s = &specs[k];
+                let b = if (params[k] - s.lower).abs() <= (params[k] - s.upper).abs() {
+                    s.lower
+                } else {
+                    s.upper
+                };
+                bound_note[k] = format!("at its bound {b} {}: the data push it beyond", s.unit);
+            }
+        }
+        for k in 0..n {
+            if notes[k].is_empty() {
+                notes[k] = std::mem::take(&mut bound_note[k]);
+            }
+        }
+        return FitResult {
+            params,
+            std_err,
+            notes,
+            sse,
+            n: prob.n_res,
+            f_ss: f_norm * f_norm,
+            evaluations,
+            termination,
+        };
+    }
+    unreachable!("the last round always returns")
+}
+
+/// Standard errors in `z` of the free parameters and the free parameters whose error is enormous.
+fn std_errors(prob: &Problem<'_>, free: &[usize]) -> (Vec<Option<f64>>, Vec<usize>) {
+    let m = prob.n_res;
+    let nf = free.len();
+    if nf == 0 || m <= nf {
+        return (vec![None; nf], Vec::new());
+    }
+    let jac = prob.jacobian_cols(free);
+    let s2 = prob.resid.norm_squared() / (m - nf) as f64;
+    let norms: Vec<f64> = (0..nf).map(|c| jac.column(c).norm()).collect();
+    let nmax = norms.iter().fold(0.0f64, |m, v| m.max(*v));
+    // A column that vanished (relative to the others) is a parameter the data do not determine here.
+    let live: Vec<usize> = (0..nf).filter(|&c| norms[c] > 1e-12 * nmax).collect();
+    let mut se = vec![None; nf];
+    let mut enormous: Vec<usize> = (0..nf).filter(|c| !live.contains(c)).map(|c| free[c]).collect();
+    let nl = live.len();
+    if nl == 0 {
+        return (se, enormous);
+    }
+    // Column-scaled normal matrix of the live columns, for conditioning.
+    let mut a = nalgebra::DMatrix::<f64>::zeros(nl, nl);
+    for (r, &cr) in live.iter().enumerate() {
+        for (c, &cc) in live.iter().enumerate() {
+            a[(r, c)] = jac.column(cr).dot(&jac.column(cc)) / (norms[cr] * norms[cc]);
+        }
+    }
+    if a.iter().any(|v| !v.is_finite()) {
+        return (vec![None; nf], Vec::new());
+    }
+    let Some(svd) = a.try_svd(true, true, 1e-15, 500) else {
+        return (vec![None; nf], Vec::new());
+    };
+    let (Some(v), sv) = (svd.v_t.map(|vt| vt.transpose()), svd.singular_values) else {
+        return (vec![None; nf], Vec::new());
+    };
+    let smax = sv.max().max(1e-300);
+    for (r, &c) in live.iter().enumerate() {
+        let mut var = 0.0;
+        for i in 0..nl {
+            let s = sv[i].max(1e-14 * smax);
+            var += v[(r, i)] * v[(r, i)] / s;
+        }
+        let sez = (s2 * var).sqrt() / norms[c];
+        let k = free[c];
+        let scale = match prob.tf[k] {
+            Transform::Free => prob.z[k].abs().max(1e-12) * 1e3,
+            _ => 50.0,
+        };
+        if !sez.is_finite() || sez > scale {
+            enormous.push(k);
+        } else {
+            se[c] = Some(sez);
+        }
+    }
+    (se, enormous)
+}
+
+/// Statistics of the samples in `spans` (whole tests that have any sample in them).
+pub fn span_stats(tests: &[Test], spans: &[Span]) -> DataStats {
+    let sub: Vec<Test> = spans
+        .iter()
+        .map(|s| {
+            let t = &tests[s.test];
+            Test {
+                inputs: t.inputs[s.start..s.end].to_vec(),
+                f_n: t.f_n[s.start..s.end].to_vec(),
+                ..t.clone()
+            }
+        })
+        .collect();
+    data_stats(&sub)
+}
+
+/// Linear least-squares warm start of the base model's linear gains (Eq. 2 with Eq. 6's yield force is
+/// linear in the zero-current yield force, the yield force per ampere and the damping), holding the other
+/// parameters: two projected Gauss–Newton steps, exact for the base model, with the lower bounds kept.
+fn linear_warm_start(model: &Model, tests: &[Test], spans: &[Span], p: &mut [f64]) {
+    let idx = [bingham::FC0, bingham::FC_GAIN, bingham::C0];
+    let specs = model.param_specs();
+    for _ in 0..2 {
+        let eval = |q: &[f64]| -> Vec<Vec<f64>> {
+            spans
+                .par_iter()
+                .map(|s| model.simulate(q, &tests[s.test].inputs[..s.end])[s.start..].to_vec())
+                .collect()
+        };
+        let base = eval(p);
+        let mut cols = Vec::new();
+        let mut steps = Vec::new();
+        for &k in &idx {
+            let h = 1e-3 * p[k].abs().max(1.0);
+            let mut q = p.to_vec();
+            q[k] += h;
+            cols.push(eval(&q));
+            steps.push(h);
+        }
+        // Normal equations of min |r + C d|, r = base - f.
+        let mut ata = [[0.0; 3]; 3];
+        let mut atb = [0.0; 3];
+        for (si, s) in spans.iter().enumerate() {
+            let f = &tests[s.test].f_n[s.start..s.end];
+            for k in 0..f.len() {
+                let r = base[si][k] - f[k];
+                if !r.is_finite() {
+                    return;
+                }
+                let c = [
+                    (cols[0][si][k] - base[si][k]) / steps[0],
+                    (cols[1][si][k] - base[si][k]) / steps[1],
+                    (cols[2][si][k] - base[si][k]) / steps[2],
+                ];
+                for a in 0..3 {
+                    atb[a] -= c[a] * r;
+                    for b in 0..3 {
+                        ata[a][b] += c[a] * c[b];
+                    }
+                }
+            }
+        }
+        let lo: Vec<f64> = idx.iter().map(|&k| specs[k].lower - p[k]).collect();
+        let hi: Vec<f64> = idx.iter().map(|&k| specs[k].upper - p[k]).collect();
+        let Some(d) = bounded_lstsq3(ata, atb, &lo, &hi) else {
+            return;
+        };
+        for (a, &k) in idx.iter().enumerate() {
+            p[k] = specs[k].clamp(p[k] + d[a]);
+        }
+    }
+}
+
+/// Minimise `dᵀAd − 2dᵀb` with `lo ≤ d ≤ hi` for three unknowns: every combination of unknowns on a bound
+/// or free is solved and the best feasible one kept (27 cases).
+fn bounded_lstsq3(ata: [[f64; 3]; 3], atb: [f64; 3], lo: &[f64], hi: &[f64]) -> Option<[f64; 3]> {
+    let obj = |d: &[f64; 3]| {
+        let mut o = 0.0;
+        for i in 0..3 {
+            o -= 2.0 * d[i] * atb[i];
+            for j in 0..3 {
+                o += d[i] * ata[i][j] * d[j];
+            }
+        }
+        o
+    };
+    let mut best: Option<([f64; 3], f64)> = None;
+    for code in 0..27u32 {
+        // state per unknown: 0 free, 1 at lo, 2 at hi
+        let st = [code % 3, (code / 3) % 3, code / 9];
+        let mut d = [0.0; 3];
+        let mut fixed_ok = true;
+        for i in 0..3 {
+            match st[i] {
+                1 => d[i] = lo[i],
+                2 => d[i] = hi[i],
+                _ => {}
+            }
+            if !d[i].is_finite() {
+                fixed_ok = false;
+            }
+        }
+        if !fixed_ok {
+            continue;
+        }
+        let fr: Vec<usize> = (0..3).filter(|&i| st[i] == 0).collect();
+        if !fr.is_empty() {
+            let m = fr.len();
+            let mut a = DMatrix::<f64>::zeros(m, m);
+            let mut b = DVector::<f64>::zeros(m);
+            for (r, &i) in fr.iter().enumerate() {
+                b[r] = atb[i];
+                for j in 0..3 {
+                    if st[j] != 0 {
+                        b[r] -= ata[i][j] * d[j];
+                    }
+                }
+                for (c, &j) in fr.iter().enumerate() {
+                    a[(r, c)] = ata[i][j];
+                }
+            }
+            let Some(sol) = a.lu().solve(&b) else { continue };
+            for (r, &i) in fr.iter().enumerate() {
+                d[i] = sol[r];
+            }
+        }
+        if (0..3).any(|i| !d[i].is_finite() || d[i] < lo[i] - 1e-12 || d[i] > hi[i] + 1e-12) {
+            continue;
+        }
+        let o = obj(&d);
+        if best.is_none_or(|(_, bo)| o < bo) {
+            best = Some((d, o));
+        }
+    }
+    best.map(|b| b.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn transforms_round_trip_inside_bounds_and_never_leave_them() {
+        for tf in [
+            Transform::Free,
+            Transform::Lower(0.0),
+            Transform::Upper(2.0),
+            Transform::Both(-1.0, 3.0),
+        ] {
+            for p in [-0.5, 0.3, 1.7] {
+                let inside = match tf {
+                    Transform::Lower(lo) => p > lo,
+                    Transform::Upper(hi) => p < hi,
+                    Transform::Both(lo, hi) => p > lo && p < hi,
+                    Transform::Free => true,
+                };
+                if inside {
+                    assert!((tf.p(tf.z(p)) - p).abs() < 1e-9, "{tf:?} {p}");
+                }
+            }
+            for z in [-40.0, -3.0, 0.0, 3.0, 40.0] {
+                let p = tf.p(z);
+                let h = 1e-6;
+                let num = (tf.p(z + h) - tf.p(z - h)) / (2.0 * h);
+                assert!(
+                    (num - tf.dp_dz(z)).abs() <= 1e-5 * (1.0 + num.abs()),
+                    "{tf:?} z={z}"
+                );
+                match tf {
+                    Transform::Lower(lo) => assert!(p >= lo),
+                    Transform::Upper(hi) => assert!(p <= hi),
+                    Transform::Both(lo, hi) => assert!(p >= lo && p <= hi),
+                    Transform::Free => {}
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn bounded_least_squares_keeps_the_bound_when_the_optimum_is_outside() {
+        // Unconstrained optimum d = (1, -2, 3); the second unknown may not go below -1.
+        let ata = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        let atb = [1.0, -2.0, 3.0];
+        let d = bounded_lstsq3(ata, atb, &[-10.0, -1.0, -10.0], &[10.0, 10.0, 10.0]).unwrap();
+        assert!((d[0] - 1.0).abs() < 1e-12 && (d[1] + 1.0).abs() < 1e-12 && (d[2] - 3.0).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,157 @@
+//! Model discovery on measured data (`shared/spec/model-discovery.md`): fit a composed damper model to one or
+//! many tests, validate a saved model on other tests, map where the residual lives, and name the missing
+//! effect by the held-out error each registered effect removes.
+//!
+//! Everything here works through [`crate::device::Model`], the [`crate::device::Effect`] trait and a
+//! [`crate::device::Registry`]: no effect is named in this module, so an effect a user registers is fitted
+//! and diagnosed exactly like the built-in ones.
+
+pub mod cli;
+pub mod diagnose;
+pub mod fit;
+pub mod plots;
+pub mod report;
+pub mod rerun_log;
+pub mod residual;
+pub mod validate;
+
+use std::path::{Path, PathBuf};
+
+use crate::device::params::TestSignals;
+use crate::device::{DataStats, DeviceError, Inputs};
+use crate::measurement::{Measurement, MeasurementError};
+
+pub use diagnose::{diagnose, DiagnoseOptions, Diagnosis};
+pub use fit::{fit, FitOptions, FitResult};
+pub use validate::{evaluate, Figures};
+
+/// Errors of fitting, validation and diagnosis.
+#[derive(Debug, thiserror::Error)]
+pub enum IdentError {
+    #[error(transparent)]
+    Measurement(#[from] MeasurementError),
+    #[error(transparent)]
+    Device(#[from] DeviceError),
+    #[error("no measurement files given")]
+    NoData,
+    #[error("{0}")]
+    Other(String),
+}
+
+/// One test prepared for the models: the inputs at every sample and the measured force.
+#[derive(Debug, Clone)]
+pub struct Test {
+    pub path: PathBuf,
+    /// File name, for tables and plots.
+    pub name: String,
+    /// Cross-validation group: tests of one group are held out together (see [`group_of`]).
+    pub group: String,
+    pub inputs: Vec<Inputs>,
+    pub f_n: Vec<f64>,
+    pub velocity_measured: bool,
+}
+
+impl Test {
+    pub fn from_measurement(m: &Measurement) -> Self {
+        let name = m
+            .path
+            .file_name()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        Self {
+            path: m.path.clone(),
+            group: group_of(m),
+            name,
+            inputs: m.inputs(),
+            f_n: m.f_n.clone(),
+            velocity_measured: m.velocity_measured,
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.f_n.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.f_n.is_empty()
+    }
+}
+
+/// The cross-validation group of a test: the `group` metadata key when present, else the file stem up to
+/// its last `_` (`10mm1Hz_0p50A.csv` → `10mm1Hz`: the tests of one protocol at several currents), else the
+/// stem itself. [`diagnose`] falls back to one group per file when this gives a single group.
+pub fn group_of(m: &Measurement) -> String {
+    if let Some(g) = m.meta.get("group") {
+        return g.trim().to_string();
+    }
+    let stem = m
+        .path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    match stem.rsplit_once('_') {
+        Some((head, _)) if !head.is_empty() => head.to_string(),
+        _ => stem,
+    }
+}
+
+/// Read files and directories of CSV files into tests.
+pub fn load_tests(paths: &[PathBuf]) -> Result<Vec<Test>, IdentError> {
+    if paths.is_empty() {
+        return Err(IdentError::NoData);
+    }
+    let ms = crate::measurement::read_all(paths)?;
+    Ok(ms.iter().map(Test::from_measurement).collect())
+}
+
+/// Statistics the elements derive their initial guesses from.
+pub fn data_stats(tests: &[Test]) -> DataStats {
+    let cols: Vec<[Vec<f64>; 5]> = tests
+        .iter()
+        .map(|t| {
+            [
+                t.inputs.iter().map(|i| i.t_s).collect(),
+                t.inputs.iter().map(|i| i.x_m).collect(),
+                t.inputs.iter().map(|i| i.v_m_s).collect(),
+                t.inputs.iter().map(|i| i.a_m_s2).collect(),
+                t.inputs.iter().map(|i| i.current_cmd_a).collect(),
+            ]
+        })
+        .collect();
+    let sig: Vec<TestSignals<'_>> = cols
+        .iter()
+        .zip(tests)
+        .map(|(c, t)| TestSignals {
+            t_s: &c[0],
+            x_m: &c[1],
+            v_m_s: &c[2],
+            a_m_s2: &c[3],
+            i_a: &c[4],
+            f_n: &t.f_n,
+        })
+        .collect();
+    DataStats::from_tests(&sig)
+}
+
+/// Driver saturation to build models with when the user gives none: the paper's 14 A, or the largest
+/// command in the data when that is higher (a command the rig applied was not saturated by our model).
+pub fn default_current_limit_a(tests: &[Test]) -> f64 {
+    let imax = tests
+        .iter()
+        .flat_map(|t| t.inputs.iter())
+        .fold(0.0f64, |m, i| m.max(i.current_cmd_a.abs()));
+    imax.max(crate::device::PAPER_CURRENT_LIMIT_A)
+}
+
+/// Root-mean-square of a slice (0 for an empty slice).
+pub fn rms(x: &[f64]) -> f64 {
+    if x.is_empty() {
+        return 0.0;
+    }
+    (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt()
+}
+
+/// Display name of a path for reports: as given.
+pub fn display_path(p: &Path) -> String {
+    p.display().to_string()
+}

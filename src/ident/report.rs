@@ -1,0 +1,308 @@
+//! The contract's JSON outputs (`shared/spec/model-discovery.md`) and the human-readable tables.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+use serde::Serialize;
+
+use super::diagnose::Diagnosis;
+use super::fit::FitResult;
+use super::residual::Region;
+use super::validate::Figures;
+use super::Test;
+use crate::device::Model;
+
+/// One parameter in `fit --json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct ParamJson {
+    pub value: f64,
+    pub std_err: Option<f64>,
+    pub unit: String,
+    #[serde(skip_serializing_if = "String::is_empty")]
+    pub note: String,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct FileJson {
+    pub path: String,
+    pub nrmse: f64,
+    pub rmse_n: f64,
+}
+
+/// `fit --json` and `validate --json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct FitJson {
+    pub model: String,
+    pub samples: usize,
+    pub nrmse: f64,
+    pub rmse_n: f64,
+    pub params: BTreeMap<String, ParamJson>,
+    pub files: Vec<FileJson>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub r#where: Vec<Region>,
+}
+
+impl FitJson {
+    pub fn new(
+        model: &Model,
+        params: &[f64],
+        fit: Option<&FitResult>,
+        tests: &[Test],
+        per: &[Figures],
+        total: &Figures,
+        where_: Vec<Region>,
+    ) -> Self {
+        let params = model
+            .param_specs()
+            .iter()
+            .enumerate()
+            .map(|(k, s)| {
+                (
+                    s.name.to_string(),
+                    ParamJson {
+                        value: params[k],
+                        std_err: fit.and_then(|f| f.std_err[k]),
+                        unit: s.unit.to_string(),
+                        note: fit.map(|f| f.notes[k].clone()).unwrap_or_default(),
+                    },
+                )
+            })
+            .collect();
+        Self {
+            model: model.name(),
+            samples: total.samples,
+            nrmse: total.nrmse(),
+            rmse_n: total.rmse_n(),
+            params,
+            files: tests
+                .iter()
+                .zip(per)
+                .map(|(t, f)| FileJson {
+                    path: t.path.display().to_string(),
+                    nrmse: f.nrmse(),
+                    rmse_n: f.rmse_n(),
+                })
+                .collect(),
+            r#where: where_,
+        }
+    }
+
+    /// The table printed without `--json`.
+    pub fn table(&self, title: &str) -> String {
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "{title} {}: {} samples, NRMSE {:.4}, RMSE {:.3} N",
+            self.model, self.samples, self.nrmse, self.rmse_n
+        );
+        let _ = writeln!(s, "\n{:<28} {:>14} {:>12}  unit", "parameter", "value", "std err");
+        for (name, p) in &self.params {
+            let se = p
+                .std_err
+                .map(|e| format!("{e:.4e}"))
+                .unwrap_or_else(|| "—".into());
+            let _ = writeln!(s, "{name:<28} {:>14.6e} {se:>12}  {}", p.value, p.unit);
+            if !p.note.is_empty() {
+                let _ = writeln!(s, "{:<28} ({})", "", p.note);
+            }
+        }
+        let _ = writeln!(s, "\n{:<40} {:>8} {:>10}", "file", "NRMSE", "RMSE N");
+        for f in &self.files {
+            let _ = writeln!(
+                s,
+                "{:<40} {:>8.4} {:>10.3}",
+                short(&f.path, 40),
+                f.nrmse,
+                f.rmse_n
+            );
+        }
+        if !self.r#where.is_empty() {
+            let _ = writeln!(s, "\nwhere the error is:");
+            for r in &self.r#where {
+                let _ = writeln!(
+                    s,
+                    "  {:<44} {:>5.1} % of the squared error, RMSE {:.3} N",
+                    r.region,
+                    100.0 * r.share_of_error,
+                    r.rmse_n
+                );
+            }
+        }
+        s
+    }
+}
+
+fn short(p: &str, n: usize) -> String {
+    let c = p.chars().count();
+    if c <= n {
+        p.to_string()
+    } else {
+        format!("…{}", p.chars().skip(c - n + 1).collect::<String>())
+    }
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct BaseJson {
+    pub nrmse: f64,
+    pub rmse_n: f64,
+    pub heldout_nrmse: f64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct CandidateJson {
+    pub effect: String,
+    pub heldout_nrmse: f64,
+    pub improvement: f64,
+    pub significant: bool,
+    pub evidence: String,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct FinalJson {
+    pub model: String,
+    pub heldout_nrmse: f64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct StepJson {
+    pub model: String,
+    pub heldout_nrmse: f64,
+}
+
+/// `diagnose --json`: the contract's keys, then a few extra ones (`steps`, `cross_validation`,
+/// `noise_floor_nrmse`, `pruned`).
+#[derive(Debug, Clone, Serialize)]
+pub struct DiagnoseJson {
+    pub base_model: String,
+    pub samples: usize,
+    pub base: BaseJson,
+    pub r#where: Vec<Region>,
+    pub candidates: Vec<CandidateJson>,
+    pub missing: Vec<String>,
+    #[serde(rename = "final")]
+    pub final_: FinalJson,
+    pub steps: Vec<StepJson>,
+    pub cross_validation: String,
+    pub noise_floor_nrmse: f64,
+    pub pruned: Vec<String>,
+}
+
+impl DiagnoseJson {
+    pub fn new(d: &Diagnosis) -> Self {
+        Self {
+            base_model: d.base_model.clone(),
+            samples: d.samples,
+            base: BaseJson {
+                nrmse: d.base_fit_nrmse,
+                rmse_n: d.base_fit_rmse_n,
+                heldout_nrmse: d.base_heldout_nrmse,
+            },
+            r#where: d.where_.clone(),
+            candidates: d
+                .candidates
+                .iter()
+                .map(|c| CandidateJson {
+                    effect: c.effect.clone(),
+                    heldout_nrmse: c.heldout_nrmse,
+                    improvement: c.improvement,
+                    significant: c.significant,
+                    evidence: c.evidence.clone(),
+                })
+                .collect(),
+            missing: d.missing.clone(),
+            final_: FinalJson {
+                model: d.final_model.clone(),
+                heldout_nrmse: d.final_heldout_nrmse,
+            },
+            steps: d
+                .steps
+                .iter()
+                .map(|s| StepJson {
+                    model: s.model.clone(),
+                    heldout_nrmse: s.heldout_nrmse,
+                })
+                .collect(),
+            cross_validation: d.cv_scheme.clone(),
+            noise_floor_nrmse: d.noise_floor_nrmse,
+            pruned: d.pruned.clone(),
+        }
+    }
+}
+
+/// The diagnosis for a person: where the base model fails, each step's candidates, the error falling.
+pub fn diagnose_table(d: &Diagnosis) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "{} on {} samples: NRMSE {:.4} fitted on all, held-out NRMSE {:.4} ({}); noise floor NRMSE {:.4}",
+        d.base_model, d.samples, d.base_fit_nrmse, d.base_heldout_nrmse, d.cv_scheme, d.noise_floor_nrmse
+    );
+    if !d.where_.is_empty() {
+        let _ = writeln!(s, "\nwhere {} fails:", d.base_model);
+        for r in &d.where_ {
+            let _ = writeln!(
+                s,
+                "  {:<44} {:>5.1} % of the squared error, RMSE {:.3} N",
+                r.region,
+                100.0 * r.share_of_error,
+                r.rmse_n
+            );
+        }
+    }
+    for st in &d.steps {
+        if st.candidates.is_empty() {
+            continue;
+        }
+        let _ = writeln!(
+            s,
+            "\neffects added to {} (held-out NRMSE {:.4}):",
+            st.model, st.heldout_nrmse
+        );
+        let _ = writeln!(
+            s,
+            "  {:<22} {:>10} {:>11} {:>7} {:>12}",
+            "effect", "held-out", "improvement", "folds", "significant"
+        );
+        for c in &st.candidates {
+            let _ = writeln!(
+                s,
+                "  {:<22} {:>10.4} {:>10.1}% {:>3}/{:<3} {:>12}",
+                c.effect,
+                c.heldout_nrmse,
+                100.0 * c.improvement,
+                c.folds_better,
+                c.folds,
+                if c.significant { "yes" } else { "no" }
+            );
+        }
+        if let Some(c) = st.candidates.first() {
+            let _ = writeln!(s, "  best, {}: {}", c.effect, c.evidence);
+        }
+    }
+    let _ = writeln!(s, "\nthe error falling:");
+    let _ = writeln!(s, "  {:<48} {:>10}", "model", "held-out NRMSE");
+    for st in &d.steps {
+        let bar = "█".repeat(
+            (40.0 * st.heldout_nrmse / d.base_heldout_nrmse.max(1e-300))
+                .round()
+                .clamp(0.0, 60.0) as usize,
+        );
+        let _ = writeln!(s, "  {:<48} {:>10.4}  {bar}", st.model, st.heldout_nrmse);
+    }
+    if !d.pruned.is_empty() {
+        let _ = writeln!(s, "  (removed again as redundant: {})", d.pruned.join(", "));
+    }
+    let _ = writeln!(
+        s,
+        "\nmissing: {}\nfinal: {} (held-out NRMSE {:.4}, fitted on all {:.4})",
+        if d.missing.is_empty() {
+            "none (the residual is explained)".to_string()
+        } else {
+            d.missing.join(", ")
+        },
+        d.final_model,
+        d.final_heldout_nrmse,
+        d.final_fit_nrmse
+    );
+    s
+}

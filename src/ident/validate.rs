@@ -1,0 +1,72 @@
+//! Run a model with given parameters on tests, unchanged (no refit), and measure its error.
+
+use rayon::prelude::*;
+
+use super::Test;
+use crate::device::Model;
+
+/// Model force at every sample of every test, each test integrated from its own start (parallel, in order).
+pub fn evaluate(model: &Model, params: &[f64], tests: &[Test]) -> Vec<Vec<f64>> {
+    tests
+        .par_iter()
+        .map(|t| model.simulate(params, &t.inputs))
+        .collect()
+}
+
+/// Error figures of one test or of all of them (measurement-format.md: `rmse_n` of model − measured,
+/// `nrmse = rmse_n / rms(f_n)` over the same samples).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Figures {
+    pub samples: usize,
+    /// Sum of squared residuals, N².
+    pub sse: f64,
+    /// Sum of squared measured force, N².
+    pub f_ss: f64,
+}
+
+impl Figures {
+    pub fn of(model_n: &[f64], measured_n: &[f64]) -> Self {
+        let mut f = Figures {
+            samples: model_n.len(),
+            ..Default::default()
+        };
+        for (m, y) in model_n.iter().zip(measured_n) {
+            let r = m - y;
+            f.sse += if r.is_finite() { r * r } else { f64::INFINITY };
+            f.f_ss += y * y;
+        }
+        f
+    }
+
+    pub fn add(&mut self, o: &Figures) {
+        self.samples += o.samples;
+        self.sse += o.sse;
+        self.f_ss += o.f_ss;
+    }
+
+    pub fn rmse_n(&self) -> f64 {
+        (self.sse / self.samples.max(1) as f64).sqrt()
+    }
+
+    pub fn nrmse(&self) -> f64 {
+        (self.sse / self.f_ss.max(f64::MIN_POSITIVE)).sqrt()
+    }
+
+    pub fn mse(&self) -> f64 {
+        self.sse / self.samples.max(1) as f64
+    }
+}
+
+/// Per-test figures and their total.
+pub fn figures(pred: &[Vec<f64>], tests: &[Test]) -> (Vec<Figures>, Figures) {
+    let per: Vec<Figures> = pred
+        .iter()
+        .zip(tests)
+        .map(|(p, t)| Figures::of(p, &t.f_n))
+        .collect();
+    let mut tot = Figures::default();
+    for f in &per {
+        tot.add(f);
+    }
+    (per, tot)
+}

@@ -1,0 +1,660 @@
+//! Scenario files (`scenarios/*.toml`): one headless run of the stick rig, wiring the rig (the `[rig]` table
+//! is [`RigConfig`]: URDF, physics rate, solver settings), the device (a `models/*.toml` device file or a fitted `PARAMS.json`), the sensors and DAQ, the
+//! feel loop's controller and feel law, and the pilot (hand model file and task).
+//!
+//! Every key is checked: unknown keys, wrong types and out-of-range values are errors naming the file, the
+//! line, the key and the allowed range. Paths are relative to the scenario file.
+
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+use toml::Spanned;
+
+use crate::control::{AntiWindup, FeelLaw, PidGains};
+use crate::pilot::{HandConfig, Signal, Task};
+use crate::rig::RigConfig;
+use crate::sensors::{DaqConfig, LaserConfig, LoadCellConfig, SensorsConfig};
+
+#[derive(Debug, thiserror::Error)]
+pub enum ScenarioError {
+    #[error("{}: {msg}", path.display())]
+    Io { path: PathBuf, msg: String },
+    #[error("{}:{line}: {msg}", path.display())]
+    Parse { path: PathBuf, line: usize, msg: String },
+    /// `[[fault]]` tables (issue 6 hook, read by `crate::faults`).
+    #[error(transparent)]
+    Faults(#[from] crate::faults::FaultError),
+    #[error("{}:{line}: `{key}`: {msg}", path.display())]
+    Field {
+        path: PathBuf,
+        line: usize,
+        key: String,
+        msg: String,
+    },
+}
+
+/// The controller section, validated.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ControllerConfig {
+    pub gains: PidGains,
+    pub feedforward: bool,
+    pub rest_speed_m_s: f64,
+    pub rest_force_n: f64,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct PilotConfig {
+    pub hand_path: PathBuf,
+    pub hand: HandConfig,
+    pub task: Task,
+    /// Command in stick angle (rad) for a position task, grip force (N) for a force task.
+    pub command: Signal,
+}
+
+/// A validated scenario.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scenario {
+    pub path: PathBuf,
+    pub name: String,
+    pub duration_s: f64,
+    pub seed: u64,
+    /// The rig's settings, with the URDF path resolved against the scenario's directory.
+    pub rig: RigConfig,
+    pub device_path: PathBuf,
+    pub sensors: SensorsConfig,
+    pub controller: ControllerConfig,
+    pub feel: FeelLaw,
+    pub pilot: PilotConfig,
+    /// Scheduled faults (`[[fault]]` tables; issue 6 hook, see `crate::faults`).
+    pub faults: crate::faults::FaultSchedule,
+}
+
+impl Scenario {
+    pub fn load(path: &Path) -> Result<Self, ScenarioError> {
+        let text = read(path)?;
+        Self::parse(&text, path)
+    }
+
+    pub fn physics_rate_hz(&self) -> f64 {
+        self.rig.physics_hz
+    }
+
+    /// The same scenario with another DAQ rate (for the DAQ-rate sweep).
+    pub fn with_daq_rate(&self, rate_hz: f64) -> Self {
+        let mut s = self.clone();
+        s.sensors.daq.sample_rate_hz = rate_hz;
+        s
+    }
+
+    pub fn parse(text: &str, path: &Path) -> Result<Self, ScenarioError> {
+        let f: File = from_toml(text, path)?;
+        let c = Ctx { path, text };
+        let dir = path.parent().unwrap_or(Path::new("."));
+        let mut rig = f.rig.get_ref().clone();
+        rig.urdf = dir.join(&rig.urdf);
+        let physics_rate_hz = rig.physics_hz;
+        if !(physics_rate_hz.is_finite() && (100.0..=100_000.0).contains(&physics_rate_hz)) {
+            return Err(c.err(
+                &f.rig,
+                "rig.physics_hz",
+                &format!("value {physics_rate_hz} outside the allowed range [100, 100000] Hz"),
+            ));
+        }
+        let duration_s = c.num(&f.duration_s, "duration_s", 1e-3, 3600.0, "s")?;
+        let seed = c.int(&f.seed, "seed", 0, i64::MAX)? as u64;
+
+        let sensors = SensorsConfig {
+            load_cell: LoadCellConfig {
+                range_n: c.num(&f.load_cell.range_n, "load_cell.range_n", 1.0, 1e5, "N")?,
+                gain: c.num(&f.load_cell.gain, "load_cell.gain", 0.5, 2.0, "")?,
+                offset_n: c.num(&f.load_cell.offset_n, "load_cell.offset_n", -50.0, 50.0, "N")?,
+                noise_rms_n: c.num(&f.load_cell.noise_rms_n, "load_cell.noise_rms_n", 0.0, 50.0, "N")?,
+            },
+            laser: LaserConfig {
+                range_m: c.num(&f.laser.range_m, "laser.range_m", 1e-3, 1.0, "m")?,
+                noise_rms_m: c.num(&f.laser.noise_rms_m, "laser.noise_rms_m", 0.0, 1e-2, "m")?,
+                velocity_cutoff_hz: c.num(
+                    &f.laser.velocity_cutoff_hz,
+                    "laser.velocity_cutoff_hz",
+                    0.1,
+                    1e4,
+                    "Hz",
+                )?,
+            },
+            daq: DaqConfig {
+                sample_rate_hz: c.num(
+                    &f.daq.sample_rate_hz,
+                    "daq.sample_rate_hz",
+                    1.0,
+                    physics_rate_hz,
+                    "Hz (at most rig.physics_hz)",
+                )?,
+                latency_samples: c.int(&f.daq.latency_samples, "daq.latency_samples", 0, 1000)? as usize,
+                adc_bits: c.int(&f.daq.adc_bits, "daq.adc_bits", 0, 32)? as u32,
+            },
+        };
+        let k = &f.controller;
+        let anti_windup = match k.anti_windup.get_ref().as_str() {
+            "none" => AntiWindup::None,
+            "clamping" => AntiWindup::Clamping,
+            "back-calculation" => AntiWindup::BackCalculation {
+                tracking_time_s: match &k.tracking_time_s {
+                    Some(v) => c.num(v, "controller.tracking_time_s", 1e-5, 10.0, "s")?,
+                    None => {
+                        return Err(c.err(
+                            &k.anti_windup,
+                            "controller.tracking_time_s",
+                            "required with anti_windup = \"back-calculation\"",
+                        ))
+                    }
+                },
+            },
+            other => {
+                return Err(c.err(
+                    &k.anti_windup,
+                    "controller.anti_windup",
+                    &format!("`{other}` is not one of: none, clamping, back-calculation"),
+                ))
+            }
+        };
+        let out_min = c.num(&k.current_min_a, "controller.current_min_a", 0.0, 14.0, "A")?;
+        let out_max = c.num(
+            &k.current_max_a,
+            "controller.current_max_a",
+            out_min,
+            14.0,
+            "A (the driver saturates at 14 A)",
+        )?;
+        let controller = ControllerConfig {
+            gains: PidGains {
+                kp: c.num(&k.kp_a_per_n, "controller.kp_a_per_n", 0.0, 10.0, "A/N")?,
+                ki: c.num(&k.ki_a_per_n_s, "controller.ki_a_per_n_s", 0.0, 1000.0, "A/(N·s)")?,
+                kd: c.num(&k.kd_a_s_per_n, "controller.kd_a_s_per_n", 0.0, 1.0, "A·s/N")?,
+                derivative_filter_s: c.num(
+                    &k.derivative_filter_s,
+                    "controller.derivative_filter_s",
+                    0.0,
+                    1.0,
+                    "s",
+                )?,
+                out_min,
+                out_max,
+                anti_windup,
+            },
+            feedforward: *k.feedforward.get_ref(),
+            rest_speed_m_s: c.num(&k.rest_speed_m_s, "controller.rest_speed_m_s", 0.0, 1.0, "m/s")?,
+            rest_force_n: c.num(&k.rest_force_n, "controller.rest_force_n", 0.0, 250.0, "N")?,
+        };
+
+        let fl = &f.feel;
+        let feel = match fl.law.get_ref().as_str() {
+            "spring" => FeelLaw::Spring {
+                breakout_n: c.req(&fl.breakout_n, &fl.law, "feel.breakout_n", 0.0, 250.0, "N")?,
+                gradient_n_per_m: c.req(
+                    &fl.gradient_n_per_m,
+                    &fl.law,
+                    "feel.gradient_n_per_m",
+                    0.0,
+                    1e6,
+                    "N/m",
+                )?,
+                damping_n_s_per_m: c.req(
+                    &fl.damping_n_s_per_m,
+                    &fl.law,
+                    "feel.damping_n_s_per_m",
+                    0.0,
+                    1e5,
+                    "N·s/m",
+                )?,
+                max_force_n: c.req(&fl.max_force_n, &fl.law, "feel.max_force_n", 0.0, 250.0, "N")?,
+            },
+            "force-steps" => FeelLaw::ForceSteps {
+                low_n: c.req(&fl.low_n, &fl.law, "feel.low_n", 0.0, 250.0, "N")?,
+                high_n: c.req(&fl.high_n, &fl.law, "feel.high_n", 0.0, 250.0, "N")?,
+                start_s: c.req(
+                    &fl.start_s,
+                    &fl.law,
+                    "feel.start_s",
+                    0.0,
+                    duration_s,
+                    "s (within duration_s)",
+                )?,
+                period_s: c.req(&fl.period_s, &fl.law, "feel.period_s", 1e-3, 3600.0, "s")?,
+            },
+            other => {
+                return Err(c.err(
+                    &fl.law,
+                    "feel.law",
+                    &format!("`{other}` is not one of: spring, force-steps"),
+                ))
+            }
+        };
+        c.unused(
+            &fl.law,
+            &[
+                (
+                    "spring",
+                    &[
+                        ("low_n", fl.low_n.as_ref()),
+                        ("high_n", fl.high_n.as_ref()),
+                        ("start_s", fl.start_s.as_ref()),
+                        ("period_s", fl.period_s.as_ref()),
+                    ],
+                ),
+                (
+                    "force-steps",
+                    &[
+                        ("breakout_n", fl.breakout_n.as_ref()),
+                        ("gradient_n_per_m", fl.gradient_n_per_m.as_ref()),
+                        ("damping_n_s_per_m", fl.damping_n_s_per_m.as_ref()),
+                        ("max_force_n", fl.max_force_n.as_ref()),
+                    ],
+                ),
+            ],
+            "feel",
+        )?;
+
+        let pilot = parse_pilot(&f.pilot, &c, dir, duration_s, 1.0 / physics_rate_hz, seed)?;
+        Ok(Scenario {
+            path: path.to_path_buf(),
+            name: f.name,
+            duration_s,
+            seed,
+            rig,
+            device_path: dir.join(f.device.file),
+            sensors,
+            controller,
+            feel,
+            pilot,
+            // issue 6 hook: `[[fault]]` tables.
+            faults: crate::faults::FaultSchedule::from_scenario_text(text, path, duration_s)?,
+        })
+    }
+}
+
+fn parse_pilot(
+    p: &PilotSection,
+    c: &Ctx,
+    dir: &Path,
+    duration_s: f64,
+    dt_s: f64,
+    seed: u64,
+) -> Result<PilotConfig, ScenarioError> {
+    let hand_path = dir.join(&p.model);
+    let hand = load_hand(&hand_path)?;
+    let task = match p.task.get_ref().as_str() {
+        "position" => Task::Position,
+        "force" => Task::Force,
+        other => {
+            return Err(c.err(
+                &p.task,
+                "pilot.task",
+                &format!("`{other}` is not one of: position, force"),
+            ))
+        }
+    };
+    // Command values carry the task's unit: `_rad` (stick angle) for position, `_n` (grip force) for force.
+    let (unit, lim, other_unit) = match task {
+        Task::Position => ("rad", 1.0, "n"),
+        Task::Force => ("n", 250.0, "rad"),
+    };
+    let val = |name: &str| -> Result<Option<f64>, ScenarioError> {
+        let (mine, theirs) = p.value_pair(name, unit);
+        if let Some(t) = theirs {
+            return Err(c.err(
+                t,
+                &format!("pilot.{name}_{other_unit}"),
+                &format!("a {} task takes `{name}_{unit}`", p.task.get_ref()),
+            ));
+        }
+        mine.map(|v| c.num(v, &format!("pilot.{name}_{unit}"), -lim, lim, unit))
+            .transpose()
+    };
+    let need = |name: &str| -> Result<f64, ScenarioError> {
+        val(name)?.ok_or_else(|| {
+            c.err(
+                &p.signal,
+                &format!("pilot.{name}_{unit}"),
+                &format!("required by signal = \"{}\"", p.signal.get_ref()),
+            )
+        })
+    };
+    let need_t =
+        |v: &Option<Spanned<f64>>, key: &str, lo: f64, hi: f64, u: &str| -> Result<f64, ScenarioError> {
+            match v {
+                Some(v) => c.num(v, key, lo, hi, u),
+                None => Err(c.err(
+                    &p.signal,
+                    key,
+                    &format!("required by signal = \"{}\"", p.signal.get_ref()),
+                )),
+            }
+        };
+    let command = match p.signal.get_ref().as_str() {
+        "hold" => Signal::Hold {
+            value: need("value")?,
+        },
+        "step" => Signal::Step {
+            initial: need("initial")?,
+            last: need("final")?,
+            at_s: need_t(&p.at_s, "pilot.at_s", 0.0, duration_s, "s")?,
+        },
+        "ramp" => Signal::Ramp {
+            from: need("from")?,
+            to: need("to")?,
+            start_s: need_t(&p.start_s, "pilot.start_s", 0.0, duration_s, "s")?,
+            duration_s: need_t(&p.ramp_duration_s, "pilot.ramp_duration_s", 1e-3, 3600.0, "s")?,
+        },
+        "sine" => Signal::Sine {
+            offset: val("offset")?.unwrap_or(0.0),
+            amplitude: need("amplitude")?,
+            frequency_hz: need_t(&p.frequency_hz, "pilot.frequency_hz", 1e-3, 100.0, "Hz")?,
+        },
+        "triangle" => Signal::Triangle {
+            offset: val("offset")?.unwrap_or(0.0),
+            amplitude: need("amplitude")?,
+            frequency_hz: need_t(&p.frequency_hz, "pilot.frequency_hz", 1e-3, 100.0, "Hz")?,
+        },
+        "random" => Signal::random(
+            val("offset")?.unwrap_or(0.0),
+            need("rms")?,
+            need_t(&p.cutoff_hz, "pilot.cutoff_hz", 1e-3, 100.0, "Hz")?,
+            duration_s,
+            dt_s,
+            seed ^ 0x005e_ed0f_9170,
+        ),
+        other => {
+            return Err(c.err(
+                &p.signal,
+                "pilot.signal",
+                &format!("`{other}` is not one of: hold, step, ramp, sine, triangle, random"),
+            ))
+        }
+    };
+    Ok(PilotConfig {
+        hand_path,
+        hand,
+        task,
+        command,
+    })
+}
+
+/// Load `models/pilot-hand.toml`.
+pub fn load_hand(path: &Path) -> Result<HandConfig, ScenarioError> {
+    let text = read(path)?;
+    let h: HandFile = from_toml(&text, path)?;
+    let c = Ctx { path, text: &text };
+    Ok(HandConfig {
+        mass_kg: c.num(&h.mass_kg, "mass_kg", 0.05, 20.0, "kg")?,
+        stiffness_n_per_m: c.num(&h.stiffness_n_per_m, "stiffness_n_per_m", 0.0, 1e5, "N/m")?,
+        damping_n_s_per_m: c.num(&h.damping_n_s_per_m, "damping_n_s_per_m", 0.0, 1e4, "N·s/m")?,
+        activation_tau_s: c.num(&h.activation_tau_s, "activation_tau_s", 1e-3, 1.0, "s")?,
+        grip_stiffness_n_per_m: c.num(
+            &h.grip_stiffness_n_per_m,
+            "grip_stiffness_n_per_m",
+            10.0,
+            1e6,
+            "N/m",
+        )?,
+        grip_damping_n_s_per_m: c.num(
+            &h.grip_damping_n_s_per_m,
+            "grip_damping_n_s_per_m",
+            0.0,
+            1e4,
+            "N·s/m",
+        )?,
+        tracking_gain_per_s: c.num(&h.tracking_gain_per_s, "tracking_gain_per_s", 0.0, 100.0, "1/s")?,
+    })
+}
+
+fn read(path: &Path) -> Result<String, ScenarioError> {
+    std::fs::read_to_string(path).map_err(|e| ScenarioError::Io {
+        path: path.to_path_buf(),
+        msg: e.to_string(),
+    })
+}
+
+fn from_toml<T: serde::de::DeserializeOwned>(text: &str, path: &Path) -> Result<T, ScenarioError> {
+    toml::from_str(text).map_err(|e| ScenarioError::Parse {
+        path: path.to_path_buf(),
+        line: e.span().map(|s| line_of(text, s.start)).unwrap_or(0),
+        msg: e.message().trim().to_string(),
+    })
+}
+
+/// 1-based line of a byte offset.
+fn line_of(text: &str, offset: usize) -> usize {
+    text.as_bytes()[..offset.min(text.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
+}
+
+/// A variant's optional key and its value, if given.
+type KeyValue<'a> = (&'a str, Option<&'a Spanned<f64>>);
+
+struct Ctx<'a> {
+    path: &'a Path,
+    text: &'a str,
+}
+
+impl Ctx<'_> {
+    fn err<T>(&self, at: &Spanned<T>, key: &str, msg: &str) -> ScenarioError {
+        ScenarioError::Field {
+            path: self.path.to_path_buf(),
+            line: line_of(self.text, at.span().start),
+            key: key.to_string(),
+            msg: msg.to_string(),
+        }
+    }
+
+    fn num(&self, v: &Spanned<f64>, key: &str, lo: f64, hi: f64, unit: &str) -> Result<f64, ScenarioError> {
+        let x = *v.get_ref();
+        if !x.is_finite() || x < lo || x > hi {
+            return Err(self.err(
+                v,
+                key,
+                &format!("value {x} outside the allowed range [{lo}, {hi}] {unit}"),
+            ));
+        }
+        Ok(x)
+    }
+
+    fn int(&self, v: &Spanned<i64>, key: &str, lo: i64, hi: i64) -> Result<i64, ScenarioError> {
+        let x = *v.get_ref();
+        if x < lo || x > hi {
+            return Err(self.err(
+                v,
+                key,
+                &format!("value {x} outside the allowed range [{lo}, {hi}]"),
+            ));
+        }
+        Ok(x)
+    }
+
+    /// A key required by the selected variant `sel`.
+    fn req(
+        &self,
+        v: &Option<Spanned<f64>>,
+        sel: &Spanned<String>,
+        key: &str,
+        lo: f64,
+        hi: f64,
+        unit: &str,
+    ) -> Result<f64, ScenarioError> {
+        match v {
+            Some(v) => self.num(v, key, lo, hi, unit),
+            None => Err(self.err(sel, key, &format!("required by `{}`", sel.get_ref()))),
+        }
+    }
+
+    /// Keys that belong to another variant than the selected one are errors, not silently ignored.
+    fn unused(
+        &self,
+        sel: &Spanned<String>,
+        by_variant: &[(&str, &[KeyValue<'_>])],
+        section: &str,
+    ) -> Result<(), ScenarioError> {
+        for (variant, keys) in by_variant {
+            if sel.get_ref() == variant {
+                for (k, v) in keys.iter() {
+                    if let Some(v) = v {
+                        return Err(self.err(
+                            v,
+                            &format!("{section}.{k}"),
+                            &format!("not used by `{}`", sel.get_ref()),
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct File {
+    name: String,
+    #[serde(default)]
+    #[allow(dead_code)]
+    description: String,
+    duration_s: Spanned<f64>,
+    seed: Spanned<i64>,
+    rig: Spanned<RigConfig>,
+    device: DeviceSection,
+    load_cell: LoadCellSection,
+    laser: LaserSection,
+    daq: DaqSection,
+    controller: ControllerSection,
+    feel: FeelSection,
+    pilot: PilotSection,
+    /// `[[fault]]` tables, parsed by `crate::faults` (issue 6 hook).
+    #[serde(default)]
+    #[allow(dead_code)]
+    fault: Option<toml::Value>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DeviceSection {
+    file: PathBuf,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LoadCellSection {
+    range_n: Spanned<f64>,
+    gain: Spanned<f64>,
+    offset_n: Spanned<f64>,
+    noise_rms_n: Spanned<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LaserSection {
+    range_m: Spanned<f64>,
+    noise_rms_m: Spanned<f64>,
+    velocity_cutoff_hz: Spanned<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DaqSection {
+    sample_rate_hz: Spanned<f64>,
+    latency_samples: Spanned<i64>,
+    adc_bits: Spanned<i64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ControllerSection {
+    kp_a_per_n: Spanned<f64>,
+    ki_a_per_n_s: Spanned<f64>,
+    kd_a_s_per_n: Spanned<f64>,
+    derivative_filter_s: Spanned<f64>,
+    anti_windup: Spanned<String>,
+    tracking_time_s: Option<Spanned<f64>>,
+    feedforward: Spanned<bool>,
+    rest_speed_m_s: Spanned<f64>,
+    rest_force_n: Spanned<f64>,
+    current_min_a: Spanned<f64>,
+    current_max_a: Spanned<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FeelSection {
+    law: Spanned<String>,
+    breakout_n: Option<Spanned<f64>>,
+    gradient_n_per_m: Option<Spanned<f64>>,
+    damping_n_s_per_m: Option<Spanned<f64>>,
+    max_force_n: Option<Spanned<f64>>,
+    low_n: Option<Spanned<f64>>,
+    high_n: Option<Spanned<f64>>,
+    start_s: Option<Spanned<f64>>,
+    period_s: Option<Spanned<f64>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PilotSection {
+    model: PathBuf,
+    task: Spanned<String>,
+    signal: Spanned<String>,
+    value_rad: Option<Spanned<f64>>,
+    value_n: Option<Spanned<f64>>,
+    initial_rad: Option<Spanned<f64>>,
+    initial_n: Option<Spanned<f64>>,
+    final_rad: Option<Spanned<f64>>,
+    final_n: Option<Spanned<f64>>,
+    from_rad: Option<Spanned<f64>>,
+    from_n: Option<Spanned<f64>>,
+    to_rad: Option<Spanned<f64>>,
+    to_n: Option<Spanned<f64>>,
+    offset_rad: Option<Spanned<f64>>,
+    offset_n: Option<Spanned<f64>>,
+    amplitude_rad: Option<Spanned<f64>>,
+    amplitude_n: Option<Spanned<f64>>,
+    rms_rad: Option<Spanned<f64>>,
+    rms_n: Option<Spanned<f64>>,
+    at_s: Option<Spanned<f64>>,
+    start_s: Option<Spanned<f64>>,
+    ramp_duration_s: Option<Spanned<f64>>,
+    frequency_hz: Option<Spanned<f64>>,
+    cutoff_hz: Option<Spanned<f64>>,
+}
+
+impl PilotSection {
+    /// The `(name_unit, name_other)` pair of a command value.
+    fn value_pair(&self, name: &str, unit: &str) -> (Option<&Spanned<f64>>, Option<&Spanned<f64>>) {
+        let (rad, n) = match name {
+            "value" => (&self.value_rad, &self.value_n),
+            "initial" => (&self.initial_rad, &self.initial_n),
+            "final" => (&self.final_rad, &self.final_n),
+            "from" => (&self.from_rad, &self.from_n),
+            "to" => (&self.to_rad, &self.to_n),
+            "offset" => (&self.offset_rad, &self.offset_n),
+            "amplitude" => (&self.amplitude_rad, &self.amplitude_n),
+            _ => (&self.rms_rad, &self.rms_n),
+        };
+        if unit == "rad" {
+            (rad.as_ref(), n.as_ref())
+        } else {
+            (n.as_ref(), rad.as_ref())
+        }
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct HandFile {
+    mass_kg: Spanned<f64>,
+    stiffness_n_per_m: Spanned<f64>,
+    damping_n_s_per_m: Spanned<f64>,
+    activation_tau_s: Spanned<f64>,
+    grip_stiffness_n_per_m: Spanned<f64>,
+    grip_damping_n_s_per_m: Spanned<f64>,
+    tracking_gain_per_s: Spanned<f64>,
+}

@@ -1,0 +1,275 @@
+//! Sensors and data acquisition of the paper's feel-system bench (Section 6): a load cell between the piston
+//! and the joystick (range 250 N, calibrated with dead weights), a laser displacement sensor on the piston, and
+//! the NI DAQ that samples both and writes the coil current command.
+//!
+//! The controller only ever sees [`DaqSample`]s: calibrated, noisy, saturated, quantised, sampled at the DAQ's
+//! rate and delayed by its latency. The velocity is not measured: it is a filtered differentiator of the
+//! sampled position, as the paper derives the piston velocity from the laser sensor.
+
+use std::collections::VecDeque;
+
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+/// Load cell: `reading = gain · F + offset + noise`, clipped at ±`range_n`.
+///
+/// `gain` and `offset_n` are the residual calibration errors after the dead-weight calibration the paper
+/// describes (1 and 0 for a perfect calibration).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LoadCellConfig {
+    pub range_n: f64,
+    pub gain: f64,
+    pub offset_n: f64,
+    pub noise_rms_n: f64,
+}
+
+/// Laser displacement sensor on the piston: `reading = x + noise`, clipped at ±`range_m`; the velocity is
+/// the sampled position differentiated and low-passed at `velocity_cutoff_hz`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LaserConfig {
+    pub range_m: f64,
+    pub noise_rms_m: f64,
+    pub velocity_cutoff_hz: f64,
+}
+
+/// The DAQ: sample rate, latency in whole samples (from sampling the inputs to the output command taking
+/// effect; a LabVIEW single-point loop reads, computes and writes once per cycle, so 1 is typical), and the
+/// ADC resolution over each channel's range.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DaqConfig {
+    pub sample_rate_hz: f64,
+    pub latency_samples: usize,
+    pub adc_bits: u32,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SensorsConfig {
+    pub load_cell: LoadCellConfig,
+    pub laser: LaserConfig,
+    pub daq: DaqConfig,
+}
+
+/// What the controller receives at one DAQ tick.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct DaqSample {
+    /// Time the inputs were sampled, s (the tick time minus the latency).
+    pub sampled_t_s: f64,
+    /// Load-cell force along +x on the piston, N.
+    pub force_n: f64,
+    /// Piston position from mid-stroke, m.
+    pub x_m: f64,
+    /// Piston velocity from the filtered differentiator, m/s.
+    pub v_m_s: f64,
+}
+
+/// Uniform mid-tread quantiser over `[-range, range]` with `2^bits` levels, saturating at the range.
+pub fn quantise(value: f64, range: f64, bits: u32) -> f64 {
+    let clipped = value.clamp(-range, range);
+    if bits == 0 || bits >= 53 {
+        return clipped;
+    }
+    let lsb = 2.0 * range / (2f64.powi(bits as i32));
+    (clipped / lsb).round() * lsb
+}
+
+/// First-order low-pass differentiator `v = s / (τ s + 1) · x`, discretised with the exact pole
+/// (`a = exp(-T/τ)`) on backward differences: `v_k = a v_{k-1} + (1 - a) (x_k - x_{k-1}) / T`.
+#[derive(Debug, Clone)]
+pub struct FilteredDifferentiator {
+    alpha: f64,
+    dt_s: f64,
+    last_x: Option<f64>,
+    v: f64,
+}
+
+impl FilteredDifferentiator {
+    pub fn new(cutoff_hz: f64, dt_s: f64) -> Self {
+        let tau = 1.0 / (2.0 * std::f64::consts::PI * cutoff_hz);
+        Self {
+            alpha: (-dt_s / tau).exp(),
+            dt_s,
+            last_x: None,
+            v: 0.0,
+        }
+    }
+
+    pub fn update(&mut self, x: f64) -> f64 {
+        if let Some(x0) = self.last_x {
+            let raw = (x - x0) / self.dt_s;
+            self.v = self.alpha * self.v + (1.0 - self.alpha) * raw;
+        }
+        self.last_x = Some(x);
+        self.v
+    }
+}
+
+/// Load cell + laser + DAQ, with their own seeded noise. Call [`Daq::due`] every physics step and
+/// [`Daq::acquire`] when it is due.
+#[derive(Debug, Clone)]
+pub struct Daq {
+    cfg: SensorsConfig,
+    period_s: f64,
+    next_tick: u64,
+    rng: ChaCha8Rng,
+    diff: FilteredDifferentiator,
+    line: VecDeque<DaqSample>,
+}
+
+impl Daq {
+    pub fn new(cfg: SensorsConfig, seed: u64) -> Self {
+        let period_s = 1.0 / cfg.daq.sample_rate_hz;
+        Self {
+            cfg,
+            period_s,
+            next_tick: 0,
+            rng: ChaCha8Rng::seed_from_u64(seed),
+            diff: FilteredDifferentiator::new(cfg.laser.velocity_cutoff_hz, period_s),
+            line: VecDeque::with_capacity(cfg.daq.latency_samples + 1),
+        }
+    }
+
+    pub fn config(&self) -> &SensorsConfig {
+        &self.cfg
+    }
+
+    pub fn period_s(&self) -> f64 {
+        self.period_s
+    }
+
+    /// Whether a DAQ tick falls at or before physics time `t_s` (ticks at `k · period`, with a tolerance of
+    /// a millionth of a period against rounding).
+    pub fn due(&self, t_s: f64) -> bool {
+        self.next_tick as f64 * self.period_s <= t_s + 1e-6 * self.period_s
+    }
+
+    /// Sample the true load-cell force and piston position at a tick; returns the sample the controller
+    /// sees now, which is the one taken `latency_samples` ticks ago (or `None` while the line fills).
+    pub fn acquire(&mut self, t_s: f64, true_force_n: f64, true_x_m: f64) -> Option<DaqSample> {
+        self.next_tick += 1;
+        let lc = self.cfg.load_cell;
+        let ls = self.cfg.laser;
+        let bits = self.cfg.daq.adc_bits;
+        let nf: f64 = StandardNormal.sample(&mut self.rng);
+        let nx: f64 = StandardNormal.sample(&mut self.rng);
+        let force = quantise(
+            lc.gain * true_force_n + lc.offset_n + lc.noise_rms_n * nf,
+            lc.range_n,
+            bits,
+        );
+        let x = quantise(true_x_m + ls.noise_rms_m * nx, ls.range_m, bits);
+        let v = self.diff.update(x);
+        self.line.push_back(DaqSample {
+            sampled_t_s: t_s,
+            force_n: force,
+            x_m: x,
+            v_m_s: v,
+        });
+        if self.line.len() > self.cfg.daq.latency_samples {
+            self.line.pop_front()
+        } else {
+            None
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cfg(rate: f64, latency: usize, bits: u32, noise: f64) -> SensorsConfig {
+        SensorsConfig {
+            load_cell: LoadCellConfig {
+                range_n: 250.0,
+                gain: 1.0,
+                offset_n: 0.0,
+                noise_rms_n: noise,
+            },
+            laser: LaserConfig {
+                range_m: 0.06,
+                noise_rms_m: 0.0,
+                velocity_cutoff_hz: 50.0,
+            },
+            daq: DaqConfig {
+                sample_rate_hz: rate,
+                latency_samples: latency,
+                adc_bits: bits,
+            },
+        }
+    }
+
+    #[test]
+    fn load_cell_saturates_at_its_250_n_range() {
+        let mut d = Daq::new(cfg(1000.0, 0, 16, 0.0), 1);
+        let s = d.acquire(0.0, 400.0, 0.0).unwrap();
+        assert!((s.force_n - 250.0).abs() < 0.01, "{}", s.force_n);
+        let s = d.acquire(0.001, -1000.0, 0.0).unwrap();
+        assert!((s.force_n + 250.0).abs() < 0.01);
+    }
+
+    #[test]
+    fn quantisation_step_is_range_over_two_to_the_bits() {
+        // 12 bits over ±250 N: LSB = 500/4096 = 0.122 N; every reading is a multiple of it, error ≤ LSB/2.
+        let lsb = 500.0 / 4096.0;
+        for k in 0..200 {
+            let f = -60.0 + 0.37 * k as f64;
+            let q = quantise(f, 250.0, 12);
+            assert!((q / lsb - (q / lsb).round()).abs() < 1e-9);
+            assert!((q - f).abs() <= 0.5 * lsb + 1e-12);
+        }
+    }
+
+    #[test]
+    fn latency_delays_samples_by_whole_ticks() {
+        let mut d = Daq::new(cfg(100.0, 2, 0, 0.0), 1);
+        assert!(d.acquire(0.00, 1.0, 0.0).is_none());
+        assert!(d.acquire(0.01, 2.0, 0.0).is_none());
+        let s = d.acquire(0.02, 3.0, 0.0).unwrap();
+        assert_eq!(s.force_n, 1.0);
+        assert_eq!(s.sampled_t_s, 0.0);
+    }
+
+    #[test]
+    fn calibration_error_and_noise_statistics() {
+        let mut c = cfg(1000.0, 0, 0, 0.5);
+        c.load_cell.gain = 1.02;
+        c.load_cell.offset_n = -0.3;
+        let mut d = Daq::new(c, 7);
+        let n = 20000;
+        let xs: Vec<f64> = (0..n)
+            .map(|k| d.acquire(k as f64 * 1e-3, 50.0, 0.0).unwrap().force_n)
+            .collect();
+        let mean = xs.iter().sum::<f64>() / n as f64;
+        let sd = (xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n as f64).sqrt();
+        assert!((mean - (1.02 * 50.0 - 0.3)).abs() < 0.02, "mean {mean}");
+        assert!((sd - 0.5).abs() < 0.02, "sd {sd}");
+    }
+
+    #[test]
+    fn differentiator_recovers_a_ramp_rate_and_lags_by_its_time_constant() {
+        let dt = 1e-3;
+        let mut f = FilteredDifferentiator::new(20.0, dt);
+        let rate = 0.05;
+        let mut v = 0.0;
+        let mut t63 = None;
+        for k in 0..400 {
+            v = f.update(rate * k as f64 * dt);
+            if t63.is_none() && v >= 0.632 * rate {
+                t63 = Some(k as f64 * dt);
+            }
+        }
+        assert!((v - rate).abs() < 1e-9 * rate.max(1.0));
+        let tau = 1.0 / (2.0 * std::f64::consts::PI * 20.0);
+        assert!((t63.unwrap() - tau).abs() < 1.5 * dt, "t63 {:?} tau {tau}", t63);
+    }
+
+    #[test]
+    fn same_seed_same_noise() {
+        let mut a = Daq::new(cfg(1000.0, 1, 16, 0.3), 42);
+        let mut b = Daq::new(cfg(1000.0, 1, 16, 0.3), 42);
+        for k in 0..100 {
+            let t = k as f64 * 1e-3;
+            assert_eq!(a.acquire(t, 10.0, 0.01), b.acquire(t, 10.0, 0.01));
+        }
+    }
+}

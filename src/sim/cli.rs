@@ -1,0 +1,188 @@
+//! The `run` and `daq-sweep` subcommands.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use rayon::prelude::*;
+
+use super::response::{self, SweepPoint};
+use super::{run, Plant, Results, RunOptions};
+use crate::device::{DeviceConfig, Registry};
+use crate::scenario::Scenario;
+
+/// `mrfeel run SCENARIO`: run a stick-rig scenario headless.
+#[derive(Debug, clap::Args)]
+pub struct RunArgs {
+    /// Scenario file (`scenarios/*.toml`).
+    pub scenario: PathBuf,
+    /// Write the time series as CSV.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Write a Rerun recording (`.rrd`).
+    #[arg(long)]
+    pub rerun: Option<PathBuf>,
+    /// Stream the recording to a newly spawned Rerun viewer.
+    #[arg(long)]
+    pub spawn: bool,
+    /// Print the summary as JSON on stdout (nothing else on stdout).
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `mrfeel daq-sweep SCENARIO`: force response time against the DAQ rate.
+#[derive(Debug, clap::Args)]
+pub struct DaqSweepArgs {
+    /// Scenario with a `force-steps` feel law (e.g. `scenarios/response-time.toml`).
+    pub scenario: PathBuf,
+    /// DAQ rates to run, Hz (each at most the scenario's physics rate).
+    #[arg(long, value_delimiter = ',', default_value = "100,200,500,1000,2000,5000")]
+    pub rates: Vec<f64>,
+    /// Write `daq-sweep.png` and `daq-sweep.svg` into this directory.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Print the table as JSON on stdout (nothing else on stdout).
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Load the scenario's device and build its rig.
+pub fn load(path: &Path) -> anyhow::Result<(Scenario, DeviceConfig, crate::rig::Rig)> {
+    let scn = Scenario::load(path)?;
+    let device = DeviceConfig::load(&scn.device_path, &Registry::builtin())
+        .with_context(|| format!("device of scenario {}", path.display()))?;
+    let rig = build_rig(&scn, &device)?;
+    Ok((scn, device, rig))
+}
+
+/// The scenario's rig with the device's damper.
+pub fn build_rig(scn: &Scenario, device: &DeviceConfig) -> anyhow::Result<crate::rig::Rig> {
+    crate::rig::Rig::new(&scn.rig, device.damper())
+        .with_context(|| format!("rig of scenario {}", scn.path.display()))
+}
+
+fn progress_bar(len: u64, msg: &str) -> ProgressBar {
+    let pb = ProgressBar::with_draw_target(
+        Some(len),
+        if std::io::stderr().is_terminal() {
+            ProgressDrawTarget::stderr()
+        } else {
+            ProgressDrawTarget::hidden()
+        },
+    );
+    if let Ok(style) =
+        ProgressStyle::with_template("{msg} [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}")
+    {
+        pb.set_style(style.progress_chars("=> "));
+    }
+    pb.set_message(msg.to_string());
+    pb
+}
+
+/// Run a loaded scenario with a progress bar.
+pub fn run_with_progress<P: Plant>(
+    scn: &Scenario,
+    device: &DeviceConfig,
+    plant: P,
+    opts: RunOptions,
+) -> Results {
+    let pb = progress_bar(1000, &scn.name);
+    let res = run(scn, device, plant, opts, |f| pb.set_position((f * 1000.0) as u64));
+    pb.finish_and_clear();
+    res
+}
+
+pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
+    let (scn, device, rig) = load(&args.scenario)?;
+    let want_viz = args.rerun.is_some() || args.spawn;
+    let rec = if args.spawn {
+        Some(crate::viz::rerun_rig::spawn()?)
+    } else if let Some(p) = &args.rerun {
+        Some(crate::viz::rerun_rig::to_file(p)?)
+    } else {
+        None
+    };
+    let opts = RunOptions {
+        frames_hz: want_viz.then_some(60.0),
+    };
+    let res = run_with_progress(&scn, &device, rig, opts);
+    if let Some(path) = &args.out {
+        let f = std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
+        res.write_csv(std::io::BufWriter::new(f))
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(rec) = &rec {
+        crate::viz::rerun_rig::log_run(rec, &res)?;
+    }
+    let summary = res.summary();
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&summary)?);
+    } else {
+        println!("{summary}");
+        if let Some(p) = &args.out {
+            println!("  results: {}", p.display());
+        }
+        if let Some(p) = &args.rerun {
+            println!("  recording: {} (open with `rerun {}`)", p.display(), p.display());
+        }
+    }
+    Ok(())
+}
+
+/// Run the scenario at each DAQ rate (in parallel, results in order) and measure the step responses.
+pub fn sweep(scn: &Scenario, device: &DeviceConfig, rates: &[f64]) -> anyhow::Result<Vec<SweepPoint>> {
+    for &r in rates {
+        anyhow::ensure!(
+            r > 0.0 && r <= scn.physics_rate_hz(),
+            "DAQ rate {r} Hz: allowed range (0, {}] Hz (the scenario's physics rate)",
+            scn.physics_rate_hz()
+        );
+    }
+    anyhow::ensure!(
+        matches!(scn.feel, crate::control::FeelLaw::ForceSteps { .. }),
+        "{}: daq-sweep needs `feel.law = \"force-steps\"`",
+        scn.path.display()
+    );
+    let pb = progress_bar(rates.len() as u64, "daq-sweep");
+    let out: anyhow::Result<Vec<SweepPoint>> = rates
+        .par_iter()
+        .map(|&rate| {
+            let s = scn.with_daq_rate(rate);
+            let rig = build_rig(&s, device)?;
+            let res = run(&s, device, rig, RunOptions::default(), |_| {});
+            let steps = response::step_responses(&res, &s.feel);
+            pb.inc(1);
+            Ok(response::summarise(rate, &steps, &res))
+        })
+        .collect();
+    pb.finish_and_clear();
+    out
+}
+
+pub fn daq_sweep_cmd(args: &DaqSweepArgs) -> anyhow::Result<()> {
+    let scn = Scenario::load(&args.scenario)?;
+    let device = DeviceConfig::load(&scn.device_path, &Registry::builtin())
+        .with_context(|| format!("device of scenario {}", args.scenario.display()))?;
+    let points = sweep(&scn, &device, &args.rates)?;
+    if let Some(dir) = &args.plot {
+        response::plot(
+            &points,
+            dir,
+            &format!("Feel-loop force response vs DAQ period ({})", scn.name),
+        )?;
+    }
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&points)?);
+    } else {
+        print!("{}", response::markdown_table(&points));
+        if let Some(dir) = &args.plot {
+            println!(
+                "plots: {}/daq-sweep.png, {}/daq-sweep.svg",
+                dir.display(),
+                dir.display()
+            );
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,188 @@
+//! The multi-rate loop for one scenario: physics at the rig's rate, the DAQ (sensors, latency, zero-order
+//! hold) and the feel controller at the DAQ's rate, the pilot's hand at the physics rate.
+//!
+//! Per physics step `n` (time `t = n·dt`):
+//! 1. read the rig's true state;
+//! 2. if a DAQ tick is due: sample the load cell and the laser, push through the latency line, and run the
+//!    controller on the sample that comes out; its current command is then held (zero-order hold);
+//! 3. the hand reacts to its command and the grip's state: the hand force for this step;
+//! 4. record the row; step the rig with the hand force and the held current command.
+
+pub mod cli;
+pub mod plant;
+pub mod response;
+pub mod results;
+
+pub use plant::{Plant, PlantState};
+pub use results::{Results, Row, Summary};
+
+use crate::control::{Feedforward, FeelController, LoopMode, Pid};
+use crate::device::DeviceConfig;
+use crate::pilot::{Hand, Task};
+use crate::scenario::Scenario;
+use crate::sensors::Daq;
+
+/// Options of one run that are not part of the scenario.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct RunOptions {
+    /// Record body poses for drawing at this rate (Hz); `None`: no poses.
+    pub frames_hz: Option<f64>,
+}
+
+/// Everything that is stepped, wired from a scenario; [`Loop::step`] is one physics step.
+pub struct Loop<P: Plant> {
+    pub plant: P,
+    pub daq: Daq,
+    pub controller: FeelController,
+    pub hand: Hand,
+    scenario_command: crate::pilot::Signal,
+    command_scale: f64,
+    step_index: u64,
+    current_cmd_a: f64,
+    desired_force_n: f64,
+    measured_force_n: f64,
+    mode: LoopMode,
+    pilot_work_j: f64,
+    /// issue 6 hook: scheduled faults in the driver and sensor path (`crate::faults`).
+    faults: crate::faults::FaultInjector,
+    current_limit_a: f64,
+}
+
+impl<P: Plant> Loop<P> {
+    pub fn new(scn: &Scenario, device: &DeviceConfig, plant: P) -> Self {
+        let feedforward = scn.controller.feedforward.then(|| Feedforward {
+            fc0_n: device.param("fc0_n").unwrap_or(0.0),
+            fc_gain_n_per_a: device.param("fc_gain_n_per_a").unwrap_or(0.0),
+            c0_n_s_per_m: device.param("c0_n_s_per_m").unwrap_or(0.0),
+            te_s: device.param("te_s").unwrap_or(0.0),
+            tm_s: device.param("tm_s").unwrap_or(0.0),
+        });
+        let controller = FeelController::new(
+            scn.feel.clone(),
+            Pid::new(scn.controller.gains),
+            feedforward,
+            scn.controller.rest_speed_m_s,
+            scn.controller.rest_force_n,
+        );
+        let command_scale = match scn.pilot.task {
+            Task::Position => plant.grip_arm_m(),
+            Task::Force => 1.0,
+        };
+        Self {
+            daq: Daq::new(scn.sensors, scn.seed),
+            controller,
+            hand: Hand::new(scn.pilot.hand, scn.pilot.task),
+            scenario_command: scn.pilot.command.clone(),
+            command_scale,
+            plant,
+            step_index: 0,
+            current_cmd_a: 0.0,
+            desired_force_n: 0.0,
+            measured_force_n: 0.0,
+            mode: LoopMode::Holding,
+            pilot_work_j: 0.0,
+            faults: crate::faults::FaultInjector::new(scn.faults.clone(), scn.seed),
+            current_limit_a: device.model.current_limit_a,
+        }
+    }
+
+    /// One physics step; returns the row describing the state at the start of the step and what was
+    /// applied over it.
+    pub fn step(&mut self) -> Row {
+        let dt = self.plant.dt_s();
+        let t = self.step_index as f64 * dt;
+        let s = self.plant.state();
+        if self.daq.due(t) {
+            // issue 6 hook: sensor faults between the transducers and the DAQ.
+            let load_cell_n = self.faults.load_cell_n(t, s.load_cell_n);
+            let piston_x_m = self.faults.displacement_m(t, s.piston_x_m);
+            if let Some(sample) = self.daq.acquire(t, load_cell_n, piston_x_m) {
+                // The controller runs on the sample's own time: with the latency line this is the same as
+                // computing at the sampling instant and writing the command `latency_samples` ticks later.
+                let out = self
+                    .controller
+                    .update(sample.sampled_t_s, &sample, self.daq.period_s());
+                self.current_cmd_a = out.current_cmd_a;
+                self.desired_force_n = out.desired_force_n;
+                self.measured_force_n = sample.force_n;
+                self.mode = out.mode;
+            }
+        }
+        let cmd = self.scenario_command.value(t) * self.command_scale;
+        let hand_force = self.hand.step(cmd, s.grip_x_m, s.grip_v_m_s, dt);
+        let row = Row {
+            t_s: t,
+            stick_angle_rad: s.stick_angle_rad,
+            stick_rate_rad_s: s.stick_rate_rad_s,
+            piston_x_m: s.piston_x_m,
+            piston_v_m_s: s.piston_v_m_s,
+            load_cell_n: self.measured_force_n,
+            load_cell_true_n: s.load_cell_n,
+            desired_force_n: self.desired_force_n,
+            current_a: self.current_cmd_a,
+            pilot_force_n: hand_force,
+            pilot_cmd: cmd,
+            damper_force_n: s.damper_force_n,
+            yield_force_n: s.yield_force_n,
+            mode: self.mode,
+            kinetic_energy_j: s.kinetic_energy_j,
+            potential_energy_j: s.potential_energy_j,
+            dissipated_j: s.dissipated_j,
+            pilot_work_j: self.pilot_work_j,
+        };
+        // issue 6 hook: driver faults between the command and the coil.
+        let coil_cmd_a = self
+            .faults
+            .coil_command_a(t, self.current_cmd_a, self.current_limit_a);
+        self.plant.step(hand_force, coil_cmd_a);
+        let after = self.plant.state();
+        // Work of a force held over the step: F·Δx along the grip path (exact for the zero-order hold).
+        self.pilot_work_j += hand_force * (after.grip_x_m - s.grip_x_m);
+        self.step_index += 1;
+        row
+    }
+}
+
+/// Run a scenario on a plant to its end; `progress` is called with the fraction done.
+pub fn run<P: Plant>(
+    scn: &Scenario,
+    device: &DeviceConfig,
+    plant: P,
+    opts: RunOptions,
+    mut progress: impl FnMut(f64),
+) -> Results {
+    let mut lp = Loop::new(scn, device, plant);
+    let dt = lp.plant.dt_s();
+    let n = (scn.duration_s / dt).round() as usize;
+    let frame_every = opts
+        .frames_hz
+        .map(|hz| ((1.0 / (hz * dt)).round() as usize).max(1));
+    let mut rows = Vec::with_capacity(n + 1);
+    let mut frames = Vec::new();
+    let report_every = (n / 200).max(1);
+    for k in 0..n {
+        if let Some(every) = frame_every {
+            if k % every == 0 {
+                frames.push((k as f64 * dt, lp.plant.poses()));
+            }
+        }
+        rows.push(lp.step());
+        if k % report_every == 0 {
+            progress(k as f64 / n as f64);
+        }
+    }
+    progress(1.0);
+    Results {
+        scenario: scn.name.clone(),
+        rest_speed_m_s: scn.controller.rest_speed_m_s,
+        stroke_half_m: lp.plant.stroke_half_m(),
+        current_max_a: scn.controller.gains.out_max,
+        rows,
+        visuals: if frame_every.is_some() {
+            lp.plant.visuals()
+        } else {
+            Vec::new()
+        },
+        frames,
+    }
+}

@@ -1,0 +1,97 @@
+//! What the loop needs from the mechanical rig, as a trait: the rapier multibody [`Rig`] implements it;
+//! tests may plug in an independent reduced model.
+
+use crate::rig::{BodyPose, LinkVisuals, Rig};
+
+/// The rig's true state after a step (the loop logs it; the controller never sees it).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PlantState {
+    pub t_s: f64,
+    pub stick_angle_rad: f64,
+    pub stick_rate_rad_s: f64,
+    /// Grip position along its path (arc length from neutral), m, and velocity, m/s.
+    pub grip_x_m: f64,
+    pub grip_v_m_s: f64,
+    /// Piston displacement from mid-stroke, m, and velocity, m/s.
+    pub piston_x_m: f64,
+    pub piston_v_m_s: f64,
+    /// True load-cell force along +x on the piston, N.
+    pub load_cell_n: f64,
+    /// Damper force along +x on the piston (the force needed to move it, Eq. 2's `Fd`), N.
+    pub damper_force_n: f64,
+    /// Damper yield-force magnitude at this instant, N.
+    pub yield_force_n: f64,
+    /// Kinetic energy of the moving bodies, J.
+    pub kinetic_energy_j: f64,
+    /// Gravitational potential energy relative to the start, J.
+    pub potential_energy_j: f64,
+    /// Energy dissipated in the damper since the start, J.
+    pub dissipated_j: f64,
+}
+
+pub trait Plant {
+    /// Physics step, s.
+    fn dt_s(&self) -> f64;
+    /// Advance one physics step with the hand force at the grip (N, along the grip path) and the coil
+    /// current command (A) held over the step.
+    fn step(&mut self, hand_force_n: f64, current_cmd_a: f64);
+    fn state(&self) -> PlantState;
+    /// Half stroke of the piston, m.
+    fn stroke_half_m(&self) -> f64;
+    /// Grip path length per stick radian, m/rad (the grip's lever about the pivot).
+    fn grip_arm_m(&self) -> f64;
+    /// Link names and visual shapes (static); empty when the plant has no geometry.
+    fn visuals(&self) -> Vec<LinkVisuals> {
+        Vec::new()
+    }
+    /// World pose of every link now.
+    fn poses(&self) -> Vec<BodyPose> {
+        Vec::new()
+    }
+}
+
+impl Plant for Rig {
+    fn dt_s(&self) -> f64 {
+        Rig::dt_s(self)
+    }
+
+    fn step(&mut self, hand_force_n: f64, current_cmd_a: f64) {
+        Rig::step(self, hand_force_n, current_cmd_a);
+    }
+
+    fn state(&self) -> PlantState {
+        let s = Rig::state(self);
+        let lever = self.grip_lever_m();
+        PlantState {
+            t_s: s.t_s,
+            stick_angle_rad: s.stick_angle_rad,
+            stick_rate_rad_s: s.stick_rate_rad_s,
+            grip_x_m: lever * s.stick_angle_rad,
+            grip_v_m_s: lever * s.stick_rate_rad_s,
+            piston_x_m: s.piston_x_m,
+            piston_v_m_s: s.piston_v_m_s,
+            load_cell_n: s.load_cell_n,
+            damper_force_n: s.damper_force_n,
+            yield_force_n: s.yield_n,
+            kinetic_energy_j: s.kinetic_energy_j,
+            potential_energy_j: s.potential_energy_j,
+            dissipated_j: s.damper_dissipated_j,
+        }
+    }
+
+    fn stroke_half_m(&self) -> f64 {
+        self.stroke_limit_m()
+    }
+
+    fn grip_arm_m(&self) -> f64 {
+        self.grip_lever_m()
+    }
+
+    fn visuals(&self) -> Vec<LinkVisuals> {
+        Rig::visuals(self).to_vec()
+    }
+
+    fn poses(&self) -> Vec<BodyPose> {
+        Rig::poses(self)
+    }
+}

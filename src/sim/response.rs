@@ -1,0 +1,167 @@
+//! Force response time of the feel loop, which the paper says it evaluated (Section 6) but does not report:
+//! steps of the desired force while the pilot moves the stick at a constant rate, measured on the true
+//! load-cell force, and how they degrade as the DAQ rate falls.
+//!
+//! Definitions (per step from `F0` to `F1` at `t_k`, on `y = |F_load cell|`, the force resisting the motion):
+//! - rise time: from `y` first crossing `F0 + 10 % (F1 − F0)` to first crossing `F0 + 90 % (F1 − F0)`;
+//! - delay: from `t_k` to the 10 % crossing;
+//! - settling time: from `t_k` to the last sample outside `F1 ± 5 % |F1 − F0|` within the step's window.
+//!
+//! A step counts only where the piston keeps one direction and moves faster than the rest speed over the
+//! whole window (otherwise the damper force is not the controlled quantity).
+
+use std::path::Path;
+
+use serde::Serialize;
+
+use super::results::Results;
+use crate::control::FeelLaw;
+use crate::control::LoopMode;
+use crate::viz::plot::{save_charts, Chart, PlotError, Series};
+
+#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+pub struct StepResponse {
+    pub t_step_s: f64,
+    pub from_n: f64,
+    pub to_n: f64,
+    pub delay_s: f64,
+    pub rise_s: f64,
+    /// `None` when the force did not stay in the ±5 % band before the next step.
+    pub settling_s: Option<f64>,
+}
+
+/// Responses to every valid step of a `ForceSteps` law in a run.
+pub fn step_responses(res: &Results, law: &FeelLaw) -> Vec<StepResponse> {
+    let FeelLaw::ForceSteps { period_s, .. } = *law else {
+        return Vec::new();
+    };
+    let rows = &res.rows;
+    let Some(last) = rows.last() else {
+        return Vec::new();
+    };
+    let dt = if rows.len() > 1 {
+        rows[1].t_s - rows[0].t_s
+    } else {
+        return Vec::new();
+    };
+    let mut out = Vec::new();
+    for t_k in law.step_times_s(last.t_s) {
+        let f0 = law.step_level_n(t_k - 0.5 * dt);
+        let f1 = law.step_level_n(t_k + 0.5 * dt);
+        if f0 == f1 {
+            continue;
+        }
+        let i0 = rows.partition_point(|r| r.t_s < t_k);
+        let i1 = rows.partition_point(|r| r.t_s < t_k + period_s);
+        if i1 >= rows.len() || i1 <= i0 + 2 {
+            continue;
+        }
+        let w = &rows[i0..i1];
+        let dir = w[0].piston_v_m_s.signum();
+        let steady = w
+            .iter()
+            .all(|r| r.piston_v_m_s * dir >= res.rest_speed_m_s && r.mode != LoopMode::Released);
+        if !steady || dir == 0.0 {
+            continue;
+        }
+        let frac = |r: &crate::sim::Row| (r.load_cell_true_n * dir - f0) / (f1 - f0);
+        let t10 = w.iter().find(|r| frac(r) >= 0.1).map(|r| r.t_s);
+        let t90 = w.iter().find(|r| frac(r) >= 0.9).map(|r| r.t_s);
+        let (Some(t10), Some(t90)) = (t10, t90) else {
+            continue;
+        };
+        let band = 0.05 * (f1 - f0).abs();
+        let outside = |r: &crate::sim::Row| (r.load_cell_true_n * dir - f1).abs() > band;
+        let settling_s = if outside(&w[w.len() - 1]) {
+            None
+        } else {
+            let last_out = w.iter().rposition(outside);
+            Some(match last_out {
+                Some(k) => w[k].t_s + dt - t_k,
+                None => 0.0,
+            })
+        };
+        out.push(StepResponse {
+            t_step_s: t_k,
+            from_n: f0,
+            to_n: f1,
+            delay_s: t10 - t_k,
+            rise_s: t90 - t10,
+            settling_s,
+        });
+    }
+    out
+}
+
+/// One line of the DAQ-rate table.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct SweepPoint {
+    pub daq_rate_hz: f64,
+    pub steps: usize,
+    pub mean_delay_ms: f64,
+    pub mean_rise_ms: f64,
+    pub max_rise_ms: f64,
+    /// Mean over the steps that settled; `None` if none did.
+    pub mean_settling_ms: Option<f64>,
+    pub max_settling_ms: Option<f64>,
+    /// Steps that never settled within their window.
+    pub unsettled: usize,
+    pub tracking_nrmse: f64,
+}
+
+pub fn summarise(rate_hz: f64, steps: &[StepResponse], res: &Results) -> SweepPoint {
+    let n = steps.len().max(1) as f64;
+    let settled: Vec<f64> = steps.iter().filter_map(|s| s.settling_s).collect();
+    SweepPoint {
+        daq_rate_hz: rate_hz,
+        steps: steps.len(),
+        mean_delay_ms: 1e3 * steps.iter().map(|s| s.delay_s).sum::<f64>() / n,
+        mean_rise_ms: 1e3 * steps.iter().map(|s| s.rise_s).sum::<f64>() / n,
+        max_rise_ms: 1e3 * steps.iter().map(|s| s.rise_s).fold(0.0, f64::max),
+        mean_settling_ms: (!settled.is_empty())
+            .then(|| 1e3 * settled.iter().sum::<f64>() / settled.len() as f64),
+        max_settling_ms: (!settled.is_empty()).then(|| 1e3 * settled.iter().copied().fold(0.0, f64::max)),
+        unsettled: steps.len() - settled.len(),
+        tracking_nrmse: res.summary().tracking_nrmse,
+    }
+}
+
+/// The table as Markdown.
+pub fn markdown_table(points: &[SweepPoint]) -> String {
+    let mut s = String::from(
+        "| DAQ rate (Hz) | steps | delay (ms) | rise 10–90 % (ms), mean / max | settling ±5 % (ms), mean / max | unsettled | tracking NRMSE |\n|---:|---:|---:|---:|---:|---:|---:|\n",
+    );
+    let opt = |v: Option<f64>| v.map(|x| format!("{x:.1}")).unwrap_or_else(|| "–".into());
+    for p in points {
+        s.push_str(&format!(
+            "| {:.0} | {} | {:.1} | {:.1} / {:.1} | {} / {} | {} | {:.3} |\n",
+            p.daq_rate_hz,
+            p.steps,
+            p.mean_delay_ms,
+            p.mean_rise_ms,
+            p.max_rise_ms,
+            opt(p.mean_settling_ms),
+            opt(p.max_settling_ms),
+            p.unsettled,
+            p.tracking_nrmse
+        ));
+    }
+    s
+}
+
+/// Plot delay, rise and settling time against the DAQ period (1/rate, linear: the latency is linear in it)
+/// as `daq-sweep.png` and `daq-sweep.svg` in `dir`.
+pub fn plot(points: &[SweepPoint], dir: &Path, title: &str) -> Result<Vec<std::path::PathBuf>, PlotError> {
+    let per = |f: fn(&SweepPoint) -> Option<f64>| -> Vec<(f64, f64)> {
+        points
+            .iter()
+            .filter_map(|p| f(p).map(|y| (1e3 / p.daq_rate_hz, y)))
+            .collect()
+    };
+    let chart = Chart::new(title, "DAQ period (ms) = 1000 / rate (Hz)", "time (ms)")
+        .with(Series::line("delay to 10 %", per(|p| Some(p.mean_delay_ms))))
+        .with(Series::line("rise 10–90 %, mean", per(|p| Some(p.mean_rise_ms))))
+        .with(Series::points("rise 10–90 %, max", per(|p| Some(p.max_rise_ms))))
+        .with(Series::line("settling ±5 %, mean", per(|p| p.mean_settling_ms)));
+    save_charts(&[chart], 1, dir, "daq-sweep")
+}

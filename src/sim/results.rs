@@ -1,0 +1,247 @@
+//! A run's time series, its CSV form and its summary figures.
+
+use std::io::Write;
+
+use serde::Serialize;
+
+use crate::control::LoopMode;
+use crate::rig::{BodyPose, LinkVisuals};
+
+/// One physics step: the state at its start and what was applied over it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Row {
+    pub t_s: f64,
+    pub stick_angle_rad: f64,
+    pub stick_rate_rad_s: f64,
+    pub piston_x_m: f64,
+    pub piston_v_m_s: f64,
+    /// Load-cell force as the controller last saw it (calibrated, noisy, quantised, delayed, held), N.
+    pub load_cell_n: f64,
+    /// True force in the load cell along +x on the piston, N.
+    pub load_cell_true_n: f64,
+    pub desired_force_n: f64,
+    /// Coil current command held over the step, A.
+    pub current_a: f64,
+    /// Hand force on the grip along its path, N.
+    pub pilot_force_n: f64,
+    /// Pilot command in grip units (m for a position task, N for a force task).
+    pub pilot_cmd: f64,
+    pub damper_force_n: f64,
+    pub yield_force_n: f64,
+    pub mode: LoopMode,
+    pub kinetic_energy_j: f64,
+    pub potential_energy_j: f64,
+    pub dissipated_j: f64,
+    /// Work done by the hand on the grip since the start, J.
+    pub pilot_work_j: f64,
+}
+
+pub const CSV_COLUMNS: [&str; 18] = [
+    "t_s",
+    "stick_angle_rad",
+    "stick_rate_rad_s",
+    "piston_x_m",
+    "piston_v_m_s",
+    "load_cell_n",
+    "load_cell_true_n",
+    "desired_force_n",
+    "current_a",
+    "pilot_force_n",
+    "pilot_cmd",
+    "damper_force_n",
+    "yield_force_n",
+    "loop_mode",
+    "kinetic_energy_j",
+    "potential_energy_j",
+    "dissipated_j",
+    "pilot_work_j",
+];
+
+pub fn mode_code(m: LoopMode) -> u8 {
+    match m {
+        LoopMode::Holding => 0,
+        LoopMode::Tracking => 1,
+        LoopMode::Released => 2,
+    }
+}
+
+#[derive(Debug, Clone)]
+pub struct Results {
+    pub scenario: String,
+    pub rest_speed_m_s: f64,
+    pub stroke_half_m: f64,
+    pub current_max_a: f64,
+    pub rows: Vec<Row>,
+    /// Link shapes for drawing (empty unless poses were recorded).
+    pub visuals: Vec<LinkVisuals>,
+    /// Body poses at the drawing rate: (time, bodies).
+    pub frames: Vec<(f64, Vec<BodyPose>)>,
+}
+
+/// Summary figures of a run.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Summary {
+    pub scenario: String,
+    pub duration_s: f64,
+    /// Samples where the target resists the motion (loop tracking and `F*·v > 0`).
+    pub resisting_samples: usize,
+    /// RMS of (true load-cell force − desired) over the resisting samples, N, and relative to the RMS of
+    /// the desired force there.
+    pub tracking_rmse_n: f64,
+    pub tracking_nrmse: f64,
+    pub max_abs_piston_x_m: f64,
+    pub stroke_half_m: f64,
+    pub current_min_a: f64,
+    pub current_max_a: f64,
+    pub max_abs_load_cell_n: f64,
+    pub pilot_work_j: f64,
+    pub kinetic_energy_change_j: f64,
+    pub potential_energy_change_j: f64,
+    pub dissipated_j: f64,
+    /// (pilot work − ΔKE − ΔPE − dissipated) / pilot work.
+    pub energy_residual: f64,
+}
+
+impl Results {
+    pub fn summary(&self) -> Summary {
+        let rows = &self.rows;
+        let (mut se, mut sd, mut n) = (0.0, 0.0, 0usize);
+        for r in rows {
+            if r.mode == LoopMode::Tracking && r.desired_force_n * r.piston_v_m_s > 0.0 {
+                se += (r.load_cell_true_n - r.desired_force_n).powi(2);
+                sd += r.desired_force_n.powi(2);
+                n += 1;
+            }
+        }
+        let rmse = if n > 0 { (se / n as f64).sqrt() } else { f64::NAN };
+        let nrmse = if sd > 0.0 { (se / sd).sqrt() } else { f64::NAN };
+        let fold = |f: fn(&Row) -> f64, init: f64, op: fn(f64, f64) -> f64| rows.iter().map(f).fold(init, op);
+        let (first, last) = match (rows.first(), rows.last()) {
+            (Some(a), Some(b)) => (*a, *b),
+            _ => (Row::zero(), Row::zero()),
+        };
+        let w = last.pilot_work_j - first.pilot_work_j;
+        let dke = last.kinetic_energy_j - first.kinetic_energy_j;
+        let dpe = last.potential_energy_j - first.potential_energy_j;
+        let diss = last.dissipated_j - first.dissipated_j;
+        Summary {
+            scenario: self.scenario.clone(),
+            duration_s: last.t_s - first.t_s,
+            resisting_samples: n,
+            tracking_rmse_n: rmse,
+            tracking_nrmse: nrmse,
+            max_abs_piston_x_m: fold(|r| r.piston_x_m.abs(), 0.0, f64::max),
+            stroke_half_m: self.stroke_half_m,
+            current_min_a: fold(|r| r.current_a, f64::INFINITY, f64::min),
+            current_max_a: fold(|r| r.current_a, f64::NEG_INFINITY, f64::max),
+            max_abs_load_cell_n: fold(|r| r.load_cell_true_n.abs(), 0.0, f64::max),
+            pilot_work_j: w,
+            kinetic_energy_change_j: dke,
+            potential_energy_change_j: dpe,
+            dissipated_j: diss,
+            energy_residual: if w != 0.0 {
+                (w - dke - dpe - diss) / w
+            } else {
+                f64::NAN
+            },
+        }
+    }
+
+    /// Write the CSV: a `# key: value` metadata block, the header, one row per physics step. Numbers are
+    /// printed with Rust's shortest round-trip formatting, so the same run gives the same bytes.
+    pub fn write_csv(&self, mut w: impl Write) -> std::io::Result<()> {
+        writeln!(w, "# source: mrfeel run")?;
+        writeln!(w, "# scenario: {}", self.scenario)?;
+        writeln!(
+            w,
+            "# forces: along +x on the piston (load cell, desired, damper); pilot force along the grip path"
+        )?;
+        writeln!(w, "{}", CSV_COLUMNS.join(","))?;
+        for r in &self.rows {
+            writeln!(
+                w,
+                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                r.t_s,
+                r.stick_angle_rad,
+                r.stick_rate_rad_s,
+                r.piston_x_m,
+                r.piston_v_m_s,
+                r.load_cell_n,
+                r.load_cell_true_n,
+                r.desired_force_n,
+                r.current_a,
+                r.pilot_force_n,
+                r.pilot_cmd,
+                r.damper_force_n,
+                r.yield_force_n,
+                mode_code(r.mode),
+                r.kinetic_energy_j,
+                r.potential_energy_j,
+                r.dissipated_j,
+                r.pilot_work_j
+            )?;
+        }
+        Ok(())
+    }
+}
+
+impl Row {
+    fn zero() -> Self {
+        Row {
+            t_s: 0.0,
+            stick_angle_rad: 0.0,
+            stick_rate_rad_s: 0.0,
+            piston_x_m: 0.0,
+            piston_v_m_s: 0.0,
+            load_cell_n: 0.0,
+            load_cell_true_n: 0.0,
+            desired_force_n: 0.0,
+            current_a: 0.0,
+            pilot_force_n: 0.0,
+            pilot_cmd: 0.0,
+            damper_force_n: 0.0,
+            yield_force_n: 0.0,
+            mode: LoopMode::Holding,
+            kinetic_energy_j: 0.0,
+            potential_energy_j: 0.0,
+            dissipated_j: 0.0,
+            pilot_work_j: 0.0,
+        }
+    }
+}
+
+impl std::fmt::Display for Summary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(f, "scenario {}: {:.3} s", self.scenario, self.duration_s)?;
+        writeln!(
+            f,
+            "  force tracking where the target resists motion: RMS error {:.2} N ({:.1} % of RMS desired) over {} samples",
+            self.tracking_rmse_n,
+            100.0 * self.tracking_nrmse,
+            self.resisting_samples
+        )?;
+        writeln!(
+            f,
+            "  max stroke |x| {:.4} m of ±{:.4} m ({:.2} in of ±{:.2} in)",
+            self.max_abs_piston_x_m,
+            self.stroke_half_m,
+            self.max_abs_piston_x_m / crate::units::IN_TO_M,
+            self.stroke_half_m / crate::units::IN_TO_M
+        )?;
+        writeln!(
+            f,
+            "  current command {:.2} .. {:.2} A",
+            self.current_min_a, self.current_max_a
+        )?;
+        writeln!(f, "  max |load cell| {:.1} N", self.max_abs_load_cell_n)?;
+        write!(
+            f,
+            "  energy: pilot work {:.4} J = ΔKE {:.4} J + ΔPE {:.4} J + dissipated {:.4} J (residual {:.3} %)",
+            self.pilot_work_j,
+            self.kinetic_energy_change_j,
+            self.potential_energy_change_j,
+            self.dissipated_j,
+            100.0 * self.energy_residual
+        )
+    }
+}

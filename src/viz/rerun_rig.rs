@@ -1,0 +1,161 @@
+//! Rerun recording of a stick-rig run: the rig's bodies moving in 3D, force arrows, and time series of the
+//! desired vs measured force, the current command and the stroke.
+//!
+//! Entity layout (timeline `time`, duration in seconds):
+//! - `rig/<link>`: the link's pose (`Transform3D` per frame, from the multibody);
+//!   `rig/<link>/visual_<k>`: its URDF visuals (static shapes posed in the link's frame);
+//! - `forces/load_cell`: arrow at the piston along the rig's x axis, 1 mm per newton;
+//! - `series/force/{desired,load_cell,load_cell_true,damper}` (N), `series/current/command` (A),
+//!   `series/stroke/piston_x` (m), `series/pilot/force` (N), `series/stick/angle` (rad): one value per
+//!   physics step, the same samples as the CSV's columns.
+
+use std::path::Path;
+
+use rerun::{RecordingStream, TimeColumn};
+
+use crate::rig::VisualShape;
+use crate::sim::Results;
+
+/// Metres of arrow per newton of force.
+const ARROW_M_PER_N: f32 = 1e-3;
+
+#[derive(Debug, thiserror::Error)]
+pub enum VizError {
+    #[error("rerun: {0}")]
+    Rerun(String),
+    #[error(
+        "could not spawn a Rerun viewer ({0}); install one with `pip install rerun-sdk==0.36.3` (then `rerun` is on PATH) or `cargo install rerun-cli --version 0.36.3 --locked`, or write a file with --rerun out.rrd and open it later"
+    )]
+    Spawn(String),
+}
+
+fn err(e: impl std::fmt::Display) -> VizError {
+    VizError::Rerun(e.to_string())
+}
+
+/// A recording stream that writes `path`.
+pub fn to_file(path: &Path) -> Result<RecordingStream, VizError> {
+    rerun::RecordingStreamBuilder::new("mrfeel")
+        .save(path)
+        .map_err(err)
+}
+
+/// A recording stream into a freshly spawned viewer; fails with a clear message if none is installed.
+pub fn spawn() -> Result<RecordingStream, VizError> {
+    let exe = "rerun";
+    let found = std::env::var_os("PATH")
+        .map(|p| std::env::split_paths(&p).any(|d| d.join(exe).is_file()))
+        .unwrap_or(false);
+    if !found {
+        return Err(VizError::Spawn(format!("no `{exe}` executable on PATH")));
+    }
+    rerun::RecordingStreamBuilder::new("mrfeel")
+        .spawn()
+        .map_err(|e| VizError::Spawn(e.to_string()))
+}
+
+/// Log one run.
+pub fn log_run(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
+    log_series(rec, res)?;
+    log_bodies(rec, res)?;
+    rec.flush_blocking().map_err(err)?;
+    Ok(())
+}
+
+fn log_series(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
+    let times: Vec<f64> = res.rows.iter().map(|r| r.t_s).collect();
+    type Col = (&'static str, fn(&crate::sim::Row) -> f64);
+    let cols: [Col; 9] = [
+        ("series/force/desired", |r| r.desired_force_n),
+        ("series/force/load_cell", |r| r.load_cell_n),
+        ("series/force/load_cell_true", |r| r.load_cell_true_n),
+        ("series/force/damper", |r| r.damper_force_n),
+        ("series/current/command", |r| r.current_a),
+        ("series/stroke/piston_x", |r| r.piston_x_m),
+        ("series/pilot/force", |r| r.pilot_force_n),
+        ("series/stick/angle", |r| r.stick_angle_rad),
+        ("series/energy/dissipated", |r| r.dissipated_j),
+    ];
+    for (path, f) in cols {
+        let values: Vec<f64> = res.rows.iter().map(f).collect();
+        rec.send_columns(
+            path,
+            [TimeColumn::new_duration_secs("time", times.iter().copied())],
+            rerun::Scalars::new(values)
+                .columns_of_unit_batches()
+                .map_err(err)?,
+        )
+        .map_err(err)?;
+    }
+    Ok(())
+}
+
+fn log_bodies(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
+    // Shapes, static: each visual under its link, posed in the link's frame.
+    for link in &res.visuals {
+        for (k, v) in link.visuals.iter().enumerate() {
+            let path = format!("rig/{}/visual_{k}", link.name);
+            let local = rerun::Transform3D::from_translation_rotation(
+                f32x3(v.translation_m),
+                rerun::Quaternion::from_xyzw(f32x4(v.rotation_xyzw)),
+            );
+            rec.log_static(path.as_str(), &local).map_err(err)?;
+            match &v.shape {
+                VisualShape::Box { size_m } => rec
+                    .log_static(path.as_str(), &rerun::Boxes3D::from_sizes([f32x3(*size_m)]))
+                    .map_err(err)?,
+                VisualShape::Cylinder { radius_m, length_m }
+                | VisualShape::Capsule { radius_m, length_m } => rec
+                    .log_static(
+                        path.as_str(),
+                        &rerun::Cylinders3D::from_lengths_and_radii([*length_m as f32], [*radius_m as f32]),
+                    )
+                    .map_err(err)?,
+                VisualShape::Sphere { radius_m } => rec
+                    .log_static(
+                        path.as_str(),
+                        &rerun::Ellipsoids3D::from_radii([*radius_m as f32]),
+                    )
+                    .map_err(err)?,
+                VisualShape::Mesh { .. } => {}
+            }
+        }
+    }
+    // Link poses over time, and the load-cell force as an arrow at the piston along +x.
+    let dt = if res.rows.len() > 1 {
+        res.rows[1].t_s - res.rows[0].t_s
+    } else {
+        1.0
+    };
+    for (t, poses) in &res.frames {
+        rec.set_duration_secs("time", *t);
+        for p in poses {
+            rec.log(
+                format!("rig/{}", p.name),
+                &rerun::Transform3D::from_translation_rotation(
+                    f32x3(p.translation_m),
+                    rerun::Quaternion::from_xyzw(f32x4(p.rotation_xyzw)),
+                ),
+            )
+            .map_err(err)?;
+        }
+        let k = ((t / dt).round() as usize).min(res.rows.len().saturating_sub(1));
+        if let (Some(row), Some(piston)) = (res.rows.get(k), poses.iter().find(|p| p.name == "piston")) {
+            rec.log(
+                "forces/load_cell",
+                &rerun::Arrows3D::from_vectors([[row.load_cell_true_n as f32 * ARROW_M_PER_N, 0.0, 0.0]])
+                    .with_origins([f32x3(piston.translation_m)]),
+            )
+            .map_err(err)?;
+        }
+    }
+    Ok(())
+}
+
+fn f32x3(a: [f64; 3]) -> [f32; 3] {
+    [a[0] as f32, a[1] as f32, a[2] as f32]
+}
+
+fn f32x4(a: [f64; 4]) -> [f32; 4] {
+    [a[0] as f32, a[1] as f32, a[2] as f32, a[3] as f32]
+}

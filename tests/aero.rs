@@ -1,0 +1,423 @@
+//! Aircraft models against their JSBSim 1.3.3 reference flights (scenarios/jsbsim/), flight-mechanics
+//! estimates and the certification force limits. Figures quoted in docs/aero.md come from the
+//! `eprintln!` lines here: `cargo test --test aero -- --nocapture`.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use mrfeel::aero::longitudinal::slipstream_qbar_pa;
+use mrfeel::aero::model::Propulsion;
+use mrfeel::aero::reference::ReferenceRun;
+use mrfeel::aero::{AeroError, Aircraft, AircraftModel, FeelAssessment};
+use mrfeel::units::G0_M_S2;
+
+fn aircraft(name: &str) -> Aircraft {
+    let m = AircraftModel::load(&AircraftModel::builtin_path(name)).expect("shipped model loads");
+    Aircraft::new(Arc::new(m))
+}
+
+fn run(name: &str, which: &str) -> ReferenceRun {
+    ReferenceRun::load(&ReferenceRun::builtin_path(name, which)).expect("shipped reference loads")
+}
+
+struct Replay {
+    q_max_err: f64,
+    q_peak: f64,
+    nz_max_err: f64,
+    nz_peak: f64,
+    q_rms_err: f64,
+    nz_rms_err: f64,
+}
+
+/// Trim at the reference's first row, then replay its elevator (as increments on the trim
+/// elevator) with the throttle held, at the reference's own 120 Hz steps.
+fn replay_doublet(name: &str) -> Replay {
+    let r = run(name, "doublet");
+    let t = r.column("t_s").unwrap();
+    let de = r.column("elevator_rad").unwrap();
+    let q_ref = r.column("q_rad_s").unwrap();
+    let nz_ref = r.column("nz_g").unwrap();
+    let v = r.column("airspeed_m_s").unwrap();
+    let h = r.column("altitude_m").unwrap();
+    let mut a = aircraft(name);
+    let trim = a.trim(v[0], h[0]).unwrap();
+    let throttle = trim.throttle;
+    let (mut q_max_err, mut nz_max_err, mut q_peak, mut nz_peak, mut q_ss, mut nz_ss) =
+        (0.0_f64, 0.0_f64, 0.0_f64, 0.0_f64, 0.0, 0.0);
+    let nz0_rust = trim.nz_g;
+    for k in 0..t.len() {
+        let s = a.state();
+        // compare increments from trim: both start at their own 1-g trim
+        let dq = s.q_rad_s - q_ref[k];
+        let dnz = (s.nz_g - nz0_rust) - (nz_ref[k] - nz_ref[0]);
+        q_max_err = q_max_err.max(dq.abs());
+        nz_max_err = nz_max_err.max(dnz.abs());
+        q_peak = q_peak.max(q_ref[k].abs());
+        nz_peak = nz_peak.max((nz_ref[k] - nz_ref[0]).abs());
+        q_ss += dq * dq;
+        nz_ss += dnz * dnz;
+        if k + 1 < t.len() {
+            // JSBSim integrates first in its frame (Propagate, then FCS and Aerodynamics), so the
+            // elevator recorded in row k acts on the state from t_k to t_k+1
+            let de_cmd = trim.elevator_rad + (de[k] - de[0]);
+            a.step(de_cmd, throttle, t[k + 1] - t[k]);
+        }
+    }
+    let n = t.len() as f64;
+    Replay {
+        q_max_err,
+        q_peak,
+        nz_max_err,
+        nz_peak,
+        q_rms_err: (q_ss / n).sqrt(),
+        nz_rms_err: (nz_ss / n).sqrt(),
+    }
+}
+
+fn check_replay(name: &str, q_frac: f64, nz_frac: f64) {
+    let r = replay_doublet(name);
+    eprintln!(
+        "{name} doublet replay vs JSBSim: pitch rate max error {:.4} rad/s ({:.1} % of peak {:.4}), rms {:.4}; \
+         load factor max error {:.4} g ({:.1} % of peak excursion {:.4} g), rms {:.4} g",
+        r.q_max_err,
+        100.0 * r.q_max_err / r.q_peak,
+        r.q_peak,
+        r.q_rms_err,
+        r.nz_max_err,
+        100.0 * r.nz_max_err / r.nz_peak,
+        r.nz_peak,
+        r.nz_rms_err
+    );
+    assert!(
+        r.q_max_err <= q_frac * r.q_peak,
+        "{name}: pitch-rate error {} > {} x peak {}",
+        r.q_max_err,
+        q_frac,
+        r.q_peak
+    );
+    assert!(
+        r.nz_max_err <= nz_frac * r.nz_peak,
+        "{name}: nz error {} > {} x peak {}",
+        r.nz_max_err,
+        nz_frac,
+        r.nz_peak
+    );
+}
+
+#[test]
+fn c172p_doublet_pitch_rate_and_load_factor_follow_jsbsim() {
+    check_replay("c172p", 0.08, 0.08);
+}
+
+#[test]
+fn b737_doublet_pitch_rate_and_load_factor_follow_jsbsim() {
+    check_replay("737", 0.05, 0.05);
+}
+
+/// Trim alpha and elevator over the JSBSim speed sweep.
+fn check_trims(name: &str, alpha_tol: f64, de_tol: f64) {
+    let r = run(name, "trim");
+    let (v, h) = (r.column("airspeed_m_s").unwrap(), r.column("altitude_m").unwrap());
+    let (alpha, de) = (r.column("alpha_rad").unwrap(), r.column("elevator_rad").unwrap());
+    let mut a = aircraft(name);
+    let (mut ea, mut ed) = (0.0_f64, 0.0_f64);
+    for k in 0..v.len() {
+        let s = a.trim(v[k], h[k]).unwrap();
+        ea = ea.max((s.alpha_rad - alpha[k]).abs());
+        ed = ed.max((s.elevator_rad - de[k]).abs());
+    }
+    eprintln!(
+        "{name} trims over {} speeds: max |alpha error| {ea:.4} rad, max |elevator error| {ed:.4} rad",
+        v.len()
+    );
+    assert!(ea < alpha_tol, "{name}: alpha error {ea}");
+    assert!(ed < de_tol, "{name}: elevator error {ed}");
+}
+
+#[test]
+fn c172p_trim_alpha_and_elevator_match_jsbsim_over_the_speed_range() {
+    check_trims("c172p", 0.005, 0.01);
+}
+
+#[test]
+fn b737_trim_alpha_and_elevator_match_jsbsim_over_the_speed_range() {
+    check_trims("737", 0.005, 0.01);
+}
+
+/// Short-period and phugoid roots of the linearised model against the classical approximations
+/// (Etkin & Reid §6.4): short period `w^2 = -M_a + Z_a M_q / V`, `2 zeta w = -(M_q + M_adot + Z_a/V)`;
+/// phugoid period Lanchester `pi sqrt(2) V / g`.
+fn check_modes(name: &str, v: f64, h: f64) {
+    let mut a = aircraft(name);
+    let s = a.trim(v, h).unwrap();
+    let m = a.model().clone();
+    let modes = a.linear_modes();
+    let mut osc: Vec<(f64, f64)> = modes.iter().copied().filter(|z| z.1 > 0.0).collect();
+    osc.sort_by(|x, y| y.1.partial_cmp(&x.1).unwrap());
+    assert_eq!(
+        osc.len(),
+        2,
+        "{name}: expected two oscillatory modes, got {modes:?}"
+    );
+    let (sp, ph) = (osc[0], osc[1]);
+    let wn = |z: (f64, f64)| (z.0 * z.0 + z.1 * z.1).sqrt();
+    let (w_sp, zeta_sp) = (wn(sp), -sp.0 / wn(sp));
+    let t_ph = 2.0 * std::f64::consts::PI / ph.1;
+
+    let qsc = s.qbar_pa * m.wing_area_m2 * m.chord_m / m.iyy_kg_m2;
+    let ci2v = m.chord_m / (2.0 * v);
+    let cl_a = m.cl_alpha.slope(s.alpha_rad);
+    let z_a = -s.qbar_pa * m.wing_area_m2 * cl_a / m.mass_kg;
+    // lift acts at the aerodynamic reference point, (x_ref - x_cg) aft of the CG
+    let cm_a = m.cm_alpha_per_rad - cl_a * (m.aero_ref_x_m - m.cg_x_m) / m.chord_m;
+    let m_a = qsc * cm_a;
+    let m_q = qsc * m.cm_q_per_rad * ci2v;
+    let m_ad = qsc * m.cm_alphadot_per_rad * ci2v;
+    let w_est = (-m_a + z_a * m_q / v).sqrt();
+    let zeta_est = -(m_q + m_ad + z_a / v) / (2.0 * w_est);
+    let t_lanchester = std::f64::consts::PI * 2f64.sqrt() * v / G0_M_S2;
+    eprintln!(
+        "{name} at {v} m/s: short period {w_sp:.3} rad/s, zeta {zeta_sp:.3} (approximation {w_est:.3} rad/s, \
+         zeta {zeta_est:.3}); phugoid period {t_ph:.1} s (Lanchester {t_lanchester:.1} s), damping {:.3}",
+        -ph.0 / wn(ph)
+    );
+    assert!(
+        (w_sp / w_est - 1.0).abs() < 0.10,
+        "{name}: short-period frequency {w_sp} vs {w_est}"
+    );
+    assert!(
+        (zeta_sp - zeta_est).abs() < 0.1,
+        "{name}: short-period damping {zeta_sp} vs {zeta_est}"
+    );
+    assert!(
+        (t_ph / t_lanchester - 1.0).abs() < 0.25,
+        "{name}: phugoid period {t_ph} vs Lanchester {t_lanchester}"
+    );
+}
+
+#[test]
+fn c172p_short_period_and_phugoid_match_classical_estimates() {
+    check_modes("c172p", 50.0, 1000.0);
+}
+
+#[test]
+fn b737_short_period_and_phugoid_match_classical_estimates() {
+    check_modes("737", 170.0, 3000.0);
+}
+
+#[test]
+fn trimmed_flight_stays_trimmed() {
+    for (name, v, h) in [("c172p", 50.0, 1000.0), ("737", 170.0, 3000.0)] {
+        let mut a = aircraft(name);
+        let s0 = a.trim(v, h).unwrap();
+        for _ in 0..(10 * 120) {
+            a.step(s0.elevator_rad, s0.throttle, 1.0 / 120.0);
+        }
+        let s = a.state();
+        assert!(
+            (s.airspeed_m_s - v).abs() < 0.05,
+            "{name}: speed drifted to {}",
+            s.airspeed_m_s
+        );
+        assert!(
+            s.q_rad_s.abs() < 1e-4 && (s.nz_g - s0.nz_g).abs() < 1e-4,
+            "{name}: {s:?}"
+        );
+        assert!(
+            s.stick_force_n.abs() < 0.01,
+            "{name}: trimmed stick force {}",
+            s.stick_force_n
+        );
+    }
+}
+
+#[test]
+fn trailing_edge_down_elevator_pushes_the_stick_forward_and_pitches_nose_down() {
+    for (name, v, h) in [("c172p", 50.0, 1000.0), ("737", 170.0, 3000.0)] {
+        let mut a = aircraft(name);
+        let s0 = a.trim(v, h).unwrap();
+        let s = *a.step(s0.elevator_rad + 0.03, s0.throttle, 1.0 / 120.0);
+        // the air pushes a trailing-edge-down elevator back up: the pilot must push (F < 0)
+        assert!(s.hinge_moment_nm < 0.0 && s.stick_force_n < 0.0, "{name}: {s:?}");
+        for _ in 0..60 {
+            a.step(s0.elevator_rad + 0.03, s0.throttle, 1.0 / 120.0);
+        }
+        assert!(
+            a.state().q_rad_s < 0.0 && a.state().nz_g < s0.nz_g,
+            "{name}: {:?}",
+            a.state()
+        );
+    }
+}
+
+#[test]
+fn stick_force_per_g_is_a_pull_across_the_speed_range() {
+    for (name, speeds, h) in [
+        ("c172p", [35.0, 45.0, 55.0], 1000.0),
+        ("737", [130.0, 150.0, 210.0], 3000.0),
+    ] {
+        let a = aircraft(name);
+        for v in speeds {
+            let f = FeelAssessment::assess(&a, v, h).unwrap();
+            eprintln!("{name}: {}", f.report());
+            assert!(
+                f.stick_force_per_g_n > 0.0 && f.speed_gradient_n_per_m_s > 0.0,
+                "{name}: {}",
+                f.report()
+            );
+        }
+    }
+}
+
+#[test]
+fn feel_sits_inside_the_far_control_force_limits() {
+    for (name, v, h) in [("c172p", 50.0, 1000.0), ("737", 170.0, 3000.0)] {
+        let a = aircraft(name);
+        let f = FeelAssessment::assess(&a, v, h).unwrap();
+        eprintln!("{name}: {}", f.report());
+        assert!(
+            f.stick_force_per_g_n > 0.0,
+            "{name}: stick force per g must be a pull"
+        );
+        assert!(f.complies(), "{name}: {}", f.report());
+        // pull below the trim speed, push above (14 CFR 23.173(a) / 25.173(a))
+        assert!(a.off_trim_stick_force_n(v, 0.9 * v, h).unwrap() > 0.0);
+        assert!(a.off_trim_stick_force_n(v, 1.1 * v, h).unwrap() < 0.0);
+    }
+}
+
+/// Stick force through JSBSim's pull-up: the hinge model applied to JSBSim's recorded flight
+/// (qbar, alpha, q, elevator, thrust for the slipstream) against the Rust aircraft replaying the
+/// same elevator from its own trim. Also reports the stick force per g on the plateau.
+fn check_pullup_stick_force(name: &str, tol: f64) {
+    let r = run(name, "pullup");
+    let mut a = aircraft(name);
+    let m = a.model().clone();
+    let hinge = a.hinge().clone();
+    let col = |c: &str| r.column(c).unwrap();
+    let (t, nz, v, alpha, q, de) = (
+        col("t_s"),
+        col("nz_g"),
+        col("airspeed_m_s"),
+        col("alpha_rad"),
+        col("q_rad_s"),
+        col("elevator_rad"),
+    );
+    let (qbar, thrust, rho, h) = (
+        col("qbar_pa"),
+        col("thrust_n"),
+        col("rho_kg_m3"),
+        col("altitude_m"),
+    );
+    let qbar_e = |k: usize| match m.propulsion {
+        Propulsion::Propeller { diameter_m, .. } if m.elevator_in_slipstream => {
+            slipstream_qbar_pa(v[k] * alpha[k].cos(), thrust[k], rho[k], diameter_m)
+        }
+        _ => qbar[k],
+    };
+    let hm = |k: usize, tab: f64| {
+        hinge.hinge_moment_nm(qbar_e(k), hinge.alpha_tail_rad(alpha[k], q[k], v[k]), de[k], tab)
+    };
+    let tab = hinge
+        .trim_tab_rad(hinge.alpha_tail_rad(alpha[0], q[0], v[0]), de[0])
+        .unwrap();
+    let f_ref: Vec<f64> = (0..t.len()).map(|k| hinge.stick_force_n(hm(k, tab))).collect();
+    assert!(f_ref[0].abs() < 1e-9);
+
+    let trim = a.trim(v[0], h[0]).unwrap();
+    let (mut err, mut peak) = (0.0_f64, 0.0_f64);
+    let (mut f_plateau, mut n_plateau, mut count) = (0.0, 0.0, 0.0);
+    for k in 0..t.len() {
+        // the Rust force at this row's state with this row's elevator (the state reports the
+        // force for the elevator of the step that led to it)
+        let s = a.state();
+        let de_k = trim.elevator_rad + (de[k] - de[0]);
+        let f =
+            hinge.stick_force_n(hinge.hinge_moment_nm(s.qbar_elevator_pa, s.alpha_tail_rad, de_k, s.tab_rad));
+        err = err.max((f - f_ref[k]).abs());
+        peak = peak.max(f_ref[k].abs());
+        if (2.5..=4.5).contains(&t[k]) {
+            f_plateau += f_ref[k];
+            n_plateau += nz[k];
+            count += 1.0;
+        }
+        if k + 1 < t.len() {
+            // rows every other JSBSim frame: hold the recorded elevator over both frames
+            let dt = (t[k + 1] - t[k]) / 2.0;
+            for _ in 0..2 {
+                a.step(trim.elevator_rad + (de[k] - de[0]), trim.throttle, dt);
+            }
+        }
+    }
+    let per_g_flight = (f_plateau / count) / (n_plateau / count - nz[0]);
+    let per_g_steady = a.stick_force_per_g(v[0], h[0], n_plateau / count).unwrap();
+    eprintln!(
+        "{name} pull-up: stick force max error {err:.1} N ({:.1} % of peak {peak:.1} N); stick force per g on \
+         JSBSim's plateau {per_g_flight:.1} N/g at {:.2} g (speed bleeding off), steady pull-up at the entry speed \
+         {per_g_steady:.1} N/g",
+        100.0 * err / peak,
+        n_plateau / count
+    );
+    assert!(per_g_flight > 0.0 && per_g_steady > 0.0);
+    assert!(
+        err <= tol * peak,
+        "{name}: stick force error {err} > {tol} x peak {peak}"
+    );
+}
+
+#[test]
+fn c172p_stick_force_through_jsbsim_pull_up_matches_hinge_model_on_its_flight() {
+    check_pullup_stick_force("c172p", 0.10);
+}
+
+#[test]
+fn b737_stick_force_through_jsbsim_pull_up_matches_hinge_model_on_its_flight() {
+    check_pullup_stick_force("737", 0.05);
+}
+
+#[test]
+fn bad_model_file_names_file_line_and_field() {
+    let path = AircraftModel::builtin_path("c172p");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let bad = text.replace("mass_kg = 852.753644", "mass_kg = -5.0");
+    let line = bad.lines().position(|l| l.starts_with("mass_kg = -5.0")).unwrap() + 1;
+    match AircraftModel::from_toml(&bad, Path::new("c172p.toml")) {
+        Err(e @ AeroError::Field { .. }) => {
+            let msg = e.to_string();
+            assert!(msg.starts_with(&format!("c172p.toml:{line}:")), "{msg}");
+            assert!(
+                msg.contains("mass.mass_kg") && msg.contains("allowed range"),
+                "{msg}"
+            );
+        }
+        other => panic!("expected a field error, got {other:?}"),
+    }
+    let unknown = text.replace("cd0 = 0.027", "cd0 = 0.027\ncd_typo = 1.0");
+    let line = unknown.lines().position(|l| l.starts_with("cd_typo")).unwrap() + 1;
+    match AircraftModel::from_toml(&unknown, Path::new("c172p.toml")) {
+        Err(e @ AeroError::Parse { .. }) => {
+            let msg = e.to_string();
+            assert!(
+                msg.starts_with(&format!("c172p.toml:{line}:")) && msg.contains("cd_typo"),
+                "{msg}"
+            );
+        }
+        other => panic!("expected a parse error, got {other:?}"),
+    }
+    let table = text.replace("[0.09, 0.73], [0.10, 0.83]", "[0.10, 0.73], [0.09, 0.83]");
+    assert!(matches!(
+        AircraftModel::from_toml(&table, Path::new("x.toml")),
+        Err(AeroError::Field { .. })
+    ));
+}
+
+#[test]
+fn impossible_trims_are_errors_not_panics() {
+    let mut a = aircraft("c172p");
+    // 15 m/s needs CL ~ 3.4, far beyond the c172p's 1.47
+    assert!(matches!(a.trim(15.0, 1000.0), Err(AeroError::Trim { .. })));
+    assert!(matches!(a.trim(f64::NAN, 1000.0), Err(AeroError::Trim { .. })));
+    // 737 at 60 m/s: below the stall speed
+    let mut b = aircraft("737");
+    assert!(matches!(b.trim(60.0, 3000.0), Err(AeroError::Trim { .. })));
+}

@@ -1,0 +1,364 @@
+//! Feel systems compared and under faults (issue 6): physical facts on the multibody rig.
+
+use std::path::Path;
+
+use mrfeel::compare::metrics::{fault_metrics, system_metrics};
+use mrfeel::compare::{run, CompareScenario, FeelKind, Segment, Trace};
+use mrfeel::faults::{Fault, FaultKind, FaultSchedule};
+
+fn scenario() -> CompareScenario {
+    CompareScenario::load(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenarios/compare-feel.toml"
+    )))
+    .unwrap()
+}
+
+fn main_run(scn: &CompareScenario, k: FeelKind, faults: &FaultSchedule) -> Trace {
+    run(scn, k, &scn.main_task(), faults).unwrap()
+}
+
+fn release_angle(scn: &CompareScenario) -> f64 {
+    scn.task.release_angle_rad
+}
+
+#[test]
+fn passive_mr_damper_alone_keeps_the_stick_where_left_springs_and_hybrid_recentre() {
+    let scn = scenario();
+    let band = scn.task.recentre_band_rad;
+    for k in [FeelKind::Mr, FeelKind::CentringSpring, FeelKind::MrSpring] {
+        let main = main_run(&scn, k, &FaultSchedule::none());
+        let brk = run(&scn, k, &scn.breakout_task(), &FaultSchedule::none()).unwrap();
+        let m = system_metrics(&scn, &main, &brk);
+        eprintln!(
+            "{}: offset {:.4} rad, time {:.2} s",
+            k.name(),
+            m.recentre_offset_rad,
+            m.recentre_time_s
+        );
+        if k == FeelKind::Mr {
+            // A damper stores no energy: nothing can bring the stick back; the offset stays near where
+            // the pilot let go.
+            assert!(
+                m.recentre_offset_rad > 0.8 * release_angle(&scn),
+                "{k:?} {}",
+                m.recentre_offset_rad
+            );
+            assert!(m.recentre_time_s.is_nan());
+        } else {
+            assert!(
+                m.recentre_offset_rad < band,
+                "{k:?} offset {}",
+                m.recentre_offset_rad
+            );
+            assert!(m.recentre_time_s < 2.0, "{k:?} time {}", m.recentre_time_s);
+        }
+    }
+}
+
+#[test]
+fn no_passive_feel_system_injects_energy() {
+    let scn = scenario();
+    for k in FeelKind::ALL {
+        let main = main_run(&scn, k, &FaultSchedule::none());
+        let brk = run(&scn, k, &scn.breakout_task(), &FaultSchedule::none()).unwrap();
+        let m = system_metrics(&scn, &main, &brk);
+        let work = main.rows.last().unwrap().hand_work_j;
+        eprintln!(
+            "{}: injected {:.2e} J of {:.3} J hand work, dissipated {:.3} J",
+            k.name(),
+            m.energy_injected_j,
+            work,
+            m.energy_dissipated_j
+        );
+        // Passive: the stored energy never exceeds the hand's work (1e-4 of it: f32 solver noise).
+        assert!(
+            m.energy_injected_j <= 1e-4 * work,
+            "{k:?}: injected {}",
+            m.energy_injected_j
+        );
+        assert!(m.energy_dissipated_j > 0.0);
+    }
+}
+
+#[test]
+fn q_feel_gradient_at_the_grip_scales_with_dynamic_pressure() {
+    let mut scn = scenario();
+    let slope_at = |scn: &CompareScenario, q: f64| {
+        let mut s = scn.clone();
+        s.qbar_pa = q;
+        let main = main_run(&s, FeelKind::QFeel, &FaultSchedule::none());
+        let brk = run(&s, FeelKind::QFeel, &scn.breakout_task(), &FaultSchedule::none()).unwrap();
+        system_metrics(&s, &main, &brk).force_gradient_n_per_rad
+    };
+    scn.springs.q_feel.k0_n_per_m = 100.0;
+    let (q1, q2) = (5_000.0, 20_000.0);
+    let (g1, g2) = (slope_at(&scn, q1), slope_at(&scn, q2));
+    // Grip gradient = k·g²/L (x = g θ at the piston, F_grip = F_piston·g/L); gravity, inertia and the
+    // stick's own stiffness cancel in the difference.
+    let rig = mrfeel::rig::Rig::new(&scn.rig, scn.device.damper()).unwrap();
+    let (g, l) = (rig.gearing_m_per_rad(), rig.grip_lever_m());
+    let expect = scn.springs.q_feel.kq_n_per_m_per_pa * (q2 - q1) * g * g / l;
+    eprintln!(
+        "grip gradient {g1:.1} N/rad at {q1} Pa, {g2:.1} at {q2} Pa; difference {:.1}, expected {expect:.1}",
+        g2 - g1
+    );
+    assert!(
+        ((g2 - g1) - expect).abs() < 0.06 * expect,
+        "{} vs {expect}",
+        g2 - g1
+    );
+}
+
+/// Rows of a trace inside `[a, b)`.
+fn window(tr: &Trace, a: f64, b: f64) -> Vec<mrfeel::compare::Row> {
+    tr.rows
+        .iter()
+        .filter(|r| r.t_s >= a && r.t_s < b)
+        .copied()
+        .collect()
+}
+
+#[test]
+fn coil_open_drops_the_mr_force_to_the_zero_current_yield_and_stops_tracking() {
+    let scn = scenario();
+    let (a, b) = (scn.fault_test.start_s, scn.fault_test.end_s);
+    let healthy = main_run(&scn, FeelKind::Mr, &FaultSchedule::none());
+    let tr = main_run(
+        &scn,
+        FeelKind::Mr,
+        &FaultSchedule::single(Fault::new(FaultKind::CoilOpen, a, b)),
+    );
+    let fc0 = scn.device.param("fc0_n").unwrap();
+    // After the coil and fluid lags (Te + Tm = 23 ms; 0.2 s is > 8 of them), the yield is the zero-current one.
+    let w = window(&tr, a + 0.2, b);
+    let worst = w
+        .iter()
+        .map(|r| (r.yield_force_n - fc0).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        worst < 0.01 * scn.target.max_force_n,
+        "yield departs from fc0 by {worst} N"
+    );
+    assert!(w.iter().all(|r| r.current_applied_a == 0.0));
+    let m = fault_metrics(&scn, &tr, &healthy, a, b);
+    eprintln!(
+        "coil open: force error {:.2} N (healthy {:.2}), peak {:.1} N",
+        m.force_rms_error_n, m.healthy_force_rms_error_n, m.peak_force_n
+    );
+    assert!(m.force_rms_error_n > 1.3 * m.healthy_force_rms_error_n);
+    // The controller keeps asking (it winds to its limit) but nothing reaches the fluid.
+    assert!(m.current_cmd_max_a > 13.9);
+    // With the coil open the pilot never feels more than with it working.
+    assert!(m.peak_force_n <= fault_metrics(&scn, &healthy, &healthy, a, b).peak_force_n + 0.5);
+}
+
+#[test]
+fn driver_stuck_gives_the_14_a_force_whatever_the_target_and_the_stick_moves_only_when_pushed() {
+    let scn = scenario();
+    let (a, b) = (scn.fault_test.start_s, scn.fault_test.end_s);
+    let healthy = main_run(&scn, FeelKind::Mr, &FaultSchedule::none());
+    let tr = main_run(
+        &scn,
+        FeelKind::Mr,
+        &FaultSchedule::single(Fault::new(FaultKind::DriverStuck, a, b)),
+    );
+    let limit = scn.device.model.current_limit_a;
+    let f14 = scn.device.param("fc0_n").unwrap() + scn.device.param("fc_gain_n_per_a").unwrap() * limit;
+    let w = window(&tr, a + 0.2, b);
+    for r in &w {
+        assert!(
+            (r.yield_force_n - f14).abs() < 0.01 * f14,
+            "t {} yield {}",
+            r.t_s,
+            r.yield_force_n
+        );
+        assert_eq!(r.current_applied_a, limit);
+    }
+    // Under a pilot force above the yield (at the grip), the stick still follows the pilot.
+    let sine_end = scn.main_task().segment_start_s(1);
+    let sweep = window(&tr, a, sine_end);
+    let (lo, hi) = sweep.iter().fold((f64::MAX, f64::MIN), |(l, h), r| {
+        (l.min(r.theta_rad), h.max(r.theta_rad))
+    });
+    assert!(
+        hi - lo > 1.5 * scn.task.sweep_amplitude_rad,
+        "stick range {} rad",
+        hi - lo
+    );
+    let m = fault_metrics(&scn, &tr, &healthy, a, b);
+    let f14_grip = f14 * scn_gear_over_lever(&scn);
+    assert!(
+        m.peak_force_n > f14_grip,
+        "pilot force {} vs yield at the grip {f14_grip}",
+        m.peak_force_n
+    );
+    // Hands off, the stick does not move by itself.
+    assert!(
+        m.hands_off_moved_rad < 1e-3,
+        "moved {} rad hands off",
+        m.hands_off_moved_rad
+    );
+    assert!(!m.moves_without_pilot);
+}
+
+fn scn_gear_over_lever(scn: &CompareScenario) -> f64 {
+    let rig = mrfeel::rig::Rig::new(&scn.rig, scn.device.damper()).unwrap();
+    rig.gearing_m_per_rad() / rig.grip_lever_m()
+}
+
+#[test]
+fn stuck_or_zero_load_cell_winds_the_loop_to_its_limit_and_anti_windup_lets_go_after() {
+    let scn = scenario();
+    let limit = scn.device.model.current_limit_a;
+    let (a, b) = (2.5, 4.0);
+    for kind in [FaultKind::LoadCellStuck, FaultKind::LoadCellZero] {
+        let tr = main_run(&scn, FeelKind::Mr, &FaultSchedule::single(Fault::new(kind, a, b)));
+        let w = window(&tr, a, b);
+        let at_limit = w.iter().filter(|r| r.current_cmd_a >= limit - 1e-9).count();
+        assert!(tr
+            .rows
+            .iter()
+            .all(|r| r.current_cmd_a <= limit && r.current_cmd_a >= 0.0));
+        // While the stick moves out, the measured force cannot rise to the target: the loop saturates.
+        assert!(
+            at_limit > w.len() / 10,
+            "{kind:?}: {at_limit} of {} samples at {limit} A",
+            w.len()
+        );
+        // After the fault, the clamped integrator does not hold the coil at the limit: within 0.3 s the
+        // command leaves 14 A (a wound-up integrator of ki·e·1.5 s would hold it for seconds).
+        let after = window(&tr, b + 0.3, b + 1.0);
+        let still = after.iter().filter(|r| r.current_cmd_a >= limit - 1e-9).count();
+        assert!(
+            still < after.len() / 4,
+            "{kind:?}: {still} of {} samples still at the limit",
+            after.len()
+        );
+    }
+}
+
+#[test]
+fn every_fault_leaves_the_run_going_is_flagged_and_cannot_touch_a_spring_feel_unit() {
+    let scn = scenario();
+    let (a, b) = (scn.fault_test.start_s, scn.fault_test.end_s);
+    let n = (scn.main_task().duration_s() / 1e-3).round() as usize;
+    let window_steps = ((b.min(scn.main_task().duration_s()) - a) / 1e-3).round() as usize;
+    let spring_healthy = main_run(&scn, FeelKind::CentringSpring, &FaultSchedule::none());
+    let mr_healthy = main_run(&scn, FeelKind::Mr, &FaultSchedule::none());
+    let limit = scn.device.model.current_limit_a;
+    let f14 = scn.device.param("fc0_n").unwrap() + scn.device.param("fc_gain_n_per_a").unwrap() * limit;
+    let f14_grip = f14 * scn_gear_over_lever(&scn);
+    for f in FaultKind::ALL {
+        let sched = FaultSchedule::single(Fault::new(f, a, b));
+        let mr = main_run(&scn, FeelKind::Mr, &sched);
+        assert_eq!(mr.rows.len(), n, "{f:?}");
+        assert!(
+            mr.rows
+                .iter()
+                .all(|r| r.theta_rad.is_finite() && r.hand_force_n.is_finite()),
+            "{f:?}"
+        );
+        let m = fault_metrics(&scn, &mr, &mr_healthy, a, b);
+        assert!(
+            m.fault_steps.abs_diff(window_steps) <= 1,
+            "{f:?}: {} flagged steps",
+            m.fault_steps
+        );
+        // Every fault changes what the MR pilot feels.
+        assert!(
+            (m.force_rms_error_n - m.healthy_force_rms_error_n).abs() > 0.01,
+            "{f:?} has no effect"
+        );
+        // No fault asks more of the pilot than the device's 14 A yield (the driver's full scale) at the
+        // grip, with a margin for the stick's inertia and gravity; far inside the Part 23 stick limit.
+        assert!(
+            m.peak_force_n < 1.5 * f14_grip,
+            "{f:?}: peak {} N vs {f14_grip} N",
+            m.peak_force_n
+        );
+        assert!(m.peak_force_n < scn.limits.newtons().0, "{f:?}");
+        let sp = main_run(&scn, FeelKind::CentringSpring, &sched);
+        assert!(sp.rows.iter().all(|r| r.faults == 0));
+        assert_eq!(
+            sp.rows.last().unwrap().theta_rad,
+            spring_healthy.rows.last().unwrap().theta_rad,
+            "{f:?} changed a spring feel unit"
+        );
+    }
+}
+
+#[test]
+fn coil_open_hands_off_leaves_a_free_stick_that_gravity_moves() {
+    // The paper's fail-safe claim: with the power gone the MR stick can still be moved (no jam) and no
+    // force is injected. What it cannot do is hold: the stick's centre of mass is above the pivot, so a
+    // free stick let go off-centre falls away from the centre.
+    let scn = scenario();
+    let (a, b) = (scn.fault_test.start_s, scn.fault_test.end_s);
+    let healthy = main_run(&scn, FeelKind::Mr, &FaultSchedule::none());
+    let tr = main_run(
+        &scn,
+        FeelKind::Mr,
+        &FaultSchedule::single(Fault::new(FaultKind::CoilOpen, a, b)),
+    );
+    let h = fault_metrics(&scn, &healthy, &healthy, a, b);
+    let m = fault_metrics(&scn, &tr, &healthy, a, b);
+    assert!(
+        !h.moves_without_pilot && h.hands_off_moved_rad < 1e-3,
+        "healthy moved {}",
+        h.hands_off_moved_rad
+    );
+    assert!(
+        m.moves_without_pilot,
+        "coil open: moved {} rad",
+        m.hands_off_moved_rad
+    );
+    // It falls away from the centre (the sign of the release angle), not back.
+    let k = scn
+        .main_task()
+        .segments
+        .iter()
+        .position(|s| matches!(s, Segment::LetGo { .. }))
+        .unwrap();
+    let last = tr.rows.last().unwrap();
+    let first_off = tr.rows.iter().find(|r| r.segment == k).unwrap();
+    assert!(last.theta_rad.abs() > first_off.theta_rad.abs());
+    assert_eq!(last.theta_rad.signum(), release_angle(&scn).signum());
+}
+
+#[test]
+fn a_fault_scheduled_in_a_loop_scenario_reaches_the_coil_in_mrfeel_run() {
+    // `[[fault]]` in any `mrfeel run` scenario: the coil-open window drops the yield to the zero-current
+    // value while the loop keeps commanding current; outside it the loop works as before.
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios");
+    let base = std::fs::read_to_string(format!("{dir}/paper-feel-loop.toml")).unwrap();
+    let text = format!("{base}\n[[fault]]\nkind = \"coil_open\"\nstart_s = 2.0\nend_s = 3.0\n");
+    let path = Path::new(dir).join("paper-feel-loop-coil-open.toml");
+    let mut scn = mrfeel::scenario::Scenario::parse(&text, &path).unwrap();
+    scn.duration_s = 3.5; // the triangle moves out from the centre over 0–1 s and 2–3 s
+    assert_eq!(scn.faults.faults.len(), 1);
+    let device =
+        mrfeel::device::DeviceConfig::load(&scn.device_path, &mrfeel::device::Registry::builtin()).unwrap();
+    let fc0 = device.param("fc0_n").unwrap();
+    let rig = mrfeel::rig::Rig::new(&scn.rig, device.damper()).unwrap();
+    let res = mrfeel::sim::run(&scn, &device, rig, Default::default(), |_| {});
+    let inside: Vec<_> = res.rows.iter().filter(|r| r.t_s >= 2.2 && r.t_s < 3.0).collect();
+    assert!(
+        inside.iter().all(|r| (r.yield_force_n - fc0).abs() < 0.5),
+        "yield not at fc0 with the coil open"
+    );
+    assert!(
+        inside.iter().any(|r| r.current_a > 1.0),
+        "the loop should still command current"
+    );
+    let before = res
+        .rows
+        .iter()
+        .filter(|r| r.t_s >= 0.2 && r.t_s < 1.0)
+        .map(|r| r.yield_force_n)
+        .fold(0.0, f64::max);
+    assert!(
+        before > 5.0 + fc0,
+        "the healthy loop yields {before} N before the fault"
+    );
+}
