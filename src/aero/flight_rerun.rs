@@ -6,7 +6,7 @@ use std::path::Path;
 use rerun::{RecordingStream, TimeColumn};
 
 use super::flight_loop::{FlightError, FlightResults, FlightRow};
-use crate::rig::VisualShape;
+use crate::viz::rerun_rig::{log_link_poses, log_link_visuals};
 
 fn err(e: impl std::fmt::Display) -> FlightError {
     FlightError::Other(format!("rerun: {e}"))
@@ -54,35 +54,7 @@ pub fn log(rec: &RecordingStream, res: &FlightResults) -> Result<(), FlightError
         )
         .map_err(err)?;
     }
-    for link in &res.visuals {
-        for (k, v) in link.visuals.iter().enumerate() {
-            let path = format!("world/rig/{}/visual_{k}", link.name);
-            rec.log_static(
-                path.as_str(),
-                &rerun::Transform3D::from_translation_rotation(
-                    f32x3(v.translation_m),
-                    rerun::Quaternion::from_xyzw(f32x4(v.rotation_xyzw)),
-                ),
-            )
-            .map_err(err)?;
-            match &v.shape {
-                VisualShape::Box { size_m } => {
-                    rec.log_static(path.as_str(), &rerun::Boxes3D::from_sizes([f32x3(*size_m)]))
-                }
-                VisualShape::Cylinder { radius_m, length_m }
-                | VisualShape::Capsule { radius_m, length_m } => rec.log_static(
-                    path.as_str(),
-                    &rerun::Cylinders3D::from_lengths_and_radii([*length_m as f32], [*radius_m as f32]),
-                ),
-                VisualShape::Sphere { radius_m } => rec.log_static(
-                    path.as_str(),
-                    &rerun::Ellipsoids3D::from_radii([*radius_m as f32]),
-                ),
-                VisualShape::Mesh { .. } => Ok(()),
-            }
-            .map_err(err)?;
-        }
-    }
+    log_link_visuals(rec, "world/rig", &res.visuals).map_err(err)?;
     // Aircraft: fuselage, wing and tailplane boxes, nose towards −x (forward), 1:20 scale.
     rec.log_static(
         "world/aircraft/shape",
@@ -109,16 +81,7 @@ pub fn log(rec: &RecordingStream, res: &FlightResults) -> Result<(), FlightError
     };
     for (t, poses) in &res.frames {
         rec.set_duration_secs("time", *t);
-        for p in poses {
-            rec.log(
-                format!("world/rig/{}", p.name),
-                &rerun::Transform3D::from_translation_rotation(
-                    f32x3(p.translation_m),
-                    rerun::Quaternion::from_xyzw(f32x4(p.rotation_xyzw)),
-                ),
-            )
-            .map_err(err)?;
-        }
+        log_link_poses(rec, "world/rig", poses).map_err(err)?;
         let k = ((t / dt).round() as usize).min(res.rows.len().saturating_sub(1));
         if let Some(r) = res.rows.get(k) {
             // Nose-up pitch θ rotates the nose (−x) towards +z: a rotation by θ about +y.
@@ -134,12 +97,4 @@ pub fn log(rec: &RecordingStream, res: &FlightResults) -> Result<(), FlightError
         }
     }
     Ok(())
-}
-
-fn f32x3(a: [f64; 3]) -> [f32; 3] {
-    [a[0] as f32, a[1] as f32, a[2] as f32]
-}
-
-fn f32x4(a: [f64; 4]) -> [f32; 4] {
-    [a[0] as f32, a[1] as f32, a[2] as f32, a[3] as f32]
 }

@@ -11,9 +11,9 @@
 
 use std::path::Path;
 
-use rerun::{RecordingStream, TimeColumn};
+use rerun::{RecordingStream, RecordingStreamResult, TimeColumn};
 
-use crate::rig::VisualShape;
+use crate::rig::{BodyPose, LinkVisuals, VisualShape};
 use crate::sim::Results;
 
 /// Metres of arrow per newton of force.
@@ -90,37 +90,57 @@ fn log_series(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
     Ok(())
 }
 
-fn log_bodies(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
-    // Shapes, static: each visual under its link, posed in the link's frame.
-    for link in &res.visuals {
+/// Each link's visual shapes, static, under `PREFIX/<link>/visual_<k>`, posed in the link's frame (the
+/// link's own transform is logged over time by [`log_link_poses`]). Shared by run and flight recordings.
+pub fn log_link_visuals(
+    rec: &RecordingStream,
+    prefix: &str,
+    visuals: &[LinkVisuals],
+) -> RecordingStreamResult<()> {
+    for link in visuals {
         for (k, v) in link.visuals.iter().enumerate() {
-            let path = format!("rig/{}/visual_{k}", link.name);
+            let path = format!("{prefix}/{}/visual_{k}", link.name);
             let local = rerun::Transform3D::from_translation_rotation(
                 f32x3(v.translation_m),
                 rerun::Quaternion::from_xyzw(f32x4(v.rotation_xyzw)),
             );
-            rec.log_static(path.as_str(), &local).map_err(err)?;
+            rec.log_static(path.as_str(), &local)?;
             match &v.shape {
-                VisualShape::Box { size_m } => rec
-                    .log_static(path.as_str(), &rerun::Boxes3D::from_sizes([f32x3(*size_m)]))
-                    .map_err(err)?,
+                VisualShape::Box { size_m } => {
+                    rec.log_static(path.as_str(), &rerun::Boxes3D::from_sizes([f32x3(*size_m)]))?
+                }
                 VisualShape::Cylinder { radius_m, length_m }
-                | VisualShape::Capsule { radius_m, length_m } => rec
-                    .log_static(
-                        path.as_str(),
-                        &rerun::Cylinders3D::from_lengths_and_radii([*length_m as f32], [*radius_m as f32]),
-                    )
-                    .map_err(err)?,
-                VisualShape::Sphere { radius_m } => rec
-                    .log_static(
-                        path.as_str(),
-                        &rerun::Ellipsoids3D::from_radii([*radius_m as f32]),
-                    )
-                    .map_err(err)?,
+                | VisualShape::Capsule { radius_m, length_m } => rec.log_static(
+                    path.as_str(),
+                    &rerun::Cylinders3D::from_lengths_and_radii([*length_m as f32], [*radius_m as f32]),
+                )?,
+                VisualShape::Sphere { radius_m } => rec.log_static(
+                    path.as_str(),
+                    &rerun::Ellipsoids3D::from_radii([*radius_m as f32]),
+                )?,
                 VisualShape::Mesh { .. } => {}
             }
         }
     }
+    Ok(())
+}
+
+/// The links' world poses at the recording's current time, under `PREFIX/<link>`.
+pub fn log_link_poses(rec: &RecordingStream, prefix: &str, poses: &[BodyPose]) -> RecordingStreamResult<()> {
+    for p in poses {
+        rec.log(
+            format!("{prefix}/{}", p.name),
+            &rerun::Transform3D::from_translation_rotation(
+                f32x3(p.translation_m),
+                rerun::Quaternion::from_xyzw(f32x4(p.rotation_xyzw)),
+            ),
+        )?;
+    }
+    Ok(())
+}
+
+fn log_bodies(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
+    log_link_visuals(rec, "rig", &res.visuals).map_err(err)?;
     // Link poses over time, and the load-cell force as an arrow at the piston along +x.
     let dt = if res.rows.len() > 1 {
         res.rows[1].t_s - res.rows[0].t_s
@@ -129,16 +149,7 @@ fn log_bodies(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
     };
     for (t, poses) in &res.frames {
         rec.set_duration_secs("time", *t);
-        for p in poses {
-            rec.log(
-                format!("rig/{}", p.name),
-                &rerun::Transform3D::from_translation_rotation(
-                    f32x3(p.translation_m),
-                    rerun::Quaternion::from_xyzw(f32x4(p.rotation_xyzw)),
-                ),
-            )
-            .map_err(err)?;
-        }
+        log_link_poses(rec, "rig", poses).map_err(err)?;
         let k = ((t / dt).round() as usize).min(res.rows.len().saturating_sub(1));
         if let (Some(row), Some(piston)) = (res.rows.get(k), poses.iter().find(|p| p.name == "piston")) {
             rec.log(
@@ -152,10 +163,10 @@ fn log_bodies(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
     Ok(())
 }
 
-fn f32x3(a: [f64; 3]) -> [f32; 3] {
+pub(crate) fn f32x3(a: [f64; 3]) -> [f32; 3] {
     [a[0] as f32, a[1] as f32, a[2] as f32]
 }
 
-fn f32x4(a: [f64; 4]) -> [f32; 4] {
+pub(crate) fn f32x4(a: [f64; 4]) -> [f32; 4] {
     [a[0] as f32, a[1] as f32, a[2] as f32, a[3] as f32]
 }
