@@ -122,76 +122,65 @@ pub fn palette(k: usize) -> RGBColor {
     C[k % C.len()]
 }
 
-/// Write charts as a grid of panels (`cols` wide) to `DIR/STEM.png` and `DIR/STEM.svg`.
-pub fn save_charts(charts: &[Chart], cols: usize, dir: &Path, stem: &str) -> Result<Vec<PathBuf>, PlotError> {
+/// A figure that can draw itself on any plotters backend.
+enum Figure<'a> {
+    Grid {
+        charts: &'a [Chart],
+        rows: usize,
+        cols: usize,
+    },
+    Heatmap(&'a Heatmap),
+}
+
+impl Figure<'_> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        match *self {
+            Figure::Grid { charts, rows, cols } => draw_grid(root, charts, rows, cols),
+            Figure::Heatmap(map) => draw_heatmap(root, map),
+        }
+    }
+}
+
+fn plot_error(path: &Path, msg: String) -> PlotError {
+    PlotError {
+        path: path.into(),
+        msg,
+    }
+}
+
+/// Draw a figure into `DIR/STEM.png` and `DIR/STEM.svg`.
+fn save_both(fig: Figure<'_>, size: (u32, u32), dir: &Path, stem: &str) -> Result<Vec<PathBuf>, PlotError> {
     register_font();
     std::fs::create_dir_all(dir).map_err(|e| PlotError {
         path: dir.into(),
         msg: e.to_string(),
     })?;
-    let cols = cols.max(1).min(charts.len().max(1));
-    let rows = charts.len().div_ceil(cols).max(1);
-    let size = (560 * cols as u32, 420 * rows as u32);
     let png = dir.join(format!("{stem}.png"));
     let svg = dir.join(format!("{stem}.svg"));
     {
         let root = BitMapBackend::new(&png, size).into_drawing_area();
-        draw_grid(&root, charts, rows, cols).map_err(|msg| PlotError {
-            path: png.clone(),
-            msg,
-        })?;
-        root.present().map_err(|e| PlotError {
-            path: png.clone(),
-            msg: e.to_string(),
-        })?;
+        fig.draw(&root).map_err(|m| plot_error(&png, m))?;
+        root.present().map_err(|e| plot_error(&png, e.to_string()))?;
     }
     {
         let root = SVGBackend::new(&svg, size).into_drawing_area();
-        draw_grid(&root, charts, rows, cols).map_err(|msg| PlotError {
-            path: svg.clone(),
-            msg,
-        })?;
-        root.present().map_err(|e| PlotError {
-            path: svg.clone(),
-            msg: e.to_string(),
-        })?;
+        fig.draw(&root).map_err(|m| plot_error(&svg, m))?;
+        root.present().map_err(|e| plot_error(&svg, e.to_string()))?;
     }
     Ok(vec![png, svg])
 }
 
+/// Write charts as a grid of panels (`cols` wide) to `DIR/STEM.png` and `DIR/STEM.svg`.
+pub fn save_charts(charts: &[Chart], cols: usize, dir: &Path, stem: &str) -> Result<Vec<PathBuf>, PlotError> {
+    let cols = cols.max(1).min(charts.len().max(1));
+    let rows = charts.len().div_ceil(cols).max(1);
+    let size = (560 * cols as u32, 420 * rows as u32);
+    save_both(Figure::Grid { charts, rows, cols }, size, dir, stem)
+}
+
 /// Write a heatmap to `DIR/STEM.png` and `DIR/STEM.svg`.
 pub fn save_heatmap(map: &Heatmap, dir: &Path, stem: &str) -> Result<Vec<PathBuf>, PlotError> {
-    register_font();
-    std::fs::create_dir_all(dir).map_err(|e| PlotError {
-        path: dir.into(),
-        msg: e.to_string(),
-    })?;
-    let png = dir.join(format!("{stem}.png"));
-    let svg = dir.join(format!("{stem}.svg"));
-    let size = (760, 520);
-    {
-        let root = BitMapBackend::new(&png, size).into_drawing_area();
-        draw_heatmap(&root, map).map_err(|msg| PlotError {
-            path: png.clone(),
-            msg,
-        })?;
-        root.present().map_err(|e| PlotError {
-            path: png.clone(),
-            msg: e.to_string(),
-        })?;
-    }
-    {
-        let root = SVGBackend::new(&svg, size).into_drawing_area();
-        draw_heatmap(&root, map).map_err(|msg| PlotError {
-            path: svg.clone(),
-            msg,
-        })?;
-        root.present().map_err(|e| PlotError {
-            path: svg.clone(),
-            msg: e.to_string(),
-        })?;
-    }
-    Ok(vec![png, svg])
+    save_both(Figure::Heatmap(map), (760, 520), dir, stem)
 }
 
 fn bounds(points: impl Iterator<Item = f64>) -> (f64, f64) {
