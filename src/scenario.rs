@@ -371,6 +371,37 @@ fn parse_pilot(
             ))
         }
     };
+    // Keys of another signal are errors, not silently ignored (the first one in the file is named).
+    let used: &[&str] = match p.signal.get_ref().as_str() {
+        "hold" => &["value"],
+        "step" => &["initial", "final", "at_s"],
+        "ramp" => &["from", "to", "start_s", "ramp_duration_s"],
+        "sine" | "triangle" => &["offset", "amplitude", "frequency_hz"],
+        _ => &["offset", "rms", "cutoff_hz"],
+    };
+    if let Some((key, v)) = p
+        .signal_keys()
+        .into_iter()
+        .filter_map(|(k, v)| v.map(|v| (k, v)))
+        .filter(|(k, _)| {
+            let base = k
+                .strip_suffix("_rad")
+                .or_else(|| k.strip_suffix("_n"))
+                .unwrap_or(k);
+            !used.contains(&base)
+        })
+        .min_by_key(|(_, v)| v.span().start)
+    {
+        return Err(c.err(
+            v,
+            &format!("pilot.{key}"),
+            &format!(
+                "not used by signal = \"{}\" (it takes: {})",
+                p.signal.get_ref(),
+                used.join(", ")
+            ),
+        ));
+    }
     Ok(PilotConfig {
         hand_path,
         hand,
@@ -627,6 +658,33 @@ struct PilotSection {
 }
 
 impl PilotSection {
+    /// Every signal key and its value, if given.
+    fn signal_keys(&self) -> [KeyValue<'_>; 21] {
+        [
+            ("value_rad", self.value_rad.as_ref()),
+            ("value_n", self.value_n.as_ref()),
+            ("initial_rad", self.initial_rad.as_ref()),
+            ("initial_n", self.initial_n.as_ref()),
+            ("final_rad", self.final_rad.as_ref()),
+            ("final_n", self.final_n.as_ref()),
+            ("from_rad", self.from_rad.as_ref()),
+            ("from_n", self.from_n.as_ref()),
+            ("to_rad", self.to_rad.as_ref()),
+            ("to_n", self.to_n.as_ref()),
+            ("offset_rad", self.offset_rad.as_ref()),
+            ("offset_n", self.offset_n.as_ref()),
+            ("amplitude_rad", self.amplitude_rad.as_ref()),
+            ("amplitude_n", self.amplitude_n.as_ref()),
+            ("rms_rad", self.rms_rad.as_ref()),
+            ("rms_n", self.rms_n.as_ref()),
+            ("at_s", self.at_s.as_ref()),
+            ("start_s", self.start_s.as_ref()),
+            ("ramp_duration_s", self.ramp_duration_s.as_ref()),
+            ("frequency_hz", self.frequency_hz.as_ref()),
+            ("cutoff_hz", self.cutoff_hz.as_ref()),
+        ]
+    }
+
     /// The `(name_unit, name_other)` pair of a command value.
     fn value_pair(&self, name: &str, unit: &str) -> (Option<&Spanned<f64>>, Option<&Spanned<f64>>) {
         let (rad, n) = match name {

@@ -317,3 +317,46 @@ fn rerun_recording_reads_back_equal_to_the_csv() {
         "{text}"
     );
 }
+
+#[test]
+fn pilot_key_of_another_signal_is_rejected_naming_file_line_and_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let sweep = "signal = \"triangle\"\namplitude_rad = 0.28\nfrequency_hz = 0.25";
+    let line_of = |p: &Path, key: &str| {
+        std::fs::read_to_string(p)
+            .unwrap()
+            .lines()
+            .position(|l| l.starts_with(key))
+            .unwrap()
+            + 1
+    };
+    // A valid step loads (the variants below differ from it by one key).
+    let step = "signal = \"step\"\ninitial_rad = 0.0\nfinal_rad = 0.1\nat_s = 1.0";
+    let p = write_variant(dir.path(), sweep, step);
+    Scenario::load(&p).unwrap_or_else(|e| panic!("{e}"));
+    for (variant, key) in [
+        // `frequency_hz` belongs to sine/triangle, not to a step.
+        (format!("{step}\nfrequency_hz = 0.25"), "frequency_hz"),
+        // `at_s` belongs to a step, not to a ramp.
+        (
+            "signal = \"ramp\"\nfrom_rad = 0.0\nto_rad = 0.2\nstart_s = 0.0\nramp_duration_s = 2.0\nat_s = 1.0"
+                .to_string(),
+            "at_s",
+        ),
+        // A command value of another signal, in the task's own unit.
+        (format!("{sweep}\nfinal_rad = 0.1"), "final_rad"),
+        // `cutoff_hz` belongs to random tracking, not to a triangle.
+        (format!("{sweep}\ncutoff_hz = 2.0"), "cutoff_hz"),
+    ] {
+        let p = write_variant(dir.path(), sweep, &variant);
+        let e = Scenario::load(&p).unwrap_err().to_string();
+        let line = line_of(&p, key);
+        assert!(
+            e.contains("variant.toml")
+                && e.contains(&format!(":{line}:"))
+                && e.contains(&format!("pilot.{key}"))
+                && e.contains("not used by signal"),
+            "{key}: {e}"
+        );
+    }
+}
