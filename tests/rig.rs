@@ -528,3 +528,80 @@ fn same_inputs_give_bit_identical_runs_on_any_thread() {
     assert!(a.stick_angle_rad.abs() > 1e-3, "the stick did not move");
     assert_eq!(a, b);
 }
+
+#[test]
+fn fused_fixed_links_and_planar_loop_rows_leave_the_motion_and_the_load_cell_unchanged() {
+    // The speed-ups (fixed links folded into their parents, only the planar pin's in-plane rows) must not
+    // change the physics: the same 4 s workout (1 Hz push above and below yield, a current step, gravity
+    // on) on the rig built both ways.
+    let run = |fast: bool| {
+        let mut cfg = RigConfig::new(urdf_path());
+        cfg.fuse_fixed_links = fast;
+        cfg.planar_loop_rows = fast;
+        let mut r = Rig::new(&cfg, damper(3.0, 5.0, 300.0)).unwrap();
+        let mut out = Vec::new();
+        for k in 0..steps(&r, 4.0) {
+            let t = k as f64 * r.dt_s();
+            r.step(20.0 * (2.0 * PI * t).cos(), if t < 2.0 { 1.0 } else { 2.0 });
+            out.push(r.state());
+        }
+        (out, r.poses())
+    };
+    let (fast, fast_poses) = run(true);
+    let (full, full_poses) = run(false);
+    let rms = |f: &dyn Fn(&mrfeel::rig::RigState) -> f64| {
+        (full.iter().map(|s| f(s).powi(2)).sum::<f64>() / full.len() as f64).sqrt()
+    };
+    let worst = |f: &dyn Fn(&mrfeel::rig::RigState) -> f64| {
+        fast.iter()
+            .zip(&full)
+            .map(|(a, b)| (f(a) - f(b)).abs())
+            .fold(0.0, f64::max)
+    };
+    let angle = worst(&|s| s.stick_angle_rad);
+    let lc_rms_diff = (fast
+        .iter()
+        .zip(&full)
+        .map(|(a, b)| (a.load_cell_n - b.load_cell_n).powi(2))
+        .sum::<f64>()
+        / full.len() as f64)
+        .sqrt();
+    let lc_rms = rms(&|s| s.load_cell_n);
+    let (a, b) = (fast.last().unwrap(), full.last().unwrap());
+    println!(
+        "max |Δθ| {angle:.2e} rad of {:.3} rad RMS; load cell RMS difference {lc_rms_diff:.3} N of {lc_rms:.2} N RMS; \
+         dissipated {:.5} vs {:.5} J",
+        rms(&|s| s.stick_angle_rad),
+        a.damper_dissipated_j,
+        b.damper_dissipated_j
+    );
+    assert!(
+        rms(&|s| s.stick_angle_rad) > 0.05,
+        "the workout hardly moved the stick"
+    );
+    assert!(
+        angle < 1e-3 * rms(&|s| s.stick_angle_rad),
+        "stick angle differs by {angle} rad"
+    );
+    assert!(
+        lc_rms_diff < 0.01 * lc_rms,
+        "load cell differs by {lc_rms_diff} N RMS"
+    );
+    assert!(
+        (a.damper_dissipated_j - b.damper_dissipated_j).abs() < 1e-3 * b.damper_dissipated_j,
+        "{} vs {} J",
+        a.damper_dissipated_j,
+        b.damper_dissipated_j
+    );
+    assert!((a.kinetic_energy_j - b.kinetic_energy_j).abs() < 1e-3 * b.kinetic_energy_j.max(1e-3));
+    // Every URDF link is still posed, where the unfused multibody puts it.
+    assert_eq!(fast_poses.len(), full_poses.len());
+    for (p, q) in fast_poses.iter().zip(&full_poses) {
+        assert_eq!(p.name, q.name);
+        let d = (0..3)
+            .map(|k| (p.translation_m[k] - q.translation_m[k]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        assert!(d < 1e-4, "{}: {d} m apart", p.name);
+    }
+}
