@@ -360,3 +360,58 @@ fn pilot_key_of_another_signal_is_rejected_naming_file_line_and_key() {
         );
     }
 }
+
+/// Time for the unit-step response of two first-order lags in series (the coil's `Te`, Eq. 3, and the
+/// fluid's `Tm`, Eq. 4) to stay within 5 % of its final value, s.
+fn two_lag_settling_s(te: f64, tm: f64) -> f64 {
+    let left = |t: f64| {
+        if (te - tm).abs() < 1e-9 * te {
+            (1.0 + t / te) * (-t / te).exp()
+        } else {
+            (te * (-t / te).exp() - tm * (-t / tm).exp()) / (te - tm)
+        }
+    };
+    let (mut lo, mut hi) = (0.0, 20.0 * (te + tm));
+    for _ in 0..100 {
+        let mid = 0.5 * (lo + hi);
+        if left(mid) > 0.05 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    hi
+}
+
+#[test]
+fn force_settles_as_fast_as_the_coil_and_fluid_lags_allow_and_later_at_a_slow_daq() {
+    let (scn, device) = load("response-time.toml");
+    let pts = cli::sweep(&scn, &device, &[100.0, 5000.0]).unwrap();
+    eprintln!("{}", sim::response::markdown_table(&pts));
+    let (slow, fast) = (&pts[0], &pts[1]);
+    assert!(slow.steps >= 5 && fast.steps >= 5, "{pts:?}");
+    assert!(slow.unsettled == 0 && fast.unsettled == 0, "{pts:?}");
+    let te = device.param("te_s").unwrap();
+    let tm = device.param("tm_s").unwrap();
+    let latency = scn.sensors.daq.latency_samples as f64;
+    // With a fast DAQ the feedforward's current step reaches the force through the coil and the fluid lags
+    // in series, after the DAQ's delay ((latency + ½) periods on average): the force settles when that
+    // two-lag response does. The coil lag alone (Te ln 20 = 45 ms) or the fluid lag alone (24 ms) would
+    // settle more than 15 % sooner, both lags doubled twice as late.
+    let ideal_ms = 1e3 * (two_lag_settling_s(te, tm) + (latency + 0.5) / 5000.0);
+    let fast_ms = fast.mean_settling_ms.unwrap();
+    assert!(
+        (fast_ms / ideal_ms - 1.0).abs() < 0.15,
+        "settling at 5 kHz {fast_ms:.1} ms, two-lag response {ideal_ms:.1} ms"
+    );
+    // Every step, not just the mean (the steps are alike).
+    assert!(fast.max_settling_ms.unwrap() < 1.15 * ideal_ms, "{pts:?}");
+    // At 100 Hz the command reaches the coil later by at least the latency line's extra periods, and the
+    // PI loop's correction comes in 10 ms steps: settling degrades by at least the added latency.
+    let slow_ms = slow.mean_settling_ms.unwrap();
+    let added_ms = latency * (1e3 / 100.0 - 1e3 / 5000.0);
+    assert!(
+        slow_ms - fast_ms >= added_ms,
+        "settling at 100 Hz {slow_ms:.1} ms vs 5 kHz {fast_ms:.1} ms: degraded by less than the added latency {added_ms:.1} ms"
+    );
+}
