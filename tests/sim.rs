@@ -415,3 +415,161 @@ fn force_settles_as_fast_as_the_coil_and_fluid_lags_allow_and_later_at_a_slow_da
         "settling at 100 Hz {slow_ms:.1} ms vs 5 kHz {fast_ms:.1} ms: degraded by less than the added latency {added_ms:.1} ms"
     );
 }
+
+/// Stops the viewer the test spawned (by the pid its stand-in recorded), also when the test fails.
+struct Viewer(PathBuf);
+
+impl Viewer {
+    fn pid(&self) -> Option<String> {
+        std::fs::read_to_string(&self.0)
+            .ok()
+            .map(|s| s.trim().to_string())
+    }
+
+    /// SIGINT (the viewer's Ctrl-C: it closes the file it saves to), then wait up to 20 s for it to exit.
+    fn stop(&self) -> bool {
+        let Some(pid) = self.pid() else {
+            return true;
+        };
+        if !Path::new(&format!("/proc/{pid}")).exists() {
+            return true;
+        }
+        let _ = std::process::Command::new("kill").args(["-INT", &pid]).status();
+        for _ in 0..200 {
+            if !Path::new(&format!("/proc/{pid}")).exists() {
+                return true;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(100));
+        }
+        false
+    }
+}
+
+impl Drop for Viewer {
+    fn drop(&mut self) {
+        if !self.stop() {
+            if let Some(pid) = self.pid() {
+                let _ = std::process::Command::new("kill").args(["-KILL", &pid]).status();
+            }
+        }
+    }
+}
+
+#[test]
+fn run_with_spawn_streams_the_recording_to_the_spawned_viewer() {
+    // `mrfeel run --spawn` starts `rerun` from PATH the way the Rerun SDK does. Headless and in CI: a
+    // stand-in `rerun` first on PATH records the arguments it was started with and runs the real viewer
+    // CLI of the venv's rerun-sdk (same version as the crate) as a windowless gRPC server that saves
+    // everything it receives (`--save`); that file is read back and checked against the run's CSV.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let py = root.join(".venv/bin/python");
+    assert!(
+        py.exists(),
+        "{} is missing: run `scripts/python-env.sh` first (it installs rerun-sdk==0.36.3)",
+        py.display()
+    );
+    let out = std::process::Command::new(&py)
+        .args([
+            "-c",
+            "import os, rerun_cli; print(os.path.join(os.path.dirname(rerun_cli.__file__), 'rerun'))",
+        ])
+        .output()
+        .unwrap();
+    let real = String::from_utf8_lossy(&out.stdout).trim().to_string();
+    assert!(
+        Path::new(&real).is_file(),
+        "no viewer binary in the venv's rerun-sdk: {real:?} {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (args_txt, pid_txt, received) = (d.join("args.txt"), d.join("viewer.pid"), d.join("received.rrd"));
+    let bin = d.join("bin");
+    std::fs::create_dir(&bin).unwrap();
+    let standin = bin.join("rerun");
+    std::fs::write(
+        &standin,
+        format!(
+            "#!/bin/sh\n\
+             # Stand-in viewer for mrfeel's --spawn test: the real CLI, windowless, saving what it receives.\n\
+             if [ \"$1\" = \"--version\" ]; then exec '{real}' --version; fi\n\
+             printf '%s\\n' \"$@\" > '{args}'\n\
+             echo $$ > '{pid}'\n\
+             exec '{real}' \"$@\" --save '{received}'\n",
+            args = args_txt.display(),
+            pid = pid_txt.display(),
+            received = received.display(),
+        ),
+    )
+    .unwrap();
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&standin, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
+    // A free port, so that a viewer the developer has open on the default port is not reused.
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let scn = write_variant(d, "duration_s = 12.0", "duration_s = 1.0");
+    let csv = d.join("run.csv");
+    let path = std::env::join_paths(std::iter::once(bin.clone()).chain(std::env::split_paths(
+        &std::env::var_os("PATH").unwrap_or_default(),
+    )))
+    .unwrap();
+    let viewer = Viewer(pid_txt.clone());
+    // Output to files, not pipes: the viewer inherits them and outlives the run (pipes would block the
+    // wait for the run's output until the viewer exits).
+    let (out_txt, err_txt) = (d.join("run.out"), d.join("run.err"));
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_mrfeel"))
+        .arg("run")
+        .arg(&scn)
+        .arg("--out")
+        .arg(&csv)
+        .args(["--spawn", "--spawn-port", &port.to_string()])
+        .env("PATH", path)
+        // Debug builds of the SDK look for `$CARGO_TARGET_DIR/debug/rerun` before PATH.
+        .env_remove("CARGO_TARGET_DIR")
+        .env("RERUN_ANALYTICS", "0")
+        .stdout(std::fs::File::create(&out_txt).unwrap())
+        .stderr(std::fs::File::create(&err_txt).unwrap())
+        .status()
+        .unwrap();
+    let text = format!(
+        "{}{}",
+        std::fs::read_to_string(&out_txt).unwrap_or_default(),
+        std::fs::read_to_string(&err_txt).unwrap_or_default()
+    );
+    assert!(status.success(), "mrfeel run --spawn failed:\n{text}");
+    assert!(text.contains("scenario paper-feel-loop"), "{text}");
+    // The SDK started the viewer from PATH on the requested port, expecting data.
+    let args = std::fs::read_to_string(&args_txt)
+        .unwrap_or_else(|e| panic!("the stand-in viewer was not started ({e}):\n{text}"));
+    assert!(
+        args.lines().any(|a| a == format!("--port={port}"))
+            && args.lines().any(|a| a == "--expect-data-soon"),
+        "viewer arguments: {args}"
+    );
+    // Everything the run logged reached the viewer: stop it (it finishes the file) and read the file back.
+    assert!(viewer.stop(), "the spawned viewer did not exit on SIGINT");
+    let out = std::process::Command::new(&py)
+        .arg(root.join("tests/rerun_readback.py"))
+        .arg(&received)
+        .arg(&csv)
+        .output()
+        .unwrap();
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        out.status.success(),
+        "read-back of what the viewer received failed:\n{text}"
+    );
+    assert!(
+        text.contains("ok /series/force/load_cell == CSV load_cell_n"),
+        "{text}"
+    );
+}

@@ -26,6 +26,9 @@ pub struct RunArgs {
     /// Stream the recording to a newly spawned Rerun viewer.
     #[arg(long)]
     pub spawn: bool,
+    /// gRPC port of the viewer `--spawn` starts (or reuses, if one listens there).
+    #[arg(long, default_value_t = 9876, requires = "spawn")]
+    pub spawn_port: u16,
     /// Print the summary as JSON on stdout (nothing else on stdout).
     #[arg(long)]
     pub json: bool,
@@ -97,7 +100,7 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
     let (scn, device, rig) = load(&args.scenario)?;
     let want_viz = args.rerun.is_some() || args.spawn;
     let rec = if args.spawn {
-        Some(crate::viz::rerun_rig::spawn()?)
+        Some(crate::viz::rerun_rig::spawn_on_port(args.spawn_port)?)
     } else if let Some(p) = &args.rerun {
         Some(crate::viz::rerun_rig::to_file(p)?)
     } else {

@@ -42,6 +42,11 @@ pub fn to_file(path: &Path) -> Result<RecordingStream, VizError> {
 
 /// A recording stream into a freshly spawned viewer; fails with a clear message if none is installed.
 pub fn spawn() -> Result<RecordingStream, VizError> {
+    spawn_on_port(rerun::DEFAULT_SERVER_PORT)
+}
+
+/// [`spawn`] with the viewer's gRPC port (a viewer already listening there is reused, as by `spawn`).
+pub fn spawn_on_port(port: u16) -> Result<RecordingStream, VizError> {
     let exe = "rerun";
     let found = std::env::var_os("PATH")
         .map(|p| std::env::split_paths(&p).any(|d| d.join(exe).is_file()))
@@ -49,8 +54,12 @@ pub fn spawn() -> Result<RecordingStream, VizError> {
     if !found {
         return Err(VizError::Spawn(format!("no `{exe}` executable on PATH")));
     }
+    let opts = rerun::SpawnOptions {
+        port,
+        ..Default::default()
+    };
     rerun::RecordingStreamBuilder::new("mrfeel")
-        .spawn()
+        .spawn_opts(&opts)
         .map_err(|e| VizError::Spawn(e.to_string()))
 }
 
