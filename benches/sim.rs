@@ -15,9 +15,9 @@ fn bench(c: &mut Criterion) {
     let (scn, device, _) = cli::load(&path).unwrap();
     let mut g = c.benchmark_group("sim_step_1khz");
     {
-        let mut lp = Loop::new(&scn, &device, cli::build_rig(&scn, &device).unwrap());
+        let mut lp = Loop::new(&scn, &device, cli::build_rig(&scn, &device).unwrap()).unwrap();
         g.bench_function("full_loop_step", |b| {
-            b.iter(|| black_box(lp.step().load_cell_true_n))
+            b.iter(|| black_box(lp.step().unwrap().load_cell_true_n))
         });
     }
     {
@@ -41,6 +41,7 @@ fn bench(c: &mut Criterion) {
             let rig = cli::build_rig(&scn, &device).unwrap();
             black_box(
                 sim::run(&scn, &device, rig, RunOptions::default(), |_| {})
+                    .unwrap()
                     .rows
                     .len(),
             )

@@ -341,7 +341,7 @@ fn a_fault_scheduled_in_a_loop_scenario_reaches_the_coil_in_mrfeel_run() {
         mrfeel::device::DeviceConfig::load(&scn.device_path, &mrfeel::device::Registry::builtin()).unwrap();
     let fc0 = device.param("fc0_n").unwrap();
     let rig = mrfeel::rig::Rig::new(&scn.rig, device.damper()).unwrap();
-    let res = mrfeel::sim::run(&scn, &device, rig, Default::default(), |_| {});
+    let res = mrfeel::sim::run(&scn, &device, rig, Default::default(), |_| {}).unwrap();
     let inside: Vec<_> = res.rows.iter().filter(|r| r.t_s >= 2.2 && r.t_s < 3.0).collect();
     assert!(
         inside.iter().all(|r| (r.yield_force_n - fc0).abs() < 0.5),
@@ -361,4 +361,75 @@ fn a_fault_scheduled_in_a_loop_scenario_reaches_the_coil_in_mrfeel_run() {
         before > 5.0 + fc0,
         "the healthy loop yields {before} N before the fault"
     );
+}
+
+/// Delay (in physics steps, 0..=max) that best aligns `seen[k]` with `truth[k - d]` over `range`.
+fn best_delay(seen: &[f64], truth: &[f64], range: std::ops::Range<usize>, max: usize) -> usize {
+    (0..=max)
+        .min_by(|&a, &b| {
+            let err = |d: usize| -> f64 { range.clone().map(|k| (seen[k] - truth[k - d]).powi(2)).sum() };
+            err(a).total_cmp(&err(b))
+        })
+        .unwrap()
+}
+
+#[test]
+fn a_latency_spike_in_a_run_delays_what_the_controller_sees_and_is_marked_in_the_results() {
+    // `mrfeel run` with a 50 ms latency spike from 2 s to 3 s: the load cell the controller sees (the
+    // `load_cell_n` column) lags the true force by the DAQ's own sample (1 ms) outside the spike and by
+    // 50 ms more inside it; the rows and the CSV's `fault_mask` column mark exactly the spike's window.
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios");
+    let base = std::fs::read_to_string(format!("{dir}/paper-feel-loop.toml")).unwrap();
+    let text = format!(
+        "{base}\n[[fault]]\nkind = \"latency_spike\"\nstart_s = 2.0\nend_s = 3.0\nextra_latency_s = 0.05\n"
+    );
+    let path = Path::new(dir).join("paper-feel-loop-latency.toml");
+    let mut scn = mrfeel::scenario::Scenario::parse(&text, &path).unwrap();
+    scn.duration_s = 3.5;
+    let device =
+        mrfeel::device::DeviceConfig::load(&scn.device_path, &mrfeel::device::Registry::builtin()).unwrap();
+    let rig = mrfeel::rig::Rig::new(&scn.rig, device.damper()).unwrap();
+    let res = mrfeel::sim::run(&scn, &device, rig, Default::default(), |_| {}).unwrap();
+    let bit = mrfeel::faults::FaultKind::LatencySpike.bit();
+    for r in &res.rows {
+        let inside = r.t_s >= 2.0 && r.t_s < 3.0;
+        assert_eq!(
+            r.faults,
+            if inside { bit } else { 0 },
+            "fault mask at t = {}",
+            r.t_s
+        );
+    }
+    // The controller sees the calibrated reading: compare with gain·F + offset of the load cell section.
+    let lc = scn.sensors.load_cell;
+    let truth: Vec<f64> = res
+        .rows
+        .iter()
+        .map(|r| lc.gain * r.load_cell_true_n + lc.offset_n)
+        .collect();
+    let seen: Vec<f64> = res.rows.iter().map(|r| r.load_cell_n).collect();
+    let healthy = best_delay(&seen, &truth, 1200..1900, 80);
+    let spiked = best_delay(&seen, &truth, 2100..2900, 80);
+    eprintln!("controller's view of the load cell lags by {healthy} ms healthy, {spiked} ms in the spike");
+    assert!((1..=2).contains(&healthy), "healthy lag {healthy} ms");
+    assert!((50..=53).contains(&spiked), "lag in the spike {spiked} ms");
+    // The CSV carries the mask in its `fault_mask` column and names the bit in its header.
+    let mut csv = Vec::new();
+    res.write_csv(&mut csv).unwrap();
+    let csv = String::from_utf8(csv).unwrap();
+    assert!(
+        csv.contains(&format!("{bit}=latency_spike")),
+        "header must name the bit"
+    );
+    let header = csv.lines().find(|l| l.starts_with("t_s,")).unwrap();
+    let col = header.split(',').position(|c| c == "fault_mask").unwrap();
+    let marked: Vec<f64> = csv
+        .lines()
+        .skip_while(|l| !l.starts_with("t_s,"))
+        .skip(1)
+        .filter(|l| l.split(',').nth(col) == Some(&bit.to_string()))
+        .map(|l| l.split(',').next().unwrap().parse::<f64>().unwrap())
+        .collect();
+    assert_eq!(marked.len(), 1000, "one marked row per millisecond of the spike");
+    assert!(marked.iter().all(|&t| (2.0..3.0).contains(&t)));
 }

@@ -7,20 +7,43 @@
 //!    controller on the sample that comes out; its current command is then held (zero-order hold);
 //! 3. the hand reacts to its command and the grip's state: the hand force for this step;
 //! 4. record the row; step the rig with the hand force and the held current command.
+//!
+//! With an `[aircraft]` (issue 5), before 2.: the aircraft steps when its frame is due ([`flight`]); its
+//! stick force, mapped through the linkage to the piston, is the feel law's target (`feel.law =
+//! "aircraft"`), and the pilot's outer loop (`pilot.signal = "outer-loop"`) sets the hand's command.
+//!
+//! Faults (`[[fault]]`, [`crate::faults`]) act at their hooks: transducers → DAQ, DAQ → controller (a
+//! latency spike delays the samples the controller sees), driver → coil; every row carries the mask of
+//! the faults active at its time.
 
 pub mod cli;
+pub mod flight;
+pub mod metrics;
 pub mod plant;
 pub mod response;
 pub mod results;
 
+pub use flight::{AeroRow, Flight};
 pub use plant::{Plant, PlantState};
-pub use results::{Results, Row, Summary};
+pub use results::{FlightInfo, Results, Row, Summary};
 
-use crate::control::{Feedforward, FeelController, LoopMode, Pid};
+use std::collections::VecDeque;
+
+use crate::control::{Feedforward, FeelController, FeelLaw, LoopMode, Pid};
 use crate::device::DeviceConfig;
 use crate::pilot::{Hand, Task};
 use crate::scenario::Scenario;
-use crate::sensors::Daq;
+use crate::sensors::{Daq, DaqSample};
+
+/// Errors of a run (the scenario itself was validated when loaded).
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    #[error("{}: aircraft: {source}", scenario.display())]
+    Aero {
+        scenario: std::path::PathBuf,
+        source: crate::aero::AeroError,
+    },
+}
 
 /// Options of one run that are not part of the scenario.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -46,10 +69,18 @@ pub struct Loop<P: Plant> {
     /// issue 6 hook: scheduled faults in the driver and sensor path (`crate::faults`).
     faults: crate::faults::FaultInjector,
     current_limit_a: f64,
+    /// Samples out of the DAQ waiting for a latency spike to pass: (arrival time, sample).
+    late: VecDeque<(f64, DaqSample)>,
+    has_latency_faults: bool,
+    last_delivered_t_s: f64,
+    /// The aircraft in the loop, if the scenario has one.
+    pub flight: Option<Flight>,
+    scenario_path: std::path::PathBuf,
 }
 
 impl<P: Plant> Loop<P> {
-    pub fn new(scn: &Scenario, device: &DeviceConfig, plant: P) -> Self {
+    /// Wire a scenario onto a plant; fails only when the aircraft cannot be opened or trimmed.
+    pub fn new(scn: &Scenario, device: &DeviceConfig, plant: P) -> Result<Self, SimError> {
         let feedforward = scn.controller.feedforward.then(|| Feedforward {
             fc0_n: device.param("fc0_n").unwrap_or(0.0),
             fc_gain_n_per_a: device.param("fc_gain_n_per_a").unwrap_or(0.0),
@@ -68,7 +99,21 @@ impl<P: Plant> Loop<P> {
             Task::Position => plant.grip_arm_m(),
             Task::Force => 1.0,
         };
-        Self {
+        let flight = scn
+            .aircraft
+            .as_ref()
+            .map(|a| Flight::open(a, scn.outer_loop.as_ref(), plant.stick_limits_rad()))
+            .transpose()
+            .map_err(|source| SimError::Aero {
+                scenario: scn.path.clone(),
+                source,
+            })?;
+        let has_latency_faults = scn
+            .faults
+            .faults
+            .iter()
+            .any(|f| f.kind == crate::faults::FaultKind::LatencySpike);
+        Ok(Self {
             daq: Daq::new(scn.sensors, scn.seed),
             controller,
             hand: Hand::new(scn.pilot.hand, scn.pilot.task),
@@ -83,20 +128,58 @@ impl<P: Plant> Loop<P> {
             pilot_work_j: 0.0,
             faults: crate::faults::FaultInjector::new(scn.faults.clone(), scn.seed),
             current_limit_a: device.model.current_limit_a,
+            late: VecDeque::new(),
+            has_latency_faults,
+            last_delivered_t_s: f64::NEG_INFINITY,
+            flight,
+            scenario_path: scn.path.clone(),
+        })
+    }
+
+    /// The sample the controller gets now from the one just out of the DAQ: itself, or during a latency
+    /// spike the newest sample that has waited the extra latency (none if nothing new has).
+    fn deliver(&mut self, t: f64, sample: DaqSample) -> Option<DaqSample> {
+        if !self.has_latency_faults {
+            return Some(sample);
         }
+        self.late.push_back((t, sample));
+        let extra = self.faults.extra_latency_s(t);
+        let ready = self
+            .late
+            .iter()
+            .rposition(|(arrived, _)| arrived + extra <= t + 1e-9)?;
+        let (_, s) = self.late[ready];
+        self.late.drain(..=ready);
+        (s.sampled_t_s > self.last_delivered_t_s).then(|| {
+            self.last_delivered_t_s = s.sampled_t_s;
+            s
+        })
     }
 
     /// One physics step; returns the row describing the state at the start of the step and what was
     /// applied over it.
-    pub fn step(&mut self) -> Row {
+    pub fn step(&mut self) -> Result<Row, SimError> {
         let dt = self.plant.dt_s();
         let t = self.step_index as f64 * dt;
         let s = self.plant.state();
+        if let Some(f) = self.flight.as_mut() {
+            f.update(t, s.stick_angle_rad).map_err(|source| SimError::Aero {
+                scenario: self.scenario_path.clone(),
+                source,
+            })?;
+            if let FeelLaw::Target { .. } = self.controller.law {
+                // Grip → piston by virtual work at the present linkage angle.
+                let force_n = f.stick_force_n() * self.plant.grip_arm_m()
+                    / self.plant.gearing_m_per_rad(s.stick_angle_rad);
+                self.controller.law = FeelLaw::Target { force_n };
+            }
+        }
         if self.daq.due(t) {
             // issue 6 hook: sensor faults between the transducers and the DAQ.
             let load_cell_n = self.faults.load_cell_n(t, s.load_cell_n);
             let piston_x_m = self.faults.displacement_m(t, s.piston_x_m);
-            if let Some(sample) = self.daq.acquire(t, load_cell_n, piston_x_m) {
+            let out = self.daq.acquire(t, load_cell_n, piston_x_m);
+            if let Some(sample) = out.and_then(|x| self.deliver(t, x)) {
                 // The controller runs on the sample's own time: with the latency line this is the same as
                 // computing at the sampling instant and writing the command `latency_samples` ticks later.
                 let out = self
@@ -108,7 +191,10 @@ impl<P: Plant> Loop<P> {
                 self.mode = out.mode;
             }
         }
-        let cmd = self.scenario_command.value(t) * self.command_scale;
+        let cmd = match self.flight.as_ref() {
+            Some(f) if f.has_outer_loop() => f.stick_cmd_rad() * self.command_scale,
+            _ => self.scenario_command.value(t) * self.command_scale,
+        };
         let hand_force = self.hand.step(cmd, s.grip_x_m, s.grip_v_m_s, dt);
         let row = Row {
             t_s: t,
@@ -129,6 +215,8 @@ impl<P: Plant> Loop<P> {
             potential_energy_j: s.potential_energy_j,
             dissipated_j: s.dissipated_j,
             pilot_work_j: self.pilot_work_j,
+            faults: self.faults.schedule.active_mask(t),
+            aero: self.flight.as_ref().map(|f| f.row(t)),
         };
         // issue 6 hook: driver faults between the command and the coil.
         let coil_cmd_a = self
@@ -139,7 +227,7 @@ impl<P: Plant> Loop<P> {
         // Work of a force held over the step: F·Δx along the grip path (exact for the zero-order hold).
         self.pilot_work_j += hand_force * (after.grip_x_m - s.grip_x_m);
         self.step_index += 1;
-        row
+        Ok(row)
     }
 }
 
@@ -150,8 +238,8 @@ pub fn run<P: Plant>(
     plant: P,
     opts: RunOptions,
     mut progress: impl FnMut(f64),
-) -> Results {
-    let mut lp = Loop::new(scn, device, plant);
+) -> Result<Results, SimError> {
+    let mut lp = Loop::new(scn, device, plant)?;
     let dt = lp.plant.dt_s();
     let n = (scn.duration_s / dt).round() as usize;
     let frame_every = opts
@@ -166,13 +254,19 @@ pub fn run<P: Plant>(
                 frames.push((k as f64 * dt, lp.plant.poses()));
             }
         }
-        rows.push(lp.step());
+        rows.push(lp.step()?);
         if k % report_every == 0 {
             progress(k as f64 / n as f64);
         }
     }
     progress(1.0);
-    Results {
+    let flight = lp.flight.as_ref().map(|f| FlightInfo {
+        aircraft: f.label().to_string(),
+        trim: f.trim,
+        trim_stick_rad: f.trim_stick_rad,
+        round_trip_us: f.round_trip_us(),
+    });
+    Ok(Results {
         scenario: scn.name.clone(),
         rest_speed_m_s: scn.controller.rest_speed_m_s,
         stroke_half_m: lp.plant.stroke_half_m(),
@@ -184,5 +278,11 @@ pub fn run<P: Plant>(
             Vec::new()
         },
         frames,
-    }
+        feel_ceiling_n: device.param("fc0_n").unwrap_or(0.0)
+            + device.param("fc_gain_n_per_a").unwrap_or(0.0) * scn.controller.gains.out_max,
+        faults: scn.faults.clone(),
+        grip_arm_m: lp.plant.grip_arm_m(),
+        gearing_at_centre_m_per_rad: lp.plant.gearing_m_per_rad(0.0),
+        flight,
+    })
 }

@@ -40,6 +40,11 @@ pub trait Plant {
     fn stroke_half_m(&self) -> f64;
     /// Grip path length per stick radian, m/rad (the grip's lever about the pivot).
     fn grip_arm_m(&self) -> f64;
+    /// Piston travel per stick radian at a stick angle, m/rad (the linkage's local gearing; converts a grip
+    /// force to the piston by virtual work: `F_piston = F_grip · grip_arm / gearing`).
+    fn gearing_m_per_rad(&self, stick_angle_rad: f64) -> f64;
+    /// Stick travel stops, rad (min, max).
+    fn stick_limits_rad(&self) -> (f64, f64);
     /// Link names and visual shapes (static); empty when the plant has no geometry.
     fn visuals(&self) -> Vec<LinkVisuals> {
         Vec::new()
@@ -85,6 +90,16 @@ impl Plant for Rig {
 
     fn grip_arm_m(&self) -> f64 {
         self.grip_lever_m()
+    }
+
+    fn gearing_m_per_rad(&self, stick_angle_rad: f64) -> f64 {
+        self.linkage()
+            .gearing_m_per_rad(stick_angle_rad)
+            .unwrap_or(Rig::gearing_m_per_rad(self))
+    }
+
+    fn stick_limits_rad(&self) -> (f64, f64) {
+        Rig::stick_limits_rad(self)
     }
 
     fn visuals(&self) -> Vec<LinkVisuals> {

@@ -4,7 +4,10 @@ use std::io::Write;
 
 use serde::Serialize;
 
+use super::AeroRow;
+use crate::aero::AircraftState;
 use crate::control::LoopMode;
+use crate::faults::{FaultKind, FaultSchedule};
 use crate::rig::{BodyPose, LinkVisuals};
 
 /// One physics step: the state at its start and what was applied over it.
@@ -34,9 +37,13 @@ pub struct Row {
     pub dissipated_j: f64,
     /// Work done by the hand on the grip since the start, J.
     pub pilot_work_j: f64,
+    /// Faults active at this time (bit set over `FaultKind::ALL`, see [`crate::faults::mask_names`]).
+    pub faults: u8,
+    /// The aircraft's columns, when the scenario flies one.
+    pub aero: Option<AeroRow>,
 }
 
-pub const CSV_COLUMNS: [&str; 18] = [
+pub const CSV_COLUMNS: [&str; 19] = [
     "t_s",
     "stick_angle_rad",
     "stick_rate_rad_s",
@@ -55,7 +62,37 @@ pub const CSV_COLUMNS: [&str; 18] = [
     "potential_energy_j",
     "dissipated_j",
     "pilot_work_j",
+    "fault_mask",
 ];
+
+/// Columns added when the scenario flies an aircraft.
+pub const AERO_COLUMNS: [&str; 13] = [
+    "qbar_pa",
+    "elevator_rad",
+    "hinge_moment_nm",
+    "pitch_rad",
+    "pitch_cmd_rad",
+    "nz_g",
+    "nz_cmd_g",
+    "q_rad_s",
+    "alpha_rad",
+    "airspeed_m_s",
+    "altitude_m",
+    "stick_force_n",
+    "stick_cmd_rad",
+];
+
+/// The aircraft of a flight run.
+#[derive(Debug, Clone)]
+pub struct FlightInfo {
+    /// Backend label (`"c172p"`, `"jsbsim:c172p"`).
+    pub aircraft: String,
+    pub trim: AircraftState,
+    /// Stick angle of the trim (aircraft convention), rad: the rig's neutral.
+    pub trim_stick_rad: f64,
+    /// Live JSBSim: (requests, mean µs, max µs) of the step round trips.
+    pub round_trip_us: Option<(u64, f64, f64)>,
+}
 
 pub fn mode_code(m: LoopMode) -> u8 {
     match m {
@@ -76,6 +113,17 @@ pub struct Results {
     pub visuals: Vec<LinkVisuals>,
     /// Body poses at the drawing rate: (time, bodies).
     pub frames: Vec<(f64, Vec<BodyPose>)>,
+    /// The largest yield force the controller can ask for (`fc0 + fc_gain · current_max`), N on the
+    /// piston: the ceiling of the feel the damper can render.
+    pub feel_ceiling_n: f64,
+    /// The grip's arm about the pivot, m, and the linkage's gearing at centre stick, m/rad (to express
+    /// piston forces at the grip).
+    pub grip_arm_m: f64,
+    pub gearing_at_centre_m_per_rad: f64,
+    /// The scenario's fault schedule (for the CSV header and the summary).
+    pub faults: FaultSchedule,
+    /// The aircraft, when the scenario flies one.
+    pub flight: Option<FlightInfo>,
 }
 
 /// Summary figures of a run.
@@ -156,11 +204,33 @@ impl Results {
             w,
             "# forces: along +x on the piston (load cell, desired, damper); pilot force along the grip path"
         )?;
-        writeln!(w, "{}", CSV_COLUMNS.join(","))?;
-        for r in &self.rows {
+        let bits: Vec<String> = FaultKind::ALL
+            .iter()
+            .map(|f| format!("{}={}", f.bit(), f.name()))
+            .collect();
+        writeln!(
+            w,
+            "# fault_mask: sum of the active faults' bits: {}",
+            bits.join(", ")
+        )?;
+        if let Some(f) = &self.flight {
             writeln!(
                 w,
-                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                "# aircraft: {}, trim {} m/s at {} m, trim stick {} rad; stick_force_n at the grip (pull +)",
+                f.aircraft, f.trim.airspeed_m_s, f.trim.altitude_m, f.trim_stick_rad
+            )?;
+        }
+        let aero = self.flight.is_some();
+        let mut header = CSV_COLUMNS.join(",");
+        if aero {
+            header.push(',');
+            header.push_str(&AERO_COLUMNS.join(","));
+        }
+        writeln!(w, "{header}")?;
+        for r in &self.rows {
+            write!(
+                w,
+                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
                 r.t_s,
                 r.stick_angle_rad,
                 r.stick_rate_rad_s,
@@ -178,8 +248,30 @@ impl Results {
                 r.kinetic_energy_j,
                 r.potential_energy_j,
                 r.dissipated_j,
-                r.pilot_work_j
+                r.pilot_work_j,
+                r.faults
             )?;
+            if aero {
+                let a = r.aero.unwrap_or_default();
+                write!(
+                    w,
+                    ",{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                    a.qbar_pa,
+                    a.elevator_rad,
+                    a.hinge_moment_nm,
+                    a.pitch_rad,
+                    a.pitch_cmd_rad,
+                    a.nz_g,
+                    a.nz_cmd_g,
+                    a.q_rad_s,
+                    a.alpha_rad,
+                    a.airspeed_m_s,
+                    a.altitude_m,
+                    a.stick_force_n,
+                    a.stick_cmd_rad
+                )?;
+            }
+            writeln!(w)?;
         }
         Ok(())
     }
@@ -206,6 +298,8 @@ impl Row {
             potential_energy_j: 0.0,
             dissipated_j: 0.0,
             pilot_work_j: 0.0,
+            faults: 0,
+            aero: None,
         }
     }
 }
