@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 use toml::Spanned;
 
+use crate::control::feel::{CentringSpring, FeelKind, FeelSprings, FeelSystemConfig};
 use crate::control::{AntiWindup, FeelLaw, PidGains};
 use crate::pilot::attitude::{CrossoverPilotConfig, PilotLoop, Schedule};
 use crate::pilot::{HandConfig, Signal, Task};
@@ -98,6 +99,8 @@ pub struct Scenario {
     pub aircraft: Option<AircraftConfig>,
     /// The pilot's outer loop on the aircraft, if any.
     pub outer_loop: Option<OuterLoopConfig>,
+    /// The feel system on the rig (`[feel_system]`; the paper's MR damper alone by default).
+    pub feel_system: FeelSystemConfig,
 }
 
 impl Scenario {
@@ -325,6 +328,10 @@ impl Scenario {
             .as_ref()
             .map(|o| parse_outer_loop(o, &c))
             .transpose()?;
+        let feel_system = match &f.feel_system {
+            Some(fs) => parse_feel_system(fs, &c, dir, aircraft.is_some())?,
+            None => FeelSystemConfig::default(),
+        };
         let wants_outer = f.pilot.signal.get_ref() == "outer-loop";
         match (&f.outer_loop, wants_outer) {
             (Some(o), false) => {
@@ -376,8 +383,121 @@ impl Scenario {
             faults: crate::faults::FaultSchedule::from_scenario_text(text, path, duration_s)?,
             aircraft,
             outer_loop,
+            feel_system,
         })
     }
+
+    /// The same scenario with another feel system.
+    pub fn with_feel_system(&self, feel_system: FeelSystemConfig) -> Self {
+        let mut s = self.clone();
+        s.feel_system = feel_system;
+        s
+    }
+}
+
+fn parse_feel_system(
+    fs: &FeelSystemSection,
+    c: &Ctx,
+    dir: &Path,
+    has_aircraft: bool,
+) -> Result<FeelSystemConfig, ScenarioError> {
+    let kind = FeelKind::from_name(fs.kind.get_ref()).ok_or_else(|| {
+        c.err(
+            &fs.kind,
+            "feel_system.kind",
+            &format!("`{}` is not one of: {}", fs.kind.get_ref(), FeelKind::names()),
+        )
+    })?;
+    let forbid = |v: &Option<Spanned<f64>>, key: &str| -> Result<(), ScenarioError> {
+        match v {
+            Some(v) => Err(c.err(
+                v,
+                &format!("feel_system.{key}"),
+                &format!("not used by `{}`", kind.name()),
+            )),
+            None => Ok(()),
+        }
+    };
+    let need = |v: &Option<Spanned<f64>>, key: &str, hi: f64, unit: &str| -> Result<f64, ScenarioError> {
+        match v {
+            Some(v) => c.num(v, &format!("feel_system.{key}"), 0.0, hi, unit),
+            None => Err(c.err(
+                &fs.kind,
+                &format!("feel_system.{key}"),
+                &format!("required by `{}`", kind.name()),
+            )),
+        }
+    };
+    let springs = match (&fs.springs, kind) {
+        (None, FeelKind::Mr) => None,
+        (Some(p), FeelKind::Mr) => {
+            return Err(c.err(p, "feel_system.springs", "not used by `mr`"));
+        }
+        (Some(p), _) => Some(
+            FeelSprings::load(&dir.join(p.get_ref()))
+                .map_err(|e| c.err(p, "feel_system.springs", &e.to_string()))?,
+        ),
+        (None, _) => {
+            return Err(c.err(
+                &fs.kind,
+                "feel_system.springs",
+                &format!(
+                    "required by `{}` (a feel-spring file such as models/feel-springs.toml)",
+                    kind.name()
+                ),
+            ))
+        }
+    };
+    let spring_unit = !kind.has_coil();
+    let damping = if spring_unit {
+        need(&fs.damping_n_s_per_m, "damping_n_s_per_m", 1e5, "N·s/m")?
+    } else {
+        forbid(&fs.damping_n_s_per_m, "damping_n_s_per_m")?;
+        0.0
+    };
+    let (q_from_aircraft, qbar) =
+        if kind == FeelKind::QFeel {
+            match &fs.qbar_pa {
+                Some(q) => (false, c.num(q, "feel_system.qbar_pa", 0.0, 1e6, "Pa")?),
+                None if has_aircraft => (true, 0.0),
+                None => return Err(c.err(
+                    &fs.kind,
+                    "feel_system.qbar_pa",
+                    "required by `q_feel` without an `[aircraft]` (whose dynamic pressure it would follow)",
+                )),
+            }
+        } else {
+            forbid(&fs.qbar_pa, "qbar_pa")?;
+            (false, 0.0)
+        };
+    let (hybrid_k, ret) = if kind == FeelKind::MrSpring {
+        (
+            need(&fs.hybrid_k_n_per_m, "hybrid_k_n_per_m", 1e6, "N/m")?,
+            need(
+                &fs.return_damping_n_s_per_m,
+                "return_damping_n_s_per_m",
+                1e5,
+                "N·s/m",
+            )?,
+        )
+    } else {
+        forbid(&fs.hybrid_k_n_per_m, "hybrid_k_n_per_m")?;
+        forbid(&fs.return_damping_n_s_per_m, "return_damping_n_s_per_m")?;
+        (0.0, 0.0)
+    };
+    let mut out = match &springs {
+        Some(sp) => FeelSystemConfig::from_springs(
+            kind,
+            sp,
+            qbar,
+            CentringSpring { k_n_per_m: hybrid_k },
+            damping,
+            ret,
+        ),
+        None => FeelSystemConfig::default(),
+    };
+    out.q_from_aircraft = q_from_aircraft;
+    Ok(out)
 }
 
 fn parse_aircraft(
@@ -764,6 +884,18 @@ struct File {
     fault: Option<toml::Value>,
     aircraft: Option<AircraftSection>,
     outer_loop: Option<OuterLoopSection>,
+    feel_system: Option<FeelSystemSection>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FeelSystemSection {
+    kind: Spanned<String>,
+    springs: Option<Spanned<PathBuf>>,
+    damping_n_s_per_m: Option<Spanned<f64>>,
+    qbar_pa: Option<Spanned<f64>>,
+    hybrid_k_n_per_m: Option<Spanned<f64>>,
+    return_damping_n_s_per_m: Option<Spanned<f64>>,
 }
 
 #[derive(Deserialize)]

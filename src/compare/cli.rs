@@ -326,7 +326,7 @@ fn rerun_log(c: &Comparison, path: &Path) -> anyhow::Result<()> {
 pub fn run_cmd(a: CompareArgs) -> anyhow::Result<()> {
     let scn = CompareScenario::load(&a.scenario)?;
     let systems = match &a.feel {
-        Some(list) => FeelKind::parse_list(list)?,
+        Some(list) => super::parse_feel_list(list)?,
         None => scn.systems.clone(),
     };
     let bar = ProgressBar::new(1);

@@ -59,10 +59,26 @@ pub fn load(path: &Path) -> anyhow::Result<(Scenario, DeviceConfig, crate::rig::
     Ok((scn, device, rig))
 }
 
-/// The scenario's rig with the device's damper.
+/// The scenario's rig with the device's damper, or for a spring feel unit (no MR element) the same
+/// damper with no coil and the unit's own viscous damping.
 pub fn build_rig(scn: &Scenario, device: &DeviceConfig) -> anyhow::Result<crate::rig::Rig> {
-    crate::rig::Rig::new(&scn.rig, device.damper())
-        .with_context(|| format!("rig of scenario {}", scn.path.display()))
+    let fs = &scn.feel_system;
+    let mut damper = device.damper();
+    if !fs.kind.has_coil() {
+        let mut p = damper.params().to_vec();
+        for (name, v) in [
+            ("fc0_n", 0.0),
+            ("fc_gain_n_per_a", 0.0),
+            ("c0_n_s_per_m", fs.unit_damping_n_s_per_m),
+        ] {
+            if let Some(k) = damper.model().param_index(name) {
+                p[k] = v;
+            }
+        }
+        damper = crate::device::Damper::new(device.model.clone(), p)
+            .with_context(|| format!("feel unit of scenario {}", scn.path.display()))?;
+    }
+    crate::rig::Rig::new(&scn.rig, damper).with_context(|| format!("rig of scenario {}", scn.path.display()))
 }
 
 fn progress_bar(len: u64, msg: &str) -> ProgressBar {

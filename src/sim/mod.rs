@@ -29,7 +29,8 @@ pub use results::{FlightInfo, Results, Row, Summary};
 
 use std::collections::VecDeque;
 
-use crate::control::{Feedforward, FeelController, FeelLaw, LoopMode, Pid};
+use crate::control::feel::{FeelSystem, FeelSystemConfig, SpringElement};
+use crate::control::{Feedforward, FeelController, FeelLaw, Hybrid, LoopMode, Pid};
 use crate::device::DeviceConfig;
 use crate::pilot::{Hand, Task};
 use crate::scenario::Scenario;
@@ -75,6 +76,11 @@ pub struct Loop<P: Plant> {
     last_delivered_t_s: f64,
     /// The aircraft in the loop, if the scenario has one.
     pub flight: Option<Flight>,
+    /// The feel system (MR damper, spring unit, or hybrid) and its spring, if any.
+    feel_system: FeelSystemConfig,
+    spring: Option<SpringElement>,
+    /// The coil current command applied last (after driver faults), A.
+    current_applied_a: f64,
     scenario_path: std::path::PathBuf,
 }
 
@@ -88,13 +94,20 @@ impl<P: Plant> Loop<P> {
             te_s: device.param("te_s").unwrap_or(0.0),
             tm_s: device.param("tm_s").unwrap_or(0.0),
         });
-        let controller = FeelController::new(
+        let mut controller = FeelController::new(
             scn.feel.clone(),
             Pid::new(scn.controller.gains),
             feedforward,
             scn.controller.rest_speed_m_s,
             scn.controller.rest_force_n,
         );
+        let fs = scn.feel_system.clone();
+        if fs.kind == crate::control::feel::FeelKind::MrSpring {
+            controller.hybrid = fs.spring.map(|spring| Hybrid {
+                spring,
+                return_damping_n_s_per_m: fs.return_damping_n_s_per_m,
+            });
+        }
         let command_scale = match scn.pilot.task {
             Task::Position => plant.grip_arm_m(),
             Task::Force => 1.0,
@@ -133,6 +146,9 @@ impl<P: Plant> Loop<P> {
             last_delivered_t_s: f64::NEG_INFINITY,
             flight,
             scenario_path: scn.path.clone(),
+            spring: fs.spring,
+            feel_system: fs,
+            current_applied_a: 0.0,
         })
     }
 
@@ -173,6 +189,11 @@ impl<P: Plant> Loop<P> {
                     / self.plant.gearing_m_per_rad(s.stick_angle_rad);
                 self.controller.law = FeelLaw::Target { force_n };
             }
+            if self.feel_system.q_from_aircraft {
+                if let Some(sp) = self.spring.as_mut() {
+                    sp.set_dynamic_pressure(f.row(t).qbar_pa);
+                }
+            }
         }
         if self.daq.due(t) {
             // issue 6 hook: sensor faults between the transducers and the DAQ.
@@ -185,7 +206,12 @@ impl<P: Plant> Loop<P> {
                 let out = self
                     .controller
                     .update(sample.sampled_t_s, &sample, self.daq.period_s());
-                self.current_cmd_a = out.current_cmd_a;
+                // A spring feel unit has no coil: the loop only logs its target.
+                self.current_cmd_a = if self.feel_system.kind.has_coil() {
+                    out.current_cmd_a
+                } else {
+                    0.0
+                };
                 self.desired_force_n = out.desired_force_n;
                 self.measured_force_n = sample.force_n;
                 self.mode = out.mode;
@@ -195,7 +221,18 @@ impl<P: Plant> Loop<P> {
             Some(f) if f.has_outer_loop() => f.stick_cmd_rad() * self.command_scale,
             _ => self.scenario_command.value(t) * self.command_scale,
         };
-        let hand_force = self.hand.step(cmd, s.grip_x_m, s.grip_v_m_s, dt);
+        // A NaN command: hands off the stick.
+        let hand_force = if cmd.is_nan() {
+            self.hand.release();
+            0.0
+        } else {
+            self.hand.step(cmd, s.grip_x_m, s.grip_v_m_s, dt)
+        };
+        // issue 6 hook: driver faults between the command and the coil.
+        let coil_cmd_a = self
+            .faults
+            .coil_command_a(t, self.current_cmd_a, self.current_limit_a);
+        self.current_applied_a = coil_cmd_a;
         let row = Row {
             t_s: t,
             stick_angle_rad: s.stick_angle_rad,
@@ -216,12 +253,13 @@ impl<P: Plant> Loop<P> {
             dissipated_j: s.dissipated_j,
             pilot_work_j: self.pilot_work_j,
             faults: self.faults.schedule.active_mask(t),
+            current_applied_a: self.current_applied_a,
+            coil_current_a: s.coil_current_a,
+            spring_energy_j: self.spring.map_or(0.0, |sp| sp.stored_energy_j(s.piston_x_m)),
             aero: self.flight.as_ref().map(|f| f.row(t)),
         };
-        // issue 6 hook: driver faults between the command and the coil.
-        let coil_cmd_a = self
-            .faults
-            .coil_command_a(t, self.current_cmd_a, self.current_limit_a);
+        self.plant
+            .set_feel_spring(self.spring.as_ref().map(|sp| sp as &dyn FeelSystem));
         self.plant.step(hand_force, coil_cmd_a);
         let after = self.plant.state();
         // Work of a force held over the step: F·Δx along the grip path (exact for the zero-order hold).

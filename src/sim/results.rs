@@ -39,11 +39,17 @@ pub struct Row {
     pub pilot_work_j: f64,
     /// Faults active at this time (bit set over `FaultKind::ALL`, see [`crate::faults::mask_names`]).
     pub faults: u8,
+    /// The current the coil actually receives (after driver faults), A, and the coil's current
+    /// (Eq. 3's state), A.
+    pub current_applied_a: f64,
+    pub coil_current_a: f64,
+    /// Energy stored in a spring feel element, J (0 without one).
+    pub spring_energy_j: f64,
     /// The aircraft's columns, when the scenario flies one.
     pub aero: Option<AeroRow>,
 }
 
-pub const CSV_COLUMNS: [&str; 19] = [
+pub const CSV_COLUMNS: [&str; 22] = [
     "t_s",
     "stick_angle_rad",
     "stick_rate_rad_s",
@@ -63,6 +69,9 @@ pub const CSV_COLUMNS: [&str; 19] = [
     "dissipated_j",
     "pilot_work_j",
     "fault_mask",
+    "current_applied_a",
+    "coil_current_a",
+    "spring_energy_j",
 ];
 
 /// Columns added when the scenario flies an aircraft.
@@ -145,8 +154,10 @@ pub struct Summary {
     pub pilot_work_j: f64,
     pub kinetic_energy_change_j: f64,
     pub potential_energy_change_j: f64,
+    /// Change of the energy stored in a spring feel element, J.
+    pub spring_energy_change_j: f64,
     pub dissipated_j: f64,
-    /// (pilot work − ΔKE − ΔPE − dissipated) / pilot work.
+    /// (pilot work − ΔKE − ΔPE − Δspring − dissipated) / pilot work.
     pub energy_residual: f64,
 }
 
@@ -172,6 +183,7 @@ impl Results {
         let dke = last.kinetic_energy_j - first.kinetic_energy_j;
         let dpe = last.potential_energy_j - first.potential_energy_j;
         let diss = last.dissipated_j - first.dissipated_j;
+        let dspring = last.spring_energy_j - first.spring_energy_j;
         Summary {
             scenario: self.scenario.clone(),
             duration_s: last.t_s - first.t_s,
@@ -186,9 +198,10 @@ impl Results {
             pilot_work_j: w,
             kinetic_energy_change_j: dke,
             potential_energy_change_j: dpe,
+            spring_energy_change_j: dspring,
             dissipated_j: diss,
             energy_residual: if w != 0.0 {
-                (w - dke - dpe - diss) / w
+                (w - dke - dpe - dspring - diss) / w
             } else {
                 f64::NAN
             },
@@ -230,7 +243,7 @@ impl Results {
         for r in &self.rows {
             write!(
                 w,
-                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
                 r.t_s,
                 r.stick_angle_rad,
                 r.stick_rate_rad_s,
@@ -249,7 +262,10 @@ impl Results {
                 r.potential_energy_j,
                 r.dissipated_j,
                 r.pilot_work_j,
-                r.faults
+                r.faults,
+                r.current_applied_a,
+                r.coil_current_a,
+                r.spring_energy_j
             )?;
             if aero {
                 let a = r.aero.unwrap_or_default();
@@ -299,6 +315,9 @@ impl Row {
             dissipated_j: 0.0,
             pilot_work_j: 0.0,
             faults: 0,
+            current_applied_a: 0.0,
+            coil_current_a: 0.0,
+            spring_energy_j: 0.0,
             aero: None,
         }
     }
@@ -330,10 +349,11 @@ impl std::fmt::Display for Summary {
         writeln!(f, "  max |load cell| {:.1} N", self.max_abs_load_cell_n)?;
         write!(
             f,
-            "  energy: pilot work {:.4} J = ΔKE {:.4} J + ΔPE {:.4} J + dissipated {:.4} J (residual {:.3} %)",
+            "  energy: pilot work {:.4} J = ΔKE {:.4} J + ΔPE {:.4} J + Δspring {:.4} J + dissipated {:.4} J (residual {:.3} %)",
             self.pilot_work_j,
             self.kinetic_energy_change_j,
             self.potential_energy_change_j,
+            self.spring_energy_change_j,
             self.dissipated_j,
             100.0 * self.energy_residual
         )
