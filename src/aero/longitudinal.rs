@@ -54,7 +54,11 @@ pub struct AircraftState {
     pub alpha_tail_rad: f64,
     /// Elevator hinge moment, N·m, positive trailing edge down.
     pub hinge_moment_nm: f64,
-    /// Stick force that holds the elevator against `hinge_moment_nm`, N, positive = pull (aft).
+    /// Column neutral set by trimming, before the Mach trim shift (powered controls with a feel
+    /// computer; 0 otherwise), stick rad positive aft.
+    pub feel_trim_rad: f64,
+    /// Stick force at the grip, N, positive = pull (aft): the hinge moment fed back (reversible
+    /// controls) plus the feel computer's force (powered controls), [`HingeModel::stick_force_n`].
     pub stick_force_n: f64,
 }
 
@@ -90,6 +94,7 @@ pub struct Aircraft {
     t_s: f64,
     controls: Controls,
     tab_rad: f64,
+    feel_trim_rad: f64,
     state: AircraftState,
 }
 
@@ -106,6 +111,7 @@ impl Aircraft {
                 throttle: 0.0,
             },
             tab_rad: 0.0,
+            feel_trim_rad: 0.0,
             state: AircraftState::default(),
         };
         a.refresh();
@@ -130,7 +136,8 @@ impl Aircraft {
     }
 
     /// Trim in wings-level, unaccelerated level flight at a true airspeed and altitude: solves
-    /// alpha, elevator and throttle, sets the trim tab so the stick force is zero, and resets time.
+    /// alpha, elevator and throttle, sets the trim tab (and the feel computer's column neutral) so
+    /// the stick force is zero, and resets time.
     pub fn trim(&mut self, airspeed_m_s: f64, altitude_m: f64) -> Result<AircraftState, AeroError> {
         let (x, c) = self.solve_trim(airspeed_m_s, altitude_m, 1.0, None)?;
         self.x = x;
@@ -150,7 +157,13 @@ impl Aircraft {
                     self.hinge.tab_min_rad, self.hinge.tab_max_rad
                 ),
             })?;
+        self.feel_trim_rad = 0.0;
         self.refresh();
+        if let Some(fc) = &self.hinge.feel_computer {
+            let stick = self.hinge.stick_from_elevator_rad(c.elevator_rad);
+            self.feel_trim_rad = fc.trim_rad(stick, self.state.mach);
+            self.refresh();
+        }
         Ok(self.state)
     }
 
@@ -179,6 +192,15 @@ impl Aircraft {
     pub fn set_tab_rad(&mut self, tab_rad: f64) {
         self.tab_rad = tab_rad.clamp(self.hinge.tab_min_rad, self.hinge.tab_max_rad);
         self.refresh();
+    }
+
+    /// Move the feel computer's column neutral (the pilot re-trims a powered elevator), stick rad
+    /// positive aft; no effect without a feel computer.
+    pub fn set_feel_trim_rad(&mut self, feel_trim_rad: f64) {
+        if self.hinge.feel_computer.is_some() {
+            self.feel_trim_rad = feel_trim_rad;
+            self.refresh();
+        }
     }
 
     /// Stick force, N (pull positive), to hold a steady symmetric pull-up at load factor `nz_g`
@@ -215,9 +237,10 @@ impl Aircraft {
     ) -> Result<f64, AeroError> {
         let mut a = self.clone();
         a.trim(trim_airspeed_m_s, altitude_m)?;
-        let tab = a.tab_rad;
+        let (tab, feel_trim) = (a.tab_rad, a.feel_trim_rad);
         a.trim(airspeed_m_s, altitude_m)?;
         a.tab_rad = tab;
+        a.feel_trim_rad = feel_trim;
         a.refresh();
         Ok(a.state.stick_force_n)
     }
@@ -269,8 +292,10 @@ impl Aircraft {
             thrust_n: e.thrust,
             alpha_tail_rad: alpha_t,
             hinge_moment_nm: hm,
-            stick_force_n: self.hinge.stick_force_n(hm),
+            feel_trim_rad: self.feel_trim_rad,
+            stick_force_n: 0.0,
         };
+        self.state.stick_force_n = self.hinge.stick_force_n(&self.state);
     }
 
     fn thrust_n(&self, throttle: f64, airspeed: f64, rho: f64) -> f64 {
