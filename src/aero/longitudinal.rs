@@ -222,6 +222,20 @@ impl Aircraft {
         Ok(trimmed.state.stick_force_n)
     }
 
+    /// Stick displacement per g, rad of stick (aft positive) per g: the secant between the 1-g trim and
+    /// a steady pull-up at `nz_g` (tab and throttle at the 1-g trim), what a pilot learns as "so much
+    /// column for so much g" (the pursuit pilot's feedforward, [`crate::pilot::attitude::PursuitPilot`]).
+    pub fn stick_per_g_rad(&self, airspeed_m_s: f64, altitude_m: f64, nz_g: f64) -> Result<f64, AeroError> {
+        let mut trimmed = self.clone();
+        let s1 = trimmed.trim(airspeed_m_s, altitude_m)?;
+        let (_, c) = trimmed.solve_trim(airspeed_m_s, altitude_m, nz_g, Some(s1.throttle))?;
+        let h = &self.hinge;
+        Ok(
+            (h.stick_from_elevator_rad(c.elevator_rad) - h.stick_from_elevator_rad(s1.elevator_rad))
+                / (nz_g - 1.0),
+        )
+    }
+
     /// Stick force per g, N/g: the secant between 1 g and `nz_g` of [`Self::pull_up_stick_force_n`].
     pub fn stick_force_per_g(&self, airspeed_m_s: f64, altitude_m: f64, nz_g: f64) -> Result<f64, AeroError> {
         Ok(self.pull_up_stick_force_n(airspeed_m_s, altitude_m, nz_g)? / (nz_g - 1.0))
@@ -248,19 +262,38 @@ impl Aircraft {
     /// Eigenvalues of the longitudinal dynamics linearised about the current state with the
     /// controls held (finite differences over `[u, w, q, theta]`; altitude frozen).
     pub fn linear_modes(&self) -> Vec<(f64, f64)> {
-        let c = self.controls;
-        let f0 = self.eval(&self.x, c).dx;
-        let mut a = nalgebra::Matrix4::<f64>::zeros();
-        for j in 0..4 {
-            let h = 1e-6 * self.x[j].abs().max(1e-3);
-            let mut xp = self.x;
-            xp[j] += h;
-            let fp = self.eval(&xp, c).dx;
-            for i in 0..4 {
-                a[(i, j)] = (fp[i] - f0[i]) / h;
-            }
-        }
-        a.complex_eigenvalues().iter().map(|z| (z.re, z.im)).collect()
+        self.linearise()
+            .a
+            .complex_eigenvalues()
+            .iter()
+            .map(|z| (z.re, z.im))
+            .collect()
+    }
+
+    /// Small-perturbation model about the current state and controls (see [`super::linear`]).
+    pub fn linearise(&self) -> super::linear::LinearLongitudinal {
+        super::linear::LinearLongitudinal::about(self)
+    }
+
+    /// Time derivatives of `[u, w, q, theta]` and the load factor at body state `x4` (altitude held
+    /// at the current one) with the elevator `elevator_rad` and the current throttle. For
+    /// linearisation: the elevator is not held at its stops here.
+    pub(crate) fn derivatives_and_nz(&self, x4: [f64; 4], elevator_rad: f64) -> ([f64; 4], f64) {
+        let x = [x4[0], x4[1], x4[2], x4[3], self.x[4]];
+        let c = Controls {
+            elevator_rad,
+            throttle: self.controls.throttle,
+        };
+        let e = self.eval(&x, c);
+        ([e.dx[0], e.dx[1], e.dx[2], e.dx[3]], e.nz)
+    }
+
+    /// Body state `[u, w, q, theta]` and the elevator held over the last step.
+    pub(crate) fn body_state_and_elevator(&self) -> ([f64; 4], f64) {
+        (
+            [self.x[0], self.x[1], self.x[2], self.x[3]],
+            self.controls.elevator_rad,
+        )
     }
 
     // ---------------------------------------------------------------------------------------
