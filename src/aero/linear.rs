@@ -96,17 +96,25 @@ impl LinearLongitudinal {
 
 /// McRuer's crossover pilot adapted to `aircraft` about its present (trimmed) state for the loop
 /// `output`: the controlled element is the linearised stick response ([`LinearLongitudinal`]) times
-/// the hand's activation lag `1/(hand_lag_s s + 1)` (0 when the stick follows the pilot's command
-/// directly), equalised and scaled by [`CrossoverPilotConfig::adapted_with`].
+/// a first-order lag `1/(stick_lag_s s + 1)` between the pilot's stick command and the stick: the
+/// hand's activation lag alone (0.1 s, `models/pilot-hand.toml`) when the stick moves freely, or the
+/// lag measured on the rig (stick command → stick angle; ≈ 1 s for the c172p pitch task with the
+/// paper's MR brake, docs/aero.md §4); 0 when the stick follows the command directly. Equalised and
+/// scaled by [`CrossoverPilotConfig::adapted_with`].
 pub fn adapted_pilot(
     aircraft: &Aircraft,
     output: PilotLoop,
     design: &CrossoverDesign,
-    hand_lag_s: f64,
+    stick_lag_s: f64,
 ) -> Result<CrossoverPilotConfig, CrossoverDesignError> {
+    if !(stick_lag_s.is_finite() && stick_lag_s >= 0.0) {
+        return Err(CrossoverDesignError(format!(
+            "stick lag {stick_lag_s} s must be finite and >= 0"
+        )));
+    }
     let lin = aircraft.linearise();
     CrossoverPilotConfig::adapted_with(
-        |w| lin.stick_response(output, w) / Complex::new(1.0, w * hand_lag_s),
+        |w| lin.stick_response(output, w) / Complex::new(1.0, w * stick_lag_s),
         design,
     )
 }
