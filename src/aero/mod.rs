@@ -18,6 +18,7 @@ pub mod backend;
 pub mod certification;
 pub mod hinge;
 pub mod jsbsim_bridge;
+pub mod linear;
 pub mod longitudinal;
 pub mod model;
 pub mod reference;
