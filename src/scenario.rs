@@ -72,11 +72,27 @@ pub struct AircraftConfig {
 #[derive(Debug, Clone, PartialEq)]
 pub struct OuterLoopConfig {
     pub loop_kind: PilotLoop,
-    /// The crossover pilot; its stick limits are set from the rig when the loop is built.
-    pub pilot: CrossoverPilotConfig,
+    /// The crossover pilot, given or adapted to the aircraft; stick limits are set from the rig.
+    pub pilot: PilotDesign,
     /// Command in the loop's unit: pitch in **rad** relative to trim (the file gives degrees), or load
     /// factor in g.
     pub command: Schedule,
+}
+
+/// How the pilot's outer loop gets its gains.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PilotDesign {
+    /// Gains given in the file (`gain`, `lead_s`, `lag_s`, `integral_per_s`, `delay_s`).
+    Given(CrossoverPilotConfig),
+    /// McRuer's crossover model: the pilot adapts gain and equalisation to the aircraft at its trim so that
+    /// the open loop crosses over at `crossover_rad_s` with the effective delay `delay_s`; `stick_lag_s` is
+    /// the lag from the pilot's stick command to the stick (hand and feel), part of the controlled element
+    /// (`crate::aero::linear::adapted_pilot`).
+    Adapted {
+        crossover_rad_s: f64,
+        delay_s: f64,
+        stick_lag_s: f64,
+    },
 }
 
 /// A validated scenario.
@@ -336,7 +352,7 @@ impl Scenario {
         match (&f.outer_loop, wants_outer) {
             (Some(o), false) => {
                 return Err(c.err(
-                    &o.gain,
+                    &o.loop_kind,
                     "outer_loop",
                     "an `[outer_loop]` section needs `pilot.signal = \"outer-loop\"`",
                 ))
@@ -353,7 +369,7 @@ impl Scenario {
         if let Some(o) = &f.outer_loop {
             if aircraft.is_none() {
                 return Err(c.err(
-                    &o.gain,
+                    &o.loop_kind,
                     "outer_loop",
                     "the pilot's outer loop needs an `[aircraft]` section to fly",
                 ));
@@ -544,25 +560,80 @@ fn parse_outer_loop(o: &OuterLoopSection, c: &Ctx) -> Result<OuterLoopConfig, Sc
     let opt = |v: &Option<Spanned<f64>>, key: &str, hi: f64, unit: &str| -> Result<f64, ScenarioError> {
         v.as_ref().map_or(Ok(0.0), |v| c.num(v, key, 0.0, hi, unit))
     };
-    let pilot = CrossoverPilotConfig {
-        gain: c.num(
-            &o.gain,
-            "outer_loop.gain",
-            0.0,
-            100.0,
-            "stick rad per rad (or per g)",
-        )?,
-        lead_s: opt(&o.lead_s, "outer_loop.lead_s", 10.0, "s")?,
-        lag_s: opt(&o.lag_s, "outer_loop.lag_s", 100.0, "s")?,
-        delay_s: c.num(&o.delay_s, "outer_loop.delay_s", 0.0, 1.0, "s")?,
-        integral_per_s: opt(
-            &o.integral_per_s,
-            "outer_loop.integral_per_s",
-            100.0,
-            "stick rad per (unit·s)",
-        )?,
-        stick_min_rad: f64::NEG_INFINITY,
-        stick_max_rad: f64::INFINITY,
+    let delay_s = c.num(&o.delay_s, "outer_loop.delay_s", 0.0, 1.0, "s")?;
+    let pilot = match (&o.gain, &o.crossover_rad_s) {
+        (Some(gain), None) => {
+            if let Some(v) = &o.stick_lag_s {
+                return Err(c.err(
+                    v,
+                    "outer_loop.stick_lag_s",
+                    "only with `crossover_rad_s` (an adapted pilot)",
+                ));
+            }
+            PilotDesign::Given(CrossoverPilotConfig {
+                gain: c.num(
+                    gain,
+                    "outer_loop.gain",
+                    0.0,
+                    100.0,
+                    "stick rad per rad (or per g)",
+                )?,
+                lead_s: opt(&o.lead_s, "outer_loop.lead_s", 10.0, "s")?,
+                lag_s: opt(&o.lag_s, "outer_loop.lag_s", 100.0, "s")?,
+                delay_s,
+                integral_per_s: opt(
+                    &o.integral_per_s,
+                    "outer_loop.integral_per_s",
+                    100.0,
+                    "stick rad per (unit·s)",
+                )?,
+                stick_min_rad: f64::NEG_INFINITY,
+                stick_max_rad: f64::INFINITY,
+            })
+        }
+        (None, Some(wc)) => {
+            for (v, key) in [
+                (&o.lead_s, "lead_s"),
+                (&o.lag_s, "lag_s"),
+                (&o.integral_per_s, "integral_per_s"),
+            ] {
+                if let Some(v) = v {
+                    return Err(c.err(
+                        v,
+                        &format!("outer_loop.{key}"),
+                        "the adapted pilot (`crossover_rad_s`) chooses its own equalisation; give `gain` instead to set it",
+                    ));
+                }
+            }
+            PilotDesign::Adapted {
+                crossover_rad_s: c.num(wc, "outer_loop.crossover_rad_s", 0.1, 10.0, "rad/s")?,
+                delay_s,
+                stick_lag_s: match &o.stick_lag_s {
+                    Some(v) => c.num(v, "outer_loop.stick_lag_s", 0.0, 10.0, "s")?,
+                    None => {
+                        return Err(c.err(
+                            wc,
+                            "outer_loop.stick_lag_s",
+                            "required with `crossover_rad_s` (the lag from stick command to stick, s)",
+                        ))
+                    }
+                },
+            }
+        }
+        (Some(g), Some(_)) => {
+            return Err(c.err(
+                g,
+                "outer_loop.gain",
+                "give either `gain` (a pilot with given gains) or `crossover_rad_s` (adapted), not both",
+            ))
+        }
+        (None, None) => {
+            return Err(c.err(
+                &o.loop_kind,
+                "outer_loop.gain",
+                "needs `gain` (given gains) or `crossover_rad_s` (a pilot adapted to the aircraft)",
+            ))
+        }
     };
     let command = match loop_kind {
         PilotLoop::Pitch => {
@@ -913,11 +984,13 @@ struct AircraftSection {
 struct OuterLoopSection {
     #[serde(rename = "loop")]
     loop_kind: Spanned<String>,
-    gain: Spanned<f64>,
+    gain: Option<Spanned<f64>>,
     lead_s: Option<Spanned<f64>>,
     lag_s: Option<Spanned<f64>>,
     delay_s: Spanned<f64>,
     integral_per_s: Option<Spanned<f64>>,
+    crossover_rad_s: Option<Spanned<f64>>,
+    stick_lag_s: Option<Spanned<f64>>,
     /// `[[t_s, value], ...]`: pitch in degrees relative to trim, or load factor in g.
     command: Spanned<Vec<[f64; 2]>>,
 }

@@ -222,6 +222,46 @@ fn pull_up_reaches_the_load_factor_with_the_feel_capped_at_the_device_force() {
     );
 }
 
+/// The same task flown by a pilot adapted to the aircraft (McRuer's crossover model designed on the
+/// linearised c172p at its trim, ω_c 1.5 rad/s, with the ~1 s stick lag through hand and MR feel in the
+/// controlled element) instead of the file's gains: the pilot still completes it, no gain typed in.
+#[test]
+fn a_pilot_adapted_to_the_aircraft_flies_the_pitch_task_without_given_gains() {
+    let p = scenario_path("c172p-pitch-tracking.toml");
+    let text = std::fs::read_to_string(&p)
+        .unwrap()
+        .replace("gain = 0.6 ", "crossover_rad_s = 1.5\nstick_lag_s = 1.0 #")
+        .replace("lead_s = 0.3", "")
+        .replace("lag_s = 0.1 ", "#")
+        .replace("integral_per_s = 0.1", "");
+    let s = Scenario::parse(&text, &p).unwrap_or_else(|e| panic!("{e}"));
+    let d = DeviceConfig::load(&s.device_path, &mrfeel::device::Registry::builtin()).unwrap();
+    let r = fly(&s, &d);
+    let m = FlightMetrics::of(&r, &s).unwrap();
+    let trim = r.flight.as_ref().unwrap().trim.theta_rad;
+    let peak = r
+        .rows
+        .iter()
+        .filter_map(|x| x.aero)
+        .map(|a| a.pitch_rad - trim)
+        .fold(f64::NEG_INFINITY, f64::max);
+    println!(
+        "adapted pilot: pitch RMS error {:.3}° (span 8°), peak above trim {:.2}°",
+        m.tracking_rms.to_degrees(),
+        peak.to_degrees()
+    );
+    assert!(
+        m.tracking_rms < 0.025,
+        "adapted pilot RMS error {} rad",
+        m.tracking_rms
+    );
+    assert!(
+        peak > 0.8 * 5f64.to_radians() && peak < 2.0 * 5f64.to_radians(),
+        "peak {}°",
+        peak.to_degrees()
+    );
+}
+
 /// Live JSBSim 1.3.3 through the bridge flies the same scenario as the embedded model: pitch and load
 /// factor agree. Needs the repository's Python environment (made by the test command).
 #[test]
@@ -320,6 +360,23 @@ fn flight_scenario_errors_name_file_line_and_field() {
     let no_aircraft = format!("{}{}", &text[..start], &text[end..]);
     let e = err(&no_aircraft);
     assert!(e.contains("feel.law") && e.contains("[aircraft]"), "{e}");
+
+    // Given gains and an adapted pilot are exclusive; the adapted pilot needs the stick lag and chooses
+    // its own equalisation.
+    let bad = text.replace("gain = 0.6 ", "crossover_rad_s = 1.5\ngain = 0.6 ");
+    let e = err(&bad);
+    assert!(e.contains("outer_loop.gain") && e.contains("not both"), "{e}");
+    let adapted = text
+        .replace("gain = 0.6 ", "crossover_rad_s = 1.5 #")
+        .replace("lag_s = 0.1 ", "#")
+        .replace("integral_per_s = 0.1", "");
+    let e = err(&adapted);
+    assert!(e.contains("outer_loop.lead_s") && e.contains("adapted"), "{e}");
+    let e = err(&adapted.replace("lead_s = 0.3", ""));
+    assert!(
+        e.contains("outer_loop.stick_lag_s") && e.contains("required"),
+        "{e}"
+    );
 
     // The outer loop needs the outer-loop signal.
     let bad = text.replace("signal = \"outer-loop\"", "signal = \"hold\"\nvalue_rad = 0.0");

@@ -14,7 +14,7 @@
 use crate::aero::backend::{self, AircraftBackend};
 use crate::aero::{AeroError, AircraftState, HingeModel};
 use crate::pilot::attitude::{CrossoverPilot, CrossoverPilotConfig, PilotLoop, Schedule};
-use crate::scenario::{AircraftConfig, OuterLoopConfig};
+use crate::scenario::{AircraftConfig, OuterLoopConfig, PilotDesign};
 
 /// The aircraft's columns of a results row.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -35,6 +35,30 @@ pub struct AeroRow {
     pub stick_force_n: f64,
     /// The pilot's stick command, rad relative to trim (NaN without an outer loop).
     pub stick_cmd_rad: f64,
+}
+
+/// The crossover pilot adapted to the aircraft at its trim (McRuer): designed on the embedded model of the
+/// same aircraft (also when flying JSBSim live, whose linearisation it stands for).
+fn adapted(
+    cfg: &AircraftConfig,
+    kind: PilotLoop,
+    crossover_rad_s: f64,
+    delay_s: f64,
+    stick_lag_s: f64,
+) -> Result<CrossoverPilotConfig, AeroError> {
+    let name = cfg.model.strip_prefix("jsbsim:").unwrap_or(&cfg.model);
+    let mut ac = crate::aero::Aircraft::load(&crate::aero::AircraftModel::builtin_path(name))?;
+    ac.trim(cfg.airspeed_m_s, cfg.altitude_m)?;
+    crate::aero::linear::adapted_pilot(
+        &ac,
+        kind,
+        &crate::pilot::attitude::CrossoverDesign::new(crossover_rad_s, delay_s),
+        stick_lag_s,
+    )
+    .map_err(|e| AeroError::Input {
+        what: format!("adapted pilot for `{}` at ω_c {crossover_rad_s} rad/s", cfg.model),
+        why: e.0,
+    })
 }
 
 /// The pilot's outer loop.
@@ -72,18 +96,31 @@ impl Flight {
         let trim = backend.trim(cfg.airspeed_m_s, cfg.altitude_m, dt_s)?;
         let hinge = backend.hinge().clone();
         let trim_stick_rad = hinge.stick_from_elevator_rad(trim.elevator_rad);
-        let outer = outer.map(|o| Outer {
-            pilot: CrossoverPilot::new(
-                CrossoverPilotConfig {
-                    stick_min_rad: stick_limits_rad.0,
-                    stick_max_rad: stick_limits_rad.1,
-                    ..o.pilot
-                },
-                dt_s,
-            ),
-            kind: o.loop_kind,
-            command: o.command.clone(),
-        });
+        let outer = match outer {
+            Some(o) => {
+                let cfg = match o.pilot {
+                    PilotDesign::Given(c) => c,
+                    PilotDesign::Adapted {
+                        crossover_rad_s,
+                        delay_s,
+                        stick_lag_s,
+                    } => adapted(cfg, o.loop_kind, crossover_rad_s, delay_s, stick_lag_s)?,
+                };
+                Some(Outer {
+                    pilot: CrossoverPilot::new(
+                        CrossoverPilotConfig {
+                            stick_min_rad: stick_limits_rad.0,
+                            stick_max_rad: stick_limits_rad.1,
+                            ..cfg
+                        },
+                        dt_s,
+                    ),
+                    kind: o.loop_kind,
+                    command: o.command.clone(),
+                })
+            }
+            None => None,
+        };
         Ok(Self {
             backend,
             hinge,

@@ -39,7 +39,8 @@ impl FlightMetrics {
     pub fn of(res: &Results, scn: &Scenario) -> Option<Self> {
         let flight = res.flight.as_ref()?;
         let rows = &res.rows;
-        let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt();
+        // NaN for an empty set (nothing to judge), not 0.
+        let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt();
         let (tracking_rms, command_span) = match &scn.outer_loop {
             Some(o) => {
                 let t0 = o.command.first_change_s();
