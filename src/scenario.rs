@@ -444,6 +444,23 @@ fn parse_feel_system(
             )),
         }
     };
+    if kind == FeelKind::Active {
+        if let Some(p) = &fs.springs {
+            return Err(c.err(p, "feel_system.springs", "not used by `active`"));
+        }
+        for (v, key) in [
+            (&fs.qbar_pa, "qbar_pa"),
+            (&fs.hybrid_k_n_per_m, "hybrid_k_n_per_m"),
+            (&fs.return_damping_n_s_per_m, "return_damping_n_s_per_m"),
+        ] {
+            forbid(v, key)?;
+        }
+        return Ok(FeelSystemConfig::active(
+            need(&fs.motor_max_force_n, "motor_max_force_n", 1e4, "N")?,
+            need(&fs.damping_n_s_per_m, "damping_n_s_per_m", 1e5, "N·s/m")?,
+        ));
+    }
+    forbid(&fs.motor_max_force_n, "motor_max_force_n")?;
     let springs = match (&fs.springs, kind) {
         (None, FeelKind::Mr) => None,
         (Some(p), FeelKind::Mr) => {
@@ -967,6 +984,7 @@ struct FeelSystemSection {
     qbar_pa: Option<Spanned<f64>>,
     hybrid_k_n_per_m: Option<Spanned<f64>>,
     return_damping_n_s_per_m: Option<Spanned<f64>>,
+    motor_max_force_n: Option<Spanned<f64>>,
 }
 
 #[derive(Deserialize)]

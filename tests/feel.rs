@@ -59,7 +59,8 @@ fn passive_mr_damper_alone_keeps_the_stick_where_left_springs_and_hybrid_recentr
 #[test]
 fn no_passive_feel_system_injects_energy() {
     let scn = scenario();
-    for k in FeelKind::ALL {
+    // Every system but the motor-driven stick, which is not passive (see `the_active_stick_…`).
+    for k in FeelKind::ALL.into_iter().filter(|&k| k != FeelKind::Active) {
         let main = main_run(&scn, k, &FaultSchedule::none());
         let brk = run(&scn, k, &scn.breakout_task(), &FaultSchedule::none()).unwrap();
         let m = system_metrics(&scn, &main, &brk);
@@ -511,6 +512,8 @@ fn feel_system_section_errors_name_the_file_line_and_key() {
     // A q-feel spring with neither a fixed q̄ nor an aircraft to follow.
     let e = err("kind = \"q_feel\"\nsprings = \"../models/feel-springs.toml\"\ndamping_n_s_per_m = 100.0");
     assert!(e.contains("feel_system.qbar_pa"), "{e}");
+    let e = err("kind = \"active\"\ndamping_n_s_per_m = 20.0");
+    assert!(e.contains("feel_system.motor_max_force_n") && e.contains("required by `active`"), "{e}");
     // A key of another kind is refused, not ignored.
     let e = err("kind = \"mr\"\nhybrid_k_n_per_m = 500.0");
     assert!(
@@ -524,4 +527,86 @@ fn feel_system_section_errors_name_the_file_line_and_key() {
         e.contains("feel_system.damping_n_s_per_m") && e.contains("[0, 100000]"),
         "{e}"
     );
+}
+
+#[test]
+fn the_active_stick_renders_the_feel_best_but_a_stuck_motor_drives_the_stick_by_itself() {
+    // The motor-driven stick renders the target by impedance control: the smallest force error and
+    // phase lag of all systems, and it re-centres. It is not passive: with its driver stuck at full force
+    // (or with its position sensor frozen) the stick moves away from the centre with nobody on it: the
+    // back-drive hazard the MR damper cannot have (its driver stuck only makes the stick heavy).
+    let scn = scenario();
+    let none = FaultSchedule::none();
+    let metrics = |k: FeelKind| {
+        let main = main_run(&scn, k, &none);
+        let brk = run(&scn, k, &scn.breakout_task(), &none).unwrap();
+        (system_metrics(&scn, &main, &brk), main)
+    };
+    let (active, healthy) = metrics(FeelKind::Active);
+    for k in [
+        FeelKind::CentringSpring,
+        FeelKind::VariableGradientSpring,
+        FeelKind::QFeel,
+        FeelKind::Mr,
+        FeelKind::MrSpring,
+    ] {
+        let (m, _) = metrics(k);
+        assert!(
+            active.force_rms_error_n < 0.5 * m.force_rms_error_n,
+            "active {} N vs {} {} N",
+            active.force_rms_error_n,
+            k.name(),
+            m.force_rms_error_n
+        );
+        assert!(
+            active.phase_lag_deg.abs() < m.phase_lag_deg.abs(),
+            "{} phase",
+            k.name()
+        );
+    }
+    assert!(
+        active.recentre_offset_rad < scn.task.recentre_band_rad,
+        "{}",
+        active.recentre_offset_rad
+    );
+    let (a, b) = (scn.fault_test.start_s, scn.fault_test.end_s);
+    let stuck = |k: FeelKind| {
+        let tr = main_run(
+            &scn,
+            k,
+            &FaultSchedule::single(Fault::new(FaultKind::DriverStuck, a, b)),
+        );
+        let h = if k == FeelKind::Active {
+            healthy.clone()
+        } else {
+            main_run(&scn, k, &none)
+        };
+        fault_metrics(&scn, &tr, &h, a, b)
+    };
+    let act = stuck(FeelKind::Active);
+    let mr = stuck(FeelKind::Mr);
+    eprintln!(
+        "driver stuck, hands off: active moved {:.1}° away from the centre, MR {:.2}°",
+        act.hands_off_away_rad.to_degrees(),
+        mr.hands_off_away_rad.to_degrees()
+    );
+    // From the 0.2 rad release point to the 0.31 rad stop: 0.1 rad further out, with nobody on the stick.
+    assert!(
+        act.moves_without_pilot && act.hands_off_away_rad > 0.05,
+        "active: {act:?}"
+    );
+    assert!(
+        !mr.moves_without_pilot && mr.hands_off_away_rad < 1e-3,
+        "MR: {mr:?}"
+    );
+    // A frozen position sensor leaves the motor pushing towards where it believes the centre is.
+    let tr = main_run(
+        &scn,
+        FeelKind::Active,
+        &FaultSchedule::single(Fault::new(FaultKind::DisplacementDropout, a, b)),
+    );
+    let drop = fault_metrics(&scn, &tr, &healthy, a, b);
+    assert!(drop.moves_without_pilot, "dropout: {drop:?}");
+    // The motor has no coil: nothing reaches the (absent) MR element.
+    assert!(tr.rows.iter().all(|r| r.current_applied_a == 0.0));
 }

@@ -148,7 +148,7 @@ pub fn fault_table(scn: &CompareScenario, c: &Comparison) -> String {
     s += "|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (r, _) in &c.faults {
         let m = &r.m;
-        let no_path = !r.system.has_coil();
+        let no_path = !r.system.has_electrical_path();
         if no_path && r.fault != FaultKind::ALL[0] {
             continue; // one row: a spring feel unit has no coil, driver or sensors for a fault to act on
         }

@@ -110,10 +110,22 @@ struct File {
     task: TaskSection,
     limits: Limits,
     fault_test: FaultTest,
+    /// The active stick (`active`), if compared.
+    active: Option<ActiveSection>,
     /// `[[fault]]` tables, read by [`FaultSchedule::from_scenario_text`].
     #[serde(default)]
     #[allow(dead_code)]
     fault: Option<toml::Value>,
+}
+
+/// `[active]`: the motor-driven stick.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ActiveSection {
+    /// The motor's force limit on the piston, N.
+    pub max_force_n: f64,
+    /// The actuator's own viscous friction (back-EMF, gearbox), N·s/m.
+    pub damping_n_s_per_m: f64,
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -224,6 +236,8 @@ pub struct CompareScenario {
     pub task: TaskSection,
     pub limits: Limits,
     pub fault_test: FaultTest,
+    /// The active stick's motor, if the file describes one (`[active]`).
+    pub active: Option<ActiveSection>,
     /// Faults scheduled in the file (`[[fault]]`), applied to every run of `mrfeel compare`.
     pub faults: FaultSchedule,
 }
@@ -409,6 +423,24 @@ impl CompareScenario {
             f64::MAX,
             "s (after start_s)",
         )?;
+        if let Some(a) = &f.active {
+            chk("active", "max_force_n", a.max_force_n, 0.0, 1e4, "N")?;
+            chk(
+                "active",
+                "damping_n_s_per_m",
+                a.damping_n_s_per_m,
+                0.0,
+                1e5,
+                "N·s/m",
+            )?;
+        } else if systems.contains(&FeelKind::Active) {
+            return Err(CompareError::Field {
+                path: path.to_path_buf(),
+                line: line_of_key(text, "", "systems"),
+                key: "systems".into(),
+                msg: "`active` needs an `[active]` section (max_force_n, damping_n_s_per_m)".into(),
+            });
+        }
         let faults = FaultSchedule::from_scenario_text(text, path, task_s)?;
         Ok(Self {
             path: path.to_path_buf(),
@@ -430,12 +462,21 @@ impl CompareScenario {
             task: f.task,
             limits: f.limits,
             fault_test: f.fault_test,
+            active: f.active,
             faults,
         })
     }
 
     /// The feel system `kind` as this comparison sets it up (the q-feel spring at the scenario's q̄).
     pub fn feel_system(&self, kind: FeelKind) -> FeelSystemConfig {
+        if kind == FeelKind::Active {
+            // Checked on load: `[active]` is present whenever `active` can be run.
+            let a = self.active.unwrap_or(ActiveSection {
+                max_force_n: 0.0,
+                damping_n_s_per_m: 0.0,
+            });
+            return FeelSystemConfig::active(a.max_force_n, a.damping_n_s_per_m);
+        }
         FeelSystemConfig::from_springs(
             kind,
             &self.springs,
@@ -676,6 +717,12 @@ pub fn run(
     task: &Task,
     faults: &FaultSchedule,
 ) -> Result<Trace, CompareError> {
+    if kind == FeelKind::Active && scn.active.is_none() {
+        return Err(CompareError::Feel(format!(
+            "{}: `active` needs an `[active]` section (max_force_n, damping_n_s_per_m)",
+            scn.path.display()
+        )));
+    }
     let dt = 1.0 / scn.base.rig.physics_hz;
     let (pilot_task, samples) = pilot_command(task, dt)?;
     let mut s = scn.base.with_feel_system(scn.feel_system(kind));
@@ -737,7 +784,7 @@ pub fn run(
             stored_j: stored - e0,
             hand_work_j: r.pilot_work_j,
             damper_dissipated_j: r.dissipated_j,
-            faults: if kind.has_coil() { r.faults } else { 0 },
+            faults: if kind.has_electrical_path() { r.faults } else { 0 },
         });
     }
     Ok(Trace {

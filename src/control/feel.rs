@@ -129,15 +129,19 @@ pub enum FeelKind {
     QFeel,
     Mr,
     MrSpring,
+    /// A motor-driven (active) stick rendering the feel law by impedance control: the upper bound on
+    /// fidelity, and the one system that can drive the stick (back-drive hazard).
+    Active,
 }
 
 impl FeelKind {
-    pub const ALL: [FeelKind; 5] = [
+    pub const ALL: [FeelKind; 6] = [
         FeelKind::CentringSpring,
         FeelKind::VariableGradientSpring,
         FeelKind::QFeel,
         FeelKind::Mr,
         FeelKind::MrSpring,
+        FeelKind::Active,
     ];
 
     pub fn name(self) -> &'static str {
@@ -147,6 +151,7 @@ impl FeelKind {
             FeelKind::QFeel => "q_feel",
             FeelKind::Mr => "mr",
             FeelKind::MrSpring => "mr_spring",
+            FeelKind::Active => "active",
         }
     }
 
@@ -157,6 +162,12 @@ impl FeelKind {
     /// Whether the system has the MR damper and its electrical loop.
     pub fn has_coil(self) -> bool {
         matches!(self, FeelKind::Mr | FeelKind::MrSpring)
+    }
+
+    /// Whether the system has a driver and sensors a fault can act on (the MR systems and the active
+    /// stick; the spring units have none).
+    pub fn has_electrical_path(self) -> bool {
+        self.has_coil() || self == FeelKind::Active
     }
 
     /// The names, for error messages.
@@ -215,6 +226,8 @@ pub struct FeelSystemConfig {
     pub return_damping_n_s_per_m: f64,
     /// Whether a q-feel spring follows the flight's dynamic pressure (with an `[aircraft]`).
     pub q_from_aircraft: bool,
+    /// Active stick: the motor's force limit on the piston, N.
+    pub motor_max_force_n: f64,
 }
 
 impl Default for FeelSystemConfig {
@@ -225,6 +238,7 @@ impl Default for FeelSystemConfig {
             unit_damping_n_s_per_m: 0.0,
             return_damping_n_s_per_m: 0.0,
             q_from_aircraft: false,
+            motor_max_force_n: 0.0,
         }
     }
 }
@@ -250,7 +264,7 @@ impl FeelSystemConfig {
                 q.set_dynamic_pressure(qbar_pa);
                 Some(SpringElement::QFeel(q))
             }
-            FeelKind::Mr => None,
+            FeelKind::Mr | FeelKind::Active => None,
             FeelKind::MrSpring => Some(SpringElement::Centring(hybrid)),
         };
         Self {
@@ -259,6 +273,18 @@ impl FeelSystemConfig {
             unit_damping_n_s_per_m,
             return_damping_n_s_per_m,
             q_from_aircraft: false,
+            motor_max_force_n: 0.0,
+        }
+    }
+
+    /// The active stick: a motor with force limit `motor_max_force_n` (on the piston) and the actuator's
+    /// own viscous friction (motor back-EMF and gearbox).
+    pub fn active(motor_max_force_n: f64, damping_n_s_per_m: f64) -> Self {
+        Self {
+            kind: FeelKind::Active,
+            unit_damping_n_s_per_m: damping_n_s_per_m,
+            motor_max_force_n,
+            ..Self::default()
         }
     }
 }

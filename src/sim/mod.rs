@@ -29,7 +29,7 @@ pub use results::{FlightInfo, Results, Row, Summary};
 
 use std::collections::VecDeque;
 
-use crate::control::feel::{FeelSystem, FeelSystemConfig, SpringElement};
+use crate::control::feel::{FeelKind, FeelSystem, FeelSystemConfig, SpringElement};
 use crate::control::{Feedforward, FeelController, FeelLaw, Hybrid, LoopMode, Pid};
 use crate::device::DeviceConfig;
 use crate::pilot::{Hand, Task};
@@ -81,6 +81,11 @@ pub struct Loop<P: Plant> {
     spring: Option<SpringElement>,
     /// The coil current command applied last (after driver faults), A.
     current_applied_a: f64,
+    /// Active stick: the motor force command (held between DAQ ticks), the force applied over the step
+    /// (after driver faults), N on the piston, and the motor's work so far, J.
+    motor_cmd_n: f64,
+    actuator_force_n: f64,
+    actuator_work_j: f64,
     scenario_path: std::path::PathBuf,
 }
 
@@ -102,7 +107,7 @@ impl<P: Plant> Loop<P> {
             scn.controller.rest_force_n,
         );
         let fs = scn.feel_system.clone();
-        if fs.kind == crate::control::feel::FeelKind::MrSpring {
+        if fs.kind == FeelKind::MrSpring {
             controller.hybrid = fs.spring.map(|spring| Hybrid {
                 spring,
                 return_damping_n_s_per_m: fs.return_damping_n_s_per_m,
@@ -149,6 +154,9 @@ impl<P: Plant> Loop<P> {
             spring: fs.spring,
             feel_system: fs,
             current_applied_a: 0.0,
+            motor_cmd_n: 0.0,
+            actuator_force_n: 0.0,
+            actuator_work_j: 0.0,
         })
     }
 
@@ -206,7 +214,13 @@ impl<P: Plant> Loop<P> {
                 let out = self
                     .controller
                     .update(sample.sampled_t_s, &sample, self.daq.period_s());
-                // A spring feel unit has no coil: the loop only logs its target.
+                // Active stick: the motor renders the law by impedance control, pushing the piston with
+                // the force the pilot should feel, within its limit.
+                if self.feel_system.kind == FeelKind::Active {
+                    let m = self.feel_system.motor_max_force_n;
+                    self.motor_cmd_n = (-out.desired_force_n).clamp(-m, m);
+                }
+                // A spring feel unit (or the active stick) has no coil: the loop only logs its target.
                 self.current_cmd_a = if self.feel_system.kind.has_coil() {
                     out.current_cmd_a
                 } else {
@@ -229,10 +243,29 @@ impl<P: Plant> Loop<P> {
             self.hand.step(cmd, s.grip_x_m, s.grip_v_m_s, dt)
         };
         // issue 6 hook: driver faults between the command and the coil.
-        let coil_cmd_a = self
-            .faults
-            .coil_command_a(t, self.current_cmd_a, self.current_limit_a);
+        let coil_cmd_a = if self.feel_system.kind.has_coil() {
+            self.faults
+                .coil_command_a(t, self.current_cmd_a, self.current_limit_a)
+        } else {
+            0.0 // no coil: nothing for a driver fault to drive
+        };
         self.current_applied_a = coil_cmd_a;
+        if self.feel_system.kind == FeelKind::Active {
+            // Driver faults of the motor: open (no force), stuck at full force in the last direction.
+            use crate::faults::FaultKind;
+            let m = self.feel_system.motor_max_force_n;
+            self.actuator_force_n = if self.faults.schedule.active(FaultKind::CoilOpen, t).is_some() {
+                0.0
+            } else if self.faults.schedule.active(FaultKind::DriverStuck, t).is_some() {
+                if self.actuator_force_n != 0.0 {
+                    m * self.actuator_force_n.signum()
+                } else {
+                    m * self.motor_cmd_n.signum()
+                }
+            } else {
+                self.motor_cmd_n
+            };
+        }
         let row = Row {
             t_s: t,
             stick_angle_rad: s.stick_angle_rad,
@@ -256,12 +289,19 @@ impl<P: Plant> Loop<P> {
             current_applied_a: self.current_applied_a,
             coil_current_a: s.coil_current_a,
             spring_energy_j: self.spring.map_or(0.0, |sp| sp.stored_energy_j(s.piston_x_m)),
+            actuator_force_n: self.actuator_force_n,
+            actuator_work_j: self.actuator_work_j,
             aero: self.flight.as_ref().map(|f| f.row(t)),
         };
         self.plant
             .set_feel_spring(self.spring.as_ref().map(|sp| sp as &dyn FeelSystem));
+        if self.feel_system.kind == FeelKind::Active {
+            self.plant.set_actuator_force_n(self.actuator_force_n);
+        }
         self.plant.step(hand_force, coil_cmd_a);
         let after = self.plant.state();
+        // The motor's force held over the step does F·Δx on the piston.
+        self.actuator_work_j += self.actuator_force_n * (after.piston_x_m - s.piston_x_m);
         // Work of a force held over the step: F·Δx along the grip path (exact for the zero-order hold).
         self.pilot_work_j += hand_force * (after.grip_x_m - s.grip_x_m);
         self.step_index += 1;

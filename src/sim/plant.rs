@@ -50,6 +50,9 @@ pub trait Plant {
     fn stick_limits_rad(&self) -> (f64, f64);
     /// Put a spring feel element on the piston joint for the next step (`None`: none).
     fn set_feel_spring(&mut self, spring: Option<&dyn FeelSystem>);
+    /// An actuator's force on the piston along +x for the next step, N (the active stick's motor; call
+    /// after [`Plant::set_feel_spring`], which clears it).
+    fn set_actuator_force_n(&mut self, force_n: f64);
     /// Link names and visual shapes (static); empty when the plant has no geometry.
     fn visuals(&self) -> Vec<LinkVisuals> {
         Vec::new()
@@ -106,6 +109,10 @@ impl Plant for Rig {
 
     fn stick_limits_rad(&self) -> (f64, f64) {
         Rig::stick_limits_rad(self)
+    }
+
+    fn set_actuator_force_n(&mut self, force_n: f64) {
+        self.set_external_force_n(force_n);
     }
 
     fn set_feel_spring(&mut self, spring: Option<&dyn FeelSystem>) {

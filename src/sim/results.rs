@@ -45,11 +45,15 @@ pub struct Row {
     pub coil_current_a: f64,
     /// Energy stored in a spring feel element, J (0 without one).
     pub spring_energy_j: f64,
+    /// The active stick's motor force on the piston along +x, N, and its work on the piston so far, J
+    /// (0 for the other systems).
+    pub actuator_force_n: f64,
+    pub actuator_work_j: f64,
     /// The aircraft's columns, when the scenario flies one.
     pub aero: Option<AeroRow>,
 }
 
-pub const CSV_COLUMNS: [&str; 22] = [
+pub const CSV_COLUMNS: [&str; 24] = [
     "t_s",
     "stick_angle_rad",
     "stick_rate_rad_s",
@@ -72,6 +76,8 @@ pub const CSV_COLUMNS: [&str; 22] = [
     "current_applied_a",
     "coil_current_a",
     "spring_energy_j",
+    "actuator_force_n",
+    "actuator_work_j",
 ];
 
 /// Columns added when the scenario flies an aircraft.
@@ -156,8 +162,10 @@ pub struct Summary {
     pub potential_energy_change_j: f64,
     /// Change of the energy stored in a spring feel element, J.
     pub spring_energy_change_j: f64,
+    /// Work of the active stick's motor, J (0 for the passive systems).
+    pub actuator_work_j: f64,
     pub dissipated_j: f64,
-    /// (pilot work − ΔKE − ΔPE − Δspring − dissipated) / pilot work.
+    /// (pilot work + motor work − ΔKE − ΔPE − Δspring − dissipated) / (|pilot work| + |motor work|).
     pub energy_residual: f64,
 }
 
@@ -184,6 +192,7 @@ impl Results {
         let dpe = last.potential_energy_j - first.potential_energy_j;
         let diss = last.dissipated_j - first.dissipated_j;
         let dspring = last.spring_energy_j - first.spring_energy_j;
+        let wa = last.actuator_work_j - first.actuator_work_j;
         Summary {
             scenario: self.scenario.clone(),
             duration_s: last.t_s - first.t_s,
@@ -199,9 +208,10 @@ impl Results {
             kinetic_energy_change_j: dke,
             potential_energy_change_j: dpe,
             spring_energy_change_j: dspring,
+            actuator_work_j: wa,
             dissipated_j: diss,
-            energy_residual: if w != 0.0 {
-                (w - dke - dpe - dspring - diss) / w
+            energy_residual: if w != 0.0 || wa != 0.0 {
+                (w + wa - dke - dpe - dspring - diss) / (w.abs() + wa.abs())
             } else {
                 f64::NAN
             },
@@ -243,7 +253,7 @@ impl Results {
         for r in &self.rows {
             write!(
                 w,
-                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
                 r.t_s,
                 r.stick_angle_rad,
                 r.stick_rate_rad_s,
@@ -265,7 +275,9 @@ impl Results {
                 r.faults,
                 r.current_applied_a,
                 r.coil_current_a,
-                r.spring_energy_j
+                r.spring_energy_j,
+                r.actuator_force_n,
+                r.actuator_work_j
             )?;
             if aero {
                 let a = r.aero.unwrap_or_default();
@@ -318,6 +330,8 @@ impl Row {
             current_applied_a: 0.0,
             coil_current_a: 0.0,
             spring_energy_j: 0.0,
+            actuator_force_n: 0.0,
+            actuator_work_j: 0.0,
             aero: None,
         }
     }
