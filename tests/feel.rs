@@ -513,7 +513,10 @@ fn feel_system_section_errors_name_the_file_line_and_key() {
     let e = err("kind = \"q_feel\"\nsprings = \"../models/feel-springs.toml\"\ndamping_n_s_per_m = 100.0");
     assert!(e.contains("feel_system.qbar_pa"), "{e}");
     let e = err("kind = \"active\"\ndamping_n_s_per_m = 20.0");
-    assert!(e.contains("feel_system.motor_max_force_n") && e.contains("required by `active`"), "{e}");
+    assert!(
+        e.contains("feel_system.motor_max_force_n") && e.contains("required by `active`"),
+        "{e}"
+    );
     // A key of another kind is refused, not ignored.
     let e = err("kind = \"mr\"\nhybrid_k_n_per_m = 500.0");
     assert!(

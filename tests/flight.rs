@@ -38,6 +38,16 @@ fn pitch_tracking() -> &'static (Scenario, DeviceConfig, Results) {
     })
 }
 
+/// Largest pitch above the trim attitude over a flight, rad.
+fn peak_pitch_above_trim(r: &Results) -> f64 {
+    let trim = r.flight.as_ref().unwrap().trim.theta_rad;
+    r.rows
+        .iter()
+        .filter_map(|x| x.aero)
+        .map(|a| a.pitch_rad - trim)
+        .fold(f64::NEG_INFINITY, f64::max)
+}
+
 fn rms(v: impl Iterator<Item = f64>) -> f64 {
     let (mut s, mut n) = (0.0, 0usize);
     for x in v {
@@ -137,13 +147,7 @@ fn load_cell_follows_the_desired_force_where_the_damper_can_resist() {
 fn pilot_tracks_the_pitch_commands_through_the_mr_feel() {
     let (s, _, r) = pitch_tracking();
     let m = FlightMetrics::of(r, s).unwrap();
-    let trim = r.flight.as_ref().unwrap().trim.theta_rad;
-    let peak = r
-        .rows
-        .iter()
-        .filter_map(|x| x.aero)
-        .map(|a| a.pitch_rad - trim)
-        .fold(f64::NEG_INFINITY, f64::max);
+    let peak = peak_pitch_above_trim(&r);
     println!(
         "pitch tracking: RMS error {:.3}° after the first command (command span {:.1}°), peak pitch above trim {:.2}°",
         m.tracking_rms.to_degrees(),
@@ -238,13 +242,7 @@ fn a_pilot_adapted_to_the_aircraft_flies_the_pitch_task_without_given_gains() {
     let d = DeviceConfig::load(&s.device_path, &mrfeel::device::Registry::builtin()).unwrap();
     let r = fly(&s, &d);
     let m = FlightMetrics::of(&r, &s).unwrap();
-    let trim = r.flight.as_ref().unwrap().trim.theta_rad;
-    let peak = r
-        .rows
-        .iter()
-        .filter_map(|x| x.aero)
-        .map(|a| a.pitch_rad - trim)
-        .fold(f64::NEG_INFINITY, f64::max);
+    let peak = peak_pitch_above_trim(&r);
     println!(
         "adapted pilot: pitch RMS error {:.3}° (span 8°), peak above trim {:.2}°",
         m.tracking_rms.to_degrees(),
