@@ -147,7 +147,7 @@ fn load_cell_follows_the_desired_force_where_the_damper_can_resist() {
 fn pilot_tracks_the_pitch_commands_through_the_mr_feel() {
     let (s, _, r) = pitch_tracking();
     let m = FlightMetrics::of(r, s).unwrap();
-    let peak = peak_pitch_above_trim(&r);
+    let peak = peak_pitch_above_trim(r);
     println!(
         "pitch tracking: RMS error {:.3}° after the first command (command span {:.1}°), peak pitch above trim {:.2}°",
         m.tracking_rms.to_degrees(),
