@@ -27,11 +27,11 @@ fn bench(c: &mut Criterion) {
     let steps_per_iter = (1.0 / dt_s).round() as u64;
     g.throughput(Throughput::Elements(1));
     {
-        let mut lp = Loop::new(&scn, &device, cli::build_rig(&scn, &device).unwrap());
+        let mut lp = Loop::new(&scn, &device, cli::build_rig(&scn, &device).unwrap()).unwrap();
         g.bench_function("full_loop_1000_steps", |b| {
             b.iter(|| {
                 for _ in 0..steps_per_iter {
-                    black_box(lp.step().load_cell_true_n);
+                    black_box(lp.step().unwrap().load_cell_true_n);
                 }
             })
         });
@@ -59,6 +59,7 @@ fn bench(c: &mut Criterion) {
     let whole = |scn: &Scenario| {
         let rig = cli::build_rig(scn, &device).unwrap();
         sim::run(scn, &device, rig, RunOptions::default(), |_| {})
+            .unwrap()
             .rows
             .len()
     };

@@ -26,7 +26,7 @@ step "4. Model discovery on the real MR damper: where Bingham fails, the missing
 "$mrfeel" fit "$data" --model bingham+hysteresis --save "$out/utfsm-bingham+hysteresis.json" --plot "$out/fit"
 
 step "5. Pilot-in-the-loop flight: c172p pitch tracking, the hinge moment chooses the feel force"
-"$mrfeel" fly scenarios/c172p-pitch-tracking.toml --out "$out/c172p-pitch-tracking.csv" --rerun "$out/c172p-pitch-tracking.rrd"
+"$mrfeel" run scenarios/c172p-pitch-tracking.toml --out "$out/c172p-pitch-tracking.csv" --rerun "$out/c172p-pitch-tracking.rrd"
 
 step "6. Feel systems compared (springs, MR, hybrid) and under faults"
 "$mrfeel" compare scenarios/compare-feel.toml --plot "$out/compare" --rerun "$out/compare.rrd" --faults

@@ -74,7 +74,7 @@ impl FaultKind {
         Self::ALL.into_iter().find(|k| k.name() == s)
     }
 
-    fn bit(self) -> u8 {
+    pub fn bit(self) -> u8 {
         1 << (self as u8)
     }
 }

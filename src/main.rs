@@ -15,14 +15,13 @@ struct Cli {
 enum Command {
     /// Virtual MTS machine: drive the damper with a displacement protocol and record the force (CSV).
     Mts(mrfeel::mts::cli::MtsArgs),
-    /// Run a stick-rig scenario headless (CSV, Rerun recording, summary).
+    /// Run a scenario headless: the stick rig, its feel loop and pilot, and the aircraft if it has one
+    /// (CSV, Rerun recording, summary).
     Run(mrfeel::sim::cli::RunArgs),
     /// Force response time of the feel loop against the DAQ sample rate.
     DaqSweep(mrfeel::sim::cli::DaqSweepArgs),
     /// Compare feel systems (springs, MR damper, hybrid) on the same rig and pilot task, with faults.
     Compare(mrfeel::compare::cli::CompareArgs),
-    /// Pilot-in-the-loop flight on the stick rig (aircraft embedded or live JSBSim).
-    Fly(mrfeel::aero::flight_loop::FlyArgs),
     /// Fit a model (`bingham+effect+...`) to measured tests, jointly, each from its own start.
     Fit(mrfeel::ident::cli::FitArgs),
     /// Run a saved model unchanged on other tests and report its error (no refit).
@@ -38,7 +37,6 @@ fn main() -> std::process::ExitCode {
         Command::Run(a) => mrfeel::sim::cli::run_cmd(&a),
         Command::DaqSweep(a) => mrfeel::sim::cli::daq_sweep_cmd(&a),
         Command::Compare(a) => mrfeel::compare::cli::run_cmd(a),
-        Command::Fly(a) => mrfeel::aero::flight_loop::run_cli(a),
         Command::Fit(a) => mrfeel::ident::cli::run_fit(&a),
         Command::Validate(a) => mrfeel::ident::cli::run_validate(&a),
         Command::Diagnose(a) => mrfeel::ident::cli::run_diagnose(&a),

@@ -10,7 +10,9 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 use toml::Spanned;
 
+use crate::control::feel::{CentringSpring, FeelKind, FeelSprings, FeelSystemConfig};
 use crate::control::{AntiWindup, FeelLaw, PidGains};
+use crate::pilot::attitude::{CrossoverPilotConfig, PilotLoop, Schedule};
 use crate::pilot::{HandConfig, Signal, Task};
 use crate::rig::RigConfig;
 use crate::sensors::{DaqConfig, LaserConfig, LoadCellConfig, SensorsConfig};
@@ -51,6 +53,48 @@ pub struct PilotConfig {
     pub command: Signal,
 }
 
+/// `[aircraft]`: the aircraft whose stick force is the feel target (`feel.law = "aircraft"`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct AircraftConfig {
+    /// `"c172p"`, `"737"` (embedded Rust model) or `"jsbsim:c172p"`, `"jsbsim:737"` (live JSBSim).
+    pub model: String,
+    /// Trim: true airspeed, m/s, and altitude, m.
+    pub airspeed_m_s: f64,
+    pub altitude_m: f64,
+    /// Aircraft frame rate, Hz (JSBSim's 120 Hz by default; at most the physics rate).
+    pub rate_hz: f64,
+    /// Throttle as a ratio of the trim throttle (trim throughout by default).
+    pub throttle: Schedule,
+}
+
+/// `[outer_loop]`: the pilot's compensatory loop on pitch attitude or load factor, whose output is the
+/// hand's stick-angle command (`pilot.signal = "outer-loop"`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct OuterLoopConfig {
+    pub loop_kind: PilotLoop,
+    /// The crossover pilot, given or adapted to the aircraft; stick limits are set from the rig.
+    pub pilot: PilotDesign,
+    /// Command in the loop's unit: pitch in **rad** relative to trim (the file gives degrees), or load
+    /// factor in g.
+    pub command: Schedule,
+}
+
+/// How the pilot's outer loop gets its gains.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PilotDesign {
+    /// Gains given in the file (`gain`, `lead_s`, `lag_s`, `integral_per_s`, `delay_s`).
+    Given(CrossoverPilotConfig),
+    /// McRuer's crossover model: the pilot adapts gain and equalisation to the aircraft at its trim so that
+    /// the open loop crosses over at `crossover_rad_s` with the effective delay `delay_s`; `stick_lag_s` is
+    /// the lag from the pilot's stick command to the stick (hand and feel), part of the controlled element
+    /// (`crate::aero::linear::adapted_pilot`).
+    Adapted {
+        crossover_rad_s: f64,
+        delay_s: f64,
+        stick_lag_s: f64,
+    },
+}
+
 /// A validated scenario.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scenario {
@@ -67,6 +111,12 @@ pub struct Scenario {
     pub pilot: PilotConfig,
     /// Scheduled faults (`[[fault]]` tables; issue 6 hook, see `crate::faults`).
     pub faults: crate::faults::FaultSchedule,
+    /// The aircraft in the loop, if any (issue 5).
+    pub aircraft: Option<AircraftConfig>,
+    /// The pilot's outer loop on the aircraft, if any.
+    pub outer_loop: Option<OuterLoopConfig>,
+    /// The feel system on the rig (`[feel_system]`; the paper's MR damper alone by default).
+    pub feel_system: FeelSystemConfig,
 }
 
 impl Scenario {
@@ -77,6 +127,14 @@ impl Scenario {
 
     pub fn physics_rate_hz(&self) -> f64 {
         self.rig.physics_hz
+    }
+
+    /// The same scenario flown by another aircraft backend (`"jsbsim:c172p"`); `None` if the scenario has
+    /// no aircraft.
+    pub fn with_aircraft_model(&self, model: &str) -> Option<Self> {
+        let mut s = self.clone();
+        s.aircraft.as_mut()?.model = model.to_string();
+        Some(s)
     }
 
     /// The same scenario with another DAQ rate (for the DAQ-rate sweep).
@@ -221,11 +279,21 @@ impl Scenario {
                 )?,
                 period_s: c.req(&fl.period_s, &fl.law, "feel.period_s", 1e-3, 3600.0, "s")?,
             },
+            "aircraft" => {
+                if f.aircraft.is_none() {
+                    return Err(c.err(
+                        &fl.law,
+                        "feel.law",
+                        "`aircraft` needs an `[aircraft]` section (the aircraft whose stick force is felt)",
+                    ));
+                }
+                FeelLaw::Target { force_n: 0.0 }
+            }
             other => {
                 return Err(c.err(
                     &fl.law,
                     "feel.law",
-                    &format!("`{other}` is not one of: spring, force-steps"),
+                    &format!("`{other}` is not one of: spring, force-steps, aircraft"),
                 ))
             }
         };
@@ -250,9 +318,70 @@ impl Scenario {
                         ("max_force_n", fl.max_force_n.as_ref()),
                     ],
                 ),
+                (
+                    "aircraft",
+                    &[
+                        ("breakout_n", fl.breakout_n.as_ref()),
+                        ("gradient_n_per_m", fl.gradient_n_per_m.as_ref()),
+                        ("damping_n_s_per_m", fl.damping_n_s_per_m.as_ref()),
+                        ("max_force_n", fl.max_force_n.as_ref()),
+                        ("low_n", fl.low_n.as_ref()),
+                        ("high_n", fl.high_n.as_ref()),
+                        ("start_s", fl.start_s.as_ref()),
+                        ("period_s", fl.period_s.as_ref()),
+                    ],
+                ),
             ],
             "feel",
         )?;
+        let aircraft = f
+            .aircraft
+            .as_ref()
+            .map(|a| parse_aircraft(a, &c, physics_rate_hz))
+            .transpose()?;
+        let outer_loop = f
+            .outer_loop
+            .as_ref()
+            .map(|o| parse_outer_loop(o, &c))
+            .transpose()?;
+        let feel_system = match &f.feel_system {
+            Some(fs) => parse_feel_system(fs, &c, dir, aircraft.is_some())?,
+            None => FeelSystemConfig::default(),
+        };
+        let wants_outer = f.pilot.signal.get_ref() == "outer-loop";
+        match (&f.outer_loop, wants_outer) {
+            (Some(o), false) => {
+                return Err(c.err(
+                    &o.loop_kind,
+                    "outer_loop",
+                    "an `[outer_loop]` section needs `pilot.signal = \"outer-loop\"`",
+                ))
+            }
+            (None, true) => {
+                return Err(c.err(
+                    &f.pilot.signal,
+                    "pilot.signal",
+                    "`outer-loop` needs an `[outer_loop]` section (the pilot's loop on the aircraft)",
+                ))
+            }
+            _ => {}
+        }
+        if let Some(o) = &f.outer_loop {
+            if aircraft.is_none() {
+                return Err(c.err(
+                    &o.loop_kind,
+                    "outer_loop",
+                    "the pilot's outer loop needs an `[aircraft]` section to fly",
+                ));
+            }
+            if f.pilot.task.get_ref() != "position" {
+                return Err(c.err(
+                    &f.pilot.task,
+                    "pilot.task",
+                    "the outer loop commands a stick angle: `pilot.task` must be \"position\"",
+                ));
+            }
+        }
 
         let pilot = parse_pilot(&f.pilot, &c, dir, duration_s, 1.0 / physics_rate_hz, seed)?;
         Ok(Scenario {
@@ -268,8 +397,275 @@ impl Scenario {
             pilot,
             // issue 6 hook: `[[fault]]` tables.
             faults: crate::faults::FaultSchedule::from_scenario_text(text, path, duration_s)?,
+            aircraft,
+            outer_loop,
+            feel_system,
         })
     }
+
+    /// The same scenario with another feel system.
+    pub fn with_feel_system(&self, feel_system: FeelSystemConfig) -> Self {
+        let mut s = self.clone();
+        s.feel_system = feel_system;
+        s
+    }
+}
+
+fn parse_feel_system(
+    fs: &FeelSystemSection,
+    c: &Ctx,
+    dir: &Path,
+    has_aircraft: bool,
+) -> Result<FeelSystemConfig, ScenarioError> {
+    let kind = FeelKind::from_name(fs.kind.get_ref()).ok_or_else(|| {
+        c.err(
+            &fs.kind,
+            "feel_system.kind",
+            &format!("`{}` is not one of: {}", fs.kind.get_ref(), FeelKind::names()),
+        )
+    })?;
+    let forbid = |v: &Option<Spanned<f64>>, key: &str| -> Result<(), ScenarioError> {
+        match v {
+            Some(v) => Err(c.err(
+                v,
+                &format!("feel_system.{key}"),
+                &format!("not used by `{}`", kind.name()),
+            )),
+            None => Ok(()),
+        }
+    };
+    let need = |v: &Option<Spanned<f64>>, key: &str, hi: f64, unit: &str| -> Result<f64, ScenarioError> {
+        match v {
+            Some(v) => c.num(v, &format!("feel_system.{key}"), 0.0, hi, unit),
+            None => Err(c.err(
+                &fs.kind,
+                &format!("feel_system.{key}"),
+                &format!("required by `{}`", kind.name()),
+            )),
+        }
+    };
+    if kind == FeelKind::Active {
+        if let Some(p) = &fs.springs {
+            return Err(c.err(p, "feel_system.springs", "not used by `active`"));
+        }
+        for (v, key) in [
+            (&fs.qbar_pa, "qbar_pa"),
+            (&fs.hybrid_k_n_per_m, "hybrid_k_n_per_m"),
+            (&fs.return_damping_n_s_per_m, "return_damping_n_s_per_m"),
+        ] {
+            forbid(v, key)?;
+        }
+        return Ok(FeelSystemConfig::active(
+            need(&fs.motor_max_force_n, "motor_max_force_n", 1e4, "N")?,
+            need(&fs.damping_n_s_per_m, "damping_n_s_per_m", 1e5, "N·s/m")?,
+        ));
+    }
+    forbid(&fs.motor_max_force_n, "motor_max_force_n")?;
+    let springs = match (&fs.springs, kind) {
+        (None, FeelKind::Mr) => None,
+        (Some(p), FeelKind::Mr) => {
+            return Err(c.err(p, "feel_system.springs", "not used by `mr`"));
+        }
+        (Some(p), _) => Some(
+            FeelSprings::load(&dir.join(p.get_ref()))
+                .map_err(|e| c.err(p, "feel_system.springs", &e.to_string()))?,
+        ),
+        (None, _) => {
+            return Err(c.err(
+                &fs.kind,
+                "feel_system.springs",
+                &format!(
+                    "required by `{}` (a feel-spring file such as models/feel-springs.toml)",
+                    kind.name()
+                ),
+            ))
+        }
+    };
+    let spring_unit = !kind.has_coil();
+    let damping = if spring_unit {
+        need(&fs.damping_n_s_per_m, "damping_n_s_per_m", 1e5, "N·s/m")?
+    } else {
+        forbid(&fs.damping_n_s_per_m, "damping_n_s_per_m")?;
+        0.0
+    };
+    let (q_from_aircraft, qbar) =
+        if kind == FeelKind::QFeel {
+            match &fs.qbar_pa {
+                Some(q) => (false, c.num(q, "feel_system.qbar_pa", 0.0, 1e6, "Pa")?),
+                None if has_aircraft => (true, 0.0),
+                None => return Err(c.err(
+                    &fs.kind,
+                    "feel_system.qbar_pa",
+                    "required by `q_feel` without an `[aircraft]` (whose dynamic pressure it would follow)",
+                )),
+            }
+        } else {
+            forbid(&fs.qbar_pa, "qbar_pa")?;
+            (false, 0.0)
+        };
+    let (hybrid_k, ret) = if kind == FeelKind::MrSpring {
+        (
+            need(&fs.hybrid_k_n_per_m, "hybrid_k_n_per_m", 1e6, "N/m")?,
+            need(
+                &fs.return_damping_n_s_per_m,
+                "return_damping_n_s_per_m",
+                1e5,
+                "N·s/m",
+            )?,
+        )
+    } else {
+        forbid(&fs.hybrid_k_n_per_m, "hybrid_k_n_per_m")?;
+        forbid(&fs.return_damping_n_s_per_m, "return_damping_n_s_per_m")?;
+        (0.0, 0.0)
+    };
+    let mut out = match &springs {
+        Some(sp) => FeelSystemConfig::from_springs(
+            kind,
+            sp,
+            qbar,
+            CentringSpring { k_n_per_m: hybrid_k },
+            damping,
+            ret,
+        ),
+        None => FeelSystemConfig::default(),
+    };
+    out.q_from_aircraft = q_from_aircraft;
+    Ok(out)
+}
+
+fn parse_aircraft(
+    a: &AircraftSection,
+    c: &Ctx,
+    physics_rate_hz: f64,
+) -> Result<AircraftConfig, ScenarioError> {
+    let throttle = match &a.throttle {
+        None => Schedule {
+            points: vec![(0.0, 1.0)],
+        },
+        Some(pts) => c.schedule(pts, "aircraft.throttle", 0.0, 3.0, "(ratio of the trim throttle)")?,
+    };
+    Ok(AircraftConfig {
+        model: a.model.get_ref().clone(),
+        airspeed_m_s: c.num(&a.airspeed_m_s, "aircraft.airspeed_m_s", 10.0, 300.0, "m/s")?,
+        altitude_m: c.num(&a.altitude_m, "aircraft.altitude_m", 0.0, 11_000.0, "m")?,
+        rate_hz: match &a.rate_hz {
+            Some(r) => c.num(
+                r,
+                "aircraft.rate_hz",
+                10.0,
+                physics_rate_hz,
+                "Hz (at most rig.physics_hz)",
+            )?,
+            None => 120.0_f64.min(physics_rate_hz),
+        },
+        throttle,
+    })
+}
+
+fn parse_outer_loop(o: &OuterLoopSection, c: &Ctx) -> Result<OuterLoopConfig, ScenarioError> {
+    let loop_kind = match o.loop_kind.get_ref().as_str() {
+        "pitch" => PilotLoop::Pitch,
+        "load-factor" => PilotLoop::LoadFactor,
+        other => {
+            return Err(c.err(
+                &o.loop_kind,
+                "outer_loop.loop",
+                &format!("`{other}` is not one of: pitch, load-factor"),
+            ))
+        }
+    };
+    let opt = |v: &Option<Spanned<f64>>, key: &str, hi: f64, unit: &str| -> Result<f64, ScenarioError> {
+        v.as_ref().map_or(Ok(0.0), |v| c.num(v, key, 0.0, hi, unit))
+    };
+    let delay_s = c.num(&o.delay_s, "outer_loop.delay_s", 0.0, 1.0, "s")?;
+    let pilot = match (&o.gain, &o.crossover_rad_s) {
+        (Some(gain), None) => {
+            if let Some(v) = &o.stick_lag_s {
+                return Err(c.err(
+                    v,
+                    "outer_loop.stick_lag_s",
+                    "only with `crossover_rad_s` (an adapted pilot)",
+                ));
+            }
+            PilotDesign::Given(CrossoverPilotConfig {
+                gain: c.num(
+                    gain,
+                    "outer_loop.gain",
+                    0.0,
+                    100.0,
+                    "stick rad per rad (or per g)",
+                )?,
+                lead_s: opt(&o.lead_s, "outer_loop.lead_s", 10.0, "s")?,
+                lag_s: opt(&o.lag_s, "outer_loop.lag_s", 100.0, "s")?,
+                delay_s,
+                integral_per_s: opt(
+                    &o.integral_per_s,
+                    "outer_loop.integral_per_s",
+                    100.0,
+                    "stick rad per (unit·s)",
+                )?,
+                stick_min_rad: f64::NEG_INFINITY,
+                stick_max_rad: f64::INFINITY,
+            })
+        }
+        (None, Some(wc)) => {
+            for (v, key) in [
+                (&o.lead_s, "lead_s"),
+                (&o.lag_s, "lag_s"),
+                (&o.integral_per_s, "integral_per_s"),
+            ] {
+                if let Some(v) = v {
+                    return Err(c.err(
+                        v,
+                        &format!("outer_loop.{key}"),
+                        "the adapted pilot (`crossover_rad_s`) chooses its own equalisation; give `gain` instead to set it",
+                    ));
+                }
+            }
+            PilotDesign::Adapted {
+                crossover_rad_s: c.num(wc, "outer_loop.crossover_rad_s", 0.1, 10.0, "rad/s")?,
+                delay_s,
+                stick_lag_s: match &o.stick_lag_s {
+                    Some(v) => c.num(v, "outer_loop.stick_lag_s", 0.0, 10.0, "s")?,
+                    None => {
+                        return Err(c.err(
+                            wc,
+                            "outer_loop.stick_lag_s",
+                            "required with `crossover_rad_s` (the lag from stick command to stick, s)",
+                        ))
+                    }
+                },
+            }
+        }
+        (Some(g), Some(_)) => {
+            return Err(c.err(
+                g,
+                "outer_loop.gain",
+                "give either `gain` (a pilot with given gains) or `crossover_rad_s` (adapted), not both",
+            ))
+        }
+        (None, None) => {
+            return Err(c.err(
+                &o.loop_kind,
+                "outer_loop.gain",
+                "needs `gain` (given gains) or `crossover_rad_s` (a pilot adapted to the aircraft)",
+            ))
+        }
+    };
+    let command = match loop_kind {
+        PilotLoop::Pitch => {
+            let s = c.schedule(&o.command, "outer_loop.command", -30.0, 30.0, "deg")?;
+            Schedule {
+                points: s.points.iter().map(|&(t, v)| (t, v.to_radians())).collect(),
+            }
+        }
+        PilotLoop::LoadFactor => c.schedule(&o.command, "outer_loop.command", -1.0, 4.0, "g")?,
+    };
+    Ok(OuterLoopConfig {
+        loop_kind,
+        pilot,
+        command,
+    })
 }
 
 fn parse_pilot(
@@ -363,11 +759,13 @@ fn parse_pilot(
             dt_s,
             seed ^ 0x005e_ed0f_9170,
         ),
+        // The stick command comes from `[outer_loop]` (checked by the caller); the signal is unused.
+        "outer-loop" => Signal::Hold { value: 0.0 },
         other => {
             return Err(c.err(
                 &p.signal,
                 "pilot.signal",
-                &format!("`{other}` is not one of: hold, step, ramp, sine, triangle, random"),
+                &format!("`{other}` is not one of: hold, step, ramp, sine, triangle, random, outer-loop"),
             ))
         }
     };
@@ -504,6 +902,44 @@ impl Ctx<'_> {
         Ok(x)
     }
 
+    /// A piecewise-linear schedule `[[t_s, value], ...]`: at least one point, times finite and
+    /// increasing, values within `[lo, hi]`.
+    fn schedule(
+        &self,
+        pts: &Spanned<Vec<[f64; 2]>>,
+        key: &str,
+        lo: f64,
+        hi: f64,
+        unit: &str,
+    ) -> Result<Schedule, ScenarioError> {
+        let p = pts.get_ref();
+        if p.is_empty() {
+            return Err(self.err(pts, key, "needs at least one [t_s, value] point"));
+        }
+        for (i, q) in p.iter().enumerate() {
+            if !q[1].is_finite() || q[1] < lo || q[1] > hi {
+                return Err(self.err(
+                    pts,
+                    key,
+                    &format!(
+                        "point {i}: value {} outside the allowed range [{lo}, {hi}] {unit}",
+                        q[1]
+                    ),
+                ));
+            }
+            if !q[0].is_finite() || (i > 0 && q[0] <= p[i - 1][0]) {
+                return Err(self.err(
+                    pts,
+                    key,
+                    &format!("point {i}: times must be finite and increasing"),
+                ));
+            }
+        }
+        Ok(Schedule {
+            points: p.iter().map(|q| (q[0], q[1])).collect(),
+        })
+    }
+
     /// A key required by the selected variant `sel`.
     fn req(
         &self,
@@ -565,6 +1001,47 @@ struct File {
     #[serde(default)]
     #[allow(dead_code)]
     fault: Option<toml::Value>,
+    aircraft: Option<AircraftSection>,
+    outer_loop: Option<OuterLoopSection>,
+    feel_system: Option<FeelSystemSection>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FeelSystemSection {
+    kind: Spanned<String>,
+    springs: Option<Spanned<PathBuf>>,
+    damping_n_s_per_m: Option<Spanned<f64>>,
+    qbar_pa: Option<Spanned<f64>>,
+    hybrid_k_n_per_m: Option<Spanned<f64>>,
+    return_damping_n_s_per_m: Option<Spanned<f64>>,
+    motor_max_force_n: Option<Spanned<f64>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AircraftSection {
+    model: Spanned<String>,
+    airspeed_m_s: Spanned<f64>,
+    altitude_m: Spanned<f64>,
+    rate_hz: Option<Spanned<f64>>,
+    throttle: Option<Spanned<Vec<[f64; 2]>>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct OuterLoopSection {
+    #[serde(rename = "loop")]
+    loop_kind: Spanned<String>,
+    gain: Option<Spanned<f64>>,
+    lead_s: Option<Spanned<f64>>,
+    lag_s: Option<Spanned<f64>>,
+    delay_s: Spanned<f64>,
+    integral_per_s: Option<Spanned<f64>>,
+    crossover_rad_s: Option<Spanned<f64>>,
+    stick_lag_s: Option<Spanned<f64>>,
+    /// `[[t_s, value], ...]`: pitch in degrees relative to trim, or load factor in g.
+    command: Spanned<Vec<[f64; 2]>>,
 }
 
 #[derive(Deserialize)]

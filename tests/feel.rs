@@ -59,7 +59,8 @@ fn passive_mr_damper_alone_keeps_the_stick_where_left_springs_and_hybrid_recentr
 #[test]
 fn no_passive_feel_system_injects_energy() {
     let scn = scenario();
-    for k in FeelKind::ALL {
+    // Every system but the motor-driven stick, which is not passive (see `the_active_stick_…`).
+    for k in FeelKind::ALL.into_iter().filter(|&k| k != FeelKind::Active) {
         let main = main_run(&scn, k, &FaultSchedule::none());
         let brk = run(&scn, k, &scn.breakout_task(), &FaultSchedule::none()).unwrap();
         let m = system_metrics(&scn, &main, &brk);
@@ -341,7 +342,7 @@ fn a_fault_scheduled_in_a_loop_scenario_reaches_the_coil_in_mrfeel_run() {
         mrfeel::device::DeviceConfig::load(&scn.device_path, &mrfeel::device::Registry::builtin()).unwrap();
     let fc0 = device.param("fc0_n").unwrap();
     let rig = mrfeel::rig::Rig::new(&scn.rig, device.damper()).unwrap();
-    let res = mrfeel::sim::run(&scn, &device, rig, Default::default(), |_| {});
+    let res = mrfeel::sim::run(&scn, &device, rig, Default::default(), |_| {}).unwrap();
     let inside: Vec<_> = res.rows.iter().filter(|r| r.t_s >= 2.2 && r.t_s < 3.0).collect();
     assert!(
         inside.iter().all(|r| (r.yield_force_n - fc0).abs() < 0.5),
@@ -361,4 +362,254 @@ fn a_fault_scheduled_in_a_loop_scenario_reaches_the_coil_in_mrfeel_run() {
         before > 5.0 + fc0,
         "the healthy loop yields {before} N before the fault"
     );
+}
+
+/// Delay (in physics steps, 0..=max) that best aligns `seen[k]` with `truth[k - d]` over `range`.
+fn best_delay(seen: &[f64], truth: &[f64], range: std::ops::Range<usize>, max: usize) -> usize {
+    (0..=max)
+        .min_by(|&a, &b| {
+            let err = |d: usize| -> f64 { range.clone().map(|k| (seen[k] - truth[k - d]).powi(2)).sum() };
+            err(a).total_cmp(&err(b))
+        })
+        .unwrap()
+}
+
+#[test]
+fn a_latency_spike_in_a_run_delays_what_the_controller_sees_and_is_marked_in_the_results() {
+    // `mrfeel run` with a 50 ms latency spike from 2 s to 3 s: the load cell the controller sees (the
+    // `load_cell_n` column) lags the true force by the DAQ's own sample (1 ms) outside the spike and by
+    // 50 ms more inside it; the rows and the CSV's `fault_mask` column mark exactly the spike's window.
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios");
+    let base = std::fs::read_to_string(format!("{dir}/paper-feel-loop.toml")).unwrap();
+    let text = format!(
+        "{base}\n[[fault]]\nkind = \"latency_spike\"\nstart_s = 2.0\nend_s = 3.0\nextra_latency_s = 0.05\n"
+    );
+    let path = Path::new(dir).join("paper-feel-loop-latency.toml");
+    let mut scn = mrfeel::scenario::Scenario::parse(&text, &path).unwrap();
+    scn.duration_s = 3.5;
+    let device =
+        mrfeel::device::DeviceConfig::load(&scn.device_path, &mrfeel::device::Registry::builtin()).unwrap();
+    let rig = mrfeel::rig::Rig::new(&scn.rig, device.damper()).unwrap();
+    let res = mrfeel::sim::run(&scn, &device, rig, Default::default(), |_| {}).unwrap();
+    let bit = mrfeel::faults::FaultKind::LatencySpike.bit();
+    for r in &res.rows {
+        let inside = r.t_s >= 2.0 && r.t_s < 3.0;
+        assert_eq!(
+            r.faults,
+            if inside { bit } else { 0 },
+            "fault mask at t = {}",
+            r.t_s
+        );
+    }
+    // The controller sees the calibrated reading: compare with gain·F + offset of the load cell section.
+    let lc = scn.sensors.load_cell;
+    let truth: Vec<f64> = res
+        .rows
+        .iter()
+        .map(|r| lc.gain * r.load_cell_true_n + lc.offset_n)
+        .collect();
+    let seen: Vec<f64> = res.rows.iter().map(|r| r.load_cell_n).collect();
+    let healthy = best_delay(&seen, &truth, 1200..1900, 80);
+    let spiked = best_delay(&seen, &truth, 2100..2900, 80);
+    eprintln!("controller's view of the load cell lags by {healthy} ms healthy, {spiked} ms in the spike");
+    assert!((1..=2).contains(&healthy), "healthy lag {healthy} ms");
+    assert!((50..=53).contains(&spiked), "lag in the spike {spiked} ms");
+    // The CSV carries the mask in its `fault_mask` column and names the bit in its header.
+    let mut csv = Vec::new();
+    res.write_csv(&mut csv).unwrap();
+    let csv = String::from_utf8(csv).unwrap();
+    assert!(
+        csv.contains(&format!("{bit}=latency_spike")),
+        "header must name the bit"
+    );
+    let header = csv.lines().find(|l| l.starts_with("t_s,")).unwrap();
+    let col = header.split(',').position(|c| c == "fault_mask").unwrap();
+    let marked: Vec<f64> = csv
+        .lines()
+        .skip_while(|l| !l.starts_with("t_s,"))
+        .skip(1)
+        .filter(|l| l.split(',').nth(col) == Some(&bit.to_string()))
+        .map(|l| l.split(',').next().unwrap().parse::<f64>().unwrap())
+        .collect();
+    assert_eq!(marked.len(), 1000, "one marked row per millisecond of the spike");
+    assert!(marked.iter().all(|&t| (2.0..3.0).contains(&t)));
+}
+
+/// Text of a scenario with a `[feel_system]` section appended.
+fn with_feel_system(name: &str, section: &str) -> (String, std::path::PathBuf) {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios");
+    let base = std::fs::read_to_string(format!("{dir}/{name}")).unwrap();
+    (
+        format!("{base}\n[feel_system]\n{section}\n"),
+        Path::new(dir).join(name),
+    )
+}
+
+#[test]
+fn a_q_feel_spring_named_in_a_flight_scenario_follows_the_aircrafts_dynamic_pressure() {
+    // `[feel_system] kind = "q_feel"` in the c172p flight without a fixed q̄: the spring's gradient is
+    // k0 + kq·q̄ with the aircraft's q̄ at every step (read back from the stored energy ½ k x²), the coil
+    // is never energised, and the energy balance closes with the spring's energy in it.
+    let (text, path) = with_feel_system(
+        "c172p-pitch-tracking.toml",
+        "kind = \"q_feel\"\nsprings = \"../models/feel-springs.toml\"\ndamping_n_s_per_m = 100.0",
+    );
+    let mut scn = mrfeel::scenario::Scenario::parse(&text, &path).unwrap();
+    // The first pitch command (2–3 s) and its capture; later, the same pilot gains over this much lighter
+    // feel than the MR loop's drive the stick into its stops (a pilot-induced oscillation, not a q-feel
+    // property).
+    scn.duration_s = 4.0;
+    let device =
+        mrfeel::device::DeviceConfig::load(&scn.device_path, &mrfeel::device::Registry::builtin()).unwrap();
+    let springs =
+        mrfeel::control::feel::FeelSprings::load(&path.parent().unwrap().join("../models/feel-springs.toml"))
+            .unwrap();
+    let rig = mrfeel::sim::cli::build_rig(&scn, &device).unwrap();
+    let res = mrfeel::sim::run(&scn, &device, rig, Default::default(), |_| {}).unwrap();
+    let mut checked = 0;
+    for r in res.rows.iter().filter(|r| r.piston_x_m.abs() > 5e-4) {
+        let q = r.aero.unwrap().qbar_pa;
+        let k_expected = springs.q_feel.k0_n_per_m + springs.q_feel.kq_n_per_m_per_pa * q;
+        let k = 2.0 * r.spring_energy_j / r.piston_x_m.powi(2);
+        assert!(
+            (k - k_expected).abs() < 1e-6 * k_expected,
+            "k {k} vs {k_expected} at q̄ {q}"
+        );
+        checked += 1;
+    }
+    assert!(checked > 500, "the stick must move off centre ({checked} rows)");
+    assert!(
+        res.rows.iter().all(|r| r.current_applied_a == 0.0),
+        "a spring unit has no coil"
+    );
+    let s = res.summary();
+    assert!(
+        s.energy_residual.abs() < 0.01,
+        "energy balance with the spring: {s}"
+    );
+}
+
+#[test]
+fn feel_system_section_errors_name_the_file_line_and_key() {
+    let err = |section: &str| {
+        let (text, path) = with_feel_system("paper-feel-loop.toml", section);
+        mrfeel::scenario::Scenario::parse(&text, &path)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default()
+    };
+    let e = err("kind = \"bungee\"");
+    assert!(
+        e.contains("paper-feel-loop.toml:") && e.contains("feel_system.kind"),
+        "{e}"
+    );
+    assert!(
+        e.contains("centring_spring") && e.contains("mr_spring"),
+        "must list the kinds: {e}"
+    );
+    let e = err("kind = \"centring_spring\"\ndamping_n_s_per_m = 100.0");
+    assert!(e.contains("feel_system.springs") && e.contains("required"), "{e}");
+    // A q-feel spring with neither a fixed q̄ nor an aircraft to follow.
+    let e = err("kind = \"q_feel\"\nsprings = \"../models/feel-springs.toml\"\ndamping_n_s_per_m = 100.0");
+    assert!(e.contains("feel_system.qbar_pa"), "{e}");
+    let e = err("kind = \"active\"\ndamping_n_s_per_m = 20.0");
+    assert!(
+        e.contains("feel_system.motor_max_force_n") && e.contains("required by `active`"),
+        "{e}"
+    );
+    // A key of another kind is refused, not ignored.
+    let e = err("kind = \"mr\"\nhybrid_k_n_per_m = 500.0");
+    assert!(
+        e.contains("feel_system.hybrid_k_n_per_m") && e.contains("not used by `mr`"),
+        "{e}"
+    );
+    let e = err(
+        "kind = \"centring_spring\"\nsprings = \"../models/feel-springs.toml\"\ndamping_n_s_per_m = -1.0",
+    );
+    assert!(
+        e.contains("feel_system.damping_n_s_per_m") && e.contains("[0, 100000]"),
+        "{e}"
+    );
+}
+
+#[test]
+fn the_active_stick_renders_the_feel_best_but_a_stuck_motor_drives_the_stick_by_itself() {
+    // The motor-driven stick renders the target by impedance control: the smallest force error and
+    // phase lag of all systems, and it re-centres. It is not passive: with its driver stuck at full force
+    // (or with its position sensor frozen) the stick moves away from the centre with nobody on it: the
+    // back-drive hazard the MR damper cannot have (its driver stuck only makes the stick heavy).
+    let scn = scenario();
+    let none = FaultSchedule::none();
+    let metrics = |k: FeelKind| {
+        let main = main_run(&scn, k, &none);
+        let brk = run(&scn, k, &scn.breakout_task(), &none).unwrap();
+        (system_metrics(&scn, &main, &brk), main)
+    };
+    let (active, healthy) = metrics(FeelKind::Active);
+    for k in [
+        FeelKind::CentringSpring,
+        FeelKind::VariableGradientSpring,
+        FeelKind::QFeel,
+        FeelKind::Mr,
+        FeelKind::MrSpring,
+    ] {
+        let (m, _) = metrics(k);
+        assert!(
+            active.force_rms_error_n < 0.5 * m.force_rms_error_n,
+            "active {} N vs {} {} N",
+            active.force_rms_error_n,
+            k.name(),
+            m.force_rms_error_n
+        );
+        assert!(
+            active.phase_lag_deg.abs() < m.phase_lag_deg.abs(),
+            "{} phase",
+            k.name()
+        );
+    }
+    assert!(
+        active.recentre_offset_rad < scn.task.recentre_band_rad,
+        "{}",
+        active.recentre_offset_rad
+    );
+    let (a, b) = (scn.fault_test.start_s, scn.fault_test.end_s);
+    let stuck = |k: FeelKind| {
+        let tr = main_run(
+            &scn,
+            k,
+            &FaultSchedule::single(Fault::new(FaultKind::DriverStuck, a, b)),
+        );
+        let h = if k == FeelKind::Active {
+            healthy.clone()
+        } else {
+            main_run(&scn, k, &none)
+        };
+        fault_metrics(&scn, &tr, &h, a, b)
+    };
+    let act = stuck(FeelKind::Active);
+    let mr = stuck(FeelKind::Mr);
+    eprintln!(
+        "driver stuck, hands off: active moved {:.1}° away from the centre, MR {:.2}°",
+        act.hands_off_away_rad.to_degrees(),
+        mr.hands_off_away_rad.to_degrees()
+    );
+    // From the 0.2 rad release point to the 0.31 rad stop: 0.1 rad further out, with nobody on the stick.
+    assert!(
+        act.moves_without_pilot && act.hands_off_away_rad > 0.05,
+        "active: {act:?}"
+    );
+    assert!(
+        !mr.moves_without_pilot && mr.hands_off_away_rad < 1e-3,
+        "MR: {mr:?}"
+    );
+    // A frozen position sensor leaves the motor pushing towards where it believes the centre is.
+    let tr = main_run(
+        &scn,
+        FeelKind::Active,
+        &FaultSchedule::single(Fault::new(FaultKind::DisplacementDropout, a, b)),
+    );
+    let drop = fault_metrics(&scn, &tr, &healthy, a, b);
+    assert!(drop.moves_without_pilot, "dropout: {drop:?}");
+    // The motor has no coil: nothing reaches the (absent) MR element.
+    assert!(tr.rows.iter().all(|r| r.current_applied_a == 0.0));
 }

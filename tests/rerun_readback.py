@@ -28,6 +28,20 @@ SERIES_TO_COLUMN = {
     "/series/pilot/force": "pilot_force_n",
     "/series/stick/angle": "stick_angle_rad",
     "/series/energy/dissipated": "dissipated_j",
+    "/series/faults/mask": "fault_mask",
+}
+
+# Logged only when the run flies an aircraft (the CSV then has these columns too).
+AIRCRAFT_SERIES_TO_COLUMN = {
+    "/series/aircraft/pitch": "pitch_rad",
+    "/series/aircraft/pitch_cmd": "pitch_cmd_rad",
+    "/series/aircraft/nz": "nz_g",
+    "/series/aircraft/nz_cmd": "nz_cmd_g",
+    "/series/aircraft/elevator": "elevator_rad",
+    "/series/aircraft/hinge_moment": "hinge_moment_nm",
+    "/series/aircraft/qbar": "qbar_pa",
+    "/series/aircraft/stick_force": "stick_force_n",
+    "/series/aircraft/stick_cmd": "stick_cmd_rad",
 }
 
 
@@ -48,7 +62,7 @@ def read_rrd(path: str) -> tuple[dict[str, list[tuple[int, float]]], dict[str, i
             continue
         batch = chunk.to_record_batch()
         names = batch.schema.names
-        if ent in SERIES_TO_COLUMN:
+        if ent in SERIES_TO_COLUMN or ent in AIRCRAFT_SERIES_TO_COLUMN:
             tcol = [n for n in names if n == "time"]
             vcol = [n for n in names if n.endswith("Scalars:scalars") or n.endswith(":scalars")]
             if not tcol or not vcol:
@@ -56,9 +70,8 @@ def read_rrd(path: str) -> tuple[dict[str, list[tuple[int, float]]], dict[str, i
             times = batch.column(tcol[0]).cast("int64").to_pylist()
             values = batch.column(vcol[0]).to_pylist()
             for t, v in zip(times, values):
-                if v is None:
-                    continue
-                series.setdefault(ent, []).append((t, float(v[0])))
+                # A NaN (e.g. the command of the loop not flown) may come back as a null.
+                series.setdefault(ent, []).append((t, math.nan if v is None else float(v[0])))
         else:
             others[ent] = others.get(ent, 0) + batch.num_rows
     return series, others
@@ -72,7 +85,11 @@ def main() -> int:
     table = read_csv(csv_path)
     series, others = read_rrd(rrd)
     t_csv = [round(t * 1e9) for t in table["t_s"]]
-    for ent, col in SERIES_TO_COLUMN.items():
+    flight = "pitch_rad" in table
+    wanted = dict(SERIES_TO_COLUMN)
+    if flight:
+        wanted.update(AIRCRAFT_SERIES_TO_COLUMN)
+    for ent, col in wanted.items():
         got = sorted(series.get(ent, []))
         if len(got) != len(t_csv):
             print(f"FAIL {ent}: {len(got)} samples in the recording, {len(t_csv)} rows in the CSV")
@@ -81,6 +98,8 @@ def main() -> int:
             if t != tc:
                 print(f"FAIL {ent}: sample {k} at t = {t} ns, CSV row at {tc} ns")
                 return 1
+            if math.isnan(v) and math.isnan(vc):
+                continue
             if not math.isclose(v, vc, rel_tol=1e-9, abs_tol=1e-12):
                 print(f"FAIL {ent} vs column {col}: sample {k} (t = {tc * 1e-9} s): recording {v!r}, CSV {vc!r}")
                 return 1
@@ -91,6 +110,11 @@ def main() -> int:
         print(f"FAIL: no rig body logged with poses over time (temporal entities: {sorted(others)})")
         return 1
     print(f"ok rig bodies with poses over time: {sorted(moving)}")
+    if flight:
+        if others.get("/aircraft", 0) < 2:
+            print("FAIL: the aircraft's attitude was not logged over time")
+            return 1
+        print(f"ok aircraft attitude over time ({others['/aircraft']} poses)")
     return 0
 
 

@@ -22,7 +22,7 @@ fn load(name: &str) -> (Scenario, DeviceConfig) {
 
 fn run(scn: &Scenario, device: &DeviceConfig, opts: RunOptions) -> Results {
     let rig = cli::build_rig(scn, device).unwrap_or_else(|e| panic!("{e:#}"));
-    sim::run(scn, device, rig, opts, |_| {})
+    sim::run(scn, device, rig, opts, |_| {}).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// The paper's bench, run once for all the tests that read it.

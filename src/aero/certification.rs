@@ -95,8 +95,9 @@ pub struct FeelAssessment {
     /// with the stick force per g when the wing stalls before the limit).
     pub force_at_limit_n: f64,
     pub force_at_limit_extrapolated: bool,
-    /// Stick-force-versus-speed gradient around the trim speed (±10 %), N per m/s, positive when
-    /// stable (a pull below the trim speed).
+    /// Stick-force-versus-speed gradient around the trim speed, N per m/s, positive when stable (a
+    /// pull below the trim speed): the mean of the slopes from 5 % to 10 % below and above the trim
+    /// speed (the "stable slope" of 25.173(c); a breakout step at trim does not count).
     pub speed_gradient_n_per_m_s: f64,
     /// Allowed stick force per g band implied by the limits: [min, max] N/g.
     pub allowed_per_g_n: (f64, f64),
@@ -127,10 +128,13 @@ impl FeelAssessment {
                 Err(AeroError::Trim { .. }) => (per_g * (n_lim - 1.0), true),
                 Err(e) => return Err(e),
             };
+        // the stable slope on each side of the trim speed (5 % to 10 % off trim), averaged: a
+        // breakout force (the step of a feel unit's centring detent at trim) is not a gradient
         let dv = 0.1 * airspeed_m_s;
-        let f_slow = aircraft.off_trim_stick_force_n(airspeed_m_s, airspeed_m_s - dv, altitude_m)?;
-        let f_fast = aircraft.off_trim_stick_force_n(airspeed_m_s, airspeed_m_s + dv, altitude_m)?;
-        let speed_gradient = (f_slow - f_fast) / (2.0 * dv);
+        let f = |v: f64| aircraft.off_trim_stick_force_n(airspeed_m_s, v, altitude_m);
+        let slow = f(airspeed_m_s - dv)? - f(airspeed_m_s - 0.5 * dv)?;
+        let fast = f(airspeed_m_s + 0.5 * dv)? - f(airspeed_m_s + dv)?;
+        let speed_gradient = (slow + fast) / dv;
         let min_per_g = basis
             .min_force_at_limit_n
             .map(|f| f / (n_lim - 1.0))

@@ -59,6 +59,8 @@ pub struct JsbsimBridge {
     lines: Receiver<String>,
     stderr_tail: Arc<Mutex<Vec<String>>>,
     tab_rad: f64,
+    /// Feel computer's column neutral set at trim (powered controls), stick rad.
+    feel_trim_rad: f64,
     rt_sum_us: f64,
     rt: RoundTrip,
 }
@@ -130,6 +132,7 @@ impl JsbsimBridge {
             lines: rx,
             stderr_tail: tail,
             tab_rad: 0.0,
+            feel_trim_rad: 0.0,
             rt_sum_us: 0.0,
             rt: RoundTrip::default(),
         };
@@ -228,6 +231,7 @@ impl JsbsimBridge {
             throttle: v[14],
             thrust_n: v[15],
             tab_rad: self.tab_rad,
+            feel_trim_rad: self.feel_trim_rad,
             ..AircraftState::default()
         };
         Ok(with_hinge(&self.hinge, s))
@@ -259,10 +263,15 @@ impl AircraftBackend for JsbsimBridge {
                 nz_g: 1.0,
                 why: "the tab cannot zero the stick force at JSBSim's trim".into(),
             })?;
+        self.feel_trim_rad = match &self.hinge.feel_computer {
+            Some(fc) => fc.trim_rad(self.hinge.stick_from_elevator_rad(s.elevator_rad), s.mach),
+            None => 0.0,
+        };
         Ok(with_hinge(
             &self.hinge,
             AircraftState {
                 tab_rad: self.tab_rad,
+                feel_trim_rad: self.feel_trim_rad,
                 ..s
             },
         ))

@@ -54,7 +54,11 @@ pub struct AircraftState {
     pub alpha_tail_rad: f64,
     /// Elevator hinge moment, N·m, positive trailing edge down.
     pub hinge_moment_nm: f64,
-    /// Stick force that holds the elevator against `hinge_moment_nm`, N, positive = pull (aft).
+    /// Column neutral set by trimming, before the Mach trim shift (powered controls with a feel
+    /// computer; 0 otherwise), stick rad positive aft.
+    pub feel_trim_rad: f64,
+    /// Stick force at the grip, N, positive = pull (aft): the hinge moment fed back (reversible
+    /// controls) plus the feel computer's force (powered controls), [`HingeModel::stick_force_n`].
     pub stick_force_n: f64,
 }
 
@@ -90,6 +94,7 @@ pub struct Aircraft {
     t_s: f64,
     controls: Controls,
     tab_rad: f64,
+    feel_trim_rad: f64,
     state: AircraftState,
 }
 
@@ -106,6 +111,7 @@ impl Aircraft {
                 throttle: 0.0,
             },
             tab_rad: 0.0,
+            feel_trim_rad: 0.0,
             state: AircraftState::default(),
         };
         a.refresh();
@@ -130,7 +136,8 @@ impl Aircraft {
     }
 
     /// Trim in wings-level, unaccelerated level flight at a true airspeed and altitude: solves
-    /// alpha, elevator and throttle, sets the trim tab so the stick force is zero, and resets time.
+    /// alpha, elevator and throttle, sets the trim tab (and the feel computer's column neutral) so
+    /// the stick force is zero, and resets time.
     pub fn trim(&mut self, airspeed_m_s: f64, altitude_m: f64) -> Result<AircraftState, AeroError> {
         let (x, c) = self.solve_trim(airspeed_m_s, altitude_m, 1.0, None)?;
         self.x = x;
@@ -150,7 +157,13 @@ impl Aircraft {
                     self.hinge.tab_min_rad, self.hinge.tab_max_rad
                 ),
             })?;
+        self.feel_trim_rad = 0.0;
         self.refresh();
+        if let Some(fc) = &self.hinge.feel_computer {
+            let stick = self.hinge.stick_from_elevator_rad(c.elevator_rad);
+            self.feel_trim_rad = fc.trim_rad(stick, self.state.mach);
+            self.refresh();
+        }
         Ok(self.state)
     }
 
@@ -181,6 +194,15 @@ impl Aircraft {
         self.refresh();
     }
 
+    /// Move the feel computer's column neutral (the pilot re-trims a powered elevator), stick rad
+    /// positive aft; no effect without a feel computer.
+    pub fn set_feel_trim_rad(&mut self, feel_trim_rad: f64) {
+        if self.hinge.feel_computer.is_some() {
+            self.feel_trim_rad = feel_trim_rad;
+            self.refresh();
+        }
+    }
+
     /// Stick force, N (pull positive), to hold a steady symmetric pull-up at load factor `nz_g`
     /// through the bottom of the manoeuvre at the given speed and altitude, with the tab and throttle
     /// left where the 1-g trim put them (the manoeuvre of 14 CFR 23.155 and stick force per g).
@@ -200,6 +222,20 @@ impl Aircraft {
         Ok(trimmed.state.stick_force_n)
     }
 
+    /// Stick displacement per g, rad of stick (aft positive) per g: the secant between the 1-g trim and
+    /// a steady pull-up at `nz_g` (tab and throttle at the 1-g trim), what a pilot learns as "so much
+    /// column for so much g" (the pursuit pilot's feedforward, [`crate::pilot::attitude::PursuitPilot`]).
+    pub fn stick_per_g_rad(&self, airspeed_m_s: f64, altitude_m: f64, nz_g: f64) -> Result<f64, AeroError> {
+        let mut trimmed = self.clone();
+        let s1 = trimmed.trim(airspeed_m_s, altitude_m)?;
+        let (_, c) = trimmed.solve_trim(airspeed_m_s, altitude_m, nz_g, Some(s1.throttle))?;
+        let h = &self.hinge;
+        Ok(
+            (h.stick_from_elevator_rad(c.elevator_rad) - h.stick_from_elevator_rad(s1.elevator_rad))
+                / (nz_g - 1.0),
+        )
+    }
+
     /// Stick force per g, N/g: the secant between 1 g and `nz_g` of [`Self::pull_up_stick_force_n`].
     pub fn stick_force_per_g(&self, airspeed_m_s: f64, altitude_m: f64, nz_g: f64) -> Result<f64, AeroError> {
         Ok(self.pull_up_stick_force_n(airspeed_m_s, altitude_m, nz_g)? / (nz_g - 1.0))
@@ -215,9 +251,10 @@ impl Aircraft {
     ) -> Result<f64, AeroError> {
         let mut a = self.clone();
         a.trim(trim_airspeed_m_s, altitude_m)?;
-        let tab = a.tab_rad;
+        let (tab, feel_trim) = (a.tab_rad, a.feel_trim_rad);
         a.trim(airspeed_m_s, altitude_m)?;
         a.tab_rad = tab;
+        a.feel_trim_rad = feel_trim;
         a.refresh();
         Ok(a.state.stick_force_n)
     }
@@ -225,19 +262,38 @@ impl Aircraft {
     /// Eigenvalues of the longitudinal dynamics linearised about the current state with the
     /// controls held (finite differences over `[u, w, q, theta]`; altitude frozen).
     pub fn linear_modes(&self) -> Vec<(f64, f64)> {
-        let c = self.controls;
-        let f0 = self.eval(&self.x, c).dx;
-        let mut a = nalgebra::Matrix4::<f64>::zeros();
-        for j in 0..4 {
-            let h = 1e-6 * self.x[j].abs().max(1e-3);
-            let mut xp = self.x;
-            xp[j] += h;
-            let fp = self.eval(&xp, c).dx;
-            for i in 0..4 {
-                a[(i, j)] = (fp[i] - f0[i]) / h;
-            }
-        }
-        a.complex_eigenvalues().iter().map(|z| (z.re, z.im)).collect()
+        self.linearise()
+            .a
+            .complex_eigenvalues()
+            .iter()
+            .map(|z| (z.re, z.im))
+            .collect()
+    }
+
+    /// Small-perturbation model about the current state and controls (see [`super::linear`]).
+    pub fn linearise(&self) -> super::linear::LinearLongitudinal {
+        super::linear::LinearLongitudinal::about(self)
+    }
+
+    /// Time derivatives of `[u, w, q, theta]` and the load factor at body state `x4` (altitude held
+    /// at the current one) with the elevator `elevator_rad` and the current throttle. For
+    /// linearisation: the elevator is not held at its stops here.
+    pub(crate) fn derivatives_and_nz(&self, x4: [f64; 4], elevator_rad: f64) -> ([f64; 4], f64) {
+        let x = [x4[0], x4[1], x4[2], x4[3], self.x[4]];
+        let c = Controls {
+            elevator_rad,
+            throttle: self.controls.throttle,
+        };
+        let e = self.eval(&x, c);
+        ([e.dx[0], e.dx[1], e.dx[2], e.dx[3]], e.nz)
+    }
+
+    /// Body state `[u, w, q, theta]` and the elevator held over the last step.
+    pub(crate) fn body_state_and_elevator(&self) -> ([f64; 4], f64) {
+        (
+            [self.x[0], self.x[1], self.x[2], self.x[3]],
+            self.controls.elevator_rad,
+        )
     }
 
     // ---------------------------------------------------------------------------------------
@@ -269,8 +325,10 @@ impl Aircraft {
             thrust_n: e.thrust,
             alpha_tail_rad: alpha_t,
             hinge_moment_nm: hm,
-            stick_force_n: self.hinge.stick_force_n(hm),
+            feel_trim_rad: self.feel_trim_rad,
+            stick_force_n: 0.0,
         };
+        self.state.stick_force_n = self.hinge.stick_force_n(&self.state);
     }
 
     fn thrust_n(&self, throttle: f64, airspeed: f64, rho: f64) -> f64 {

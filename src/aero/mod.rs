@@ -16,10 +16,9 @@
 pub mod atmosphere;
 pub mod backend;
 pub mod certification;
-pub mod flight_loop;
-pub mod flight_rerun;
 pub mod hinge;
 pub mod jsbsim_bridge;
+pub mod linear;
 pub mod longitudinal;
 pub mod model;
 pub mod reference;

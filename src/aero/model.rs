@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 use toml::Spanned;
 
+use super::hinge::FeelComputer;
 use super::table::Table1;
 use super::{line_of, AeroError};
 
@@ -103,6 +104,8 @@ pub struct AircraftModel {
     pub elevator_per_stick_rad_per_rad: f64,
     pub stick_arm_m: f64,
     pub force_feedback_ratio: f64,
+    /// Artificial feel of a powered elevator (`[feel_computer]`), `None` for reversible controls.
+    pub feel_computer: Option<FeelComputer>,
     // certification
     pub part: CertificationPart,
     pub control: ControlType,
@@ -123,7 +126,19 @@ struct FileModel {
     elevator: FileElevator,
     hinge: FileHinge,
     stick: FileStick,
+    feel_computer: Option<FileFeelComputer>,
     certification: FileCertification,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileFeelComputer {
+    breakout_n: S<f64>,
+    breakout_band_rad: S<f64>,
+    centering_n_per_rad: S<f64>,
+    q_feel_n_per_rad_pa: S<f64>,
+    mach_trim_start: S<f64>,
+    mach_trim_stick_rad_per_mach: S<f64>,
 }
 
 #[derive(Deserialize)]
@@ -291,6 +306,37 @@ impl AircraftModel {
         let h = &f.hinge;
         let s = &f.stick;
         let cert = &f.certification;
+        let feel_computer = match &f.feel_computer {
+            None => None,
+            Some(fc) => Some(FeelComputer {
+                breakout_n: c.num(&fc.breakout_n, "feel_computer.breakout_n", 0.0, 500.0)?,
+                breakout_band_rad: c.num(
+                    &fc.breakout_band_rad,
+                    "feel_computer.breakout_band_rad",
+                    1e-4,
+                    0.2,
+                )?,
+                centering_n_per_rad: c.num(
+                    &fc.centering_n_per_rad,
+                    "feel_computer.centering_n_per_rad",
+                    0.0,
+                    1e5,
+                )?,
+                q_feel_n_per_rad_pa: c.num(
+                    &fc.q_feel_n_per_rad_pa,
+                    "feel_computer.q_feel_n_per_rad_pa",
+                    0.0,
+                    10.0,
+                )?,
+                mach_trim_start: c.num(&fc.mach_trim_start, "feel_computer.mach_trim_start", 0.0, 1.0)?,
+                mach_trim_stick_rad_per_mach: c.num(
+                    &fc.mach_trim_stick_rad_per_mach,
+                    "feel_computer.mach_trim_stick_rad_per_mach",
+                    0.0,
+                    5.0,
+                )?,
+            }),
+        };
         let kind = p.kind.get_ref().as_str();
         let propulsion = match kind {
             "propeller" => Propulsion::Propeller {
@@ -380,7 +426,8 @@ impl AircraftModel {
                 20.0,
             )?,
             stick_arm_m: c.num(&s.arm_m, "stick.arm_m", 0.05, 2.0)?,
-            force_feedback_ratio: c.num(&s.force_feedback_ratio, "stick.force_feedback_ratio", 1e-4, 1.0)?,
+            force_feedback_ratio: c.num(&s.force_feedback_ratio, "stick.force_feedback_ratio", 0.0, 1.0)?,
+            feel_computer,
             part: cert.part,
             control: cert.control,
             max_weight_kg: c.num(&cert.max_weight_kg, "certification.max_weight_kg", 1.0, 1e6)?,
@@ -391,6 +438,17 @@ impl AircraftModel {
                 10.0,
             )?,
         };
+        if model.force_feedback_ratio < 1e-4 && model.feel_computer.is_none() {
+            return Err(c.err(
+                s.force_feedback_ratio.span(),
+                "stick.force_feedback_ratio",
+                format!(
+                    "{} leaves the stick without feel: use a ratio in [1e-4, 1] (reversible or boosted \
+                     controls) or add a [feel_computer] section (powered controls)",
+                    model.force_feedback_ratio
+                ),
+            ));
+        }
         if model.mass_kg > model.max_weight_kg {
             return Err(c.err(
                 m.mass_kg.span(),

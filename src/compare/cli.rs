@@ -148,7 +148,7 @@ pub fn fault_table(scn: &CompareScenario, c: &Comparison) -> String {
     s += "|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (r, _) in &c.faults {
         let m = &r.m;
-        let no_path = !r.system.has_coil();
+        let no_path = !r.system.has_electrical_path();
         if no_path && r.fault != FaultKind::ALL[0] {
             continue; // one row: a spring feel unit has no coil, driver or sensors for a fault to act on
         }
@@ -326,7 +326,7 @@ fn rerun_log(c: &Comparison, path: &Path) -> anyhow::Result<()> {
 pub fn run_cmd(a: CompareArgs) -> anyhow::Result<()> {
     let scn = CompareScenario::load(&a.scenario)?;
     let systems = match &a.feel {
-        Some(list) => FeelKind::parse_list(list)?,
+        Some(list) => super::parse_feel_list(list)?,
         None => scn.systems.clone(),
     };
     let bar = ProgressBar::new(1);

@@ -11,99 +11,54 @@
 //! | `mr` | the paper's MR damper (Eq. 2–6), force loop on the load cell | DAQ → PI → driver → coil |
 //! | `mr_spring` | MR damper + a lighter centring spring (hybrid) | as `mr` |
 //!
-//! The springs are `crate::control::feel` elements (implicit joint springs). A spring feel unit has no
-//! MR damper: its damper is the device with the coil never energised (`fc_gain` irrelevant at 0 A, `C0`
-//! replaced by the unit's `damping_n_s_per_m`).
+//! Every system runs in the same loop as `mrfeel run` ([`crate::sim::Loop`]), built from the `base`
+//! scenario (rig, device, load cell, laser, DAQ, the PID feel controller with feedforward, the pilot's
+//! hand), with the comparison's target as the feel law and the system as the scenario's feel system
+//! ([`crate::control::feel::FeelSystemConfig`]): the same component a user names in any scenario's
+//! `[feel_system]`. The springs are implicit joint springs on the piston; a spring feel unit has no MR
+//! damper: its damper is the device with the coil never energised (`fc0`, `fc_gain` 0, `C0` replaced by
+//! the unit's `damping_n_s_per_m`). The hybrid's controller gives the spring's share of the target to the
+//! spring and, at rest or returning, only a speed-proportional current
+//! ([`crate::control::Hybrid`]), so the spring can re-centre the stick.
 //!
-//! # The MR force loop (stand-in)
-//! The loop engineer's `control::FeelController` (branch `loop`) is the loop of record; until it lands on
-//! this branch, [`MrController`] is a compact version of the same logic from the sampled signals only:
-//! the target `F* = breakout·sgn x + k x` (clipped) is tracked in magnitude while the stick moves away
-//! from centre (`i = PI(|F*|, s·F_meas) + i_ff`, clamping anti-windup, 0–14 A), the coil is released
-//! (0 A) when the target would need the stick to push (moving back), and at rest the static current for
-//! `|F*|` holds the stick (`mr`) — for the hybrid, at rest or returning, the coil gives only a
-//! velocity-proportional current (`return_damping_n_s_per_m`), so the spring can re-centre the stick.
-//! The feedforward inverts the static Bingham force (Eq. 2 with Eq. 6 at steady state):
-//! `i_ff = (|F*| − F_spring − fc0 − C0 |v|) / (bH kH)`.
-//!
-//! # Pilot (stand-in)
-//! An impedance hand at the grip, `F = k e + c ė + ∫ g k e dt` (`e` the grip-path error, m), for position
-//! segments; a prescribed force for force segments; nothing when the pilot lets go. The loop's
-//! `pilot::Hand` (neuromuscular lag, palm compliance) replaces it when it lands.
+//! The pilot's task (sinusoidal motion, deflect–hold, let go; or a slow force ramp for the breakout) is
+//! fed to the hand sample by sample; letting go is a NaN command (hands off).
 
 pub mod cli;
 pub mod metrics;
 
-use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, StandardNormal};
 use serde::Deserialize;
 
-use crate::control::feel::{self, CentringSpring, FeelSprings, FeelSystem};
+use crate::control::feel::{CentringSpring, FeelSprings, FeelSystem, FeelSystemConfig};
+use crate::control::FeelLaw;
 use crate::device::{DeviceConfig, Registry};
-use crate::faults::{FaultInjector, FaultSchedule};
-use crate::rig::{Rig, RigConfig};
+use crate::faults::FaultSchedule;
+use crate::pilot::Signal;
+use crate::rig::RigConfig;
+use crate::scenario::Scenario;
+use crate::sim::{Loop, Plant};
 
-/// The feel systems, in table order.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum FeelKind {
-    CentringSpring,
-    VariableGradientSpring,
-    QFeel,
-    Mr,
-    MrSpring,
-}
+pub use crate::control::feel::FeelKind;
 
-impl FeelKind {
-    pub const ALL: [FeelKind; 5] = [
-        FeelKind::CentringSpring,
-        FeelKind::VariableGradientSpring,
-        FeelKind::QFeel,
-        FeelKind::Mr,
-        FeelKind::MrSpring,
-    ];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            FeelKind::CentringSpring => "centring_spring",
-            FeelKind::VariableGradientSpring => "variable_gradient_spring",
-            FeelKind::QFeel => "q_feel",
-            FeelKind::Mr => "mr",
-            FeelKind::MrSpring => "mr_spring",
+/// Parse a comma-separated list of feel systems (`--feel a,b`), in the order given, without duplicates.
+pub fn parse_feel_list(s: &str) -> Result<Vec<FeelKind>, CompareError> {
+    let mut out = Vec::new();
+    for name in s.split(',').map(str::trim).filter(|n| !n.is_empty()) {
+        let k = FeelKind::from_name(name).ok_or_else(|| CompareError::Feel(unknown_feel(name)))?;
+        if !out.contains(&k) {
+            out.push(k);
         }
     }
-
-    pub fn from_name(s: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|k| k.name() == s)
+    if out.is_empty() {
+        return Err(CompareError::Feel("no feel system given".into()));
     }
-
-    /// Whether the system has the MR damper and its electrical loop.
-    pub fn has_coil(self) -> bool {
-        matches!(self, FeelKind::Mr | FeelKind::MrSpring)
-    }
-
-    /// Parse a comma-separated list (`--feel a,b`), in the order given, without duplicates.
-    pub fn parse_list(s: &str) -> Result<Vec<Self>, CompareError> {
-        let mut out = Vec::new();
-        for name in s.split(',').map(str::trim).filter(|n| !n.is_empty()) {
-            let k = Self::from_name(name).ok_or_else(|| CompareError::Feel(unknown_feel(name)))?;
-            if !out.contains(&k) {
-                out.push(k);
-            }
-        }
-        if out.is_empty() {
-            return Err(CompareError::Feel("no feel system given".into()));
-        }
-        Ok(out)
-    }
+    Ok(out)
 }
 
 fn unknown_feel(name: &str) -> String {
-    let names: Vec<&str> = FeelKind::ALL.iter().map(|k| k.name()).collect();
-    format!("`{name}` is not one of: {}", names.join(", "))
+    format!("`{name}` is not one of: {}", FeelKind::names())
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -129,6 +84,10 @@ pub enum CompareError {
     Springs(#[from] crate::control::feel::FeelError),
     #[error(transparent)]
     Rig(#[from] crate::rig::RigError),
+    #[error(transparent)]
+    Scenario(#[from] crate::scenario::ScenarioError),
+    #[error(transparent)]
+    Sim(#[from] crate::sim::SimError),
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -143,25 +102,35 @@ struct File {
     description: String,
     seed: u64,
     systems: Vec<String>,
-    rig: RigConfig,
+    /// The loop scenario every system runs in (rig, device, sensors, DAQ, controller, pilot hand).
+    base: PathBuf,
     device: DeviceSection,
     springs: SpringsSection,
     target: TargetLaw,
-    controller: ControllerSection,
-    pilot: PilotGains,
     task: TaskSection,
     limits: Limits,
     fault_test: FaultTest,
+    /// The active stick (`active`), if compared.
+    active: Option<ActiveSection>,
     /// `[[fault]]` tables, read by [`FaultSchedule::from_scenario_text`].
     #[serde(default)]
     #[allow(dead_code)]
     fault: Option<toml::Value>,
 }
 
+/// `[active]`: the motor-driven stick.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ActiveSection {
+    /// The motor's force limit on the piston, N.
+    pub max_force_n: f64,
+    /// The actuator's own viscous friction (back-EMF, gearbox), N·s/m.
+    pub damping_n_s_per_m: f64,
+}
+
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct DeviceSection {
-    file: PathBuf,
     coil_resistance_ohm: f64,
 }
 
@@ -190,27 +159,6 @@ impl TargetLaw {
         let s = if x_m.abs() > 1e-6 { x_m.signum() } else { dir };
         (self.breakout_n * s + self.gradient_n_per_m * x_m).clamp(-self.max_force_n, self.max_force_n)
     }
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ControllerSection {
-    pub kp_a_per_n: f64,
-    pub ki_a_per_n_s: f64,
-    pub rest_speed_m_s: f64,
-    pub rest_force_n: f64,
-    pub latency_samples: usize,
-    pub velocity_cutoff_hz: f64,
-    pub load_cell_noise_rms_n: f64,
-}
-
-/// The stand-in pilot's grip impedance.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PilotGains {
-    pub stiffness_n_per_m: f64,
-    pub damping_n_s_per_m: f64,
-    pub integral_gain_per_s: f64,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
@@ -281,11 +229,15 @@ pub struct CompareScenario {
     pub hybrid_spring: CentringSpring,
     pub hybrid_return_damping_n_s_per_m: f64,
     pub target: TargetLaw,
-    pub controller: ControllerSection,
-    pub pilot: PilotGains,
+    /// The loop scenario every system runs in (`base`): rig, device, sensors, DAQ, the feel loop's
+    /// controller and the pilot's hand; its feel law, pilot command, faults and feel system are replaced
+    /// per run.
+    pub base: Scenario,
     pub task: TaskSection,
     pub limits: Limits,
     pub fault_test: FaultTest,
+    /// The active stick's motor, if the file describes one (`[active]`).
+    pub active: Option<ActiveSection>,
     /// Faults scheduled in the file (`[[fault]]`), applied to every run of `mrfeel compare`.
     pub faults: FaultSchedule,
 }
@@ -335,10 +287,14 @@ impl CompareScenario {
                 systems.push(k);
             }
         }
-        let mut rig = f.rig.clone();
-        rig.urdf = dir.join(&rig.urdf);
-        chk("rig", "physics_hz", rig.physics_hz, 100.0, 100_000.0, "Hz")?;
-        let device = DeviceConfig::load(&dir.join(&f.device.file), &Registry::builtin())?;
+        let base = Scenario::load(&dir.join(&f.base)).map_err(|e| CompareError::Field {
+            path: path.to_path_buf(),
+            line: line_of_key(text, "", "base"),
+            key: "base".into(),
+            msg: e.to_string(),
+        })?;
+        let rig = base.rig.clone();
+        let device = DeviceConfig::load(&base.device_path, &Registry::builtin())?;
         chk(
             "device",
             "coil_resistance_ohm",
@@ -371,60 +327,6 @@ impl CompareScenario {
         chk("target", "breakout_n", t.breakout_n, 0.0, 250.0, "N")?;
         chk("target", "gradient_n_per_m", t.gradient_n_per_m, 0.0, 1e6, "N/m")?;
         chk("target", "max_force_n", t.max_force_n, 0.0, 250.0, "N")?;
-        let c = &f.controller;
-        chk("controller", "kp_a_per_n", c.kp_a_per_n, 0.0, 10.0, "A/N")?;
-        chk(
-            "controller",
-            "ki_a_per_n_s",
-            c.ki_a_per_n_s,
-            0.0,
-            1000.0,
-            "A/(N·s)",
-        )?;
-        chk("controller", "rest_speed_m_s", c.rest_speed_m_s, 0.0, 1.0, "m/s")?;
-        chk("controller", "rest_force_n", c.rest_force_n, 0.0, 250.0, "N")?;
-        chk(
-            "controller",
-            "latency_samples",
-            c.latency_samples as f64,
-            0.0,
-            1000.0,
-            "",
-        )?;
-        chk(
-            "controller",
-            "velocity_cutoff_hz",
-            c.velocity_cutoff_hz,
-            0.1,
-            1e4,
-            "Hz",
-        )?;
-        chk(
-            "controller",
-            "load_cell_noise_rms_n",
-            c.load_cell_noise_rms_n,
-            0.0,
-            50.0,
-            "N",
-        )?;
-        let p = &f.pilot;
-        chk("pilot", "stiffness_n_per_m", p.stiffness_n_per_m, 0.0, 1e5, "N/m")?;
-        chk(
-            "pilot",
-            "damping_n_s_per_m",
-            p.damping_n_s_per_m,
-            0.0,
-            1e4,
-            "N·s/m",
-        )?;
-        chk(
-            "pilot",
-            "integral_gain_per_s",
-            p.integral_gain_per_s,
-            0.0,
-            100.0,
-            "1/s",
-        )?;
         let k = &f.task;
         chk(
             "task",
@@ -521,6 +423,24 @@ impl CompareScenario {
             f64::MAX,
             "s (after start_s)",
         )?;
+        if let Some(a) = &f.active {
+            chk("active", "max_force_n", a.max_force_n, 0.0, 1e4, "N")?;
+            chk(
+                "active",
+                "damping_n_s_per_m",
+                a.damping_n_s_per_m,
+                0.0,
+                1e5,
+                "N·s/m",
+            )?;
+        } else if systems.contains(&FeelKind::Active) {
+            return Err(CompareError::Field {
+                path: path.to_path_buf(),
+                line: line_of_key(text, "", "systems"),
+                key: "systems".into(),
+                msg: "`active` needs an `[active]` section (max_force_n, damping_n_s_per_m)".into(),
+            });
+        }
         let faults = FaultSchedule::from_scenario_text(text, path, task_s)?;
         Ok(Self {
             path: path.to_path_buf(),
@@ -538,28 +458,40 @@ impl CompareScenario {
             },
             hybrid_return_damping_n_s_per_m: s.hybrid_return_damping_n_s_per_m,
             target: f.target,
-            controller: f.controller,
-            pilot: f.pilot,
+            base,
             task: f.task,
             limits: f.limits,
             fault_test: f.fault_test,
+            active: f.active,
             faults,
         })
     }
 
+    /// The feel system `kind` as this comparison sets it up (the q-feel spring at the scenario's q̄).
+    pub fn feel_system(&self, kind: FeelKind) -> FeelSystemConfig {
+        if kind == FeelKind::Active {
+            // Checked on load: `[active]` is present whenever `active` can be run.
+            let a = self.active.unwrap_or(ActiveSection {
+                max_force_n: 0.0,
+                damping_n_s_per_m: 0.0,
+            });
+            return FeelSystemConfig::active(a.max_force_n, a.damping_n_s_per_m);
+        }
+        FeelSystemConfig::from_springs(
+            kind,
+            &self.springs,
+            self.qbar_pa,
+            self.hybrid_spring,
+            self.spring_damping_n_s_per_m,
+            self.hybrid_return_damping_n_s_per_m,
+        )
+    }
+
     /// The spring element of a system (with the q-feel spring at the scenario's q̄), if any.
     pub fn spring(&self, kind: FeelKind) -> Option<Box<dyn FeelSystem>> {
-        match kind {
-            FeelKind::CentringSpring => Some(Box::new(self.springs.centring)),
-            FeelKind::VariableGradientSpring => Some(Box::new(self.springs.variable_gradient)),
-            FeelKind::QFeel => {
-                let mut q = self.springs.q_feel;
-                q.set_dynamic_pressure(self.qbar_pa);
-                Some(Box::new(q))
-            }
-            FeelKind::Mr => None,
-            FeelKind::MrSpring => Some(Box::new(self.hybrid_spring)),
-        }
+        self.feel_system(kind)
+            .spring
+            .map(|s| Box::new(s) as Box<dyn FeelSystem>)
     }
 
     /// The standard task: sinusoidal stick motion, then deflect–hold–let go.
@@ -708,124 +640,6 @@ impl Task {
 }
 
 // ---------------------------------------------------------------------------------------------------
-// The MR force loop (stand-in for the loop's FeelController, see the module doc)
-
-/// What the loop decided at one sample.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Mode {
-    Tracking,
-    Released,
-    Holding,
-}
-
-/// A DAQ sample as the controller sees it.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Sample {
-    pub t_s: f64,
-    pub force_n: f64,
-    pub x_m: f64,
-    pub v_m_s: f64,
-}
-
-#[derive(Debug, Clone)]
-pub struct MrController {
-    pub target: TargetLaw,
-    pub kp: f64,
-    pub ki: f64,
-    pub limit_a: f64,
-    pub rest_speed_m_s: f64,
-    pub rest_force_n: f64,
-    /// Bingham base parameters for the feedforward.
-    pub fc0_n: f64,
-    pub fc_gain_n_per_a: f64,
-    pub c0_n_s_per_m: f64,
-    /// Hybrid: the spring on the same joint (its force is subtracted from the damper's share), and the
-    /// virtual damping given at rest or on the way back; `None` for the MR damper alone.
-    pub hybrid: Option<(CentringSpring, f64)>,
-    integral: f64,
-}
-
-impl MrController {
-    pub fn new(scn: &CompareScenario, hybrid: bool) -> Self {
-        let p = |n: &str| scn.device.param(n).unwrap_or(0.0);
-        Self {
-            target: scn.target,
-            kp: scn.controller.kp_a_per_n,
-            ki: scn.controller.ki_a_per_n_s,
-            limit_a: scn.device.model.current_limit_a,
-            rest_speed_m_s: scn.controller.rest_speed_m_s,
-            rest_force_n: scn.controller.rest_force_n,
-            fc0_n: p("fc0_n"),
-            fc_gain_n_per_a: p("fc_gain_n_per_a"),
-            c0_n_s_per_m: p("c0_n_s_per_m"),
-            hybrid: hybrid.then_some((scn.hybrid_spring, scn.hybrid_return_damping_n_s_per_m)),
-            integral: 0.0,
-        }
-    }
-
-    /// Static inverse of Eq. (2) with Eq. (6) at steady state: current for a damper force at a speed, A.
-    fn feedforward_a(&self, force_n: f64, speed_m_s: f64) -> f64 {
-        if self.fc_gain_n_per_a <= 0.0 {
-            return 0.0;
-        }
-        ((force_n - self.fc0_n - self.c0_n_s_per_m * speed_m_s) / self.fc_gain_n_per_a)
-            .clamp(0.0, self.limit_a)
-    }
-
-    pub fn integral_a(&self) -> f64 {
-        self.integral
-    }
-
-    /// One sample, `dt_s` the sample period: (current command A, target force N, mode).
-    pub fn update(&mut self, s: &Sample, dt_s: f64) -> (f64, f64, Mode) {
-        let moving = s.v_m_s.abs() >= self.rest_speed_m_s;
-        let dir = if moving {
-            s.v_m_s.signum()
-        } else if s.force_n.abs() > self.rest_force_n {
-            s.force_n.signum()
-        } else {
-            0.0
-        };
-        let desired = self.target.force_n(s.x_m, dir);
-        let spring_n = self
-            .hybrid
-            .map(|(k, _)| -k.force_on_piston_n(s.x_m))
-            .unwrap_or(0.0);
-        let damper_share = |f: f64| (f.abs() - spring_n.abs()).max(0.0);
-        if let Some((_, c)) = self.hybrid {
-            // Hybrid: never hold against the spring; at rest or returning, a velocity-proportional yield.
-            if dir == 0.0 || desired * dir <= 0.0 || !moving {
-                self.integral = 0.0;
-                let i = self.feedforward_a(c * s.v_m_s.abs() + self.fc0_n, 0.0);
-                return (i, desired, Mode::Released);
-            }
-        } else if dir == 0.0 {
-            let i = self.feedforward_a(self.target.force_n(s.x_m, 0.0).abs(), 0.0);
-            return (i, desired, Mode::Holding);
-        } else if desired * dir <= 0.0 {
-            self.integral = 0.0;
-            return (0.0, desired, Mode::Released);
-        } else if !moving {
-            return (
-                self.feedforward_a(damper_share(desired), 0.0),
-                desired,
-                Mode::Holding,
-            );
-        }
-        // Tracking in magnitude, clamping anti-windup.
-        let ff = self.feedforward_a(damper_share(desired), s.v_m_s.abs());
-        let e = desired.abs() - dir * s.force_n;
-        let before = ff + self.kp * e + self.integral;
-        let di = self.ki * e * dt_s;
-        if !((before >= self.limit_a && di > 0.0) || (before <= 0.0 && di < 0.0)) {
-            self.integral += di;
-        }
-        let u = (ff + self.kp * e + self.integral).clamp(0.0, self.limit_a);
-        (u, desired, Mode::Tracking)
-    }
-}
-
-// ---------------------------------------------------------------------------------------------------
 // One run
 
 /// One physics step of a run (state at the start of the step, and what was applied over it).
@@ -869,150 +683,109 @@ pub struct Trace {
     pub rows: Vec<Row>,
 }
 
-/// Run one task with one feel system and a fault schedule.
+/// The pilot's command over a task on the physics grid `dt_s`: the hand's task (position or force), and
+/// the command per step (stick rad for position, grip N for force; NaN hands off).
+fn pilot_command(task: &Task, dt_s: f64) -> Result<(crate::pilot::Task, Vec<f64>), CompareError> {
+    let n = (task.duration_s() / dt_s).round() as usize;
+    let mut kind = None;
+    let mut samples = Vec::with_capacity(n + 1);
+    for k in 0..=n {
+        let (v, this) = match task.command(k as f64 * dt_s) {
+            PilotCmd::Angle { theta_rad, .. } => (theta_rad, Some(crate::pilot::Task::Position)),
+            PilotCmd::Force(f) => (f, Some(crate::pilot::Task::Force)),
+            PilotCmd::Off => (f64::NAN, None),
+        };
+        if let Some(t) = this {
+            if kind.is_some_and(|k| k != t) {
+                return Err(CompareError::Feel(
+                    "a task mixes position and force segments; the hand follows one kind per run".into(),
+                ));
+            }
+            kind = Some(t);
+        }
+        samples.push(v);
+    }
+    Ok((kind.unwrap_or(crate::pilot::Task::Position), samples))
+}
+
+/// Run one task with one feel system and a fault schedule, in the loop of [`crate::sim`]: the base
+/// scenario's rig, sensors, DAQ, PID feel controller and pilot hand, with the comparison's target as the
+/// feel law and the system's spring (if any) on the piston joint.
 pub fn run(
     scn: &CompareScenario,
     kind: FeelKind,
     task: &Task,
     faults: &FaultSchedule,
 ) -> Result<Trace, CompareError> {
-    let mut damper = scn.device.damper();
-    if !kind.has_coil() {
-        // A spring feel unit: no MR element, its own viscous damper.
-        let mut p = damper.params().to_vec();
-        for (name, v) in [
-            ("fc0_n", 0.0),
-            ("fc_gain_n_per_a", 0.0),
-            ("c0_n_s_per_m", scn.spring_damping_n_s_per_m),
-        ] {
-            if let Some(k) = damper.model().param_index(name) {
-                p[k] = v;
-            }
-        }
-        damper = crate::device::Damper::new(scn.device.model.clone(), p)?;
+    if kind == FeelKind::Active && scn.active.is_none() {
+        return Err(CompareError::Feel(format!(
+            "{}: `active` needs an `[active]` section (max_force_n, damping_n_s_per_m)",
+            scn.path.display()
+        )));
     }
-    let mut rig = Rig::new(&scn.rig, damper)?;
-    let dt = rig.dt_s();
-    let lever = rig.grip_lever_m();
-    let gear0 = rig.gearing_m_per_rad();
-    let linkage = *rig.linkage();
-    let spring = scn.spring(kind);
-    let mut ctl = kind
-        .has_coil()
-        .then(|| MrController::new(scn, kind == FeelKind::MrSpring));
-    let limit_a = scn.device.model.current_limit_a;
-    let mut inj = FaultInjector::new(faults.clone(), scn.seed);
-    let mut noise = ChaCha8Rng::seed_from_u64(scn.seed);
-    let tau_v = 1.0 / (2.0 * std::f64::consts::PI * scn.controller.velocity_cutoff_hz);
-    let alpha_v = (-dt / tau_v).exp();
-    let (mut x_prev, mut v_filt) = (None::<f64>, 0.0);
-    let mut line: VecDeque<Sample> = VecDeque::new();
-    let (mut cmd_a, mut seen_n) = (0.0, f64::NAN);
-    let pg = scn.pilot;
-    let mut pilot_integral_n = 0.0;
+    let dt = 1.0 / scn.base.rig.physics_hz;
+    let (pilot_task, samples) = pilot_command(task, dt)?;
+    let mut s = scn.base.with_feel_system(scn.feel_system(kind));
+    s.name = format!("{}/{}", scn.name, kind.name());
+    s.seed = scn.seed;
+    s.duration_s = task.duration_s();
+    s.feel = FeelLaw::Spring {
+        breakout_n: scn.target.breakout_n,
+        gradient_n_per_m: scn.target.gradient_n_per_m,
+        damping_n_s_per_m: 0.0,
+        max_force_n: scn.target.max_force_n,
+    };
+    s.pilot.task = pilot_task;
+    s.pilot.command = Signal::Sampled {
+        samples: samples.clone(),
+        dt_s: dt,
+    };
+    s.faults = faults.clone();
+    s.aircraft = None;
+    s.outer_loop = None;
+    let rig =
+        crate::sim::cli::build_rig(&s, &scn.device).map_err(|e| CompareError::Feel(format!("{e:#}")))?;
+    let lever = Plant::grip_arm_m(&rig);
+    let mut lp = Loop::new(&s, &scn.device, rig)?;
     let n = (task.duration_s() / dt).round() as usize;
     let mut rows = Vec::with_capacity(n);
-    let stored = |rig: &Rig| {
-        let s = rig.state();
-        s.kinetic_energy_j
-            + s.potential_energy_j
-            + spring
-                .as_ref()
-                .map(|f| f.stored_energy_j(s.piston_x_m))
-                .unwrap_or(0.0)
-    };
-    let e0 = stored(&rig);
-    for step in 0..n {
+    let mut e0 = None;
+    for (step, &cmd) in samples.iter().enumerate().take(n) {
         let t = step as f64 * dt;
-        let s = rig.state();
-        let (seg, _) = task.segment_at(t);
-        let cmd = task.command(t);
-        // Pilot.
-        let (hand_n, theta_cmd, hands_on) = match cmd {
-            PilotCmd::Angle {
-                theta_rad,
-                rate_rad_s,
-            } => {
-                let e = lever * (theta_rad - s.stick_angle_rad);
-                let de = lever * (rate_rad_s - s.stick_rate_rad_s);
-                pilot_integral_n += pg.integral_gain_per_s * pg.stiffness_n_per_m * e * dt;
-                (
-                    pg.stiffness_n_per_m * e + pg.damping_n_s_per_m * de + pilot_integral_n,
-                    theta_rad,
-                    true,
-                )
-            }
-            PilotCmd::Force(f) => (f, f64::NAN, true),
-            PilotCmd::Off => {
-                pilot_integral_n = 0.0;
-                (0.0, f64::NAN, false)
-            }
-        };
-        // The MR loop: sample, fault hooks, delay line, controller.
-        if let Some(c) = ctl.as_mut() {
-            let nf: f64 = StandardNormal.sample(&mut noise);
-            let f_read = inj.load_cell_n(t, s.load_cell_n + scn.controller.load_cell_noise_rms_n * nf);
-            let x_read = inj.displacement_m(t, s.piston_x_m);
-            if let Some(x0) = x_prev {
-                v_filt = alpha_v * v_filt + (1.0 - alpha_v) * (x_read - x0) / dt;
-            }
-            x_prev = Some(x_read);
-            line.push_back(Sample {
-                t_s: t,
-                force_n: f_read,
-                x_m: x_read,
-                v_m_s: v_filt,
-            });
-            let delay = scn.controller.latency_samples as f64 * dt + inj.extra_latency_s(t);
-            let newest_ok = line.iter().rposition(|q| q.t_s <= t - delay + 1e-9 * dt);
-            if let Some(k) = newest_ok {
-                let q = line[k];
-                let (i, _, _) = c.update(&q, dt);
-                cmd_a = i;
-                seen_n = q.force_n;
-            }
-            // Keep one second (or the longest delay) of history.
-            let keep = ((delay + 1.0) / dt) as usize + 2;
-            while line.len() > keep {
-                line.pop_front();
-            }
-        }
-        let applied = if kind.has_coil() {
-            inj.coil_command_a(t, cmd_a, limit_a)
-        } else {
-            0.0
-        };
-        if let Some(f) = spring.as_ref() {
-            feel::apply(f.as_ref(), &mut rig);
-        }
-        let gear = linkage.gearing_m_per_rad(s.stick_angle_rad).unwrap_or(gear0);
-        let dir = if s.piston_v_m_s.abs() > 1e-4 {
-            s.piston_v_m_s.signum()
+        let r = lp.step()?;
+        let stored = r.kinetic_energy_j + r.potential_energy_j + r.spring_energy_j;
+        let e0 = *e0.get_or_insert(stored);
+        let gear = Plant::gearing_m_per_rad(&lp.plant, r.stick_angle_rad);
+        let dir = if r.piston_v_m_s.abs() > 1e-4 {
+            r.piston_v_m_s.signum()
         } else {
             0.0
         };
         rows.push(Row {
             t_s: t,
-            segment: seg,
-            theta_rad: s.stick_angle_rad,
-            theta_cmd_rad: theta_cmd,
-            rate_rad_s: s.stick_rate_rad_s,
-            piston_x_m: s.piston_x_m,
-            hand_force_n: hand_n,
-            hands_on,
-            target_grip_n: scn.target.force_n(s.piston_x_m, dir) * gear / lever,
-            load_cell_true_n: s.load_cell_n,
-            load_cell_seen_n: seen_n,
-            current_cmd_a: cmd_a,
-            current_applied_a: applied,
-            coil_current_a: s.coil_current_a,
-            yield_force_n: s.yield_n,
-            stored_j: stored(&rig) - e0,
-            hand_work_j: s.hand_work_j,
-            damper_dissipated_j: s.damper_dissipated_j,
-            faults: if kind.has_coil() { faults.active_mask(t) } else { 0 },
+            segment: task.segment_at(t).0,
+            theta_rad: r.stick_angle_rad,
+            theta_cmd_rad: if pilot_task == crate::pilot::Task::Position {
+                cmd
+            } else {
+                f64::NAN
+            },
+            rate_rad_s: r.stick_rate_rad_s,
+            piston_x_m: r.piston_x_m,
+            hand_force_n: r.pilot_force_n,
+            hands_on: !cmd.is_nan(),
+            target_grip_n: scn.target.force_n(r.piston_x_m, dir) * gear / lever,
+            load_cell_true_n: r.load_cell_true_n,
+            load_cell_seen_n: if kind.has_coil() { r.load_cell_n } else { f64::NAN },
+            current_cmd_a: r.current_a,
+            current_applied_a: r.current_applied_a,
+            coil_current_a: r.coil_current_a,
+            yield_force_n: r.yield_force_n,
+            stored_j: stored - e0,
+            hand_work_j: r.pilot_work_j,
+            damper_dissipated_j: r.dissipated_j,
+            faults: if kind.has_electrical_path() { r.faults } else { 0 },
         });
-        rig.step(hand_n, applied);
     }
     Ok(Trace {
         system: kind,

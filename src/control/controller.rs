@@ -20,6 +20,7 @@
 //! reference model): the feedback then corrects only what the feedforward gets wrong, instead of winding up
 //! on the lag itself and overshooting every step.
 
+use super::feel::{FeelSystem, SpringElement};
 use super::law::{sgn, FeelLaw};
 use super::pid::Pid;
 use crate::device::lag::advance_two_lags;
@@ -65,6 +66,15 @@ pub struct ControlOutput {
     pub mode: LoopMode,
 }
 
+/// The hybrid feel system (MR damper + centring spring on the same joint): the spring gives part of the
+/// feel force, the damper the rest on the way out; at rest and on the way back the coil gives only a
+/// speed-proportional current (virtual damping), so the spring can re-centre the stick.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hybrid {
+    pub spring: SpringElement,
+    pub return_damping_n_s_per_m: f64,
+}
+
 #[derive(Debug, Clone)]
 pub struct FeelController {
     pub law: FeelLaw,
@@ -73,6 +83,8 @@ pub struct FeelController {
     pub rest_speed_m_s: f64,
     /// At rest, load-cell forces below this are "not pushing", N.
     pub rest_force_n: f64,
+    /// The spring in parallel with the damper, if the system is the hybrid.
+    pub hybrid: Option<Hybrid>,
     last_mode: LoopMode,
     /// Reference-model states (coil, fluid) of the desired force magnitude, N.
     reference: (f64, f64),
@@ -92,6 +104,7 @@ impl FeelController {
             feedforward,
             rest_speed_m_s,
             rest_force_n,
+            hybrid: None,
             last_mode: LoopMode::Holding,
             reference: (0.0, 0.0),
         }
@@ -112,7 +125,19 @@ impl FeelController {
         };
         let desired = self.law.force_n(t_s, s.x_m, s.v_m_s, dir);
         let ff = |force: f64, speed: f64| self.feedforward.map(|f| f.current_a(force, speed)).unwrap_or(0.0);
-        let (mode, current) = if dir == 0.0 {
+        // Hybrid: the spring's share of the force (it resists displacement from centre) is not the damper's.
+        let spring_n = self
+            .hybrid
+            .map_or(0.0, |h| h.spring.force_on_piston_n(s.x_m).abs());
+        let damper_share = |f: f64| (f.abs() - spring_n).max(0.0);
+        let hybrid_returning = self.hybrid.is_some() && (dir == 0.0 || desired * dir <= 0.0 || !moving);
+        let (mode, current) = if hybrid_returning {
+            // Never hold against the spring: a speed-proportional yield force only.
+            self.pid.reset();
+            let c = self.hybrid.map_or(0.0, |h| h.return_damping_n_s_per_m);
+            let fc0 = self.feedforward.map_or(0.0, |f| f.fc0_n);
+            (LoopMode::Released, ff(fc0 + c * s.v_m_s.abs(), 0.0).clamp(lo, hi))
+        } else if dir == 0.0 {
             let hold = self.law.holding_force_n(t_s, s.x_m);
             (LoopMode::Holding, ff(hold, 0.0).clamp(lo, hi))
         } else if desired * dir <= 0.0 {
@@ -142,7 +167,7 @@ impl FeelController {
             };
             let u = self
                 .pid
-                .update(setpoint, measured, ff(desired.abs(), s.v_m_s.abs()), dt_s);
+                .update(setpoint, measured, ff(damper_share(desired), s.v_m_s.abs()), dt_s);
             (LoopMode::Tracking, u)
         };
         self.last_mode = mode;

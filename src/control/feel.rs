@@ -121,6 +121,174 @@ impl FeelSystem for QFeelSpring {
     }
 }
 
+/// The feel systems a scenario can put on the rig (issue 6), in comparison-table order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum FeelKind {
+    CentringSpring,
+    VariableGradientSpring,
+    QFeel,
+    Mr,
+    MrSpring,
+    /// A motor-driven (active) stick rendering the feel law by impedance control: the upper bound on
+    /// fidelity, and the one system that can drive the stick (back-drive hazard).
+    Active,
+}
+
+impl FeelKind {
+    pub const ALL: [FeelKind; 6] = [
+        FeelKind::CentringSpring,
+        FeelKind::VariableGradientSpring,
+        FeelKind::QFeel,
+        FeelKind::Mr,
+        FeelKind::MrSpring,
+        FeelKind::Active,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            FeelKind::CentringSpring => "centring_spring",
+            FeelKind::VariableGradientSpring => "variable_gradient_spring",
+            FeelKind::QFeel => "q_feel",
+            FeelKind::Mr => "mr",
+            FeelKind::MrSpring => "mr_spring",
+            FeelKind::Active => "active",
+        }
+    }
+
+    pub fn from_name(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == s)
+    }
+
+    /// Whether the system has the MR damper and its electrical loop.
+    pub fn has_coil(self) -> bool {
+        matches!(self, FeelKind::Mr | FeelKind::MrSpring)
+    }
+
+    /// Whether the system has a driver and sensors a fault can act on (the MR systems and the active
+    /// stick; the spring units have none).
+    pub fn has_electrical_path(self) -> bool {
+        self.has_coil() || self == FeelKind::Active
+    }
+
+    /// The names, for error messages.
+    pub fn names() -> String {
+        Self::ALL.iter().map(|k| k.name()).collect::<Vec<_>>().join(", ")
+    }
+}
+
+/// One of the spring elements, as a value (scenarios are cloned and compared).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SpringElement {
+    Centring(CentringSpring),
+    VariableGradient(VariableGradientSpring),
+    QFeel(QFeelSpring),
+}
+
+impl SpringElement {
+    fn inner(&self) -> &dyn FeelSystem {
+        match self {
+            SpringElement::Centring(s) => s,
+            SpringElement::VariableGradient(s) => s,
+            SpringElement::QFeel(s) => s,
+        }
+    }
+
+    /// Schedule a q-feel spring with the flight's dynamic pressure (other springs ignore it).
+    pub fn set_dynamic_pressure(&mut self, qbar_pa: f64) {
+        if let SpringElement::QFeel(q) = self {
+            q.set_dynamic_pressure(qbar_pa);
+        }
+    }
+}
+
+impl FeelSystem for SpringElement {
+    fn force_on_piston_n(&self, x_m: f64) -> f64 {
+        self.inner().force_on_piston_n(x_m)
+    }
+    fn stored_energy_j(&self, x_m: f64) -> f64 {
+        self.inner().stored_energy_j(x_m)
+    }
+    fn gradient_n_per_m(&self, x_m: f64) -> f64 {
+        self.inner().gradient_n_per_m(x_m)
+    }
+}
+
+/// The feel system of a scenario (`[feel_system]`; the MR damper alone when absent).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FeelSystemConfig {
+    pub kind: FeelKind,
+    /// The spring on the piston joint (spring units and the hybrid); `None` for the MR damper alone.
+    pub spring: Option<SpringElement>,
+    /// A spring unit's own viscous damper, N·s/m: it replaces the MR damper (no coil, no yield).
+    pub unit_damping_n_s_per_m: f64,
+    /// Hybrid: the virtual viscous damping the MR damper gives at rest and on the way back, N·s/m (the
+    /// current follows the speed, so the yield vanishes at rest and the spring can re-centre).
+    pub return_damping_n_s_per_m: f64,
+    /// Whether a q-feel spring follows the flight's dynamic pressure (with an `[aircraft]`).
+    pub q_from_aircraft: bool,
+    /// Active stick: the motor's force limit on the piston, N.
+    pub motor_max_force_n: f64,
+}
+
+impl Default for FeelSystemConfig {
+    fn default() -> Self {
+        Self {
+            kind: FeelKind::Mr,
+            spring: None,
+            unit_damping_n_s_per_m: 0.0,
+            return_damping_n_s_per_m: 0.0,
+            q_from_aircraft: false,
+            motor_max_force_n: 0.0,
+        }
+    }
+}
+
+impl FeelSystemConfig {
+    /// The system `kind` with the springs of a feel-spring file: `qbar_pa` sets the q-feel spring's
+    /// dynamic pressure, `hybrid` the hybrid's centring spring.
+    pub fn from_springs(
+        kind: FeelKind,
+        springs: &FeelSprings,
+        qbar_pa: f64,
+        hybrid: CentringSpring,
+        unit_damping_n_s_per_m: f64,
+        return_damping_n_s_per_m: f64,
+    ) -> Self {
+        let spring = match kind {
+            FeelKind::CentringSpring => Some(SpringElement::Centring(springs.centring)),
+            FeelKind::VariableGradientSpring => {
+                Some(SpringElement::VariableGradient(springs.variable_gradient))
+            }
+            FeelKind::QFeel => {
+                let mut q = springs.q_feel;
+                q.set_dynamic_pressure(qbar_pa);
+                Some(SpringElement::QFeel(q))
+            }
+            FeelKind::Mr | FeelKind::Active => None,
+            FeelKind::MrSpring => Some(SpringElement::Centring(hybrid)),
+        };
+        Self {
+            kind,
+            spring,
+            unit_damping_n_s_per_m,
+            return_damping_n_s_per_m,
+            q_from_aircraft: false,
+            motor_max_force_n: 0.0,
+        }
+    }
+
+    /// The active stick: a motor with force limit `motor_max_force_n` (on the piston) and the actuator's
+    /// own viscous friction (motor back-EMF and gearbox).
+    pub fn active(motor_max_force_n: f64, damping_n_s_per_m: f64) -> Self {
+        Self {
+            kind: FeelKind::Active,
+            unit_damping_n_s_per_m: damping_n_s_per_m,
+            motor_max_force_n,
+            ..Self::default()
+        }
+    }
+}
+
 /// Put the feel system on the rig's piston joint for the next step (call before each [`Rig::step`]).
 ///
 /// The element goes in as the rig's implicit joint spring, linearised at the present displacement `x`:

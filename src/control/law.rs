@@ -35,6 +35,10 @@ pub enum FeelLaw {
         start_s: f64,
         period_s: f64,
     },
+    /// A force set from outside the feel loop at every physics step (`feel.law = "aircraft"`: the
+    /// aircraft's stick force, from its hinge moment or feel computer, mapped to the piston through the
+    /// linkage), N along +x on the piston.
+    Target { force_n: f64 },
 }
 
 impl FeelLaw {
@@ -52,6 +56,7 @@ impl FeelLaw {
                 f.clamp(-max_force_n, max_force_n)
             }
             FeelLaw::ForceSteps { .. } => self.step_level_n(t_s) * dir,
+            FeelLaw::Target { force_n } => force_n,
         }
     }
 
@@ -61,6 +66,7 @@ impl FeelLaw {
         match self {
             FeelLaw::Spring { .. } => self.force_n(t_s, x_m, 0.0, 0.0).abs(),
             FeelLaw::ForceSteps { .. } => self.step_level_n(t_s),
+            FeelLaw::Target { force_n } => force_n.abs(),
         }
     }
 

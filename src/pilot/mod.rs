@@ -65,6 +65,12 @@ impl Hand {
     }
 
     /// Hand position along the grip path, m.
+    /// Hands off the stick: no force; the next [`Hand::step`] grips again from the grip's state then.
+    pub fn release(&mut self) {
+        self.started = false;
+        self.z = 0.0;
+    }
+
     pub fn position_m(&self) -> f64 {
         self.x_h
     }

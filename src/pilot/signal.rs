@@ -40,6 +40,12 @@ pub enum Signal {
         samples: Vec<f64>,
         dt_s: f64,
     },
+    /// A command given sample by sample on the physics grid `dt_s` (the nearest sample; the last one
+    /// after the end). A NaN sample means hands off the stick.
+    Sampled {
+        samples: Vec<f64>,
+        dt_s: f64,
+    },
 }
 
 impl Signal {
@@ -115,6 +121,10 @@ impl Signal {
                 let k = (u.floor() as usize).min(samples.len().saturating_sub(2));
                 let f = (u - k as f64).clamp(0.0, 1.0);
                 offset + samples[k] * (1.0 - f) + samples[k + 1] * f
+            }
+            Signal::Sampled { samples, dt_s } => {
+                let k = ((t_s / dt_s).max(0.0).round() as usize).min(samples.len().saturating_sub(1));
+                samples.get(k).copied().unwrap_or(f64::NAN)
             }
         }
     }

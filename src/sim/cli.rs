@@ -32,6 +32,9 @@ pub struct RunArgs {
     /// Print the summary as JSON on stdout (nothing else on stdout).
     #[arg(long)]
     pub json: bool,
+    /// Fly another aircraft backend than the scenario's `[aircraft] model` (`c172p`, `jsbsim:c172p`, ...).
+    #[arg(long)]
+    pub aircraft: Option<String>,
 }
 
 /// `mrfeel daq-sweep SCENARIO`: force response time against the DAQ rate.
@@ -59,10 +62,26 @@ pub fn load(path: &Path) -> anyhow::Result<(Scenario, DeviceConfig, crate::rig::
     Ok((scn, device, rig))
 }
 
-/// The scenario's rig with the device's damper.
+/// The scenario's rig with the device's damper, or for a spring feel unit (no MR element) the same
+/// damper with no coil and the unit's own viscous damping.
 pub fn build_rig(scn: &Scenario, device: &DeviceConfig) -> anyhow::Result<crate::rig::Rig> {
-    crate::rig::Rig::new(&scn.rig, device.damper())
-        .with_context(|| format!("rig of scenario {}", scn.path.display()))
+    let fs = &scn.feel_system;
+    let mut damper = device.damper();
+    if !fs.kind.has_coil() {
+        let mut p = damper.params().to_vec();
+        for (name, v) in [
+            ("fc0_n", 0.0),
+            ("fc_gain_n_per_a", 0.0),
+            ("c0_n_s_per_m", fs.unit_damping_n_s_per_m),
+        ] {
+            if let Some(k) = damper.model().param_index(name) {
+                p[k] = v;
+            }
+        }
+        damper = crate::device::Damper::new(device.model.clone(), p)
+            .with_context(|| format!("feel unit of scenario {}", scn.path.display()))?;
+    }
+    crate::rig::Rig::new(&scn.rig, damper).with_context(|| format!("rig of scenario {}", scn.path.display()))
 }
 
 fn progress_bar(len: u64, msg: &str) -> ProgressBar {
@@ -89,7 +108,7 @@ pub fn run_with_progress<P: Plant>(
     device: &DeviceConfig,
     plant: P,
     opts: RunOptions,
-) -> Results {
+) -> Result<Results, super::SimError> {
     let pb = progress_bar(1000, &scn.name);
     let res = run(scn, device, plant, opts, |f| pb.set_position((f * 1000.0) as u64));
     pb.finish_and_clear();
@@ -97,7 +116,15 @@ pub fn run_with_progress<P: Plant>(
 }
 
 pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
-    let (scn, device, rig) = load(&args.scenario)?;
+    let (mut scn, device, rig) = load(&args.scenario)?;
+    if let Some(model) = &args.aircraft {
+        scn = scn.with_aircraft_model(model).with_context(|| {
+            format!(
+                "--aircraft {model}: scenario {} has no `[aircraft]` section",
+                args.scenario.display()
+            )
+        })?;
+    }
     let want_viz = args.rerun.is_some() || args.spawn;
     let rec = if args.spawn {
         Some(crate::viz::rerun_rig::spawn_on_port(args.spawn_port)?)
@@ -109,7 +136,7 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
     let opts = RunOptions {
         frames_hz: want_viz.then_some(60.0),
     };
-    let res = run_with_progress(&scn, &device, rig, opts);
+    let res = run_with_progress(&scn, &device, rig, opts)?;
     if let Some(path) = &args.out {
         let f = std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
         res.write_csv(std::io::BufWriter::new(f))
@@ -119,10 +146,18 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
         crate::viz::rerun_rig::log_run(rec, &res)?;
     }
     let summary = res.summary();
+    let flight = super::metrics::FlightMetrics::of(&res, &scn);
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&summary)?);
+        let mut v = serde_json::to_value(&summary)?;
+        if let (Some(m), Some(obj)) = (&flight, v.as_object_mut()) {
+            obj.insert("flight".into(), serde_json::to_value(m)?);
+        }
+        println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         println!("{summary}");
+        if let Some(m) = &flight {
+            println!("{m}");
+        }
         if let Some(p) = &args.out {
             println!("  results: {}", p.display());
         }
@@ -153,7 +188,7 @@ pub fn sweep(scn: &Scenario, device: &DeviceConfig, rates: &[f64]) -> anyhow::Re
         .map(|&rate| {
             let s = scn.with_daq_rate(rate);
             let rig = build_rig(&s, device)?;
-            let res = run(&s, device, rig, RunOptions::default(), |_| {});
+            let res = run(&s, device, rig, RunOptions::default(), |_| {})?;
             let steps = response::step_responses(&res, &s.feel);
             pb.inc(1);
             Ok(response::summarise(rate, &steps, &res))

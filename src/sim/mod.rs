@@ -7,20 +7,44 @@
 //!    controller on the sample that comes out; its current command is then held (zero-order hold);
 //! 3. the hand reacts to its command and the grip's state: the hand force for this step;
 //! 4. record the row; step the rig with the hand force and the held current command.
+//!
+//! With an `[aircraft]` (issue 5), before 2.: the aircraft steps when its frame is due ([`flight`]); its
+//! stick force, mapped through the linkage to the piston, is the feel law's target (`feel.law =
+//! "aircraft"`), and the pilot's outer loop (`pilot.signal = "outer-loop"`) sets the hand's command.
+//!
+//! Faults (`[[fault]]`, [`crate::faults`]) act at their hooks: transducers → DAQ, DAQ → controller (a
+//! latency spike delays the samples the controller sees), driver → coil; every row carries the mask of
+//! the faults active at its time.
 
 pub mod cli;
+pub mod flight;
+pub mod metrics;
 pub mod plant;
 pub mod response;
 pub mod results;
 
+pub use flight::{AeroRow, Flight};
 pub use plant::{Plant, PlantState};
-pub use results::{Results, Row, Summary};
+pub use results::{FlightInfo, Results, Row, Summary};
 
-use crate::control::{Feedforward, FeelController, LoopMode, Pid};
+use std::collections::VecDeque;
+
+use crate::control::feel::{FeelKind, FeelSystem, FeelSystemConfig, SpringElement};
+use crate::control::{Feedforward, FeelController, FeelLaw, Hybrid, LoopMode, Pid};
 use crate::device::DeviceConfig;
 use crate::pilot::{Hand, Task};
 use crate::scenario::Scenario;
-use crate::sensors::Daq;
+use crate::sensors::{Daq, DaqSample};
+
+/// Errors of a run (the scenario itself was validated when loaded).
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    #[error("{}: aircraft: {source}", scenario.display())]
+    Aero {
+        scenario: std::path::PathBuf,
+        source: crate::aero::AeroError,
+    },
+}
 
 /// Options of one run that are not part of the scenario.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -46,10 +70,28 @@ pub struct Loop<P: Plant> {
     /// issue 6 hook: scheduled faults in the driver and sensor path (`crate::faults`).
     faults: crate::faults::FaultInjector,
     current_limit_a: f64,
+    /// Samples out of the DAQ waiting for a latency spike to pass: (arrival time, sample).
+    late: VecDeque<(f64, DaqSample)>,
+    has_latency_faults: bool,
+    last_delivered_t_s: f64,
+    /// The aircraft in the loop, if the scenario has one.
+    pub flight: Option<Flight>,
+    /// The feel system (MR damper, spring unit, or hybrid) and its spring, if any.
+    feel_system: FeelSystemConfig,
+    spring: Option<SpringElement>,
+    /// The coil current command applied last (after driver faults), A.
+    current_applied_a: f64,
+    /// Active stick: the motor force command (held between DAQ ticks), the force applied over the step
+    /// (after driver faults), N on the piston, and the motor's work so far, J.
+    motor_cmd_n: f64,
+    actuator_force_n: f64,
+    actuator_work_j: f64,
+    scenario_path: std::path::PathBuf,
 }
 
 impl<P: Plant> Loop<P> {
-    pub fn new(scn: &Scenario, device: &DeviceConfig, plant: P) -> Self {
+    /// Wire a scenario onto a plant; fails only when the aircraft cannot be opened or trimmed.
+    pub fn new(scn: &Scenario, device: &DeviceConfig, plant: P) -> Result<Self, SimError> {
         let feedforward = scn.controller.feedforward.then(|| Feedforward {
             fc0_n: device.param("fc0_n").unwrap_or(0.0),
             fc_gain_n_per_a: device.param("fc_gain_n_per_a").unwrap_or(0.0),
@@ -57,18 +99,39 @@ impl<P: Plant> Loop<P> {
             te_s: device.param("te_s").unwrap_or(0.0),
             tm_s: device.param("tm_s").unwrap_or(0.0),
         });
-        let controller = FeelController::new(
+        let mut controller = FeelController::new(
             scn.feel.clone(),
             Pid::new(scn.controller.gains),
             feedforward,
             scn.controller.rest_speed_m_s,
             scn.controller.rest_force_n,
         );
+        let fs = scn.feel_system.clone();
+        if fs.kind == FeelKind::MrSpring {
+            controller.hybrid = fs.spring.map(|spring| Hybrid {
+                spring,
+                return_damping_n_s_per_m: fs.return_damping_n_s_per_m,
+            });
+        }
         let command_scale = match scn.pilot.task {
             Task::Position => plant.grip_arm_m(),
             Task::Force => 1.0,
         };
-        Self {
+        let flight = scn
+            .aircraft
+            .as_ref()
+            .map(|a| Flight::open(a, scn.outer_loop.as_ref(), plant.stick_limits_rad()))
+            .transpose()
+            .map_err(|source| SimError::Aero {
+                scenario: scn.path.clone(),
+                source,
+            })?;
+        let has_latency_faults = scn
+            .faults
+            .faults
+            .iter()
+            .any(|f| f.kind == crate::faults::FaultKind::LatencySpike);
+        Ok(Self {
             daq: Daq::new(scn.sensors, scn.seed),
             controller,
             hand: Hand::new(scn.pilot.hand, scn.pilot.task),
@@ -83,33 +146,126 @@ impl<P: Plant> Loop<P> {
             pilot_work_j: 0.0,
             faults: crate::faults::FaultInjector::new(scn.faults.clone(), scn.seed),
             current_limit_a: device.model.current_limit_a,
+            late: VecDeque::new(),
+            has_latency_faults,
+            last_delivered_t_s: f64::NEG_INFINITY,
+            flight,
+            scenario_path: scn.path.clone(),
+            spring: fs.spring,
+            feel_system: fs,
+            current_applied_a: 0.0,
+            motor_cmd_n: 0.0,
+            actuator_force_n: 0.0,
+            actuator_work_j: 0.0,
+        })
+    }
+
+    /// The sample the controller gets now from the one just out of the DAQ: itself, or during a latency
+    /// spike the newest sample that has waited the extra latency (none if nothing new has).
+    fn deliver(&mut self, t: f64, sample: DaqSample) -> Option<DaqSample> {
+        if !self.has_latency_faults {
+            return Some(sample);
         }
+        self.late.push_back((t, sample));
+        let extra = self.faults.extra_latency_s(t);
+        let ready = self
+            .late
+            .iter()
+            .rposition(|(arrived, _)| arrived + extra <= t + 1e-9)?;
+        let (_, s) = self.late[ready];
+        self.late.drain(..=ready);
+        (s.sampled_t_s > self.last_delivered_t_s).then(|| {
+            self.last_delivered_t_s = s.sampled_t_s;
+            s
+        })
     }
 
     /// One physics step; returns the row describing the state at the start of the step and what was
     /// applied over it.
-    pub fn step(&mut self) -> Row {
+    pub fn step(&mut self) -> Result<Row, SimError> {
         let dt = self.plant.dt_s();
         let t = self.step_index as f64 * dt;
         let s = self.plant.state();
+        if let Some(f) = self.flight.as_mut() {
+            f.update(t, s.stick_angle_rad).map_err(|source| SimError::Aero {
+                scenario: self.scenario_path.clone(),
+                source,
+            })?;
+            if let FeelLaw::Target { .. } = self.controller.law {
+                // Grip → piston by virtual work at the present linkage angle.
+                let force_n = f.stick_force_n() * self.plant.grip_arm_m()
+                    / self.plant.gearing_m_per_rad(s.stick_angle_rad);
+                self.controller.law = FeelLaw::Target { force_n };
+            }
+            if self.feel_system.q_from_aircraft {
+                if let Some(sp) = self.spring.as_mut() {
+                    sp.set_dynamic_pressure(f.row(t).qbar_pa);
+                }
+            }
+        }
         if self.daq.due(t) {
             // issue 6 hook: sensor faults between the transducers and the DAQ.
             let load_cell_n = self.faults.load_cell_n(t, s.load_cell_n);
             let piston_x_m = self.faults.displacement_m(t, s.piston_x_m);
-            if let Some(sample) = self.daq.acquire(t, load_cell_n, piston_x_m) {
+            let out = self.daq.acquire(t, load_cell_n, piston_x_m);
+            if let Some(sample) = out.and_then(|x| self.deliver(t, x)) {
                 // The controller runs on the sample's own time: with the latency line this is the same as
                 // computing at the sampling instant and writing the command `latency_samples` ticks later.
                 let out = self
                     .controller
                     .update(sample.sampled_t_s, &sample, self.daq.period_s());
-                self.current_cmd_a = out.current_cmd_a;
+                // Active stick: the motor renders the law by impedance control, pushing the piston with
+                // the force the pilot should feel, within its limit.
+                if self.feel_system.kind == FeelKind::Active {
+                    let m = self.feel_system.motor_max_force_n;
+                    self.motor_cmd_n = (-out.desired_force_n).clamp(-m, m);
+                }
+                // A spring feel unit (or the active stick) has no coil: the loop only logs its target.
+                self.current_cmd_a = if self.feel_system.kind.has_coil() {
+                    out.current_cmd_a
+                } else {
+                    0.0
+                };
                 self.desired_force_n = out.desired_force_n;
                 self.measured_force_n = sample.force_n;
                 self.mode = out.mode;
             }
         }
-        let cmd = self.scenario_command.value(t) * self.command_scale;
-        let hand_force = self.hand.step(cmd, s.grip_x_m, s.grip_v_m_s, dt);
+        let cmd = match self.flight.as_ref() {
+            Some(f) if f.has_outer_loop() => f.stick_cmd_rad() * self.command_scale,
+            _ => self.scenario_command.value(t) * self.command_scale,
+        };
+        // A NaN command: hands off the stick.
+        let hand_force = if cmd.is_nan() {
+            self.hand.release();
+            0.0
+        } else {
+            self.hand.step(cmd, s.grip_x_m, s.grip_v_m_s, dt)
+        };
+        // issue 6 hook: driver faults between the command and the coil.
+        let coil_cmd_a = if self.feel_system.kind.has_coil() {
+            self.faults
+                .coil_command_a(t, self.current_cmd_a, self.current_limit_a)
+        } else {
+            0.0 // no coil: nothing for a driver fault to drive
+        };
+        self.current_applied_a = coil_cmd_a;
+        if self.feel_system.kind == FeelKind::Active {
+            // Driver faults of the motor: open (no force), stuck at full force in the last direction.
+            use crate::faults::FaultKind;
+            let m = self.feel_system.motor_max_force_n;
+            self.actuator_force_n = if self.faults.schedule.active(FaultKind::CoilOpen, t).is_some() {
+                0.0
+            } else if self.faults.schedule.active(FaultKind::DriverStuck, t).is_some() {
+                if self.actuator_force_n != 0.0 {
+                    m * self.actuator_force_n.signum()
+                } else {
+                    m * self.motor_cmd_n.signum()
+                }
+            } else {
+                self.motor_cmd_n
+            };
+        }
         let row = Row {
             t_s: t,
             stick_angle_rad: s.stick_angle_rad,
@@ -129,17 +285,27 @@ impl<P: Plant> Loop<P> {
             potential_energy_j: s.potential_energy_j,
             dissipated_j: s.dissipated_j,
             pilot_work_j: self.pilot_work_j,
+            faults: self.faults.schedule.active_mask(t),
+            current_applied_a: self.current_applied_a,
+            coil_current_a: s.coil_current_a,
+            spring_energy_j: self.spring.map_or(0.0, |sp| sp.stored_energy_j(s.piston_x_m)),
+            actuator_force_n: self.actuator_force_n,
+            actuator_work_j: self.actuator_work_j,
+            aero: self.flight.as_ref().map(|f| f.row(t)),
         };
-        // issue 6 hook: driver faults between the command and the coil.
-        let coil_cmd_a = self
-            .faults
-            .coil_command_a(t, self.current_cmd_a, self.current_limit_a);
+        self.plant
+            .set_feel_spring(self.spring.as_ref().map(|sp| sp as &dyn FeelSystem));
+        if self.feel_system.kind == FeelKind::Active {
+            self.plant.set_actuator_force_n(self.actuator_force_n);
+        }
         self.plant.step(hand_force, coil_cmd_a);
         let after = self.plant.state();
+        // The motor's force held over the step does F·Δx on the piston.
+        self.actuator_work_j += self.actuator_force_n * (after.piston_x_m - s.piston_x_m);
         // Work of a force held over the step: F·Δx along the grip path (exact for the zero-order hold).
         self.pilot_work_j += hand_force * (after.grip_x_m - s.grip_x_m);
         self.step_index += 1;
-        row
+        Ok(row)
     }
 }
 
@@ -150,8 +316,8 @@ pub fn run<P: Plant>(
     plant: P,
     opts: RunOptions,
     mut progress: impl FnMut(f64),
-) -> Results {
-    let mut lp = Loop::new(scn, device, plant);
+) -> Result<Results, SimError> {
+    let mut lp = Loop::new(scn, device, plant)?;
     let dt = lp.plant.dt_s();
     let n = (scn.duration_s / dt).round() as usize;
     let frame_every = opts
@@ -166,13 +332,19 @@ pub fn run<P: Plant>(
                 frames.push((k as f64 * dt, lp.plant.poses()));
             }
         }
-        rows.push(lp.step());
+        rows.push(lp.step()?);
         if k % report_every == 0 {
             progress(k as f64 / n as f64);
         }
     }
     progress(1.0);
-    Results {
+    let flight = lp.flight.as_ref().map(|f| FlightInfo {
+        aircraft: f.label().to_string(),
+        trim: f.trim,
+        trim_stick_rad: f.trim_stick_rad,
+        round_trip_us: f.round_trip_us(),
+    });
+    Ok(Results {
         scenario: scn.name.clone(),
         rest_speed_m_s: scn.controller.rest_speed_m_s,
         stroke_half_m: lp.plant.stroke_half_m(),
@@ -184,5 +356,11 @@ pub fn run<P: Plant>(
             Vec::new()
         },
         frames,
-    }
+        feel_ceiling_n: device.param("fc0_n").unwrap_or(0.0)
+            + device.param("fc_gain_n_per_a").unwrap_or(0.0) * scn.controller.gains.out_max,
+        faults: scn.faults.clone(),
+        grip_arm_m: lp.plant.grip_arm_m(),
+        gearing_at_centre_m_per_rad: lp.plant.gearing_m_per_rad(0.0),
+        flight,
+    })
 }

@@ -1,6 +1,7 @@
 //! What the loop needs from the mechanical rig, as a trait: the rapier multibody [`Rig`] implements it;
 //! tests may plug in an independent reduced model.
 
+use crate::control::feel::{self, FeelSystem};
 use crate::rig::{BodyPose, LinkVisuals, Rig};
 
 /// The rig's true state after a step (the loop logs it; the controller never sees it).
@@ -21,6 +22,8 @@ pub struct PlantState {
     pub damper_force_n: f64,
     /// Damper yield-force magnitude at this instant, N.
     pub yield_force_n: f64,
+    /// Coil current (Eq. 3's state), A.
+    pub coil_current_a: f64,
     /// Kinetic energy of the moving bodies, J.
     pub kinetic_energy_j: f64,
     /// Gravitational potential energy relative to the start, J.
@@ -40,6 +43,16 @@ pub trait Plant {
     fn stroke_half_m(&self) -> f64;
     /// Grip path length per stick radian, m/rad (the grip's lever about the pivot).
     fn grip_arm_m(&self) -> f64;
+    /// Piston travel per stick radian at a stick angle, m/rad (the linkage's local gearing; converts a grip
+    /// force to the piston by virtual work: `F_piston = F_grip · grip_arm / gearing`).
+    fn gearing_m_per_rad(&self, stick_angle_rad: f64) -> f64;
+    /// Stick travel stops, rad (min, max).
+    fn stick_limits_rad(&self) -> (f64, f64);
+    /// Put a spring feel element on the piston joint for the next step (`None`: none).
+    fn set_feel_spring(&mut self, spring: Option<&dyn FeelSystem>);
+    /// An actuator's force on the piston along +x for the next step, N (the active stick's motor; call
+    /// after [`Plant::set_feel_spring`], which clears it).
+    fn set_actuator_force_n(&mut self, force_n: f64);
     /// Link names and visual shapes (static); empty when the plant has no geometry.
     fn visuals(&self) -> Vec<LinkVisuals> {
         Vec::new()
@@ -73,6 +86,7 @@ impl Plant for Rig {
             load_cell_n: s.load_cell_n,
             damper_force_n: s.damper_force_n,
             yield_force_n: s.yield_n,
+            coil_current_a: s.coil_current_a,
             kinetic_energy_j: s.kinetic_energy_j,
             potential_energy_j: s.potential_energy_j,
             dissipated_j: s.damper_dissipated_j,
@@ -85,6 +99,30 @@ impl Plant for Rig {
 
     fn grip_arm_m(&self) -> f64 {
         self.grip_lever_m()
+    }
+
+    fn gearing_m_per_rad(&self, stick_angle_rad: f64) -> f64 {
+        self.linkage()
+            .gearing_m_per_rad(stick_angle_rad)
+            .unwrap_or(Rig::gearing_m_per_rad(self))
+    }
+
+    fn stick_limits_rad(&self) -> (f64, f64) {
+        Rig::stick_limits_rad(self)
+    }
+
+    fn set_actuator_force_n(&mut self, force_n: f64) {
+        self.set_external_force_n(force_n);
+    }
+
+    fn set_feel_spring(&mut self, spring: Option<&dyn FeelSystem>) {
+        match spring {
+            Some(f) => feel::apply(f, self),
+            None => {
+                self.set_external_spring(0.0, 0.0);
+                self.set_external_force_n(0.0);
+            }
+        }
     }
 
     fn visuals(&self) -> Vec<LinkVisuals> {

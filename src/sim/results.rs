@@ -4,7 +4,10 @@ use std::io::Write;
 
 use serde::Serialize;
 
+use super::AeroRow;
+use crate::aero::AircraftState;
 use crate::control::LoopMode;
+use crate::faults::{FaultKind, FaultSchedule};
 use crate::rig::{BodyPose, LinkVisuals};
 
 /// One physics step: the state at its start and what was applied over it.
@@ -34,9 +37,23 @@ pub struct Row {
     pub dissipated_j: f64,
     /// Work done by the hand on the grip since the start, J.
     pub pilot_work_j: f64,
+    /// Faults active at this time (bit set over `FaultKind::ALL`, see [`crate::faults::mask_names`]).
+    pub faults: u8,
+    /// The current the coil actually receives (after driver faults), A, and the coil's current
+    /// (Eq. 3's state), A.
+    pub current_applied_a: f64,
+    pub coil_current_a: f64,
+    /// Energy stored in a spring feel element, J (0 without one).
+    pub spring_energy_j: f64,
+    /// The active stick's motor force on the piston along +x, N, and its work on the piston so far, J
+    /// (0 for the other systems).
+    pub actuator_force_n: f64,
+    pub actuator_work_j: f64,
+    /// The aircraft's columns, when the scenario flies one.
+    pub aero: Option<AeroRow>,
 }
 
-pub const CSV_COLUMNS: [&str; 18] = [
+pub const CSV_COLUMNS: [&str; 24] = [
     "t_s",
     "stick_angle_rad",
     "stick_rate_rad_s",
@@ -55,7 +72,42 @@ pub const CSV_COLUMNS: [&str; 18] = [
     "potential_energy_j",
     "dissipated_j",
     "pilot_work_j",
+    "fault_mask",
+    "current_applied_a",
+    "coil_current_a",
+    "spring_energy_j",
+    "actuator_force_n",
+    "actuator_work_j",
 ];
+
+/// Columns added when the scenario flies an aircraft.
+pub const AERO_COLUMNS: [&str; 13] = [
+    "qbar_pa",
+    "elevator_rad",
+    "hinge_moment_nm",
+    "pitch_rad",
+    "pitch_cmd_rad",
+    "nz_g",
+    "nz_cmd_g",
+    "q_rad_s",
+    "alpha_rad",
+    "airspeed_m_s",
+    "altitude_m",
+    "stick_force_n",
+    "stick_cmd_rad",
+];
+
+/// The aircraft of a flight run.
+#[derive(Debug, Clone)]
+pub struct FlightInfo {
+    /// Backend label (`"c172p"`, `"jsbsim:c172p"`).
+    pub aircraft: String,
+    pub trim: AircraftState,
+    /// Stick angle of the trim (aircraft convention), rad: the rig's neutral.
+    pub trim_stick_rad: f64,
+    /// Live JSBSim: (requests, mean µs, max µs) of the step round trips.
+    pub round_trip_us: Option<(u64, f64, f64)>,
+}
 
 pub fn mode_code(m: LoopMode) -> u8 {
     match m {
@@ -76,6 +128,17 @@ pub struct Results {
     pub visuals: Vec<LinkVisuals>,
     /// Body poses at the drawing rate: (time, bodies).
     pub frames: Vec<(f64, Vec<BodyPose>)>,
+    /// The largest yield force the controller can ask for (`fc0 + fc_gain · current_max`), N on the
+    /// piston: the ceiling of the feel the damper can render.
+    pub feel_ceiling_n: f64,
+    /// The grip's arm about the pivot, m, and the linkage's gearing at centre stick, m/rad (to express
+    /// piston forces at the grip).
+    pub grip_arm_m: f64,
+    pub gearing_at_centre_m_per_rad: f64,
+    /// The scenario's fault schedule (for the CSV header and the summary).
+    pub faults: FaultSchedule,
+    /// The aircraft, when the scenario flies one.
+    pub flight: Option<FlightInfo>,
 }
 
 /// Summary figures of a run.
@@ -97,8 +160,12 @@ pub struct Summary {
     pub pilot_work_j: f64,
     pub kinetic_energy_change_j: f64,
     pub potential_energy_change_j: f64,
+    /// Change of the energy stored in a spring feel element, J.
+    pub spring_energy_change_j: f64,
+    /// Work of the active stick's motor, J (0 for the passive systems).
+    pub actuator_work_j: f64,
     pub dissipated_j: f64,
-    /// (pilot work − ΔKE − ΔPE − dissipated) / pilot work.
+    /// (pilot work + motor work − ΔKE − ΔPE − Δspring − dissipated) / (|pilot work| + |motor work|).
     pub energy_residual: f64,
 }
 
@@ -124,6 +191,8 @@ impl Results {
         let dke = last.kinetic_energy_j - first.kinetic_energy_j;
         let dpe = last.potential_energy_j - first.potential_energy_j;
         let diss = last.dissipated_j - first.dissipated_j;
+        let dspring = last.spring_energy_j - first.spring_energy_j;
+        let wa = last.actuator_work_j - first.actuator_work_j;
         Summary {
             scenario: self.scenario.clone(),
             duration_s: last.t_s - first.t_s,
@@ -138,9 +207,11 @@ impl Results {
             pilot_work_j: w,
             kinetic_energy_change_j: dke,
             potential_energy_change_j: dpe,
+            spring_energy_change_j: dspring,
+            actuator_work_j: wa,
             dissipated_j: diss,
-            energy_residual: if w != 0.0 {
-                (w - dke - dpe - diss) / w
+            energy_residual: if w != 0.0 || wa != 0.0 {
+                (w + wa - dke - dpe - dspring - diss) / (w.abs() + wa.abs())
             } else {
                 f64::NAN
             },
@@ -156,11 +227,33 @@ impl Results {
             w,
             "# forces: along +x on the piston (load cell, desired, damper); pilot force along the grip path"
         )?;
-        writeln!(w, "{}", CSV_COLUMNS.join(","))?;
-        for r in &self.rows {
+        let bits: Vec<String> = FaultKind::ALL
+            .iter()
+            .map(|f| format!("{}={}", f.bit(), f.name()))
+            .collect();
+        writeln!(
+            w,
+            "# fault_mask: sum of the active faults' bits: {}",
+            bits.join(", ")
+        )?;
+        if let Some(f) = &self.flight {
             writeln!(
                 w,
-                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                "# aircraft: {}, trim {} m/s at {} m, trim stick {} rad; stick_force_n at the grip (pull +)",
+                f.aircraft, f.trim.airspeed_m_s, f.trim.altitude_m, f.trim_stick_rad
+            )?;
+        }
+        let aero = self.flight.is_some();
+        let mut header = CSV_COLUMNS.join(",");
+        if aero {
+            header.push(',');
+            header.push_str(&AERO_COLUMNS.join(","));
+        }
+        writeln!(w, "{header}")?;
+        for r in &self.rows {
+            write!(
+                w,
+                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
                 r.t_s,
                 r.stick_angle_rad,
                 r.stick_rate_rad_s,
@@ -178,8 +271,35 @@ impl Results {
                 r.kinetic_energy_j,
                 r.potential_energy_j,
                 r.dissipated_j,
-                r.pilot_work_j
+                r.pilot_work_j,
+                r.faults,
+                r.current_applied_a,
+                r.coil_current_a,
+                r.spring_energy_j,
+                r.actuator_force_n,
+                r.actuator_work_j
             )?;
+            if aero {
+                let a = r.aero.unwrap_or_default();
+                write!(
+                    w,
+                    ",{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                    a.qbar_pa,
+                    a.elevator_rad,
+                    a.hinge_moment_nm,
+                    a.pitch_rad,
+                    a.pitch_cmd_rad,
+                    a.nz_g,
+                    a.nz_cmd_g,
+                    a.q_rad_s,
+                    a.alpha_rad,
+                    a.airspeed_m_s,
+                    a.altitude_m,
+                    a.stick_force_n,
+                    a.stick_cmd_rad
+                )?;
+            }
+            writeln!(w)?;
         }
         Ok(())
     }
@@ -206,6 +326,13 @@ impl Row {
             potential_energy_j: 0.0,
             dissipated_j: 0.0,
             pilot_work_j: 0.0,
+            faults: 0,
+            current_applied_a: 0.0,
+            coil_current_a: 0.0,
+            spring_energy_j: 0.0,
+            actuator_force_n: 0.0,
+            actuator_work_j: 0.0,
+            aero: None,
         }
     }
 }
@@ -236,10 +363,11 @@ impl std::fmt::Display for Summary {
         writeln!(f, "  max |load cell| {:.1} N", self.max_abs_load_cell_n)?;
         write!(
             f,
-            "  energy: pilot work {:.4} J = ΔKE {:.4} J + ΔPE {:.4} J + dissipated {:.4} J (residual {:.3} %)",
+            "  energy: pilot work {:.4} J = ΔKE {:.4} J + ΔPE {:.4} J + Δspring {:.4} J + dissipated {:.4} J (residual {:.3} %)",
             self.pilot_work_j,
             self.kinetic_energy_change_j,
             self.potential_energy_change_j,
+            self.spring_energy_change_j,
             self.dissipated_j,
             100.0 * self.energy_residual
         )

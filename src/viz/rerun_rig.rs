@@ -6,8 +6,11 @@
 //!   `rig/<link>/visual_<k>`: its URDF visuals (static shapes posed in the link's frame);
 //! - `forces/load_cell`: arrow at the piston along the rig's x axis, 1 mm per newton;
 //! - `series/force/{desired,load_cell,load_cell_true,damper}` (N), `series/current/command` (A),
-//!   `series/stroke/piston_x` (m), `series/pilot/force` (N), `series/stick/angle` (rad): one value per
-//!   physics step, the same samples as the CSV's columns.
+//!   `series/stroke/piston_x` (m), `series/pilot/force` (N), `series/stick/angle` (rad),
+//!   `series/faults/mask`: one value per physics step, the same samples as the CSV's columns;
+//! - with an aircraft (issue 5): `aircraft` (a simple airframe of boxes beside the stick, rotated by the
+//!   pitch attitude at each frame) and `series/aircraft/{pitch,pitch_cmd,nz,nz_cmd,elevator,
+//!   hinge_moment,qbar,stick_force,stick_cmd}`, also one value per physics step.
 
 use std::path::Path;
 
@@ -18,6 +21,9 @@ use crate::sim::Results;
 
 /// Metres of arrow per newton of force.
 const ARROW_M_PER_N: f32 = 1e-3;
+
+/// Where the aircraft shape sits beside the stick, m (rig frame: x aft, z up).
+const AIRCRAFT_AT_M: [f32; 3] = [0.0, 0.6, 0.3];
 
 #[derive(Debug, thiserror::Error)]
 pub enum VizError {
@@ -74,7 +80,7 @@ pub fn log_run(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
 fn log_series(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
     let times: Vec<f64> = res.rows.iter().map(|r| r.t_s).collect();
     type Col = (&'static str, fn(&crate::sim::Row) -> f64);
-    let cols: [Col; 9] = [
+    let cols: [Col; 10] = [
         ("series/force/desired", |r| r.desired_force_n),
         ("series/force/load_cell", |r| r.load_cell_n),
         ("series/force/load_cell_true", |r| r.load_cell_true_n),
@@ -84,9 +90,36 @@ fn log_series(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
         ("series/pilot/force", |r| r.pilot_force_n),
         ("series/stick/angle", |r| r.stick_angle_rad),
         ("series/energy/dissipated", |r| r.dissipated_j),
+        ("series/faults/mask", |r| f64::from(r.faults)),
     ];
-    for (path, f) in cols {
-        let values: Vec<f64> = res.rows.iter().map(f).collect();
+    type AeroCol = (&'static str, fn(&crate::sim::AeroRow) -> f64);
+    let aero: [AeroCol; 9] = [
+        ("series/aircraft/pitch", |a| a.pitch_rad),
+        ("series/aircraft/pitch_cmd", |a| a.pitch_cmd_rad),
+        ("series/aircraft/nz", |a| a.nz_g),
+        ("series/aircraft/nz_cmd", |a| a.nz_cmd_g),
+        ("series/aircraft/elevator", |a| a.elevator_rad),
+        ("series/aircraft/hinge_moment", |a| a.hinge_moment_nm),
+        ("series/aircraft/qbar", |a| a.qbar_pa),
+        ("series/aircraft/stick_force", |a| a.stick_force_n),
+        ("series/aircraft/stick_cmd", |a| a.stick_cmd_rad),
+    ];
+    let mut all: Vec<(&str, Vec<f64>)> = cols
+        .iter()
+        .map(|(p, f)| (*p, res.rows.iter().map(f).collect()))
+        .collect();
+    if res.flight.is_some() {
+        for (p, f) in aero {
+            all.push((
+                p,
+                res.rows
+                    .iter()
+                    .map(|r| r.aero.map_or(f64::NAN, |a| f(&a)))
+                    .collect(),
+            ));
+        }
+    }
+    for (path, values) in all {
         rec.send_columns(
             path,
             [TimeColumn::new_duration_secs("time", times.iter().copied())],
@@ -150,6 +183,27 @@ pub fn log_link_poses(rec: &RecordingStream, prefix: &str, poses: &[BodyPose]) -
 
 fn log_bodies(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
     log_link_visuals(rec, "rig", &res.visuals).map_err(err)?;
+    if res.flight.is_some() {
+        // Airframe: fuselage, wing, tailplane and fin boxes, nose towards −x (forward), 1:20 scale.
+        rec.log_static(
+            "aircraft/shape",
+            &rerun::Boxes3D::from_centers_and_sizes(
+                [
+                    [0.0, 0.0, 0.0],
+                    [-0.05, 0.0, 0.02],
+                    [0.18, 0.0, 0.02],
+                    [0.19, 0.0, 0.06],
+                ],
+                [
+                    [0.45, 0.06, 0.06],
+                    [0.08, 0.55, 0.01],
+                    [0.05, 0.18, 0.01],
+                    [0.05, 0.01, 0.08],
+                ],
+            ),
+        )
+        .map_err(err)?;
+    }
     // Link poses over time, and the load-cell force as an arrow at the piston along +x.
     let dt = if res.rows.len() > 1 {
         res.rows[1].t_s - res.rows[0].t_s
@@ -165,6 +219,18 @@ fn log_bodies(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
                 "forces/load_cell",
                 &rerun::Arrows3D::from_vectors([[row.load_cell_true_n as f32 * ARROW_M_PER_N, 0.0, 0.0]])
                     .with_origins([f32x3(piston.translation_m)]),
+            )
+            .map_err(err)?;
+        }
+        if let Some(a) = res.rows.get(k).and_then(|r| r.aero) {
+            // Nose-up pitch θ turns the nose (−x) towards +z: a rotation by θ about +y.
+            let h = (a.pitch_rad * 0.5) as f32;
+            rec.log(
+                "aircraft",
+                &rerun::Transform3D::from_translation_rotation(
+                    AIRCRAFT_AT_M,
+                    rerun::Quaternion::from_xyzw([0.0, h.sin(), 0.0, h.cos()]),
+                ),
             )
             .map_err(err)?;
         }

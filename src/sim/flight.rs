@@ -1,0 +1,222 @@
+//! The aircraft in the loop (issue 5): the stick drives the elevator, the aircraft's stick force (from its
+//! hinge moment, or its feel computer for powered controls) is the feel target, and the pilot's outer
+//! loop on pitch attitude or load factor gives the hand its stick command.
+//!
+//! Per physics step, when an aircraft frame is due (its own rate, JSBSim's 120 Hz by default):
+//! 1. elevator from the stick angle (the rig's neutral is the trimmed stick; the stick-to-elevator link is
+//!    mechanical, so it reads the stick itself, not the feel loop's sensors);
+//! 2. one aircraft step (embedded Rust model or live JSBSim) with the scheduled throttle;
+//! 3. the pilot's outer loop compares attitude (or load factor) with its command and sets the stick
+//!    command the hand follows.
+//!
+//! Between frames the aircraft state, and so the stick force, is held (zero-order hold).
+
+use crate::aero::backend::{self, AircraftBackend};
+use crate::aero::{AeroError, AircraftState, HingeModel};
+use crate::pilot::attitude::{CrossoverPilot, CrossoverPilotConfig, PilotLoop, Schedule};
+use crate::scenario::{AircraftConfig, OuterLoopConfig, PilotDesign};
+
+/// The aircraft's columns of a results row.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct AeroRow {
+    pub qbar_pa: f64,
+    pub elevator_rad: f64,
+    pub hinge_moment_nm: f64,
+    pub pitch_rad: f64,
+    /// The outer loop's command: pitch (rad, absolute) or load factor (g); NaN for the other loop or none.
+    pub pitch_cmd_rad: f64,
+    pub nz_g: f64,
+    pub nz_cmd_g: f64,
+    pub q_rad_s: f64,
+    pub alpha_rad: f64,
+    pub airspeed_m_s: f64,
+    pub altitude_m: f64,
+    /// The aircraft's stick force at the grip (pull +), N: the feel target before the linkage.
+    pub stick_force_n: f64,
+    /// The pilot's stick command, rad relative to trim (NaN without an outer loop).
+    pub stick_cmd_rad: f64,
+}
+
+/// The crossover pilot adapted to the aircraft at its trim (McRuer): designed on the embedded model of the
+/// same aircraft (also when flying JSBSim live, whose linearisation it stands for).
+fn adapted(
+    cfg: &AircraftConfig,
+    kind: PilotLoop,
+    crossover_rad_s: f64,
+    delay_s: f64,
+    stick_lag_s: f64,
+) -> Result<CrossoverPilotConfig, AeroError> {
+    let name = cfg.model.strip_prefix("jsbsim:").unwrap_or(&cfg.model);
+    let mut ac = crate::aero::Aircraft::load(&crate::aero::AircraftModel::builtin_path(name))?;
+    ac.trim(cfg.airspeed_m_s, cfg.altitude_m)?;
+    crate::aero::linear::adapted_pilot(
+        &ac,
+        kind,
+        &crate::pilot::attitude::CrossoverDesign::new(crossover_rad_s, delay_s),
+        stick_lag_s,
+    )
+    .map_err(|e| AeroError::Input {
+        what: format!("adapted pilot for `{}` at ω_c {crossover_rad_s} rad/s", cfg.model),
+        why: e.0,
+    })
+}
+
+/// The pilot's outer loop.
+struct Outer {
+    pilot: CrossoverPilot,
+    kind: PilotLoop,
+    command: Schedule,
+}
+
+/// An aircraft stepped in lock-step with the rig.
+pub struct Flight {
+    backend: Box<dyn AircraftBackend>,
+    hinge: HingeModel,
+    pub trim: AircraftState,
+    /// Stick angle of the trim (aircraft convention), rad: the rig's neutral.
+    pub trim_stick_rad: f64,
+    dt_s: f64,
+    ticks: u64,
+    next_t_s: f64,
+    state: AircraftState,
+    throttle: Schedule,
+    outer: Option<Outer>,
+    stick_cmd_rad: f64,
+}
+
+impl Flight {
+    /// Open the backend, trim it, and build the outer loop with the rig's stick limits.
+    pub fn open(
+        cfg: &AircraftConfig,
+        outer: Option<&OuterLoopConfig>,
+        stick_limits_rad: (f64, f64),
+    ) -> Result<Self, AeroError> {
+        let mut backend = backend::open(&cfg.model)?;
+        let dt_s = 1.0 / cfg.rate_hz;
+        let trim = backend.trim(cfg.airspeed_m_s, cfg.altitude_m, dt_s)?;
+        let hinge = backend.hinge().clone();
+        let trim_stick_rad = hinge.stick_from_elevator_rad(trim.elevator_rad);
+        let outer = match outer {
+            Some(o) => {
+                let cfg = match o.pilot {
+                    PilotDesign::Given(c) => c,
+                    PilotDesign::Adapted {
+                        crossover_rad_s,
+                        delay_s,
+                        stick_lag_s,
+                    } => adapted(cfg, o.loop_kind, crossover_rad_s, delay_s, stick_lag_s)?,
+                };
+                Some(Outer {
+                    pilot: CrossoverPilot::new(
+                        CrossoverPilotConfig {
+                            stick_min_rad: stick_limits_rad.0,
+                            stick_max_rad: stick_limits_rad.1,
+                            ..cfg
+                        },
+                        dt_s,
+                    ),
+                    kind: o.loop_kind,
+                    command: o.command.clone(),
+                })
+            }
+            None => None,
+        };
+        Ok(Self {
+            backend,
+            hinge,
+            trim,
+            trim_stick_rad,
+            dt_s,
+            ticks: 0,
+            next_t_s: 0.0,
+            state: trim,
+            throttle: cfg.throttle.clone(),
+            outer,
+            stick_cmd_rad: 0.0,
+        })
+    }
+
+    /// The backend's label (`"c172p"`, `"jsbsim:c172p"`).
+    pub fn label(&self) -> &str {
+        self.backend.label()
+    }
+
+    /// Whether the pilot's outer loop sets the stick command.
+    pub fn has_outer_loop(&self) -> bool {
+        self.outer.is_some()
+    }
+
+    /// The pilot's stick command now, rad relative to trim.
+    pub fn stick_cmd_rad(&self) -> f64 {
+        self.stick_cmd_rad
+    }
+
+    /// The aircraft's stick force now (pull +), N at the grip.
+    pub fn stick_force_n(&self) -> f64 {
+        self.state.stick_force_n
+    }
+
+    /// Round trips of a live co-simulation: (count, mean µs, max µs).
+    pub fn round_trip_us(&self) -> Option<(u64, f64, f64)> {
+        self.backend.round_trip_us()
+    }
+
+    /// The outer loop's commands at `t_s`: (pitch rad absolute, load factor g), NaN where not flown.
+    fn commands(&self, t_s: f64) -> (f64, f64) {
+        match &self.outer {
+            Some(o) => match o.kind {
+                PilotLoop::Pitch => (self.trim.theta_rad + o.command.value(t_s), f64::NAN),
+                PilotLoop::LoadFactor => (f64::NAN, o.command.value(t_s)),
+            },
+            None => (f64::NAN, f64::NAN),
+        }
+    }
+
+    /// Advance the aircraft if a frame is due at `t_s`, with the rig's stick angle (rad, relative to the
+    /// trimmed stick).
+    pub fn update(&mut self, t_s: f64, stick_angle_rad: f64) -> Result<(), AeroError> {
+        if t_s + 1e-9 < self.next_t_s {
+            return Ok(());
+        }
+        let elevator = self
+            .hinge
+            .elevator_from_stick_rad(self.trim_stick_rad + stick_angle_rad);
+        self.state = self.backend.step(elevator, self.throttle.value(t_s))?;
+        let (pitch_cmd, nz_cmd) = self.commands(t_s);
+        if let Some(o) = self.outer.as_mut() {
+            let err = match o.kind {
+                PilotLoop::Pitch => pitch_cmd - self.state.theta_rad,
+                PilotLoop::LoadFactor => nz_cmd - self.state.nz_g,
+            };
+            self.stick_cmd_rad = o.pilot.step(err);
+        }
+        self.ticks += 1;
+        self.next_t_s = self.ticks as f64 * self.dt_s;
+        Ok(())
+    }
+
+    /// The aircraft's columns at `t_s`.
+    pub fn row(&self, t_s: f64) -> AeroRow {
+        let s = &self.state;
+        let (pitch_cmd_rad, nz_cmd_g) = self.commands(t_s);
+        AeroRow {
+            qbar_pa: s.qbar_pa,
+            elevator_rad: s.elevator_rad,
+            hinge_moment_nm: s.hinge_moment_nm,
+            pitch_rad: s.theta_rad,
+            pitch_cmd_rad,
+            nz_g: s.nz_g,
+            nz_cmd_g,
+            q_rad_s: s.q_rad_s,
+            alpha_rad: s.alpha_rad,
+            airspeed_m_s: s.airspeed_m_s,
+            altitude_m: s.altitude_m,
+            stick_force_n: s.stick_force_n,
+            stick_cmd_rad: if self.outer.is_some() {
+                self.stick_cmd_rad
+            } else {
+                f64::NAN
+            },
+        }
+    }
+}

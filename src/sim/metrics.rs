@@ -1,0 +1,137 @@
+//! Figures of merit of a flight run (issue 5): how well the pilot flew the task, whether the desired feel
+//! force follows the aircraft's stick force, and how well the load cell follows the desired force where
+//! the damper can provide it.
+
+use serde::Serialize;
+
+use super::Results;
+use crate::control::LoopMode;
+use crate::pilot::attitude::PilotLoop;
+use crate::scenario::Scenario;
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct FlightMetrics {
+    /// RMS of (command − response) from the first command change to the end: rad (pitch) or g (load
+    /// factor); NaN without an outer loop.
+    pub tracking_rms: f64,
+    /// Largest command change of the schedule, same unit (the scale of the task).
+    pub command_span: f64,
+    /// Correlation of the desired force on the piston with the aircraft's stick force (1: the feel
+    /// follows the aircraft; the linkage's gearing changes slightly with angle).
+    pub desired_vs_stick_force_corr: f64,
+    /// Where the loop tracks (the desired force resists the motion), the stick moves, and the desired
+    /// force is inside the damper's range: RMS of (true load cell − desired), N, the RMS desired force
+    /// there, N, and the fraction of the run in that condition.
+    pub follow_rms_n: f64,
+    pub follow_desired_rms_n: f64,
+    pub follow_fraction: f64,
+    /// Peak |stick force| the aircraft asked for at the grip, N.
+    pub stick_force_peak_n: f64,
+    /// The damper's ceiling at the grip at centre stick, N (its largest yield force through the linkage).
+    pub ceiling_at_grip_n: f64,
+    /// Live JSBSim: mean and max step round trip, µs (NaN for the embedded model).
+    pub round_trip_mean_us: f64,
+    pub round_trip_max_us: f64,
+}
+
+impl FlightMetrics {
+    /// `None` when the scenario flies no aircraft.
+    pub fn of(res: &Results, scn: &Scenario) -> Option<Self> {
+        let flight = res.flight.as_ref()?;
+        let rows = &res.rows;
+        // NaN for an empty set (nothing to judge), not 0.
+        let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt();
+        let (tracking_rms, command_span) = match &scn.outer_loop {
+            Some(o) => {
+                let t0 = o.command.first_change_s();
+                let e: Vec<f64> = rows
+                    .iter()
+                    .filter(|r| r.t_s >= t0)
+                    .filter_map(|r| r.aero)
+                    .map(|a| match o.loop_kind {
+                        PilotLoop::Pitch => a.pitch_cmd_rad - a.pitch_rad,
+                        PilotLoop::LoadFactor => a.nz_cmd_g - a.nz_g,
+                    })
+                    .collect();
+                let v: Vec<f64> = o.command.points.iter().map(|p| p.1).collect();
+                let span = v.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
+                    - v.iter().cloned().fold(f64::INFINITY, f64::min);
+                (rms(&e), span)
+            }
+            None => (f64::NAN, f64::NAN),
+        };
+        let stick: Vec<f64> = rows
+            .iter()
+            .map(|r| r.aero.map_or(0.0, |a| a.stick_force_n))
+            .collect();
+        let desired: Vec<f64> = rows.iter().map(|r| r.desired_force_n).collect();
+        let rest = res.rest_speed_m_s;
+        let ceiling = res.feel_ceiling_n;
+        let follow: Vec<(f64, f64)> = rows
+            .iter()
+            .filter(|r| {
+                r.mode == LoopMode::Tracking
+                    && r.desired_force_n * r.piston_v_m_s > 0.0
+                    && r.piston_v_m_s.abs() > 2.0 * rest
+                    && r.desired_force_n.abs() < 0.9 * ceiling
+            })
+            .map(|r| (r.load_cell_true_n - r.desired_force_n, r.desired_force_n))
+            .collect();
+        let e: Vec<f64> = follow.iter().map(|p| p.0).collect();
+        let d: Vec<f64> = follow.iter().map(|p| p.1).collect();
+        let (_, mean_rt, max_rt) = flight.round_trip_us.unwrap_or((0, f64::NAN, f64::NAN));
+        Some(Self {
+            tracking_rms,
+            command_span,
+            desired_vs_stick_force_corr: correlation(&desired, &stick),
+            follow_rms_n: rms(&e),
+            follow_desired_rms_n: rms(&d),
+            follow_fraction: follow.len() as f64 / rows.len().max(1) as f64,
+            stick_force_peak_n: stick.iter().fold(0.0, |m: f64, x| m.max(x.abs())),
+            ceiling_at_grip_n: ceiling * res.gearing_at_centre_m_per_rad / res.grip_arm_m,
+            round_trip_mean_us: mean_rt,
+            round_trip_max_us: max_rt,
+        })
+    }
+}
+
+impl std::fmt::Display for FlightMetrics {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "  flight: tracking RMS {:.4} (command span {:.4}); desired force vs stick force correlation {:.5}",
+            self.tracking_rms, self.command_span, self.desired_vs_stick_force_corr
+        )?;
+        write!(
+            f,
+            "  load cell vs desired where the damper can provide it: RMS {:.2} N of {:.2} N over {:.1} % of the run; peak stick force {:.1} N at the grip (damper ceiling there {:.1} N)",
+            self.follow_rms_n,
+            self.follow_desired_rms_n,
+            100.0 * self.follow_fraction,
+            self.stick_force_peak_n,
+            self.ceiling_at_grip_n
+        )?;
+        if self.round_trip_mean_us.is_finite() {
+            write!(
+                f,
+                "\n  JSBSim round trip: mean {:.1} µs, max {:.1} µs",
+                self.round_trip_mean_us, self.round_trip_max_us
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// Pearson correlation coefficient (NaN when either series is constant).
+pub fn correlation(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len()) as f64;
+    let ma = a.iter().sum::<f64>() / n;
+    let mb = b.iter().sum::<f64>() / n;
+    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
+    for (x, y) in a.iter().zip(b) {
+        sab += (x - ma) * (y - mb);
+        saa += (x - ma) * (x - ma);
+        sbb += (y - mb) * (y - mb);
+    }
+    sab / (saa * sbb).sqrt()
+}
