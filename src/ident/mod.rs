@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 
 use crate::device::params::TestSignals;
 use crate::device::{DataStats, DeviceError, Inputs};
-use crate::measurement::{Measurement, MeasurementError};
+use crate::measurement::{smooth_derivative, Measurement, MeasurementError};
 
 pub use diagnose::{diagnose, DiagnoseOptions, Diagnosis};
 pub use fit::{fit, FitOptions, FitResult};
@@ -62,7 +62,7 @@ impl Test {
             path: m.path.clone(),
             group: group_of(m),
             name,
-            inputs: m.inputs(),
+            inputs: inputs_of(m),
             f_n: m.f_n.clone(),
             velocity_measured: m.velocity_measured,
         }
@@ -75,6 +75,44 @@ impl Test {
     pub fn is_empty(&self) -> bool {
         self.f_n.is_empty()
     }
+}
+
+/// Model inputs of a measurement ([`Measurement::inputs`]), with the acceleration, when the file has none,
+/// derived along the quieter of two routes: differentiating the measured velocity, or differentiating the
+/// displacement twice. A velocity transducer is often far noisier than the displacement sensor (and a
+/// derivative multiplies noise by ~0.5/dt), so the acceleration from a noisy velocity can be mostly noise,
+/// which hides the `inertia` effect (errors in the variables attenuate its fit). The noise of each raw
+/// signal is estimated from the data ([`residual::white_noise_std`]) and carried through the
+/// differentiator's own noise gain; the route with the smaller result is used.
+pub fn inputs_of(m: &Measurement) -> Vec<Inputs> {
+    let mut inputs = m.inputs();
+    if m.a_m_s2.is_some() || !m.velocity_measured || m.len() < 16 {
+        return inputs;
+    }
+    let (g1, g2) = derivative_noise_gains();
+    let dt = crate::measurement::median_interval(&m.t_s);
+    let sd_from_v = g1 * residual::white_noise_std(&m.v_m_s) / dt;
+    let sd_from_x = g2 * residual::white_noise_std(&m.x_m) / (dt * dt);
+    if sd_from_x < sd_from_v {
+        let v_x = smooth_derivative(&m.t_s, &m.x_m);
+        for (i, a) in inputs.iter_mut().zip(smooth_derivative(&m.t_s, &v_x)) {
+            i.a_m_s2 = a;
+        }
+    }
+    inputs
+}
+
+/// White-noise gains of the smoothing differentiator applied once and twice on a unit-spaced grid (the
+/// RMS of its impulse response): multiply by σ/dt and σ/dt² respectively.
+fn derivative_noise_gains() -> (f64, f64) {
+    let n = 41;
+    let t: Vec<f64> = (0..n).map(|k| k as f64).collect();
+    let mut imp = vec![0.0; n];
+    imp[n / 2] = 1.0;
+    let d1 = smooth_derivative(&t, &imp);
+    let d2 = smooth_derivative(&t, &d1);
+    let norm = |d: &[f64]| d.iter().map(|v| v * v).sum::<f64>().sqrt();
+    (norm(&d1), norm(&d2))
 }
 
 /// The cross-validation group of a test: the `group` metadata key when present, else the file stem up to
