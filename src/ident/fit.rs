@@ -194,6 +194,8 @@ struct Problem<'a> {
     n_weighted: usize,
     /// Finite stand-in for a non-finite simulated force, N.
     blowup_n: f64,
+    /// The Jacobian of every parameter at one search vector, computed before the search.
+    first_jac: Option<(Vec<f64>, DMatrix<f64>)>,
     /// Lowest sum of squares seen and its search vector (the search may end on a rejected trial).
     best: (f64, Vec<f64>),
     evaluations: usize,
@@ -240,6 +242,7 @@ impl<'a> Problem<'a> {
             weights,
             n_weighted,
             blowup_n: 1e3 * f_max.max(1.0),
+            first_jac: None,
             best: (f64::INFINITY, Vec::new()),
             evaluations: 0,
         };
@@ -347,6 +350,17 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     }
 
     fn jacobian(&self) -> Option<DMatrix<f64>> {
+        // The search's first Jacobian is at the start, where the zero-column check already computed every
+        // column: reuse it (one simulation per parameter saved per fit).
+        if let Some((z, j)) = &self.first_jac {
+            if *z == self.z {
+                let mut out = DMatrix::zeros(j.nrows(), self.free.len());
+                for (c, &k) in self.free.iter().enumerate() {
+                    out.set_column(c, &j.column(k));
+                }
+                return Some(out);
+            }
+        }
         Some(self.jacobian_cols(&self.free))
     }
 }
@@ -397,10 +411,17 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
     let mut evaluations = 0;
     let mut termination = String::from("no free parameters");
     let mut bound_note = vec![String::new(); n];
+    let mut j0 = Some(j0);
     for round in 0..4 {
         let free: Vec<usize> = (0..n).filter(|&k| !held[k]).collect();
-        prob = Problem::new(model, tests, spans, &weights, tf.clone(), z_start.clone());
+        if round > 0 {
+            prob = Problem::new(model, tests, spans, &weights, tf.clone(), z_start.clone());
+        }
         prob.free = free.clone();
+        if let Some(j) = j0.take() {
+            // Round 0 starts at z0, where j0 was computed.
+            prob.first_jac = Some((prob.z.clone(), j));
+        }
         if !free.is_empty() && prob.n_res > 0 {
             let lm = LevenbergMarquardt::new()
                 .with_ftol(opts.tol)
