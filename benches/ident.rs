@@ -79,6 +79,12 @@ fn synthetic_60k(registry: &Registry) -> Vec<Test> {
             }
         })
         .collect();
+    // The effect's typical strength follows the base device's statistics on these inputs (as `mrfeel mts
+    // --effects` does): run the base model first.
+    let base = Model::from_spec("bingham", registry, 14.0).expect("model");
+    for t in &mut tests {
+        t.f_n = base.simulate(&[2.0, 4.83, 60.0, 0.015, 0.008], &t.inputs);
+    }
     let stats = data_stats(&tests);
     let p = model
         .typical_params(&[2.0, 4.83, 60.0, 0.015, 0.008], &stats)

@@ -9,6 +9,11 @@
 /// `i` is the coil current (Eq. 3, the RL circuit), `h` the fluid's effective excitation expressed in
 /// amperes (Eq. 4). Returns the new `(i, h)`. Time constants of zero are allowed (no lag).
 pub fn advance_two_lags(i: f64, h: f64, u: f64, te_s: f64, tm_s: f64, dt_s: f64) -> (f64, f64) {
+    if i == u && h == u {
+        // Settled (exactly, as the states become after ~36 time constants in floating point): the general
+        // formula gives `u` too, without two exponentials.
+        return (u, u);
+    }
     let ee = decay(dt_s, te_s);
     let em = decay(dt_s, tm_s);
     let e0 = i - u; // coil error, decays as exp(-t/Te)

@@ -90,6 +90,11 @@ pub struct TestSignals<'a> {
 impl DataStats {
     /// Statistics over several tests, including a linear least-squares Bingham estimate
     /// `F ≈ (fc0 + k |i|) sgn v + c v` (non-negative coefficients), the starting point of every fit.
+    ///
+    /// Signals of unequal length are read up to the shortest kinematic signal; the force statistics
+    /// (`f_rms_n`, `f_max_n`, the Bingham estimate) use only the samples that have a force, so a test
+    /// without force yet (e.g. synthetic inputs before the truth model runs) gives kinematic statistics and
+    /// no panic.
     pub fn from_tests(tests: &[TestSignals<'_>]) -> Self {
         let mut s = DataStats::default();
         let (mut n, mut f2, mut v2, mut isum) = (0usize, 0.0, 0.0, 0.0);
@@ -97,18 +102,30 @@ impl DataStats {
         // Normal equations of the 3-parameter linear Bingham fit.
         let mut ata = [[0.0f64; 3]; 3];
         let mut atb = [0.0f64; 3];
+        let mut nf = 0usize;
         for t in tests {
-            for k in 0..t.t_s.len() {
-                let (f, v, i) = (t.f_n[k], t.v_m_s[k], t.i_a[k].abs());
+            let len = t
+                .t_s
+                .len()
+                .min(t.x_m.len())
+                .min(t.v_m_s.len())
+                .min(t.a_m_s2.len())
+                .min(t.i_a.len());
+            for k in 0..len {
+                let (v, i) = (t.v_m_s[k], t.i_a[k].abs());
                 n += 1;
-                f2 += f * f;
                 v2 += v * v;
                 isum += i;
-                s.f_max_n = s.f_max_n.max(f.abs());
                 s.v_max_m_s = s.v_max_m_s.max(v.abs());
                 s.x_max_m = s.x_max_m.max(t.x_m[k].abs());
                 s.a_max_m_s2 = s.a_max_m_s2.max(t.a_m_s2[k].abs());
                 s.i_max_a = s.i_max_a.max(i);
+                let Some(&f) = t.f_n.get(k) else {
+                    continue;
+                };
+                nf += 1;
+                f2 += f * f;
+                s.f_max_n = s.f_max_n.max(f.abs());
                 let sg = if v > 0.0 {
                     1.0
                 } else if v < 0.0 {
@@ -124,15 +141,15 @@ impl DataStats {
                     }
                 }
             }
-            dts.extend(t.t_s.windows(2).map(|w| w[1] - w[0]));
-            if let (Some(a), Some(b)) = (t.t_s.first(), t.t_s.last()) {
+            dts.extend(t.t_s[..len].windows(2).map(|w| w[1] - w[0]));
+            if let (Some(a), Some(b)) = (t.t_s[..len].first(), t.t_s[..len].last()) {
                 s.duration_s = s.duration_s.max(b - a);
             }
         }
         if n == 0 {
             return s;
         }
-        s.f_rms_n = (f2 / n as f64).sqrt();
+        s.f_rms_n = (f2 / nf.max(1) as f64).sqrt();
         s.v_rms_m_s = (v2 / n as f64).sqrt();
         s.i_mean_a = isum / n as f64;
         dts.sort_by(f64::total_cmp);
@@ -183,4 +200,34 @@ fn nonneg_lstsq3(ata: [[f64; 3]; 3], atb: [f64; 3]) -> [f64; 3] {
         }
     }
     best.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stats_of_a_test_without_force_are_kinematic_only_and_do_not_panic() {
+        let t: Vec<f64> = (0..100).map(|k| k as f64 * 1e-3).collect();
+        let x: Vec<f64> = t.iter().map(|t| 0.01 * (6.0 * t).sin()).collect();
+        let v: Vec<f64> = t.iter().map(|t| 0.06 * (6.0 * t).cos()).collect();
+        let a = vec![0.0; 100];
+        let i = vec![2.0; 100];
+        let f_short = vec![5.0; 40];
+        for f in [&[][..], &f_short[..]] {
+            let s = DataStats::from_tests(&[TestSignals {
+                t_s: &t,
+                x_m: &x,
+                v_m_s: &v[..90], // shorter than t: read up to 90 samples
+                a_m_s2: &a,
+                i_a: &i,
+                f_n: f,
+            }]);
+            assert!((s.v_max_m_s - 0.06).abs() < 1e-12);
+            assert!((s.i_mean_a - 2.0).abs() < 1e-12);
+            assert!((s.dt_s - 1e-3).abs() < 1e-12);
+            let want_f = if f.is_empty() { 0.0 } else { 5.0 };
+            assert!((s.f_rms_n - want_f).abs() < 1e-12, "{}", s.f_rms_n);
+        }
+    }
 }

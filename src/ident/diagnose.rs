@@ -21,7 +21,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 
 use super::fit::{fit, span_stats, FitOptions, Span};
-use super::residual::{noise_floor_n, where_regions, Region, Signatures};
+use super::residual::{direction_weights, noise_floor_n, where_regions, Region, Signatures};
 use super::validate::{evaluate, Figures};
 use super::{IdentError, Test};
 use crate::device::{Model, ModelSpec, Registry};
@@ -41,7 +41,12 @@ pub struct DiagnoseOptions {
     pub blocks: usize,
     /// Most folds over groups of tests.
     pub max_folds: usize,
+    /// Options of the fits on all data (base and final model).
     pub fit: FitOptions,
+    /// Convergence tolerance of the cross-validation fits (relative reduction of the sum of squares in a
+    /// step): a held-out judgment at the [`DiagnoseOptions::min_gain`] level does not need the 1e-7 of a
+    /// reported fit, and each cross-validated candidate costs one fit per fold.
+    pub cv_tol: f64,
     /// Show a progress bar on stderr (hidden when stderr is not a terminal).
     pub progress: bool,
 }
@@ -56,6 +61,7 @@ impl Default for DiagnoseOptions {
             blocks: 4,
             max_folds: 5,
             fit: FitOptions::default(),
+            cv_tol: 1e-5,
             progress: false,
         }
     }
@@ -202,6 +208,7 @@ pub fn cross_validate(
     opts: &FitOptions,
     bar: &ProgressBar,
 ) -> CvResult {
+    let weights: Vec<Vec<f64>> = tests.par_iter().map(direction_weights).collect();
     let out: Vec<FoldOutcome> = folds
         .par_iter()
         .enumerate()
@@ -218,6 +225,7 @@ pub fn cross_validate(
                 &fold.train,
                 &FitOptions {
                     start,
+                    std_errors: false,
                     ..opts.clone()
                 },
             );
@@ -227,7 +235,11 @@ pub fn cross_validate(
                 let t = &tests[s.test];
                 let sim = model.simulate(&fr.params, &t.inputs[..s.end]);
                 let p = sim[s.start..s.end].to_vec();
-                fig.add(&Figures::of(&p, &t.f_n[s.start..s.end]));
+                fig.add(&Figures::of_weighted(
+                    &p,
+                    &t.f_n[s.start..s.end],
+                    &weights[s.test][s.start..s.end],
+                ));
                 preds.push((*s, p));
             }
             bar.inc(1);
@@ -329,6 +341,11 @@ pub fn diagnose(
     let f_rms = (f_ss / samples.max(1) as f64).sqrt();
     let noise = noise_floor_n(tests);
     let noise_mse = noise * noise;
+    let cv_fit = FitOptions {
+        tol: opts.cv_tol,
+        std_errors: false,
+        ..opts.fit.clone()
+    };
 
     let bar = if opts.progress {
         let b = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
@@ -347,7 +364,7 @@ pub fn diagnose(
     let where_ = where_regions(tests, &base_pred);
 
     let mut cur_model = base_model;
-    let mut cur = cross_validate(&cur_model, tests, &folds, None, &opts.fit, &bar);
+    let mut cur = cross_validate(&cur_model, tests, &folds, None, &cv_fit, &bar);
     let base_heldout = cur.heldout_nrmse();
     let mut steps = vec![StepResult {
         model: base.to_string(),
@@ -377,7 +394,7 @@ pub fn diagnose(
             .par_iter()
             .map(|n| {
                 let m = build(&cur.spec.with(n))?;
-                let cv = cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &opts.fit, &bar);
+                let cv = cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &cv_fit, &bar);
                 Ok((m, cv))
             })
             .collect();
@@ -448,7 +465,7 @@ pub fn diagnose(
                 let m = build(&spec)?;
                 let cv = match path_cv.get(&spec.to_string()) {
                     Some(cv) => cv.clone(),
-                    None => cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &opts.fit, &bar),
+                    None => cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &cv_fit, &bar),
                 };
                 Ok((e.clone(), m, cv))
             })

@@ -7,6 +7,8 @@
 //!   viscous damping: Eq. 2 and 6 are linear in them), with non-negativity kept.
 //! - Residuals and the forward-difference Jacobian are computed in parallel over tests and parameters
 //!   (rayon, results collected in a fixed order: deterministic).
+//! - Samples where the velocity is within its noise of zero (its sign unknown) do not count in the loss
+//!   ([`direction_weights`]); every sample is still simulated, so states carry through them.
 //! - Standard errors `s² (JᵀJ)⁻¹`. A parameter the data do not determine (a zero Jacobian column, e.g. the
 //!   lag time constants when the current never changes, or an enormous standard error) is held at its
 //!   initial value and reported with no standard error and a note.
@@ -15,6 +17,7 @@ use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
 use rayon::prelude::*;
 
+use super::residual::direction_weights;
 use super::{data_stats, Test};
 use crate::device::{bingham, DataStats, Model};
 
@@ -59,6 +62,9 @@ pub struct FitOptions {
     pub tol: f64,
     /// The search stops after about this many Jacobians.
     pub max_iterations: usize,
+    /// Compute standard errors (one more Jacobian per round) and hold parameters the data barely determine.
+    /// Cross-validation fits, which only predict, skip it.
+    pub std_errors: bool,
 }
 
 impl Default for FitOptions {
@@ -67,6 +73,7 @@ impl Default for FitOptions {
             start: None,
             tol: 1e-7,
             max_iterations: 40,
+            std_errors: true,
         }
     }
 }
@@ -79,11 +86,12 @@ pub struct FitResult {
     pub std_err: Vec<Option<f64>>,
     /// Per parameter: why it was held (or empty).
     pub notes: Vec<String>,
-    /// Sum of squared residuals over the fitted samples, N².
+    /// Sum of squared residuals over the fitted samples that count (velocity sign known, see
+    /// [`direction_weights`]), N².
     pub sse: f64,
-    /// Number of fitted samples.
+    /// Number of fitted samples that count.
     pub n: usize,
-    /// Sum of squared measured force over the fitted samples, N².
+    /// Sum of squared measured force over the same samples, N².
     pub f_ss: f64,
     /// Residual evaluations (whole simulations of the data) the search used.
     pub evaluations: usize,
@@ -180,23 +188,41 @@ struct Problem<'a> {
     /// Simulated force per test at `z`.
     sims: Vec<Vec<f64>>,
     resid: DVector<f64>,
+    /// Weight of each sample in the loss, per test ([`direction_weights`]).
+    weights: &'a [Vec<f64>],
+    /// Samples with a non-zero weight.
+    n_weighted: usize,
     /// Finite stand-in for a non-finite simulated force, N.
     blowup_n: f64,
+    /// The Jacobian of every parameter at one search vector, computed before the search.
+    first_jac: Option<(Vec<f64>, DMatrix<f64>)>,
     /// Lowest sum of squares seen and its search vector (the search may end on a rejected trial).
     best: (f64, Vec<f64>),
     evaluations: usize,
 }
 
 impl<'a> Problem<'a> {
-    fn new(model: &'a Model, tests: &'a [Test], spans: &'a [Span], tf: Vec<Transform>, z: Vec<f64>) -> Self {
+    fn new(
+        model: &'a Model,
+        tests: &'a [Test],
+        spans: &'a [Span],
+        weights: &'a [Vec<f64>],
+        tf: Vec<Transform>,
+        z: Vec<f64>,
+    ) -> Self {
         let mut sim_len = vec![0usize; tests.len()];
         let mut offsets = Vec::with_capacity(spans.len());
         let mut n_res = 0;
+        let mut n_weighted = 0;
         let mut f_max = 0.0f64;
         for s in spans {
             sim_len[s.test] = sim_len[s.test].max(s.end);
             offsets.push(n_res);
             n_res += s.len();
+            n_weighted += weights[s.test][s.start..s.end]
+                .iter()
+                .filter(|w| **w > 0.0)
+                .count();
             f_max = tests[s.test].f_n[s.start..s.end]
                 .iter()
                 .fold(f_max, |m, f| m.max(f.abs()));
@@ -213,7 +239,10 @@ impl<'a> Problem<'a> {
             z,
             sims: Vec::new(),
             resid: DVector::zeros(n_res),
+            weights,
+            n_weighted,
             blowup_n: 1e3 * f_max.max(1.0),
+            first_jac: None,
             best: (f64::INFINITY, Vec::new()),
             evaluations: 0,
         };
@@ -250,8 +279,9 @@ impl<'a> Problem<'a> {
         for (s, &o) in self.spans.iter().zip(&self.offsets) {
             let sim = &self.sims[s.test];
             let f = &self.tests[s.test].f_n;
+            let w = &self.weights[s.test];
             for k in s.start..s.end {
-                self.resid[o + k - s.start] = sim[k] - f[k];
+                self.resid[o + k - s.start] = w[k] * (sim[k] - f[k]);
             }
         }
         self.evaluations += 1;
@@ -288,8 +318,9 @@ impl<'a> Problem<'a> {
                     continue;
                 }
                 let base = &self.sims[j];
+                let w = &self.weights[j];
                 for k in s.start..s.end {
-                    let d = (out[k] - base[k]) / h;
+                    let d = w[k] * (out[k] - base[k]) / h;
                     jac[(o + k - s.start, c)] = if d.is_finite() { d } else { 0.0 };
                 }
             }
@@ -319,6 +350,17 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     }
 
     fn jacobian(&self) -> Option<DMatrix<f64>> {
+        // The search's first Jacobian is at the start, where the zero-column check already computed every
+        // column: reuse it (one simulation per parameter saved per fit).
+        if let Some((z, j)) = &self.first_jac {
+            if *z == self.z {
+                let mut out = DMatrix::zeros(j.nrows(), self.free.len());
+                for (c, &k) in self.free.iter().enumerate() {
+                    out.set_column(c, &j.column(k));
+                }
+                return Some(out);
+            }
+        }
         Some(self.jacobian_cols(&self.free))
     }
 }
@@ -335,14 +377,15 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
         Some(p) if p.len() == model.n_params() => p.iter().zip(specs).map(|(v, s)| s.clamp(*v)).collect(),
         _ => model.initial_guess(&stats),
     };
-    linear_warm_start(model, tests, spans, &mut p0);
+    let weights: Vec<Vec<f64>> = tests.par_iter().map(direction_weights).collect();
+    linear_warm_start(model, tests, spans, &weights, &mut p0);
     let z0: Vec<f64> = p0.iter().zip(&tf).map(|(p, t)| t.z(*p)).collect();
     let n = model.n_params();
     let mut held = vec![false; n];
     let mut notes = vec![String::new(); n];
 
     // Parameters the force does not depend on in these data: a zero Jacobian column at the start.
-    let mut prob = Problem::new(model, tests, spans, tf.clone(), z0.clone());
+    let mut prob = Problem::new(model, tests, spans, &weights, tf.clone(), z0.clone());
     let all: Vec<usize> = (0..n).collect();
     let j0 = prob.jacobian_cols(&all);
     let f_norm = spans
@@ -350,7 +393,8 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
         .map(|s| {
             tests[s.test].f_n[s.start..s.end]
                 .iter()
-                .map(|f| f * f)
+                .zip(&weights[s.test][s.start..s.end])
+                .map(|(f, w)| w * f * f)
                 .sum::<f64>()
         })
         .sum::<f64>()
@@ -367,10 +411,17 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
     let mut evaluations = 0;
     let mut termination = String::from("no free parameters");
     let mut bound_note = vec![String::new(); n];
+    let mut j0 = Some(j0);
     for round in 0..4 {
         let free: Vec<usize> = (0..n).filter(|&k| !held[k]).collect();
-        prob = Problem::new(model, tests, spans, tf.clone(), z_start.clone());
+        if round > 0 {
+            prob = Problem::new(model, tests, spans, &weights, tf.clone(), z_start.clone());
+        }
         prob.free = free.clone();
+        if let Some(j) = j0.take() {
+            // Round 0 starts at z0, where j0 was computed.
+            prob.first_jac = Some((prob.z.clone(), j));
+        }
         if !free.is_empty() && prob.n_res > 0 {
             let lm = LevenbergMarquardt::new()
                 .with_ftol(opts.tol)
@@ -395,7 +446,11 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
             (s.lower.is_finite() && (p - s.lower).abs() <= 2.0 * inside(s.lower, p))
                 || (s.upper.is_finite() && (p - s.upper).abs() <= 2.0 * inside(s.upper, p))
         };
-        let (se_z, enormous) = std_errors(&prob, &free);
+        let (se_z, enormous) = if opts.std_errors {
+            std_errors(&prob, &free)
+        } else {
+            (vec![None; free.len()], Vec::new())
+        };
         let newly_held: Vec<usize> = enormous.iter().copied().filter(|&k| !on_bound(k)).collect();
         if !newly_held.is_empty() && round < 3 {
             for k in newly_held {
@@ -417,9 +472,9 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
         let sse = prob.resid.norm_squared();
         let mut p_lin = params.clone();
         if round < 3 {
-            linear_warm_start(model, tests, spans, &mut p_lin);
+            linear_warm_start(model, tests, spans, &weights, &mut p_lin);
             let z_lin: Vec<f64> = p_lin.iter().zip(&tf).map(|(p, t)| t.z(*p)).collect();
-            let trial = Problem::new(model, tests, spans, tf.clone(), z_lin.clone());
+            let trial = Problem::new(model, tests, spans, &weights, tf.clone(), z_lin.clone());
             evaluations += 1;
             if trial.resid.norm_squared() < sse * (1.0 - 1e-4) {
                 z_start = z_lin;
@@ -449,7 +504,7 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
             std_err,
             notes,
             sse,
-            n: prob.n_res,
+            n: prob.n_weighted,
             f_ss: f_norm * f_norm,
             evaluations,
             termination,
@@ -460,7 +515,7 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
 
 /// Standard errors in `z` of the free parameters and the free parameters whose error is enormous.
 fn std_errors(prob: &Problem<'_>, free: &[usize]) -> (Vec<Option<f64>>, Vec<usize>) {
-    let m = prob.n_res;
+    let m = prob.n_weighted;
     let nf = free.len();
     if nf == 0 || m <= nf {
         return (vec![None; nf], Vec::new());
@@ -534,7 +589,7 @@ pub fn span_stats(tests: &[Test], spans: &[Span]) -> DataStats {
 /// Linear least-squares warm start of the base model's linear gains (Eq. 2 with Eq. 6's yield force is
 /// linear in the zero-current yield force, the yield force per ampere and the damping), holding the other
 /// parameters: two projected Gauss–Newton steps, exact for the base model, with the lower bounds kept.
-fn linear_warm_start(model: &Model, tests: &[Test], spans: &[Span], p: &mut [f64]) {
+fn linear_warm_start(model: &Model, tests: &[Test], spans: &[Span], weights: &[Vec<f64>], p: &mut [f64]) {
     let idx = [bingham::FC0, bingham::FC_GAIN, bingham::C0];
     let specs = model.param_specs();
     for _ in 0..2 {
@@ -559,7 +614,11 @@ fn linear_warm_start(model: &Model, tests: &[Test], spans: &[Span], p: &mut [f64
         let mut atb = [0.0; 3];
         for (si, s) in spans.iter().enumerate() {
             let f = &tests[s.test].f_n[s.start..s.end];
+            let w = &weights[s.test][s.start..s.end];
             for k in 0..f.len() {
+                if w[k] == 0.0 {
+                    continue;
+                }
                 let r = base[si][k] - f[k];
                 if !r.is_finite() {
                     return;

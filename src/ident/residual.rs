@@ -477,6 +477,44 @@ pub fn noise_floor_n(tests: &[Test]) -> f64 {
     1.4826 * *m / 20f64.sqrt()
 }
 
+/// Robust standard deviation of the white noise on a sampled signal: third differences cancel a smooth
+/// signal (up to its third derivative × dt³) and multiply white noise variance by 20; the median absolute
+/// value (× 1.4826 for a Gaussian) ignores the few samples where the signal itself jumps.
+pub fn white_noise_std(y: &[f64]) -> f64 {
+    let mut d: Vec<f64> = y
+        .windows(4)
+        .map(|w| (w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]).abs())
+        .collect();
+    if d.is_empty() {
+        return 0.0;
+    }
+    let mid = d.len() / 2;
+    let (_, m, _) = d.select_nth_unstable_by(mid, f64::total_cmp);
+    1.4826 * *m / 20f64.sqrt()
+}
+
+/// How many noise standard deviations a velocity must be from zero for its sign to be known: a Gaussian
+/// error exceeds 4σ in one direction with probability 3·10⁻⁵.
+pub const DIRECTION_SIGMAS: f64 = 4.0;
+
+/// Weight of each sample of a test in a fit's loss and a held-out score: 0 where the velocity the model is
+/// given (measured or derived) is within [`DIRECTION_SIGMAS`] noise standard deviations of zero, 1 elsewhere.
+///
+/// Why: every model of the vocabulary takes the direction of the yield force from the sign of the velocity
+/// (Eq. 2) or from the displacement (hysteresis). Where the measured velocity is closer to zero than its
+/// noise, its sign is a coin toss: a model evaluated on it predicts `±Fy` at random while the device felt
+/// the true direction, a residual of `2 Fy` that no physical effect explains and that the data cannot
+/// determine. Left in, these few samples (a millisecond or two per reversal) dominate the residual of a
+/// correct model with noisy velocity, and any effect that happens to soften the reversal (hysteresis driven
+/// by displacement, inertia) removes part of them consistently and looks significant. Taken out, the
+/// residual of a correct model is the load-cell noise again. The noise of the velocity is estimated from
+/// the data ([`white_noise_std`]), so noise-free or derived (smooth) velocity loses almost no samples.
+pub fn direction_weights(t: &Test) -> Vec<f64> {
+    let v: Vec<f64> = t.inputs.iter().map(|i| i.v_m_s).collect();
+    let thr = DIRECTION_SIGMAS * white_noise_std(&v);
+    v.iter().map(|v| if v.abs() < thr { 0.0 } else { 1.0 }).collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

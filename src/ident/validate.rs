@@ -38,6 +38,22 @@ impl Figures {
         f
     }
 
+    /// Figures over the samples with a non-zero weight only (see
+    /// [`super::residual::direction_weights`]).
+    pub fn of_weighted(model_n: &[f64], measured_n: &[f64], weights: &[f64]) -> Self {
+        let mut f = Figures::default();
+        for ((m, y), w) in model_n.iter().zip(measured_n).zip(weights) {
+            if *w == 0.0 {
+                continue;
+            }
+            let r = m - y;
+            f.samples += 1;
+            f.sse += if r.is_finite() { r * r } else { f64::INFINITY };
+            f.f_ss += y * y;
+        }
+        f
+    }
+
     pub fn add(&mut self, o: &Figures) {
         self.samples += o.samples;
         self.sse += o.sse;

@@ -124,13 +124,11 @@ pub fn step(z: f64, dx_m: f64, dt_s: f64, x_yield_m: f64, v_yield_m_s: f64) -> f
     let e0 = (r - z).abs();
     let cd = (v - s * v_yield_m_s).abs() / x_yield_m;
     let c = v_yield_m_s / x_yield_m;
-    let big_e = (-cd * dt_s).exp();
+    // One exponential: E − 1 = expm1(−c d dt), accurate also when c d dt is tiny.
+    let em1 = (-cd * dt_s).exp_m1();
+    let big_e = 1.0 + em1;
     // (1 − E)/(c d), → dt as c d → 0 (the two roots coincide).
-    let frac = if cd * dt_s > 1e-12 {
-        -(-cd * dt_s).exp_m1() / cd
-    } else {
-        dt_s
-    };
+    let frac = if cd * dt_s > 1e-12 { -em1 / cd } else { dt_s };
     let e = e0 * big_e / (1.0 + c * e0 * frac);
     (r - s * e).clamp(-1.0, 1.0)
 }
