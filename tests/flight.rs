@@ -260,6 +260,57 @@ fn a_pilot_adapted_to_the_aircraft_flies_the_pitch_task_without_given_gains() {
     );
 }
 
+/// The 737 approach: the throttle comes back to 0.6 of trim and the pilot pitches 2.5° nose-down and holds
+/// it. The pilot holds the attitude and the aircraft descends (at about V·sin 2.5° ≈ 6 m/s), and the feel target
+/// is the 737's feel computer (q-feel, not the air load on its powered elevator): it follows the
+/// aircraft's stick force, zero at trim.
+#[test]
+fn approach_737_holds_the_descent_attitude_and_descends() {
+    let (s, d) = load("737-approach.toml");
+    let r = fly(&s, &d);
+    let m = FlightMetrics::of(&r, &s).unwrap();
+    let trim = r.flight.as_ref().unwrap().trim;
+    let last = r.rows.last().unwrap().aero.unwrap();
+    let first = r.rows.first().unwrap().aero.unwrap();
+    let desired: Vec<f64> = r.rows.iter().map(|x| x.desired_force_n).collect();
+    let stick: Vec<f64> = r.rows.iter().map(|x| x.aero.unwrap().stick_force_n).collect();
+    let corr = correlation(&desired, &stick);
+    println!(
+        "737 approach: pitch RMS error {:.3}° (span {:.1}°); altitude {:.0} -> {:.0} m, airspeed {:.1} -> {:.1} m/s; stick force at trim {:.3} N, peak {:.1} N; desired vs stick force correlation {corr:.4}",
+        m.tracking_rms.to_degrees(),
+        m.command_span.to_degrees(),
+        trim.altitude_m,
+        last.altitude_m,
+        trim.airspeed_m_s,
+        last.airspeed_m_s,
+        first.stick_force_n,
+        m.stick_force_peak_n
+    );
+    assert!(
+        m.tracking_rms < 0.2 * m.command_span,
+        "pitch RMS error {} rad",
+        m.tracking_rms
+    );
+    assert!(
+        (last.pitch_rad - (trim.theta_rad - 2.5f64.to_radians())).abs() < 0.5f64.to_radians(),
+        "final pitch {}° vs {}°",
+        last.pitch_rad.to_degrees(),
+        (trim.theta_rad - 2.5f64.to_radians()).to_degrees()
+    );
+    // 2.5° below the level attitude for ~33 s at ~140 m/s: a descent of roughly 200 m.
+    let drop = trim.altitude_m - last.altitude_m;
+    assert!((100.0..400.0).contains(&drop), "descent {drop} m");
+    assert!(
+        first.stick_force_n.abs() < 0.5,
+        "the feel computer is trimmed to zero force at trim"
+    );
+    assert!(m.stick_force_peak_n > 10.0, "the task must load the stick");
+    assert!(
+        corr > 0.99,
+        "the feel target must follow the aircraft's stick force: {corr}"
+    );
+}
+
 /// Live JSBSim 1.3.3 through the bridge flies the same scenario as the embedded model: pitch and load
 /// factor agree. Needs the repository's Python environment (made by the test command).
 #[test]
