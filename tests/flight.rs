@@ -5,6 +5,8 @@
 //!
 //! `cargo test --test flight -- --nocapture --test-threads 1` prints the figures of docs/flight.md.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
@@ -477,18 +479,8 @@ fn flight_recording_reads_back_with_the_aircraft_beside_the_stick() {
         let rec = mrfeel::viz::rerun_rig::to_file(&rrd).unwrap();
         mrfeel::viz::rerun_rig::log_run(&rec, &res).unwrap();
     }
-    let out = std::process::Command::new(&py)
-        .arg(root.join("tests/rerun_readback.py"))
-        .arg(&rrd)
-        .arg(&csv)
-        .output()
-        .unwrap();
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(out.status.success(), "read-back failed:\n{text}");
+    let (ok, text) = common::rerun_readback(&rrd, &csv);
+    assert!(ok, "read-back failed:\n{text}");
     assert!(
         text.contains("ok /series/aircraft/pitch == CSV pitch_rad"),
         "{text}"

@@ -1,6 +1,8 @@
 //! The stick rig in closed loop (issue 4): feel tracking, stroke, current, creep, energy, response time vs
 //! DAQ rate, determinism, scenario errors, Rerun read-back.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
@@ -275,15 +277,7 @@ fn scenario_with_an_out_of_range_value_names_the_key_and_the_allowed_range() {
 
 #[test]
 fn rerun_recording_reads_back_equal_to_the_csv() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let py = root.join(".venv/bin/python");
-    assert!(
-        py.exists(),
-        "{} is missing: run the test command, which creates the Python environment first \
-         (`scripts/python-env.sh && cargo test`), or create it with \
-         `python3 -m venv .venv && .venv/bin/pip install rerun-sdk==0.36.3`",
-        py.display()
-    );
+    common::venv_python();
     let (mut scn, device) = load("paper-feel-loop.toml");
     scn.duration_s = 1.0;
     let dir = tempfile::tempdir().unwrap();
@@ -300,18 +294,8 @@ fn rerun_recording_reads_back_equal_to_the_csv() {
         let rec = mrfeel::viz::rerun_rig::to_file(&rrd).unwrap();
         mrfeel::viz::rerun_rig::log_run(&rec, &res).unwrap();
     }
-    let out = std::process::Command::new(&py)
-        .arg(root.join("tests/rerun_readback.py"))
-        .arg(&rrd)
-        .arg(&csv)
-        .output()
-        .unwrap();
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(out.status.success(), "read-back failed:\n{text}");
+    let (ok, text) = common::rerun_readback(&rrd, &csv);
+    assert!(ok, "read-back failed:\n{text}");
     assert!(
         text.contains("ok /series/force/load_cell == CSV load_cell_n"),
         "{text}"
@@ -553,21 +537,8 @@ fn run_with_spawn_streams_the_recording_to_the_spawned_viewer() {
     );
     // Everything the run logged reached the viewer: stop it (it finishes the file) and read the file back.
     assert!(viewer.stop(), "the spawned viewer did not exit on SIGINT");
-    let out = std::process::Command::new(&py)
-        .arg(root.join("tests/rerun_readback.py"))
-        .arg(&received)
-        .arg(&csv)
-        .output()
-        .unwrap();
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(
-        out.status.success(),
-        "read-back of what the viewer received failed:\n{text}"
-    );
+    let (ok, text) = common::rerun_readback(&received, &csv);
+    assert!(ok, "read-back of what the viewer received failed:\n{text}");
     assert!(
         text.contains("ok /series/force/load_cell == CSV load_cell_n"),
         "{text}"

@@ -1,0 +1,34 @@
+//! Helpers shared by the integration tests (each test file includes this module).
+
+use std::path::{Path, PathBuf};
+
+/// The repository's Python (made by the test command with rerun-sdk and jsbsim); panics with how to make
+/// it when it is missing.
+pub fn venv_python() -> PathBuf {
+    let py = Path::new(env!("CARGO_MANIFEST_DIR")).join(".venv/bin/python");
+    assert!(
+        py.exists(),
+        "{} is missing: run the test command `./scripts/test-all.sh`, which creates the Python environment \
+         first, or `scripts/python-env.sh` before `cargo test`",
+        py.display()
+    );
+    py
+}
+
+/// Read a Rerun recording back with the Rerun SDK of the same version (`tests/rerun_readback.py`) and check
+/// it against the run's CSV: whether the check passed, and what the script printed.
+pub fn rerun_readback(rrd: &Path, csv: &Path) -> (bool, String) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = std::process::Command::new(venv_python())
+        .arg(root.join("tests/rerun_readback.py"))
+        .arg(rrd)
+        .arg(csv)
+        .output()
+        .unwrap_or_else(|e| panic!("running tests/rerun_readback.py: {e}"));
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    (out.status.success(), text)
+}
