@@ -296,6 +296,20 @@ impl FaultInjector {
         }
     }
 
+    /// Hook driver → motor (the active stick): the force the motor actually gives, N, from the commanded
+    /// one; `last_n` is the force it gave over the previous step, `limit_n` its full scale. An open driver
+    /// gives nothing; a stuck one gives full force in the direction it was pushing.
+    pub fn motor_force_n(&self, t_s: f64, cmd_n: f64, last_n: f64, limit_n: f64) -> f64 {
+        if self.schedule.active(FaultKind::CoilOpen, t_s).is_some() {
+            0.0
+        } else if self.schedule.active(FaultKind::DriverStuck, t_s).is_some() {
+            let dir = if last_n != 0.0 { last_n } else { cmd_n };
+            limit_n * dir.signum()
+        } else {
+            cmd_n
+        }
+    }
+
     /// Hook load cell → DAQ: the reading the DAQ digitises, N, from the healthy reading.
     pub fn load_cell_n(&mut self, t_s: f64, reading_n: f64) -> f64 {
         let out = if self.schedule.active(FaultKind::LoadCellZero, t_s).is_some() {

@@ -31,7 +31,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
-use crate::control::feel::{CentringSpring, FeelSprings, FeelSystem, FeelSystemConfig};
+use crate::control::feel::{CentringSpring, FeelSprings, FeelSystemConfig};
 use crate::control::FeelLaw;
 use crate::device::{DeviceConfig, Registry};
 use crate::faults::FaultSchedule;
@@ -485,13 +485,6 @@ impl CompareScenario {
             self.spring_damping_n_s_per_m,
             self.hybrid_return_damping_n_s_per_m,
         )
-    }
-
-    /// The spring element of a system (with the q-feel spring at the scenario's q̄), if any.
-    pub fn spring(&self, kind: FeelKind) -> Option<Box<dyn FeelSystem>> {
-        self.feel_system(kind)
-            .spring
-            .map(|s| Box::new(s) as Box<dyn FeelSystem>)
     }
 
     /// The standard task: sinusoidal stick motion, then deflect–hold–let go.

@@ -79,8 +79,6 @@ pub struct Loop<P: Plant> {
     /// The feel system (MR damper, spring unit, or hybrid) and its spring, if any.
     feel_system: FeelSystemConfig,
     spring: Option<SpringElement>,
-    /// The coil current command applied last (after driver faults), A.
-    current_applied_a: f64,
     /// Active stick: the motor force command (held between DAQ ticks), the force applied over the step
     /// (after driver faults), N on the piston, and the motor's work so far, J.
     motor_cmd_n: f64,
@@ -153,7 +151,6 @@ impl<P: Plant> Loop<P> {
             scenario_path: scn.path.clone(),
             spring: fs.spring,
             feel_system: fs,
-            current_applied_a: 0.0,
             motor_cmd_n: 0.0,
             actuator_force_n: 0.0,
             actuator_work_j: 0.0,
@@ -197,10 +194,11 @@ impl<P: Plant> Loop<P> {
                     / self.plant.gearing_m_per_rad(s.stick_angle_rad);
                 self.controller.law = FeelLaw::Target { force_n };
             }
-            if self.feel_system.q_from_aircraft {
-                if let Some(sp) = self.spring.as_mut() {
-                    sp.set_dynamic_pressure(f.row(t).qbar_pa);
-                }
+        }
+        let aero = self.flight.as_ref().map(|f| f.row(t));
+        if let (Some(a), true) = (aero, self.feel_system.q_from_aircraft) {
+            if let Some(sp) = self.spring.as_mut() {
+                sp.set_dynamic_pressure(a.qbar_pa);
             }
         }
         if self.daq.due(t) {
@@ -249,22 +247,14 @@ impl<P: Plant> Loop<P> {
         } else {
             0.0 // no coil: nothing for a driver fault to drive
         };
-        self.current_applied_a = coil_cmd_a;
         if self.feel_system.kind == FeelKind::Active {
-            // Driver faults of the motor: open (no force), stuck at full force in the last direction.
-            use crate::faults::FaultKind;
-            let m = self.feel_system.motor_max_force_n;
-            self.actuator_force_n = if self.faults.schedule.active(FaultKind::CoilOpen, t).is_some() {
-                0.0
-            } else if self.faults.schedule.active(FaultKind::DriverStuck, t).is_some() {
-                if self.actuator_force_n != 0.0 {
-                    m * self.actuator_force_n.signum()
-                } else {
-                    m * self.motor_cmd_n.signum()
-                }
-            } else {
-                self.motor_cmd_n
-            };
+            // issue 6 hook: driver faults between the command and the motor.
+            self.actuator_force_n = self.faults.motor_force_n(
+                t,
+                self.motor_cmd_n,
+                self.actuator_force_n,
+                self.feel_system.motor_max_force_n,
+            );
         }
         let row = Row {
             t_s: t,
@@ -286,12 +276,12 @@ impl<P: Plant> Loop<P> {
             dissipated_j: s.dissipated_j,
             pilot_work_j: self.pilot_work_j,
             faults: self.faults.schedule.active_mask(t),
-            current_applied_a: self.current_applied_a,
+            current_applied_a: coil_cmd_a,
             coil_current_a: s.coil_current_a,
             spring_energy_j: self.spring.map_or(0.0, |sp| sp.stored_energy_j(s.piston_x_m)),
             actuator_force_n: self.actuator_force_n,
             actuator_work_j: self.actuator_work_j,
-            aero: self.flight.as_ref().map(|f| f.row(t)),
+            aero,
         };
         self.plant
             .set_feel_spring(self.spring.as_ref().map(|sp| sp as &dyn FeelSystem));
@@ -358,7 +348,6 @@ pub fn run<P: Plant>(
         frames,
         feel_ceiling_n: device.param("fc0_n").unwrap_or(0.0)
             + device.param("fc_gain_n_per_a").unwrap_or(0.0) * scn.controller.gains.out_max,
-        faults: scn.faults.clone(),
         grip_arm_m: lp.plant.grip_arm_m(),
         gearing_at_centre_m_per_rad: lp.plant.gearing_m_per_rad(0.0),
         flight,

@@ -7,7 +7,7 @@ use serde::Serialize;
 use super::AeroRow;
 use crate::aero::AircraftState;
 use crate::control::LoopMode;
-use crate::faults::{FaultKind, FaultSchedule};
+use crate::faults::FaultKind;
 use crate::rig::{BodyPose, LinkVisuals};
 
 /// One physics step: the state at its start and what was applied over it.
@@ -135,8 +135,6 @@ pub struct Results {
     /// piston forces at the grip).
     pub grip_arm_m: f64,
     pub gearing_at_centre_m_per_rad: f64,
-    /// The scenario's fault schedule (for the CSV header and the summary).
-    pub faults: FaultSchedule,
     /// The aircraft, when the scenario flies one.
     pub flight: Option<FlightInfo>,
 }
