@@ -472,14 +472,7 @@ fn flight_recording_reads_back_with_the_aircraft_beside_the_stick() {
         |_| {},
     )
     .unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    let (csv, rrd) = (dir.path().join("f.csv"), dir.path().join("f.rrd"));
-    res.write_csv(std::fs::File::create(&csv).unwrap()).unwrap();
-    {
-        let rec = mrfeel::viz::rerun_rig::to_file(&rrd).unwrap();
-        mrfeel::viz::rerun_rig::log_run(&rec, &res).unwrap();
-    }
-    let (ok, text) = common::rerun_readback(&rrd, &csv);
+    let (ok, text) = common::record_and_read_back(&res);
     assert!(ok, "read-back failed:\n{text}");
     assert!(
         text.contains("ok /series/aircraft/pitch == CSV pitch_rad"),

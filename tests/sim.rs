@@ -280,8 +280,6 @@ fn rerun_recording_reads_back_equal_to_the_csv() {
     common::venv_python();
     let (mut scn, device) = load("paper-feel-loop.toml");
     scn.duration_s = 1.0;
-    let dir = tempfile::tempdir().unwrap();
-    let (csv, rrd) = (dir.path().join("run.csv"), dir.path().join("run.rrd"));
     let res = run(
         &scn,
         &device,
@@ -289,12 +287,7 @@ fn rerun_recording_reads_back_equal_to_the_csv() {
             frames_hz: Some(30.0),
         },
     );
-    res.write_csv(std::fs::File::create(&csv).unwrap()).unwrap();
-    {
-        let rec = mrfeel::viz::rerun_rig::to_file(&rrd).unwrap();
-        mrfeel::viz::rerun_rig::log_run(&rec, &res).unwrap();
-    }
-    let (ok, text) = common::rerun_readback(&rrd, &csv);
+    let (ok, text) = common::record_and_read_back(&res);
     assert!(ok, "read-back failed:\n{text}");
     assert!(
         text.contains("ok /series/force/load_cell == CSV load_cell_n"),

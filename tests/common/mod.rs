@@ -32,3 +32,16 @@ pub fn rerun_readback(rrd: &Path, csv: &Path) -> (bool, String) {
     );
     (out.status.success(), text)
 }
+
+/// Write a run's CSV and its Rerun recording (as `mrfeel run --out --rerun` does) into a temporary folder
+/// and read the recording back against the CSV ([`rerun_readback`]).
+pub fn record_and_read_back(res: &mrfeel::sim::Results) -> (bool, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let (csv, rrd) = (dir.path().join("run.csv"), dir.path().join("run.rrd"));
+    res.write_csv(std::fs::File::create(&csv).unwrap()).unwrap();
+    {
+        let rec = mrfeel::viz::rerun_rig::to_file(&rrd).unwrap();
+        mrfeel::viz::rerun_rig::log_run(&rec, res).unwrap();
+    }
+    rerun_readback(&rrd, &csv)
+}
