@@ -24,6 +24,9 @@
 //! | `displacement_dropout` | laser → DAQ | the DAQ holds the last valid position (the differentiated velocity falls to 0) |
 //! | `latency_spike` | DAQ → controller | the controller sees samples `extra_latency_s` older than normal |
 //!
+//! The active stick's motor driver has the same two driver faults ([`FaultInjector::motor_force_n`]): open
+//! gives no force, stuck gives full force in the direction it was pushing.
+//!
 //! Passive spring feel systems have none of these paths: a fault scheduled for them changes nothing,
 //! which is the point of the comparison.
 
