@@ -393,6 +393,21 @@ fn force_settles_as_fast_as_the_coil_and_fluid_lags_allow_and_later_at_a_slow_da
     );
 }
 
+/// Waits until `path` exists and its size has not changed for `quiet`; false if `deadline` comes first.
+fn wait_until_quiet(path: &Path, quiet: std::time::Duration, deadline: std::time::Instant) -> bool {
+    let mut last = (None, std::time::Instant::now());
+    while std::time::Instant::now() < deadline {
+        let size = std::fs::metadata(path).ok().map(|m| m.len());
+        if size != last.0 {
+            last = (size, std::time::Instant::now());
+        } else if size.is_some() && last.1.elapsed() >= quiet {
+            return true;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    false
+}
+
 /// Stops the viewer the test spawned (by the pid its stand-in recorded), also when the test fails.
 struct Viewer(PathBuf);
 
@@ -528,10 +543,25 @@ fn run_with_spawn_streams_the_recording_to_the_spawned_viewer() {
             && args.lines().any(|a| a == "--expect-data-soon"),
         "viewer arguments: {args}"
     );
-    // Everything the run logged reached the viewer: stop it (it finishes the file) and read the file back.
+    // The run's recording stream delivered everything to the viewer's gRPC server before the run exited,
+    // but the viewer writes what it received to its file on a thread of its own, which on a loaded
+    // machine can lag behind (CI once read the file before the rig poses were in it). The file is
+    // readable while the viewer runs (it has no footer either way), so read it back each time it has
+    // stopped growing, for up to 60 s, then stop the viewer.
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    let (ok, text) = loop {
+        let quiet = wait_until_quiet(&received, std::time::Duration::from_secs(1), deadline);
+        let (ok, text) = common::rerun_readback(&received, &csv);
+        if ok || !quiet || std::time::Instant::now() >= deadline {
+            break (ok, text);
+        }
+        std::thread::sleep(std::time::Duration::from_millis(500));
+    };
     assert!(viewer.stop(), "the spawned viewer did not exit on SIGINT");
-    let (ok, text) = common::rerun_readback(&received, &csv);
-    assert!(ok, "read-back of what the viewer received failed:\n{text}");
+    assert!(
+        ok,
+        "read-back of what the viewer received (up to 60 s after the run) failed:\n{text}"
+    );
     assert!(
         text.contains("ok /series/force/load_cell == CSV load_cell_n"),
         "{text}"
