@@ -608,6 +608,94 @@ fn write_tests(dir: &Path, tests: &[Test]) -> Vec<String> {
 }
 
 #[test]
+fn mts_runs_of_one_saved_hidden_device_are_diagnosed_together() {
+    // `mrfeel mts --effects` scales a hidden effect to its own run's test, so each run is another device;
+    // `--save-device` writes the simulated device and `--device` runs it again under other protocols. The
+    // runs then share one truth, and diagnosing them together names exactly the hidden effect.
+    let dir = tempfile::tempdir().expect("tempdir");
+    let d = dir.path();
+    let data = d.join("data");
+    std::fs::create_dir(&data).unwrap();
+    let (truth, again, other) = (d.join("truth.json"), d.join("again.json"), d.join("other.json"));
+    let s = |p: &Path| p.display().to_string();
+    let (a, b, c, x) = (
+        data.join("a.csv"),
+        data.join("b.csv"),
+        data.join("c.csv"),
+        d.join("other.csv"),
+    );
+    let (a, b, c, x, truth_s, again_s, other_s) =
+        (s(&a), s(&b), s(&c), s(&x), s(&truth), s(&again), s(&other));
+    let runs = [
+        // The first run makes the hidden device: inertia at this test's scale.
+        format!("--effects inertia --protocol sine --amplitude-m 0.02 --frequency-hz 1 --out {a} --save-device {truth_s}"),
+        // The same device under another amplitude, frequency and noise seed; then a multisine at another sample
+        // rate with the velocity derived from displacement. (Not a triangle: its acceleration is a train of
+        // impulses at the reversals that neither 1 kHz samples nor a derivative resolve.)
+        format!("--device {truth_s} --protocol sine --amplitude-m 0.01 --frequency-hz 2 --seed 2 --out {b} --save-device {again_s}"),
+        format!("--device {truth_s} --protocol multisine --amplitude-m 0.02 --frequency-hz 0.5 --seed 3 --sample-rate-hz 500 --no-velocity --out {c}"),
+        // A separate `--effects` run with another test: another device (written outside the data).
+        format!("--effects inertia --protocol sine --amplitude-m 0.01 --frequency-hz 2 --out {x} --save-device {other_s}"),
+    ];
+    for r in &runs {
+        let args: Vec<&str> = ["mts", "--current", "0,7,14", "--cycles", "2"]
+            .into_iter()
+            .chain(r.split_whitespace())
+            .collect();
+        let out = mrfeel(&args);
+        assert!(
+            out.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let mass = |p: &Path| -> f64 {
+        let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap();
+        assert_eq!(v["model"], "bingham+inertia", "{}", p.display());
+        v["params"]["inertia_mass_kg"]["value"].as_f64().unwrap()
+    };
+    let m = mass(&truth);
+    assert!(m > 0.0);
+    assert_eq!(
+        mass(&again).to_bits(),
+        m.to_bits(),
+        "a reused device keeps its hidden parameters exactly"
+    );
+    assert!(
+        (mass(&other) / m - 1.0).abs() > 0.1,
+        "a separate --effects run scales the effect to its own test: {} vs {m} kg",
+        mass(&other)
+    );
+    let out = mrfeel(&["diagnose", &s(&data), "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("diagnose --json");
+    assert_eq!(v["missing"], serde_json::json!(["inertia"]), "{v:#}");
+    let (base, fin) = (
+        v["base"]["heldout_nrmse"].as_f64().unwrap(),
+        v["final"]["heldout_nrmse"].as_f64().unwrap(),
+    );
+    assert!(
+        fin <= 0.5 * base,
+        "held-out NRMSE {base} -> {fin}: less than halved"
+    );
+    // A device file that cannot be written is an error naming it.
+    let bad = d.join("no-such-dir").join("truth.json");
+    let out = mrfeel(&[
+        "mts",
+        "--current",
+        "7",
+        "--effects",
+        "inertia",
+        "--out",
+        &s(&d.join("x.csv")),
+        "--save-device",
+        &s(&bad),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains(&s(&bad)), "{err}");
+}
+
+#[test]
 fn fit_save_then_validate_reports_the_same_error_without_refitting() {
     let dir = tempfile::tempdir().expect("tempdir");
     let registry = Registry::builtin();

@@ -72,6 +72,12 @@ pub struct MtsArgs {
     /// Set a model parameter, NAME=VALUE (repeatable), e.g. --set hyst_x_yield_m=0.001.
     #[arg(long = "set", value_name = "NAME=VALUE")]
     pub set: Vec<String>,
+    /// Write the device this run simulated (model with its hidden effects, every parameter) as a
+    /// PARAMS.json. The hidden effects' strengths are scaled to each run's test, so runs with other
+    /// protocols are other devices; give this file to later runs as `--device` (without `--effects`) to
+    /// test the same device again.
+    #[arg(long, value_name = "PARAMS.json")]
+    pub save_device: Option<PathBuf>,
     /// Output CSV (measurement format).
     #[arg(long)]
     pub out: PathBuf,
@@ -150,6 +156,8 @@ pub fn run(a: MtsArgs) -> Result<()> {
         )?
     };
     let m = test.run(&mut damper)?;
+    let truth = crate::device::ParamsFile::new(damper.model(), damper.params(), None);
+    let truth_json = serde_json::to_string_pretty(&truth)? + "\n";
     let saturated = m.f_n.iter().filter(|f| f.abs() >= range_n * 0.999).count();
     if saturated > 0 {
         bail!(
@@ -157,6 +165,10 @@ pub fn run(a: MtsArgs) -> Result<()> {
         );
     }
     m.write(&a.out)?;
+    if let Some(path) = &a.save_device {
+        std::fs::write(path, &truth_json).with_context(|| format!("writing {}", path.display()))?;
+        eprintln!("saved the simulated device to {}", path.display());
+    }
     eprintln!(
         "wrote {} samples of `{}` to {}",
         m.len(),
