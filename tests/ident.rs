@@ -14,6 +14,8 @@ use mrfeel::ident::fit::{all_spans, fit, FitOptions};
 use mrfeel::ident::{data_stats, diagnose, DiagnoseOptions, Test};
 use mrfeel::measurement::{smooth_derivative, Measurement};
 
+mod diagnosis_check;
+
 /// The paper's device (models/paper-device.toml values, with some friction and damping so that every
 /// base term is visible): fc0, fc_gain, c0, Te, Tm.
 const PAPER_BASE: [f64; 5] = [2.0, 4.83, 60.0, 0.015, 0.008];
@@ -181,41 +183,9 @@ fn check_diagnosis(c: Case, hidden: &[&str]) {
 
 /// Ok when `diagnose` names exactly the hidden effects and the held-out error falls enough; else the report.
 fn diagnosis_verdict(c: &Case, hidden: &[&str]) -> Result<(), String> {
-    let registry = Registry::builtin();
-    let tests = synth(c, hidden, &registry, 0.4);
-    let base = ModelSpec::parse("bingham").expect("spec");
-    let d = diagnose(
-        &tests,
-        &base,
-        &registry,
-        &DiagnoseOptions {
-            current_limit_a: LIMIT_A,
-            ..Default::default()
-        },
-    )
-    .expect("diagnose");
-    let report = mrfeel::ident::report::diagnose_table(&d);
-    let mut found = d.missing.clone();
-    found.sort();
-    let mut want: Vec<String> = hidden.iter().map(|s| s.to_string()).collect();
-    want.sort();
-    if found != want {
-        return Err(format!(
-            "hidden {hidden:?}, found {found:?} ({}, seed {}):\n{report}",
-            describe(c),
-            c.seed
-        ));
-    }
-    let ok = if hidden.is_empty() {
-        d.final_model == d.base_model
-    } else {
-        d.final_heldout_nrmse <= 0.5 * d.base_heldout_nrmse
-            || d.final_heldout_nrmse <= 1.2 * d.noise_floor_nrmse
-    };
-    if !ok {
-        return Err(format!("held-out error did not fall enough:\n{report}"));
-    }
-    Ok(())
+    let tests = synth(c, hidden, &Registry::builtin(), 0.4);
+    diagnosis_check::verdict(&tests, hidden, LIMIT_A)
+        .map_err(|e| format!("{} (seed {}): {e}", describe(c), c.seed))
 }
 
 /// The diagnosis cases of this file (protocol, rate, velocity measured, files, seconds, hidden effects).
