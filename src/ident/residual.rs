@@ -508,11 +508,43 @@ pub const DIRECTION_SIGMAS: f64 = 4.0;
 /// correct model with noisy velocity, and any effect that happens to soften the reversal (hysteresis driven
 /// by displacement, inertia) removes part of them consistently and looks significant. Taken out, the
 /// residual of a correct model is the load-cell noise again. The noise of the velocity is estimated from
-/// the data ([`white_noise_std`]), so noise-free or derived (smooth) velocity loses almost no samples.
+/// the data ([`velocity_noise_std`]), so noise-free velocity loses almost no samples.
 pub fn direction_weights(t: &Test) -> Vec<f64> {
-    let v: Vec<f64> = t.inputs.iter().map(|i| i.v_m_s).collect();
-    let thr = DIRECTION_SIGMAS * white_noise_std(&v);
-    v.iter().map(|v| if v.abs() < thr { 0.0 } else { 1.0 }).collect()
+    let thr = DIRECTION_SIGMAS * velocity_noise_std(t);
+    t.inputs
+        .iter()
+        .map(|i| if i.v_m_s.abs() < thr { 0.0 } else { 1.0 })
+        .collect()
+}
+
+/// Standard deviation of the noise in the velocity a test's model is given. A measured velocity carries its
+/// transducer's white noise ([`white_noise_std`]). A velocity derived from the displacement
+/// ([`crate::measurement::smooth_derivative`]) is smooth, so differences of it do not show its noise,
+/// which is still there at low frequencies (a slowly wandering error, as uncertain in sign near `v = 0`):
+/// it is the displacement's white noise times the differentiator's noise gain, the root-sum-square of its
+/// response to a unit impulse on the test's own time grid.
+pub fn velocity_noise_std(t: &Test) -> f64 {
+    if t.velocity_measured {
+        let v: Vec<f64> = t.inputs.iter().map(|i| i.v_m_s).collect();
+        return white_noise_std(&v);
+    }
+    let x: Vec<f64> = t.inputs.iter().map(|i| i.x_m).collect();
+    let n = t.inputs.len();
+    if n < 3 {
+        return 0.0;
+    }
+    // An impulse in the middle of a stretch of the test's time grid, wide enough for the differentiator.
+    let w = n.min(31);
+    let lo = (n - w) / 2;
+    let ts: Vec<f64> = t.inputs[lo..lo + w].iter().map(|i| i.t_s).collect();
+    let mut pulse = vec![0.0; w];
+    pulse[w / 2] = 1.0;
+    let gain = crate::measurement::smooth_derivative(&ts, &pulse)
+        .iter()
+        .map(|d| d * d)
+        .sum::<f64>()
+        .sqrt();
+    white_noise_std(&x) * gain
 }
 
 #[cfg(test)]
