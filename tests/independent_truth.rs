@@ -230,6 +230,13 @@ fn independent_moving_mass_is_named_inertia() {
     check(&["inertia"], true, 7);
 }
 
+/// Without a velocity channel the acceleration comes from the displacement twice (this case found that the
+/// differentiator's window used to stay at its narrowest on long slow tests, and the mass was missed).
+#[test]
+fn independent_moving_mass_without_a_velocity_channel_is_named_inertia() {
+    check(&["inertia"], false, 13);
+}
+
 #[test]
 fn independent_heating_is_named_thermal_drift() {
     check(&["thermal_drift"], true, 8);
