@@ -185,6 +185,7 @@ fn check_diagnosis(c: Case, hidden: &[&str]) {
 fn diagnosis_verdict(c: &Case, hidden: &[&str]) -> Result<(), String> {
     let tests = synth(c, hidden, &Registry::builtin(), 0.4);
     diagnosis_check::verdict(&tests, hidden, LIMIT_A)
+        .map(|_| ())
         .map_err(|e| format!("{} (seed {}): {e}", describe(c), c.seed))
 }
 

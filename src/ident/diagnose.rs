@@ -104,30 +104,48 @@ pub fn make_folds(tests: &[Test], blocks: usize, max_folds: usize) -> (Vec<Fold>
             format!("blocked cross-validation over {k} contiguous time blocks of the one test"),
         );
     }
-    // Groups in order of first appearance; one group per test when the names give a single group.
+    // Groups in order of first appearance.
     let mut groups: Vec<String> = Vec::new();
+    let mut key: Vec<usize> = Vec::with_capacity(tests.len());
     for t in tests {
-        if !groups.contains(&t.group) {
-            groups.push(t.group.clone());
+        match groups.iter().position(|g| *g == t.group) {
+            Some(g) => key.push(g),
+            None => {
+                key.push(groups.len());
+                groups.push(t.group.clone());
+            }
         }
     }
-    let by_file = groups.len() < 2;
-    let key = |j: usize| {
-        if by_file {
-            j
+    let mut kind = "group";
+    // Names that group nothing (one group for all, or one per test): group the tests by their motion, when
+    // that groups some of them, so that a held-out fold is a motion the fit never saw, at every current
+    // (tests of one displacement protocol at several currents, as on an MTS machine). Else one per test.
+    if groups.len() < 2 || groups.len() == tests.len() {
+        let motion = motion_groups(tests);
+        let n_motion = motion.iter().max().map_or(0, |m| m + 1);
+        if n_motion >= 2 && n_motion < tests.len() {
+            groups = (0..n_motion)
+                .map(|g| {
+                    let j = motion.iter().position(|&m| m == g).unwrap_or(0);
+                    let (x, v) = motion_signature(&tests[j]);
+                    format!("±{:.2} mm, {:.3} m/s", x * 1e3, v)
+                })
+                .collect();
+            key = motion;
+            kind = "motion group";
         } else {
-            groups.iter().position(|g| *g == tests[j].group).unwrap_or(0)
+            groups = tests.iter().map(|t| t.name.clone()).collect();
+            key = (0..tests.len()).collect();
+            kind = "test";
         }
-    };
-    let ng = if by_file { tests.len() } else { groups.len() };
+    }
+    let ng = groups.len();
     let k = ng.min(max_folds.max(2));
     let folds = (0..k)
         .map(|f| {
-            let held: Vec<usize> = (0..tests.len()).filter(|&j| key(j) % k == f).collect();
-            let label = if ng == k && !by_file {
-                format!("group {}", groups[f])
-            } else if ng == k {
-                format!("test {}", tests[f].name)
+            let held: Vec<usize> = (0..tests.len()).filter(|&j| key[j] % k == f).collect();
+            let label = if ng == k {
+                format!("{kind} {}", groups[f])
             } else {
                 format!("fold {}/{k}", f + 1)
             };
@@ -152,13 +170,51 @@ pub fn make_folds(tests: &[Test], blocks: usize, max_folds: usize) -> (Vec<Fold>
             }
         })
         .collect();
-    let how = match (by_file, ng == k) {
-        (false, true) => format!("leave one group out over {k} test groups ({})", groups.join(", ")),
-        (false, false) => format!("{k}-fold over {ng} test groups"),
-        (true, true) => format!("leave one test out over {k} tests"),
-        (true, false) => format!("{k}-fold over {ng} tests"),
+    let how = if ng == k && kind != "test" {
+        format!("leave one {kind} out over {k} {kind}s ({})", groups.join("; "))
+    } else if ng == k {
+        format!("leave one test out over {k} tests")
+    } else {
+        format!("{k}-fold over {ng} {kind}s")
     };
     (folds, how)
+}
+
+/// A test's motion: the 99th percentiles of |x| and |v| (m, m/s), robust to a few spikes of noise.
+fn motion_signature(t: &Test) -> (f64, f64) {
+    let p99 = |mut a: Vec<f64>| -> f64 {
+        if a.is_empty() {
+            return 0.0;
+        }
+        let k = ((a.len() - 1) as f64 * 0.99).round() as usize;
+        let (_, m, _) = a.select_nth_unstable_by(k, f64::total_cmp);
+        *m
+    };
+    (
+        p99(t.inputs.iter().map(|i| i.x_m.abs()).collect()),
+        p99(t.inputs.iter().map(|i| i.v_m_s.abs()).collect()),
+    )
+}
+
+/// Tests with the same motion (amplitude and speed within 5 %), labelled 0, 1, … in order of first appearance.
+fn motion_groups(tests: &[Test]) -> Vec<usize> {
+    let sig: Vec<(f64, f64)> = tests.iter().map(motion_signature).collect();
+    let close = |a: f64, b: f64| (a - b).abs() <= 0.05 * a.abs().max(b.abs());
+    let mut label = vec![usize::MAX; tests.len()];
+    let mut next = 0;
+    for j in 0..tests.len() {
+        if label[j] != usize::MAX {
+            continue;
+        }
+        label[j] = next;
+        for i in j + 1..tests.len() {
+            if label[i] == usize::MAX && close(sig[i].0, sig[j].0) && close(sig[i].1, sig[j].1) {
+                label[i] = next;
+            }
+        }
+        next += 1;
+    }
+    label
 }
 
 /// Held-out performance of one model spec.
@@ -600,4 +656,76 @@ fn evidence(
         cur.per_fold.len()
     ));
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::device::Inputs;
+
+    fn sine_test(name: &str, group: &str, amp_m: f64, f_hz: f64, i_a: f64) -> Test {
+        let w = std::f64::consts::TAU * f_hz;
+        let inputs: Vec<Inputs> = (0..2000)
+            .map(|k| {
+                let t = k as f64 * 1e-3;
+                Inputs {
+                    t_s: t,
+                    x_m: amp_m * (w * t).sin(),
+                    v_m_s: amp_m * w * (w * t).cos(),
+                    current_cmd_a: i_a,
+                    ..Default::default()
+                }
+            })
+            .collect();
+        Test {
+            path: name.into(),
+            name: name.into(),
+            group: group.into(),
+            f_n: vec![0.0; inputs.len()],
+            inputs,
+            velocity_measured: true,
+        }
+    }
+
+    /// Files whose names group nothing (each its own group): three motions at two currents each are held
+    /// out a motion at a time, both currents together; with names that group, the names decide.
+    #[test]
+    fn folds_follow_the_motion_when_the_names_group_nothing() {
+        let motions = [(0.02, 1.0), (0.01, 2.5), (0.03, 0.4)];
+        let mut tests = Vec::new();
+        for (k, (a, f)) in motions.iter().enumerate() {
+            for (c, i) in [0.0, 14.0].iter().enumerate() {
+                let name = format!("run{}", 2 * k + c);
+                tests.push(sine_test(&name, &name, *a, *f, *i));
+            }
+        }
+        let (folds, how) = make_folds(&tests, 4, 5);
+        assert_eq!(folds.len(), 3, "{how}");
+        assert!(how.starts_with("leave one motion group out over 3"), "{how}");
+        for (f, fold) in folds.iter().enumerate() {
+            let held: Vec<usize> = fold.test.iter().map(|s| s.test).collect();
+            assert_eq!(held, vec![2 * f, 2 * f + 1], "fold {f}: {how}");
+        }
+        // Names that group: by name, even across motions.
+        for (j, t) in tests.iter_mut().enumerate() {
+            t.group = format!("g{}", j % 2);
+        }
+        let (folds, how) = make_folds(&tests, 4, 5);
+        assert_eq!(folds.len(), 2, "{how}");
+        // Every test its own motion: one test per fold, as before.
+        let distinct: Vec<Test> = (0..4)
+            .map(|j| {
+                sine_test(
+                    &format!("r{j}"),
+                    &format!("r{j}"),
+                    0.01 * (j + 1) as f64,
+                    1.0,
+                    7.0,
+                )
+            })
+            .collect();
+        let (folds, how) = make_folds(&distinct, 4, 5);
+        assert_eq!(folds.len(), 4, "{how}");
+        assert!(how.starts_with("leave one test out"), "{how}");
+    }
 }

@@ -2,12 +2,12 @@
 //! (`tests/ident.rs`, mrfeel's own effects hidden) and `tests/independent_truth.rs` (effects written again).
 
 use mrfeel::device::{ModelSpec, Registry};
-use mrfeel::ident::{diagnose, DiagnoseOptions, Test};
+use mrfeel::ident::{diagnose, DiagnoseOptions, Diagnosis, Test};
 
 /// Diagnose `tests` from `bingham` (driver limit `limit_a`). Ok when it names exactly the `hidden` effects
 /// and, if there are any, the held-out error at least halves or reaches 1.2× the noise floor (with none, the
 /// final model is the base); else what went wrong and the diagnosis report.
-pub fn verdict(tests: &[Test], hidden: &[&str], limit_a: f64) -> Result<(), String> {
+pub fn verdict(tests: &[Test], hidden: &[&str], limit_a: f64) -> Result<Diagnosis, String> {
     let registry = Registry::builtin();
     let d = diagnose(
         tests,
@@ -36,5 +36,5 @@ pub fn verdict(tests: &[Test], hidden: &[&str], limit_a: f64) -> Result<(), Stri
     if !ok {
         return Err(format!("held-out error did not fall enough:\n{report}"));
     }
-    Ok(())
+    Ok(d)
 }
