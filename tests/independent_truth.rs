@@ -10,7 +10,7 @@
 //! | hysteresis | Bouc–Wen, n = 2, γ = β, no pre-yield dashpot | Dahl (n = 1) in series with a pre-yield dashpot |
 //! | magnetic_saturation | `Fy = fc0 + Fs tanh(k i / Fs)` | its own knee law |
 //! | asymmetry | +15 % yield extending, −10 % retracting | `Fy (1 ± a)` |
-//! | current_viscosity | `C = C0 (1 + 2 (i/i_max)²)` (quadratic) | linear in current |
+//! | current_viscosity | `C = C0 (1 + 2 (i/i_max)²)` (quadratic from C0) | `C0 + c1 h^n` (power law, n fitted) |
 //! | stiffness | preload + linear + cubic spring | preload + linear |
 //! | inertia | 3 kg | fitted mass |
 //! | thermal_drift | temperature state lowering yield *and* viscosity (yield −7 % over the longest test) | heat lowering yield |

@@ -8,9 +8,14 @@
 //! Equation (the current-dependent damping coefficient of Spencer et al. 1997, J. Eng. Mech. 123(3),
 //! `c0 = c0a + c0b u`, with `u` the filtered excitation; here the base's lagged excitation `h`):
 //!
-//! `C(h) = C0 + c1 · |h|`,  `F = Fy d + C(h) v + …`
+//! `C(h) = C0 + c1 · |h| · (|h| / 1 A)^(n−1)`,  `F = Fy d + C(h) v + …`
 //!
-//! with `c1` = `visc_c1_n_s_per_m_per_a` ≥ 0. `C0` stays the base's damping at zero current.
+//! with `c1` = `visc_c1_n_s_per_m_per_a` ≥ 0 (the increase per ampere at 1 A) and `n` = `visc_exponent`.
+//! `n = 1` is Spencer's linear law and where a fit starts. The exponent lets the rise be faster (the
+//! particles' dipole interaction, and with it the plastic viscosity, grows with the square of the field at
+//! low field) or slower (the field saturates in the steel at high current) than linear; data at two
+//! currents cannot tell it from 1, data at three or more can. `C0` stays the base's damping at zero
+//! current.
 
 use crate::device::effect::{Effect, EffectStage, Inputs, Stage};
 use crate::device::params::{DataStats, ParamSpec};
@@ -21,17 +26,29 @@ use super::Scales;
 #[derive(Debug, Clone, Copy, Default)]
 pub struct CurrentViscosity;
 
-/// Index of the parameter in the effect's slice.
+/// Indices of the parameters in the effect's slice.
 pub const C1: usize = 0;
+pub const EXPONENT: usize = 1;
 
-const PARAMS: [ParamSpec; 1] = [ParamSpec::new(
-    "visc_c1_n_s_per_m_per_a",
-    "N·s/m/A",
-    // The field thickens the fluid, it does not thin it: c1 ≥ 0 keeps the damping positive at any current.
-    0.0,
-    f64::INFINITY,
-    "increase of post-yield damping per ampere of lagged coil current, C = C0 + c1|h| (Spencer et al. 1997)",
-)];
+const PARAMS: [ParamSpec; 2] = [
+    ParamSpec::new(
+        "visc_c1_n_s_per_m_per_a",
+        "N·s/m/A",
+        // The field thickens the fluid, it does not thin it: c1 ≥ 0 keeps the damping positive at any current.
+        0.0,
+        f64::INFINITY,
+        "increase of post-yield damping per ampere of lagged coil current at 1 A, C = C0 + c1|h|(|h|/1 A)^(n-1)          (Spencer et al. 1997 for n = 1)",
+    ),
+    ParamSpec::new(
+        "visc_exponent",
+        "1",
+        // 0.25–4: from a rise that is nearly all at the lowest current (saturated) to one that is nearly all at
+        // the highest (the square-law of dipole interaction, and more); 1 is linear.
+        0.25,
+        4.0,
+        "exponent n of the damping's rise with current (1: linear, 2: with the square of the field)",
+    ),
+];
 
 impl Effect for CurrentViscosity {
     fn name(&self) -> &'static str {
@@ -39,8 +56,8 @@ impl Effect for CurrentViscosity {
     }
 
     fn describe(&self) -> &'static str {
-        "Post-yield damping rising with current (field-thickened plastic viscosity): C = C0 + c1|h| with h the \
-         lagged excitation, as Spencer et al. 1997 made c0 a linear function of the filtered command."
+        "Post-yield damping rising with current (field-thickened plastic viscosity): C = C0 + c1|h|(|h|/1 A)^(n-1) \
+         with h the lagged excitation; n = 1 is Spencer et al. 1997's linear c0 = c0a + c0b u."
     }
 
     fn stage(&self) -> EffectStage {
@@ -51,26 +68,32 @@ impl Effect for CurrentViscosity {
         &PARAMS
     }
 
-    /// Adds 2 % of the force scale at the largest velocity and current: a small, non-zero start.
+    /// Adds 2 % of the force scale at the largest velocity and current, linearly: a small, non-zero start.
     fn initial_guess(&self, stats: &DataStats) -> Vec<f64> {
         let s = Scales::of(stats);
-        vec![0.02 * s.force_n / (s.v_m_s * s.i_a)]
+        vec![0.02 * s.force_n / (s.v_m_s * s.i_a), 1.0]
     }
 
-    /// Adds 25 % of the force scale at the largest velocity and current.
+    /// Adds 25 % of the force scale at the largest velocity and current, linearly.
     fn typical_params(&self, stats: &DataStats) -> Vec<f64> {
         let s = Scales::of(stats);
-        vec![0.25 * s.force_n / (s.v_m_s * s.i_a)]
+        vec![0.25 * s.force_n / (s.v_m_s * s.i_a), 1.0]
     }
 
     fn apply(&self, p: &[f64], _s: &[f64], _inp: &Inputs, stage: &mut Stage) {
-        stage.damping_n_s_per_m += p[C1] * stage.current_a.abs();
+        let h = stage.current_a.abs();
+        let rise = if p[EXPONENT] == 1.0 || h == 0.0 {
+            h
+        } else {
+            h.powf(p[EXPONENT])
+        };
+        stage.damping_n_s_per_m += p[C1] * rise;
     }
 
     fn residual_signature(&self) -> &'static str {
         "residual slope versus velocity that changes with current: a constant-C0 model is too steep at low \
          current and too flat at high current; the residual is odd in velocity, zero at v = 0, and its slope \
-         grows linearly with current"
+         grows with current (linearly, or faster or slower)"
     }
 }
 
@@ -108,6 +131,23 @@ mod tests {
             ((s10 - s5) - (s5 - s0)).abs() < 1e-6 * s10,
             "not linear: {s0} {s5} {s10}"
         );
+    }
+
+    /// With `n = 2` the added slope is `c1 h²`: 4× from 5 A to 10 A (linear: 2×).
+    #[test]
+    fn damping_rise_follows_the_exponent() {
+        let m = model("bingham+current_viscosity");
+        let p = params(&m, &[("visc_c1_n_s_per_m_per_a", 3.0), ("visc_exponent", 2.0)]);
+        let slope = |i: f64| {
+            let f_at = |v: f64| {
+                let inputs = triangle(0.01, v, i, 1e-3, 1.0);
+                mean_where(&m.simulate(&p, &inputs), &inputs, |k| k.v_m_s > 0.0)
+            };
+            (f_at(0.08) - f_at(0.02)) / 0.06 - BASE[2]
+        };
+        let (a5, a10) = (slope(5.0), slope(10.0));
+        assert!((a5 - 3.0 * 25.0).abs() < 1e-6 * a5, "added slope at 5 A: {a5}");
+        assert!((a10 / a5 - 4.0).abs() < 1e-6, "10 A vs 5 A: {}", a10 / a5);
     }
 
     #[test]
