@@ -193,13 +193,18 @@ fn stepped_file(
     Test::from_measurement(&m)
 }
 
-/// `INDEPENDENT_SEED_OFFSET=100 cargo test --test independent_truth` reruns every case on other noise.
-fn check(hidden: &[&str], velocity_channel: bool, seed: u64) {
+/// The noise of every case: `INDEPENDENT_SEED_OFFSET=100 cargo test --test independent_truth` reruns them all
+/// on other noise.
+fn rng_for(seed: u64) -> ChaCha8Rng {
     let offset: u64 = std::env::var("INDEPENDENT_SEED_OFFSET")
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(0);
-    let mut rng = ChaCha8Rng::seed_from_u64(seed + offset);
+    ChaCha8Rng::seed_from_u64(seed + offset)
+}
+
+fn check(hidden: &[&str], velocity_channel: bool, seed: u64) {
+    let mut rng = rng_for(seed);
     let tests: Vec<Test> = GROUPS
         .iter()
         .flat_map(|g| CURRENTS_A.iter().map(move |&i| (*g, i)))
@@ -215,7 +220,7 @@ fn check(hidden: &[&str], velocity_channel: bool, seed: u64) {
 /// effects. With one file per fold instead, the quadratic damping was missed (worse in one fold of five,
 /// where the held-out currents were the low ones) and the cubic spring drew a false `inertia`.
 fn check_unnamed(hidden: &[&str], velocity_channel: bool, seed: u64) {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut rng = rng_for(seed);
     let mut tests: Vec<Test> = GROUPS
         .iter()
         .flat_map(|g| CURRENTS_A.iter().map(move |&i| (*g, i)))
@@ -306,7 +311,7 @@ fn independent_effects_in_files_whose_names_group_nothing() {
 #[test]
 fn independent_effects_in_one_file_with_current_steps() {
     for (hidden, seed) in [("current_viscosity", 31u64), ("magnetic_saturation", 32)] {
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut rng = rng_for(seed);
         let tests = vec![stepped_file(
             &[hidden],
             ("steps", 0.02, 1.3, 19.5, 1000.0),
