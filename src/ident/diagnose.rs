@@ -21,7 +21,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 
 use super::fit::{fit, span_stats, FitOptions, Span};
-use super::residual::{direction_weights, noise_floor_n, where_regions, Region, Signatures};
+use super::residual::{direction_weights, noise_floor_n, quantile, where_regions, Region, Signatures};
 use super::validate::{evaluate, Figures};
 use super::{IdentError, Test};
 use crate::device::{Model, ModelSpec, Registry};
@@ -121,14 +121,14 @@ pub fn make_folds(tests: &[Test], blocks: usize, max_folds: usize) -> (Vec<Fold>
     // that groups some of them, so that a held-out fold is a motion the fit never saw, at every current
     // (tests of one displacement protocol at several currents, as on an MTS machine). Else one per test.
     if groups.len() < 2 || groups.len() == tests.len() {
-        let motion = motion_groups(tests);
+        let sig: Vec<(f64, f64)> = tests.iter().map(motion_signature).collect();
+        let motion = motion_groups(&sig);
         let n_motion = motion.iter().max().map_or(0, |m| m + 1);
         if n_motion >= 2 && n_motion < tests.len() {
             groups = (0..n_motion)
                 .map(|g| {
                     let j = motion.iter().position(|&m| m == g).unwrap_or(0);
-                    let (x, v) = motion_signature(&tests[j]);
-                    format!("±{:.2} mm, {:.3} m/s", x * 1e3, v)
+                    format!("±{:.2} mm, {:.3} m/s", sig[j].0 * 1e3, sig[j].1)
                 })
                 .collect();
             key = motion;
@@ -182,32 +182,27 @@ pub fn make_folds(tests: &[Test], blocks: usize, max_folds: usize) -> (Vec<Fold>
 
 /// A test's motion: the 99th percentiles of |x| and |v| (m, m/s), robust to a few spikes of noise.
 fn motion_signature(t: &Test) -> (f64, f64) {
-    let p99 = |mut a: Vec<f64>| -> f64 {
-        if a.is_empty() {
-            return 0.0;
-        }
-        let k = ((a.len() - 1) as f64 * 0.99).round() as usize;
-        let (_, m, _) = a.select_nth_unstable_by(k, f64::total_cmp);
-        *m
-    };
+    if t.inputs.is_empty() {
+        return (0.0, 0.0);
+    }
     (
-        p99(t.inputs.iter().map(|i| i.x_m.abs()).collect()),
-        p99(t.inputs.iter().map(|i| i.v_m_s.abs()).collect()),
+        quantile(t.inputs.iter().map(|i| i.x_m.abs()).collect(), 0.99),
+        quantile(t.inputs.iter().map(|i| i.v_m_s.abs()).collect(), 0.99),
     )
 }
 
-/// Tests with the same motion (amplitude and speed within 5 %), labelled 0, 1, … in order of first appearance.
-fn motion_groups(tests: &[Test]) -> Vec<usize> {
-    let sig: Vec<(f64, f64)> = tests.iter().map(motion_signature).collect();
+/// Tests with the same motion signature (amplitude and speed within 5 %), labelled 0, 1, … in order of first
+/// appearance.
+fn motion_groups(sig: &[(f64, f64)]) -> Vec<usize> {
     let close = |a: f64, b: f64| (a - b).abs() <= 0.05 * a.abs().max(b.abs());
-    let mut label = vec![usize::MAX; tests.len()];
+    let mut label = vec![usize::MAX; sig.len()];
     let mut next = 0;
-    for j in 0..tests.len() {
+    for j in 0..sig.len() {
         if label[j] != usize::MAX {
             continue;
         }
         label[j] = next;
-        for i in j + 1..tests.len() {
+        for i in j + 1..sig.len() {
             if label[i] == usize::MAX && close(sig[i].0, sig[j].0) && close(sig[i].1, sig[j].1) {
                 label[i] = next;
             }

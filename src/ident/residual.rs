@@ -461,36 +461,36 @@ impl Corr {
 /// measured force: `Δ³f` of white noise has variance 20σ², while a smooth force contributes little and the
 /// jumps at velocity reversals are rare enough that a median ignores them.
 pub fn noise_floor_n(tests: &[Test]) -> f64 {
-    let mut d: Vec<f64> = tests
-        .iter()
-        .flat_map(|t| {
-            t.f_n
-                .windows(4)
-                .map(|w| (w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]).abs())
-        })
-        .collect();
-    if d.is_empty() {
-        return 0.0;
-    }
-    let mid = d.len() / 2;
-    let (_, m, _) = d.select_nth_unstable_by(mid, f64::total_cmp);
-    1.4826 * *m / 20f64.sqrt()
+    std_from_third_differences(tests.iter().flat_map(|t| third_differences(&t.f_n)).collect())
 }
 
 /// Robust standard deviation of the white noise on a sampled signal: third differences cancel a smooth
 /// signal (up to its third derivative × dt³) and multiply white noise variance by 20; the median absolute
 /// value (× 1.4826 for a Gaussian) ignores the few samples where the signal itself jumps.
 pub fn white_noise_std(y: &[f64]) -> f64 {
-    let mut d: Vec<f64> = y
-        .windows(4)
+    std_from_third_differences(third_differences(y).collect())
+}
+
+/// `|Δ³y|` at every window of four samples.
+fn third_differences(y: &[f64]) -> impl Iterator<Item = f64> + '_ {
+    y.windows(4)
         .map(|w| (w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]).abs())
-        .collect();
+}
+
+/// White-noise standard deviation from `|Δ³|` values: their median × 1.4826 / √20 (0 with none).
+fn std_from_third_differences(d: Vec<f64>) -> f64 {
     if d.is_empty() {
         return 0.0;
     }
-    let mid = d.len() / 2;
-    let (_, m, _) = d.select_nth_unstable_by(mid, f64::total_cmp);
-    1.4826 * *m / 20f64.sqrt()
+    1.4826 * quantile(d, 0.5) / 20f64.sqrt()
+}
+
+/// The `q`-quantile of `a` (the sample of rank `round((n − 1) q)`, by selection, not a full sort); `a` must
+/// not be empty.
+pub fn quantile(mut a: Vec<f64>, q: f64) -> f64 {
+    let k = ((a.len() - 1) as f64 * q).round() as usize;
+    let (_, m, _) = a.select_nth_unstable_by(k, f64::total_cmp);
+    *m
 }
 
 /// How many noise standard deviations a velocity must be from zero for its sign to be known: a Gaussian
