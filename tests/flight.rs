@@ -452,13 +452,7 @@ fn flight_scenario_errors_name_file_line_and_field() {
 /// CSV's aircraft columns) and its attitude over time beside the rig, read back with the Rerun SDK.
 #[test]
 fn flight_recording_reads_back_with_the_aircraft_beside_the_stick() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let py = root.join(".venv/bin/python");
-    assert!(
-        py.exists(),
-        "{} is missing: run the test command (it creates .venv)",
-        py.display()
-    );
+    common::venv_python(); // before the flight: the read-back needs it
     let (mut s, d) = load("c172p-pitch-tracking.toml");
     s.duration_s = 4.0;
     let rig = cli::build_rig(&s, &d).unwrap();

@@ -453,13 +453,7 @@ fn run_with_spawn_streams_the_recording_to_the_spawned_viewer() {
     // stand-in `rerun` first on PATH records the arguments it was started with and runs the real viewer
     // CLI of the venv's rerun-sdk (same version as the crate) as a windowless gRPC server that saves
     // everything it receives (`--save`); that file is read back and checked against the run's CSV.
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let py = root.join(".venv/bin/python");
-    assert!(
-        py.exists(),
-        "{} is missing: run `scripts/python-env.sh` first (it installs rerun-sdk==0.36.3)",
-        py.display()
-    );
+    let py = common::venv_python();
     let out = std::process::Command::new(&py)
         .args([
             "-c",
