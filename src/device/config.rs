@@ -270,4 +270,10 @@ impl ParamsFile {
             params,
         }
     }
+
+    /// Write as pretty JSON with a final newline (what `fit --save` and `mts --save-device` write).
+    pub fn write(&self, path: &Path) -> std::io::Result<()> {
+        let text = serde_json::to_string_pretty(self).map_err(std::io::Error::other)?;
+        std::fs::write(path, text + "\n")
+    }
 }

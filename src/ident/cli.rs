@@ -141,9 +141,9 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
         where_regions(&tests, &pred),
     );
     if let Some(path) = &a.save {
-        let pf = ParamsFile::new(&model, &fr.params, Some(&fr.std_err));
-        let text = serde_json::to_string_pretty(&pf)?;
-        std::fs::write(path, text + "\n").with_context(|| format!("writing {}", path.display()))?;
+        ParamsFile::new(&model, &fr.params, Some(&fr.std_err))
+            .write(path)
+            .with_context(|| format!("writing {}", path.display()))?;
         eprintln!("saved {}", path.display());
     }
     if a.heldout {

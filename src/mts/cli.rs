@@ -156,8 +156,6 @@ pub fn run(a: MtsArgs) -> Result<()> {
         )?
     };
     let m = test.run(&mut damper)?;
-    let truth = crate::device::ParamsFile::new(damper.model(), damper.params(), None);
-    let truth_json = serde_json::to_string_pretty(&truth)? + "\n";
     let saturated = m.f_n.iter().filter(|f| f.abs() >= range_n * 0.999).count();
     if saturated > 0 {
         bail!(
@@ -166,7 +164,9 @@ pub fn run(a: MtsArgs) -> Result<()> {
     }
     m.write(&a.out)?;
     if let Some(path) = &a.save_device {
-        std::fs::write(path, &truth_json).with_context(|| format!("writing {}", path.display()))?;
+        crate::device::ParamsFile::new(damper.model(), damper.params(), None)
+            .write(path)
+            .with_context(|| format!("writing {}", path.display()))?;
         eprintln!("saved the simulated device to {}", path.display());
     }
     eprintln!(
