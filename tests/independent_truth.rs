@@ -213,13 +213,23 @@ fn check(hidden: &[&str], velocity_channel: bool, seed: u64) {
     check_on(&GROUPS, hidden, velocity_channel, seed);
 }
 
-fn check_on(groups: &[(&str, f64, f64, f64, f64)], hidden: &[&str], velocity_channel: bool, seed: u64) {
+/// One file per group and current, like the real damper's tests.
+fn data_set(
+    groups: &[(&str, f64, f64, f64, f64)],
+    hidden: &[&str],
+    velocity_channel: bool,
+    seed: u64,
+) -> Vec<Test> {
     let mut rng = rng_for(seed);
-    let tests: Vec<Test> = groups
+    groups
         .iter()
         .flat_map(|g| CURRENTS_A.iter().map(move |&i| (*g, i)))
         .map(|(g, i)| test_file(hidden, g, i, velocity_channel, &mut rng))
-        .collect();
+        .collect()
+}
+
+fn check_on(groups: &[(&str, f64, f64, f64, f64)], hidden: &[&str], velocity_channel: bool, seed: u64) {
+    let tests = data_set(groups, hidden, velocity_channel, seed);
     if let Err(e) = diagnosis_check::verdict(&tests, hidden, LIMIT_A) {
         panic!("independent truth: {e}");
     }
@@ -230,12 +240,7 @@ fn check_on(groups: &[(&str, f64, f64, f64, f64)], hidden: &[&str], velocity_cha
 /// effects. With one file per fold instead, the quadratic damping was missed (worse in one fold of five,
 /// where the held-out currents were the low ones) and the cubic spring drew a false `inertia`.
 fn check_unnamed(hidden: &[&str], velocity_channel: bool, seed: u64) {
-    let mut rng = rng_for(seed);
-    let mut tests: Vec<Test> = GROUPS
-        .iter()
-        .flat_map(|g| CURRENTS_A.iter().map(move |&i| (*g, i)))
-        .map(|(g, i)| test_file(hidden, g, i, velocity_channel, &mut rng))
-        .collect();
+    let mut tests = data_set(&GROUPS, hidden, velocity_channel, seed);
     let n = tests.len();
     for (j, t) in tests.iter_mut().enumerate() {
         let k = (j * 7 + 3) % n; // a fixed shuffle of the numbering
