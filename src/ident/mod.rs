@@ -86,7 +86,7 @@ impl Test {
 ///   smaller noise (each raw signal's white noise estimated by [`residual::white_noise_std`], carried
 ///   through the differentiator's weights);
 /// - the window of the local quintic fit that differentiates ([`widest_unbiased_derivative`]): widened
-///   while the change it makes is no larger than the noise it removes (the bias stays below the noise).
+///   until a widening changes the result significantly more than the noise it removes would (bias).
 pub fn inputs_of(m: &Measurement) -> Vec<Inputs> {
     let mut inputs = m.inputs();
     if m.a_m_s2.is_some() || m.len() < 32 {
