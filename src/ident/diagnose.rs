@@ -24,7 +24,7 @@ use super::fit::{fit, span_stats, FitOptions, Span};
 use super::residual::{direction_weights, noise_floor_n, quantile, where_regions, Region, Signatures};
 use super::validate::{evaluate, Figures};
 use super::{IdentError, Test};
-use crate::device::{Model, ModelSpec, Registry};
+use crate::device::{bingham, Model, ModelSpec, Registry};
 
 /// Settings of a diagnosis.
 #[derive(Debug, Clone)]
@@ -270,6 +270,42 @@ pub fn cross_validate(
                 tests,
                 &fold.train,
             );
+            // Staged: first the new effect's parameters with the base's linear gains (the parameters an effect
+            // trades against most: yield force, its current gain, damping), the rest held at the parent's fit
+            // of this fold; then all from there. The first stage's Jacobians have a few columns where the
+            // whole model's have all, while the new parameters travel from their initial guess: 23 % fewer
+            // simulations in the `diagnose` bench, the same verdicts (holding the gains too made the
+            // current-dependent candidates stop short, and the independent-truth tests caught it).
+            let inherited: Vec<usize> = match parent {
+                Some((pm, _)) => model
+                    .param_specs()
+                    .iter()
+                    .enumerate()
+                    .filter(|(k, s)| {
+                        pm.param_index(s.name).is_some()
+                            && ![bingham::FC0, bingham::FC_GAIN, bingham::C0].contains(k)
+                    })
+                    .map(|(k, _)| k)
+                    .collect(),
+                None => Vec::new(),
+            };
+            let start = match start {
+                Some(p0) if !inherited.is_empty() && inherited.len() + 3 < model.n_params() => {
+                    let first = fit(
+                        model,
+                        tests,
+                        &fold.train,
+                        &FitOptions {
+                            start: Some(p0),
+                            hold: inherited,
+                            std_errors: false,
+                            ..opts.clone()
+                        },
+                    );
+                    Some(first.params)
+                }
+                other => other,
+            };
             let fr = fit(
                 model,
                 tests,
