@@ -13,6 +13,10 @@ pub const C0: usize = 2;
 pub const TE: usize = 3;
 pub const TM: usize = 4;
 
+/// The parameters Eq. (2) with Eq. (6)'s yield force is linear in: the zero-current yield force, the yield
+/// force per ampere and the damping.
+pub const LINEAR_GAINS: [usize; 3] = [FC0, FC_GAIN, C0];
+
 /// Base parameters, in vector order.
 ///
 /// Eq. (6) contains the product `bH kH` only, so the two gains are one parameter here, the yield force per

@@ -273,24 +273,24 @@ pub fn cross_validate(
             // Staged: first the new effect's parameters with the base's linear gains (the parameters an effect
             // trades against most: yield force, its current gain, damping), the rest held at the parent's fit
             // of this fold; then all from there. The first stage's Jacobians have a few columns where the
-            // whole model's have all, while the new parameters travel from their initial guess: 23 % fewer
-            // simulations in the `diagnose` bench, the same verdicts (holding the gains too made the
+            // whole model's have all, while the new parameters travel from their initial guess: 22.5 %
+            // fewer simulations in the `diagnose` bench, the same verdicts (holding the gains too made the
             // current-dependent candidates stop short, and the independent-truth tests caught it).
             let inherited: Vec<usize> = match parent {
                 Some((pm, _)) => model
                     .param_specs()
                     .iter()
                     .enumerate()
-                    .filter(|(k, s)| {
-                        pm.param_index(s.name).is_some()
-                            && ![bingham::FC0, bingham::FC_GAIN, bingham::C0].contains(k)
-                    })
+                    .filter(|(k, s)| pm.param_index(s.name).is_some() && !bingham::LINEAR_GAINS.contains(k))
                     .map(|(k, _)| k)
                     .collect(),
                 None => Vec::new(),
             };
             let start = match start {
-                Some(p0) if !inherited.is_empty() && inherited.len() + 3 < model.n_params() => {
+                Some(p0)
+                    if !inherited.is_empty()
+                        && inherited.len() + bingham::LINEAR_GAINS.len() < model.n_params() =>
+                {
                     let first = fit(
                         model,
                         tests,

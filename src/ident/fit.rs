@@ -608,7 +608,7 @@ pub fn span_stats(tests: &[Test], spans: &[Span]) -> DataStats {
 /// linear in the zero-current yield force, the yield force per ampere and the damping), holding the other
 /// parameters: two projected Gauss–Newton steps, exact for the base model, with the lower bounds kept.
 fn linear_warm_start(model: &Model, tests: &[Test], spans: &[Span], weights: &[Vec<f64>], p: &mut [f64]) {
-    let idx = [bingham::FC0, bingham::FC_GAIN, bingham::C0];
+    let idx = bingham::LINEAR_GAINS;
     let specs = model.param_specs();
     // The sum of squares the first step's linear model predicts: when the second step starts there, the
     // force is linear in the three gains (no effect's state depends on them) and the first step was exact.
