@@ -763,26 +763,17 @@ fn bounded_lstsq3(ata: [[f64; 3]; 3], atb: [f64; 3], lo: &[f64], hi: &[f64]) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::device::{Inputs, Registry};
+    use crate::device::Registry;
 
     /// The paper's device (Bingham with both lags, `bingham` parameter order) on a 1 Hz, 20 mm sine whose
     /// current steps through 0–14 A every 0.25 s (so the lags show), 1 kHz, exact force.
     const TRUTH: [f64; 5] = [20.0, 4.83, 60.0, 0.015, 0.008];
 
     fn stepped_sine(model: &Model) -> Vec<Test> {
-        let w = std::f64::consts::TAU;
-        let inputs: Vec<Inputs> = (0..4000)
-            .map(|k| {
-                let t = k as f64 * 1e-3;
-                Inputs {
-                    t_s: t,
-                    x_m: 0.02 * (w * t).sin(),
-                    v_m_s: 0.02 * w * (w * t).cos(),
-                    a_m_s2: -0.02 * w * w * (w * t).sin(),
-                    current_cmd_a: [0.0, 14.0, 3.5, 10.5, 7.0][(k / 250) % 5],
-                }
-            })
-            .collect();
+        let mut inputs = crate::device::effects::testkit::sine(0.02, 1.0, 0.0, 1e-3, 3.999);
+        for (k, inp) in inputs.iter_mut().enumerate() {
+            inp.current_cmd_a = [0.0, 14.0, 3.5, 10.5, 7.0][(k / 250) % 5];
+        }
         vec![Test {
             path: "stepped.csv".into(),
             name: "stepped.csv".into(),
