@@ -15,23 +15,20 @@ pooled NRMSE = RMS(residual) / RMS(force) over the held-out samples. Its own fig
 Run:  python3 -m venv /tmp/pyenv && /tmp/pyenv/bin/pip install numpy scipy numba
       /tmp/pyenv/bin/python python/probe_delay_and_levels.py       (a few minutes)
 """
-import sys, glob, os, numpy as np, numba
+import os, sys
+import numpy as np, numba
 from scipy.optimize import least_squares
-DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "shared", "data", "utfsm-mr-damper")
-GROUPS = ["10mm1Hz", "25mm0p25Hz", "2mm5Hz"]
-LEVELS = [0.0, 0.25, 0.5, 0.75, 1.0]
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import prototype_hysteresis as P
+
+GROUPS = P.GROUPS
+
 
 def load_raw():
-    out = []
-    for path in sorted(glob.glob(os.path.join(DATA, "*.csv"))):
-        with open(path) as fh:
-            lines = [ln for ln in fh if ln.strip() and not ln.startswith("#")]
-        cols = lines[0].strip().split(",")
-        a = np.loadtxt(lines[1:], delimiter=",")
-        c = {n: a[:, cols.index(n)] for n in ("t_s", "x_m", "v_m_s", "i_a", "f_n")}
-        name = os.path.basename(path)[:-4]
-        out.append(dict(name=name, group=name.split("_")[0], **c))
-    return out
+    """Every test at its full rate, the columns under their file names."""
+    return [dict(name=d["name"], group=d["group"], t_s=d["t"], x_m=d["x"], v_m_s=d["v"], i_a=d["i"], f_n=d["f"])
+            for d in P.load(P.DATA)]
 
 def prep(raw, tau=0.0, dec=0.005, trim=0.012):
     """Force shifted: compare model(t) with f(t + tau) (tau > 0: force channel lags motion).

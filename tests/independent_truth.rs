@@ -323,10 +323,18 @@ fn independent_effects_in_files_whose_names_group_nothing() {
 }
 
 /// One file (blocked cross-validation in time), the current stepping through six levels over 15 s of a
-/// 1.3 Hz sine: the current-dependent effects are still named, and the error at least halves.
+/// 1.3 Hz sine: the current-dependent effects are still named, and the error at least halves. With
+/// hysteresis alone, a second effect must not be named for the sake of a better fit of the first: before
+/// `diagnose` refitted the current model from the best candidate's fit, a candidate that merely led a fold's
+/// fit out of a local minimum was named (`inertia` with this seed; `inertia` or `stiffness` on seeds 44 and
+/// 45; `thermal_drift` on a file of session 3's numpy generator). With the refit, seeds 33–45 pass.
 #[test]
 fn independent_effects_in_one_file_with_current_steps() {
-    for (hidden, seed) in [("current_viscosity", 31u64), ("magnetic_saturation", 32)] {
+    for (hidden, seed) in [
+        ("current_viscosity", 31u64),
+        ("magnetic_saturation", 32),
+        ("hysteresis", 42),
+    ] {
         let mut rng = rng_for(seed);
         let tests = vec![stepped_file(
             &[hidden],

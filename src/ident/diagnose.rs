@@ -220,6 +220,8 @@ pub struct CvResult {
     pub total: Figures,
     /// Fitted parameters of each fold's model (for warm starts).
     pub fold_params: Vec<Vec<f64>>,
+    /// Each fold's fitted sum of squares on its training samples, N².
+    pub fold_train_sse: Vec<f64>,
     /// Out-of-fold prediction at every sample (each sample is scored by exactly one fold).
     pub oof: Vec<Vec<f64>>,
 }
@@ -227,6 +229,31 @@ pub struct CvResult {
 impl CvResult {
     pub fn heldout_nrmse(&self) -> f64 {
         self.total.nrmse()
+    }
+
+    /// The same model fitted again (`other`): in each fold the fit with the lower *training* error (the
+    /// held-out samples play no part in the choice). `None` when no fold of `other` fits better.
+    fn better_fits(&self, other: &CvResult, folds: &[Fold]) -> Option<CvResult> {
+        let better: Vec<usize> = (0..folds.len())
+            .filter(|&f| other.fold_train_sse[f] < self.fold_train_sse[f] * (1.0 - 1e-9))
+            .collect();
+        if better.is_empty() {
+            return None;
+        }
+        let mut out = self.clone();
+        for f in better {
+            out.per_fold[f] = other.per_fold[f];
+            out.fold_params[f] = other.fold_params[f].clone();
+            out.fold_train_sse[f] = other.fold_train_sse[f];
+            for s in &folds[f].test {
+                out.oof[s.test][s.start..s.end].copy_from_slice(&other.oof[s.test][s.start..s.end]);
+            }
+        }
+        out.total = Figures::default();
+        for fig in &out.per_fold {
+            out.total.add(fig);
+        }
+        Some(out)
     }
 }
 
@@ -247,8 +274,8 @@ fn start_from(
     Some(p)
 }
 
-/// A fold's fitted parameters, held-out figures and held-out predictions.
-type FoldOutcome = (Vec<f64>, Figures, Vec<(Span, Vec<f64>)>);
+/// A fold's fitted parameters, training sum of squares, held-out figures and held-out predictions.
+type FoldOutcome = (Vec<f64>, f64, Figures, Vec<(Span, Vec<f64>)>);
 
 /// Cross-validate one model over the folds (parallel over folds, results in fold order).
 pub fn cross_validate(
@@ -330,17 +357,19 @@ pub fn cross_validate(
                 preds.push((*s, p));
             }
             bar.inc(1);
-            (fr.params, fig, preds)
+            (fr.params, fr.sse, fig, preds)
         })
         .collect();
     let mut oof: Vec<Vec<f64>> = tests.iter().map(|t| vec![f64::NAN; t.len()]).collect();
     let mut total = Figures::default();
     let mut per_fold = Vec::new();
     let mut fold_params = Vec::new();
-    for (p, fig, preds) in out {
+    let mut fold_train_sse = Vec::new();
+    for (p, sse, fig, preds) in out {
         total.add(&fig);
         per_fold.push(fig);
         fold_params.push(p);
+        fold_train_sse.push(sse);
         for (s, pr) in preds {
             oof[s.test][s.start..s.end].copy_from_slice(&pr);
         }
@@ -350,6 +379,7 @@ pub fn cross_validate(
         per_fold,
         total,
         fold_params,
+        fold_train_sse,
         oof,
     }
 }
@@ -476,7 +506,6 @@ pub fn diagnose(
             break;
         }
         bar.set_message(format!("trying {} effects on {}", names.len(), cur.spec));
-        let cur_sig = Signatures::of(tests, &cur.oof);
         let tried: Vec<Result<(Model, CvResult), IdentError>> = names
             .par_iter()
             .map(|n| {
@@ -487,6 +516,42 @@ pub fn diagnose(
             .collect();
         let mut tried: Vec<(Model, CvResult)> = tried.into_iter().collect::<Result<_, _>>()?;
         tried.sort_by(|a, b| a.1.total.sse.total_cmp(&b.1.total.sse));
+        // A candidate can beat the current model only because its fit left a local minimum that the current
+        // model's own fit of a fold is stuck in (the sign: several effects lowering the held-out error by the
+        // same amount). Before the best significant-looking candidate is believed, the current model is
+        // fitted again in each fold from that candidate's fit (its effect's parameters dropped), and each
+        // fold keeps whichever fit of the current model has the lower training error; then all are judged
+        // again, until the best significant candidate is one the current model was already refitted from.
+        let mut restarted_from: Vec<usize> = Vec::new();
+        loop {
+            let at_floor = cur.total.rmse_n() <= opts.floor_ratio * noise;
+            let Some(bi) = (0..tried.len()).find(|&i| judge(&cur, &tried[i].1, noise_mse, opts, at_floor).0)
+            else {
+                break;
+            };
+            if restarted_from.contains(&bi) {
+                break;
+            }
+            restarted_from.push(bi);
+            bar.set_message(format!("refitting {} from {}", cur.spec, tried[bi].0.spec()));
+            let again = cross_validate(
+                &cur_model,
+                tests,
+                &folds,
+                Some((&tried[bi].0, &tried[bi].1)),
+                &cv_fit,
+                &bar,
+            );
+            if let Some(better) = cur.better_fits(&again, &folds) {
+                cur = better;
+                path_cv.insert(cur.spec.to_string(), cur.clone());
+                if let Some(last) = steps.last_mut() {
+                    last.heldout_nrmse = cur.heldout_nrmse();
+                    last.heldout_rmse_n = cur.total.rmse_n();
+                }
+            }
+        }
+        let cur_sig = Signatures::of(tests, &cur.oof);
         let at_floor = cur.total.rmse_n() <= opts.floor_ratio * noise;
         let mut cands = Vec::new();
         for (m, cv) in &tried {
@@ -600,7 +665,8 @@ pub fn diagnose(
         samples,
         base_fit_nrmse: base_fit.nrmse(),
         base_fit_rmse_n: base_fit.rmse_n(),
-        base_heldout_nrmse: base_heldout,
+        // The base's held-out figure as it ended (a fold may have been refitted from a candidate's fit).
+        base_heldout_nrmse: steps[0].heldout_nrmse,
         base_params: base_fit.params,
         base_pred,
         where_,
@@ -693,6 +759,54 @@ fn evidence(
 mod tests {
     use super::*;
     use crate::device::Inputs;
+
+    /// Two cross-validations of one model over two folds of one 4-sample test (fold 0 scores samples 0–1,
+    /// fold 1 samples 2–3): `(training sse, held-out sse, prediction)` per fold.
+    fn cv_of(folds: [(f64, f64, f64); 2]) -> CvResult {
+        let per_fold: Vec<Figures> = folds
+            .iter()
+            .map(|&(_, heldout, _)| Figures {
+                samples: 2,
+                sse: heldout,
+                f_ss: 100.0,
+            })
+            .collect();
+        let mut total = Figures::default();
+        per_fold.iter().for_each(|f| total.add(f));
+        CvResult {
+            spec: ModelSpec::parse("bingham").expect("spec"),
+            per_fold,
+            total,
+            fold_params: folds.iter().map(|&(t, _, _)| vec![t]).collect(),
+            fold_train_sse: folds.iter().map(|&(t, _, _)| t).collect(),
+            oof: vec![vec![folds[0].2, folds[0].2, folds[1].2, folds[1].2]],
+        }
+    }
+
+    #[test]
+    fn a_refit_replaces_a_fold_only_where_it_fits_its_training_samples_better() {
+        let span = |start, end| Span { test: 0, start, end };
+        let folds: Vec<Fold> = [(span(2, 4), span(0, 2)), (span(0, 2), span(2, 4))]
+            .into_iter()
+            .map(|(train, test)| Fold {
+                train: vec![train],
+                test: vec![test],
+                label: String::new(),
+            })
+            .collect();
+        let cur = cv_of([(10.0, 5.0, 1.0), (10.0, 5.0, 2.0)]);
+        // Fold 0 fits its training samples better but predicts worse; fold 1 fits worse but predicts better.
+        let again = cv_of([(8.0, 7.0, 3.0), (12.0, 1.0, 4.0)]);
+        let merged = cur.better_fits(&again, &folds).expect("fold 0 fits better");
+        // Chosen by the training error alone: the held-out samples play no part.
+        assert_eq!(merged.fold_train_sse, vec![8.0, 10.0]);
+        assert_eq!(merged.per_fold[0].sse, 7.0);
+        assert_eq!(merged.per_fold[1].sse, 5.0);
+        assert_eq!(merged.total.sse, 12.0);
+        assert_eq!(merged.oof[0], vec![3.0, 3.0, 2.0, 2.0]);
+        // No fold better: nothing to replace.
+        assert!(cur.better_fits(&cur.clone(), &folds).is_none());
+    }
 
     fn sine_test(name: &str, group: &str, amp_m: f64, f_hz: f64, i_a: f64) -> Test {
         let w = std::f64::consts::TAU * f_hz;
