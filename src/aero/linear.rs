@@ -10,7 +10,7 @@
 //! ```
 //!
 //! `A`, `B`, `C`, `D` are central finite differences of the nonlinear model's right-hand side and
-//! load factor ([`Aircraft::derivatives_and_nz`]) at the aircraft's present state and controls, so a
+//! load factor (`Aircraft::derivatives_and_nz`) at the aircraft's present state and controls, so a
 //! trimmed aircraft gives the classical linear model about trim. [`simulated_stick_response`]
 //! measures the same response on the nonlinear model by a sinusoidal stick (a check of the
 //! linearisation at the amplitude the pilot uses).

@@ -196,7 +196,7 @@ pub fn widest_unbiased_derivative(y: &[f64], order: usize, sd_y: f64, dt: f64, f
 
 /// The cross-validation group of a test: the `group` metadata key when present, else the file stem up to
 /// its last `_` (`10mm1Hz_0p50A.csv` → `10mm1Hz`: the tests of one protocol at several currents), else the
-/// stem itself. [`diagnose`] falls back to one group per file when this gives a single group.
+/// stem itself. [`diagnose()`](fn@diagnose) falls back to one group per file when this gives a single group.
 pub fn group_of(m: &Measurement) -> String {
     if let Some(g) = m.meta.get("group") {
         return g.trim().to_string();
