@@ -758,7 +758,6 @@ fn evidence(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::device::Inputs;
 
     /// Two cross-validations of one model over two folds of one 4-sample test (fold 0 scores samples 0–1,
     /// fold 1 samples 2–3): `(training sse, held-out sse, prediction)` per fold.
@@ -809,19 +808,7 @@ mod tests {
     }
 
     fn sine_test(name: &str, group: &str, amp_m: f64, f_hz: f64, i_a: f64) -> Test {
-        let w = std::f64::consts::TAU * f_hz;
-        let inputs: Vec<Inputs> = (0..2000)
-            .map(|k| {
-                let t = k as f64 * 1e-3;
-                Inputs {
-                    t_s: t,
-                    x_m: amp_m * (w * t).sin(),
-                    v_m_s: amp_m * w * (w * t).cos(),
-                    current_cmd_a: i_a,
-                    ..Default::default()
-                }
-            })
-            .collect();
+        let inputs = crate::device::effects::testkit::sine(amp_m, f_hz, i_a, 1e-3, 1.999);
         Test {
             path: name.into(),
             name: name.into(),

@@ -606,7 +606,8 @@ pub fn span_stats(tests: &[Test], spans: &[Span]) -> DataStats {
 
 /// Linear least-squares warm start of the base model's linear gains (Eq. 2 with Eq. 6's yield force is
 /// linear in the zero-current yield force, the yield force per ampere and the damping), holding the other
-/// parameters: two projected Gauss–Newton steps, exact for the base model, with the lower bounds kept.
+/// parameters: up to two projected Gauss–Newton steps, with the lower bounds kept (the first is exact when the
+/// force is linear in the gains, and the second is then skipped).
 fn linear_warm_start(model: &Model, tests: &[Test], spans: &[Span], weights: &[Vec<f64>], p: &mut [f64]) {
     let idx = bingham::LINEAR_GAINS;
     let specs = model.param_specs();
@@ -621,21 +622,22 @@ fn linear_warm_start(model: &Model, tests: &[Test], spans: &[Span], weights: &[V
                 .collect()
         };
         let base = eval(p);
+        // Sum of squares over the samples that count.
+        let rr: f64 = spans
+            .iter()
+            .zip(&base)
+            .flat_map(|(s, b)| {
+                let f = &tests[s.test].f_n[s.start..s.end];
+                let w = &weights[s.test][s.start..s.end];
+                b.iter()
+                    .zip(f)
+                    .zip(w)
+                    .filter(|(_, w)| **w != 0.0)
+                    .map(|((b, f), _)| (b - f) * (b - f))
+            })
+            .sum();
         if let Some(pred) = predicted {
-            let sse: f64 = spans
-                .iter()
-                .zip(&base)
-                .flat_map(|(s, b)| {
-                    let f = &tests[s.test].f_n[s.start..s.end];
-                    let w = &weights[s.test][s.start..s.end];
-                    b.iter()
-                        .zip(f)
-                        .zip(w)
-                        .filter(|(_, w)| **w != 0.0)
-                        .map(|((b, f), _)| (b - f) * (b - f))
-                })
-                .sum();
-            if (sse - pred).abs() <= 1e-9 * sse.max(pred) {
+            if (rr - pred).abs() <= 1e-9 * rr.max(pred) {
                 return;
             }
         }
@@ -651,7 +653,6 @@ fn linear_warm_start(model: &Model, tests: &[Test], spans: &[Span], weights: &[V
         // Normal equations of min |r + C d|, r = base - f.
         let mut ata = [[0.0; 3]; 3];
         let mut atb = [0.0; 3];
-        let mut rr = 0.0;
         for (si, s) in spans.iter().enumerate() {
             let f = &tests[s.test].f_n[s.start..s.end];
             let w = &weights[s.test][s.start..s.end];
@@ -663,7 +664,6 @@ fn linear_warm_start(model: &Model, tests: &[Test], spans: &[Span], weights: &[V
                 if !r.is_finite() {
                     return;
                 }
-                rr += r * r;
                 let c = [
                     (cols[0][si][k] - base[si][k]) / steps[0],
                     (cols[1][si][k] - base[si][k]) / steps[1],
@@ -679,17 +679,10 @@ fn linear_warm_start(model: &Model, tests: &[Test], spans: &[Span], weights: &[V
         }
         let lo: Vec<f64> = idx.iter().map(|&k| specs[k].lower - p[k]).collect();
         let hi: Vec<f64> = idx.iter().map(|&k| specs[k].upper - p[k]).collect();
-        let Some(d) = bounded_lstsq3(ata, atb, &lo, &hi) else {
+        let Some((d, change)) = bounded_lstsq3(ata, atb, &lo, &hi) else {
             return;
         };
-        let mut pred = rr;
-        for a in 0..3 {
-            pred -= 2.0 * d[a] * atb[a];
-            for b in 0..3 {
-                pred += d[a] * ata[a][b] * d[b];
-            }
-        }
-        predicted = Some(pred);
+        predicted = Some(rr + change);
         for (a, &k) in idx.iter().enumerate() {
             p[k] = specs[k].clamp(p[k] + d[a]);
         }
@@ -697,8 +690,9 @@ fn linear_warm_start(model: &Model, tests: &[Test], spans: &[Span], weights: &[V
 }
 
 /// Minimise `dᵀAd − 2dᵀb` with `lo ≤ d ≤ hi` for three unknowns: every combination of unknowns on a bound
-/// or free is solved and the best feasible one kept (27 cases).
-fn bounded_lstsq3(ata: [[f64; 3]; 3], atb: [f64; 3], lo: &[f64], hi: &[f64]) -> Option<[f64; 3]> {
+/// or free is solved and the best feasible one kept (27 cases). Returns it and the minimum (the change of
+/// the sum of squares the linear model predicts).
+fn bounded_lstsq3(ata: [[f64; 3]; 3], atb: [f64; 3], lo: &[f64], hi: &[f64]) -> Option<([f64; 3], f64)> {
     let obj = |d: &[f64; 3]| {
         let mut o = 0.0;
         for i in 0..3 {
@@ -757,7 +751,7 @@ fn bounded_lstsq3(ata: [[f64; 3]; 3], atb: [f64; 3], lo: &[f64], hi: &[f64]) -> 
             best = Some((d, o));
         }
     }
-    best.map(|b| b.0)
+    best
 }
 
 #[cfg(test)]
@@ -883,7 +877,9 @@ mod tests {
         // Unconstrained optimum d = (1, -2, 3); the second unknown may not go below -1.
         let ata = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
         let atb = [1.0, -2.0, 3.0];
-        let d = bounded_lstsq3(ata, atb, &[-10.0, -1.0, -10.0], &[10.0, 10.0, 10.0]).unwrap();
+        let (d, change) = bounded_lstsq3(ata, atb, &[-10.0, -1.0, -10.0], &[10.0, 10.0, 10.0]).unwrap();
         assert!((d[0] - 1.0).abs() < 1e-12 && (d[1] + 1.0).abs() < 1e-12 && (d[2] - 3.0).abs() < 1e-12);
+        // dᵀd − 2dᵀb at (1, −1, 3): 11 − 2·12.
+        assert!((change + 13.0).abs() < 1e-12, "{change}");
     }
 }
