@@ -8,7 +8,7 @@
 //! | [`hysteresis`] | direction | `hyst_x_yield_m`, `hyst_v_yield_m_s` |
 //! | [`asymmetry`] | direction dependence | `asym_fraction` |
 //! | [`current_viscosity`] | damping | `visc_c1_n_s_per_m_per_a` |
-//! | [`stiffness`] | additive | `stiff_k_n_per_m`, `stiff_preload_n` |
+//! | [`stiffness`] | additive | `stiff_k_n_per_m`, `stiff_preload_n`, `stiff_k3_n_per_m3` |
 //! | [`inertia`] | additive | `inertia_mass_kg` |
 //!
 //! Every effect derives its initial guess and its "typical" strength (the hidden truth of synthetic tests)

@@ -3,16 +3,20 @@
 //! Physics: a gas accumulator (pressurised volume compensating the rod's displacement), a foam insert
 //! soaked with fluid (the seed paper's device is built around a foam, Section 3), or a centring spring adds
 //! a force that depends on where the piston is, not on how fast it moves. Its preload is the force at
-//! mid-stroke (an accumulator's gas pressure on the rod area).
+//! mid-stroke (an accumulator's gas pressure on the rod area). Such springs stiffen towards the ends of the
+//! stroke (gas compressed polytropically, foam densifying, progressive coil springs): a cubic hardening term
+//! (Duffing) carries that, and is zero for a linear spring.
 //!
-//! Equation (linear spring with preload, the `k1 (x − x0)` term of Spencer et al. 1997, J. Eng. Mech. 123(3),
-//! written with its force at mid-stroke):
+//! Equation (the linear spring with preload, the `k1 (x − x0)` term of Spencer et al. 1997, J. Eng. Mech.
+//! 123(3), written with its force at mid-stroke, plus the cubic hardening of a Duffing spring):
 //!
-//! `F_extra = k · x + F0`
+//! `F_extra = k · x + k3 · x³ + F0`
 //!
-//! with `k` = `stiff_k_n_per_m` ≥ 0 and `F0` = `stiff_preload_n`, `x` measured from mid-stroke over the
-//! whole stroke. This is a global, conservative force; it is distinct from the hysteresis pre-yield slope,
-//! which lives only within a few yield displacements of each reversal.
+//! with `k` = `stiff_k_n_per_m` ≥ 0, `k3` = `stiff_k3_n_per_m3` ≥ 0 and `F0` = `stiff_preload_n`, `x`
+//! measured from mid-stroke over the whole stroke. This is a global, conservative force; it is distinct
+//! from the hysteresis pre-yield slope, which lives only within a few yield displacements of each reversal.
+//! Both rates are kept non-negative: a passive spring is stable about mid-stroke, and on a sine test a
+//! negative rate is what a moving mass looks like (`−m ω² x`), which is `inertia`'s to explain.
 
 use crate::device::effect::{Effect, EffectStage, Inputs, Stage};
 use crate::device::params::{DataStats, ParamSpec};
@@ -26,8 +30,9 @@ pub struct Stiffness;
 /// Indices of the parameters in the effect's slice.
 pub const K: usize = 0;
 pub const PRELOAD: usize = 1;
+pub const K3: usize = 2;
 
-const PARAMS: [ParamSpec; 2] = [
+const PARAMS: [ParamSpec; 3] = [
     ParamSpec::new(
         "stiff_k_n_per_m",
         "N/m",
@@ -44,6 +49,13 @@ const PARAMS: [ParamSpec; 2] = [
         f64::INFINITY,
         "force at mid-stroke (accumulator pressure on the rod area, spring preload), either sign",
     ),
+    ParamSpec::new(
+        "stiff_k3_n_per_m3",
+        "N/m³",
+        0.0,
+        f64::INFINITY,
+        "cubic hardening towards the ends of the stroke (gas compression, foam densification), k3 x³",
+    ),
 ];
 
 impl Effect for Stiffness {
@@ -52,8 +64,9 @@ impl Effect for Stiffness {
     }
 
     fn describe(&self) -> &'static str {
-        "Position force from a gas accumulator, foam or centring spring: k x + F0 with x from mid-stroke, over \
-         the whole stroke (the k1(x - x0) term of Spencer et al. 1997)."
+        "Position force from a gas accumulator, foam or centring spring: k x + k3 x³ + F0 with x from \
+         mid-stroke, over the whole stroke (the k1(x - x0) term of Spencer et al. 1997, hardening towards the \
+         ends)."
     }
 
     fn stage(&self) -> EffectStage {
@@ -64,26 +77,29 @@ impl Effect for Stiffness {
         &PARAMS
     }
 
-    /// A spring giving 2 % of the force scale at the largest displacement, no preload (its sign is unknown).
+    /// A spring giving 2 % of the force scale at the largest displacement, no preload (its sign is unknown),
+    /// and a hardening adding 0.5 % there.
     fn initial_guess(&self, stats: &DataStats) -> Vec<f64> {
         let s = Scales::of(stats);
-        vec![0.02 * s.force_n / s.x_m, 0.0]
+        vec![0.02 * s.force_n / s.x_m, 0.0, 0.005 * s.force_n / s.x_m.powi(3)]
     }
 
-    /// 15 % of the force scale at the largest displacement, and a preload of 5 % of it.
+    /// 15 % of the force scale at the largest displacement, and a preload of 5 % of it; linear (Spencer's
+    /// spring).
     fn typical_params(&self, stats: &DataStats) -> Vec<f64> {
         let s = Scales::of(stats);
-        vec![0.15 * s.force_n / s.x_m, 0.05 * s.force_n]
+        vec![0.15 * s.force_n / s.x_m, 0.05 * s.force_n, 0.0]
     }
 
     fn apply(&self, p: &[f64], _s: &[f64], inp: &Inputs, stage: &mut Stage) {
-        stage.extra_n += p[K] * inp.x_m + p[PRELOAD];
+        let x = inp.x_m;
+        stage.extra_n += (p[K] + p[K3] * x * x) * x + p[PRELOAD];
     }
 
     fn residual_signature(&self) -> &'static str {
-        "residual proportional to displacement over the whole stroke (a straight line in residual versus x, the \
-         same at every current and velocity), plus a constant offset from the preload that, unlike asymmetry, \
-         does not grow with current"
+        "residual proportional to displacement over the whole stroke (a straight line in residual versus x, \
+         steepening towards the ends for a hardening spring, the same at every current and velocity), plus a \
+         constant offset from the preload that, unlike asymmetry, does not grow with current"
     }
 }
 
@@ -95,8 +111,15 @@ mod tests {
     #[test]
     fn force_at_rest_is_spring_plus_preload() {
         let m = model("bingham+stiffness");
-        let (k, f0) = (2000.0, 15.0);
-        let p = params(&m, &[("stiff_k_n_per_m", k), ("stiff_preload_n", f0)]);
+        let (k, f0, k3) = (2000.0, 15.0, 4.0e7);
+        let p = params(
+            &m,
+            &[
+                ("stiff_k_n_per_m", k),
+                ("stiff_preload_n", f0),
+                ("stiff_k3_n_per_m3", k3),
+            ],
+        );
         for x in [-0.02, -0.005, 0.0, 0.013] {
             let rest = [Inputs {
                 t_s: 0.0,
@@ -107,32 +130,70 @@ mod tests {
             }];
             let f = m.simulate(&p, &rest)[0];
             // At v = 0 the Bingham yield has no direction: only the spring remains.
-            assert!((f - (k * x + f0)).abs() < 1e-9, "at x = {x}: {f}");
+            assert!(
+                (f - (k * x + k3 * x.powi(3) + f0)).abs() < 1e-9,
+                "at x = {x}: {f}"
+            );
         }
+        // Hardening: at 20 mm the cubic term (320 N) outweighs the linear one (40 N), and the spring's rate
+        // there (k + 3 k3 x² = 50 kN/m) is 25× its rate at mid-stroke.
+        let rest = |x: f64| {
+            m.simulate(
+                &p,
+                &[Inputs {
+                    t_s: 0.0,
+                    x_m: x,
+                    v_m_s: 0.0,
+                    a_m_s2: 0.0,
+                    current_cmd_a: 7.0,
+                }],
+            )[0]
+        };
+        let rate = |x: f64| (rest(x + 1e-5) - rest(x - 1e-5)) / 2e-5;
+        assert!(
+            (rate(0.02) / rate(0.0) - 25.0).abs() < 1e-3,
+            "{} vs {}",
+            rate(0.02),
+            rate(0.0)
+        );
     }
 
     #[test]
     fn adds_the_same_position_force_to_both_directions_at_every_current() {
         let m = model("bingham+stiffness");
         let base = model("bingham");
-        let k = 3000.0;
-        let p = params(&m, &[("stiff_k_n_per_m", k), ("stiff_preload_n", 0.0)]);
+        let (k, k3) = (3000.0, 2.0e7);
+        let p = params(
+            &m,
+            &[
+                ("stiff_k_n_per_m", k),
+                ("stiff_preload_n", 0.0),
+                ("stiff_k3_n_per_m3", k3),
+            ],
+        );
         for i in [0.0, 10.0] {
             let inputs = sine(0.01, 1.0, i, 1e-3, 2.0);
             let f = m.simulate(&p, &inputs);
             let f0 = base.simulate(&BASE, &inputs);
             for ((a, b), inp) in f.iter().zip(&f0).zip(&inputs) {
-                assert!((a - b - k * inp.x_m).abs() < 1e-9);
+                assert!((a - b - k * inp.x_m - k3 * inp.x_m.powi(3)).abs() < 1e-9);
             }
         }
     }
 
     #[test]
     fn spring_stores_and_returns_energy_over_a_cycle() {
-        // ∮ k x dx = 0: the spring adds no dissipation, unlike hysteresis.
+        // ∮ (k x + k3 x³) dx = 0: the spring adds no dissipation, unlike hysteresis.
         let m = model("bingham+stiffness");
         let base = model("bingham");
-        let p = params(&m, &[("stiff_k_n_per_m", 5000.0), ("stiff_preload_n", 30.0)]);
+        let p = params(
+            &m,
+            &[
+                ("stiff_k_n_per_m", 5000.0),
+                ("stiff_preload_n", 30.0),
+                ("stiff_k3_n_per_m3", 5.0e7),
+            ],
+        );
         let inputs = sine(0.01, 1.0, 4.0, 1e-4, 1.0);
         let work = |f: &[f64]| -> f64 {
             (0..inputs.len() - 1)
