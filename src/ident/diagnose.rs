@@ -1,7 +1,7 @@
 //! Naming the missing effect: every registered effect not in the model is added in turn, fitted, and
 //! judged by the error it removes on data its fit never saw; the best significant one is kept and the
-//! search repeats until no candidate helps significantly; a final backward pass drops any kept effect the
-//! others make redundant.
+//! search repeats until no candidate helps significantly (trying pairs when no effect alone does, see
+//! below); a final backward pass drops any kept effect the others make redundant.
 //!
 //! Held-out error: with two or more tests, folds are test groups (leave one group out; k-fold over groups
 //! when there are many); with one test, contiguous time blocks (blocked cross-validation: the test is still
@@ -14,6 +14,13 @@
 //! from the data, see [`super::residual::noise_floor_n`]); nothing is added once the held-out error is
 //! within [`DiagnoseOptions::floor_ratio`] of the noise floor. A model that is already right leaves only
 //! noise, which no effect removes consistently across folds.
+//!
+//! Pairs: two effects can be separable only together (a spring `k x` and a moving mass `m a = −m ω² x` on
+//! tests of one frequency each: either alone, fitted on some groups, takes the other's part there and
+//! mispredicts the rest). When no effect alone is significant, each of the (at most two) effects that pass
+//! (b) and (c) but fail a fold is tried again with every other effect beside it; a pair counts when it is
+//! significant by the same rule and also removes (b) and (c) of the error each of its effects alone
+//! leaves, so an effect cannot ride along. The backward pass removes a pair only as a whole.
 
 use std::collections::BTreeMap;
 
@@ -407,6 +414,9 @@ pub struct StepResult {
     pub heldout_rmse_n: f64,
     /// Candidates tried at this step (best first).
     pub candidates: Vec<Candidate>,
+    /// Pairs of effects tried at this step because no effect alone was significant (best first; `effect` is
+    /// `a+b`).
+    pub pairs: Vec<Candidate>,
 }
 
 /// Everything a diagnosis found.
@@ -489,8 +499,11 @@ pub fn diagnose(
         heldout_nrmse: base_heldout,
         heldout_rmse_n: cur.total.rmse_n(),
         candidates: Vec::new(),
+        pairs: Vec::new(),
     }];
     let mut missing: Vec<String> = Vec::new();
+    // The effects added at each step (one, or a pair), in order.
+    let mut added_groups: Vec<Vec<String>> = Vec::new();
     let mut first_candidates: Option<Vec<Candidate>> = None;
     // Held-out results of the models on the path, by spec, for the backward pass.
     let mut path_cv: BTreeMap<String, CvResult> = BTreeMap::new();
@@ -516,115 +529,144 @@ pub fn diagnose(
             .collect();
         let mut tried: Vec<(Model, CvResult)> = tried.into_iter().collect::<Result<_, _>>()?;
         tried.sort_by(|a, b| a.1.total.sse.total_cmp(&b.1.total.sse));
-        // A candidate can beat the current model only because its fit left a local minimum that the current
-        // model's own fit of a fold is stuck in (the sign: several effects lowering the held-out error by the
-        // same amount). Before the best significant-looking candidate is believed, the current model is
-        // fitted again in each fold from that candidate's fit (its effect's parameters dropped), and each
-        // fold keeps whichever fit of the current model has the lower training error; then all are judged
-        // again, until the best significant candidate is one the current model was already refitted from.
-        let mut restarted_from: Vec<usize> = Vec::new();
-        loop {
-            let at_floor = cur.total.rmse_n() <= opts.floor_ratio * noise;
-            let Some(bi) = (0..tried.len()).find(|&i| judge(&cur, &tried[i].1, noise_mse, opts, at_floor).0)
-            else {
-                break;
-            };
-            if restarted_from.contains(&bi) {
-                break;
+        let search = Search {
+            tests,
+            folds: &folds,
+            cv_fit: &cv_fit,
+            opts,
+            noise,
+            bar: &bar,
+        };
+        if search.refit_from_candidates(&mut cur, &cur_model, &tried) {
+            path_cv.insert(cur.spec.to_string(), cur.clone());
+        }
+        let mut cands = search.candidates(&cur, &tried, registry);
+        let mut pairs: Vec<(Model, CvResult)> = Vec::new();
+        let mut pair_cands: Vec<Candidate> = Vec::new();
+        if !cands.iter().any(|c| c.significant) {
+            // No effect alone lowers the held-out error in every fold. Two effects whose signatures coincide
+            // on these tests (a spring and a moving mass at one frequency per test group) are separable only
+            // together: each alone takes the other's part at the training groups' motion and mispredicts the
+            // held-out one. So when an effect removes enough of the error overall but fails a fold, it is
+            // tried again with each other effect beside it, under the same rule.
+            let seeds: Vec<usize> = (0..tried.len())
+                .filter(|&i| search.promising(&cur, &tried[i].1))
+                .take(PAIR_SEEDS)
+                .collect();
+            let mut jobs: Vec<(usize, &'static str)> = Vec::new();
+            for &si in &seeds {
+                let seed_spec = tried[si].0.spec();
+                for n in &names {
+                    let twice = seeds
+                        .iter()
+                        .take_while(|&&o| o != si)
+                        .any(|&o| tried[o].0.spec().has(n));
+                    if !seed_spec.has(n) && !twice {
+                        jobs.push((si, n));
+                    }
+                }
             }
-            restarted_from.push(bi);
-            bar.set_message(format!("refitting {} from {}", cur.spec, tried[bi].0.spec()));
-            let again = cross_validate(
-                &cur_model,
-                tests,
-                &folds,
-                Some((&tried[bi].0, &tried[bi].1)),
-                &cv_fit,
-                &bar,
-            );
-            if let Some(better) = cur.better_fits(&again, &folds) {
-                cur = better;
-                path_cv.insert(cur.spec.to_string(), cur.clone());
-                if let Some(last) = steps.last_mut() {
-                    last.heldout_nrmse = cur.heldout_nrmse();
-                    last.heldout_rmse_n = cur.total.rmse_n();
+            if !jobs.is_empty() {
+                bar.set_message(format!("trying {} pairs of effects on {}", jobs.len(), cur.spec));
+                let done: Vec<Result<(Model, CvResult), IdentError>> = jobs
+                    .par_iter()
+                    .map(|&(si, n)| {
+                        // From the current model's fits, both effects from their initial guesses: the seed's
+                        // own fit has taken its partner's part, the very thing the pair undoes.
+                        let m = build(&tried[si].0.spec().with(n))?;
+                        let cv = cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &cv_fit, &bar);
+                        Ok((m, cv))
+                    })
+                    .collect();
+                pairs = done.into_iter().collect::<Result<_, _>>()?;
+                pairs.sort_by(|a, b| a.1.total.sse.total_cmp(&b.1.total.sse));
+                if search.refit_from_candidates(&mut cur, &cur_model, &pairs) {
+                    path_cv.insert(cur.spec.to_string(), cur.clone());
+                    cands = search.candidates(&cur, &tried, registry);
+                }
+                pair_cands = search.candidates(&cur, &pairs, registry);
+                for (c, (m, cv)) in pair_cands.iter_mut().zip(&pairs) {
+                    c.significant &= search.beats_each_member(&cur, m, cv, &tried);
                 }
             }
         }
-        let cur_sig = Signatures::of(tests, &cur.oof);
-        let at_floor = cur.total.rmse_n() <= opts.floor_ratio * noise;
-        let mut cands = Vec::new();
-        for (m, cv) in &tried {
-            let effect = m.spec().effects.last().cloned().unwrap_or_default();
-            let (significant, folds_better) = judge(&cur, cv, noise_mse, opts, at_floor);
-            let sig = Signatures::of(tests, &cv.oof);
-            let signature = registry
-                .get(&effect)
-                .map(|e| e.residual_signature())
-                .unwrap_or_default();
-            cands.push(Candidate {
-                heldout_nrmse: cv.heldout_nrmse(),
-                improvement: 1.0 - cv.heldout_nrmse() / cur.heldout_nrmse().max(f64::MIN_POSITIVE),
-                significant,
-                evidence: evidence(signature, &cur_sig, &sig, &cur, cv, folds_better),
-                folds_better,
-                folds: folds.len(),
-                effect,
-            });
-        }
-        let best = cands.iter().position(|c| c.significant);
-        let step_cands = cands.clone();
-        if first_candidates.is_none() {
-            first_candidates = Some(cands);
-        }
-        let Some(bi) = best else {
-            if let Some(last) = steps.last_mut() {
-                last.candidates = step_cands;
-            }
-            break;
-        };
         if let Some(last) = steps.last_mut() {
-            last.candidates = step_cands;
+            last.heldout_nrmse = cur.heldout_nrmse();
+            last.heldout_rmse_n = cur.total.rmse_n();
+            last.candidates = cands.clone();
+            last.pairs = pair_cands.clone();
         }
-        let (m, cv) = tried.swap_remove(bi);
-        let added = m.spec().effects.last().cloned().unwrap_or_default();
-        missing.push(added.clone());
+        if first_candidates.is_none() {
+            first_candidates = Some(cands.clone());
+        }
+        let chosen = match cands.iter().position(|c| c.significant) {
+            Some(bi) => tried.swap_remove(bi),
+            None => match pair_cands.iter().position(|c| c.significant) {
+                Some(pi) => {
+                    // The single fits of both members are on the path, for the backward pass.
+                    for (m, cv) in &tried {
+                        path_cv.insert(m.name(), cv.clone());
+                    }
+                    pairs.swap_remove(pi)
+                }
+                None => break,
+            },
+        };
+        let (m, cv) = chosen;
+        let added: Vec<String> = m
+            .spec()
+            .effects
+            .iter()
+            .filter(|e| !cur.spec.has(e))
+            .cloned()
+            .collect();
+        missing.extend(added.iter().cloned());
+        added_groups.push(added.clone());
         steps.push(StepResult {
             model: m.name(),
-            added: Some(added),
+            added: Some(added.join("+")),
             heldout_nrmse: cv.heldout_nrmse(),
             heldout_rmse_n: cv.total.rmse_n(),
             candidates: Vec::new(),
+            pairs: Vec::new(),
         });
         path_cv.insert(m.name(), cv.clone());
         cur_model = m;
         cur = cv;
     }
 
-    // Backward pass: drop an added effect whose removal does not significantly raise the held-out error.
+    // Backward pass: drop an added effect whose removal does not significantly raise the held-out error. The
+    // two effects of a pair were judged together and go together: either alone had failed a fold.
     let mut pruned = Vec::new();
-    while missing.len() >= 2 {
+    while added_groups.len() >= 2 {
         bar.set_message(format!(
             "checking each of {} added effects is still needed",
             missing.len()
         ));
-        let without: Vec<Result<(String, Model, CvResult), IdentError>> = missing
+        let without: Vec<Result<(usize, Model, CvResult), IdentError>> = added_groups
             .par_iter()
-            .map(|e| {
+            .enumerate()
+            .map(|(gi, group)| {
                 let spec = ModelSpec {
-                    effects: cur.spec.effects.iter().filter(|x| *x != e).cloned().collect(),
+                    effects: cur
+                        .spec
+                        .effects
+                        .iter()
+                        .filter(|x| !group.contains(x))
+                        .cloned()
+                        .collect(),
                 };
                 let m = build(&spec)?;
                 let cv = match path_cv.get(&spec.to_string()) {
                     Some(cv) => cv.clone(),
                     None => cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &cv_fit, &bar),
                 };
-                Ok((e.clone(), m, cv))
+                Ok((gi, m, cv))
             })
             .collect();
-        let without: Vec<(String, Model, CvResult)> = without.into_iter().collect::<Result<_, _>>()?;
+        let without: Vec<(usize, Model, CvResult)> = without.into_iter().collect::<Result<_, _>>()?;
         // The removal that costs least; drop it unless the full model is significantly better.
-        let Some((e, m, cv)) = without
+        let Some((gi, m, cv)) = without
             .into_iter()
             .min_by(|a, b| a.2.total.sse.total_cmp(&b.2.total.sse))
         else {
@@ -635,14 +677,16 @@ pub fn diagnose(
         if needed {
             break;
         }
-        missing.retain(|x| *x != e);
-        pruned.push(e.clone());
+        let group = added_groups.remove(gi);
+        missing.retain(|x| !group.contains(x));
+        pruned.extend(group);
         steps.push(StepResult {
             model: m.name(),
             added: None,
             heldout_nrmse: cv.heldout_nrmse(),
             heldout_rmse_n: cv.total.rmse_n(),
             candidates: Vec::new(),
+            pairs: Vec::new(),
         });
         cur_model = m;
         cur = cv;
@@ -685,6 +729,137 @@ pub fn diagnose(
     })
 }
 
+/// How many effects that remove enough error but fail a fold are each tried again beside every other effect.
+const PAIR_SEEDS: usize = 2;
+
+/// What every judgment of one diagnosis shares.
+struct Search<'a> {
+    tests: &'a [Test],
+    folds: &'a [Fold],
+    cv_fit: &'a FitOptions,
+    opts: &'a DiagnoseOptions,
+    /// Noise floor, N.
+    noise: f64,
+    bar: &'a ProgressBar,
+}
+
+impl Search<'_> {
+    fn at_floor(&self, cv: &CvResult) -> bool {
+        cv.total.rmse_n() <= self.opts.floor_ratio * self.noise
+    }
+
+    fn judge(&self, cur: &CvResult, cand: &CvResult) -> (bool, usize) {
+        judge(cur, cand, self.noise * self.noise, self.opts, self.at_floor(cur))
+    }
+
+    /// Removes enough of `cur`'s held-out error overall, though perhaps not in every fold.
+    fn promising(&self, cur: &CvResult, cand: &CvResult) -> bool {
+        !self.at_floor(cur) && enough_removed(cur, cand, self.noise * self.noise, self.opts)
+    }
+
+    /// A candidate can beat the current model only because its fit left a local minimum that the current
+    /// model's own fit of a fold is stuck in (the sign: several effects lowering the held-out error by the
+    /// same amount). Before the best significant-looking candidate of `tried` (sorted best first) is
+    /// believed, the current model is fitted again in each fold from that candidate's fit (its effects'
+    /// parameters dropped), and each fold keeps whichever fit of the current model has the lower training
+    /// error; then all are judged again, until the best significant candidate is one the current model was
+    /// already refitted from. Returns whether `cur` changed.
+    fn refit_from_candidates(
+        &self,
+        cur: &mut CvResult,
+        cur_model: &Model,
+        tried: &[(Model, CvResult)],
+    ) -> bool {
+        let mut changed = false;
+        let mut restarted_from: Vec<usize> = Vec::new();
+        while let Some(bi) = (0..tried.len()).find(|&i| self.judge(cur, &tried[i].1).0) {
+            if restarted_from.contains(&bi) {
+                break;
+            }
+            restarted_from.push(bi);
+            self.bar
+                .set_message(format!("refitting {} from {}", cur.spec, tried[bi].0.spec()));
+            let again = cross_validate(
+                cur_model,
+                self.tests,
+                self.folds,
+                Some((&tried[bi].0, &tried[bi].1)),
+                self.cv_fit,
+                self.bar,
+            );
+            if let Some(better) = cur.better_fits(&again, self.folds) {
+                *cur = better;
+                changed = true;
+            }
+        }
+        changed
+    }
+
+    /// Does the pair `(m, cv)` (two effects added to `cur`) remove enough of the held-out error that each of
+    /// its effects alone (in `tried`) leaves? A pair of one effect that matters and one along for the ride
+    /// does not.
+    fn beats_each_member(
+        &self,
+        cur: &CvResult,
+        m: &Model,
+        cv: &CvResult,
+        tried: &[(Model, CvResult)],
+    ) -> bool {
+        m.spec().effects.iter().filter(|e| !cur.spec.has(e)).all(|e| {
+            tried
+                .iter()
+                .find(|(sm, _)| sm.spec().effects.last() == Some(e))
+                .is_some_and(|(_, single)| enough_removed(single, cv, self.noise * self.noise, self.opts))
+        })
+    }
+
+    /// `tried` (extensions of `cur`, best first) judged against `cur`, with their evidence.
+    fn candidates(&self, cur: &CvResult, tried: &[(Model, CvResult)], registry: &Registry) -> Vec<Candidate> {
+        let cur_sig = Signatures::of(self.tests, &cur.oof);
+        tried
+            .iter()
+            .map(|(m, cv)| {
+                let added: Vec<&String> = m.spec().effects.iter().filter(|e| !cur.spec.has(e)).collect();
+                let (significant, folds_better) = self.judge(cur, cv);
+                let sig = Signatures::of(self.tests, &cv.oof);
+                let signature =
+                    match added.as_slice() {
+                        [one] => registry
+                            .get(one)
+                            .map(|e| e.residual_signature().to_string())
+                            .unwrap_or_default(),
+                        several => {
+                            format!(
+                        "{} together: their signatures coincide on these tests, so that neither alone, \
+                         fitted on the training folds, predicts every held-out fold",
+                        several.iter().map(|e| e.as_str()).collect::<Vec<_>>().join(" and ")
+                    )
+                        }
+                    };
+                Candidate {
+                    heldout_nrmse: cv.heldout_nrmse(),
+                    improvement: 1.0 - cv.heldout_nrmse() / cur.heldout_nrmse().max(f64::MIN_POSITIVE),
+                    significant,
+                    evidence: evidence(&signature, &cur_sig, &sig, cur, cv, folds_better),
+                    folds_better,
+                    folds: self.folds.len(),
+                    effect: added.iter().map(|e| e.as_str()).collect::<Vec<_>>().join("+"),
+                }
+            })
+            .collect()
+    }
+}
+
+/// Does `cand` remove at least [`DiagnoseOptions::min_gain`] of `cur`'s held-out mean-square error and
+/// [`DiagnoseOptions::min_excess_removed`] of its part above the noise floor?
+fn enough_removed(cur: &CvResult, cand: &CvResult, noise_mse: f64, opts: &DiagnoseOptions) -> bool {
+    let (m_cur, m_cand) = (cur.total.mse(), cand.total.mse());
+    let gain = 1.0 - m_cand / m_cur.max(f64::MIN_POSITIVE);
+    let excess = (m_cur - noise_mse).max(f64::MIN_POSITIVE);
+    let removed = (m_cur - m_cand) / excess;
+    gain >= opts.min_gain && removed >= opts.min_excess_removed
+}
+
 /// Is `cand` significantly better than `cur` on held-out data? Returns the verdict and the number of folds
 /// in which it was better.
 fn judge(
@@ -700,14 +875,7 @@ fn judge(
         .zip(&cand.per_fold)
         .filter(|(a, b)| b.sse < a.sse)
         .count();
-    let (m_cur, m_cand) = (cur.total.mse(), cand.total.mse());
-    let gain = 1.0 - m_cand / m_cur.max(f64::MIN_POSITIVE);
-    let excess = (m_cur - noise_mse).max(f64::MIN_POSITIVE);
-    let removed = (m_cur - m_cand) / excess;
-    let ok = !at_floor
-        && folds_better == cur.per_fold.len()
-        && gain >= opts.min_gain
-        && removed >= opts.min_excess_removed;
+    let ok = !at_floor && folds_better == cur.per_fold.len() && enough_removed(cur, cand, noise_mse, opts);
     (ok, folds_better)
 }
 
@@ -805,6 +973,42 @@ mod tests {
         assert_eq!(merged.oof[0], vec![3.0, 3.0, 2.0, 2.0]);
         // No fold better: nothing to replace.
         assert!(cur.better_fits(&cur.clone(), &folds).is_none());
+    }
+
+    /// A pair is significant only if it also removes enough of the error each of its effects leaves alone:
+    /// an effect that merely tips the one fold its partner fails does not ride along.
+    #[test]
+    fn a_pair_counts_only_when_it_improves_on_each_of_its_effects_alone() {
+        use crate::device::effects::testkit::model;
+        let opts = DiagnoseOptions::default();
+        let fit_opts = FitOptions::default();
+        let bar = ProgressBar::hidden();
+        let search = Search {
+            tests: &[],
+            folds: &[],
+            cv_fit: &fit_opts,
+            opts: &opts,
+            noise: 0.0,
+            bar: &bar,
+        };
+        let cur = cv_of([(0.0, 10.0, 0.0), (0.0, 10.0, 0.0)]);
+        // The spring alone: a third of the error overall, but worse in the second fold. The mass alone: nothing.
+        let spring = cv_of([(0.0, 3.0, 0.0), (0.0, 10.5, 0.0)]);
+        let mass = cv_of([(0.0, 11.0, 0.0), (0.0, 11.0, 0.0)]);
+        assert!(search.promising(&cur, &spring) && !search.judge(&cur, &spring).0);
+        let tried = vec![
+            (model("bingham+stiffness"), spring),
+            (model("bingham+inertia"), mass),
+        ];
+        let pair = model("bingham+stiffness+inertia");
+        // Both folds explained together: counts.
+        let together = cv_of([(0.0, 1.0, 0.0), (0.0, 1.0, 0.0)]);
+        assert!(search.judge(&cur, &together).0);
+        assert!(search.beats_each_member(&cur, &pair, &together, &tried));
+        // Better than the base in every fold, but only 4.4 % below the spring alone: the mass rides along.
+        let along = cv_of([(0.0, 3.0, 0.0), (0.0, 9.9, 0.0)]);
+        assert!(search.judge(&cur, &along).0);
+        assert!(!search.beats_each_member(&cur, &pair, &along, &tried));
     }
 
     fn sine_test(name: &str, group: &str, amp_m: f64, f_hz: f64, i_a: f64) -> Test {

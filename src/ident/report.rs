@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 
 use serde::Serialize;
 
-use super::diagnose::Diagnosis;
+use super::diagnose::{Candidate, Diagnosis};
 use super::fit::FitResult;
 use super::residual::Region;
 use super::validate::Figures;
@@ -157,6 +157,18 @@ pub struct CandidateJson {
     pub evidence: String,
 }
 
+impl CandidateJson {
+    fn new(c: &Candidate) -> Self {
+        Self {
+            effect: c.effect.clone(),
+            heldout_nrmse: c.heldout_nrmse,
+            improvement: c.improvement,
+            significant: c.significant,
+            evidence: c.evidence.clone(),
+        }
+    }
+}
+
 #[derive(Debug, Clone, Serialize)]
 pub struct FinalJson {
     pub model: String,
@@ -167,6 +179,9 @@ pub struct FinalJson {
 pub struct StepJson {
     pub model: String,
     pub heldout_nrmse: f64,
+    /// Pairs of effects tried from this model because no effect alone was significant.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub pairs: Vec<CandidateJson>,
 }
 
 /// `diagnose --json`: the contract's keys, then a few extra ones (`steps`, `cross_validation`,
@@ -198,17 +213,7 @@ impl DiagnoseJson {
                 heldout_nrmse: d.base_heldout_nrmse,
             },
             r#where: d.where_.clone(),
-            candidates: d
-                .candidates
-                .iter()
-                .map(|c| CandidateJson {
-                    effect: c.effect.clone(),
-                    heldout_nrmse: c.heldout_nrmse,
-                    improvement: c.improvement,
-                    significant: c.significant,
-                    evidence: c.evidence.clone(),
-                })
-                .collect(),
+            candidates: d.candidates.iter().map(CandidateJson::new).collect(),
             missing: d.missing.clone(),
             final_: FinalJson {
                 model: d.final_model.clone(),
@@ -220,12 +225,32 @@ impl DiagnoseJson {
                 .map(|s| StepJson {
                     model: s.model.clone(),
                     heldout_nrmse: s.heldout_nrmse,
+                    pairs: s.pairs.iter().map(CandidateJson::new).collect(),
                 })
                 .collect(),
             cross_validation: d.cv_scheme.clone(),
             noise_floor_nrmse: d.noise_floor_nrmse,
             pruned: d.pruned.clone(),
         }
+    }
+}
+
+/// One row per candidate, then the evidence for the best.
+fn candidate_rows(s: &mut String, cands: &[Candidate]) {
+    for c in cands {
+        let _ = writeln!(
+            s,
+            "  {:<22} {:>10.4} {:>10.1}% {:>3}/{:<3} {:>12}",
+            c.effect,
+            c.heldout_nrmse,
+            100.0 * c.improvement,
+            c.folds_better,
+            c.folds,
+            if c.significant { "yes" } else { "no" }
+        );
+    }
+    if let Some(c) = cands.first() {
+        let _ = writeln!(s, "  best, {}: {}", c.effect, c.evidence);
     }
 }
 
@@ -263,20 +288,13 @@ pub fn diagnose_table(d: &Diagnosis) -> String {
             "  {:<22} {:>10} {:>11} {:>7} {:>12}",
             "effect", "held-out", "improvement", "folds", "significant"
         );
-        for c in &st.candidates {
+        candidate_rows(&mut s, &st.candidates);
+        if !st.pairs.is_empty() {
             let _ = writeln!(
                 s,
-                "  {:<22} {:>10.4} {:>10.1}% {:>3}/{:<3} {:>12}",
-                c.effect,
-                c.heldout_nrmse,
-                100.0 * c.improvement,
-                c.folds_better,
-                c.folds,
-                if c.significant { "yes" } else { "no" }
+                "  no effect alone is significant; effects that remove enough error overall, with each other beside them:"
             );
-        }
-        if let Some(c) = st.candidates.first() {
-            let _ = writeln!(s, "  best, {}: {}", c.effect, c.evidence);
+            candidate_rows(&mut s, &st.pairs);
         }
     }
     let _ = writeln!(s, "\nthe error falling:");
