@@ -281,6 +281,10 @@ fn start_from(
     Some(p)
 }
 
+/// Smallest fraction of the parent's training error that a candidate's first stage (its own parameters and
+/// the gains) must remove in a fold for the second stage (every parameter) to run there.
+const STAGE_TWO_MIN_GAIN: f64 = 0.01;
+
 /// A fold's fitted parameters, training sum of squares, held-out figures and held-out predictions.
 type FoldOutcome = (Vec<f64>, f64, Figures, Vec<(Span, Vec<f64>)>);
 
@@ -320,7 +324,19 @@ pub fn cross_validate(
                     .collect(),
                 None => Vec::new(),
             };
-            let start = match start {
+            let whole = |start: Option<Vec<f64>>| {
+                fit(
+                    model,
+                    tests,
+                    &fold.train,
+                    &FitOptions {
+                        start,
+                        std_errors: false,
+                        ..opts.clone()
+                    },
+                )
+            };
+            let fr = match start {
                 Some(p0)
                     if !inherited.is_empty()
                         && inherited.len() + bingham::LINEAR_GAINS.len() < model.n_params() =>
@@ -336,20 +352,20 @@ pub fn cross_validate(
                             ..opts.clone()
                         },
                     );
-                    Some(first.params)
+                    // An effect that, with its own parameters and the gains free, removes less than
+                    // `STAGE_TWO_MIN_GAIN` of the parent's training error in this fold is not in these data:
+                    // freeing the parent's other parameters as well would not make it remove the
+                    // `min_gain` (5 %) of the held-out error that significance asks, and costs a whole-model
+                    // fit.
+                    let parent_sse = parent.map(|(_, cv)| cv.fold_train_sse[fi]);
+                    if parent_sse.is_some_and(|ps| first.sse > (1.0 - STAGE_TWO_MIN_GAIN) * ps) {
+                        first
+                    } else {
+                        whole(Some(first.params))
+                    }
                 }
-                other => other,
+                other => whole(other),
             };
-            let fr = fit(
-                model,
-                tests,
-                &fold.train,
-                &FitOptions {
-                    start,
-                    std_errors: false,
-                    ..opts.clone()
-                },
-            );
             let mut fig = Figures::default();
             let mut preds = Vec::new();
             for s in &fold.test {
