@@ -483,7 +483,6 @@ pub fn diagnose(
     let f_ss: f64 = tests.iter().flat_map(|t| &t.f_n).map(|f| f * f).sum();
     let f_rms = (f_ss / samples.max(1) as f64).sqrt();
     let noise = noise_floor_n(tests);
-    let noise_mse = noise * noise;
     let cv_fit = FitOptions {
         tol: opts.cv_tol,
         std_errors: false,
@@ -524,6 +523,14 @@ pub fn diagnose(
     // Held-out results of the models on the path, by spec, for the backward pass.
     let mut path_cv: BTreeMap<String, CvResult> = BTreeMap::new();
     path_cv.insert(cur.spec.to_string(), cur.clone());
+    let search = Search {
+        tests,
+        folds: &folds,
+        cv_fit: &cv_fit,
+        opts,
+        noise,
+        bar: &bar,
+    };
 
     loop {
         let names: Vec<&'static str> = registry
@@ -545,14 +552,6 @@ pub fn diagnose(
             .collect();
         let mut tried: Vec<(Model, CvResult)> = tried.into_iter().collect::<Result<_, _>>()?;
         tried.sort_by(|a, b| a.1.total.sse.total_cmp(&b.1.total.sse));
-        let search = Search {
-            tests,
-            folds: &folds,
-            cv_fit: &cv_fit,
-            opts,
-            noise,
-            bar: &bar,
-        };
         if search.refit_from_candidates(&mut cur, &cur_model, &tried) {
             path_cv.insert(cur.spec.to_string(), cur.clone());
         }
@@ -629,13 +628,7 @@ pub fn diagnose(
             },
         };
         let (m, cv) = chosen;
-        let added: Vec<String> = m
-            .spec()
-            .effects
-            .iter()
-            .filter(|e| !cur.spec.has(e))
-            .cloned()
-            .collect();
+        let added: Vec<String> = added_effects(&m, &cur.spec).into_iter().cloned().collect();
         missing.extend(added.iter().cloned());
         added_groups.push(added.clone());
         steps.push(StepResult {
@@ -688,8 +681,7 @@ pub fn diagnose(
         else {
             break;
         };
-        let at_floor = cv.total.rmse_n() <= opts.floor_ratio * noise;
-        let (needed, _) = judge(&cv, &cur, noise_mse, opts, at_floor);
+        let (needed, _) = search.judge(&cv, &cur);
         if needed {
             break;
         }
@@ -821,7 +813,7 @@ impl Search<'_> {
         cv: &CvResult,
         tried: &[(Model, CvResult)],
     ) -> bool {
-        m.spec().effects.iter().filter(|e| !cur.spec.has(e)).all(|e| {
+        added_effects(m, &cur.spec).into_iter().all(|e| {
             tried
                 .iter()
                 .find(|(sm, _)| sm.spec().effects.last() == Some(e))
@@ -835,23 +827,20 @@ impl Search<'_> {
         tried
             .iter()
             .map(|(m, cv)| {
-                let added: Vec<&String> = m.spec().effects.iter().filter(|e| !cur.spec.has(e)).collect();
+                let names: Vec<&str> = added_effects(m, &cur.spec).into_iter().map(String::as_str).collect();
                 let (significant, folds_better) = self.judge(cur, cv);
                 let sig = Signatures::of(self.tests, &cv.oof);
-                let signature =
-                    match added.as_slice() {
-                        [one] => registry
-                            .get(one)
-                            .map(|e| e.residual_signature().to_string())
-                            .unwrap_or_default(),
-                        several => {
-                            format!(
-                        "{} together: their signatures coincide on these tests, so that neither alone, \
-                         fitted on the training folds, predicts every held-out fold",
-                        several.iter().map(|e| e.as_str()).collect::<Vec<_>>().join(" and ")
-                    )
-                        }
-                    };
+                let signature = match names.as_slice() {
+                    [one] => registry
+                        .get(one)
+                        .map(|e| e.residual_signature().to_string())
+                        .unwrap_or_default(),
+                    several => format!(
+                        "{} together: their signatures coincide on these tests, so that neither alone, fitted \
+                         on the training folds, predicts every held-out fold",
+                        several.join(" and ")
+                    ),
+                };
                 Candidate {
                     heldout_nrmse: cv.heldout_nrmse(),
                     improvement: 1.0 - cv.heldout_nrmse() / cur.heldout_nrmse().max(f64::MIN_POSITIVE),
@@ -859,11 +848,16 @@ impl Search<'_> {
                     evidence: evidence(&signature, &cur_sig, &sig, cur, cv, folds_better),
                     folds_better,
                     folds: self.folds.len(),
-                    effect: added.iter().map(|e| e.as_str()).collect::<Vec<_>>().join("+"),
+                    effect: names.join("+"),
                 }
             })
             .collect()
     }
+}
+
+/// The effects of `m` that `cur` does not have (one for a candidate, two for a pair), in `m`'s order.
+fn added_effects<'a>(m: &'a Model, cur: &ModelSpec) -> Vec<&'a String> {
+    m.spec().effects.iter().filter(|e| !cur.has(e)).collect()
 }
 
 /// Does `cand` remove at least [`DiagnoseOptions::min_gain`] of `cur`'s held-out mean-square error and
