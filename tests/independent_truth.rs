@@ -19,6 +19,10 @@
 //! damper in `../shared/data`: constant current per file (0, 3.5, 7, 10.5, 14 A), three amplitude/frequency
 //! groups (one of them sampled at 500 Hz), load-cell and velocity noise; some cases without a velocity
 //! channel. `diagnose` must name exactly the hidden effects, and the held-out error must at least halve.
+//!
+//! The same truth at the real damper's scale ([`REAL`]: 80 N + 900 N/A, 2 kN·s/m, 0–1 A, its kind of
+//! amplitudes and frequencies) runs in the ignored sweep [`independent_sweep_over_seeds_and_scales`], with
+//! every effect alone, none and six pairs at both scales on other noise.
 
 use std::path::PathBuf;
 
@@ -31,11 +35,60 @@ use mrfeel::measurement::{smooth_derivative, Measurement};
 
 mod diagnosis_check;
 
-const FC0_N: f64 = 2.0;
-const GAIN_N_PER_A: f64 = 4.83;
-const C0_N_S_PER_M: f64 = 60.0;
-const LIMIT_A: f64 = 14.0;
-const CURRENTS_A: [f64; 5] = [0.0, 3.5, 7.0, 10.5, 14.0];
+/// The device under test and the size of each hidden effect on it.
+struct Device {
+    /// Yield force at zero current, N; its rise with current, N/A; post-yield damping, N·s/m.
+    fc0_n: f64,
+    gain_n_per_a: f64,
+    c0_n_s_per_m: f64,
+    /// The driver's limit and the constant currents of the tests, A.
+    limit_a: f64,
+    currents_a: [f64; 5],
+    /// Force at which the tanh saturation levels off, N.
+    saturation_n: f64,
+    /// Spring preload N, rate N/m, cubic N/m³.
+    spring: (f64, f64, f64),
+    /// Moving mass, kg.
+    mass_kg: f64,
+    /// Heat that would remove the yield force / the viscosity at the linear rate, J.
+    heat_yield_j: f64,
+    heat_visc_j: f64,
+    /// Load-cell noise (standard deviation), N.
+    force_noise_n: f64,
+}
+
+/// The paper's device (Eq. 2: fc0 = 2 N, 4.83 N/A, C0 = 60 N·s/m, 14 A).
+const PAPER: Device = Device {
+    fc0_n: 2.0,
+    gain_n_per_a: 4.83,
+    c0_n_s_per_m: 60.0,
+    limit_a: 14.0,
+    currents_a: [0.0, 3.5, 7.0, 10.5, 14.0],
+    saturation_n: 80.0,
+    spring: (2.0, 250.0, 3e5),
+    mass_kg: 3.0,
+    heat_yield_j: 250.0,
+    heat_visc_j: 800.0,
+    force_noise_n: 0.15,
+};
+
+/// A device on the scale of the real damper in `../shared/data` (80 N + 900 N/A, 2 kN·s/m, 0–1 A, the
+/// load cell's noise 5 N), its effects scaled to it: a 1.1 kN saturation, a 60 N + 20 kN/m + 2e7 N/m³
+/// spring, a 15 kg moving mass (piston, rod and the fixture above the load cell).
+const REAL: Device = Device {
+    fc0_n: 80.0,
+    gain_n_per_a: 900.0,
+    c0_n_s_per_m: 2000.0,
+    limit_a: 1.0,
+    currents_a: [0.0, 0.25, 0.5, 0.75, 1.0],
+    saturation_n: 1100.0,
+    spring: (60.0, 2e4, 2e7),
+    mass_kg: 15.0,
+    heat_yield_j: 3000.0,
+    heat_visc_j: 6000.0,
+    force_noise_n: 5.0,
+};
+
 /// (group name, amplitude m, frequency Hz, cycles, sample rate Hz).
 const GROUPS: [(&str, f64, f64, f64, f64); 3] = [
     ("s20mm1Hz", 0.02, 1.0, 3.0, 1000.0),
@@ -48,11 +101,18 @@ const GROUPS_LONG: [(&str, f64, f64, f64, f64); 3] = [
     ("s10mm2p5Hz", 0.01, 2.5, 4.0, 1000.0),
     ("s30mm0p4Hz", 0.03, 0.4, 4.0, 1000.0),
 ];
+/// The real damper's kind of tests (its groups are 10 mm 1 Hz, 25 mm 0.25 Hz and 2 mm 5 Hz).
+const GROUPS_REAL: [(&str, f64, f64, f64, f64); 3] = [
+    ("r10mm1Hz", 0.01, 1.0, 3.0, 1000.0),
+    ("r2mm5Hz", 0.002, 5.0, 8.0, 1000.0),
+    ("r20mm0p3Hz", 0.02, 0.3, 2.0, 500.0),
+];
 /// Integration substeps per sample for the truth's states.
 const SUB: usize = 20;
 
 /// The truth's force and its states, for the hidden effects named in `hidden`.
 struct Truth<'a> {
+    dev: &'a Device,
     hidden: &'a [&'a str],
     /// Bouc–Wen state.
     z: f64,
@@ -67,33 +127,33 @@ impl Truth<'_> {
 
     /// Bouc–Wen yield displacement, m.
     const BW_X0_M: f64 = 4e-4;
-    /// Heat that would remove the yield force / the viscosity at the linear rate, J; cooling time, s.
-    const HEAT_YIELD_J: f64 = 250.0;
-    const HEAT_VISC_J: f64 = 800.0;
+    /// Cooling time of the heat, s.
     const COOL_S: f64 = 60.0;
 
     fn yield_n(&self, i: f64, v: f64) -> f64 {
+        let d = self.dev;
         let mut fy = if self.has("magnetic_saturation") {
-            FC0_N + 80.0 * (GAIN_N_PER_A * i / 80.0).tanh()
+            d.fc0_n + d.saturation_n * (d.gain_n_per_a * i / d.saturation_n).tanh()
         } else {
-            FC0_N + GAIN_N_PER_A * i
+            d.fc0_n + d.gain_n_per_a * i
         };
         if self.has("asymmetry") {
             fy *= if v > 0.0 { 1.15 } else { 0.9 };
         }
         if self.has("thermal_drift") {
-            fy *= 1.0 - self.heat_j / Self::HEAT_YIELD_J;
+            fy *= 1.0 - self.heat_j / d.heat_yield_j;
         }
         fy
     }
 
     fn damping(&self, i: f64) -> f64 {
-        let mut c = C0_N_S_PER_M;
+        let d = self.dev;
+        let mut c = d.c0_n_s_per_m;
         if self.has("current_viscosity") {
-            c *= 1.0 + 2.0 * (i / LIMIT_A).powi(2);
+            c *= 1.0 + 2.0 * (i / d.limit_a).powi(2);
         }
         if self.has("thermal_drift") {
-            c *= 1.0 - self.heat_j / Self::HEAT_VISC_J;
+            c *= 1.0 - self.heat_j / d.heat_visc_j;
         }
         c
     }
@@ -106,10 +166,11 @@ impl Truth<'_> {
         };
         let mut f = self.yield_n(i, v) * d + self.damping(i) * v;
         if self.has("stiffness") {
-            f += 2.0 + 250.0 * x + 3e5 * x.powi(3);
+            let (preload, k, k3) = self.dev.spring;
+            f += preload + k * x + k3 * x.powi(3);
         }
         if self.has("inertia") {
-            f += 3.0 * a;
+            f += self.dev.mass_kg * a;
         }
         f
     }
@@ -133,18 +194,20 @@ impl Truth<'_> {
 
 /// One test of the truth: a sine at constant current, sampled with noise.
 fn test_file(
+    dev: &Device,
     hidden: &[&str],
     group: (&str, f64, f64, f64, f64),
     i: f64,
     velocity_channel: bool,
     rng: &mut ChaCha8Rng,
 ) -> Test {
-    stepped_file(hidden, group, &[i], velocity_channel, rng)
+    stepped_file(dev, hidden, group, &[i], velocity_channel, rng)
 }
 
 /// One test of the truth: a sine with the current stepping through `levels`, an equal time at each (one
 /// level: constant current), sampled with noise. The truth's current steps at once (no lags).
 fn stepped_file(
+    dev: &Device,
     hidden: &[&str],
     group: (&str, f64, f64, f64, f64),
     levels: &[f64],
@@ -162,12 +225,13 @@ fn stepped_file(
         )
     };
     let mut truth = Truth {
+        dev,
         hidden,
         z: 1.0,
         heat_j: 0.0,
     };
     let (fn_noise, xn_noise, vn_noise) = (
-        Normal::new(0.0, 0.15).unwrap(),
+        Normal::new(0.0, dev.force_noise_n).unwrap(),
         Normal::new(0.0, 2e-6).unwrap(),
         Normal::new(0.0, 2e-4).unwrap(),
     );
@@ -210,11 +274,12 @@ fn rng_for(seed: u64) -> ChaCha8Rng {
 }
 
 fn check(hidden: &[&str], velocity_channel: bool, seed: u64) {
-    check_on(&GROUPS, hidden, velocity_channel, seed);
+    check_on(&PAPER, &GROUPS, hidden, velocity_channel, seed);
 }
 
 /// One file per group and current, like the real damper's tests.
 fn data_set(
+    dev: &Device,
     groups: &[(&str, f64, f64, f64, f64)],
     hidden: &[&str],
     velocity_channel: bool,
@@ -223,14 +288,20 @@ fn data_set(
     let mut rng = rng_for(seed);
     groups
         .iter()
-        .flat_map(|g| CURRENTS_A.iter().map(move |&i| (*g, i)))
-        .map(|(g, i)| test_file(hidden, g, i, velocity_channel, &mut rng))
+        .flat_map(|g| dev.currents_a.iter().map(move |&i| (*g, i)))
+        .map(|(g, i)| test_file(dev, hidden, g, i, velocity_channel, &mut rng))
         .collect()
 }
 
-fn check_on(groups: &[(&str, f64, f64, f64, f64)], hidden: &[&str], velocity_channel: bool, seed: u64) {
-    let tests = data_set(groups, hidden, velocity_channel, seed);
-    if let Err(e) = diagnosis_check::verdict(&tests, hidden, LIMIT_A) {
+fn check_on(
+    dev: &Device,
+    groups: &[(&str, f64, f64, f64, f64)],
+    hidden: &[&str],
+    velocity_channel: bool,
+    seed: u64,
+) {
+    let tests = data_set(dev, groups, hidden, velocity_channel, seed);
+    if let Err(e) = diagnosis_check::verdict(&tests, hidden, dev.limit_a) {
         panic!("independent truth: {e}");
     }
 }
@@ -240,7 +311,7 @@ fn check_on(groups: &[(&str, f64, f64, f64, f64)], hidden: &[&str], velocity_cha
 /// effects. With one file per fold instead, the quadratic damping was missed (worse in one fold of five,
 /// where the held-out currents were the low ones) and the cubic spring drew a false `inertia`.
 fn check_unnamed(hidden: &[&str], velocity_channel: bool, seed: u64) {
-    let mut tests = data_set(&GROUPS, hidden, velocity_channel, seed);
+    let mut tests = data_set(&PAPER, &GROUPS, hidden, velocity_channel, seed);
     let n = tests.len();
     for (j, t) in tests.iter_mut().enumerate() {
         let k = (j * 7 + 3) % n; // a fixed shuffle of the numbering
@@ -249,7 +320,7 @@ fn check_unnamed(hidden: &[&str], velocity_channel: bool, seed: u64) {
         t.group = format!("test{k:02}");
     }
     tests.sort_by(|a, b| a.name.cmp(&b.name));
-    match diagnosis_check::verdict(&tests, hidden, LIMIT_A) {
+    match diagnosis_check::verdict(&tests, hidden, PAPER.limit_a) {
         Ok(d) => assert!(
             d.cv_scheme
                 .starts_with("leave one motion group out over 3 motion groups"),
@@ -300,7 +371,7 @@ fn independent_moving_mass_is_named_inertia() {
 /// files decide one way), the acceleration was as noisy as the signal, and the mass was missed.
 #[test]
 fn independent_moving_mass_without_a_velocity_channel_is_named_inertia() {
-    check_on(&GROUPS_LONG, &["inertia"], false, 13);
+    check_on(&PAPER, &GROUPS_LONG, &["inertia"], false, 13);
 }
 
 #[test]
@@ -346,14 +417,92 @@ fn independent_effects_in_one_file_with_current_steps() {
     ] {
         let mut rng = rng_for(seed);
         let tests = vec![stepped_file(
+            &PAPER,
             &[hidden],
             ("steps", 0.02, 1.3, 19.5, 1000.0),
             &[7.0, 0.0, 14.0, 3.5, 10.5, 7.0],
             true,
             &mut rng,
         )];
-        if let Err(e) = diagnosis_check::verdict(&tests, &[hidden], LIMIT_A) {
+        if let Err(e) = diagnosis_check::verdict(&tests, &[hidden], PAPER.limit_a) {
             panic!("independent truth, one file with current steps: {e}");
         }
     }
+}
+
+/// Every effect alone, none, and pairs, on the paper's device and at the real damper's scale, on other noise:
+/// `INDEPENDENT_SWEEP=300..303 cargo test --release --test independent_truth -- --ignored sweep --nocapture`
+/// (default seeds 300..301; `INDEPENDENT_SWEEP_ONLY=inertia` the cases whose hidden effects contain that word;
+/// `INDEPENDENT_SWEEP_REPORT=1` prints the report of the cases that pass too). Prints each verdict and fails
+/// with every failure's report at the end.
+#[test]
+#[ignore]
+fn independent_sweep_over_seeds_and_scales() {
+    const VOCABULARY: [&str; 7] = [
+        "hysteresis",
+        "asymmetry",
+        "magnetic_saturation",
+        "current_viscosity",
+        "stiffness",
+        "inertia",
+        "thermal_drift",
+    ];
+    let range = std::env::var("INDEPENDENT_SWEEP").unwrap_or_else(|_| "300..301".into());
+    let (a, b) = range.split_once("..").expect("INDEPENDENT_SWEEP=A..B");
+    let seeds = a.parse::<u64>().expect("A")..b.parse::<u64>().expect("B");
+    let only = std::env::var("INDEPENDENT_SWEEP_ONLY").ok();
+    let report = std::env::var("INDEPENDENT_SWEEP_REPORT").is_ok();
+    let mut cases: Vec<Vec<&str>> = vec![vec![]];
+    cases.extend(VOCABULARY.iter().map(|e| vec![*e]));
+    cases.extend(
+        [
+            ["hysteresis", "stiffness"],
+            ["hysteresis", "inertia"],
+            ["hysteresis", "current_viscosity"],
+            ["asymmetry", "magnetic_saturation"],
+            ["current_viscosity", "thermal_drift"],
+            ["stiffness", "inertia"],
+        ]
+        .map(|p| p.to_vec()),
+    );
+    let mut failures = Vec::new();
+    let mut runs = 0;
+    for seed in seeds {
+        for (scale, dev, groups) in [("paper", &PAPER, &GROUPS), ("real", &REAL, &GROUPS_REAL)] {
+            for (k, hidden) in cases.iter().enumerate() {
+                if only.as_ref().is_some_and(|o| !format!("{hidden:?}").contains(o)) {
+                    continue;
+                }
+                // Velocity measured on even cases, derived on odd ones.
+                let velocity_channel = k % 2 == 0;
+                let s = 1000 * seed + k as u64;
+                let tests = data_set(dev, groups, hidden, velocity_channel, s);
+                runs += 1;
+                let r = diagnosis_check::verdict(&tests, hidden, dev.limit_a);
+                eprintln!(
+                    "seed {s} {scale} {hidden:?} velocity {}: {}",
+                    if velocity_channel { "measured" } else { "derived" },
+                    match &r {
+                        Ok(d) => format!(
+                            "ok ({:.4} -> {:.4}, floor {:.4})",
+                            d.base_heldout_nrmse, d.final_heldout_nrmse, d.noise_floor_nrmse
+                        ),
+                        Err(_) => "FAIL".into(),
+                    }
+                );
+                if let (Ok(d), true) = (&r, report) {
+                    eprintln!("{}", mrfeel::ident::report::diagnose_table(d));
+                }
+                if let Err(e) = r {
+                    failures.push(format!("seed {s} {scale} {hidden:?}: {e}"));
+                }
+            }
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "{} of {runs} failed:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
 }
