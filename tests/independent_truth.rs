@@ -192,20 +192,7 @@ impl Truth<'_> {
     }
 }
 
-/// One test of the truth: a sine at constant current, sampled with noise.
-fn test_file(
-    dev: &Device,
-    hidden: &[&str],
-    group: (&str, f64, f64, f64, f64),
-    i: f64,
-    velocity_channel: bool,
-    rng: &mut ChaCha8Rng,
-) -> Test {
-    stepped_file(dev, hidden, group, &[i], velocity_channel, rng)
-}
-
-/// One test of the truth: a sine with the current stepping through `levels`, an equal time at each (one
-/// level: constant current), sampled with noise. The truth's current steps at once (no lags).
+/// One test of the truth at current steps ([`stepped_measurement`]).
 fn stepped_file(
     dev: &Device,
     hidden: &[&str],
@@ -214,6 +201,26 @@ fn stepped_file(
     velocity_channel: bool,
     rng: &mut ChaCha8Rng,
 ) -> Test {
+    Test::from_measurement(&stepped_measurement(
+        dev,
+        hidden,
+        group,
+        levels,
+        velocity_channel,
+        rng,
+    ))
+}
+
+/// One test of the truth: a sine with the current stepping through `levels`, an equal time at each (one
+/// level: constant current), sampled with noise. The truth's current steps at once (no lags).
+fn stepped_measurement(
+    dev: &Device,
+    hidden: &[&str],
+    group: (&str, f64, f64, f64, f64),
+    levels: &[f64],
+    velocity_channel: bool,
+    rng: &mut ChaCha8Rng,
+) -> Measurement {
     let (name, amp, f_hz, cycles, rate) = group;
     let n = (cycles / f_hz * rate).round() as usize;
     let w = std::f64::consts::TAU * f_hz;
@@ -260,7 +267,7 @@ fn stepped_file(
         m.v_m_s = smooth_derivative(&m.t_s, &m.x_m);
     }
     m.lines = (2..n + 2).collect();
-    Test::from_measurement(&m)
+    m
 }
 
 /// The noise of every case: `INDEPENDENT_SEED_OFFSET=100 cargo test --test independent_truth` reruns them all
@@ -285,11 +292,25 @@ fn data_set(
     velocity_channel: bool,
     seed: u64,
 ) -> Vec<Test> {
+    measurements(dev, groups, hidden, velocity_channel, seed)
+        .iter()
+        .map(Test::from_measurement)
+        .collect()
+}
+
+/// The files of [`data_set`], as measurements.
+fn measurements(
+    dev: &Device,
+    groups: &[(&str, f64, f64, f64, f64)],
+    hidden: &[&str],
+    velocity_channel: bool,
+    seed: u64,
+) -> Vec<Measurement> {
     let mut rng = rng_for(seed);
     groups
         .iter()
         .flat_map(|g| dev.currents_a.iter().map(move |&i| (*g, i)))
-        .map(|(g, i)| test_file(dev, hidden, g, i, velocity_channel, &mut rng))
+        .map(|(g, i)| stepped_measurement(dev, hidden, g, &[i], velocity_channel, &mut rng))
         .collect()
 }
 
@@ -433,7 +454,8 @@ fn independent_effects_in_one_file_with_current_steps() {
 /// Every effect alone, none, and pairs, on the paper's device and at the real damper's scale, on other noise:
 /// `INDEPENDENT_SWEEP=300..303 cargo test --release --test independent_truth -- --ignored sweep --nocapture`
 /// (default seeds 300..301; `INDEPENDENT_SWEEP_ONLY=inertia` the cases whose hidden effects contain that word;
-/// `INDEPENDENT_SWEEP_REPORT=1` prints the report of the cases that pass too). Prints each verdict and fails
+/// `INDEPENDENT_SWEEP_REPORT=1` prints the report of the cases that pass too; `INDEPENDENT_SWEEP_DUMP=DIR`
+/// writes each data set's files into `DIR/<scale>_<effects>_<seed>/` for `mrfeel diagnose`). Prints each verdict and fails
 /// with every failure's report at the end.
 #[test]
 #[ignore]
@@ -477,6 +499,13 @@ fn independent_sweep_over_seeds_and_scales() {
                 let velocity_channel = k % 2 == 0;
                 let s = 1000 * seed + k as u64;
                 let tests = data_set(dev, groups, hidden, velocity_channel, s);
+                if let Ok(dir) = std::env::var("INDEPENDENT_SWEEP_DUMP") {
+                    let dir = PathBuf::from(dir).join(format!("{scale}_{}_{s}", hidden.join(",")));
+                    std::fs::create_dir_all(&dir).expect("dump directory");
+                    for m in measurements(dev, groups, hidden, velocity_channel, s) {
+                        m.write(&dir.join(&m.path)).expect("dump file");
+                    }
+                }
                 runs += 1;
                 let r = diagnosis_check::verdict(&tests, hidden, dev.limit_a);
                 eprintln!(
