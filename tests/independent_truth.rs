@@ -7,7 +7,7 @@
 //!
 //! | hidden | truth here | mrfeel's effect |
 //! |---|---|---|
-//! | hysteresis | Bouc–Wen, n = 2, γ = β, no pre-yield dashpot | Dahl (n = 1) in series with a pre-yield dashpot |
+//! | hysteresis | Bouc–Wen, n = 2, γ = 0 (also γ = β), no pre-yield dashpot | Dahl (n = 1) in series with a pre-yield dashpot |
 //! | magnetic_saturation | `Fy = fc0 + Fs tanh(k i / Fs)` | its own knee law |
 //! | asymmetry | +15 % yield extending, −10 % retracting | `Fy (1 ± a)` |
 //! | current_viscosity | `C = C0 (1 + 2 (i/i_max)²)` (quadratic from C0) | `C0 + c1 h^n` (power law, n fitted) |
@@ -22,7 +22,8 @@
 //!
 //! The same truth at the real damper's scale ([`REAL`]: 80 N + 900 N/A, 2 kN·s/m, 0–1 A, its kind of
 //! amplitudes and frequencies) runs in the ignored sweep [`independent_sweep_over_seeds_and_scales`], with
-//! every effect alone, none and six pairs at both scales on other noise.
+//! every effect alone, none and nine pairs at both scales on other noise; [`PAPER_SPENCER`] is the paper's
+//! device with Spencer et al. 1997's Bouc–Wen shape (γ = β) instead.
 
 use std::path::PathBuf;
 
@@ -55,6 +56,9 @@ struct Device {
     heat_visc_j: f64,
     /// Load-cell noise (standard deviation), N.
     force_noise_n: f64,
+    /// The Bouc–Wen law's share γ/(β + γ) (n = 2, A = 1, β + γ = 1): 0 sharpens the return after a
+    /// reversal (`dz/dt = (v − |v| z|z|)/x0`), ½ is Spencer et al. 1997's γ = β (the return linear in x).
+    bw_gamma_share: f64,
 }
 
 /// The paper's device (Eq. 2: fc0 = 2 N, 4.83 N/A, C0 = 60 N·s/m, 14 A).
@@ -70,6 +74,13 @@ const PAPER: Device = Device {
     heat_yield_j: 250.0,
     heat_visc_j: 800.0,
     force_noise_n: 0.15,
+    bw_gamma_share: 0.0,
+};
+
+/// The paper's device with Spencer et al. 1997's hysteresis shape (γ = β).
+const PAPER_SPENCER: Device = Device {
+    bw_gamma_share: 0.5,
+    ..PAPER
 };
 
 /// A device on the scale of the real damper in `../shared/data` (80 N + 900 N/A, 2 kN·s/m, 0–1 A, the
@@ -87,6 +98,7 @@ const REAL: Device = Device {
     heat_yield_j: 3000.0,
     heat_visc_j: 6000.0,
     force_noise_n: 5.0,
+    bw_gamma_share: 0.0,
 };
 
 /// (group name, amplitude m, frequency Hz, cycles, sample rate Hz).
@@ -178,7 +190,8 @@ impl Truth<'_> {
     /// Advance the states over `h` at velocity `v` (RK4 for Bouc–Wen, Euler for the slow heat).
     fn advance(&mut self, i: f64, v: f64, h: f64) {
         if self.has("hysteresis") {
-            let r = |z: f64| (v - v.abs() * z * z.abs()) / Self::BW_X0_M;
+            let g = self.dev.bw_gamma_share;
+            let r = |z: f64| (v - (1.0 - g) * v.abs() * z * z.abs() - g * v * z * z) / Self::BW_X0_M;
             let k1 = r(self.z);
             let k2 = r(self.z + 0.5 * h * k1);
             let k3 = r(self.z + 0.5 * h * k2);
@@ -417,6 +430,22 @@ fn independent_spring_and_mass_separable_only_together_are_both_named() {
     check(&["stiffness", "inertia"], true, 14);
 }
 
+/// Heating beside a hysteresis whose shape mrfeel's (Dahl) does not match: after `hysteresis` most of the
+/// error left is that difference of shape, 10 to 15 times the noise, and the heating removes only 15–16 % of
+/// it, though in every fold and 14–16 % of the held-out error. Both were missed while an effect had to remove
+/// a fifth of the error above the noise floor; a tenth names them (`DiagnoseOptions::min_excess_removed`).
+#[test]
+fn independent_heating_beside_an_unmatched_hysteresis_is_named() {
+    check_on(
+        &PAPER_SPENCER,
+        &GROUPS,
+        &["hysteresis", "thermal_drift"],
+        false,
+        15,
+    );
+    check_on(&REAL, &GROUPS_REAL, &["hysteresis", "thermal_drift"], false, 16);
+}
+
 #[test]
 fn independent_effects_in_files_whose_names_group_nothing() {
     check_unnamed(&["current_viscosity"], true, 21);
@@ -451,7 +480,8 @@ fn independent_effects_in_one_file_with_current_steps() {
     }
 }
 
-/// Every effect alone, none, and pairs, on the paper's device and at the real damper's scale, on other noise:
+/// Every effect alone, none, and nine pairs, on the paper's device (the hysteresis cases also in Spencer's
+/// shape) and at the real damper's scale, on other noise:
 /// `INDEPENDENT_SWEEP=300..303 cargo test --release --test independent_truth -- --ignored sweep --nocapture`
 /// (default seeds 300..301; `INDEPENDENT_SWEEP_ONLY=inertia` the cases whose hidden effects contain that word;
 /// `INDEPENDENT_SWEEP_REPORT=1` prints the report of the cases that pass too; `INDEPENDENT_SWEEP_DUMP=DIR`
@@ -481,6 +511,9 @@ fn independent_sweep_over_seeds_and_scales() {
             ["hysteresis", "stiffness"],
             ["hysteresis", "inertia"],
             ["hysteresis", "current_viscosity"],
+            ["hysteresis", "asymmetry"],
+            ["hysteresis", "magnetic_saturation"],
+            ["hysteresis", "thermal_drift"],
             ["asymmetry", "magnetic_saturation"],
             ["current_viscosity", "thermal_drift"],
             ["stiffness", "inertia"],
@@ -490,9 +523,17 @@ fn independent_sweep_over_seeds_and_scales() {
     let mut failures = Vec::new();
     let mut runs = 0;
     for seed in seeds {
-        for (scale, dev, groups) in [("paper", &PAPER, &GROUPS), ("real", &REAL, &GROUPS_REAL)] {
+        for (scale, dev, groups) in [
+            ("paper", &PAPER, &GROUPS),
+            ("paper-spencer", &PAPER_SPENCER, &GROUPS),
+            ("real", &REAL, &GROUPS_REAL),
+        ] {
             for (k, hidden) in cases.iter().enumerate() {
                 if only.as_ref().is_some_and(|o| !format!("{hidden:?}").contains(o)) {
+                    continue;
+                }
+                // The hysteresis shape matters only where hysteresis is hidden.
+                if dev.bw_gamma_share != PAPER.bw_gamma_share && !hidden.contains(&"hysteresis") {
                     continue;
                 }
                 // Velocity measured on even cases, derived on odd ones.
