@@ -76,6 +76,7 @@ fn synthetic_60k(registry: &Registry) -> Vec<Test> {
                 inputs,
                 f_n: Vec::new(),
                 velocity_measured: true,
+                velocity_noise_m_s: None,
             }
         })
         .collect();

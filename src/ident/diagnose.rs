@@ -1035,6 +1035,7 @@ mod tests {
             f_n: vec![0.0; inputs.len()],
             inputs,
             velocity_measured: true,
+            velocity_noise_m_s: None,
         }
     }
 

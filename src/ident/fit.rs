@@ -775,6 +775,7 @@ mod tests {
             f_n: model.simulate(&TRUTH, &inputs),
             inputs,
             velocity_measured: true,
+            velocity_noise_m_s: None,
         }]
     }
 

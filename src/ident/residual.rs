@@ -517,13 +517,17 @@ pub fn direction_weights(t: &Test) -> Vec<f64> {
         .collect()
 }
 
-/// Standard deviation of the noise in the velocity a test's model is given. A measured velocity carries its
+/// Standard deviation of the noise in the velocity a test's model is given: [`Test::velocity_noise_m_s`]
+/// when the velocity was derived with a known differentiator; else a measured velocity carries its
 /// transducer's white noise ([`white_noise_std`]). A velocity derived from the displacement
 /// ([`crate::measurement::smooth_derivative`]) is smooth, so differences of it do not show its noise,
 /// which is still there at low frequencies (a slowly wandering error, as uncertain in sign near `v = 0`):
 /// it is the displacement's white noise times the differentiator's noise gain, the root-sum-square of its
 /// response to a unit impulse on the test's own time grid.
 pub fn velocity_noise_std(t: &Test) -> f64 {
+    if let Some(sd) = t.velocity_noise_m_s {
+        return sd;
+    }
     if t.velocity_measured {
         let v: Vec<f64> = t.inputs.iter().map(|i| i.v_m_s).collect();
         return white_noise_std(&v);
@@ -573,6 +577,7 @@ mod tests {
             inputs,
             f_n: f,
             velocity_measured: true,
+            velocity_noise_m_s: None,
         }
     }
 

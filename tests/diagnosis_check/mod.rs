@@ -6,7 +6,8 @@ use mrfeel::ident::{diagnose, DiagnoseOptions, Diagnosis, Test};
 
 /// Diagnose `tests` from `bingham` (driver limit `limit_a`). Ok when it names exactly the `hidden` effects
 /// and, if there are any, the held-out error at least halves or reaches 1.2× the noise floor (with none, the
-/// final model is the base); else what went wrong and the diagnosis report.
+/// final model is the base and its held-out error within 1.2× the noise floor); else what went wrong and the
+/// diagnosis report.
 pub fn verdict(tests: &[Test], hidden: &[&str], limit_a: f64) -> Result<Diagnosis, String> {
     let registry = Registry::builtin();
     let d = diagnose(
@@ -28,7 +29,7 @@ pub fn verdict(tests: &[Test], hidden: &[&str], limit_a: f64) -> Result<Diagnosi
         return Err(format!("hidden {hidden:?}, found {found:?}:\n{report}"));
     }
     let ok = if hidden.is_empty() {
-        d.final_model == d.base_model
+        d.final_model == d.base_model && d.final_heldout_nrmse <= 1.2 * d.noise_floor_nrmse
     } else {
         d.final_heldout_nrmse <= 0.5 * d.base_heldout_nrmse
             || d.final_heldout_nrmse <= 1.2 * d.noise_floor_nrmse
