@@ -508,22 +508,14 @@ fn independent_effects_in_one_file_with_current_steps() {
 #[test]
 #[ignore]
 fn independent_sweep_over_seeds_and_scales() {
-    const VOCABULARY: [&str; 7] = [
-        "hysteresis",
-        "asymmetry",
-        "magnetic_saturation",
-        "current_viscosity",
-        "stiffness",
-        "inertia",
-        "thermal_drift",
-    ];
+    let vocabulary = mrfeel::device::Registry::builtin().names();
     let range = std::env::var("INDEPENDENT_SWEEP").unwrap_or_else(|_| "300..301".into());
     let (a, b) = range.split_once("..").expect("INDEPENDENT_SWEEP=A..B");
     let seeds = a.parse::<u64>().expect("A")..b.parse::<u64>().expect("B");
     let only = std::env::var("INDEPENDENT_SWEEP_ONLY").ok();
     let report = std::env::var("INDEPENDENT_SWEEP_REPORT").is_ok();
     let mut cases: Vec<Vec<&str>> = vec![vec![]];
-    cases.extend(VOCABULARY.iter().map(|e| vec![*e]));
+    cases.extend(vocabulary.iter().map(|e| vec![*e]));
     cases.extend(
         [
             ["hysteresis", "stiffness"],
