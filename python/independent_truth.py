@@ -45,7 +45,7 @@ def simulate(effect, A, f, i, rng, cycles=4):
         for s in range(SUB):
             tt = t[k] + s * h
             x = A * np.sin(w * tt); v = A * w * np.cos(w * tt)
-            if "hysteresis" in effect.split(","):  # Bouc-Wen n = 2, gamma = beta, A = 1 (no viscous knee)
+            if "hysteresis" in effect.split(","):  # Bouc-Wen n = 2, beta = 1, gamma = 0, A = 1 (no viscous knee)
                 x0 = 4e-4
                 def r(zz): return (v - abs(v) * zz * abs(zz)) / x0
                 k1 = r(z); k2 = r(z + h/2*k1); k3 = r(z + h/2*k2); k4 = r(z + h*k3)

@@ -157,33 +157,49 @@ pub fn inputs_and_velocity_noise(m: &Measurement) -> (Vec<Inputs>, Option<f64>) 
 /// Weights (per sample) of the `order`-th derivative at the centre of a least-squares quintic over `2h + 1`
 /// equally spaced samples (a quintic keeps the bias on a sinusoid of period P of order (2πh·dt/P)⁶).
 fn quintic_derivative_weights(h: usize, order: usize) -> Vec<f64> {
-    quintic_derivative_weights_at(h, order, 0.0)
+    QuinticFit::new(h).derivative_weights(order, 0.0)
 }
 
-/// As [`quintic_derivative_weights`], the derivative taken at `u0` half-widths from the window's centre
-/// (−1 ≤ u0 ≤ 1): the same fit near the ends of a test, where a centred window does not reach
-/// (Savitzky–Golay's treatment of the edges).
-fn quintic_derivative_weights_at(h: usize, order: usize, u0: f64) -> Vec<f64> {
-    let n = 2 * h + 1;
-    // Unit half-width for conditioning; rescaled to per-sample units below.
-    let u: Vec<f64> = (0..n).map(|k| (k as f64 - h as f64) / h as f64).collect();
-    let v = nalgebra::DMatrix::from_fn(n, 6, |r, c| u[r].powi(c as i32));
-    let vtv = v.transpose() * &v;
-    let Some(inv) = vtv.try_inverse() else {
-        return vec![0.0; n];
-    };
-    let w = inv * v.transpose();
-    // d^order/du^order of u^c at u0.
-    let dpow = |c: usize| -> f64 {
-        if c < order {
-            return 0.0;
-        }
-        let falling: f64 = (0..order).map(|j| (c - j) as f64).product();
-        falling * u0.powi((c - order) as i32)
-    };
-    (0..n)
-        .map(|k| (0..6).map(|c| dpow(c) * w[(c, k)]).sum::<f64>() / (h as f64).powi(order as i32))
-        .collect()
+/// The least-squares quintic over `2h + 1` equally spaced samples: its coefficients (in the window's unit
+/// half-width `u`) as weights on the samples, from which the weights of any derivative at any point of the
+/// window follow without solving again.
+struct QuinticFit {
+    h: usize,
+    /// Row `c`: the weights giving the coefficient of `u^c`; `None` if the fit is singular.
+    coef: Option<nalgebra::DMatrix<f64>>,
+}
+
+impl QuinticFit {
+    fn new(h: usize) -> Self {
+        let n = 2 * h + 1;
+        // Unit half-width for conditioning; rescaled to per-sample units in `derivative_weights`.
+        let u: Vec<f64> = (0..n).map(|k| (k as f64 - h as f64) / h as f64).collect();
+        let v = nalgebra::DMatrix::from_fn(n, 6, |r, c| u[r].powi(c as i32));
+        let coef = (v.transpose() * &v).try_inverse().map(|inv| inv * v.transpose());
+        Self { h, coef }
+    }
+
+    /// Weights (per sample) of the `order`-th derivative at `u0` half-widths from the window's centre
+    /// (−1 ≤ u0 ≤ 1; off-centre near the ends of a test, where a centred window does not reach:
+    /// Savitzky–Golay's treatment of the edges).
+    fn derivative_weights(&self, order: usize, u0: f64) -> Vec<f64> {
+        let n = 2 * self.h + 1;
+        let Some(w) = &self.coef else {
+            return vec![0.0; n];
+        };
+        // d^order/du^order of u^c at u0.
+        let dpow = |c: usize| -> f64 {
+            if c < order {
+                return 0.0;
+            }
+            let falling: f64 = (0..order).map(|j| (c - j) as f64).product();
+            falling * u0.powi((c - order) as i32)
+        };
+        let per_sample = (self.h as f64).powi(order as i32);
+        (0..n)
+            .map(|k| (0..6).map(|c| dpow(c) * w[(c, k)]).sum::<f64>() / per_sample)
+            .collect()
+    }
 }
 
 /// The `order`-th derivative (1 or 2) of `y` (white noise `sd_y`, spacing `dt`) by a centred local quintic
@@ -197,8 +213,10 @@ fn quintic_derivative_weights_at(h: usize, order: usize, u0: f64) -> Vec<f64> {
 /// acceleration stayed at the 11-sample window, as noisy as the signal, and a hidden 3 kg mass was missed.)
 /// Strict on purpose otherwise: a bias in the acceleration is a gain below 1 on each frequency, which on a
 /// sine looks like a negative spring, and with a quiet load cell `stiffness` was then falsely added next to
-/// `inertia`; extra noise only costs precision. `fallback` gives the samples the window does not reach at
-/// the ends. Returns the derivative and its noise standard deviation (NaN when `fallback` is returned whole).
+/// `inertia`; extra noise only costs precision. The first and last `h` samples, where a centred window does
+/// not reach, take the same quintic over the end window, evaluated off its centre. Returns the derivative
+/// and its noise standard deviation (at the centred samples); `fallback` and NaN when the noise is unknown or
+/// the test too short (20 samples or fewer).
 pub fn widest_unbiased_derivative(
     y: &[f64],
     order: usize,
@@ -211,22 +229,23 @@ pub fn widest_unbiased_derivative(
         return (fallback.to_vec(), f64::NAN);
     }
     let scale = dt.powi(order as i32);
+    // Every window tried has 2h + 1 ≤ n samples: h = 5 with n > 20, the wider ones with n > 4h.
     let apply = |h: usize| -> (Vec<f64>, f64) {
-        let w = quintic_derivative_weights(h, order);
+        let fit = QuinticFit::new(h);
+        let w = fit.derivative_weights(order, 0.0);
         let gain2: f64 = w.iter().map(|x| x * x).sum();
-        let mut out = fallback.to_vec();
-        if n > 2 * h {
-            for k in h..n - h {
-                out[k] = w.iter().zip(&y[k - h..=k + h]).map(|(w, y)| w * y).sum::<f64>() / scale;
-            }
-            // The first and last h samples: the end window, the derivative taken off its centre.
-            for j in 0..h {
-                let we = quintic_derivative_weights_at(h, order, (j as f64 - h as f64) / h as f64);
-                out[j] = we.iter().zip(&y[..=2 * h]).map(|(w, y)| w * y).sum::<f64>() / scale;
-                let tail = &y[n - 2 * h - 1..];
-                out[n - 1 - j] = we.iter().rev().zip(tail).map(|(w, y)| w * y).sum::<f64>() / scale
-                    * if order % 2 == 1 { -1.0 } else { 1.0 };
-            }
+        let mut out = vec![0.0; n];
+        for k in h..n - h {
+            out[k] = w.iter().zip(&y[k - h..=k + h]).map(|(w, y)| w * y).sum::<f64>() / scale;
+        }
+        // The first and last h samples: the end windows, the derivative taken off their centre. The last
+        // window is the first one mirrored in time, which flips the sign of an odd derivative.
+        let mirror = if order % 2 == 1 { -1.0 } else { 1.0 };
+        let (head, tail) = (&y[..=2 * h], &y[n - 2 * h - 1..]);
+        for j in 0..h {
+            let we = fit.derivative_weights(order, (j as f64 - h as f64) / h as f64);
+            out[j] = we.iter().zip(head).map(|(w, y)| w * y).sum::<f64>() / scale;
+            out[n - 1 - j] = mirror * we.iter().rev().zip(tail).map(|(w, y)| w * y).sum::<f64>() / scale;
         }
         (out, gain2 * sd_y * sd_y / (scale * scale))
     };
@@ -236,7 +255,7 @@ pub fn widest_unbiased_derivative(
             break;
         }
         let (cand, var_cand) = apply(h);
-        // Compare where both windows reach.
+        // Compare the centred fits, whose noise the rule's `E0` describes.
         let (mut ss, mut cnt) = (0.0, 0usize);
         for k in h..n - h {
             let d = cand[k] - best[k];
@@ -393,27 +412,18 @@ mod tests {
         assert!((gain - 1.0).abs() < 0.01, "gain {gain}");
     }
 
-    /// Slow sines (0.4 and 1 Hz at 1 kHz), displacement only (2 µm noise), on eight noise seeds: the window
-    /// widens every time, so the acceleration from the displacement twice is within 5 % of the signal. (The
-    /// rule that stopped at the mean change of pure noise failed on the first seed: it stayed at the
-    /// narrowest window, an error of 580 % of the 0.4 Hz signal.) The derived velocity's noise is estimated
-    /// within 25 %.
-    /// Near the ends of a test a centred window does not reach; the measurement module's 7-sample
-    /// differentiator used to fill in there, and at 2 kHz its second derivative of a 2 µm displacement noise
-    /// was 17 m/s² at the first sample of a 0.56 m/s² (rms) sine, which a hidden 3 kg mass turned into 50 N;
-    /// the end windows extrapolate, noisier than the centred ones (0.13 m/s² at the first sample).
-    #[test]
-    fn derivatives_near_the_ends_of_a_test_are_as_good_as_inside() {
-        let (amp, f_hz, rate, n) = (0.02, 1.0, 2000.0, 6000usize);
+    /// A file of `n` samples at `rate` of a sine displacement with 2 µm white noise (seeded) and no velocity
+    /// channel (the reader's 7-sample derivative in its place, as when such a file is read).
+    fn sine_without_velocity(amp: f64, f_hz: f64, rate: f64, n: usize, seed: u64) -> Measurement {
         let w = std::f64::consts::TAU * f_hz;
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         let nd = Normal::new(0.0, 2e-6).unwrap();
         let t: Vec<f64> = (0..n).map(|k| k as f64 / rate).collect();
         let x: Vec<f64> = t
             .iter()
             .map(|t| amp * (w * t).sin() + nd.sample(&mut rng))
             .collect();
-        let m = Measurement {
+        Measurement {
             path: "a.csv".into(),
             v_m_s: crate::measurement::smooth_derivative(&t, &x),
             x_m: x,
@@ -422,8 +432,18 @@ mod tests {
             f_n: vec![0.0; n],
             t_s: t,
             ..Default::default()
-        };
-        let test = Test::from_measurement(&m);
+        }
+    }
+
+    /// Near the ends of a test a centred window does not reach; the measurement module's 7-sample
+    /// differentiator used to fill in there, and at 2 kHz its second derivative of a 2 µm displacement noise
+    /// was 17 m/s² at the first sample of a 0.56 m/s² (rms) sine, which a hidden 3 kg mass turned into 50 N;
+    /// the end windows extrapolate, noisier than the centred ones (0.13 m/s² at the first sample).
+    #[test]
+    fn derivatives_near_the_ends_of_a_test_are_as_good_as_inside() {
+        let (amp, f_hz, rate, n) = (0.02, 1.0, 2000.0, 6000usize);
+        let w = std::f64::consts::TAU * f_hz;
+        let test = Test::from_measurement(&sine_without_velocity(amp, f_hz, rate, n, 7));
         let ends: Vec<&Inputs> = test.inputs[..40].iter().chain(&test.inputs[n - 40..]).collect();
         let a_rms = amp * w * w / 2f64.sqrt();
         let v_rms = amp * w / 2f64.sqrt();
@@ -443,28 +463,17 @@ mod tests {
         }
     }
 
+    /// Slow sines (0.4 and 1 Hz at 1 kHz), displacement only (2 µm noise), on eight noise seeds: the window
+    /// widens every time, so the acceleration from the displacement twice is within 5 % of the signal. (The
+    /// rule that stopped at the mean change of pure noise failed on the first seed: it stayed at the
+    /// narrowest window, an error of 580 % of the 0.4 Hz signal.) The derived velocity's noise is estimated
+    /// within 25 %.
     #[test]
     fn acceleration_and_velocity_noise_from_displacement_alone_on_every_seed() {
         for (seed, f_hz, amp) in (0..8u64).map(|s| (s, if s % 2 == 0 { 0.4 } else { 1.0 }, 0.02)) {
-            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(100 + seed);
-            let nd = Normal::new(0.0, 2e-6).unwrap();
             let w = std::f64::consts::TAU * f_hz;
             let n = 5000;
-            let t: Vec<f64> = (0..n).map(|k| k as f64 * 1e-3).collect();
-            let x: Vec<f64> = t
-                .iter()
-                .map(|t| amp * (w * t).sin() + nd.sample(&mut rng))
-                .collect();
-            let m = Measurement {
-                path: "a.csv".into(),
-                v_m_s: crate::measurement::smooth_derivative(&t, &x),
-                x_m: x,
-                velocity_measured: false,
-                i_a: vec![1.0; n],
-                f_n: vec![0.0; n],
-                t_s: t.clone(),
-                ..Default::default()
-            };
+            let m = sine_without_velocity(amp, f_hz, 1000.0, n, 100 + seed);
             let rms = |e: &mut dyn Iterator<Item = f64>| {
                 let (s, c) = e.fold((0.0, 0usize), |(s, c), e| (s + e * e, c + 1));
                 (s / c as f64).sqrt()
