@@ -514,7 +514,7 @@ fn independent_effects_in_one_file_with_current_steps() {
 }
 
 /// Every effect alone, none, and nine pairs, on the paper's device (the hysteresis cases also in Spencer's
-/// shape) and at the real damper's scale, on other noise:
+/// shape; all also in two groups only) and at the real damper's scale, on other noise:
 /// `INDEPENDENT_SWEEP=300..303 cargo test --release --test independent_truth -- --ignored sweep --nocapture`
 /// (default seeds 300..301; `INDEPENDENT_SWEEP_ONLY=inertia` the cases whose hidden effects contain that word;
 /// `INDEPENDENT_SWEEP_REPORT=1` prints the report of the cases that pass too; `INDEPENDENT_SWEEP_DUMP=DIR`
@@ -548,11 +548,13 @@ fn independent_sweep_over_seeds_and_scales() {
     let mut failures = Vec::new();
     let mut runs = 0;
     for seed in seeds {
-        for (scale, dev, groups) in [
+        let scales: [(&str, &Device, &[(&str, f64, f64, f64, f64)]); 4] = [
             ("paper", &PAPER, &GROUPS),
             ("paper-spencer", &PAPER_SPENCER, &GROUPS),
+            ("paper-two-groups", &PAPER, &GROUPS_TWO),
             ("real", &REAL, &GROUPS_REAL),
-        ] {
+        ];
+        for (scale, dev, groups) in scales {
             for (k, hidden) in cases.iter().enumerate() {
                 if only.as_ref().is_some_and(|o| !format!("{hidden:?}").contains(o)) {
                     continue;
