@@ -5,14 +5,36 @@ The effects written from the physics in other forms than mrfeel's effect library
 saturation, +15 %/-10 % yield, damping quadratic in current, preload + linear + cubic spring, 3 kg, heating of
 yield and viscosity), on the paper's device: 3 sine groups x 5 constant currents, 4 cycles at 1 kHz, noise.
 Used in session 3 to probe the diagnosis before the Rust tests were written; the figures quoted in the
-closing note come from it.
+closing note come from it. Session 6 added the protocol options below, to probe data like an outside
+checker's (other rates, waveforms, no velocity channel).
 
 Run:  python3 -m venv /tmp/pyenv && /tmp/pyenv/bin/pip install numpy
       /tmp/pyenv/bin/python python/independent_truth.py EFFECTS OUTDIR [SEED]     (EFFECTS: comma-separated)
       target/release/mrfeel diagnose OUTDIR --json
-Environment: SCALE=real for a device like the real damper in ../shared/data (80 N + 900 N/A, 2000 N s/m,
-0-1 A, groups 10 mm 1 Hz, 2 mm 5 Hz, 20 mm 0.3 Hz, effects scaled to it); K3=0 for a linear spring;
-NOISE=<N> for the load-cell noise.
+Environment (all optional):
+  SCALE=real       a device like the real damper in ../shared/data (80 N + 900 N/A, 2000 N s/m, 0-1 A,
+                   groups 10 mm 1 Hz, 2 mm 5 Hz, 20 mm 0.3 Hz, effects scaled to it)
+  K3=<N/m^3>       cubic spring term (K3=0: a linear spring)
+  NOISE=<N>        load-cell noise (standard deviation)
+  FS=<Hz>          sample rate (default 1000)
+  CYCLES=<n>       cycles of each group's base frequency (default 4)
+  WAVE=sine|triangle|multisine|mix
+                   triangle: constant-speed strokes whose corners are rounded over 5 % of the period each
+                   (velocity turns as a half sine, so acceleration stays finite and continuous);
+                   multisine: 2 (1st, 3rd group) or 3 (2nd) sines at 1, 2.3 and 3.9 x the group's frequency,
+                   weighted for about equal velocity, scaled so the peak displacement is the group's amplitude;
+                   mix: group 1 sine, group 2 triangle, group 3 multisine. x, v and a are analytic in all.
+  NOVEL=1          files without the v_m_s column (velocity left to mrfeel's differentiator)
+  CURRENTS=a,b,..  the constant currents in A (default 0, 3.5, 7, 10.5, 14; real scale 0 .. 1 in 0.25)
+  GROUPS=A:f,..    amplitude (m) : frequency (Hz) groups in place of the default three
+  T0=<s>           time of the first sample (default 0)
+  STEPS=1          one file per group, the current stepping at once through CURRENTS (CYCLES cycles at each)
+  (bash keeps its own GROUPS array: pass it as `env GROUPS=0.015:1.5,0.008:3 python3 ...`)
+The force at t[k] is formed from the states (Bouc-Wen z, heat) at t[k], and they are then integrated over the
+sample. Until session 7 the states were integrated first, so the force used z(t[k] + 1/FS), one sample ahead:
+on triangle tests at 500 Hz without a velocity channel that drew a false `inertia` beside hysteresis and
+stiffness (mrfeel's acceleration term took up the offset); with the order mended, both seeds name exactly
+hysteresis and stiffness (held out 0.288 -> 0.017). Every data set differs from before in its last digits.
 """
 import os
 import shutil
@@ -31,30 +53,69 @@ else:
     CURRENTS = [0.0, 3.5, 7.0, 10.5, 14.0]
     SAT, IMAX, PRE, KS, K3, M, THY, THC, NOISE0 = 80.0, 14.0, 2.0, 250.0, 3e5, 3.0, 420.0, 800.0, 0.15
 K3 = float(os.environ.get("K3", K3))
-FS, SUB = 1000.0, 20
+FS, SUB = float(os.environ.get("FS", "1000")), 20
+CYCLES = float(os.environ.get("CYCLES", "4"))
+WAVE = os.environ.get("WAVE", "sine")
+NOVEL = os.environ.get("NOVEL", "0") == "1"
+T0 = float(os.environ.get("T0", "0"))
+if "CURRENTS" in os.environ:
+    CURRENTS = [float(c) for c in os.environ["CURRENTS"].split(",")]
+if "GROUPS" in os.environ:
+    GROUPS = [(f"g{float(A) * 1000:g}mm{float(f):g}Hz".replace(".", "p"), float(A), float(f))
+              for A, f in (g.split(":") for g in os.environ["GROUPS"].split(","))]
+ROUND = 0.05  # triangle: share of the period over which each corner is rounded
+MULTI = [(1.0, 1.0, 0.0), (2.3, 0.45, 1.1), (3.9, 0.25, 2.3)]  # multisine: frequency ratio, weight, phase
 
-def simulate(effect, A, f, i, rng, cycles=4):
+def motion(wave, A, f, gi):
+    """Analytic displacement, velocity and acceleration of group gi, as a function of time (scalar or array)."""
+    w = 2 * np.pi * f
+    if wave == "mix":
+        wave = ["sine", "triangle", "multisine"][gi % 3]
+    if wave == "sine":  # the expressions of the original script, so that the default output keeps its bits
+        return lambda tt: (A * np.sin(w * tt), A * w * np.cos(w * tt), -A * w * w * np.sin(w * tt))
+    if wave == "triangle":
+        r = ROUND
+        v0 = A * f / (0.25 - r / 2 + r / np.pi)  # stroke speed for a peak of A after the rounded corner
+        def tri(tt):
+            ph = np.mod(np.asarray(tt, dtype=float) * f, 1.0)
+            sg = np.where(ph < 0.5, 1.0, -1.0); p = np.mod(ph, 0.5)  # half-wave symmetry
+            u = (p - 0.25) / (r / 2)                                   # -1..1 across the corner
+            xc = A + v0 * (r / 2) / f * (2 / np.pi) * (np.cos(np.pi * u / 2) - 1)
+            x = np.where(p < 0.25 - r / 2, v0 * p / f, np.where(p > 0.25 + r / 2, v0 * (0.5 - p) / f, xc))
+            v = np.where(np.abs(u) >= 1, np.where(u < 0, v0, -v0), -v0 * np.sin(np.pi * np.clip(u, -1, 1) / 2))
+            a = np.where(np.abs(u) >= 1, 0.0, -v0 * np.pi * f / r * np.cos(np.pi * np.clip(u, -1, 1) / 2))
+            return sg * x, sg * v, sg * a
+        return tri
+    if wave == "multisine":
+        comps = MULTI[:3 if gi % 2 else 2]
+        def raw(tt):
+            tt = np.asarray(tt, dtype=float)
+            x = sum(c * np.sin(w * k * tt + p) for k, c, p in comps)
+            v = sum(c * w * k * np.cos(w * k * tt + p) for k, c, p in comps)
+            a = sum(-c * (w * k) ** 2 * np.sin(w * k * tt + p) for k, c, p in comps)
+            return x, v, a
+        s = A / np.max(np.abs(raw(np.linspace(0.0, CYCLES / f, 200001))[0]))
+        return lambda tt: tuple(s * q for q in raw(tt))
+    sys.exit(f"WAVE={wave}: not one of sine, triangle, multisine, mix")
+
+def simulate(effect, A, f, i, rng, gi=0, cycles=CYCLES):
+    """One test; i is the constant current, or a list of levels stepped through, `cycles` cycles at each."""
+    levels = None if np.isscalar(i) else list(i)
+    if levels is not None:
+        cycles = cycles * len(levels)
     n = int(cycles / f * FS)
     t = np.arange(n) / FS
-    w = 2 * np.pi * f
+    kin = motion(WAVE, A, f, gi)
     h = 1 / FS / SUB
-    z = 1.0 if "hysteresis" in effect.split(",") else 0.0
+    z = (1.0 if kin(0.0)[1] >= 0 else -1.0) if "hysteresis" in effect.split(",") else 0.0
     T = 0.0
     out = np.zeros(n)
+    if WAVE != "sine":  # whole arrays at once (the other waves' formulas are slow per scalar)
+        VS = kin(t[:, None] + np.arange(SUB) * h)[1]; XVA = kin(t)
     for k in range(n):
-        for s in range(SUB):
-            tt = t[k] + s * h
-            x = A * np.sin(w * tt); v = A * w * np.cos(w * tt)
-            if "hysteresis" in effect.split(","):  # Bouc-Wen n = 2, beta = 1, gamma = 0, A = 1 (no viscous knee)
-                x0 = 4e-4
-                def r(zz): return (v - abs(v) * zz * abs(zz)) / x0
-                k1 = r(z); k2 = r(z + h/2*k1); k3 = r(z + h/2*k2); k4 = r(z + h*k3)
-                z = float(np.clip(z + h/6*(k1 + 2*k2 + 2*k3 + k4), -1, 1))
-            if "thermal_drift" in effect.split(","):
-                fy = (FC0 + K * i) * (1 - T / THY)
-                P = max((fy * np.sign(v) + C0 * (1 - T / THC) * v) * v, 0.0)
-                T += h * (P - T / 60.0)
-        x = A * np.sin(w * t[k]); v = A * w * np.cos(w * t[k]); a = -A * w * w * np.sin(w * t[k])
+        if levels is not None:
+            i = levels[min(int(k * len(levels) / n), len(levels) - 1)]
+        x, v, a = kin(t[k]) if WAVE == "sine" else (XVA[0][k], XVA[1][k], XVA[2][k])
         fy = FC0 + K * i; c = C0; d = np.sign(v); extra = 0.0
         if "hysteresis" in effect.split(","): d = z
         if "magnetic_saturation" in effect.split(","): fy = FC0 + SAT * np.tanh(K * i / SAT)
@@ -67,18 +128,37 @@ def simulate(effect, A, f, i, rng, cycles=4):
         if "inertia" in effect.split(","): extra += M * a
         if "thermal_drift" in effect.split(","): fy = fy * (1 - T / THY); c = c * (1 - T / THC)
         out[k] = fy * d + c * v + extra
-    x = A * np.sin(w * t); v = A * w * np.cos(w * t)
-    return t, x + rng.normal(0, 2e-6, n), v + rng.normal(0, 2e-4, n), out + rng.normal(0, float(os.environ.get("NOISE", str(NOISE0))), n)
+        for s in range(SUB):
+            tt = t[k] + s * h
+            v = kin(tt)[1] if WAVE == "sine" else VS[k, s]
+            if "hysteresis" in effect.split(","):  # Bouc-Wen n = 2, beta = 1, gamma = 0, A = 1 (no viscous knee)
+                x0 = 4e-4
+                def r(zz): return (v - abs(v) * zz * abs(zz)) / x0
+                k1 = r(z); k2 = r(z + h/2*k1); k3 = r(z + h/2*k2); k4 = r(z + h*k3)
+                z = float(np.clip(z + h/6*(k1 + 2*k2 + 2*k3 + k4), -1, 1))
+            if "thermal_drift" in effect.split(","):
+                fy = (FC0 + K * i) * (1 - T / THY)
+                P = max((fy * np.sign(v) + C0 * (1 - T / THC) * v) * v, 0.0)
+                T += h * (P - T / 60.0)
+    x, v, _ = kin(t)
+    if levels is not None:
+        i = np.array([levels[min(int(k * len(levels) / n), len(levels) - 1)] for k in range(n)])
+    return i, t, x + rng.normal(0, 2e-6, n), v + rng.normal(0, 2e-4, n), out + rng.normal(0, float(os.environ.get("NOISE", str(NOISE0))), n)
 
 def main():
     effect, outdir, seed = sys.argv[1], sys.argv[2], int(sys.argv[3]) if len(sys.argv) > 3 else 1
     rng = np.random.default_rng(seed)
     shutil.rmtree(outdir, ignore_errors=True); os.makedirs(outdir)
-    for g, A, f in GROUPS:
-        for i in CURRENTS:
-            t, x, v, F = simulate(effect, A, f, i, rng)
-            with open(os.path.join(outdir, f"{g}_{i:g}A.csv".replace(".", "p", 1) if False else f"{g}_{int(i*10):03d}dA.csv"), "w") as o:
-                o.write(f"# source: independent synthetic truth ({effect})\n# sample_rate_hz: {FS:g}\nt_s,x_m,v_m_s,i_a,f_n\n")
-                for r in zip(t, x, v, np.full_like(t, i), F):
+    for gi, (g, A, f) in enumerate(GROUPS):
+        for i in ([CURRENTS] if os.environ.get("STEPS") == "1" else CURRENTS):
+            I, t, x, v, F = simulate(effect, A, f, i, rng, gi)
+            I = np.full_like(t, i) if np.isscalar(I) else I
+            t = t + T0 if T0 else t
+            cols = [t, x, I, F] if NOVEL else [t, x, v, I, F]
+            name = f"{g}_steps.csv" if not np.isscalar(i) else f"{g}_{int(i*10):03d}dA.csv"
+            with open(os.path.join(outdir, name), "w") as o:
+                o.write(f"# source: independent synthetic truth ({effect})\n# sample_rate_hz: {FS:g}\n"
+                        + ("t_s,x_m,i_a,f_n\n" if NOVEL else "t_s,x_m,v_m_s,i_a,f_n\n"))
+                for r in zip(*cols):
                     o.write(",".join(repr(float(q)) for q in r) + "\n")
 main()
