@@ -510,11 +510,20 @@ pub const DIRECTION_SIGMAS: f64 = 4.0;
 /// residual of a correct model is the load-cell noise again. The noise of the velocity is estimated from
 /// the data ([`velocity_noise_std`]), so noise-free velocity loses almost no samples.
 pub fn direction_weights(t: &Test) -> Vec<f64> {
-    let thr = DIRECTION_SIGMAS * velocity_noise_std(t);
-    t.inputs
-        .iter()
-        .map(|i| if i.v_m_s.abs() < thr { 0.0 } else { 1.0 })
-        .collect()
+    let weight = |v: f64, sd: f64| if v.abs() < DIRECTION_SIGMAS * sd { 0.0 } else { 1.0 };
+    match &t.velocity_noise_m_s {
+        // A velocity derived here: its noise at each sample (larger at the ends of the test).
+        Some(sd) if sd.len() == t.inputs.len() => t
+            .inputs
+            .iter()
+            .zip(sd)
+            .map(|(i, sd)| weight(i.v_m_s, *sd))
+            .collect(),
+        _ => {
+            let sd = velocity_noise_std(t);
+            t.inputs.iter().map(|i| weight(i.v_m_s, sd)).collect()
+        }
+    }
 }
 
 /// Standard deviation of the noise in the velocity a test's model is given: [`Test::velocity_noise_m_s`]
@@ -525,8 +534,9 @@ pub fn direction_weights(t: &Test) -> Vec<f64> {
 /// it is the displacement's white noise times the differentiator's noise gain, the root-sum-square of its
 /// response to a unit impulse on the test's own time grid.
 pub fn velocity_noise_std(t: &Test) -> f64 {
-    if let Some(sd) = t.velocity_noise_m_s {
-        return sd;
+    if let Some(sd) = t.velocity_noise_m_s.as_ref().filter(|sd| !sd.is_empty()) {
+        // Inside the test, where the centred window is used.
+        return sd[sd.len() / 2];
     }
     if t.velocity_measured {
         let v: Vec<f64> = t.inputs.iter().map(|i| i.v_m_s).collect();
