@@ -101,31 +101,34 @@ const REAL: Device = Device {
     bw_gamma_share: 0.0,
 };
 
-/// (group name, amplitude m, frequency Hz, cycles, sample rate Hz).
-const GROUPS: [(&str, f64, f64, f64, f64); 3] = [
+/// One group of tests: (group name, amplitude m, frequency Hz, cycles, sample rate Hz).
+type Group = (&'static str, f64, f64, f64, f64);
+
+/// The default groups.
+const GROUPS: [Group; 3] = [
     ("s20mm1Hz", 0.02, 1.0, 3.0, 1000.0),
     ("s10mm2p5Hz", 0.01, 2.5, 4.0, 1000.0),
     ("s30mm0p4Hz", 0.03, 0.4, 2.0, 500.0),
 ];
 /// Longer tests, all at 1 kHz (four cycles each): where a differentiator's window matters most.
-const GROUPS_LONG: [(&str, f64, f64, f64, f64); 3] = [
+const GROUPS_LONG: [Group; 3] = [
     ("s20mm1Hz", 0.02, 1.0, 4.0, 1000.0),
     ("s10mm2p5Hz", 0.01, 2.5, 4.0, 1000.0),
     ("s30mm0p4Hz", 0.03, 0.4, 4.0, 1000.0),
 ];
 /// The real damper's kind of tests (its groups are 10 mm 1 Hz, 25 mm 0.25 Hz and 2 mm 5 Hz).
-const GROUPS_REAL: [(&str, f64, f64, f64, f64); 3] = [
+const GROUPS_REAL: [Group; 3] = [
     ("r10mm1Hz", 0.01, 1.0, 3.0, 1000.0),
     ("r2mm5Hz", 0.002, 5.0, 8.0, 1000.0),
     ("r20mm0p3Hz", 0.02, 0.3, 2.0, 500.0),
 ];
 /// Two groups only, each one sine frequency.
-const GROUPS_TWO: [(&str, f64, f64, f64, f64); 2] = [
+const GROUPS_TWO: [Group; 2] = [
     ("s15mm1p5Hz", 0.015, 1.5, 3.0, 1000.0),
     ("s8mm3Hz", 0.008, 3.0, 6.0, 1000.0),
 ];
 /// The groups of [`GROUPS`] sampled at 2 kHz.
-const GROUPS_2K: [(&str, f64, f64, f64, f64); 3] = [
+const GROUPS_2K: [Group; 3] = [
     ("s20mm1Hz", 0.02, 1.0, 3.0, 2000.0),
     ("s10mm2p5Hz", 0.01, 2.5, 4.0, 2000.0),
     ("s30mm0p4Hz", 0.03, 0.4, 2.0, 2000.0),
@@ -220,7 +223,7 @@ impl Truth<'_> {
 fn stepped_file(
     dev: &Device,
     hidden: &[&str],
-    group: (&str, f64, f64, f64, f64),
+    group: Group,
     levels: &[f64],
     velocity_channel: bool,
     rng: &mut ChaCha8Rng,
@@ -240,7 +243,7 @@ fn stepped_file(
 fn stepped_measurement(
     dev: &Device,
     hidden: &[&str],
-    group: (&str, f64, f64, f64, f64),
+    group: Group,
     levels: &[f64],
     velocity_channel: bool,
     rng: &mut ChaCha8Rng,
@@ -309,13 +312,7 @@ fn check(hidden: &[&str], velocity_channel: bool, seed: u64) {
 }
 
 /// One file per group and current, like the real damper's tests.
-fn data_set(
-    dev: &Device,
-    groups: &[(&str, f64, f64, f64, f64)],
-    hidden: &[&str],
-    velocity_channel: bool,
-    seed: u64,
-) -> Vec<Test> {
+fn data_set(dev: &Device, groups: &[Group], hidden: &[&str], velocity_channel: bool, seed: u64) -> Vec<Test> {
     measurements(dev, groups, hidden, velocity_channel, seed)
         .iter()
         .map(Test::from_measurement)
@@ -325,7 +322,7 @@ fn data_set(
 /// The files of [`data_set`], as measurements.
 fn measurements(
     dev: &Device,
-    groups: &[(&str, f64, f64, f64, f64)],
+    groups: &[Group],
     hidden: &[&str],
     velocity_channel: bool,
     seed: u64,
@@ -338,13 +335,7 @@ fn measurements(
         .collect()
 }
 
-fn check_on(
-    dev: &Device,
-    groups: &[(&str, f64, f64, f64, f64)],
-    hidden: &[&str],
-    velocity_channel: bool,
-    seed: u64,
-) {
+fn check_on(dev: &Device, groups: &[Group], hidden: &[&str], velocity_channel: bool, seed: u64) {
     let tests = data_set(dev, groups, hidden, velocity_channel, seed);
     if let Err(e) = diagnosis_check::verdict(&tests, hidden, dev.limit_a) {
         panic!("independent truth: {e}");
@@ -548,7 +539,7 @@ fn independent_sweep_over_seeds_and_scales() {
     let mut failures = Vec::new();
     let mut runs = 0;
     for seed in seeds {
-        let scales: [(&str, &Device, &[(&str, f64, f64, f64, f64)]); 4] = [
+        let scales: [(&str, &Device, &[Group]); 4] = [
             ("paper", &PAPER, &GROUPS),
             ("paper-spencer", &PAPER_SPENCER, &GROUPS),
             ("paper-two-groups", &PAPER, &GROUPS_TWO),
