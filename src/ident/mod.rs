@@ -230,70 +230,72 @@ pub fn widest_unbiased_derivative(
         return (fallback.to_vec(), None);
     }
     let scale = dt.powi(order as i32);
-    // Every window tried has 2h + 1 ≤ n samples: h = 5 with n > 20, the wider ones with n > 4h. Returns the
-    // derivative, its noise variance at the centred window and at each of the first h samples (the end
-    // windows; the last h mirror them).
-    let apply = |h: usize| -> (Vec<f64>, f64, Vec<f64>) {
+    // Every window tried has 2h + 1 ≤ n samples: h = 5 with n > 20, the wider ones with n > 4h.
+    let apply = |h: usize| -> WindowFit {
         let fit = QuinticFit::new(h);
         let w = fit.derivative_weights(order, 0.0);
         let to_var = |w: &[f64]| w.iter().map(|x| x * x).sum::<f64>() * sd_y * sd_y / (scale * scale);
-        let mut out = vec![0.0; n];
+        let mut deriv = vec![0.0; n];
         for k in h..n - h {
-            out[k] = w.iter().zip(&y[k - h..=k + h]).map(|(w, y)| w * y).sum::<f64>() / scale;
+            deriv[k] = w.iter().zip(&y[k - h..=k + h]).map(|(w, y)| w * y).sum::<f64>() / scale;
         }
         // The first and last h samples: the end windows, the derivative taken off their centre. The last
         // window is the first one mirrored in time, which flips the sign of an odd derivative.
         let mirror = if order % 2 == 1 { -1.0 } else { 1.0 };
         let (head, tail) = (&y[..=2 * h], &y[n - 2 * h - 1..]);
-        let mut end_var = Vec::with_capacity(h);
+        let mut var_end = Vec::with_capacity(h);
         for j in 0..h {
             let we = fit.derivative_weights(order, (j as f64 - h as f64) / h as f64);
-            out[j] = we.iter().zip(head).map(|(w, y)| w * y).sum::<f64>() / scale;
-            out[n - 1 - j] = mirror * we.iter().rev().zip(tail).map(|(w, y)| w * y).sum::<f64>() / scale;
-            end_var.push(to_var(&we));
+            deriv[j] = we.iter().zip(head).map(|(w, y)| w * y).sum::<f64>() / scale;
+            deriv[n - 1 - j] = mirror * we.iter().rev().zip(tail).map(|(w, y)| w * y).sum::<f64>() / scale;
+            var_end.push(to_var(&we));
         }
-        (out, to_var(&w), end_var)
+        WindowFit {
+            h,
+            deriv,
+            var_centre: to_var(&w),
+            var_end,
+        }
     };
-    // Each accepted fit: its half-width, derivative, centred variance and end variances.
-    let (d5, v5, e5) = apply(5);
-    let mut fits = vec![(5usize, d5, v5, e5)];
+    // The fits accepted by the widening rule, narrowest first.
+    let mut fits = vec![apply(5)];
     for h in [7usize, 10, 15, 20, 30, 40] {
         if n <= 4 * h {
             break;
         }
-        let (cand, var_cand, end_cand) = apply(h);
-        let (_, best, var_best, _) = fits.last().expect("one fit");
+        let cand = apply(h);
+        let best = fits.last().expect("one fit");
         // Compare the centred fits, whose noise the rule's `E0` describes.
         let (mut ss, mut cnt) = (0.0, 0usize);
         for k in h..n - h {
-            let d = cand[k] - best[k];
+            let d = cand.deriv[k] - best.deriv[k];
             ss += d * d;
             cnt += 1;
         }
         let msd = ss / cnt.max(1) as f64;
-        let e0 = (var_best - var_cand).max(0.0);
+        let e0 = (best.var_centre - cand.var_centre).max(0.0);
         let n_eff = (cnt as f64 / (2 * h + 1) as f64).max(1.0);
         if msd > e0 * (1.0 + 3.0 * (2.0 / n_eff).sqrt()) {
             break;
         }
-        fits.push((h, cand, var_cand, end_cand));
+        fits.push(cand);
     }
     // The ends by the same rule on their own samples: a quintic evaluated off its centre bends the signal
     // far more than at the centre (on 2 mm at 5 Hz sampled at 500 Hz, the 61-sample window that is unbiased
     // at its centre was 0.65 mm/s off over the first 30 samples, 20x its noise, and a reversal there
-    // took the wrong sign). Widening the end window stops where the change at the first samples of both ends
-    // exceeds what noise makes there (nested fits again: the change's variance is the noise removed).
-    let var_at = |f: &(usize, Vec<f64>, f64, Vec<f64>), j: usize| if j < f.0 { f.3[j] } else { f.2 };
+    // took the wrong sign). Widening the end window stops where the change over the wider fit's end samples
+    // of both ends exceeds what noise makes there (nested fits again: the change's variance is the noise
+    // removed).
     let mut e = 0;
     for c in 1..fits.len() {
         let (prev, cand) = (&fits[e], &fits[c]);
         let (mut ss, mut e0) = (0.0, 0.0);
-        for j in 0..cand.0 {
+        for j in 0..cand.h {
             for k in [j, n - 1 - j] {
-                let d = cand.1[k] - prev.1[k];
+                let d = cand.deriv[k] - prev.deriv[k];
                 ss += d * d;
             }
-            e0 += 2.0 * (var_at(prev, j) - var_at(cand, j)).max(0.0);
+            e0 += 2.0 * (prev.var_at(j) - cand.var_at(j)).max(0.0);
         }
         // About one independent comparison per end: the centred rule's tolerance at n_eff = 1.
         if ss > e0 * (1.0 + 3.0 * 2f64.sqrt()) {
@@ -301,21 +303,44 @@ pub fn widest_unbiased_derivative(
         }
         e = c;
     }
-    let last = fits.len() - 1;
-    let h_mid = fits[last].0;
-    let mut out = fits[last].1.clone();
-    let mut sd = vec![fits[last].2.sqrt(); n];
-    // Within h_mid of either end, the end fit: centred where its window reaches, off-centre in its own end
-    // windows.
-    let end = &fits[e];
-    for j in 0..h_mid {
-        let v = var_at(end, j).sqrt();
-        for k in [j, n - 1 - j] {
-            out[k] = end.1[k];
-            sd[k] = v;
+    // Inside, the widest fit; within its half-width of either end, the ends' fit (centred where its window
+    // reaches, off-centre in its own end windows).
+    let mut mid = fits.pop().expect("one fit");
+    if let Some(end) = fits.get(e) {
+        for j in 0..mid.h {
+            for k in [j, n - 1 - j] {
+                mid.deriv[k] = end.deriv[k];
+            }
         }
     }
-    (out, Some(sd))
+    let end = fits.get(e).unwrap_or(&mid);
+    let mut sd = vec![mid.var_centre.sqrt(); n];
+    for j in 0..mid.h {
+        let v = end.var_at(j).sqrt();
+        sd[j] = v;
+        sd[n - 1 - j] = v;
+    }
+    (mid.deriv, Some(sd))
+}
+
+/// One window width of [`widest_unbiased_derivative`]: the derivative at every sample, and its noise variance
+/// at the centred samples and at each of the first `h` (the end windows; the last `h` mirror them).
+struct WindowFit {
+    h: usize,
+    deriv: Vec<f64>,
+    var_centre: f64,
+    var_end: Vec<f64>,
+}
+
+impl WindowFit {
+    /// Noise variance of the derivative at the `j`-th sample from either end.
+    fn var_at(&self, j: usize) -> f64 {
+        if j < self.h {
+            self.var_end[j]
+        } else {
+            self.var_centre
+        }
+    }
 }
 
 /// The cross-validation group of a test: the `group` metadata key when present, else the file stem up to
