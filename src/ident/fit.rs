@@ -255,6 +255,19 @@ impl<'a> Problem<'a> {
         p
     }
 
+    /// The same problem (tests, spans, weights, transforms) evaluated at another search vector: one
+    /// simulation.
+    fn at(&self, z: Vec<f64>) -> Self {
+        Problem::new(
+            self.model,
+            self.tests,
+            self.spans,
+            self.weights,
+            self.tf.clone(),
+            z,
+        )
+    }
+
     fn params_of(&self, z: &[f64]) -> Vec<f64> {
         z.iter().zip(&self.tf).map(|(z, t)| t.p(*z)).collect()
     }
@@ -433,7 +446,7 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
     for round in 0..4 {
         let free: Vec<usize> = (0..n).filter(|&k| !held[k]).collect();
         if round > 0 {
-            prob = Problem::new(model, tests, spans, &weights, tf.clone(), z_start.clone());
+            prob = prob.at(z_start.clone());
         }
         prob.free = free.clone();
         if let Some(j) = j0.take() {
@@ -492,7 +505,7 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
         if round < 3 && !staged {
             linear_warm_start(model, tests, spans, &weights, &mut p_lin);
             let z_lin: Vec<f64> = p_lin.iter().zip(&tf).map(|(p, t)| t.z(*p)).collect();
-            let trial = Problem::new(model, tests, spans, &weights, tf.clone(), z_lin.clone());
+            let trial = prob.at(z_lin.clone());
             evaluations += 1;
             if trial.resid.norm_squared() < sse * (1.0 - 1e-4) {
                 z_start = z_lin;
@@ -569,14 +582,7 @@ fn step_off_bound(prob: &Problem<'_>, stuck: &[usize], guess: &[f64], sse: f64) 
         }
         let mut z = prob.z.clone();
         z[k] = prob.tf[k].z(p + h);
-        let moved = Problem::new(
-            prob.model,
-            prob.tests,
-            prob.spans,
-            prob.weights,
-            prob.tf.clone(),
-            z,
-        );
+        let moved = prob.at(z);
         sims += 1;
         let dp = prob.params_of(&moved.z)[k] - p;
         if dp == 0.0 {
@@ -602,14 +608,7 @@ fn step_off_bound(prob: &Problem<'_>, stuck: &[usize], guess: &[f64], sse: f64) 
     };
     let mut z = prob.z.clone();
     z[k] = prob.tf[k].z(value);
-    let trial = Problem::new(
-        prob.model,
-        prob.tests,
-        prob.spans,
-        prob.weights,
-        prob.tf.clone(),
-        z,
-    );
+    let trial = prob.at(z);
     sims += 1;
     if trial.resid.norm_squared() < sse * (1.0 - 1e-4) {
         (Some(trial.z), sims)
