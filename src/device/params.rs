@@ -12,6 +12,10 @@ pub struct ParamSpec {
     pub lower: f64,
     pub upper: f64,
     pub doc: &'static str,
+    /// The value a parameter file that leaves this parameter out describes: set for a parameter added to an
+    /// effect later, whose value here gives the effect as it was before (files saved then stay readable and
+    /// mean what they meant). `None`: the parameter must be in every file.
+    pub absent: Option<f64>,
 }
 
 impl ParamSpec {
@@ -28,7 +32,14 @@ impl ParamSpec {
             lower,
             upper,
             doc,
+            absent: None,
         }
+    }
+
+    /// The value that a parameter file without this parameter means (see [`ParamSpec::absent`]).
+    pub const fn absent_means(mut self, v: f64) -> Self {
+        self.absent = Some(v);
+        self
     }
 
     /// Clamp a value into the bounds.
