@@ -128,6 +128,17 @@ pub fn inputs_and_velocity_noise(m: &Measurement) -> (Vec<Inputs>, Option<Vec<f6
             v_noise = sd_v;
         }
     }
+    // The displacement itself, smoothed by the same rule (the quintic's value at each sample): the
+    // hysteresis law integrates the path `|dx|` sample by sample, and white noise on `x` rectified there
+    // is travel the piston never made, which relaxes the state at every sample near a reversal (2 µm of
+    // noise at 1 kHz bent the fitted Bouc-Wen shape and left 2.4x the noise floor on data that the same
+    // shape fits to the floor when `x` is clean).
+    let (x_smooth, sd_smooth) = widest_unbiased_derivative(&m.x_m, 0, sd_x, dt, &m.x_m);
+    if sd_smooth.is_some() {
+        for (i, x) in inputs.iter_mut().zip(x_smooth) {
+            i.x_m = x;
+        }
+    }
     if m.a_m_s2.is_some() {
         return (inputs, v_noise);
     }
@@ -203,7 +214,7 @@ impl QuinticFit {
     }
 }
 
-/// The `order`-th derivative (1 or 2) of `y` (white noise `sd_y`, spacing `dt`) by a centred local quintic
+/// The `order`-th derivative (1 or 2; 0 smooths) of `y` (white noise `sd_y`, spacing `dt`) by a centred local quintic
 /// fit, the window widened (11, 15, 21, 31, 41, 61, 81 samples) until the mean-square change from the
 /// previous window is significantly more than pure noise would make: a larger change is signal the wider
 /// fit bends (bias), not noise. On pure noise the change has the mean `E0` = the noise variance the wider
@@ -502,6 +513,33 @@ mod tests {
             t_s: t,
             ..Default::default()
         }
+    }
+
+    /// The hysteresis law integrates the path `|dx|` sample by sample. Near the reversals of a 20 mm 1 Hz
+    /// sine at 2 kHz (|v| < 20 mm/s) a 2 µm displacement noise adds 8 % to that path, travel the piston never
+    /// made; the displacement handed to the model is smoothed, and adds under 1 %.
+    #[test]
+    fn the_path_near_reversals_is_the_piston_s_not_the_noise_s() {
+        let (amp, f_hz, rate, n) = (0.02, 1.0, 2000.0, 8000usize);
+        let w = std::f64::consts::TAU * f_hz;
+        let m = sine_without_velocity(amp, f_hz, rate, n, 11);
+        let inputs = inputs_of(&m);
+        let (mut truth, mut raw, mut model) = (0.0, 0.0, 0.0);
+        for k in 0..n - 1 {
+            if (amp * w * (w * m.t_s[k]).cos()).abs() < 0.02 {
+                truth += (amp * ((w * m.t_s[k + 1]).sin() - (w * m.t_s[k]).sin())).abs();
+                raw += (m.x_m[k + 1] - m.x_m[k]).abs();
+                model += (inputs[k + 1].x_m - inputs[k].x_m).abs();
+            }
+        }
+        assert!(
+            raw / truth - 1.0 > 0.04,
+            "the noise must matter here: raw path {raw}, truth {truth}"
+        );
+        assert!(
+            (model / truth - 1.0).abs() < 0.01,
+            "model path {model} m, truth {truth} m (raw {raw} m)"
+        );
     }
 
     /// 2 mm at 5 Hz sampled at 500 Hz, the first reversal 25 samples in: the 61-sample quintic that is
