@@ -19,8 +19,9 @@ fn model() -> Model {
 #[test]
 fn user_effect_is_unknown_until_registered() {
     assert!(Model::from_spec("bingham+gas_spring", &Registry::builtin(), PAPER_CURRENT_LIMIT_A).is_err());
-    // Base five, the gas spring's two, then the built-in hysteresis (yield displacement, knee velocity).
-    assert_eq!(model().n_params(), 5 + 2 + 2);
+    // Base five, the gas spring's two, then the built-in hysteresis (yield displacement, knee velocity, knee
+    // shape, gamma share).
+    assert_eq!(model().n_params(), 5 + 2 + 4);
 }
 
 #[test]
@@ -28,7 +29,7 @@ fn gas_spring_force_at_rest_follows_the_adiabatic_law() {
     let m = model();
     let (preload, length) = (40.0, 0.05);
     let mut p = BASE.to_vec();
-    p.extend([preload, length, 1e-4, 0.0]);
+    p.extend([preload, length, 1e-4, 0.0, 0.0, 0.0]);
     for x in [-0.02, 0.0, 0.02] {
         let rest = [Inputs {
             t_s: 0.0,
@@ -53,7 +54,7 @@ fn gas_spring_force_at_rest_follows_the_adiabatic_law() {
 fn gas_spring_adds_to_the_base_force_while_moving() {
     let m = model();
     let mut with = BASE.to_vec();
-    with.extend([40.0, 0.05, 1e-4, 0.0]);
+    with.extend([40.0, 0.05, 1e-4, 0.0, 0.0, 0.0]);
     let mut without = with.clone();
     without[5] = 0.0;
     let inputs: Vec<Inputs> = (0..2000)

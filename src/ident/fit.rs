@@ -19,7 +19,7 @@ use rayon::prelude::*;
 
 use super::residual::direction_weights;
 use super::{data_stats, Test};
-use crate::device::{bingham, DataStats, Model};
+use crate::device::{bingham, DataStats, Model, ParamSpec};
 
 /// A contiguous run of samples of one test that counts in the loss (`start..end`). The test is still
 /// integrated from its own first sample, so states carry over from samples that do not count.
@@ -76,7 +76,7 @@ impl Default for FitOptions {
         Self {
             start: None,
             hold: Vec::new(),
-            tol: 1e-7,
+            tol: 1e-6,
             max_iterations: 40,
             std_errors: true,
         }
@@ -379,8 +379,34 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
                 return Some(out);
             }
         }
-        Some(self.jacobian_cols(&self.free))
+        // A parameter on its bound sits where the transform is flat: its column is nearly zero and the
+        // search cannot move it (`step_off_bound` asks the data afterwards), so it costs no simulation.
+        let params = self.params_of(&self.z);
+        let specs = self.model.param_specs();
+        let moving: Vec<usize> = self
+            .free
+            .iter()
+            .copied()
+            .filter(|&k| !on_bound(&specs[k], params[k]))
+            .collect();
+        if moving.len() == self.free.len() {
+            return Some(self.jacobian_cols(&self.free));
+        }
+        let jm = self.jacobian_cols(&moving);
+        let mut out = DMatrix::zeros(self.n_res, self.free.len());
+        for (c, &k) in self.free.iter().enumerate() {
+            if let Some(m) = moving.iter().position(|&j| j == k) {
+                out.set_column(c, &jm.column(m));
+            }
+        }
+        Some(out)
     }
+}
+
+/// Whether a parameter value is on (within a fraction 2e-3 of) one of its bounds.
+fn on_bound(s: &ParamSpec, p: f64) -> bool {
+    (s.lower.is_finite() && (p - s.lower).abs() <= 2.0 * inside(s.lower, p))
+        || (s.upper.is_finite() && (p - s.upper).abs() <= 2.0 * inside(s.upper, p))
 }
 
 /// Fit `model` to the samples in `spans` of `tests`.
@@ -472,11 +498,7 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
         let params = prob.params_of(&prob.z);
         // A parameter on a bound has an enormous error in `z` (the transform flattens there): it is reported
         // at the bound, not held at its start.
-        let on_bound = |k: usize| {
-            let (p, s) = (params[k], &specs[k]);
-            (s.lower.is_finite() && (p - s.lower).abs() <= 2.0 * inside(s.lower, p))
-                || (s.upper.is_finite() && (p - s.upper).abs() <= 2.0 * inside(s.upper, p))
-        };
+        let on_bound = |k: usize| on_bound(&specs[k], params[k]);
         let (se_z, enormous) = if opts.std_errors {
             std_errors(&prob, &free)
         } else {

@@ -5,7 +5,7 @@
 //! |---|---|---|
 //! | [`magnetic_saturation`] | yield map | `sat_current_a` |
 //! | [`thermal_drift`] | yield scale | `thermal_energy_j`, `thermal_tau_s` |
-//! | [`hysteresis`] | direction | `hyst_x_yield_m`, `hyst_v_yield_m_s` |
+//! | [`hysteresis`] | direction | `hyst_x_yield_m`, `hyst_v_yield_m_s`, `hyst_knee`, `hyst_gamma_share` |
 //! | [`asymmetry`] | direction dependence | `asym_fraction` |
 //! | [`current_viscosity`] | damping | `visc_c1_n_s_per_m_per_a` |
 //! | [`stiffness`] | additive | `stiff_k_n_per_m`, `stiff_preload_n`, `stiff_k3_n_per_m3` |
