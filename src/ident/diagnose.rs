@@ -42,8 +42,8 @@ pub struct DiagnoseOptions {
     pub min_gain: f64,
     /// Smallest fraction of the held-out mean-square error above the noise floor an effect must remove.
     /// A tenth: where the model's own form of an effect differs from the device's (mrfeel's Dahl hysteresis
-    /// against a Bouc–Wen one), that difference is most of what is left, 10–15 times the noise, and a true
-    /// second effect removes only 15 % of it (though in every fold): a fifth missed heating beside such a
+    /// against a Bouc–Wen one, before session 8 fitted its shape), that difference is most of what is left,
+    /// 10–15 times the noise, and a true second effect removes only 15 % of it (though in every fold): a fifth missed heating beside such a
     /// hysteresis (`tests/independent_truth.rs`). The [`DiagnoseOptions::min_gain`] and every-fold rules
     /// still keep out effects that merely reshape that difference.
     pub min_excess_removed: f64,
