@@ -380,7 +380,9 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
             }
         }
         // A parameter on its bound sits where the transform is flat: its column is nearly zero and the
-        // search cannot move it (`step_off_bound` asks the data afterwards), so it costs no simulation.
+        // search cannot move it, so it costs no simulation. `step_off_bound` asks the data afterwards, for
+        // a parameter with a non-zero initial guess (it steps by a thousandth of it; the hysteresis shape,
+        // guessed at 0, is not asked).
         let params = self.params_of(&self.z);
         let specs = self.model.param_specs();
         let moving: Vec<usize> = self
