@@ -62,6 +62,8 @@ pub const PARAMS: [ParamSpec; 5] = [
 
 /// Number of base states: coil current (Eq. 3) and fluid excitation (Eq. 4), both in amperes.
 pub const N_STATES: usize = 2;
+/// The parameters [`advance`] reads: the lags' time constants (the states are the lagged currents).
+pub const STATE_PARAMS: [usize; 2] = [TE, TM];
 
 /// The driver's saturation: the coil current command is limited to ±`limit_a` (the paper's driver
 /// saturates at 14 A; its supply could give 17 A).

@@ -104,6 +104,16 @@ pub trait Effect: Send + Sync {
     fn n_states(&self) -> usize {
         0
     }
+    /// Whether [`Effect::init_states`] or [`Effect::advance`] read `stage` or `force_n`, through which the
+    /// parameters of the base model and of the other effects reach this effect's states. The default, `true`,
+    /// is always right. An effect whose states follow only its own parameters and the inputs (the hysteresis
+    /// state follows the piston) may return `false`: the fitter then takes the force's sensitivity to every
+    /// parameter that no state depends on from the states of the pass it already made, without integrating the
+    /// test again (the same numbers, faster; `Model::state_params`). Returning `false` while reading either
+    /// makes the fit's Jacobian wrong.
+    fn states_read_the_force(&self) -> bool {
+        true
+    }
     /// Initial states at the first sample of a test.
     fn init_states(&self, _p: &[f64], _s: &mut [f64], _inp: &Inputs, _stage: &Stage) {}
     /// Edit the force assembly at this sample.

@@ -322,11 +322,57 @@ impl Model {
 
     /// Integrate one test from its own start and write the force at every sample into `out`.
     pub fn simulate_into(&self, p: &[f64], inputs: &[Inputs], out: &mut [f64]) {
+        self.integrate(p, inputs, out, None);
+    }
+
+    /// [`Model::simulate_into`], also keeping the state at every sample in `states` (cleared first;
+    /// [`Model::n_states`] values a sample, sample after sample) for [`Model::forces_on_states`].
+    pub fn simulate_recording(&self, p: &[f64], inputs: &[Inputs], out: &mut [f64], states: &mut Vec<f64>) {
+        states.clear();
+        states.reserve(inputs.len() * self.n_states);
+        self.integrate(p, inputs, out, Some(states));
+    }
+
+    /// Which parameters the states can depend on ([`Effect::states_read_the_force`]): the lags' time
+    /// constants and the parameters of effects with states, or every parameter when one of those effects
+    /// reads the force. A parameter marked `false` acts on the force only through the sample's force
+    /// assembly, so [`Model::forces_on_states`] gives the force it makes without a new integration.
+    pub fn state_params(&self) -> Vec<bool> {
+        let stateful = || self.slots.iter().filter(|s| !s.states.is_empty());
+        if stateful().any(|s| s.effect.states_read_the_force()) {
+            return vec![true; self.n_params()];
+        }
+        let mut out = vec![false; self.n_params()];
+        for k in bingham::STATE_PARAMS {
+            out[k] = true;
+        }
+        for slot in stateful() {
+            out[slot.params.clone()].fill(true);
+        }
+        out
+    }
+
+    /// The force at every sample assembled from states kept by [`Model::simulate_recording`]: for parameters
+    /// that differ from the recording's only where [`Model::state_params`] is `false`, the same numbers as
+    /// [`Model::simulate_into`], at the cost of the force assembly alone.
+    pub fn forces_on_states(&self, p: &[f64], inputs: &[Inputs], states: &[f64], out: &mut [f64]) {
+        assert_eq!(inputs.len(), out.len());
+        assert_eq!(states.len(), inputs.len() * self.n_states);
+        for (k, inp) in inputs.iter().enumerate() {
+            let s = &states[k * self.n_states..(k + 1) * self.n_states];
+            out[k] = self.eval(p, s, inp).force_n(inp.v_m_s);
+        }
+    }
+
+    fn integrate(&self, p: &[f64], inputs: &[Inputs], out: &mut [f64], mut record: Option<&mut Vec<f64>>) {
         assert_eq!(inputs.len(), out.len());
         let Some(first) = inputs.first() else { return };
         let mut s = self.init_state(p, first);
         for k in 0..inputs.len() {
             let inp = &inputs[k];
+            if let Some(r) = record.as_deref_mut() {
+                r.extend_from_slice(&s);
+            }
             let stage = self.eval(p, &s, inp);
             let f = stage.force_n(inp.v_m_s);
             out[k] = f;

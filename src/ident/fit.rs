@@ -192,6 +192,11 @@ struct Problem<'a> {
     z: Vec<f64>,
     /// Simulated force per test at `z`.
     sims: Vec<Vec<f64>>,
+    /// Which parameters the states can depend on ([`Model::state_params`]).
+    state_params: Vec<bool>,
+    /// The states at every sample per test at `z`, kept when some parameter acts on the force alone: its
+    /// Jacobian column then costs a force assembly over them, not an integration.
+    states: Vec<Vec<f64>>,
     resid: DVector<f64>,
     /// Weight of each sample in the loss, per test ([`direction_weights`]).
     weights: &'a [Vec<f64>],
@@ -243,6 +248,8 @@ impl<'a> Problem<'a> {
             free: Vec::new(),
             z,
             sims: Vec::new(),
+            state_params: model.state_params(),
+            states: Vec::new(),
             resid: DVector::zeros(n_res),
             weights,
             n_weighted,
@@ -272,28 +279,36 @@ impl<'a> Problem<'a> {
         z.iter().zip(&self.tf).map(|(z, t)| t.p(*z)).collect()
     }
 
-    fn simulate(&self, z: &[f64]) -> Vec<Vec<f64>> {
+    /// The force per test at `z`, and the states at every sample when they are worth keeping.
+    fn simulate(&self, z: &[f64]) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
         let p = self.params_of(z);
+        let keep = self.state_params.iter().any(|s| !s);
         (0..self.tests.len())
             .into_par_iter()
             .map(|j| {
                 let n = self.sim_len[j];
+                let (mut out, mut states) = (vec![0.0; n], Vec::new());
                 if n == 0 {
-                    return Vec::new();
+                    return (out, states);
                 }
-                let mut out = self.model.simulate(&p, &self.tests[j].inputs[..n]);
+                let inputs = &self.tests[j].inputs[..n];
+                if keep {
+                    self.model.simulate_recording(&p, inputs, &mut out, &mut states);
+                } else {
+                    self.model.simulate_into(&p, inputs, &mut out);
+                }
                 for v in &mut out {
                     if !v.is_finite() {
                         *v = self.blowup_n;
                     }
                 }
-                out
+                (out, states)
             })
-            .collect()
+            .unzip()
     }
 
     fn update(&mut self) {
-        self.sims = self.simulate(&self.z);
+        (self.sims, self.states) = self.simulate(&self.z);
         for (s, &o) in self.spans.iter().zip(&self.offsets) {
             let sim = &self.sims[s.test];
             let f = &self.tests[s.test].f_n;
@@ -309,7 +324,9 @@ impl<'a> Problem<'a> {
         }
     }
 
-    /// Forward-difference Jacobian of the residual w.r.t. `z[cols]`, parallel over (parameter, test).
+    /// Forward-difference Jacobian of the residual w.r.t. `z[cols]`, parallel over (parameter, test). A
+    /// parameter no state depends on is moved on the states kept at `z` (the same numbers as integrating
+    /// again, test `columns_of_parameters_no_state_reads_equal_a_new_integration`).
     fn jacobian_cols(&self, cols: &[usize]) -> DMatrix<f64> {
         let used: Vec<usize> = (0..self.tests.len()).filter(|&j| self.sim_len[j] > 0).collect();
         let tasks: Vec<(usize, usize)> = (0..cols.len())
@@ -325,7 +342,14 @@ impl<'a> Problem<'a> {
                 let h = z[k] - self.z[k];
                 let p = self.params_of(&z);
                 let n = self.sim_len[j];
-                let out = self.model.simulate(&p, &self.tests[j].inputs[..n]);
+                let inputs = &self.tests[j].inputs[..n];
+                let out = if self.state_params[k] || self.states[j].is_empty() {
+                    self.model.simulate(&p, inputs)
+                } else {
+                    let mut out = vec![0.0; n];
+                    self.model.forces_on_states(&p, inputs, &self.states[j], &mut out);
+                    out
+                };
                 (c, j, h, out)
             })
             .collect();
@@ -976,6 +1000,108 @@ mod tests {
         for name in ["stiff_k_n_per_m", "stiff_k3_n_per_m3", "inertia_mass_kg"] {
             let (got, want) = (fr.params[idx(name)], truth[idx(name)]);
             assert!((got - want).abs() < 0.01 * want, "{name}: {got} vs {want}");
+        }
+    }
+
+    /// The models the two tests below check: every built-in effect alone (so a wrong
+    /// `states_read_the_force` on any of them shows), and mixtures with and without an effect whose state
+    /// reads the force.
+    fn every_effect_models() -> Vec<String> {
+        let registry = Registry::builtin();
+        let mut specs: Vec<String> = registry.names().iter().map(|e| format!("bingham+{e}")).collect();
+        specs.push(
+            "bingham+hysteresis+asymmetry+stiffness+inertia+magnetic_saturation+current_viscosity".into(),
+        );
+        specs.push("bingham+hysteresis+thermal_drift+asymmetry".into());
+        specs
+    }
+
+    /// The truth of `stepped_sine` with every effect at its typical strength.
+    fn typical(model: &Model) -> (Vec<Test>, Vec<f64>) {
+        let base = Model::from_spec("bingham", &Registry::builtin(), 14.0).expect("model");
+        let mut tests = stepped_sine(&base);
+        let p = model
+            .typical_params(&TRUTH, &span_stats(&tests, &all_spans(&tests)))
+            .expect("typical");
+        tests[0].f_n = model.simulate(&p, &tests[0].inputs);
+        (tests, p)
+    }
+
+    /// A parameter that `Model::state_params` says no state depends on leaves every state of a test as it
+    /// was, to the bit, and the force assembled on the kept states is the force of a new integration; the
+    /// parameters of an effect with a state, the lags' time constants, and every parameter beside an effect
+    /// that reads the force are said to matter.
+    #[test]
+    fn a_parameter_no_state_depends_on_leaves_every_state_as_it_was() {
+        let registry = Registry::builtin();
+        for spec in every_effect_models() {
+            let model = Model::from_spec(&spec, &registry, 14.0).expect("model");
+            let (tests, p) = typical(&model);
+            let inputs = &tests[0].inputs;
+            let n = inputs.len();
+            let (mut f0, mut s0) = (vec![0.0; n], Vec::new());
+            model.simulate_recording(&p, inputs, &mut f0, &mut s0);
+            let flags = model.state_params();
+            for k in bingham::STATE_PARAMS {
+                assert!(flags[k], "{spec}: lag parameter {k}");
+            }
+            if spec.contains("thermal_drift") {
+                assert!(flags.iter().all(|f| *f), "{spec}: heating reads the force");
+            }
+            for k in (0..model.n_params()).filter(|&k| !flags[k]) {
+                let mut q = p.clone();
+                q[k] = model.param_specs()[k].clamp(p[k] * 1.05 + 1e-4);
+                let (mut f1, mut s1) = (vec![0.0; n], Vec::new());
+                model.simulate_recording(&q, inputs, &mut f1, &mut s1);
+                let name = &model.param_specs()[k].name;
+                assert!(s1 == s0, "{spec}: {name} moved a state");
+                assert!(
+                    f1 != f0,
+                    "{spec}: {name} did not move the force (the check would be empty)"
+                );
+                let mut assembled = vec![0.0; n];
+                model.forces_on_states(&q, inputs, &s0, &mut assembled);
+                assert!(assembled == f1, "{spec}: {name}: force on the kept states");
+            }
+        }
+        let hyst = Model::from_spec("bingham+hysteresis", &registry, 14.0).expect("model");
+        let force_only: Vec<usize> = (0..hyst.n_params())
+            .filter(|&k| !hyst.state_params()[k])
+            .collect();
+        assert_eq!(
+            force_only,
+            bingham::LINEAR_GAINS.to_vec(),
+            "hysteresis follows the piston only"
+        );
+    }
+
+    /// The fit's Jacobian takes the columns of parameters no state depends on from the kept states: the
+    /// same matrix, to the bit, as integrating every test again for every column.
+    #[test]
+    fn columns_of_parameters_no_state_reads_equal_a_new_integration() {
+        let registry = Registry::builtin();
+        for spec in every_effect_models() {
+            let model = Model::from_spec(&spec, &registry, 14.0).expect("model");
+            let (tests, p) = typical(&model);
+            let spans = all_spans(&tests);
+            let weights: Vec<Vec<f64>> = tests.iter().map(direction_weights).collect();
+            let tf: Vec<Transform> = model
+                .param_specs()
+                .iter()
+                .map(|s| Transform::for_bounds(s.lower, s.upper))
+                .collect();
+            // Away from the truth, so that the residual is not zero.
+            let z: Vec<f64> = p.iter().zip(&tf).map(|(p, t)| t.z(*p) * 0.9 + 0.01).collect();
+            let cols: Vec<usize> = (0..model.n_params()).collect();
+            let kept = Problem::new(&model, &tests, &spans, &weights, tf.clone(), z.clone());
+            let mut integrated = Problem::new(&model, &tests, &spans, &weights, tf, z);
+            integrated.state_params = vec![true; model.n_params()];
+            let (a, b) = (kept.jacobian_cols(&cols), integrated.jacobian_cols(&cols));
+            assert!(
+                a.column_iter().any(|c| c.norm() > 0.0),
+                "{spec}: an empty Jacobian"
+            );
+            assert!(a == b, "{spec}: the Jacobians differ");
         }
     }
 

@@ -213,14 +213,15 @@ fn runge_kutta(z: f64, n: usize, dx_m: f64, dt_s: f64, law: &Law) -> f64 {
         knee,
         g,
     } = *law;
-    let inv_n = 1.0 / n as f64;
-    let (dx, slip_per_z) = (dx_m * inv_n, v_yield_m_s * dt_s * inv_n);
-    let (inv_xy, beta, lin) = (1.0 / x_yield_m, 1.0 - g, 1.0 - knee);
+    // The slip increment of a sub-step in yield displacements: `ω / x_y = a − b z`.
+    let per_xy = 1.0 / (n as f64 * x_yield_m);
+    let (a, b) = (dx_m * per_xy, v_yield_m_s * dt_s * per_xy);
+    let (beta, lin) = (1.0 - g, 1.0 - knee);
     let f = |z: f64| {
-        let omega = dx - slip_per_z * z;
+        let omega = a - b * z;
         let q = z.abs().min(1.0);
         let psi = q * (lin + knee * q);
-        (omega - psi * (beta * omega.abs().copysign(z) + g * omega)) * inv_xy
+        omega - psi * (beta * omega.abs().copysign(z) + g * omega)
     };
     let mut z = z;
     for _ in 0..n {
@@ -329,6 +330,11 @@ impl Effect for Hysteresis {
 
     fn n_states(&self) -> usize {
         1
+    }
+
+    /// The state follows the piston's motion and this effect's own parameters only.
+    fn states_read_the_force(&self) -> bool {
+        false
     }
 
     /// A test starts on the steady branch of its first motion (`z = clamp(v/v_y)`; `sgn v` for Dahl).
