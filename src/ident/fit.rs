@@ -404,9 +404,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
             }
         }
         // A parameter on its bound sits where the transform is flat: its column is nearly zero and the
-        // search cannot move it, so it costs no simulation. `step_off_bound` asks the data afterwards, for
-        // a parameter with a non-zero initial guess (it steps by a thousandth of it; the hysteresis shape,
-        // guessed at 0, is not asked).
+        // search cannot move it, so it costs no simulation. `step_off_bound` asks the data afterwards.
         let params = self.params_of(&self.z);
         let specs = self.model.param_specs();
         let moving: Vec<usize> = self
@@ -607,15 +605,16 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
 }
 
 /// Whether the data pull a parameter that sits on a bound back inside: for each of `stuck`, the residual's
-/// sensitivity to the parameter itself (a forward difference of a thousandth of its data-derived initial
-/// guess, `guess`, inwards) gives the Gauss–Newton step in it alone; the parameter whose step points inside
-/// and promises most is moved there. Returns the search vector to refit from when that lowers the sum of
-/// squares `sse` by more than 10⁻⁴ of it (else `None`), and the simulations spent.
+/// sensitivity to the parameter itself (a forward difference inwards of a thousandth of its data-derived
+/// initial guess, `guess`, or of its bounds' span where the guess is 0) gives the Gauss–Newton step in it
+/// alone; the parameter whose step points inside and promises most is moved there, or a half, a quarter, an
+/// eighth of the way. Returns the search vector to refit from when that lowers the sum of squares `sse` by
+/// more than 10⁻⁴ of it (else `None`), and the simulations spent.
 fn step_off_bound(prob: &Problem<'_>, stuck: &[usize], guess: &[f64], sse: f64) -> (Option<Vec<f64>>, usize) {
     let specs = prob.model.param_specs();
     let params = prob.params_of(&prob.z);
     let mut sims = 0;
-    // (parameter, its new value, the decrease of the sum of squares the linear model promises)
+    // (parameter, the Gauss–Newton step in it, the decrease of the sum of squares the linear model promises)
     let mut best: Option<(usize, f64, f64)> = None;
     for &k in stuck {
         let (p, s) = (params[k], &specs[k]);
@@ -624,7 +623,14 @@ fn step_off_bound(prob: &Problem<'_>, stuck: &[usize], guess: &[f64], sse: f64) 
         } else {
             -1.0
         };
-        let h = inward * 1e-3 * guess[k].abs();
+        // A thousandth of the guess, or of the span between the bounds for a parameter guessed at 0 (the
+        // hysteresis shape starts at Dahl's, 0, between finite bounds).
+        let scale = if guess[k] != 0.0 {
+            guess[k].abs()
+        } else {
+            s.upper - s.lower
+        };
+        let h = inward * 1e-3 * scale;
         if h == 0.0 || !h.is_finite() {
             continue;
         }
@@ -648,21 +654,23 @@ fn step_off_bound(prob: &Problem<'_>, stuck: &[usize], guess: &[f64], sse: f64) 
         }
         let gain = jr * jr / jj;
         if best.is_none_or(|(_, _, g)| gain > g) {
-            best = Some((k, s.clamp(p + step), gain));
+            best = Some((k, step, gain));
         }
     }
-    let Some((k, value, _)) = best else {
+    let Some((k, step, _)) = best else {
         return (None, sims);
     };
-    let mut z = prob.z.clone();
-    z[k] = prob.tf[k].z(value);
-    let trial = prob.at(z);
-    sims += 1;
-    if trial.resid.norm_squared() < sse * (1.0 - 1e-4) {
-        (Some(trial.z), sims)
-    } else {
-        (None, sims)
+    // The linear model holds near the bound only: the step is halved until the sum of squares falls.
+    for halvings in 0..4 {
+        let mut z = prob.z.clone();
+        z[k] = prob.tf[k].z(specs[k].clamp(params[k] + step / f64::from(1 << halvings)));
+        let trial = prob.at(z);
+        sims += 1;
+        if trial.resid.norm_squared() < sse * (1.0 - 1e-4) {
+            return (Some(trial.z), sims);
+        }
     }
+    (None, sims)
 }
 
 /// Standard errors in `z` of the free parameters and the free parameters whose error is enormous.
@@ -1001,6 +1009,37 @@ mod tests {
             let (got, want) = (fr.params[idx(name)], truth[idx(name)]);
             assert!((got - want).abs() < 0.01 * want, "{name}: {got} vs {want}");
         }
+    }
+
+    /// The hysteresis shape is guessed at 0 (Dahl's): left on a bound by the search it is still asked whether
+    /// the data pull it back (a step of a thousandth of its bounds' span), and the truth's shape is found.
+    #[test]
+    fn a_shape_parameter_guessed_at_zero_comes_back_from_its_bound() {
+        use crate::device::effects::hysteresis::{GAMMA_SHARE, KNEE};
+        let model = Model::from_spec("bingham+hysteresis", &Registry::builtin(), 14.0).expect("model");
+        let (mut tests, mut truth) = typical(&model);
+        let (knee, share) = (model.n_params() - 4 + KNEE, model.n_params() - 4 + GAMMA_SHARE);
+        truth[knee] = 1.0;
+        truth[share] = 0.3;
+        tests[0].f_n = model.simulate(&truth, &tests[0].inputs);
+        let mut start = truth.clone();
+        start[share] = model.param_specs()[share].lower;
+        let r = fit(
+            &model,
+            &tests,
+            &all_spans(&tests),
+            &FitOptions {
+                start: Some(start),
+                ..Default::default()
+            },
+        );
+        assert!(
+            (r.params[share] - 0.3).abs() < 0.01 && (r.params[knee] - 1.0).abs() < 0.02,
+            "shape {} / {}: {}",
+            r.params[knee],
+            r.params[share],
+            r.notes[share]
+        );
     }
 
     /// The models the two tests below check: every built-in effect alone (so a wrong
