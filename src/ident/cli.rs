@@ -124,9 +124,13 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
     let t0 = std::time::Instant::now();
     let fr = fit(&model, &tests, &all_spans(&tests), &FitOptions::default());
     eprintln!(
-        "fitted in {:.2} s ({} simulations of the data, {})",
+        "fitted in {:.2} s ({} simulations of the data: {} evaluations and {} Jacobian columns; {} more columns \
+         assembled on kept states; {})",
         t0.elapsed().as_secs_f64(),
+        fr.evaluations + fr.jacobian_columns.0,
         fr.evaluations,
+        fr.jacobian_columns.0,
+        fr.jacobian_columns.1,
         fr.termination
     );
     let pred = evaluate(&model, &fr.params, &tests);

@@ -16,6 +16,7 @@
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use super::residual::direction_weights;
 use super::{data_stats, Test};
@@ -100,6 +101,9 @@ pub struct FitResult {
     pub f_ss: f64,
     /// Residual evaluations (whole simulations of the data) the search used.
     pub evaluations: usize,
+    /// Jacobian columns that integrated the data again (each a whole simulation of it), and columns
+    /// assembled on kept states (a parameter no state depends on; the force assembly alone).
+    pub jacobian_columns: (usize, usize),
     pub termination: String,
 }
 
@@ -209,6 +213,8 @@ struct Problem<'a> {
     /// Lowest sum of squares seen and its search vector (the search may end on a rejected trial).
     best: (f64, Vec<f64>),
     evaluations: usize,
+    /// Jacobian columns integrated and assembled on kept states, so far.
+    columns: [AtomicUsize; 2],
 }
 
 impl<'a> Problem<'a> {
@@ -257,6 +263,7 @@ impl<'a> Problem<'a> {
             first_jac: None,
             best: (f64::INFINITY, Vec::new()),
             evaluations: 0,
+            columns: Default::default(),
         };
         p.update();
         p
@@ -343,7 +350,11 @@ impl<'a> Problem<'a> {
                 let p = self.params_of(&z);
                 let n = self.sim_len[j];
                 let inputs = &self.tests[j].inputs[..n];
-                let out = if self.state_params[k] || self.states[j].is_empty() {
+                let integrate = self.state_params[k] || self.states[j].is_empty();
+                if j == used[0] {
+                    self.columns[usize::from(!integrate)].fetch_add(1, Ordering::Relaxed);
+                }
+                let out = if integrate {
                     self.model.simulate(&p, inputs)
                 } else {
                     let mut out = vec![0.0; n];
@@ -490,12 +501,16 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
 
     let mut z_start = z0.clone();
     let mut evaluations = 0;
+    let mut columns = [0usize; 2];
     let mut termination = String::from("no free parameters");
     let mut bound_note = vec![String::new(); n];
     let mut j0 = Some(j0);
     for round in 0..4 {
         let free: Vec<usize> = (0..n).filter(|&k| !held[k]).collect();
         if round > 0 {
+            for (n, c) in columns.iter_mut().zip(&prob.columns) {
+                *n += c.load(Ordering::Relaxed);
+            }
             prob = prob.at(z_start.clone());
         }
         prob.free = free.clone();
@@ -598,6 +613,10 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
             n: prob.n_weighted,
             f_ss: f_norm * f_norm,
             evaluations,
+            jacobian_columns: (
+                columns[0] + prob.columns[0].load(Ordering::Relaxed),
+                columns[1] + prob.columns[1].load(Ordering::Relaxed),
+            ),
             termination,
         };
     }
@@ -1141,6 +1160,13 @@ mod tests {
                 "{spec}: an empty Jacobian"
             );
             assert!(a == b, "{spec}: the Jacobians differ");
+            let assembled = model.state_params().iter().filter(|s| !**s).count();
+            let counted = kept.columns.each_ref().map(|c| c.load(Ordering::Relaxed));
+            assert_eq!(
+                counted,
+                [cols.len() - assembled, assembled],
+                "{spec}: columns counted"
+            );
         }
     }
 
