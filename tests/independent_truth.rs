@@ -416,6 +416,43 @@ fn independent_bouc_wen_shapes_are_fitted_to_the_noise() {
     }
 }
 
+/// Both truths scale the yield force by the sign of the velocity (`Fy (1 ± a)`, a seal's drag) while their
+/// Bouc-Wen state still sits on the old branch after a reversal. `asymmetry`'s share that follows the motion
+/// takes that form: fitted on all the data, the truth's model leaves the load cell's noise with the share
+/// near 1; held at 0 (the asymmetry following the yield state alone, as before session 9) it does not.
+#[test]
+fn independent_seal_asymmetry_beside_hysteresis_is_fitted_to_the_noise() {
+    let registry = Registry::builtin();
+    let tests = data_set(&PAPER, &GROUPS, &["hysteresis", "asymmetry"], true, 23);
+    let model = Model::from_spec("bingham+hysteresis+asymmetry", &registry, PAPER.limit_a).expect("model");
+    let spans = all_spans(&tests);
+    let r = fit(&model, &tests, &spans, &FitOptions::default());
+    let share = model.param_index("asym_motion_share").expect("share");
+    let fraction = r.params[model.param_index("asym_fraction").expect("fraction")];
+    let ratio = r.rmse_n() / PAPER.force_noise_n;
+    assert!(ratio < 1.2, "RMSE {:.3} N, {ratio:.2}x the noise", r.rmse_n());
+    assert!(r.params[share] > 0.9, "motion share {}", r.params[share]);
+    // Fy (1.15, 0.9) = Fy' (1 ± a) with a = 0.125 / 1.025.
+    assert!((fraction - 0.125 / 1.025).abs() < 0.01, "fraction {fraction}");
+    let mut start = model.initial_guess(&mrfeel::ident::fit::span_stats(&tests, &spans));
+    start[share] = 0.0;
+    let state_only = fit(
+        &model,
+        &tests,
+        &spans,
+        &FitOptions {
+            start: Some(start),
+            hold: vec![share],
+            ..Default::default()
+        },
+    );
+    let held = state_only.rmse_n() / PAPER.force_noise_n;
+    assert!(
+        held > 3.0 * ratio,
+        "share held at 0: {held:.2}x the noise, free {ratio:.2}x"
+    );
+}
+
 #[test]
 fn independent_tanh_saturation_is_named_magnetic_saturation() {
     check(&["magnetic_saturation"], true, 3);
