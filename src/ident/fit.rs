@@ -538,8 +538,11 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
         }
         evaluations += prob.evaluations;
         // A parameter the force did not depend on at the start may matter where the search went (the share of
-        // an asymmetry whose strength started at 0): asked once, after the first round, and freed if so.
-        let unasked: Vec<usize> = (0..n).filter(|&k| zero_held[k]).collect();
+        // an asymmetry whose strength started at 0): asked once, after the first round, and freed if so. Not
+        // the lags' time constants: they act through a change of the current, whatever the other parameters.
+        let unasked: Vec<usize> = (0..n)
+            .filter(|&k| zero_held[k] && !bingham::STATE_PARAMS.contains(&k))
+            .collect();
         if round == 0 && !unasked.is_empty() && !free.is_empty() {
             let jz = prob.jacobian_cols(&unasked);
             let mut freed = false;
