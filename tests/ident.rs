@@ -667,6 +667,48 @@ fn mts_runs_of_one_saved_hidden_device_are_diagnosed_together() {
     assert!(!out.status.success() && err.contains(&s(&bad)), "{err}");
 }
 
+/// `--save` and `--save-device` write JSON, and a parameter file is read by its extension: a `.toml` name
+/// would be written and then fail to load as a device file. Refused before any work, naming the flag and
+/// the file; nothing is written.
+#[test]
+fn saving_parameters_under_a_name_that_is_not_json_is_refused_before_any_work() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let registry = Registry::builtin();
+    let tests = synth(
+        &case(Protocol::Sine, 500.0, true, 1, 3.0, 14),
+        &[],
+        &registry,
+        0.3,
+    );
+    let files = write_tests(dir.path(), &tests);
+    let toml = dir.path().join("params.toml");
+    let out = mrfeel(&["fit", &files[0], "--save", toml.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(
+        err.contains("--save") && err.contains("params.toml") && err.contains("saved as JSON"),
+        "{err}"
+    );
+    assert!(!err.contains("fitting"), "refused before the fit: {err}");
+    assert!(!toml.exists());
+    let csv = dir.path().join("mts.csv");
+    let out = mrfeel(&[
+        "mts",
+        "--current",
+        "2",
+        "--out",
+        csv.to_str().unwrap(),
+        "--save-device",
+        toml.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("--save-device") && err.contains("saved as JSON"),
+        "{err}"
+    );
+    assert!(!toml.exists() && !csv.exists(), "nothing written");
+}
+
 #[test]
 fn fit_save_then_validate_reports_the_same_error_without_refitting() {
     let dir = tempfile::tempdir().expect("tempdir");

@@ -273,6 +273,21 @@ impl ParamsFile {
         }
     }
 
+    /// Refuse, before any work, a path to save parameters to that would not be read back as such:
+    /// [`ParamsFile::write`] writes JSON, and [`DeviceConfig::load`] reads a file by its extension (a `.toml`
+    /// as a device file, which JSON is not).
+    pub fn check_path(flag: &str, path: &Path) -> Result<(), String> {
+        if path.extension().and_then(|e| e.to_str()) == Some("json") {
+            Ok(())
+        } else {
+            Err(format!(
+                "{flag} {}: parameters are saved as JSON and read back by the file's extension; name the file \
+                 *.json (nothing was run)",
+                path.display()
+            ))
+        }
+    }
+
     /// Write as pretty JSON with a final newline (what `fit --save` and `mts --save-device` write).
     pub fn write(&self, path: &Path) -> std::io::Result<()> {
         let text = serde_json::to_string_pretty(self).map_err(std::io::Error::other)?;

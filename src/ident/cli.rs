@@ -109,6 +109,9 @@ fn limit_of(arg: Option<f64>, tests: &[Test]) -> anyhow::Result<f64> {
 }
 
 pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
+    if let Some(path) = &a.save {
+        ParamsFile::check_path("--save", path).map_err(anyhow::Error::msg)?;
+    }
     let registry = Registry::builtin();
     let tests = load_tests(&a.data)?;
     let limit = limit_of(a.current_limit_a, &tests)?;

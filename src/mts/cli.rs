@@ -111,6 +111,9 @@ fn parse_set(items: &[String]) -> Result<Vec<(String, f64)>> {
 }
 
 pub fn run(a: MtsArgs) -> Result<()> {
+    if let Some(path) = &a.save_device {
+        crate::device::ParamsFile::check_path("--save-device", path).map_err(anyhow::Error::msg)?;
+    }
     let registry = Registry::builtin();
     let device = load_device(a.device.as_deref(), &registry)?;
     let protocol = Protocol::from_name(&a.protocol, a.amplitude_m, a.frequency_hz)?;
