@@ -548,7 +548,7 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
             let mut freed = false;
             for (c, &k) in unasked.iter().enumerate() {
                 if jz.column(c).norm() > negligible {
-                    (held[k], zero_held[k], freed) = (false, false, true);
+                    (held[k], freed) = (false, true);
                     notes[k].clear();
                 }
             }
