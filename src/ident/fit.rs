@@ -102,7 +102,8 @@ pub struct FitResult {
     /// Residual evaluations (whole simulations of the data) the search used.
     pub evaluations: usize,
     /// Jacobian columns that integrated the data again (each a whole simulation of it), and columns
-    /// assembled on kept states (a parameter no state depends on; the force assembly alone).
+    /// assembled on kept states (a parameter no state depends on; the force assembly alone). A lag's time
+    /// constant where the current never changes is in neither: its column is zero, known without either.
     pub jacobian_columns: (usize, usize),
     pub termination: String,
 }
@@ -201,6 +202,9 @@ struct Problem<'a> {
     /// The states at every sample per test at `z`, kept when some parameter acts on the force alone: its
     /// Jacobian column then costs a force assembly over them, not an integration.
     states: Vec<Vec<f64>>,
+    /// Per test: the current command never changes over the simulated samples. The lags (Eq. 3–4) start
+    /// settled on it and stay there exactly, so their time constants' columns are zero without integrating.
+    steady_current: Vec<bool>,
     resid: DVector<f64>,
     /// Weight of each sample in the loss, per test ([`direction_weights`]).
     weights: &'a [Vec<f64>],
@@ -243,10 +247,20 @@ impl<'a> Problem<'a> {
                 .iter()
                 .fold(f_max, |m, f| m.max(f.abs()));
         }
+        let steady_current = tests
+            .iter()
+            .zip(&sim_len)
+            .map(|(t, &n)| {
+                let i = &t.inputs[..n];
+                i.iter()
+                    .all(|s| s.current_cmd_a.to_bits() == i[0].current_cmd_a.to_bits())
+            })
+            .collect();
         let mut p = Self {
             model,
             tests,
             spans,
+            steady_current,
             sim_len,
             offsets,
             n_res,
@@ -333,11 +347,25 @@ impl<'a> Problem<'a> {
 
     /// Forward-difference Jacobian of the residual w.r.t. `z[cols]`, parallel over (parameter, test). A
     /// parameter no state depends on is moved on the states kept at `z` (the same numbers as integrating
-    /// again, test `columns_of_parameters_no_state_reads_equal_a_new_integration`).
+    /// again, test `columns_of_parameters_no_state_reads_equal_a_new_integration`); a lag's time constant
+    /// in a test whose current never changes has a zero column, taken without a simulation (test
+    /// `a_lag_constant_where_the_current_never_changes_costs_no_simulation`).
     fn jacobian_cols(&self, cols: &[usize]) -> DMatrix<f64> {
         let used: Vec<usize> = (0..self.tests.len()).filter(|&j| self.sim_len[j] > 0).collect();
+        let unmoved = |k: usize, j: usize| bingham::STATE_PARAMS.contains(&k) && self.steady_current[j];
+        for &k in cols {
+            // Counted once per column: integrated if some test needs it.
+            let integrate = used
+                .iter()
+                .any(|&j| !unmoved(k, j) && (self.state_params[k] || self.states[j].is_empty()));
+            let assembled = !integrate && used.iter().any(|&j| !unmoved(k, j));
+            if integrate || assembled {
+                self.columns[usize::from(assembled)].fetch_add(1, Ordering::Relaxed);
+            }
+        }
         let tasks: Vec<(usize, usize)> = (0..cols.len())
             .flat_map(|c| used.iter().map(move |&j| (c, j)))
+            .filter(|&(c, j)| !unmoved(cols[c], j))
             .collect();
         let cols_out: Vec<(usize, usize, f64, Vec<f64>)> = tasks
             .par_iter()
@@ -351,9 +379,6 @@ impl<'a> Problem<'a> {
                 let n = self.sim_len[j];
                 let inputs = &self.tests[j].inputs[..n];
                 let integrate = self.state_params[k] || self.states[j].is_empty();
-                if j == used[0] {
-                    self.columns[usize::from(!integrate)].fetch_add(1, Ordering::Relaxed);
-                }
                 let out = if integrate {
                     self.model.simulate(&p, inputs)
                 } else {
@@ -562,7 +587,7 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
         // at the bound, not held at its start.
         let on_bound = |k: usize| on_bound(&specs[k], params[k]);
         let (se_z, enormous) = if opts.std_errors {
-            std_errors(&prob, &free)
+            std_errors(&prob, &free, on_bound)
         } else {
             (vec![None; free.len()], Vec::new())
         };
@@ -715,21 +740,42 @@ fn step_off_bound(prob: &Problem<'_>, stuck: &[usize], guess: &[f64], sse: f64) 
     (None, sims)
 }
 
-/// Standard errors in `z` of the free parameters and the free parameters whose error is enormous.
-fn std_errors(prob: &Problem<'_>, free: &[usize]) -> (Vec<Option<f64>>, Vec<usize>) {
+/// Standard errors in `z` of the free parameters and the free parameters whose error is enormous. A
+/// parameter `at_bound` has none and costs no Jacobian column: the bound is active, the others' errors are
+/// those with it fixed there (test `a_parameter_on_its_bound_gets_no_standard_error_and_costs_no_column`).
+fn std_errors(
+    prob: &Problem<'_>,
+    free: &[usize],
+    at_bound: impl Fn(usize) -> bool,
+) -> (Vec<Option<f64>>, Vec<usize>) {
     let m = prob.n_weighted;
     let nf = free.len();
     if nf == 0 || m <= nf {
         return (vec![None; nf], Vec::new());
     }
-    let jac = prob.jacobian_cols(free);
-    let s2 = prob.resid.norm_squared() / (m - nf) as f64;
+    let inside: Vec<usize> = (0..nf).filter(|&c| !at_bound(free[c])).collect();
+    let ji = prob.jacobian_cols(&inside.iter().map(|&c| free[c]).collect::<Vec<_>>());
+    let mut jac = DMatrix::zeros(prob.n_res, nf);
+    for (i, &c) in inside.iter().enumerate() {
+        jac.set_column(c, &ji.column(i));
+    }
+    // Degrees of freedom: a parameter held on its bound is not estimated.
+    let s2 = prob.resid.norm_squared() / (m - inside.len()) as f64;
     let norms: Vec<f64> = (0..nf).map(|c| jac.column(c).norm()).collect();
     let nmax = norms.iter().fold(0.0f64, |m, v| m.max(*v));
     // A column that vanished (relative to the others) is a parameter the data do not determine here.
-    let live: Vec<usize> = (0..nf).filter(|&c| norms[c] > 1e-12 * nmax).collect();
+    let live: Vec<usize> = inside
+        .iter()
+        .copied()
+        .filter(|&c| norms[c] > 1e-12 * nmax)
+        .collect();
     let mut se = vec![None; nf];
-    let mut enormous: Vec<usize> = (0..nf).filter(|c| !live.contains(c)).map(|c| free[c]).collect();
+    let mut enormous: Vec<usize> = inside
+        .iter()
+        .copied()
+        .filter(|c| !live.contains(c))
+        .map(|c| free[c])
+        .collect();
     let nl = live.len();
     if nl == 0 {
         return (se, enormous);
@@ -1258,5 +1304,91 @@ mod tests {
         assert!((d[0] - 1.0).abs() < 1e-12 && (d[1] + 1.0).abs() < 1e-12 && (d[2] - 3.0).abs() < 1e-12);
         // dᵀd − 2dᵀb at (1, −1, 3): 11 − 2·12.
         assert!((change + 13.0).abs() < 1e-12, "{change}");
+    }
+
+    /// A problem on `tests` at `typical`'s truth moved off it, and its transforms.
+    fn problem_off_truth<'a>(
+        model: &'a Model,
+        tests: &'a [Test],
+        spans: &'a [Span],
+        weights: &'a [Vec<f64>],
+        p: &[f64],
+    ) -> Problem<'a> {
+        let tf: Vec<Transform> = model
+            .param_specs()
+            .iter()
+            .map(|s| Transform::for_bounds(s.lower, s.upper))
+            .collect();
+        let z: Vec<f64> = p.iter().zip(&tf).map(|(p, t)| t.z(*p) * 0.9 + 0.01).collect();
+        Problem::new(model, tests, spans, weights, tf, z)
+    }
+
+    /// The lags start settled on the first command and stay there while it never changes: a time constant's
+    /// column is then exactly zero, and the Jacobian takes it without a simulation. Where the current steps it
+    /// is integrated as before, and the matrix is the same to the bit either way.
+    #[test]
+    fn a_lag_constant_where_the_current_never_changes_costs_no_simulation() {
+        let model = Model::from_spec("bingham+hysteresis", &Registry::builtin(), 14.0).expect("model");
+        let (stepped, p) = typical(&model);
+        let mut steady = stepped[0].clone();
+        for inp in &mut steady.inputs {
+            inp.current_cmd_a = 7.0;
+        }
+        steady.f_n = model.simulate(&p, &steady.inputs);
+        let cols: Vec<usize> = (0..model.n_params()).collect();
+        let integrating = model.state_params().iter().filter(|s| **s).count();
+        for (tests, lags_move) in [
+            (vec![steady.clone(), stepped[0].clone()], true),
+            (vec![steady], false),
+        ] {
+            let spans = all_spans(&tests);
+            let weights: Vec<Vec<f64>> = tests.iter().map(direction_weights).collect();
+            let skipping = problem_off_truth(&model, &tests, &spans, &weights, &p);
+            let mut reference = problem_off_truth(&model, &tests, &spans, &weights, &p);
+            reference.steady_current = vec![false; tests.len()];
+            let (a, b) = (skipping.jacobian_cols(&cols), reference.jacobian_cols(&cols));
+            assert!(a == b, "lags move: {lags_move}: the Jacobians differ");
+            for k in bingham::STATE_PARAMS {
+                assert_eq!(a.column(k).norm() > 0.0, lags_move, "lag {k}");
+            }
+            let integrated = skipping.columns[0].load(Ordering::Relaxed);
+            let expected = if lags_move { integrating } else { integrating - 2 };
+            assert_eq!(integrated, expected, "lags move: {lags_move}");
+        }
+    }
+
+    /// A parameter on its bound gets no standard error and costs no Jacobian column; the others' errors are
+    /// those of a fit with it fixed there.
+    #[test]
+    fn a_parameter_on_its_bound_gets_no_standard_error_and_costs_no_column() {
+        let model = Model::from_spec("bingham+hysteresis", &Registry::builtin(), 14.0).expect("model");
+        let (mut tests, p) = typical(&model);
+        // Noise, so that the residual (and every standard error) is not zero.
+        for (k, f) in tests[0].f_n.iter_mut().enumerate() {
+            *f += 0.3 * ((k * 7919) % 13) as f64 - 1.8;
+        }
+        let spans = all_spans(&tests);
+        let weights: Vec<Vec<f64>> = tests.iter().map(direction_weights).collect();
+        let prob = problem_off_truth(&model, &tests, &spans, &weights, &p);
+        let pinned = bingham::FC0;
+        let free: Vec<usize> = (0..model.n_params()).collect();
+        let (se, enormous) = std_errors(&prob, &free, |k| k == pinned);
+        let integrated = prob.columns[0].load(Ordering::Relaxed);
+        assert!(se[pinned].is_none() && !enormous.contains(&pinned));
+        let others: Vec<usize> = free.iter().copied().filter(|&k| k != pinned).collect();
+        let fresh = prob.at(prob.z.clone());
+        let (se_fixed, _) = std_errors(&fresh, &others, |_| false);
+        // The same columns (none for the pinned one): the fresh problem integrated as many.
+        assert_eq!(fresh.columns[0].load(Ordering::Relaxed), integrated);
+        for (c, &k) in others.iter().enumerate() {
+            match (se[k], se_fixed[c]) {
+                (Some(a), Some(b)) => assert!((a - b).abs() <= 1e-9 * b, "parameter {k}: {a} vs {b}"),
+                (a, b) => assert_eq!(a.is_some(), b.is_some(), "parameter {k}"),
+            }
+        }
+        assert!(
+            others.iter().any(|&k| se[k].is_some()),
+            "no standard error at all"
+        );
     }
 }
