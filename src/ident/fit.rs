@@ -541,12 +541,20 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
             }
             prob = prob.at(z_start.clone());
         }
-        prob.free = free.clone();
+        // A parameter on its bound at the start of a round has a zero column throughout (the Jacobian skips
+        // it), so the search could not move it: it is left out of the search, which then factorises a
+        // narrower matrix each step. `step_off_bound` asks the data whether it belongs inside.
+        let p_start = prob.params_of(&prob.z);
+        prob.free = free
+            .iter()
+            .copied()
+            .filter(|&k| !on_bound(&specs[k], p_start[k]))
+            .collect();
         if let Some(j) = j0.take() {
             // Round 0 starts at z0, where j0 was computed.
             prob.first_jac = Some((prob.z.clone(), j));
         }
-        if !free.is_empty() && prob.n_res > 0 {
+        if !prob.free.is_empty() && prob.n_res > 0 {
             let lm = LevenbergMarquardt::new()
                 .with_ftol(opts.tol)
                 .with_xtol(opts.tol)
