@@ -1223,16 +1223,9 @@ mod tests {
             let (tests, p) = typical(&model);
             let spans = all_spans(&tests);
             let weights: Vec<Vec<f64>> = tests.iter().map(direction_weights).collect();
-            let tf: Vec<Transform> = model
-                .param_specs()
-                .iter()
-                .map(|s| Transform::for_bounds(s.lower, s.upper))
-                .collect();
-            // Away from the truth, so that the residual is not zero.
-            let z: Vec<f64> = p.iter().zip(&tf).map(|(p, t)| t.z(*p) * 0.9 + 0.01).collect();
             let cols: Vec<usize> = (0..model.n_params()).collect();
-            let kept = Problem::new(&model, &tests, &spans, &weights, tf.clone(), z.clone());
-            let mut integrated = Problem::new(&model, &tests, &spans, &weights, tf, z);
+            let kept = problem_off_truth(&model, &tests, &spans, &weights, &p);
+            let mut integrated = problem_off_truth(&model, &tests, &spans, &weights, &p);
             integrated.state_params = vec![true; model.n_params()];
             let (a, b) = (kept.jacobian_cols(&cols), integrated.jacobian_cols(&cols));
             assert!(
@@ -1314,7 +1307,7 @@ mod tests {
         assert!((change + 13.0).abs() < 1e-12, "{change}");
     }
 
-    /// A problem on `tests` at `typical`'s truth moved off it, and its transforms.
+    /// A problem on `tests` at `typical`'s truth `p` moved off it (so that the residual is not zero).
     fn problem_off_truth<'a>(
         model: &'a Model,
         tests: &'a [Test],
