@@ -47,7 +47,10 @@ pub struct DiagnoseOptions {
     /// hysteresis (`tests/independent_truth.rs`). The [`DiagnoseOptions::min_gain`] and every-fold rules
     /// still keep out effects that merely reshape that difference.
     pub min_excess_removed: f64,
-    /// Stop adding once held-out RMSE ≤ this × the noise floor.
+    /// Stop adding once held-out RMSE ≤ this × the noise floor. 1.05 (1.1 until session 10, which left a
+    /// real-scale 15 kg mass under a 20 N noise unnamed at 1.09×: test
+    /// `independent_moving_mass_near_the_noise_at_the_real_scale_is_named_inertia`); below it the
+    /// significance rules alone keep a right model from being "improved".
     pub floor_ratio: f64,
     /// Time blocks for a single test.
     pub blocks: usize,
@@ -69,7 +72,7 @@ impl Default for DiagnoseOptions {
             current_limit_a: crate::device::PAPER_CURRENT_LIMIT_A,
             min_gain: 0.05,
             min_excess_removed: 0.1,
-            floor_ratio: 1.1,
+            floor_ratio: 1.05,
             blocks: 4,
             max_folds: 5,
             fit: FitOptions::default(),
