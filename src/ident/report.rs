@@ -259,7 +259,8 @@ pub fn diagnose_table(d: &Diagnosis) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "{} on {} samples: NRMSE {:.4} fitted on all, held-out NRMSE {:.4} ({}); noise floor NRMSE {:.4}",
+        "{} on {} samples: NRMSE {:.4} fitted on all (the fit's loss, without the samples whose velocity sign \
+         is unknown), held-out NRMSE {:.4} ({}); noise floor NRMSE {:.4}",
         d.base_model, d.samples, d.base_fit_nrmse, d.base_heldout_nrmse, d.cv_scheme, d.noise_floor_nrmse
     );
     if !d.where_.is_empty() {
