@@ -353,11 +353,11 @@ impl<'a> Problem<'a> {
     fn jacobian_cols(&self, cols: &[usize]) -> DMatrix<f64> {
         let used: Vec<usize> = (0..self.tests.len()).filter(|&j| self.sim_len[j] > 0).collect();
         let unmoved = |k: usize, j: usize| bingham::STATE_PARAMS.contains(&k) && self.steady_current[j];
+        // A new integration, or the force assembled on the states kept for test `j`.
+        let integrates = |k: usize, j: usize| self.state_params[k] || self.states[j].is_empty();
         for &k in cols {
             // Counted once per column: integrated if some test needs it.
-            let integrate = used
-                .iter()
-                .any(|&j| !unmoved(k, j) && (self.state_params[k] || self.states[j].is_empty()));
+            let integrate = used.iter().any(|&j| !unmoved(k, j) && integrates(k, j));
             let assembled = !integrate && used.iter().any(|&j| !unmoved(k, j));
             if integrate || assembled {
                 self.columns[usize::from(assembled)].fetch_add(1, Ordering::Relaxed);
@@ -378,8 +378,7 @@ impl<'a> Problem<'a> {
                 let p = self.params_of(&z);
                 let n = self.sim_len[j];
                 let inputs = &self.tests[j].inputs[..n];
-                let integrate = self.state_params[k] || self.states[j].is_empty();
-                let out = if integrate {
+                let out = if integrates(k, j) {
                     self.model.simulate(&p, inputs)
                 } else {
                     let mut out = vec![0.0; n];
