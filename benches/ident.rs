@@ -1,8 +1,10 @@
 //! Speed of model discovery, each figure with its baseline in the same run:
 //! - `fit/real`: one simulation pass of `bingham+hysteresis` over the 15 real tests (82,638 samples, the
 //!   unit of work), the plain `bingham` fit, and the `bingham+hysteresis` fit (goal < 0.5 s; scipy ~10 s);
-//! - `diagnose/60k`: a `bingham` fit of 60,000 synthetic samples (baseline) and `diagnose` over the whole
-//!   effect vocabulary on them (goal < 10 s on 2 cores).
+//! - `diagnose/60k`: a `bingham` fit of 60,000 synthetic samples (baseline), the reading of their current
+//!   commands that `mrfeel fit` and `mrfeel diagnose` decide first where a test's current steps (`auto`: the
+//!   starting model fitted both ways, without standard errors), and `diagnose` over the whole effect
+//!   vocabulary on them (goal < 10 s on 2 cores, with the decision).
 //!
 //! `cargo bench --bench ident`
 
@@ -15,6 +17,7 @@ use rand_distr::{Distribution, Normal};
 
 use mrfeel::device::{Inputs, Model, ModelSpec, Registry};
 use mrfeel::ident::fit::{all_spans, fit, FitOptions};
+use mrfeel::ident::timing::{decide, TimingChoice};
 use mrfeel::ident::{data_stats, diagnose, load_tests, DiagnoseOptions, Test};
 
 fn real_tests() -> Vec<Test> {
@@ -114,6 +117,13 @@ fn bench_diagnose(c: &mut Criterion) {
     g.sample_size(10).measurement_time(Duration::from_secs(60));
     g.bench_function("fit bingham", |b| {
         b.iter(|| fit(&bing, &tests, &spans, &FitOptions::default()))
+    });
+    let quick = FitOptions {
+        std_errors: false,
+        ..FitOptions::default()
+    };
+    g.bench_function("decide command timing (auto)", |b| {
+        b.iter(|| decide(&bing, &tests, TimingChoice::Auto, &quick))
     });
     g.bench_function("diagnose whole vocabulary", |b| {
         b.iter(|| diagnose(&tests, &base, &registry, &opts).expect("diagnose"))

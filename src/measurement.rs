@@ -532,6 +532,35 @@ fn local_poly_slope(t: &[f64], y: &[f64], t0: f64, degree: usize) -> f64 {
     }
 }
 
+/// When the current command logged at a sample takes effect (see `ident::timing`): after its sample (a
+/// DAQ loop that reads the sensors, then writes the command) or at it (in force at the sample it is logged
+/// with).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum CommandTiming {
+    /// Over the interval after its sample (read the sensors, then write the command).
+    #[default]
+    AfterSample,
+    /// Over the interval before its sample: in force at the sample it is logged with.
+    AtSample,
+}
+
+impl CommandTiming {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::AfterSample => "after-sample",
+            Self::AtSample => "at-sample",
+        }
+    }
+
+    /// In words, for reports.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Self::AfterSample => "each logged current command acts after its own sample",
+            Self::AtSample => "each logged current command is already in force at its own sample",
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

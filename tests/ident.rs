@@ -767,6 +767,84 @@ fn fit_save_then_validate_reports_the_same_error_without_refitting() {
 }
 
 #[test]
+fn a_current_in_force_at_the_sample_it_is_logged_with_is_read_so_and_saved_with_the_parameters() {
+    // Data as a generator writes them that forms each sample's force from that sample's current: a device
+    // without lags (Eq. 2 alone, written here by hand), the current stepping inside each of three files.
+    // Read after its sample (a DAQ that reads, then writes), every step leaves one sample off by the whole
+    // change of the yield force, and the right model ends far above the noise.
+    let dir = tempfile::tempdir().expect("tempdir");
+    let d = dir.path();
+    let c = case(Protocol::Sine, 1000.0, true, 3, 3.0, 31);
+    let mut rng = ChaCha8Rng::seed_from_u64(c.seed);
+    let noise = Normal::new(0.0, 0.2).expect("sigma");
+    let mut forces = Vec::new();
+    for file in 0..c.files {
+        let (truth, mut m) = make_inputs(&c, file, &mut rng);
+        m.f_n = truth
+            .iter()
+            .zip(&m.i_a)
+            .map(|(tr, i)| (2.0 + 4.83 * i) * tr.v_m_s.signum() + 60.0 * tr.v_m_s + noise.sample(&mut rng))
+            .collect();
+        m.path = d.join(format!("g{file}_steps.csv"));
+        m.write(&m.path).expect("write csv");
+        forces.extend(m.f_n);
+    }
+    let floor = 0.2 / (forces.iter().map(|f| f * f).sum::<f64>() / forces.len() as f64).sqrt();
+    let dir_s = d.display().to_string();
+    let heldout = |timing: &str| {
+        let out = mrfeel(&["diagnose", &dir_s, "--json", "--command-timing", timing]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let j: serde_json::Value = serde_json::from_slice(&out.stdout).expect("diagnose --json");
+        assert_eq!(j["missing"], serde_json::json!([]), "{timing}: {j}");
+        (
+            j["final"]["heldout_nrmse"].as_f64().unwrap(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    let (auto, note) = heldout("auto");
+    assert!(note.contains("command timing: at-sample"), "{note}");
+    assert!(auto < 1.2 * floor, "auto: held out {auto}, noise floor {floor}");
+    let (after, _) = heldout("after-sample");
+    assert!(
+        after > 1.5 * floor,
+        "read after the sample: held out {after}, noise floor {floor}"
+    );
+
+    // `fit --save` records the reading; `validate` reads the data the same way.
+    let params = d.join("params.json");
+    let p_s = params.display().to_string();
+    let out = mrfeel(&["fit", &dir_s, "--json", "--save", &p_s]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let fit: serde_json::Value = serde_json::from_slice(&out.stdout).expect("fit --json");
+    let saved = std::fs::read_to_string(&params).expect("params");
+    assert!(saved.contains("\"command_timing\": \"at-sample\""), "{saved}");
+    let validate = || {
+        let out = mrfeel(&["validate", &dir_s, "--params", &p_s, "--json"]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("validate --json");
+        v["nrmse"].as_f64().unwrap()
+    };
+    let same = validate();
+    assert!(
+        (same - fit["nrmse"].as_f64().unwrap()).abs() < 1e-12,
+        "{same} {fit}"
+    );
+    std::fs::write(&params, saved.replace("\"at-sample\"", "\"after-sample\"")).unwrap();
+    assert!(validate() > 1.5 * same, "the saved reading is used");
+
+    // A reading that is neither is refused with the file, line and field named.
+    std::fs::write(&params, saved.replace("\"at-sample\"", "\"sideways\"")).unwrap();
+    let out = mrfeel(&["validate", &dir_s, "--params", &p_s]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    let line = saved.lines().position(|l| l.contains("command_timing")).unwrap() + 1;
+    assert!(!out.status.success(), "{err}");
+    assert!(
+        err.contains(&format!("params.json:{line}: field `command_timing`")) && err.contains("sideways"),
+        "{err}"
+    );
+}
+
+#[test]
 fn unknown_effect_is_an_error_listing_the_known_ones() {
     let dir = tempfile::tempdir().expect("tempdir");
     let tests = synth(

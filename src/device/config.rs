@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 use super::model::{Damper, Model, ModelSpec, Registry, PAPER_CURRENT_LIMIT_A};
 use super::params::ParamValue;
 use super::DeviceError;
+use crate::measurement::CommandTiming;
 use crate::units::IN_TO_M;
 
 /// Table 1 geometry of the paper's device, in SI units (converted once from inches on load).
@@ -34,6 +35,9 @@ pub struct DeviceConfig {
     pub supply_limit_a: Option<f64>,
     pub geometry: Option<Geometry>,
     pub load_cell_range_n: Option<f64>,
+    /// When the logged current commands of the data the parameters were fitted to took effect (a
+    /// `PARAMS.json`'s `command_timing`; after their sample for device files).
+    pub command_timing: CommandTiming,
     pub path: PathBuf,
 }
 
@@ -110,6 +114,7 @@ impl DeviceConfig {
             supply_limit_a: file.driver.supply_limit_a,
             geometry,
             load_cell_range_n: file.load_cell.map(|l| l.range_n),
+            command_timing: CommandTiming::AfterSample,
             path: path.to_path_buf(),
         })
     }
@@ -130,12 +135,27 @@ impl DeviceConfig {
         let values: BTreeMap<String, (f64, usize)> =
             file.params.into_iter().map(|(k, v)| (k, (v.value, 0))).collect();
         let params = assign_params(&model, &values, path)?;
+        let command_timing = match file.command_timing.as_deref() {
+            None => CommandTiming::AfterSample,
+            Some(name) => <CommandTiming as clap::ValueEnum>::from_str(name, false).map_err(|_| {
+                DeviceError::Field {
+                    path: path.to_path_buf(),
+                    line: text.find("\"command_timing\"").map_or(0, |o| line_of(text, o)),
+                    field: "command_timing".into(),
+                    msg: format!(
+                        "`{name}` is not a command timing: `after-sample` (a command acts after the sample it \
+                         is logged with) or `at-sample` (in force at it)"
+                    ),
+                }
+            })?,
+        };
         Ok(Self {
             model: Arc::new(model),
             params,
             supply_limit_a: None,
             geometry: None,
             load_cell_range_n: None,
+            command_timing,
             path: path.to_path_buf(),
         })
     }
@@ -245,6 +265,10 @@ pub struct ParamsFile {
     /// Driver saturation the model was fitted with, A.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub current_limit_a: Option<f64>,
+    /// When the fitted data's logged current commands took effect, `after-sample` or `at-sample`
+    /// ([`CommandTiming`]); absent in files saved before session 11, which were all read after their sample.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub command_timing: Option<String>,
     pub params: BTreeMap<String, ParamValue>,
 }
 
@@ -269,6 +293,7 @@ impl ParamsFile {
         Self {
             model: model.name(),
             current_limit_a: Some(model.current_limit_a),
+            command_timing: None,
             params,
         }
     }

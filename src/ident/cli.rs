@@ -10,6 +10,7 @@ use super::diagnose::{diagnose, make_folds, DiagnoseOptions};
 use super::fit::{all_spans, fit, FitOptions};
 use super::report::{diagnose_table, DiagnoseJson, FitJson};
 use super::residual::where_regions;
+use super::timing::{decide, retimed, CommandTiming, TimingChoice, TimingDecision};
 use super::validate::{evaluate, figures};
 use super::{default_current_limit_a, load_tests, Test};
 use crate::device::{DeviceConfig, Model, ModelSpec, ParamsFile, Registry};
@@ -41,6 +42,11 @@ pub struct FitArgs {
     /// Also measure the held-out error: refit with each test group left out in turn (stderr).
     #[arg(long)]
     pub heldout: bool,
+    /// When each logged current command takes effect: `after-sample` (a DAQ that reads the sensors, then
+    /// writes the command), `at-sample` (already in force at the sample it is logged with), or `auto`: where
+    /// some test's command changes, the model is fitted both ways and the smaller error kept.
+    #[arg(long, value_enum, default_value_t = TimingChoice::Auto)]
+    pub command_timing: TimingChoice,
 }
 
 #[derive(clap::Args, Debug, Clone)]
@@ -75,6 +81,11 @@ pub struct DiagnoseArgs {
     pub rerun: Option<PathBuf>,
     #[arg(long)]
     pub current_limit_a: Option<f64>,
+    /// When each logged current command takes effect: `after-sample` (a DAQ that reads the sensors, then
+    /// writes the command), `at-sample` (already in force at the sample it is logged with), or `auto`: where
+    /// some test's command changes, the starting model is fitted both ways and the smaller error kept.
+    #[arg(long, value_enum, default_value_t = TimingChoice::Auto)]
+    pub command_timing: TimingChoice,
 }
 
 fn build_model(spec: &str, registry: &Registry, limit: f64) -> anyhow::Result<Model> {
@@ -125,7 +136,12 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
         tests.len()
     );
     let t0 = std::time::Instant::now();
-    let fr = fit(&model, &tests, &all_spans(&tests), &FitOptions::default());
+    let (tests, timing) = decide(&model, &tests, a.command_timing, &FitOptions::default());
+    note_timing(&timing);
+    let fr = match timing.kept_fit() {
+        Some(fr) => fr.clone(),
+        None => fit(&model, &tests, &all_spans(&tests), &FitOptions::default()),
+    };
     eprintln!(
         "fitted in {:.2} s ({} simulations of the data: {} evaluations and {} Jacobian columns; {} more columns \
          assembled on kept states; {})",
@@ -148,8 +164,9 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
         where_regions(&tests, &pred),
     );
     if let Some(path) = &a.save {
-        ParamsFile::new(&model, &fr.params, Some(&fr.std_err))
-            .write(path)
+        let mut file = ParamsFile::new(&model, &fr.params, Some(&fr.std_err));
+        file.command_timing = Some(timing.timing.as_str().to_string());
+        file.write(path)
             .with_context(|| format!("writing {}", path.display()))?;
         eprintln!("saved {}", path.display());
     }
@@ -175,6 +192,14 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
         &tests,
         &pred,
     )
+}
+
+/// The reading of the current commands, on stderr, where it matters: where a command changes inside a test,
+/// or where at-sample was asked for.
+fn note_timing(timing: &TimingDecision) {
+    if timing.fits.is_some() || timing.timing == CommandTiming::AtSample {
+        eprintln!("{}", timing.note());
+    }
 }
 
 fn outputs(
@@ -210,6 +235,12 @@ pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
     let saved: Option<ParamsFile> = std::fs::read_to_string(&a.params)
         .ok()
         .and_then(|s| serde_json::from_str(&s).ok());
+    let timing = TimingDecision {
+        timing: cfg.command_timing,
+        fits: None,
+    };
+    note_timing(&timing);
+    let tests = retimed(&tests, timing.timing);
     let pred = evaluate(&cfg.model, &cfg.params, &tests);
     let (per, total) = figures(&pred, &tests);
     let mut out = FitJson::new(
@@ -258,6 +289,12 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
         ..Default::default()
     };
     let t0 = std::time::Instant::now();
+    let quick = FitOptions {
+        std_errors: false,
+        ..FitOptions::default()
+    };
+    let (tests, timing) = decide(&base, &tests, a.command_timing, &quick);
+    note_timing(&timing);
     let d = diagnose(&tests, base.spec(), &registry, &opts)?;
     eprintln!("diagnosed in {:.1} s", t0.elapsed().as_secs_f64());
     if a.json {

@@ -13,6 +13,7 @@ pub mod plots;
 pub mod report;
 pub mod rerun_log;
 pub mod residual;
+pub mod timing;
 pub mod validate;
 
 use std::path::{Path, PathBuf};

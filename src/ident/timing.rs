@@ -1,0 +1,262 @@
+//! When a logged current command takes effect: after its own sample, or at it.
+//!
+//! A measurement row pairs the sensors read at `t_k` with the command `i_a` logged at `t_k`. Two rigs log
+//! that pair differently, and nothing in the file says which:
+//! - **after its sample** ([`CommandTiming::AfterSample`], the default): a DAQ loop reads the sensors, then
+//!   writes the command, so the command of row `k` acts over `(t_k, t_{k+1}]` and the force of row `k` was
+//!   made under the previous one. The paper's rig closes its PID loop this way, and `mrfeel mts` writes its
+//!   files so;
+//! - **at its sample** ([`CommandTiming::AtSample`]): a programmed step logged at the sample where it is
+//!   already in force (a test program that switches the current at `t_k`, or a generator that forms the
+//!   force at `t_k` from the current at `t_k`): the command of row `k` acted over `(t_{k−1}, t_k]`.
+//!
+//! Through the coil's and the fluid's lags (Eq. 3–4) the two differ by one sample of the step response,
+//! which the fitted time constants mostly absorb. Where the device has no lag of its own, each current step
+//! read the wrong way leaves one sample off by the whole change of the yield force: on synthetic data whose
+//! current steps inside each file (`python/independent_truth.py` with `STEPS=1`) a right model ended at 2.2×
+//! the noise floor, with a spike at every step. Where the command never changes inside a test (the real
+//! damper's files, most MTS tests) the two readings are the same model, and nothing is decided.
+//!
+//! `auto` decides by the data: the model is fitted both ways and the reading with the smaller sum of
+//! squares is kept (one more fit, only where some test's command changes).
+
+use super::fit::{all_spans, fit, FitOptions, FitResult};
+use super::Test;
+use crate::device::Model;
+pub use crate::measurement::CommandTiming;
+
+/// What the command line asks for: a reading, or `auto` (decided by the data).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum TimingChoice {
+    #[default]
+    Auto,
+    AfterSample,
+    AtSample,
+}
+
+/// Whether any test's command changes from one sample to the next (only then do the readings differ).
+pub fn commands_change(tests: &[Test]) -> bool {
+    tests.iter().any(|t| {
+        t.inputs
+            .windows(2)
+            .any(|w| w[0].current_cmd_a != w[1].current_cmd_a)
+    })
+}
+
+/// The tests as the model reads them under `timing`, from tests loaded as logged ([`Test::from_measurement`]
+/// reads them after their sample). At-sample: the model holds the command of row `k + 1` over
+/// `(t_k, t_{k+1}]`; the last row keeps its own, and the first sample's lags start settled at the command of
+/// row 1 (what is in force just after `t_0`).
+pub fn retimed(tests: &[Test], timing: CommandTiming) -> Vec<Test> {
+    let mut out = tests.to_vec();
+    if timing == CommandTiming::AtSample {
+        for t in &mut out {
+            let n = t.inputs.len();
+            for k in 0..n.saturating_sub(1) {
+                t.inputs[k].current_cmd_a = t.inputs[k + 1].current_cmd_a;
+            }
+        }
+    }
+    out
+}
+
+/// The reading chosen, with the two fits that chose it when `auto` had to decide.
+#[derive(Debug, Clone)]
+pub struct TimingDecision {
+    pub timing: CommandTiming,
+    /// `(after-sample fit, at-sample fit)` of the deciding model on every sample, when they were made.
+    pub fits: Option<(FitResult, FitResult)>,
+}
+
+impl TimingDecision {
+    /// The deciding fit of the reading kept, if any.
+    pub fn kept_fit(&self) -> Option<&FitResult> {
+        self.fits.as_ref().map(|(a, b)| match self.timing {
+            CommandTiming::AfterSample => a,
+            CommandTiming::AtSample => b,
+        })
+    }
+
+    /// One line for stderr and reports.
+    pub fn note(&self) -> String {
+        match &self.fits {
+            Some((a, b)) => format!(
+                "current command timing: {} ({}; fitted both ways: NRMSE {:.4} after its sample, {:.4} at it)",
+                self.timing.as_str(),
+                self.timing.describe(),
+                a.nrmse(),
+                b.nrmse()
+            ),
+            None => format!("current command timing: {} ({})", self.timing.as_str(), self.timing.describe()),
+        }
+    }
+}
+
+/// Decide the reading for `tests` (as loaded): the one asked for, or under `auto` the one whose fit of
+/// `model` on every sample has the smaller sum of squares (after-sample on a tie, and without fitting where
+/// no command changes). Returns the tests as the model reads them.
+pub fn decide(
+    model: &Model,
+    tests: &[Test],
+    choice: TimingChoice,
+    opts: &FitOptions,
+) -> (Vec<Test>, TimingDecision) {
+    let fixed = |timing| (retimed(tests, timing), TimingDecision { timing, fits: None });
+    match choice {
+        TimingChoice::AfterSample => fixed(CommandTiming::AfterSample),
+        TimingChoice::AtSample => fixed(CommandTiming::AtSample),
+        TimingChoice::Auto if !commands_change(tests) => fixed(CommandTiming::AfterSample),
+        TimingChoice::Auto => {
+            let at = retimed(tests, CommandTiming::AtSample);
+            let spans = all_spans(tests);
+            let fa = fit(model, tests, &spans, opts);
+            let fb = fit(model, &at, &spans, opts);
+            if fb.sse < fa.sse {
+                (
+                    at,
+                    TimingDecision {
+                        timing: CommandTiming::AtSample,
+                        fits: Some((fa, fb)),
+                    },
+                )
+            } else {
+                (
+                    tests.to_vec(),
+                    TimingDecision {
+                        timing: CommandTiming::AfterSample,
+                        fits: Some((fa, fb)),
+                    },
+                )
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::device::effects::testkit;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+
+    const NOISE_N: f64 = 0.2;
+    /// Current levels of the paper's driver, each held 0.25 s.
+    const LEVELS: [f64; 5] = [0.0, 14.0, 3.5, 10.5, 7.0];
+
+    /// A 1 Hz, 20 mm sine at 1 kHz whose current steps every 250 samples, and a device without lags whose
+    /// force is written here by hand (Eq. 2: 2 N + 4.83 N/A, 60 N·s/m): the current in force at sample `k`
+    /// is the command of row `k` (`at_sample`) or of row `k − 1`. Seeded load-cell noise.
+    fn lag_free(at_sample: bool, seed: u64) -> Vec<Test> {
+        let mut inputs = testkit::sine(0.02, 1.0, 0.0, 1e-3, 3.999);
+        for (k, inp) in inputs.iter_mut().enumerate() {
+            inp.current_cmd_a = LEVELS[(k / 250) % LEVELS.len()];
+        }
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let noise = Normal::new(0.0, NOISE_N).unwrap();
+        let f_n = (0..inputs.len())
+            .map(|k| {
+                let i = if at_sample {
+                    inputs[k]
+                } else {
+                    inputs[k.saturating_sub(1)]
+                }
+                .current_cmd_a;
+                let v = inputs[k].v_m_s;
+                (2.0 + 4.83 * i) * v.signum() + 60.0 * v + noise.sample(&mut rng)
+            })
+            .collect();
+        vec![Test {
+            path: "steps.csv".into(),
+            name: "steps.csv".into(),
+            group: "steps".into(),
+            f_n,
+            inputs,
+            velocity_measured: true,
+            velocity_noise_m_s: None,
+        }]
+    }
+
+    fn quick() -> FitOptions {
+        FitOptions {
+            std_errors: false,
+            ..FitOptions::default()
+        }
+    }
+
+    #[test]
+    fn a_step_in_force_at_its_own_sample_is_read_so_and_fitted_to_the_noise() {
+        let model = testkit::model("bingham");
+        for seed in [1, 2] {
+            let tests = lag_free(true, seed);
+            let (read, d) = decide(&model, &tests, TimingChoice::Auto, &quick());
+            assert_eq!(d.timing, CommandTiming::AtSample, "seed {seed}: {}", d.note());
+            let (after, at) = d.fits.as_ref().expect("both readings fitted");
+            // Read after its sample, every step (16 of them) leaves a sample off by the whole change of the
+            // yield force (17–68 N): several times the noise. Read at it, the right model meets the noise.
+            assert!(
+                at.rmse_n() < 1.05 * NOISE_N,
+                "seed {seed}: at-sample RMSE {}",
+                at.rmse_n()
+            );
+            assert!(
+                after.rmse_n() > 2.0 * NOISE_N,
+                "seed {seed}: after-sample RMSE {}",
+                after.rmse_n()
+            );
+            // The tests handed on are the ones that fit: the command of row k + 1 over (t_k, t_k+1].
+            assert_eq!(read[0].inputs[249].current_cmd_a, LEVELS[1]);
+            assert_eq!(tests[0].inputs[249].current_cmd_a, LEVELS[0]);
+        }
+    }
+
+    #[test]
+    fn a_daq_that_writes_after_reading_is_read_after_its_sample() {
+        let model = testkit::model("bingham");
+        let tests = lag_free(false, 3);
+        let (read, d) = decide(&model, &tests, TimingChoice::Auto, &quick());
+        assert_eq!(d.timing, CommandTiming::AfterSample, "{}", d.note());
+        let (after, at) = d.fits.as_ref().expect("both readings fitted");
+        assert!(
+            after.rmse_n() < 1.05 * NOISE_N && at.rmse_n() > 2.0 * NOISE_N,
+            "{}",
+            d.note()
+        );
+        assert_eq!(read[0].inputs, tests[0].inputs);
+    }
+
+    #[test]
+    fn a_command_that_never_changes_is_read_without_a_fit_and_asked_readings_are_kept() {
+        let model = testkit::model("bingham");
+        let mut tests = lag_free(true, 4);
+        for inp in &mut tests[0].inputs {
+            inp.current_cmd_a = 7.0;
+        }
+        let (_, d) = decide(&model, &tests, TimingChoice::Auto, &quick());
+        assert!(d.fits.is_none() && d.timing == CommandTiming::AfterSample);
+        // Asked for, a reading is taken as it is, even where the other would fit better.
+        let stepped = lag_free(true, 4);
+        let (read, d) = decide(&model, &stepped, TimingChoice::AfterSample, &quick());
+        assert!(d.fits.is_none() && d.timing == CommandTiming::AfterSample);
+        assert_eq!(read[0].inputs, stepped[0].inputs);
+    }
+
+    #[test]
+    fn a_lag_far_shorter_than_a_sample_is_held_on_its_bound() {
+        // Read at their sample, the steps of a device without lags are fitted by lags that run to ~0, where
+        // the force stops depending on them and their standard errors become enormous. Held at their initial
+        // value (5 sample intervals) they spoiled the fit; on their bound the force is the same as where the
+        // search left them.
+        let model = testkit::model("bingham");
+        let tests = retimed(&lag_free(true, 5), CommandTiming::AtSample);
+        let fr = fit(&model, &tests, &all_spans(&tests), &FitOptions::default());
+        assert!(
+            fr.rmse_n() < 1.05 * NOISE_N,
+            "RMSE {} N, notes {:?}",
+            fr.rmse_n(),
+            fr.notes
+        );
+        for k in [crate::device::bingham::TE, crate::device::bingham::TM] {
+            assert!(fr.params[k] < 1e-4, "{}: {:?}", fr.params[k], fr.notes);
+        }
+    }
+}
