@@ -1,0 +1,74 @@
+//! How much of the real damper's held-out error is each test's own force scale?
+//!
+//! The held-out predictions of `diagnose`'s folds (leave one amplitude/frequency group out), then the same
+//! predictions with each held-out test scaled by its own best gain, and by its best gain and offset: an
+//! oracle that uses the held-out forces, which no model could. If even the oracle misses a goal, no model
+//! whose only failing is a test-to-test scale (the device's state drifting between tests) could meet it.
+//! Samples count as in the fit and the diagnosis (velocity sign known).
+//!
+//! `cargo run --release --example heldout_gain_oracle [DIR]` (default `../shared/data/utfsm-mr-damper`)
+
+use mrfeel::device::{Model, Registry};
+use mrfeel::ident::diagnose::{cross_validate, make_folds};
+use mrfeel::ident::fit::FitOptions;
+use mrfeel::ident::residual::direction_weights;
+use mrfeel::ident::{default_current_limit_a, load_tests};
+
+fn main() -> anyhow::Result<()> {
+    let dir = std::env::args()
+        .nth(1)
+        .unwrap_or_else(|| "../shared/data/utfsm-mr-damper".into());
+    let tests = load_tests(&[dir.into()])?;
+    let registry = Registry::builtin();
+    let (folds, how) = make_folds(&tests, 4, 5);
+    println!("{how}");
+    // As the diagnosis's fold fits: no standard errors, stop at a relative step of 1e-5.
+    let opts = FitOptions {
+        std_errors: false,
+        tol: 1e-5,
+        ..FitOptions::default()
+    };
+    for spec in [
+        "bingham",
+        "bingham+hysteresis",
+        "bingham+hysteresis+current_viscosity",
+    ] {
+        let model = Model::from_spec(spec, &registry, default_current_limit_a(&tests))?;
+        let cv = cross_validate(
+            &model,
+            &tests,
+            &folds,
+            None,
+            &opts,
+            &indicatif::ProgressBar::hidden(),
+        );
+        // Sums of squares: as predicted, scaled by each test's gain, and by gain and offset; of the force.
+        let (mut raw, mut scaled, mut affine, mut force) = (0.0, 0.0, 0.0, 0.0);
+        let mut gains = Vec::new();
+        for (t, pred) in tests.iter().zip(&cv.oof) {
+            let w = direction_weights(t);
+            let (mut fm, mut mm, mut f1, mut m1, mut n) = (0.0, 0.0, 0.0, 0.0, 0.0);
+            for ((f, m), w) in t.f_n.iter().zip(pred).zip(&w) {
+                (fm, mm, f1, m1, n) = (fm + w * f * m, mm + w * m * m, f1 + w * f, m1 + w * m, n + w);
+            }
+            let g = fm / mm;
+            let det = mm * n - m1 * m1;
+            let (a, b) = ((fm * n - m1 * f1) / det, (mm * f1 - m1 * fm) / det);
+            gains.push(format!("{} {g:.3}", t.name.trim_end_matches(".csv")));
+            for ((f, m), w) in t.f_n.iter().zip(pred).zip(&w) {
+                raw += w * (f - m).powi(2);
+                scaled += w * (f - g * m).powi(2);
+                affine += w * (f - a * m - b).powi(2);
+                force += w * f * f;
+            }
+        }
+        println!(
+            "{spec}: held-out NRMSE {:.4}; each held-out test scaled by its own gain {:.4}; by gain and offset {:.4}",
+            (raw / force).sqrt(),
+            (scaled / force).sqrt(),
+            (affine / force).sqrt()
+        );
+        println!("  gains: {}", gains.join(", "));
+    }
+    Ok(())
+}
