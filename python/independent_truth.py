@@ -29,6 +29,10 @@ Environment (all optional):
   GROUPS=A:f,..    amplitude (m) : frequency (Hz) groups in place of the default three
   T0=<s>           time of the first sample (default 0)
   STEPS=1          one file per group, the current stepping at once through CURRENTS (CYCLES cycles at each)
+  LAG=<s>          a coil lag of this time constant between the logged current and the force (default none:
+                   the force at a sample is made by that sample's current)
+  LAGAFTER=1       with LAG: the current logged at a sample acts after it (a DAQ that reads, then writes);
+                   default: it acts over the interval before its sample (already in force at it)
   (bash keeps its own GROUPS array: pass it as `env GROUPS=0.015:1.5,0.008:3 python3 ...`)
 The force at t[k] is formed from the states (Bouc-Wen z, heat) at t[k], and they are then integrated over the
 sample. Until session 7 the states were integrated first, so the force used z(t[k] + 1/FS), one sample ahead:
@@ -110,11 +114,16 @@ def simulate(effect, A, f, i, rng, gi=0, cycles=CYCLES):
     z = (1.0 if kin(0.0)[1] >= 0 else -1.0) if "hysteresis" in effect.split(",") else 0.0
     T = 0.0
     out = np.zeros(n)
+    lag = float(os.environ.get("LAG", "0")); after = os.environ.get("LAGAFTER") == "1"
+    def level(k): return i if levels is None else levels[min(int(k * len(levels) / n), len(levels) - 1)]
+    ic = level(0)  # coil current, settled on the first command
     if WAVE != "sine":  # whole arrays at once (the other waves' formulas are slow per scalar)
         VS = kin(t[:, None] + np.arange(SUB) * h)[1]; XVA = kin(t)
     for k in range(n):
         if levels is not None:
             i = levels[min(int(k * len(levels) / n), len(levels) - 1)]
+        cmd = level(k) if after else level(min(k + 1, n - 1))  # in force over (t[k], t[k+1]]
+        if lag > 0: i = ic
         x, v, a = kin(t[k]) if WAVE == "sine" else (XVA[0][k], XVA[1][k], XVA[2][k])
         fy = FC0 + K * i; c = C0; d = np.sign(v); extra = 0.0
         if "hysteresis" in effect.split(","): d = z
@@ -128,6 +137,7 @@ def simulate(effect, A, f, i, rng, gi=0, cycles=CYCLES):
         if "inertia" in effect.split(","): extra += M * a
         if "thermal_drift" in effect.split(","): fy = fy * (1 - T / THY); c = c * (1 - T / THC)
         out[k] = fy * d + c * v + extra
+        if lag > 0: ic = cmd + (ic - cmd) * np.exp(-1 / FS / lag)
         for s in range(SUB):
             tt = t[k] + s * h
             v = kin(tt)[1] if WAVE == "sine" else VS[k, s]
