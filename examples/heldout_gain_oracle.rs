@@ -1,8 +1,8 @@
 //! How much of the real damper's held-out error is each test's own force scale?
 //!
 //! The held-out predictions of `diagnose`'s folds (leave one amplitude/frequency group out), then the same
-//! predictions with each held-out test scaled by its own best gain, and by its best gain and offset: an
-//! oracle that uses the held-out forces, which no model could. If even the oracle misses a goal, no model
+//! predictions with each held-out test scaled by its own best gain, by its best gain and offset, and by a
+//! gain that drifts linearly over the test: an oracle that uses the held-out forces, which no model could. If even the oracle misses a goal, no model
 //! whose only failing is a test-to-test scale (the device's state drifting between tests) could meet it.
 //! Samples count as in the fit and the diagnosis (velocity sign known).
 //!
@@ -43,7 +43,7 @@ fn main() -> anyhow::Result<()> {
             &indicatif::ProgressBar::hidden(),
         );
         // Sums of squares: as predicted, scaled by each test's gain, and by gain and offset; of the force.
-        let (mut raw, mut scaled, mut affine, mut force) = (0.0, 0.0, 0.0, 0.0);
+        let (mut raw, mut scaled, mut affine, mut drifting, mut force) = (0.0, 0.0, 0.0, 0.0, 0.0);
         let mut gains = Vec::new();
         for (t, pred) in tests.iter().zip(&cv.oof) {
             let w = direction_weights(t);
@@ -55,6 +55,20 @@ fn main() -> anyhow::Result<()> {
             let det = mm * n - m1 * m1;
             let (a, b) = ((fm * n - m1 * f1) / det, (mm * f1 - m1 * fm) / det);
             gains.push(format!("{} {g:.3}", t.name.trim_end_matches(".csv")));
+            // Gain `c + d τ`, τ the time through the test from 0 to 1: least squares on `m` and `m τ`.
+            let (t0, t1) = (t.inputs[0].t_s, t.inputs[t.len() - 1].t_s);
+            let tau: Vec<f64> = t.inputs.iter().map(|i| (i.t_s - t0) / (t1 - t0)).collect();
+            let (mut s11, mut s12, mut s22, mut b1, mut b2) = (0.0, 0.0, 0.0, 0.0, 0.0);
+            for (((f, m), w), u) in t.f_n.iter().zip(pred).zip(&w).zip(&tau) {
+                let mu = m * u;
+                (s11, s12, s22) = (s11 + w * m * m, s12 + w * m * mu, s22 + w * mu * mu);
+                (b1, b2) = (b1 + w * f * m, b2 + w * f * mu);
+            }
+            let dd = s11 * s22 - s12 * s12;
+            let (c, d) = ((b1 * s22 - s12 * b2) / dd, (s11 * b2 - s12 * b1) / dd);
+            for (((f, m), w), u) in t.f_n.iter().zip(pred).zip(&w).zip(&tau) {
+                drifting += w * (f - (c + d * u) * m).powi(2);
+            }
             for ((f, m), w) in t.f_n.iter().zip(pred).zip(&w) {
                 raw += w * (f - m).powi(2);
                 scaled += w * (f - g * m).powi(2);
@@ -63,10 +77,12 @@ fn main() -> anyhow::Result<()> {
             }
         }
         println!(
-            "{spec}: held-out NRMSE {:.4}; each held-out test scaled by its own gain {:.4}; by gain and offset {:.4}",
+            "{spec}: held-out NRMSE {:.4}; each held-out test scaled by its own gain {:.4}; by gain and offset \
+             {:.4}; by a gain drifting linearly over the test {:.4}",
             (raw / force).sqrt(),
             (scaled / force).sqrt(),
-            (affine / force).sqrt()
+            (affine / force).sqrt(),
+            (drifting / force).sqrt()
         );
         println!("  gains: {}", gains.join(", "));
     }
