@@ -143,9 +143,14 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
         None => fit(&model, &tests, &all_spans(&tests), &FitOptions::default()),
     };
     eprintln!(
-        "fitted in {:.2} s ({} simulations of the data: {} evaluations and {} Jacobian columns; {} more columns \
-         assembled on kept states; {})",
+        "fitted in {:.2} s ({}{} simulations of the data: {} evaluations and {} Jacobian columns; {} more \
+         columns assembled on kept states; {})",
         t0.elapsed().as_secs_f64(),
+        if timing.fits.is_some() {
+            "both readings of the current commands; the kept one: "
+        } else {
+            ""
+        },
         fr.evaluations + fr.jacobian_columns.0,
         fr.evaluations,
         fr.jacobian_columns.0,
