@@ -11,7 +11,7 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
-use criterion::{criterion_group, criterion_main, Criterion};
+use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 
@@ -123,7 +123,11 @@ fn bench_diagnose(c: &mut Criterion) {
         ..FitOptions::default()
     };
     g.bench_function("decide command timing (auto)", |b| {
-        b.iter(|| decide(&bing, &tests, TimingChoice::Auto, &quick))
+        b.iter_batched(
+            || tests.clone(),
+            |t| decide(&bing, t, TimingChoice::Auto, &quick),
+            BatchSize::LargeInput,
+        )
     });
     g.bench_function("diagnose whole vocabulary", |b| {
         b.iter(|| diagnose(&tests, &base, &registry, &opts).expect("diagnose"))

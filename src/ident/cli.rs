@@ -136,7 +136,7 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
         tests.len()
     );
     let t0 = std::time::Instant::now();
-    let (tests, timing) = decide(&model, &tests, a.command_timing, &FitOptions::default());
+    let (tests, timing) = decide(&model, tests, a.command_timing, &FitOptions::default());
     note_timing(&timing);
     let fr = match timing.kept_fit() {
         Some(fr) => fr.clone(),
@@ -245,7 +245,7 @@ pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
         fits: None,
     };
     note_timing(&timing);
-    let tests = retimed(&tests, timing.timing);
+    let tests = retimed(tests, timing.timing);
     let pred = evaluate(&cfg.model, &cfg.params, &tests);
     let (per, total) = figures(&pred, &tests);
     let mut out = FitJson::new(
@@ -298,7 +298,7 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
         std_errors: false,
         ..FitOptions::default()
     };
-    let (tests, timing) = decide(&base, &tests, a.command_timing, &quick);
+    let (tests, timing) = decide(&base, tests, a.command_timing, &quick);
     note_timing(&timing);
     let d = diagnose(&tests, base.spec(), &registry, &opts)?;
     eprintln!("diagnosed in {:.1} s", t0.elapsed().as_secs_f64());

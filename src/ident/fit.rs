@@ -19,6 +19,7 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use super::residual::direction_weights;
+use super::timing::command_never_changes;
 use super::{data_stats, Test};
 use crate::device::{bingham, DataStats, Model, ParamSpec};
 
@@ -250,11 +251,7 @@ impl<'a> Problem<'a> {
         let steady_current = tests
             .iter()
             .zip(&sim_len)
-            .map(|(t, &n)| {
-                let i = &t.inputs[..n];
-                i.iter()
-                    .all(|s| s.current_cmd_a.to_bits() == i[0].current_cmd_a.to_bits())
-            })
+            .map(|(t, &n)| command_never_changes(&t.inputs[..n]))
             .collect();
         let mut p = Self {
             model,

@@ -22,7 +22,7 @@
 
 use super::fit::{all_spans, fit, FitOptions, FitResult};
 use super::Test;
-use crate::device::Model;
+use crate::device::{Inputs, Model};
 pub use crate::measurement::CommandTiming;
 
 /// What the command line asks for: a reading, or `auto` (decided by the data).
@@ -34,30 +34,33 @@ pub enum TimingChoice {
     AtSample,
 }
 
+/// Whether the current command is the same, to the bit, at every sample of `inputs`: the lags (Eq. 3–4)
+/// then start settled on it and stay there, and both readings are the same model.
+pub fn command_never_changes(inputs: &[Inputs]) -> bool {
+    inputs
+        .iter()
+        .all(|s| s.current_cmd_a.to_bits() == inputs[0].current_cmd_a.to_bits())
+}
+
 /// Whether any test's command changes from one sample to the next (only then do the readings differ).
 pub fn commands_change(tests: &[Test]) -> bool {
-    tests.iter().any(|t| {
-        t.inputs
-            .windows(2)
-            .any(|w| w[0].current_cmd_a != w[1].current_cmd_a)
-    })
+    tests.iter().any(|t| !command_never_changes(&t.inputs))
 }
 
 /// The tests as the model reads them under `timing`, from tests loaded as logged ([`Test::from_measurement`]
 /// reads them after their sample). At-sample: the model holds the command of row `k + 1` over
 /// `(t_k, t_{k+1}]`; the last row keeps its own, and the first sample's lags start settled at the command of
 /// row 1 (what is in force just after `t_0`).
-pub fn retimed(tests: &[Test], timing: CommandTiming) -> Vec<Test> {
-    let mut out = tests.to_vec();
+pub fn retimed(mut tests: Vec<Test>, timing: CommandTiming) -> Vec<Test> {
     if timing == CommandTiming::AtSample {
-        for t in &mut out {
+        for t in &mut tests {
             let n = t.inputs.len();
             for k in 0..n.saturating_sub(1) {
                 t.inputs[k].current_cmd_a = t.inputs[k + 1].current_cmd_a;
             }
         }
     }
-    out
+    tests
 }
 
 /// The reading chosen, with the two fits that chose it when `auto` had to decide.
@@ -97,39 +100,37 @@ impl TimingDecision {
 /// no command changes). Returns the tests as the model reads them.
 pub fn decide(
     model: &Model,
-    tests: &[Test],
+    tests: Vec<Test>,
     choice: TimingChoice,
     opts: &FitOptions,
 ) -> (Vec<Test>, TimingDecision) {
-    let fixed = |timing| (retimed(tests, timing), TimingDecision { timing, fits: None });
-    match choice {
+    let fixed = |timing| TimingDecision { timing, fits: None };
+    let decision = match choice {
         TimingChoice::AfterSample => fixed(CommandTiming::AfterSample),
         TimingChoice::AtSample => fixed(CommandTiming::AtSample),
-        TimingChoice::Auto if !commands_change(tests) => fixed(CommandTiming::AfterSample),
+        TimingChoice::Auto if !commands_change(&tests) => fixed(CommandTiming::AfterSample),
         TimingChoice::Auto => {
-            let at = retimed(tests, CommandTiming::AtSample);
-            let spans = all_spans(tests);
-            let fa = fit(model, tests, &spans, opts);
+            let at = retimed(tests.clone(), CommandTiming::AtSample);
+            let spans = all_spans(&tests);
+            let fa = fit(model, &tests, &spans, opts);
             let fb = fit(model, &at, &spans, opts);
             if fb.sse < fa.sse {
-                (
+                let fits = Some((fa, fb));
+                return (
                     at,
                     TimingDecision {
                         timing: CommandTiming::AtSample,
-                        fits: Some((fa, fb)),
+                        fits,
                     },
-                )
-            } else {
-                (
-                    tests.to_vec(),
-                    TimingDecision {
-                        timing: CommandTiming::AfterSample,
-                        fits: Some((fa, fb)),
-                    },
-                )
+                );
+            }
+            TimingDecision {
+                timing: CommandTiming::AfterSample,
+                fits: Some((fa, fb)),
             }
         }
-    }
+    };
+    (retimed(tests, decision.timing), decision)
 }
 
 #[cfg(test)]
@@ -196,7 +197,7 @@ mod tests {
         let model = testkit::model("bingham");
         for seed in [1, 2] {
             let tests = lag_free(true, seed);
-            let (read, d) = decide(&model, &tests, TimingChoice::Auto, &quick());
+            let (read, d) = decide(&model, tests.clone(), TimingChoice::Auto, &quick());
             assert_eq!(d.timing, CommandTiming::AtSample, "seed {seed}: {}", d.note());
             let (after, at) = d.fits.as_ref().expect("both readings fitted");
             // Read after its sample, every step (16 of them) leaves a sample off by the whole change of the
@@ -221,7 +222,7 @@ mod tests {
     fn a_daq_that_writes_after_reading_is_read_after_its_sample() {
         let model = testkit::model("bingham");
         let tests = lag_free(false, 3);
-        let (read, d) = decide(&model, &tests, TimingChoice::Auto, &quick());
+        let (read, d) = decide(&model, tests.clone(), TimingChoice::Auto, &quick());
         assert_eq!(d.timing, CommandTiming::AfterSample, "{}", d.note());
         let (after, at) = d.fits.as_ref().expect("both readings fitted");
         assert!(
@@ -239,11 +240,11 @@ mod tests {
         for inp in &mut tests[0].inputs {
             inp.current_cmd_a = 7.0;
         }
-        let (_, d) = decide(&model, &tests, TimingChoice::Auto, &quick());
+        let (_, d) = decide(&model, tests.clone(), TimingChoice::Auto, &quick());
         assert!(d.fits.is_none() && d.timing == CommandTiming::AfterSample);
         // Asked for, a reading is taken as it is, even where the other would fit better.
         let stepped = lag_free(true, 4);
-        let (read, d) = decide(&model, &stepped, TimingChoice::AfterSample, &quick());
+        let (read, d) = decide(&model, stepped.clone(), TimingChoice::AfterSample, &quick());
         assert!(d.fits.is_none() && d.timing == CommandTiming::AfterSample);
         assert_eq!(read[0].inputs, stepped[0].inputs);
     }
@@ -255,7 +256,7 @@ mod tests {
         // value (5 sample intervals) they spoiled the fit; on their bound the force is the same as where the
         // search left them.
         let model = testkit::model("bingham");
-        let tests = retimed(&lag_free(true, 5), CommandTiming::AtSample);
+        let tests = retimed(lag_free(true, 5), CommandTiming::AtSample);
         let fr = fit(&model, &tests, &all_spans(&tests), &FitOptions::default());
         assert!(
             fr.rmse_n() < 1.05 * NOISE_N,
@@ -278,7 +279,7 @@ mod tests {
             (false, CommandTiming::AfterSample),
         ] {
             let tests = stepped(at_sample, 1e-3, 6);
-            let (_, d) = decide(&model, &tests, TimingChoice::Auto, &FitOptions::default());
+            let (_, d) = decide(&model, tests.clone(), TimingChoice::Auto, &FitOptions::default());
             assert_eq!(d.timing, want, "{}", d.note());
             let fr = d.kept_fit().expect("fitted");
             assert!(
