@@ -832,7 +832,16 @@ fn a_current_in_force_at_the_sample_it_is_logged_with_is_read_so_and_saved_with_
     std::fs::write(&params, saved.replace("\"at-sample\"", "\"after-sample\"")).unwrap();
     assert!(validate() > 1.5 * same, "the saved reading is used");
 
-    // A reading that is neither is refused with the file, line and field named.
+    // On the command line, a reading that is neither is refused before any work, naming the option.
+    let out = mrfeel(&["fit", &dir_s, "--command-timing", "sideways"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && out.stdout.is_empty(), "{err}");
+    assert!(
+        err.contains("--command-timing") && err.contains("sideways") && err.contains("at-sample"),
+        "{err}"
+    );
+
+    // In a parameter file, a reading that is neither is refused with the file, line and field named.
     std::fs::write(&params, saved.replace("\"at-sample\"", "\"sideways\"")).unwrap();
     let out = mrfeel(&["validate", &dir_s, "--params", &p_s]);
     let err = String::from_utf8_lossy(&out.stderr);
