@@ -493,6 +493,17 @@ pub fn median_interval(t: &[f64]) -> f64 {
     d[d.len() / 2]
 }
 
+/// The sample interval of an even time grid: the median interval when every interval is within 1 % of
+/// it, `None` on an uneven grid (jittered clock, lost samples) or with fewer than two samples.
+pub fn uniform_interval(t: &[f64]) -> Option<f64> {
+    if t.len() < 2 {
+        return None;
+    }
+    let dt = median_interval(t);
+    let even = dt.is_finite() && dt > 0.0 && t.windows(2).all(|w| ((w[1] - w[0]) - dt).abs() <= 0.01 * dt);
+    even.then_some(dt)
+}
+
 /// Smoothing differentiator: the slope of a local least-squares cubic over a 7-sample window (the
 /// Savitzky–Golay derivative of order 3, generalised to uneven sampling), the window shifted inward at
 /// the ends of the record. For a sine sampled 20 times per period its gain error is about 0.2 % (a

@@ -461,7 +461,42 @@ impl Corr {
 /// measured force: `Δ³f` of white noise has variance 20σ², while a smooth force contributes little and the
 /// jumps at velocity reversals are rare enough that a median ignores them.
 pub fn noise_floor_n(tests: &[Test]) -> f64 {
-    std_from_third_differences(tests.iter().flat_map(|t| third_differences(&t.f_n)).collect())
+    std_from_third_differences(
+        tests
+            .iter()
+            .flat_map(|t| {
+                let ts: Vec<f64> = t.inputs.iter().map(|i| i.t_s).collect();
+                third_differences_on(&ts, &t.f_n)
+            })
+            .collect(),
+    )
+}
+
+/// [`white_noise_std`] of a signal sampled at the times `t`, evenly or not.
+pub fn white_noise_std_on(t: &[f64], y: &[f64]) -> f64 {
+    std_from_third_differences(third_differences_on(t, y))
+}
+
+/// `|Δ³y|` at every window of four samples, on any time grid: on an even grid exactly
+/// [`third_differences`]; on an uneven one the third divided difference (the combination of four samples
+/// that cancels every quadratic, whatever their spacing), scaled so that white noise of variance σ² gives
+/// it the variance 20σ², as `Δ³` has. (`Δ³` itself on a jittered grid does not cancel a smooth signal: a
+/// time off by a quarter of a sample leaves `v·dt/4`, at 1 kHz and 0.1 m/s 25 µm beside a 2 µm noise.)
+fn third_differences_on(t: &[f64], y: &[f64]) -> Vec<f64> {
+    if t.len() != y.len() || crate::measurement::uniform_interval(t).is_some() {
+        return third_differences(y).collect();
+    }
+    t.windows(4)
+        .zip(y.windows(4))
+        .filter_map(|(t, y)| {
+            let w: [f64; 4] = std::array::from_fn(|j| {
+                1.0 / (0..4).filter(|&m| m != j).map(|m| t[j] - t[m]).product::<f64>()
+            });
+            let norm = w.iter().map(|w| w * w).sum::<f64>().sqrt();
+            let d = w.iter().zip(y).map(|(w, y)| w * y).sum::<f64>();
+            (norm.is_finite() && norm > 0.0).then(|| (d / norm).abs() * 20f64.sqrt())
+        })
+        .collect()
 }
 
 /// Robust standard deviation of the white noise on a sampled signal: third differences cancel a smooth
@@ -540,7 +575,8 @@ pub fn velocity_noise_std(t: &Test) -> f64 {
     }
     if t.velocity_measured {
         let v: Vec<f64> = t.inputs.iter().map(|i| i.v_m_s).collect();
-        return white_noise_std(&v);
+        let ts: Vec<f64> = t.inputs.iter().map(|i| i.t_s).collect();
+        return white_noise_std_on(&ts, &v);
     }
     let x: Vec<f64> = t.inputs.iter().map(|i| i.x_m).collect();
     let n = t.inputs.len();
@@ -558,7 +594,8 @@ pub fn velocity_noise_std(t: &Test) -> f64 {
         .map(|d| d * d)
         .sum::<f64>()
         .sqrt();
-    white_noise_std(&x) * gain
+    let t_all: Vec<f64> = t.inputs.iter().map(|i| i.t_s).collect();
+    white_noise_std_on(&t_all, &x) * gain
 }
 
 #[cfg(test)]
@@ -635,5 +672,33 @@ mod tests {
         assert_eq!(sig(14.0), "14");
         assert_eq!(sig(0.5), "0.5");
         assert_eq!(sig(1234.0), "1234");
+    }
+
+    /// On a clock jittered by up to ¼ sample the third divided differences still cancel a smooth signal:
+    /// the 2 µm noise on a 20 mm 1 Hz sine at 1 kHz is estimated within 10 %, where plain third differences,
+    /// which take the samples as evenly spaced, see the jitter as noise (several times the truth).
+    #[test]
+    fn white_noise_on_a_jittered_clock() {
+        use rand::Rng;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let nd = Normal::new(0.0, 2e-6).unwrap();
+        let w = std::f64::consts::TAU;
+        let t: Vec<f64> = (0..5000)
+            .map(|k| (k as f64 + rng.random_range(-0.25..0.25)) * 1e-3)
+            .collect();
+        let x: Vec<f64> = t
+            .iter()
+            .map(|t| 0.02 * (w * t).sin() + nd.sample(&mut rng))
+            .collect();
+        let on_grid = white_noise_std_on(&t, &x);
+        assert!(
+            (on_grid / 2e-6 - 1.0).abs() < 0.1,
+            "estimated {on_grid} m, truth 2e-6 m"
+        );
+        let as_even = white_noise_std(&x);
+        assert!(as_even > 3.0 * 2e-6, "plain third differences: {as_even} m");
+        // On an even grid both are the same estimate.
+        let te: Vec<f64> = (0..5000).map(|k| k as f64 * 1e-3).collect();
+        assert_eq!(white_noise_std_on(&te, &x), white_noise_std(&x));
     }
 }
