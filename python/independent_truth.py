@@ -33,6 +33,8 @@ Environment (all optional):
                    the force at a sample is made by that sample's current)
   LAGAFTER=1       with LAG: the current logged at a sample acts after it (a DAQ that reads, then writes);
                    default: it acts over the interval before its sample (already in force at it)
+  SUB=<n>          integration substeps per sample (default 20; 5 at FS=4000 is the same step as 20 at
+                   1000, for files that python/resample_uneven.py thins to an uneven 1 kHz clock)
   (bash keeps its own GROUPS array: pass it as `env GROUPS=0.015:1.5,0.008:3 python3 ...`)
 The force at t[k] is formed from the states (Bouc-Wen z, heat) at t[k], and they are then integrated over the
 sample. Until session 7 the states were integrated first, so the force used z(t[k] + 1/FS), one sample ahead:
@@ -57,7 +59,7 @@ else:
     CURRENTS = [0.0, 3.5, 7.0, 10.5, 14.0]
     SAT, IMAX, PRE, KS, K3, M, THY, THC, NOISE0 = 80.0, 14.0, 2.0, 250.0, 3e5, 3.0, 420.0, 800.0, 0.15
 K3 = float(os.environ.get("K3", K3))
-FS, SUB = float(os.environ.get("FS", "1000")), 20
+FS, SUB = float(os.environ.get("FS", "1000")), int(os.environ.get("SUB", "20"))
 CYCLES = float(os.environ.get("CYCLES", "4"))
 WAVE = os.environ.get("WAVE", "sine")
 NOVEL = os.environ.get("NOVEL", "0") == "1"

@@ -281,27 +281,25 @@ pub fn widest_unbiased_derivative(
         }
         fits.push(cand);
     }
-    // The ends by the same rule on their own samples: a quintic evaluated off its centre bends the signal
-    // far more than at the centre (on 2 mm at 5 Hz sampled at 500 Hz, the 61-sample window that is unbiased
-    // at its centre was 0.65 mm/s off over the first 30 samples, 20x its noise, and a reversal there
-    // took the wrong sign). Widening the end window stops where the change over the wider fit's end samples
-    // of both ends exceeds what noise makes there (nested fits again: the change's variance is the noise
-    // removed).
+    // The ends on their own samples: a quintic evaluated off its centre bends the signal far more than at
+    // the centre (on 2 mm at 5 Hz sampled at 500 Hz, the 61-sample window that is unbiased at its centre
+    // was 0.65 mm/s off over the first 30 samples, 20x its noise, and a reversal there took the wrong
+    // sign). Widening the end window stops where the change at any of the wider fit's end samples of either
+    // end exceeds END_SIGMAS of the noise it would have from noise alone (nested fits again: the change's
+    // variance is the noise removed). A sum of the changes was the test until session 12: its few
+    // comparisons, dominated by the noisiest first samples, made it stop on pure noise in 0.2–0.7 % of the
+    // widenings (numpy simulation), about once in every data set of 15 files, and where it stopped at the
+    // narrowest window the acceleration at a test's first sample was 18 m/s² off (a hidden 3 kg mass, 54 N:
+    // held out at 2.1x the noise floor). The largest of the changes over its own noise exceeds 4.5 on pure
+    // noise in about 1e-4 of the widenings; a bend like the one above is caught at 20.
     let mut e = 0;
     for c in 1..fits.len() {
         let (prev, cand) = (&fits[e], &fits[c]);
-        let (mut ss, mut e0) = (0.0, 0.0);
-        for j in 0..cand.h {
-            let mut removed = 0.0;
-            for k in [j, n - 1 - j] {
-                let d = cand.deriv[k] - prev.deriv[k];
-                ss += d * d;
-                removed += (prev.var[k] - cand.var[k]).max(0.0);
-            }
-            e0 += removed;
-        }
-        // About one independent comparison per end: the centred rule's tolerance at n_eff = 1.
-        if ss > e0 * (1.0 + 3.0 * 2f64.sqrt()) {
+        let bent = (0..cand.h).flat_map(|j| [j, n - 1 - j]).any(|k| {
+            let d = cand.deriv[k] - prev.deriv[k];
+            d * d > END_SIGMAS * END_SIGMAS * (prev.var[k] - cand.var[k]).max(0.0)
+        });
+        if bent {
             break;
         }
         e = c;
@@ -320,6 +318,10 @@ pub fn widest_unbiased_derivative(
     let sd = mid.var.iter().map(|v| v.sqrt()).collect();
     (mid.deriv, Some(sd))
 }
+
+/// How many noise standard deviations the change at one end sample may reach before a wider end window of
+/// [`widest_unbiased_derivative`] counts as bending the signal there.
+const END_SIGMAS: f64 = 4.5;
 
 /// One window width of [`widest_unbiased_derivative`]: the derivative at every sample and its noise
 /// variance there.
@@ -679,61 +681,85 @@ mod tests {
     /// within 25 %.
     #[test]
     fn acceleration_and_velocity_noise_from_displacement_alone_on_every_seed() {
-        for (seed, f_hz, amp) in (0..8u64).map(|s| (s, if s % 2 == 0 { 0.4 } else { 1.0 }, 0.02)) {
-            let w = std::f64::consts::TAU * f_hz;
-            let n = 5000;
-            let m = sine_without_velocity(amp, f_hz, 1000.0, n, 100 + seed);
-            let rms = |e: &mut dyn Iterator<Item = f64>| {
-                let (s, c) = e.fold((0.0, 0usize), |(s, c), e| (s + e * e, c + 1));
-                (s / c as f64).sqrt()
-            };
-            let test = Test::from_measurement(&m);
-            let inner = &test.inputs[100..n - 100];
-            let a_err = rms(&mut inner.iter().map(|i| i.a_m_s2 + amp * w * w * (w * i.t_s).sin()));
-            let a_rms = amp * w * w / 2f64.sqrt();
-            assert!(
-                a_err < 0.05 * a_rms,
-                "seed {seed}, {f_hz} Hz: acceleration error {a_err} of {a_rms} m/s²"
-            );
-            let v_err = rms(&mut inner.iter().map(|i| i.v_m_s - amp * w * (w * i.t_s).cos()));
-            let sigma = residual::velocity_noise_std(&test);
-            assert!(
-                (sigma / v_err - 1.0).abs() < 0.25,
-                "seed {seed}: derived velocity noise {v_err} m/s, estimated {sigma}"
-            );
+        for (seed, f_hz) in (0..8u64).map(|s| (s, if s % 2 == 0 { 0.4 } else { 1.0 })) {
+            let m = sine_without_velocity(0.02, f_hz, 1000.0, 5000, 100 + seed);
+            check_sine_derivatives(&m, 0.02, f_hz, 100..4900);
         }
     }
 
-    /// The same on a clock jittered by up to ¼ sample (the format asks only for increasing times). Until
-    /// session 12 an uneven grid kept the file reader's 7-sample derivatives: the acceleration from the
-    /// displacement twice was then mostly noise.
+    /// The same on a clock jittered by up to ¼ sample (the format asks only for increasing times), the
+    /// acceleration checked at every sample. Until session 12 an uneven grid kept the file reader's 7-sample
+    /// derivatives: the acceleration from the displacement twice was then 8 times the 0.4 Hz signal.
     #[test]
     fn derivatives_on_a_jittered_clock_are_as_good_as_on_an_even_one() {
         for (seed, f_hz) in [(0u64, 0.4), (1, 1.0), (2, 2.5)] {
-            let (amp, n) = (0.02, 5000);
-            let w = std::f64::consts::TAU * f_hz;
-            let m = jittered_sine_without_velocity(amp, f_hz, 1000.0, n, 200 + seed);
+            let m = jittered_sine_without_velocity(0.02, f_hz, 1000.0, 5000, 200 + seed);
             assert!(crate::measurement::uniform_interval(&m.t_s).is_none());
-            let rms = |e: &mut dyn Iterator<Item = f64>| {
-                let (s, c) = e.fold((0.0, 0usize), |(s, c), e| (s + e * e, c + 1));
-                (s / c as f64).sqrt()
-            };
-            let test = Test::from_measurement(&m);
-            let a_rms = amp * w * w / 2f64.sqrt();
-            let a_err = rms(&mut test
-                .inputs
-                .iter()
-                .map(|i| i.a_m_s2 + amp * w * w * (w * i.t_s).sin()));
+            check_sine_derivatives(&m, 0.02, f_hz, 0..5000);
+        }
+    }
+
+    /// On a displacement-only sine of amplitude `amp`: the acceleration derived twice is within 5 % (rms)
+    /// of the signal over the samples `a_span`, and the derived velocity's noise, away from the ends, is
+    /// estimated within 25 %.
+    fn check_sine_derivatives(m: &Measurement, amp: f64, f_hz: f64, a_span: std::ops::Range<usize>) {
+        let w = std::f64::consts::TAU * f_hz;
+        let rms = |e: &mut dyn Iterator<Item = f64>| {
+            let (s, c) = e.fold((0.0, 0usize), |(s, c), e| (s + e * e, c + 1));
+            (s / c as f64).sqrt()
+        };
+        let test = Test::from_measurement(m);
+        let a_err = rms(&mut test.inputs[a_span]
+            .iter()
+            .map(|i| i.a_m_s2 + amp * w * w * (w * i.t_s).sin()));
+        let a_rms = amp * w * w / 2f64.sqrt();
+        assert!(
+            a_err < 0.05 * a_rms,
+            "{f_hz} Hz: acceleration error {a_err} of {a_rms} m/s²"
+        );
+        let n = test.len();
+        let inner = &test.inputs[100..n - 100];
+        let v_err = rms(&mut inner.iter().map(|i| i.v_m_s - amp * w * (w * i.t_s).cos()));
+        let sigma = residual::velocity_noise_std(&test);
+        assert!(
+            (sigma / v_err - 1.0).abs() < 0.25,
+            "{f_hz} Hz: derived velocity noise {v_err} m/s, estimated {sigma}"
+        );
+    }
+
+    /// On a signal that every window fits exactly (a cubic) the end windows must widen as far as the centred
+    /// ones: anything else is a false alarm of the rule that detects a bend at the ends. Over 400 noise seeds
+    /// for each derivative the rule may stop early at most three times. (The sum of the changes it replaced
+    /// stopped early in 8 of these runs for the first derivative; a numpy simulation of both rules gives
+    /// about 2.4 % of the runs for that sum and 0.06 % for the largest change over its own noise.)
+    #[test]
+    fn the_end_windows_widen_on_pure_noise() {
+        let n = 600;
+        let t: Vec<f64> = (0..n).map(|k| k as f64 * 1e-3).collect();
+        for order in [1usize, 2] {
+            let mut early = 0;
+            let mut ratios = Vec::new();
+            for seed in 0..400u64 {
+                let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+                let nd = Normal::new(0.0, 1.0).unwrap();
+                let y: Vec<f64> = t
+                    .iter()
+                    .map(|t| 3.0 * t - 2.0 * t * t * t + nd.sample(&mut rng))
+                    .collect();
+                let (_, sd) = widest_unbiased_derivative(&t, &y, order, 1.0, &y);
+                let sd = sd.expect("noise given");
+                // The noise at the first sample over the noise inside: one value for each end window.
+                ratios.push(sd[0] / sd[n / 2]);
+            }
+            let widest = ratios.iter().cloned().fold(f64::INFINITY, f64::min);
+            for r in &ratios {
+                if *r > 1.001 * widest {
+                    early += 1;
+                }
+            }
             assert!(
-                a_err < 0.05 * a_rms,
-                "seed {seed}, {f_hz} Hz: acceleration error {a_err} of {a_rms} m/s²"
-            );
-            let inner = &test.inputs[100..n - 100];
-            let v_err = rms(&mut inner.iter().map(|i| i.v_m_s - amp * w * (w * i.t_s).cos()));
-            let sigma = residual::velocity_noise_std(&test);
-            assert!(
-                (sigma / v_err - 1.0).abs() < 0.25,
-                "seed {seed}: derived velocity noise {v_err} m/s, estimated {sigma}"
+                early <= 3,
+                "derivative {order}: the end window stopped early in {early} of 400 runs"
             );
         }
     }
