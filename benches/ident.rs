@@ -4,7 +4,10 @@
 //! - `diagnose/60k`: a `bingham` fit of 60,000 synthetic samples (baseline), the reading of their current
 //!   commands that `mrfeel fit` and `mrfeel diagnose` decide first where a test's current steps (`auto`: the
 //!   starting model fitted both ways, without standard errors), and `diagnose` over the whole effect
-//!   vocabulary on them (goal < 10 s on 2 cores, with the decision).
+//!   vocabulary on them (goal < 10 s on 2 cores, with the decision);
+//! - `inputs/15000`: the model inputs of one displacement-only test (velocity, acceleration and the smoothed
+//!   displacement derived, each by the widening quintic fits) on an even clock (baseline) and on a clock
+//!   jittered by up to a quarter sample, where every sample gets its own fit.
 //!
 //! `cargo bench --bench ident`
 
@@ -18,7 +21,8 @@ use rand_distr::{Distribution, Normal};
 use mrfeel::device::{Inputs, Model, ModelSpec, Registry};
 use mrfeel::ident::fit::{all_spans, fit, FitOptions};
 use mrfeel::ident::timing::{decide, TimingChoice};
-use mrfeel::ident::{data_stats, diagnose, load_tests, DiagnoseOptions, Test};
+use mrfeel::ident::{data_stats, diagnose, inputs_and_velocity_noise, load_tests, DiagnoseOptions, Test};
+use mrfeel::measurement::Measurement;
 
 fn real_tests() -> Vec<Test> {
     let dir = PathBuf::from(concat!(
@@ -135,5 +139,48 @@ fn bench_diagnose(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench_fit, bench_diagnose);
+/// A 1 Hz, 20 mm sine without a velocity channel, 15,000 samples at 1 kHz with 2 µm of noise, on an even
+/// clock or one jittered by up to ¼ sample.
+fn displacement_only(jittered: bool) -> Measurement {
+    use rand::Rng;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(15_000);
+    let noise = Normal::new(0.0, 2e-6).expect("sigma");
+    let t: Vec<f64> = (0..15_000)
+        .map(|k| {
+            (k as f64
+                + if jittered {
+                    rng.random_range(-0.25..0.25)
+                } else {
+                    0.0
+                })
+                * 1e-3
+        })
+        .collect();
+    let w = std::f64::consts::TAU;
+    let x: Vec<f64> = t
+        .iter()
+        .map(|t| 0.02 * (w * t).sin() + noise.sample(&mut rng))
+        .collect();
+    Measurement {
+        path: "bench.csv".into(),
+        v_m_s: mrfeel::measurement::smooth_derivative(&t, &x),
+        i_a: vec![1.0; t.len()],
+        f_n: vec![0.0; t.len()],
+        x_m: x,
+        t_s: t,
+        velocity_measured: false,
+        ..Default::default()
+    }
+}
+
+fn bench_inputs(c: &mut Criterion) {
+    let mut g = c.benchmark_group("inputs/15000_samples_displacement_only");
+    for (name, jittered) in [("even clock", false), ("jittered clock", true)] {
+        let m = displacement_only(jittered);
+        g.bench_function(name, |b| b.iter(|| inputs_and_velocity_noise(&m)));
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench_fit, bench_diagnose, bench_inputs);
 criterion_main!(benches);
