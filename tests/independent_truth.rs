@@ -671,16 +671,22 @@ fn independent_effects_on_a_jittered_clock_are_fitted_to_the_noise() {
             mrfeel::measurement::uniform_interval(&ts).is_none()
         });
         assert!(uneven, "the clock must be uneven");
-        match diagnosis_check::verdict(&tests, &[hidden], PAPER.limit_a) {
-            Ok(d) => assert!(
-                d.final_heldout_nrmse <= 1.2 * d.noise_floor_nrmse,
-                "{hidden} on a jittered clock: held out {:.4}, noise floor {:.4}:\n{}",
-                d.final_heldout_nrmse,
-                d.noise_floor_nrmse,
-                mrfeel::ident::report::diagnose_table(&d)
-            ),
-            Err(e) => panic!("independent truth, {hidden} on a jittered clock: {e}"),
-        }
+        named_at_the_noise_floor(&tests, hidden, "on a jittered clock");
+    }
+}
+
+/// The diagnosis names exactly `hidden` and ends within 1.2× the noise floor (`what`: the case, for the
+/// message).
+fn named_at_the_noise_floor(tests: &[Test], hidden: &str, what: &str) {
+    match diagnosis_check::verdict(tests, &[hidden], PAPER.limit_a) {
+        Ok(d) => assert!(
+            d.final_heldout_nrmse <= 1.2 * d.noise_floor_nrmse,
+            "{hidden} {what}: held out {:.4}, noise floor {:.4}:\n{}",
+            d.final_heldout_nrmse,
+            d.noise_floor_nrmse,
+            mrfeel::ident::report::diagnose_table(&d)
+        ),
+        Err(e) => panic!("independent truth, {hidden} {what}: {e}"),
     }
 }
 
@@ -700,16 +706,7 @@ fn independent_mass_in_records_with_a_hole_is_fitted_to_the_noise() {
         m.lines = (2..m.t_s.len() + 2).collect();
     }
     let tests: Vec<Test> = ms.iter().map(Test::from_measurement).collect();
-    match diagnosis_check::verdict(&tests, &["inertia"], PAPER.limit_a) {
-        Ok(d) => assert!(
-            d.final_heldout_nrmse <= 1.2 * d.noise_floor_nrmse,
-            "held out {:.4}, noise floor {:.4}:\n{}",
-            d.final_heldout_nrmse,
-            d.noise_floor_nrmse,
-            mrfeel::ident::report::diagnose_table(&d)
-        ),
-        Err(e) => panic!("independent truth, records with a hole: {e}"),
-    }
+    named_at_the_noise_floor(&tests, "inertia", "in records with a hole");
 }
 
 /// Every effect alone, none, and nine pairs, on the paper's device (the hysteresis cases also in Spencer's
