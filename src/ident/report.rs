@@ -254,14 +254,33 @@ fn candidate_rows(s: &mut String, cands: &[Candidate]) {
     }
 }
 
+/// The noise floor for the text report: four decimals, or, where that would print 0.0000 (the real damper's
+/// files: the source filtered the force, and its third differences hold almost no white noise), the figure
+/// and what it means for the diagnosis.
+fn floor_words(nrmse: f64) -> String {
+    if nrmse >= 5e-5 {
+        format!("{nrmse:.4}")
+    } else {
+        format!(
+            "{nrmse:.1e} (almost no white noise in the force: filtered before it was logged? The stop at the \
+             noise floor does not apply; the held-out gains alone decide)"
+        )
+    }
+}
+
 /// The diagnosis for a person: where the base model fails, each step's candidates, the error falling.
 pub fn diagnose_table(d: &Diagnosis) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
         "{} on {} samples: NRMSE {:.4} fitted on all (the fit's loss, without the samples whose velocity sign \
-         is unknown), held-out NRMSE {:.4} ({}); noise floor NRMSE {:.4}",
-        d.base_model, d.samples, d.base_fit_nrmse, d.base_heldout_nrmse, d.cv_scheme, d.noise_floor_nrmse
+         is unknown), held-out NRMSE {:.4} ({}); noise floor NRMSE {}",
+        d.base_model,
+        d.samples,
+        d.base_fit_nrmse,
+        d.base_heldout_nrmse,
+        d.cv_scheme,
+        floor_words(d.noise_floor_nrmse)
     );
     if !d.where_.is_empty() {
         let _ = writeln!(s, "\nwhere {} fails:", d.base_model);
@@ -324,4 +343,18 @@ pub fn diagnose_table(d: &Diagnosis) -> String {
         d.final_fit_nrmse
     );
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::floor_words;
+
+    #[test]
+    fn a_noise_floor_that_would_print_as_zero_is_shown_and_explained() {
+        assert_eq!(floor_words(0.0032), "0.0032");
+        let tiny = floor_words(2.04e-5);
+        assert!(tiny.starts_with("2.0e-5 ("), "{tiny}");
+        assert!(tiny.contains("filtered"), "{tiny}");
+        assert!(!floor_words(0.0).starts_with("0.0000"));
+    }
 }
