@@ -253,17 +253,14 @@ pub fn widest_unbiased_derivative(
     fallback: &[f64],
 ) -> (Vec<f64>, Option<Vec<f64>>) {
     let n = y.len();
-    if sd_y.is_nan() || sd_y <= 0.0 || n <= 20 || t.len() != n || fallback.len() != n {
+    if sd_y.is_nan() || sd_y <= 0.0 || t.len() != n || fallback.len() != n {
         return (fallback.to_vec(), None);
     }
     let limit = GAP_INTERVALS * crate::measurement::median_interval(t);
-    let mut starts: Vec<usize> = std::iter::once(0)
+    let starts: Vec<usize> = std::iter::once(0)
         .chain((1..n).filter(|&k| t[k] - t[k - 1] > limit))
+        .chain(std::iter::once(n))
         .collect();
-    if starts.len() == 1 {
-        return derivative_of_one_piece(t, y, order, sd_y, fallback);
-    }
-    starts.push(n);
     let (mut deriv, mut sd) = (Vec::with_capacity(n), Vec::with_capacity(n));
     for w in starts.windows(2) {
         let r = w[0]..w[1];
