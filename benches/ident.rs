@@ -84,6 +84,7 @@ fn synthetic_60k(registry: &Registry) -> Vec<Test> {
                 f_n: Vec::new(),
                 velocity_measured: true,
                 velocity_noise_m_s: None,
+                drive: None,
             }
         })
         .collect();

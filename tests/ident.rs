@@ -429,6 +429,7 @@ fn lag_time_constants_are_held_with_a_note_when_the_current_never_changes() {
             f_n: f,
             velocity_measured: true,
             velocity_noise_m_s: None,
+            drive: None,
         });
     }
     let r = fit(&model, &tests, &all_spans(&tests), &FitOptions::default());

@@ -125,6 +125,9 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
     }
     let registry = Registry::builtin();
     let tests = load_tests(&a.data)?;
+    for line in super::acquisition_note(&tests) {
+        eprintln!("{line}");
+    }
     let limit = limit_of(a.current_limit_a, &tests)?;
     let model = build_model(&a.model, &registry, limit)?;
     require(&tests, model.n_params())?;
@@ -235,6 +238,9 @@ fn outputs(
 pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
     let registry = Registry::builtin();
     let tests = load_tests(&a.data)?;
+    for line in super::acquisition_note(&tests) {
+        eprintln!("{line}");
+    }
     let cfg = DeviceConfig::load(&a.params, &registry)?;
     // Standard errors as saved, where the file is a PARAMS.json.
     let saved: Option<ParamsFile> = std::fs::read_to_string(&a.params)
@@ -276,6 +282,9 @@ pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
 pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
     let registry = Registry::builtin();
     let tests = load_tests(&a.data)?;
+    for line in super::acquisition_note(&tests) {
+        eprintln!("{line}");
+    }
     let limit = limit_of(a.current_limit_a, &tests)?;
     let base = build_model(&a.model, &registry, limit)?;
     // The largest model the search can reach needs the most samples.

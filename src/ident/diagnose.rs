@@ -399,7 +399,7 @@ pub fn cross_validate(
             let mut preds = Vec::new();
             for s in &fold.test {
                 let t = &tests[s.test];
-                let sim = model.simulate(&fr.params, &t.inputs[..s.end]);
+                let sim = t.predict(model, &fr.params, s.end);
                 let p = sim[s.start..s.end].to_vec();
                 fig.add(&Figures::of_weighted(
                     &p,
@@ -1070,6 +1070,7 @@ mod tests {
             inputs,
             velocity_measured: true,
             velocity_noise_m_s: None,
+            drive: None,
         }
     }
 

@@ -309,12 +309,16 @@ impl<'a> Problem<'a> {
                 if n == 0 {
                     return (out, states);
                 }
-                let inputs = &self.tests[j].inputs[..n];
+                // With a filtered acquisition the model runs over the lead-in too, and its force is
+                // averaged as the file's was; the states are kept over the whole drive.
+                let inputs = self.tests[j].drive_inputs(n);
+                out.resize(inputs.len(), 0.0);
                 if keep {
                     self.model.simulate_recording(&p, inputs, &mut out, &mut states);
                 } else {
                     self.model.simulate_into(&p, inputs, &mut out);
                 }
+                let mut out = self.tests[j].observed(out);
                 for v in &mut out {
                     if !v.is_finite() {
                         *v = self.blowup_n;
@@ -374,14 +378,15 @@ impl<'a> Problem<'a> {
                 let h = z[k] - self.z[k];
                 let p = self.params_of(&z);
                 let n = self.sim_len[j];
-                let inputs = &self.tests[j].inputs[..n];
+                let inputs = self.tests[j].drive_inputs(n);
                 let out = if integrates(k, j) {
                     self.model.simulate(&p, inputs)
                 } else {
-                    let mut out = vec![0.0; n];
+                    let mut out = vec![0.0; inputs.len()];
                     self.model.forces_on_states(&p, inputs, &self.states[j], &mut out);
                     out
                 };
+                let out = self.tests[j].observed(out);
                 (c, j, h, out)
             })
             .collect();
@@ -894,7 +899,7 @@ fn linear_warm_start(model: &Model, tests: &[Test], spans: &[Span], weights: &[V
         let eval = |q: &[f64]| -> Vec<Vec<f64>> {
             spans
                 .par_iter()
-                .map(|s| model.simulate(q, &tests[s.test].inputs[..s.end])[s.start..].to_vec())
+                .map(|s| tests[s.test].predict(model, q, s.end)[s.start..].to_vec())
                 .collect()
         };
         let base = eval(p);
@@ -1052,6 +1057,7 @@ mod tests {
             inputs,
             velocity_measured: true,
             velocity_noise_m_s: None,
+            drive: None,
         }]
     }
 
@@ -1123,6 +1129,7 @@ mod tests {
                     inputs,
                     velocity_measured: true,
                     velocity_noise_m_s: None,
+                    drive: None,
                 }
             })
             .collect();

@@ -6,6 +6,7 @@
 //! [`crate::device::Registry`]: no effect is named in this module, so an effect a user registers is fitted
 //! and diagnosed exactly like the built-in ones.
 
+pub mod acquisition;
 pub mod cli;
 pub mod diagnose;
 pub mod fit;
@@ -55,10 +56,21 @@ pub struct Test {
     /// window inside, the noisier off-centre ones at the ends), m/s; `None`: estimated from the data by
     /// [`residual::velocity_noise_std`].
     pub velocity_noise_m_s: Option<Vec<f64>>,
+    /// When the file's displacement and force went through a moving average before they were logged: the
+    /// motion before it, which drives the model, and the window the model's force goes through before it
+    /// is compared ([`acquisition`]). `None`: the model is driven by [`Test::inputs`] and compared as it is.
+    pub drive: Option<acquisition::Drive>,
 }
 
 impl Test {
+    /// The test of one file, its acquisition filter detected from the file alone.
     pub fn from_measurement(m: &Measurement) -> Self {
+        Self::with_filter(m, filter_of(&[m]))
+    }
+
+    /// The test of one file whose acquisition filter was detected beforehand (with the other tests of its
+    /// protocol: [`load_tests`]).
+    pub fn with_filter(m: &Measurement, filter: Option<acquisition::MovingAverage>) -> Self {
         let name = m
             .path
             .file_name()
@@ -73,7 +85,31 @@ impl Test {
             f_n: m.f_n.clone(),
             velocity_measured: m.velocity_measured,
             velocity_noise_m_s,
+            drive: filter.and_then(|f| drive_of(m, f)),
         }
+    }
+
+    /// The inputs that drive the model to predict the first `n` samples: the test's own, or with a
+    /// filtered acquisition the motion before the filter from `window − 1` samples before the record.
+    pub fn drive_inputs(&self, n: usize) -> &[Inputs] {
+        match &self.drive {
+            Some(d) => &d.inputs[..n + d.window() - 1],
+            None => &self.inputs[..n],
+        }
+    }
+
+    /// The force the file would show, from the model's force over [`Test::drive_inputs`]: itself, or its
+    /// moving average over the acquisition's window.
+    pub fn observed(&self, model_force: Vec<f64>) -> Vec<f64> {
+        match &self.drive {
+            Some(d) => acquisition::moving_average(&model_force, d.window()),
+            None => model_force,
+        }
+    }
+
+    /// The model's prediction of the first `n` samples of the file's force.
+    pub fn predict(&self, model: &crate::device::Model, params: &[f64], n: usize) -> Vec<f64> {
+        self.observed(model.simulate(params, self.drive_inputs(n)))
     }
 
     pub fn len(&self) -> usize {
@@ -83,6 +119,63 @@ impl Test {
     pub fn is_empty(&self) -> bool {
         self.f_n.is_empty()
     }
+}
+
+/// The moving average that the measurements `ms` (tests of one protocol) went through, if their
+/// displacements and forces show its comb ([`acquisition::detect_moving_average`]).
+pub fn filter_of(ms: &[&Measurement]) -> Option<acquisition::MovingAverage> {
+    let records: Vec<(&[f64], &[f64], &[f64])> = ms
+        .iter()
+        .map(|m| (m.t_s.as_slice(), m.x_m.as_slice(), m.f_n.as_slice()))
+        .collect();
+    acquisition::detect_moving_average(&records)
+}
+
+/// The model's drive for a file whose displacement and force went through the moving average `filter`:
+/// the displacement before the filter
+/// ([`acquisition::deconvolve_moving_average`]), with `window − 1` samples before the first, on the file's
+/// clock extended backwards; velocity and acceleration derived from it as for a file without them
+/// ([`inputs_and_velocity_noise`]: a velocity or acceleration column went through the filter too); the
+/// current command of the first sample over the lead-in.
+pub fn drive_of(m: &Measurement, filter: acquisition::MovingAverage) -> Option<acquisition::Drive> {
+    let lead = filter.window - 1;
+    let dt = crate::measurement::uniform_interval(&m.t_s)?;
+    let x = acquisition::deconvolve_moving_average(&m.x_m, filter.window);
+    let t: Vec<f64> = (0..x.len())
+        .map(|k| {
+            if k < lead {
+                m.t_s[0] - (lead - k) as f64 * dt
+            } else {
+                m.t_s[k - lead]
+            }
+        })
+        .collect();
+    let i_a: Vec<f64> = std::iter::repeat_n(m.i_a[0], lead)
+        .chain(m.i_a.iter().copied())
+        .collect();
+    let lines: Vec<usize> = std::iter::repeat_n(m.lines.first().copied().unwrap_or(0), lead)
+        .chain(m.lines.iter().copied())
+        .collect();
+    let before = Measurement {
+        path: m.path.clone(),
+        meta: m.meta.clone(),
+        notes: Vec::new(),
+        v_m_s: crate::measurement::smooth_derivative(&t, &x),
+        velocity_measured: false,
+        f_n: vec![0.0; x.len()],
+        i_meas_a: None,
+        a_m_s2: None,
+        temp_c: None,
+        extra: Default::default(),
+        lines,
+        t_s: t,
+        x_m: x,
+        i_a,
+    };
+    Some(acquisition::Drive {
+        filter,
+        inputs: inputs_of(&before),
+    })
 }
 
 /// Model inputs of a measurement ([`Measurement::inputs`]), with the velocity, when the file has none, and
@@ -473,7 +566,127 @@ pub fn load_tests(paths: &[PathBuf]) -> Result<Vec<Test>, IdentError> {
         return Err(IdentError::NoData);
     }
     let ms = crate::measurement::read_all(paths)?;
-    Ok(ms.iter().map(Test::from_measurement).collect())
+    Ok(tests_from(&ms))
+}
+
+/// The tests of measurements read together. Tests of one protocol (one clock, one drive period) went
+/// through one acquisition chain: their spectra are pooled to find its filter ([`filter_of`]), and each
+/// test is read with the protocol's filter.
+pub fn tests_from(ms: &[Measurement]) -> Vec<Test> {
+    let mut protocols: Vec<(ProtocolKey, Vec<usize>)> = Vec::new();
+    for (k, m) in ms.iter().enumerate() {
+        let key = protocol_key(m);
+        match protocols.iter_mut().find(|(p, _)| p.matches(&key)) {
+            Some((_, members)) => members.push(k),
+            None => protocols.push((key, vec![k])),
+        }
+    }
+    let mut filters = vec![None; ms.len()];
+    for (_, members) in &protocols {
+        let group: Vec<&Measurement> = members.iter().map(|&k| &ms[k]).collect();
+        let filter = filter_of(&group);
+        for &k in members {
+            filters[k] = filter;
+        }
+    }
+    ms.iter()
+        .zip(filters)
+        .map(|(m, f)| Test::with_filter(m, f))
+        .collect()
+}
+
+/// Lines for a person: which tests were found logged through a moving average, and what is done about it
+/// (one line per window and clock, with the tests' groups); empty when none was.
+pub fn acquisition_note(tests: &[Test]) -> Vec<String> {
+    let mut seen: Vec<(usize, f64, Vec<String>, usize)> = Vec::new();
+    for t in tests {
+        let Some(d) = &t.drive else { continue };
+        let dt = d.inputs.get(1).map_or(f64::NAN, |b| b.t_s - d.inputs[0].t_s);
+        match seen
+            .iter_mut()
+            .find(|(w, step, _, _)| *w == d.window() && (*step - dt).abs() <= 1e-9 * dt.abs())
+        {
+            Some((_, _, groups, n)) => {
+                *n += 1;
+                if !groups.contains(&t.group) {
+                    groups.push(t.group.clone());
+                }
+            }
+            None => seen.push((d.window(), dt, vec![t.group.clone()], 1)),
+        }
+    }
+    seen.into_iter()
+        .map(|(w, dt, groups, n)| {
+            format!(
+                "acquisition: {n} test(s) ({}) were logged through a moving average of {w} samples ({:.3} s): \
+                 its comb of zeros is in the spectra of displacement and force; the model is driven by the \
+                 motion before the filter and its force goes through the same average",
+                groups.join(", "),
+                w as f64 * dt
+            )
+        })
+        .collect()
+}
+
+/// What makes two tests one protocol for the acquisition chain: the sample interval and the drive's
+/// period (the strongest line of the displacement's spectrum), s.
+#[derive(Debug, Clone, Copy)]
+struct ProtocolKey {
+    interval: Option<f64>,
+    period: f64,
+}
+
+impl ProtocolKey {
+    /// Same clock to 0.1 %, same period to 5 %.
+    fn matches(&self, o: &ProtocolKey) -> bool {
+        match (self.interval, o.interval) {
+            (Some(a), Some(b)) => {
+                (a - b).abs() <= 1e-3 * a
+                    && (self.period - o.period).abs() <= 0.05 * self.period.min(o.period)
+            }
+            _ => false,
+        }
+    }
+}
+
+fn protocol_key(m: &Measurement) -> ProtocolKey {
+    let interval = crate::measurement::uniform_interval(&m.t_s);
+    let period = interval.map_or(f64::NAN, |dt| dominant_period(&m.x_m, dt));
+    ProtocolKey { interval, period }
+}
+
+/// Period of the strongest spectral line of `x` (mean removed, Hann window, the peak placed between bins by a
+/// parabola through the log magnitudes: a tenth of a bin or better), s; NaN for fewer than 8 samples.
+fn dominant_period(x: &[f64], dt: f64) -> f64 {
+    let n = x.len();
+    if n < 8 {
+        return f64::NAN;
+    }
+    let mean = x.iter().sum::<f64>() / n as f64;
+    let mut buf: Vec<rustfft::num_complex::Complex<f64>> = x
+        .iter()
+        .enumerate()
+        .map(|(k, v)| {
+            let w = 0.5 - 0.5 * (2.0 * std::f64::consts::PI * k as f64 / n as f64).cos();
+            rustfft::num_complex::Complex::new((v - mean) * w, 0.0)
+        })
+        .collect();
+    rustfft::FftPlanner::new().plan_fft_forward(n).process(&mut buf);
+    let mag = |b: usize| buf[b].norm_sqr().max(f64::MIN_POSITIVE).ln();
+    let top = n / 2;
+    let best = (1..top).max_by(|&a, &b| mag(a).total_cmp(&mag(b))).unwrap_or(1);
+    let shift = if best > 1 && best + 1 < top {
+        let (a, b, c) = (mag(best - 1), mag(best), mag(best + 1));
+        let den = a - 2.0 * b + c;
+        if den < 0.0 {
+            (0.5 * (a - c) / den).clamp(-0.5, 0.5)
+        } else {
+            0.0
+        }
+    } else {
+        0.0
+    };
+    n as f64 * dt / (best as f64 + shift)
 }
 
 /// Statistics the elements derive their initial guesses from.

@@ -625,6 +625,7 @@ mod tests {
             f_n: f,
             velocity_measured: true,
             velocity_noise_m_s: None,
+            drive: None,
         }
     }
 

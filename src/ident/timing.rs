@@ -178,6 +178,7 @@ mod tests {
             inputs,
             velocity_measured: true,
             velocity_noise_m_s: None,
+            drive: None,
         }]
     }
 

@@ -9,7 +9,7 @@ use crate::device::Model;
 pub fn evaluate(model: &Model, params: &[f64], tests: &[Test]) -> Vec<Vec<f64>> {
     tests
         .par_iter()
-        .map(|t| model.simulate(params, &t.inputs))
+        .map(|t| t.predict(model, params, t.len()))
         .collect()
 }
 
