@@ -51,6 +51,30 @@ fn bench_fit(c: &mut Criterion) {
     g.bench_function("fit bingham+hysteresis", |b| {
         b.iter(|| fit(&hyst, &tests, &spans, &FitOptions::default()))
     });
+    // Baseline: the same files compared as logged, without the acquisition chain found in them.
+    let plain: Vec<Test> = tests.iter().cloned().map(|t| Test { drive: None, ..t }).collect();
+    g.bench_function("fit bingham+hysteresis, as logged (baseline)", |b| {
+        b.iter(|| fit(&hyst, &plain, &spans, &FitOptions::default()))
+    });
+    g.finish();
+}
+
+/// Reading the 15 real files into tests: through the acquisition chain (its detection in the pooled spectra
+/// and the deconvolution of the motion) against as logged (baseline), from the same parsed files.
+fn bench_acquisition(c: &mut Criterion) {
+    let dir = PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../shared/data/utfsm-mr-damper"
+    ));
+    let ms = mrfeel::measurement::read_all(&[dir]).expect("real data");
+    let mut g = c.benchmark_group("acquisition/real_15_files_82638_samples");
+    g.sample_size(10).measurement_time(Duration::from_secs(10));
+    g.bench_function("tests as logged (baseline)", |b| {
+        b.iter(|| ms.iter().map(|m| Test::with_filter(m, None)).collect::<Vec<_>>())
+    });
+    g.bench_function("tests through the chain (detect + deconvolve)", |b| {
+        b.iter(|| mrfeel::ident::tests_from(&ms))
+    });
     g.finish();
 }
 
@@ -183,5 +207,11 @@ fn bench_inputs(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench_fit, bench_diagnose, bench_inputs);
+criterion_group!(
+    benches,
+    bench_fit,
+    bench_diagnose,
+    bench_inputs,
+    bench_acquisition
+);
 criterion_main!(benches);

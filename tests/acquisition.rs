@@ -23,10 +23,11 @@ const TRUTH: [f64; 9] = [60.0, 1200.0, 4000.0, 0.01, 0.01, 2.0e-4, 0.008, 0.0, 0
 const FORCE_NOISE_N: f64 = 5.0;
 const X_NOISE_M: f64 = 2e-6;
 
-/// (amplitude m, frequency Hz, sample rate Hz, seconds): the three protocols of the UTFSM tests.
+/// (amplitude m, frequency Hz, sample rate Hz, seconds): the three protocols of the UTFSM tests, as long as
+/// their files (the detection needs a record of 25 windows or more).
 const PROTOCOLS: [(f64, f64, f64, f64); 3] = [
-    (0.010, 1.0, 1000.0, 4.0),
-    (0.025, 0.25, 200.0, 8.0),
+    (0.010, 1.0, 1000.0, 11.0),
+    (0.025, 0.25, 200.0, 22.0),
     (0.002, 5.0, 200.0, 2.2),
 ];
 const CURRENTS: [f64; 3] = [0.25, 0.5, 1.0];

@@ -13,12 +13,16 @@
 //! 1. [`detect_moving_average`]: the filter leaves a comb of zeros in the spectrum of both channels, at
 //!    every multiple of `fs/N`. For each candidate window the periodogram at its first (up to [`NULLS`])
 //!    comb frequencies is compared with the noise level of the band around each ([`null_depth`]), pooled
-//!    over the tests of one protocol (one clock, one drive period: they went through one chain). The
-//!    displacement must show the comb on its own ([`DISPLACEMENT_SIGMAS`]): a sine's spectrum away from the
-//!    drive is noise, while a damper's force has lines at the odd harmonics and gaps at the even ones, a
-//!    false comb for every window of a whole number of half periods. Both channels together must show it
-//!    more strongly still ([`COMB_SIGMAS`]). White noise gives no window (200 unfiltered tests in
-//!    `tests::white_noise_shows_no_comb`).
+//!    over the tests of one protocol (one clock, one drive period: they went through one chain). Both
+//!    channels together must show it far beyond what white noise does ([`COMB_SIGMAS`]), and each on its
+//!    own clearly ([`CHANNEL_SIGMAS`]) with most of its comb frequencies below the noise ([`BELOW_SHARE`]).
+//!    A damper's force has lines at the odd harmonics and gaps at the even ones, which must not pass for a
+//!    comb: the periodogram's window has low sidelobes, and a band counts only where it is noise
+//!    ([`MIN_ROUGHNESS`]) and no line in it is strong enough to leak through the sidelobes
+//!    ([`LINE_TO_NOISE`]). Near the drive's harmonics the force is no witness at all
+//!    ([`HARMONIC_GUARD_BINS`]); where that leaves it nothing, the displacement alone must show the comb as
+//!    strongly as both channels together otherwise would. White noise gives no window (200 unfiltered tests in
+//!    `tests::white_noise_shows_no_comb`), nor do the hidden-effect sweeps' data sets.
 //! 2. [`deconvolve_moving_average`]: the motion before the filter, by regularised least squares, with the
 //!    `N − 1` samples before the record that the first filtered samples averaged. The penalty on the
 //!    motion's second difference leaves what lies well inside the filter's pass band as it was and holds
@@ -39,25 +43,40 @@ use crate::device::Inputs;
 
 /// Comb frequencies checked per candidate window (the first ones, up to the Nyquist frequency).
 pub const NULLS: usize = 8;
-/// The depth of one comb frequency on white noise ([`null_depth`]: the least of three exponential
-/// ordinates against the band's 20th percentile): mean, decades.
-const NOISE_MEAN: f64 = -0.03;
+/// The depth of one comb frequency on white noise ([`null_depth`]: the least of three ordinates against
+/// the band's 20th percentile), measured over 2,731 of them in records of 450–8,000 samples: mean, decades.
+const NOISE_MEAN: f64 = 0.04;
 /// ... and its spread, decades.
-const NOISE_SD: f64 = 0.60;
-/// The displacement's comb must lie this many noise spreads of a mean below white noise's, over its `M`
-/// values (tests × comb frequencies): `NOISE_MEAN − Z · NOISE_SD / √M`. The displacement is the witness:
-/// a sine's spectrum is its noise away from the drive frequency, while a damper's force has lines at
-/// the odd harmonics and gaps at the even ones, a comb of its own for every window that spans a
-/// whole number of half periods.
-pub const DISPLACEMENT_SIGMAS: f64 = 5.0;
-/// Both channels together, likewise.
+const NOISE_SD: f64 = 0.64;
+/// Both channels' combs together must lie this many noise spreads of a mean below white noise's, over
+/// their `M` values (tests × channels × comb frequencies): `NOISE_MEAN − Z · NOISE_SD / √M` (−0.92 decades
+/// for one test of eight comb frequencies, −1.88 for one of two). On white noise the deepest comb of any
+/// candidate window, in one channel of 200 records, lay 5.4 spreads below.
 pub const COMB_SIGMAS: f64 = 6.0;
-/// Of the windows that pass, the deepest comb's, or the longest multiple of it whose mean depth is at least
-/// this share of the deepest.
-pub const DEPTH_SHARE: f64 = 0.75;
+/// ... and each channel on its own this many: the motion and the force went through one filter.
+pub const CHANNEL_SIGMAS: f64 = 2.0;
+/// ... with at least this share of each channel's comb frequencies below their band's noise level (white
+/// noise: about 45 %).
+pub const BELOW_SHARE: f64 = 2.0 / 3.0;
+/// ... and at least this share of the comb frequencies tried left to count in it (not beside a line).
+pub const COUNTED_SHARE: f64 = 0.75;
 /// One comb frequency's depth counts down to this many decades (and up to one above): a single
 /// near-empty bin of white noise must not pass for a comb.
 const DEPTH_CLAMP: f64 = 2.5;
+/// Bins a band must keep, beside the main lobe, for its noise level to mean something; with bands of
+/// `l/window` bins the longest window checked is `l/25` (a record of 25 windows or more).
+const MIN_BAND_BINS: usize = 16;
+/// Comb frequencies of the force within this many bins of a harmonic of the drive are not counted (the
+/// window's main lobe is ±4 bins).
+const HARMONIC_GUARD_BINS: f64 = 6.0;
+/// A bin this far above its band's noise level is a line (white noise: once in 4·10⁹ bins).
+const LINE_FACTOR: f64 = 100.0;
+/// A band counts only where the median of |ln| of the ratio of its ordinates four bins apart reaches this
+/// (white noise: ln 3 ≈ 1.1; leakage of a noise-free signal: far less).
+const MIN_ROUGHNESS: f64 = 0.5;
+/// A band counts only where its strongest bin is at most this far (70 dB) above its noise level: the
+/// window's sidelobes (−92 dB) then leak every line in it below the noise.
+const LINE_TO_NOISE: f64 = 1e7;
 /// The noise level of a band: this quantile of its bins (lines of the test's own harmonics fill the upper
 /// part of a band; its lower part is the noise between them).
 const BAND_QUANTILE: f64 = 0.2;
@@ -72,8 +91,8 @@ pub struct MovingAverage {
     pub window: usize,
     /// Comb frequencies checked per channel.
     pub nulls: usize,
-    /// Mean depth of the comb below the noise of its bands, over the channels, records and comb
-    /// frequencies, decades (negative).
+    /// Mean depth of the comb below the noise of its bands, over the records, the comb frequencies counted
+    /// and the channels that witness it, decades (negative).
     pub mean_depth: f64,
 }
 
@@ -92,8 +111,11 @@ impl Drive {
     }
 }
 
-/// Periodogram (|FFT|², Hann window) of the first difference of `y`: the difference whitens a signal whose
-/// power falls with frequency, so a zero of the filter stands out against the band around it.
+/// Periodogram (|FFT|², 4-term Blackman–Harris window) of the first difference of `y`: the difference
+/// whitens a signal whose power falls with frequency, so a zero of the filter stands out against the band
+/// around it. The window's sidelobes (−92 dB) keep a damper force's harmonic lines out of the gaps between
+/// them: under a Hann window (−31 dB) their leakage filled the bands, and the gaps at the even harmonics
+/// looked like a comb for every window of a whole number of half periods.
 fn periodogram_of_differences(y: &[f64], planner: &mut FftPlanner<f64>) -> Vec<f64> {
     let d: Vec<f64> = y.windows(2).map(|w| w[1] - w[0]).collect();
     let l = d.len();
@@ -102,7 +124,8 @@ fn periodogram_of_differences(y: &[f64], planner: &mut FftPlanner<f64>) -> Vec<f
         .iter()
         .enumerate()
         .map(|(k, v)| {
-            let w = 0.5 - 0.5 * (2.0 * std::f64::consts::PI * k as f64 / l as f64).cos();
+            let a = 2.0 * std::f64::consts::PI * k as f64 / l as f64;
+            let w = 0.35875 - 0.48829 * a.cos() + 0.14128 * (2.0 * a).cos() - 0.01168 * (3.0 * a).cos();
             Complex::new((v - mean) * w, 0.0)
         })
         .collect();
@@ -113,21 +136,58 @@ fn periodogram_of_differences(y: &[f64], planner: &mut FftPlanner<f64>) -> Vec<f
 
 /// Depth, decades (negative = a dip), of the periodogram `p` (of `l` points) at `k/window` cycles per
 /// sample: the least of the three bins around it against the noise level of its band (half a comb spacing
-/// on either side, clipped at the Nyquist frequency, the five bins around the frequency left out;
-/// [`BAND_QUANTILE`]). `None` when the band has fewer than four bins.
-fn null_depth(p: &[f64], l: usize, window: usize, k: usize) -> Option<f64> {
+/// on either side, clipped at the Nyquist frequency, the nine bins of the window's main lobe left out;
+/// [`BAND_QUANTILE`]). `None` when fewer than [`MIN_BAND_BINS`] bins are left in the band, when the band is
+/// not noise, and within [`HARMONIC_GUARD_BINS`] of a multiple of `harmonics` (the drive frequency in
+/// bins, given for a channel whose own harmonics fill its spectrum), or with a line ([`LINE_FACTOR`])
+/// within as many bins of it.
+fn null_depth(p: &[f64], l: usize, window: usize, k: usize, harmonics: Option<f64>) -> Option<f64> {
     let at = |f: f64| f * l as f64;
     let last = p.len() - 1;
     let c = (at(k as f64 / window as f64).round() as usize).min(last);
+    // Near a harmonic of the drive a periodic signal has a line (odd) or a gap between lines (even) of its
+    // own, whatever the filter: no evidence either way.
+    if let Some(h) = harmonics.filter(|h| h.is_finite() && *h > 0.0) {
+        let off = (c as f64 / h - (c as f64 / h).round()).abs() * h;
+        if off <= HARMONIC_GUARD_BINS {
+            return None;
+        }
+    }
     let lo = at((k as f64 - 0.5) / window as f64).ceil().max(1.0) as usize;
     let hi = (at((k as f64 + 0.5) / window as f64).floor() as usize).min(last);
-    let mut band: Vec<f64> = (lo..=hi).filter(|b| b.abs_diff(c) > 2).map(|b| p[b]).collect();
-    if band.len() < 4 || c == 0 {
+    let mut band: Vec<f64> = (lo..=hi).filter(|b| b.abs_diff(c) > 4).map(|b| p[b]).collect();
+    if band.len() < MIN_BAND_BINS || c == 0 {
         return None;
     }
+    // The band must be noise: ordinates four bins apart (nearly independent under this window) differ by
+    // a factor of 3 at the median when they are exponential; a spectrum of leakage from a clean signal is
+    // smooth, and its lowest bins are no noise level to compare with.
+    let mut rough: Vec<f64> = band
+        .windows(5)
+        .map(|w| {
+            (w[4].max(f64::MIN_POSITIVE) / w[0].max(f64::MIN_POSITIVE))
+                .ln()
+                .abs()
+        })
+        .collect();
+    let mid = rough.len() / 2;
+    if rough.is_empty() || *rough.select_nth_unstable_by(mid, f64::total_cmp).1 < MIN_ROUGHNESS {
+        return None;
+    }
+    let peak = band.iter().copied().fold(0.0, f64::max);
     let q = ((band.len() - 1) as f64 * BAND_QUANTILE).round() as usize;
     let level = *band.select_nth_unstable_by(q, f64::total_cmp).1;
-    if level <= 0.0 {
+    // A line close beside the comb frequency makes it a gap between lines, whatever the filter: no evidence.
+    let near = c.saturating_sub(HARMONIC_GUARD_BINS as usize)..=(c + HARMONIC_GUARD_BINS as usize).min(last);
+    if near
+        .clone()
+        .any(|b| b.abs_diff(c) > 1 && p[b] > LINE_FACTOR * level)
+    {
+        return None;
+    }
+    // A line this far above the band's noise leaks through the window's sidelobes into the whole band:
+    // the band's lowest bins are then leakage, and a gap between lines would pass for a zero.
+    if level <= 0.0 || peak > LINE_TO_NOISE * level {
         return None;
     }
     let null = p[c - 1].min(p[c]).min(p[(c + 1).min(last)]);
@@ -138,24 +198,26 @@ fn null_depth(p: &[f64], l: usize, window: usize, k: usize) -> Option<f64> {
     )
 }
 
-/// Depths of the comb of every candidate window (2 to a twelfth of the record, so that a band is six bins
-/// wide or more) in one channel's periodogram: `(window, summed depth, comb frequencies counted)`.
-pub fn comb_depths(y: &[f64]) -> Vec<(usize, f64, usize)> {
+/// Depths of the comb of every candidate window (2 to a 25th of the record, so that a band can keep
+/// [`MIN_BAND_BINS`] bins) in one channel's periodogram: `(window, summed depth, comb frequencies counted)`.
+pub fn comb_depths(y: &[f64], harmonics: Option<f64>) -> Vec<(usize, f64, usize, usize, usize)> {
     if y.len() < 64 {
         return Vec::new();
     }
     let p = periodogram_of_differences(y, &mut FftPlanner::new());
     let l = y.len() - 1;
-    (2..=l / 12)
+    (2..=l / 25)
         .map(|window| {
-            let (mut sum, mut count) = (0.0, 0);
-            for k in 1..=(window / 2).min(NULLS) {
-                if let Some(d) = null_depth(&p, l, window, k) {
+            let (mut sum, mut count, mut below) = (0.0, 0, 0);
+            let tried = (window / 2).min(NULLS);
+            for k in 1..=tried {
+                if let Some(d) = null_depth(&p, l, window, k, harmonics) {
                     sum += d;
                     count += 1;
+                    below += usize::from(d < 0.0);
                 }
             }
-            (window, sum, count)
+            (window, sum, count, below, tried)
         })
         .collect()
 }
@@ -171,44 +233,105 @@ pub fn detect_moving_average(records: &[(&[f64], &[f64], &[f64])]) -> Option<Mov
     {
         return None;
     }
-    // Pooled per window: (displacement sum, count, force sum, count).
-    let mut pooled: std::collections::BTreeMap<usize, [f64; 4]> = Default::default();
-    for (_, x, f) in records {
-        for (channel, y) in [(0, x), (2, f)] {
-            for (window, sum, count) in comb_depths(y) {
-                let e = pooled.entry(window).or_default();
-                e[channel] += sum;
-                e[channel + 1] += count as f64;
+    // Pooled per window and channel: (summed depth, comb frequencies counted, how many below the noise).
+    let mut pooled: std::collections::BTreeMap<usize, [(f64, f64, f64, f64); 2]> = Default::default();
+    for (t, x, f) in records {
+        // The force's own harmonics of the drive (in bins of its differences' periodogram) are no evidence:
+        // a damper's force has lines at the odd ones and gaps at the even ones. The displacement of a sine
+        // test has neither, so it is the witness where the filter's zeros fall on the drive's harmonics
+        // (the UTFSM source's window is a tenth of the period: every zero on an even harmonic).
+        let dt = t[1] - t[0];
+        let drive_bins = (x.len() - 1) as f64 * dt / dominant_period(x, dt);
+        for (channel, y, harmonics) in [(0, x, None), (1, f, Some(drive_bins))] {
+            for (window, sum, count, below, tried) in comb_depths(y, harmonics) {
+                let e = &mut pooled.entry(window).or_default()[channel];
+                e.0 += sum;
+                e.1 += count as f64;
+                e.2 += below as f64;
+                e.3 += tried as f64;
             }
         }
     }
     let need = |sigmas: f64, count: f64| (NOISE_MEAN - sigmas * NOISE_SD / count.sqrt()) * count;
-    let passing: Vec<MovingAverage> = pooled
+    // Each channel: deep enough on average, and most of its comb frequencies below the noise (a damper
+    // force's gaps between harmonic lines can be deep, but every second comb frequency then sits on a line).
+    // A channel's comb: deep enough on average, most of its frequencies below the noise, and most of the
+    // frequencies tried counted (a window whose other comb frequencies all sit beside lines would be
+    // judged on its few that fall on a true comb).
+    let channel_ok = |(sum, count, below, tried): (f64, f64, f64, f64), sigmas: f64| {
+        count > 0.0
+            && count >= COUNTED_SHARE * tried
+            && sum <= need(sigmas, count)
+            && below >= BELOW_SHARE * count
+    };
+    // Both channels, each clearly and together strongly; or, where most comb frequencies of the force lie
+    // on the drive's harmonics or beside lines, the displacement alone as strongly as both together would
+    // have to.
+    let force_witness = |f: (f64, f64, f64, f64)| f.1 > 0.0 && f.1 >= COUNTED_SHARE * f.3;
+    let passes = |x: (f64, f64, f64, f64), f: (f64, f64, f64, f64)| {
+        if force_witness(f) {
+            channel_ok(x, CHANNEL_SIGMAS)
+                && channel_ok(f, CHANNEL_SIGMAS)
+                && x.0 + f.0 <= need(COMB_SIGMAS, x.1 + f.1)
+        } else {
+            channel_ok(x, COMB_SIGMAS)
+        }
+    };
+    // Of the windows that pass, the one whose comb stands out most from white noise (in noise spreads of
+    // its mean over every value counted): a window's half has only every second zero of the window's, so
+    // fewer values, and a window a sample off has its zeros drifting off the true ones, so shallower ones;
+    // twice the window has a peak where its first zero would be and does not pass.
+    let sigmas = |sum: f64, count: f64| (NOISE_MEAN * count - sum) / (NOISE_SD * count.sqrt());
+    pooled
         .into_iter()
-        .filter(|(_, [xs, xc, fs, fc])| {
-            *xc > 0.0
-                && *fc > 0.0
-                && *xs <= need(DISPLACEMENT_SIGMAS, *xc)
-                && xs + fs <= need(COMB_SIGMAS, xc + fc)
+        .filter(|(_, [x, f])| passes(*x, *f))
+        .map(|(window, [x, f])| {
+            let (sum, count) = if force_witness(f) { (x.0 + f.0, x.1 + f.1) } else { (x.0, x.1) };
+            (
+                sigmas(sum, count),
+                MovingAverage {
+                    window,
+                    nulls: (x.3 as usize) / records.len(),
+                    mean_depth: sum / count,
+                },
+            )
         })
-        .map(|(window, [xs, xc, fs, fc])| MovingAverage {
-            window,
-            nulls: (xc as usize) / records.len(),
-            mean_depth: (xs + fs) / (xc + fc),
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, m)| m)
+}
+
+/// Period of the strongest spectral line of `x` (mean removed, Hann window, the peak placed between bins by a
+/// parabola through the log magnitudes: a tenth of a bin or better), s; NaN for fewer than 8 samples.
+pub fn dominant_period(x: &[f64], dt: f64) -> f64 {
+    let n = x.len();
+    if n < 8 {
+        return f64::NAN;
+    }
+    let mean = x.iter().sum::<f64>() / n as f64;
+    let mut buf: Vec<rustfft::num_complex::Complex<f64>> = x
+        .iter()
+        .enumerate()
+        .map(|(k, v)| {
+            let w = 0.5 - 0.5 * (2.0 * std::f64::consts::PI * k as f64 / n as f64).cos();
+            rustfft::num_complex::Complex::new((v - mean) * w, 0.0)
         })
         .collect();
-    // The deepest comb, or a multiple of its window nearly as deep: a window's half (third, …) has every
-    // second (third, …) zero of the window's and can have the deeper mean, while twice the window has a
-    // peak where its first zero would be and cannot pass. A window a sample off has its zeros drifting
-    // off the true ones: a shallower comb, and not a multiple.
-    let deepest = passing
-        .iter()
-        .min_by(|a, b| a.mean_depth.total_cmp(&b.mean_depth))?
-        .to_owned();
-    passing
-        .into_iter()
-        .filter(|m| m.window % deepest.window == 0 && m.mean_depth <= DEPTH_SHARE * deepest.mean_depth)
-        .max_by_key(|m| m.window)
+    rustfft::FftPlanner::new().plan_fft_forward(n).process(&mut buf);
+    let mag = |b: usize| buf[b].norm_sqr().max(f64::MIN_POSITIVE).ln();
+    let top = n / 2;
+    let best = (1..top).max_by(|&a, &b| mag(a).total_cmp(&mag(b))).unwrap_or(1);
+    let shift = if best > 1 && best + 1 < top {
+        let (a, b, c) = (mag(best - 1), mag(best), mag(best + 1));
+        let den = a - 2.0 * b + c;
+        if den < 0.0 {
+            (0.5 * (a - c) / den).clamp(-0.5, 0.5)
+        } else {
+            0.0
+        }
+    } else {
+        0.0
+    };
+    n as f64 * dt / (best as f64 + shift)
 }
 
 /// The causal moving average of `window` samples over `f` (which starts `window − 1` samples before the

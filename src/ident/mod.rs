@@ -651,42 +651,8 @@ impl ProtocolKey {
 
 fn protocol_key(m: &Measurement) -> ProtocolKey {
     let interval = crate::measurement::uniform_interval(&m.t_s);
-    let period = interval.map_or(f64::NAN, |dt| dominant_period(&m.x_m, dt));
+    let period = interval.map_or(f64::NAN, |dt| acquisition::dominant_period(&m.x_m, dt));
     ProtocolKey { interval, period }
-}
-
-/// Period of the strongest spectral line of `x` (mean removed, Hann window, the peak placed between bins by a
-/// parabola through the log magnitudes: a tenth of a bin or better), s; NaN for fewer than 8 samples.
-fn dominant_period(x: &[f64], dt: f64) -> f64 {
-    let n = x.len();
-    if n < 8 {
-        return f64::NAN;
-    }
-    let mean = x.iter().sum::<f64>() / n as f64;
-    let mut buf: Vec<rustfft::num_complex::Complex<f64>> = x
-        .iter()
-        .enumerate()
-        .map(|(k, v)| {
-            let w = 0.5 - 0.5 * (2.0 * std::f64::consts::PI * k as f64 / n as f64).cos();
-            rustfft::num_complex::Complex::new((v - mean) * w, 0.0)
-        })
-        .collect();
-    rustfft::FftPlanner::new().plan_fft_forward(n).process(&mut buf);
-    let mag = |b: usize| buf[b].norm_sqr().max(f64::MIN_POSITIVE).ln();
-    let top = n / 2;
-    let best = (1..top).max_by(|&a, &b| mag(a).total_cmp(&mag(b))).unwrap_or(1);
-    let shift = if best > 1 && best + 1 < top {
-        let (a, b, c) = (mag(best - 1), mag(best), mag(best + 1));
-        let den = a - 2.0 * b + c;
-        if den < 0.0 {
-            (0.5 * (a - c) / den).clamp(-0.5, 0.5)
-        } else {
-            0.0
-        }
-    } else {
-        0.0
-    };
-    n as f64 * dt / (best as f64 + shift)
 }
 
 /// Statistics the elements derive their initial guesses from.
