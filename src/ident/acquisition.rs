@@ -286,7 +286,11 @@ pub fn detect_moving_average(records: &[(&[f64], &[f64], &[f64])]) -> Option<Mov
         .into_iter()
         .filter(|(_, [x, f])| passes(*x, *f))
         .map(|(window, [x, f])| {
-            let (sum, count) = if force_witness(f) { (x.0 + f.0, x.1 + f.1) } else { (x.0, x.1) };
+            let (sum, count) = if force_witness(f) {
+                (x.0 + f.0, x.1 + f.1)
+            } else {
+                (x.0, x.1)
+            };
             (
                 sigmas(sum, count),
                 MovingAverage {

@@ -619,8 +619,8 @@ pub fn acquisition_note(tests: &[Test]) -> Vec<String> {
         .map(|(w, dt, groups, n)| {
             format!(
                 "acquisition: {n} test(s) ({}) were logged through a moving average of {w} samples ({:.3} s): \
-                 its comb of zeros is in the spectra of displacement and force; the model is driven by the \
-                 motion before the filter and its force goes through the same average",
+                 its comb of zeros shows in their spectra; the model is driven by the motion before the \
+                 filter and its force goes through the same average",
                 groups.join(", "),
                 w as f64 * dt
             )
