@@ -34,8 +34,6 @@
 //! makes the reconstructed motion `(N − 1)/2` samples early, the model's force is early by as much, and the
 //! causal average put back on it lands where the centred one did.
 
-use std::sync::Arc;
-
 use rustfft::num_complex::Complex;
 use rustfft::FftPlanner;
 
@@ -89,8 +87,6 @@ const PENALTY: f64 = 0.01;
 pub struct MovingAverage {
     /// Window, samples.
     pub window: usize,
-    /// Comb frequencies checked per channel.
-    pub nulls: usize,
     /// Mean depth of the comb below the noise of its bands, over the records, the comb frequencies counted
     /// and the channels that witness it, decades (negative).
     pub mean_depth: f64,
@@ -116,22 +112,29 @@ impl Drive {
 /// around it. The window's sidelobes (−92 dB) keep a damper force's harmonic lines out of the gaps between
 /// them: under a Hann window (−31 dB) their leakage filled the bands, and the gaps at the even harmonics
 /// looked like a comb for every window of a whole number of half periods.
-fn periodogram_of_differences(y: &[f64], planner: &mut FftPlanner<f64>) -> Vec<f64> {
+fn periodogram_of_differences(y: &[f64]) -> Vec<f64> {
     let d: Vec<f64> = y.windows(2).map(|w| w[1] - w[0]).collect();
-    let l = d.len();
-    let mean = d.iter().sum::<f64>() / l as f64;
-    let mut buf: Vec<Complex<f64>> = d
+    power_spectrum(&d, |a| {
+        0.35875 - 0.48829 * a.cos() + 0.14128 * (2.0 * a).cos() - 0.01168 * (3.0 * a).cos()
+    })
+}
+
+/// |FFT|² of `y` with its mean removed and the window `window(2πk/n)` applied, bins 0 to n/2.
+fn power_spectrum(y: &[f64], window: impl Fn(f64) -> f64) -> Vec<f64> {
+    let n = y.len();
+    let mean = y.iter().sum::<f64>() / n as f64;
+    let mut buf: Vec<Complex<f64>> = y
         .iter()
         .enumerate()
         .map(|(k, v)| {
-            let a = 2.0 * std::f64::consts::PI * k as f64 / l as f64;
-            let w = 0.35875 - 0.48829 * a.cos() + 0.14128 * (2.0 * a).cos() - 0.01168 * (3.0 * a).cos();
-            Complex::new((v - mean) * w, 0.0)
+            Complex::new(
+                (v - mean) * window(2.0 * std::f64::consts::PI * k as f64 / n as f64),
+                0.0,
+            )
         })
         .collect();
-    let fft: Arc<dyn rustfft::Fft<f64>> = planner.plan_fft_forward(l);
-    fft.process(&mut buf);
-    buf[..l / 2 + 1].iter().map(|c| c.norm_sqr()).collect()
+    FftPlanner::new().plan_fft_forward(n).process(&mut buf);
+    buf[..n / 2 + 1].iter().map(|c| c.norm_sqr()).collect()
 }
 
 /// Depth, decades (negative = a dip), of the periodogram `p` (of `l` points) at `k/window` cycles per
@@ -178,11 +181,9 @@ fn null_depth(p: &[f64], l: usize, window: usize, k: usize, harmonics: Option<f6
     let q = ((band.len() - 1) as f64 * BAND_QUANTILE).round() as usize;
     let level = *band.select_nth_unstable_by(q, f64::total_cmp).1;
     // A line close beside the comb frequency makes it a gap between lines, whatever the filter: no evidence.
-    let near = c.saturating_sub(HARMONIC_GUARD_BINS as usize)..=(c + HARMONIC_GUARD_BINS as usize).min(last);
-    if near
-        .clone()
-        .any(|b| b.abs_diff(c) > 1 && p[b] > LINE_FACTOR * level)
-    {
+    let mut near =
+        c.saturating_sub(HARMONIC_GUARD_BINS as usize)..=(c + HARMONIC_GUARD_BINS as usize).min(last);
+    if near.any(|b| b.abs_diff(c) > 1 && p[b] > LINE_FACTOR * level) {
         return None;
     }
     // A line this far above the band's noise leaks through the window's sidelobes into the whole band:
@@ -198,26 +199,51 @@ fn null_depth(p: &[f64], l: usize, window: usize, k: usize, harmonics: Option<f6
     )
 }
 
-/// Depths of the comb of every candidate window (2 to a 25th of the record, so that a band can keep
-/// [`MIN_BAND_BINS`] bins) in one channel's periodogram: `(window, summed depth, comb frequencies counted)`.
-pub fn comb_depths(y: &[f64], harmonics: Option<f64>) -> Vec<(usize, f64, usize, usize, usize)> {
+/// One channel's comb for one window, summed over comb frequencies (and, pooled, over records).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Comb {
+    /// Summed depth of the comb frequencies counted, decades.
+    pub depth: f64,
+    /// Comb frequencies counted (not left out by [`null_depth`]).
+    pub counted: f64,
+    /// ... of them below their band's noise level.
+    pub below: f64,
+    /// Comb frequencies tried.
+    pub tried: f64,
+}
+
+impl Comb {
+    fn add(&mut self, o: Comb) {
+        self.depth += o.depth;
+        self.counted += o.counted;
+        self.below += o.below;
+        self.tried += o.tried;
+    }
+}
+
+/// The comb of every candidate window (2 to a 25th of the record, so that a band can keep
+/// [`MIN_BAND_BINS`] bins) in one channel's periodogram.
+pub fn comb_depths(y: &[f64], harmonics: Option<f64>) -> Vec<(usize, Comb)> {
     if y.len() < 64 {
         return Vec::new();
     }
-    let p = periodogram_of_differences(y, &mut FftPlanner::new());
+    let p = periodogram_of_differences(y);
     let l = y.len() - 1;
     (2..=l / 25)
         .map(|window| {
-            let (mut sum, mut count, mut below) = (0.0, 0, 0);
             let tried = (window / 2).min(NULLS);
+            let mut comb = Comb {
+                tried: tried as f64,
+                ..Comb::default()
+            };
             for k in 1..=tried {
                 if let Some(d) = null_depth(&p, l, window, k, harmonics) {
-                    sum += d;
-                    count += 1;
-                    below += usize::from(d < 0.0);
+                    comb.depth += d;
+                    comb.counted += 1.0;
+                    comb.below += f64::from(u8::from(d < 0.0));
                 }
             }
-            (window, sum, count, below, tried)
+            (window, comb)
         })
         .collect()
 }
@@ -233,8 +259,8 @@ pub fn detect_moving_average(records: &[(&[f64], &[f64], &[f64])]) -> Option<Mov
     {
         return None;
     }
-    // Pooled per window and channel: (summed depth, comb frequencies counted, how many below the noise).
-    let mut pooled: std::collections::BTreeMap<usize, [(f64, f64, f64, f64); 2]> = Default::default();
+    // Pooled per window: the displacement's comb and the force's.
+    let mut pooled: std::collections::BTreeMap<usize, [Comb; 2]> = Default::default();
     for (t, x, f) in records {
         // The force's own harmonics of the drive (in bins of its differences' periodogram) are no evidence:
         // a damper's force has lines at the odd ones and gaps at the even ones. The displacement of a sine
@@ -243,36 +269,31 @@ pub fn detect_moving_average(records: &[(&[f64], &[f64], &[f64])]) -> Option<Mov
         let dt = t[1] - t[0];
         let drive_bins = (x.len() - 1) as f64 * dt / dominant_period(x, dt);
         for (channel, y, harmonics) in [(0, x, None), (1, f, Some(drive_bins))] {
-            for (window, sum, count, below, tried) in comb_depths(y, harmonics) {
-                let e = &mut pooled.entry(window).or_default()[channel];
-                e.0 += sum;
-                e.1 += count as f64;
-                e.2 += below as f64;
-                e.3 += tried as f64;
+            for (window, comb) in comb_depths(y, harmonics) {
+                pooled.entry(window).or_default()[channel].add(comb);
             }
         }
     }
     let need = |sigmas: f64, count: f64| (NOISE_MEAN - sigmas * NOISE_SD / count.sqrt()) * count;
-    // Each channel: deep enough on average, and most of its comb frequencies below the noise (a damper
-    // force's gaps between harmonic lines can be deep, but every second comb frequency then sits on a line).
-    // A channel's comb: deep enough on average, most of its frequencies below the noise, and most of the
-    // frequencies tried counted (a window whose other comb frequencies all sit beside lines would be
-    // judged on its few that fall on a true comb).
-    let channel_ok = |(sum, count, below, tried): (f64, f64, f64, f64), sigmas: f64| {
-        count > 0.0
-            && count >= COUNTED_SHARE * tried
-            && sum <= need(sigmas, count)
-            && below >= BELOW_SHARE * count
+    // A channel's comb: deep enough on average, most of its frequencies below the noise (a damper force's
+    // gaps between harmonic lines can be deep, but every second comb frequency then sits on a line), and
+    // most of the frequencies tried counted (a window whose other comb frequencies all sit beside lines
+    // would be judged on its few that fall on a true comb).
+    let channel_ok = |c: Comb, sigmas: f64| {
+        c.counted > 0.0
+            && c.counted >= COUNTED_SHARE * c.tried
+            && c.depth <= need(sigmas, c.counted)
+            && c.below >= BELOW_SHARE * c.counted
     };
     // Both channels, each clearly and together strongly; or, where most comb frequencies of the force lie
     // on the drive's harmonics or beside lines, the displacement alone as strongly as both together would
     // have to.
-    let force_witness = |f: (f64, f64, f64, f64)| f.1 > 0.0 && f.1 >= COUNTED_SHARE * f.3;
-    let passes = |x: (f64, f64, f64, f64), f: (f64, f64, f64, f64)| {
+    let force_witness = |f: Comb| f.counted > 0.0 && f.counted >= COUNTED_SHARE * f.tried;
+    let passes = |x: Comb, f: Comb| {
         if force_witness(f) {
             channel_ok(x, CHANNEL_SIGMAS)
                 && channel_ok(f, CHANNEL_SIGMAS)
-                && x.0 + f.0 <= need(COMB_SIGMAS, x.1 + f.1)
+                && x.depth + f.depth <= need(COMB_SIGMAS, x.counted + f.counted)
         } else {
             channel_ok(x, COMB_SIGMAS)
         }
@@ -287,15 +308,14 @@ pub fn detect_moving_average(records: &[(&[f64], &[f64], &[f64])]) -> Option<Mov
         .filter(|(_, [x, f])| passes(*x, *f))
         .map(|(window, [x, f])| {
             let (sum, count) = if force_witness(f) {
-                (x.0 + f.0, x.1 + f.1)
+                (x.depth + f.depth, x.counted + f.counted)
             } else {
-                (x.0, x.1)
+                (x.depth, x.counted)
             };
             (
                 sigmas(sum, count),
                 MovingAverage {
                     window,
-                    nulls: (x.3 as usize) / records.len(),
                     mean_depth: sum / count,
                 },
             )
@@ -311,17 +331,8 @@ pub fn dominant_period(x: &[f64], dt: f64) -> f64 {
     if n < 8 {
         return f64::NAN;
     }
-    let mean = x.iter().sum::<f64>() / n as f64;
-    let mut buf: Vec<rustfft::num_complex::Complex<f64>> = x
-        .iter()
-        .enumerate()
-        .map(|(k, v)| {
-            let w = 0.5 - 0.5 * (2.0 * std::f64::consts::PI * k as f64 / n as f64).cos();
-            rustfft::num_complex::Complex::new((v - mean) * w, 0.0)
-        })
-        .collect();
-    rustfft::FftPlanner::new().plan_fft_forward(n).process(&mut buf);
-    let mag = |b: usize| buf[b].norm_sqr().max(f64::MIN_POSITIVE).ln();
+    let power = power_spectrum(x, |a| 0.5 - 0.5 * a.cos());
+    let mag = |b: usize| power[b].max(f64::MIN_POSITIVE).ln();
     let top = n / 2;
     let best = (1..top).max_by(|&a, &b| mag(a).total_cmp(&mag(b))).unwrap_or(1);
     let shift = if best > 1 && best + 1 < top {

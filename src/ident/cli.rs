@@ -119,15 +119,21 @@ fn limit_of(arg: Option<f64>, tests: &[Test]) -> anyhow::Result<f64> {
     }
 }
 
+/// [`load_tests`], telling the person on stderr which tests were found logged through a moving average.
+fn load_and_tell(paths: &[std::path::PathBuf]) -> anyhow::Result<Vec<Test>> {
+    let tests = load_tests(paths)?;
+    for line in super::acquisition_note(&tests) {
+        eprintln!("{line}");
+    }
+    Ok(tests)
+}
+
 pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
     if let Some(path) = &a.save {
         ParamsFile::check_path("--save", path).map_err(anyhow::Error::msg)?;
     }
     let registry = Registry::builtin();
-    let tests = load_tests(&a.data)?;
-    for line in super::acquisition_note(&tests) {
-        eprintln!("{line}");
-    }
+    let tests = load_and_tell(&a.data)?;
     let limit = limit_of(a.current_limit_a, &tests)?;
     let model = build_model(&a.model, &registry, limit)?;
     require(&tests, model.n_params())?;
@@ -237,10 +243,7 @@ fn outputs(
 
 pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
     let registry = Registry::builtin();
-    let tests = load_tests(&a.data)?;
-    for line in super::acquisition_note(&tests) {
-        eprintln!("{line}");
-    }
+    let tests = load_and_tell(&a.data)?;
     let cfg = DeviceConfig::load(&a.params, &registry)?;
     // Standard errors as saved, where the file is a PARAMS.json.
     let saved: Option<ParamsFile> = std::fs::read_to_string(&a.params)
@@ -281,10 +284,7 @@ pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
 
 pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
     let registry = Registry::builtin();
-    let tests = load_tests(&a.data)?;
-    for line in super::acquisition_note(&tests) {
-        eprintln!("{line}");
-    }
+    let tests = load_and_tell(&a.data)?;
     let limit = limit_of(a.current_limit_a, &tests)?;
     let base = build_model(&a.model, &registry, limit)?;
     // The largest model the search can reach needs the most samples.

@@ -305,14 +305,13 @@ impl<'a> Problem<'a> {
             .into_par_iter()
             .map(|j| {
                 let n = self.sim_len[j];
-                let (mut out, mut states) = (vec![0.0; n], Vec::new());
                 if n == 0 {
-                    return (out, states);
+                    return (Vec::new(), Vec::new());
                 }
                 // With a filtered acquisition the model runs over the lead-in too, and its force is
                 // averaged as the file's was; the states are kept over the whole drive.
                 let inputs = self.tests[j].drive_inputs(n);
-                out.resize(inputs.len(), 0.0);
+                let (mut out, mut states) = (vec![0.0; inputs.len()], Vec::new());
                 if keep {
                     self.model.simulate_recording(&p, inputs, &mut out, &mut states);
                 } else {

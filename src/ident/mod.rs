@@ -153,24 +153,15 @@ pub fn drive_of(m: &Measurement, filter: acquisition::MovingAverage) -> Option<a
     let i_a: Vec<f64> = std::iter::repeat_n(m.i_a[0], lead)
         .chain(m.i_a.iter().copied())
         .collect();
-    let lines: Vec<usize> = std::iter::repeat_n(m.lines.first().copied().unwrap_or(0), lead)
-        .chain(m.lines.iter().copied())
-        .collect();
+    // Only the motion and the command: no velocity or acceleration column (they were filtered too).
     let before = Measurement {
         path: m.path.clone(),
-        meta: m.meta.clone(),
-        notes: Vec::new(),
         v_m_s: crate::measurement::smooth_derivative(&t, &x),
         velocity_measured: false,
-        f_n: vec![0.0; x.len()],
-        i_meas_a: None,
-        a_m_s2: None,
-        temp_c: None,
-        extra: Default::default(),
-        lines,
         t_s: t,
         x_m: x,
         i_a,
+        ..Default::default()
     };
     Some(acquisition::Drive {
         filter,
