@@ -14,7 +14,7 @@ use rand_distr::{Distribution, Normal};
 use mrfeel::device::{Inputs, Model, Registry};
 use mrfeel::ident::acquisition::moving_average;
 use mrfeel::ident::fit::{all_spans, fit, FitOptions, Span};
-use mrfeel::ident::{tests_from, Test};
+use mrfeel::ident::{tests_from, AcquisitionChoice, Test};
 use mrfeel::measurement::Measurement;
 
 const MODEL: &str = "bingham+hysteresis";
@@ -208,4 +208,108 @@ fn through_the_chain_a_model_fitted_on_two_protocols_predicts_the_third() {
             "protocol {held}: as logged {held_plain:.4}"
         );
     }
+}
+
+// ---------------------------------------------------------------- `--acquisition` on the command line
+
+fn mrfeel(args: &[String]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_mrfeel"))
+        .args(args)
+        .output()
+        .expect("run mrfeel")
+}
+
+fn fit_nrmse(files: &[String], acquisition: &str) -> (f64, String) {
+    let mut args: Vec<String> = ["fit", "--model", MODEL, "--json", "--acquisition", acquisition]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    args.extend(files.iter().cloned());
+    let o = mrfeel(&args);
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(o.status.success(), "--acquisition {acquisition}: {err}");
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).expect("fit --json");
+    (json["nrmse"].as_f64().expect("nrmse"), err)
+}
+
+#[test]
+fn the_acquisition_can_be_told_and_a_wrong_or_impossible_one_shows() {
+    // The 1 kHz, 1 Hz protocol, logged through 100 samples. Told the window, the fit is as good as when the
+    // tool finds it, at the noise left after the average; compared as logged, or through half the window,
+    // the model cannot follow the smeared reversals. A window the files cannot carry is an error that
+    // names the file, and a window of one sample is refused.
+    let model = Model::from_spec(MODEL, &Registry::builtin(), 14.0).expect("model");
+    let dir = tempfile::tempdir().expect("tempdir");
+    let ms: Vec<Measurement> = CURRENTS
+        .iter()
+        .enumerate()
+        .map(|(c, &i)| {
+            let mut m = logged(&model, 0, i, 7 + c as u64);
+            m.path = dir.path().join(format!("sine10mm1Hz_{c}.csv"));
+            m.write(&m.path).expect("write csv");
+            m
+        })
+        .collect();
+    let files: Vec<String> = ms.iter().map(|m| m.path.display().to_string()).collect();
+    let window = window_of(PROTOCOLS[0].2, PROTOCOLS[0].1);
+    assert_eq!(window, 100);
+    // The pooled noise floor: the force noise after the average over the files' RMS force.
+    let (ss, n) = ms.iter().fold((0.0, 0usize), |(ss, n), m| {
+        (ss + m.f_n.iter().map(|f| f * f).sum::<f64>(), n + m.f_n.len())
+    });
+    let floor = FORCE_NOISE_N / (window as f64).sqrt() / (ss / n as f64).sqrt();
+
+    let (auto, note) = fit_nrmse(&files, "auto");
+    assert!(note.contains("moving average of 100 samples"), "{note}");
+    let (told, note) = fit_nrmse(&files, "100");
+    assert!(note.contains("--acquisition 100"), "{note}");
+    let (half, _) = fit_nrmse(&files, "50");
+    let (as_logged, note) = fit_nrmse(&files, "as-logged");
+    assert!(note.contains("as they are"), "{note}");
+    eprintln!("floor {floor:.2e}: auto {auto:.2e}, told {told:.2e}, half window {half:.2e}, as logged {as_logged:.2e}");
+    assert!((told - auto).abs() <= 1e-9, "told {told} against found {auto}");
+    assert!(
+        told < 3.0 * floor,
+        "through the told window {told}, noise floor {floor}"
+    );
+    assert!(half > 3.0 * told, "half the window {half} against {told}");
+    assert!(as_logged > 3.0 * told, "as logged {as_logged} against {told}");
+
+    // Errors: a window longer than a quarter of a file, and a window of one sample.
+    let mut args: Vec<String> = ["fit", "--acquisition", "5000"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    args.extend(files.iter().cloned());
+    let o = mrfeel(&args);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        err.contains(&files[0])
+            && err.contains("--acquisition 5000")
+            && err.contains("fewer than four windows"),
+        "{err}"
+    );
+    args[2] = "1".into();
+    let o = mrfeel(&args);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--acquisition") && err.contains("no filter"),
+        "{err}"
+    );
+
+    // A clock that is not uniform (the format allows it) cannot carry a moving average over samples.
+    let mut jittered = ms[0].clone();
+    for (k, t) in jittered.t_s.iter_mut().enumerate() {
+        *t += if k % 2 == 1 { 2e-4 } else { 0.0 };
+    }
+    let e = mrfeel::ident::tests_with(&[jittered], AcquisitionChoice::MovingAverage(100))
+        .err()
+        .expect("a jittered clock through a told window");
+    let text = e.to_string();
+    assert!(
+        text.contains("sine10mm1Hz_0.csv") && text.contains("not uniform"),
+        "{text}"
+    );
 }

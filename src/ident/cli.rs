@@ -12,7 +12,7 @@ use super::report::{diagnose_table, DiagnoseJson, FitJson};
 use super::residual::where_regions;
 use super::timing::{decide, retimed, CommandTiming, TimingChoice, TimingDecision};
 use super::validate::{evaluate, figures};
-use super::{default_current_limit_a, load_tests, Test};
+use super::{default_current_limit_a, tests_with, AcquisitionChoice, IdentError, Test};
 use crate::device::{DeviceConfig, Model, ModelSpec, ParamsFile, Registry};
 
 #[derive(clap::Args, Debug, Clone)]
@@ -42,6 +42,12 @@ pub struct FitArgs {
     /// Also measure the held-out error: refit with each test group left out in turn (stderr).
     #[arg(long)]
     pub heldout: bool,
+    /// The acquisition chain the files went through: `auto` (a moving average found in the data, by the comb
+    /// of zeros it leaves in the spectra of a protocol's tests; none where none shows), `as-logged` (compare
+    /// the files as they are), or a window N in samples (every file went through a causal moving average of
+    /// N samples: the model is driven by the motion before it and its force averaged likewise).
+    #[arg(long, default_value = "auto")]
+    pub acquisition: AcquisitionChoice,
     /// When each logged current command takes effect: `after-sample` (a DAQ that reads the sensors, then
     /// writes the command), `at-sample` (already in force at the sample it is logged with), or `auto`: where
     /// some test's command changes, the model is fitted both ways and the smaller error kept.
@@ -63,6 +69,12 @@ pub struct ValidateArgs {
     pub plot: Option<PathBuf>,
     #[arg(long)]
     pub rerun: Option<PathBuf>,
+    /// The acquisition chain the files went through: `auto` (a moving average found in the data, by the comb
+    /// of zeros it leaves in the spectra of a protocol's tests; none where none shows), `as-logged` (compare
+    /// the files as they are), or a window N in samples (every file went through a causal moving average of
+    /// N samples: the model is driven by the motion before it and its force averaged likewise).
+    #[arg(long, default_value = "auto")]
+    pub acquisition: AcquisitionChoice,
 }
 
 #[derive(clap::Args, Debug, Clone)]
@@ -81,6 +93,12 @@ pub struct DiagnoseArgs {
     pub rerun: Option<PathBuf>,
     #[arg(long)]
     pub current_limit_a: Option<f64>,
+    /// The acquisition chain the files went through: `auto` (a moving average found in the data, by the comb
+    /// of zeros it leaves in the spectra of a protocol's tests; none where none shows), `as-logged` (compare
+    /// the files as they are), or a window N in samples (every file went through a causal moving average of
+    /// N samples: the model is driven by the motion before it and its force averaged likewise).
+    #[arg(long, default_value = "auto")]
+    pub acquisition: AcquisitionChoice,
     /// When each logged current command takes effect: `after-sample` (a DAQ that reads the sensors, then
     /// writes the command), `at-sample` (already in force at the sample it is logged with), or `auto`: where
     /// some test's command changes, the starting model is fitted both ways and the smaller error kept.
@@ -119,11 +137,27 @@ fn limit_of(arg: Option<f64>, tests: &[Test]) -> anyhow::Result<f64> {
     }
 }
 
-/// [`load_tests`], telling the person on stderr which tests were found logged through a moving average.
-fn load_and_tell(paths: &[std::path::PathBuf]) -> anyhow::Result<Vec<Test>> {
-    let tests = load_tests(paths)?;
-    for line in super::acquisition_note(&tests) {
-        eprintln!("{line}");
+/// The tests of the files, their acquisition chain taken as `choice` says, telling the person on stderr
+/// what was done about it.
+fn load_and_tell(paths: &[std::path::PathBuf], choice: AcquisitionChoice) -> anyhow::Result<Vec<Test>> {
+    if paths.is_empty() {
+        return Err(IdentError::NoData.into());
+    }
+    let ms = crate::measurement::read_all(paths)?;
+    let tests = tests_with(&ms, choice)?;
+    match choice {
+        AcquisitionChoice::Auto => {
+            for line in super::acquisition_note(&tests) {
+                eprintln!("{line} (`--acquisition as-logged` compares the files as they are)");
+            }
+        }
+        AcquisitionChoice::AsLogged => {
+            eprintln!("acquisition: the files are compared as they are (--acquisition as-logged)")
+        }
+        AcquisitionChoice::MovingAverage(n) => eprintln!(
+            "acquisition: every file was logged through a moving average of {n} samples (--acquisition {n}); \
+             the model is driven by the motion before it and its force goes through the same average"
+        ),
     }
     Ok(tests)
 }
@@ -133,7 +167,7 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
         ParamsFile::check_path("--save", path).map_err(anyhow::Error::msg)?;
     }
     let registry = Registry::builtin();
-    let tests = load_and_tell(&a.data)?;
+    let tests = load_and_tell(&a.data, a.acquisition)?;
     let limit = limit_of(a.current_limit_a, &tests)?;
     let model = build_model(&a.model, &registry, limit)?;
     require(&tests, model.n_params())?;
@@ -243,7 +277,7 @@ fn outputs(
 
 pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
     let registry = Registry::builtin();
-    let tests = load_and_tell(&a.data)?;
+    let tests = load_and_tell(&a.data, a.acquisition)?;
     let cfg = DeviceConfig::load(&a.params, &registry)?;
     // Standard errors as saved, where the file is a PARAMS.json.
     let saved: Option<ParamsFile> = std::fs::read_to_string(&a.params)
@@ -284,7 +318,7 @@ pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
 
 pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
     let registry = Registry::builtin();
-    let tests = load_and_tell(&a.data)?;
+    let tests = load_and_tell(&a.data, a.acquisition)?;
     let limit = limit_of(a.current_limit_a, &tests)?;
     let base = build_model(&a.model, &registry, limit)?;
     // The largest model the search can reach needs the most samples.

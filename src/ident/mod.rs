@@ -586,6 +586,80 @@ pub fn tests_from(ms: &[Measurement]) -> Vec<Test> {
         .collect()
 }
 
+/// How the acquisition chain of the tests is taken (`--acquisition`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum AcquisitionChoice {
+    /// Found in the data: a moving average whose comb of zeros shows in the pooled spectra of a protocol's
+    /// tests ([`tests_from`]); none where none shows.
+    #[default]
+    Auto,
+    /// The files are compared as they are, whatever their spectra show.
+    AsLogged,
+    /// Every file went through a causal moving average of this many samples (the user knows the chain).
+    MovingAverage(usize),
+}
+
+impl std::str::FromStr for AcquisitionChoice {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.trim() {
+            "auto" => Ok(Self::Auto),
+            "as-logged" | "none" => Ok(Self::AsLogged),
+            other => match other.parse::<usize>() {
+                Ok(n) if n >= 2 => Ok(Self::MovingAverage(n)),
+                Ok(n) => Err(format!(
+                    "a moving average of {n} sample(s) is no filter: give 2 or more samples, or `as-logged`"
+                )),
+                Err(_) => Err(format!(
+                    "`{other}`: expected `auto`, `as-logged` or the moving average's window in samples (an \
+                     integer of 2 or more)"
+                )),
+            },
+        }
+    }
+}
+
+/// The tests of measurements read together, their acquisition chain taken as `choice` says. A window the
+/// user gives must be undone on every file: a file whose clock is not uniform, or that is not four windows
+/// long, is an error that names it, not a silent fallback to the file as logged.
+pub fn tests_with(ms: &[Measurement], choice: AcquisitionChoice) -> Result<Vec<Test>, IdentError> {
+    match choice {
+        AcquisitionChoice::Auto => Ok(tests_from(ms)),
+        AcquisitionChoice::AsLogged => Ok(ms.iter().map(|m| Test::with_filter(m, None)).collect()),
+        AcquisitionChoice::MovingAverage(window) => ms
+            .iter()
+            .map(|m| {
+                let fail = |why: String| {
+                    IdentError::Other(format!("{}: --acquisition {window}: {why}", m.path.display()))
+                };
+                if m.t_s.len() < 4 * window {
+                    return Err(fail(format!(
+                        "the file has {} samples, fewer than four windows",
+                        m.t_s.len()
+                    )));
+                }
+                if crate::measurement::uniform_interval(&m.t_s).is_none() {
+                    return Err(fail(
+                        "its clock is not uniform (the format allows that, but a moving average over \
+                         samples cannot be undone on it)"
+                            .into(),
+                    ));
+                }
+                let filter = acquisition::MovingAverage {
+                    window,
+                    mean_depth: f64::NAN,
+                };
+                let test = Test::with_filter(m, Some(filter));
+                match test.drive {
+                    Some(_) => Ok(test),
+                    None => Err(fail("the motion before the filter could not be recovered".into())),
+                }
+            })
+            .collect(),
+    }
+}
+
 /// Lines for a person: which tests were found logged through a moving average, and what is done about it
 /// (one line per window and clock, with the tests' groups); empty when none was.
 pub fn acquisition_note(tests: &[Test]) -> Vec<String> {
