@@ -21,7 +21,9 @@ use rand_distr::{Distribution, Normal};
 use mrfeel::device::{Inputs, Model, ModelSpec, Registry};
 use mrfeel::ident::fit::{all_spans, fit, FitOptions};
 use mrfeel::ident::timing::{decide, TimingChoice};
-use mrfeel::ident::{data_stats, diagnose, inputs_and_velocity_noise, load_tests, DiagnoseOptions, Test};
+use mrfeel::ident::{
+    data_stats, diagnose, inputs_and_velocity_noise, load_tests, AcquisitionChoice, DiagnoseOptions, Test,
+};
 use mrfeel::measurement::Measurement;
 
 fn real_tests() -> Vec<Test> {
@@ -70,7 +72,7 @@ fn bench_acquisition(c: &mut Criterion) {
     let mut g = c.benchmark_group("acquisition/real_15_files_82638_samples");
     g.sample_size(10).measurement_time(Duration::from_secs(10));
     g.bench_function("tests as logged (baseline)", |b| {
-        b.iter(|| ms.iter().map(|m| Test::with_filter(m, None)).collect::<Vec<_>>())
+        b.iter(|| mrfeel::ident::tests_with(&ms, AcquisitionChoice::AsLogged))
     });
     g.bench_function("tests through the chain (detect + deconvolve)", |b| {
         b.iter(|| mrfeel::ident::tests_from(&ms))

@@ -305,8 +305,7 @@ fn the_acquisition_can_be_told_and_a_wrong_or_impossible_one_shows() {
         *t += if k % 2 == 1 { 2e-4 } else { 0.0 };
     }
     let e = mrfeel::ident::tests_with(&[jittered], AcquisitionChoice::MovingAverage(100))
-        .err()
-        .expect("a jittered clock through a told window");
+        .expect_err("a jittered clock through a told window");
     let text = e.to_string();
     assert!(
         text.contains("sine10mm1Hz_0.csv") && text.contains("not uniform"),
