@@ -12,8 +12,19 @@ use super::report::{diagnose_table, DiagnoseJson, FitJson};
 use super::residual::where_regions;
 use super::timing::{decide, retimed, CommandTiming, TimingChoice, TimingDecision};
 use super::validate::{evaluate, figures};
-use super::{default_current_limit_a, tests_with, AcquisitionChoice, IdentError, Test};
+use super::{default_current_limit_a, load_tests_with, AcquisitionChoice, Test};
 use crate::device::{DeviceConfig, Model, ModelSpec, ParamsFile, Registry};
+
+/// `--acquisition`, shared by `fit`, `validate` and `diagnose`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct AcquisitionArg {
+    /// The acquisition chain the files went through: `auto` (a moving average found in the data, by the comb
+    /// of zeros it leaves in the spectra of a protocol's tests; none where none shows), `as-logged` (compare
+    /// the files as they are), or a window N in samples (every file went through a causal moving average of
+    /// N samples: the model is driven by the motion before it and its force averaged likewise).
+    #[arg(long, default_value = "auto")]
+    pub acquisition: AcquisitionChoice,
+}
 
 #[derive(clap::Args, Debug, Clone)]
 pub struct FitArgs {
@@ -42,12 +53,8 @@ pub struct FitArgs {
     /// Also measure the held-out error: refit with each test group left out in turn (stderr).
     #[arg(long)]
     pub heldout: bool,
-    /// The acquisition chain the files went through: `auto` (a moving average found in the data, by the comb
-    /// of zeros it leaves in the spectra of a protocol's tests; none where none shows), `as-logged` (compare
-    /// the files as they are), or a window N in samples (every file went through a causal moving average of
-    /// N samples: the model is driven by the motion before it and its force averaged likewise).
-    #[arg(long, default_value = "auto")]
-    pub acquisition: AcquisitionChoice,
+    #[command(flatten)]
+    pub acquisition: AcquisitionArg,
     /// When each logged current command takes effect: `after-sample` (a DAQ that reads the sensors, then
     /// writes the command), `at-sample` (already in force at the sample it is logged with), or `auto`: where
     /// some test's command changes, the model is fitted both ways and the smaller error kept.
@@ -69,12 +76,8 @@ pub struct ValidateArgs {
     pub plot: Option<PathBuf>,
     #[arg(long)]
     pub rerun: Option<PathBuf>,
-    /// The acquisition chain the files went through: `auto` (a moving average found in the data, by the comb
-    /// of zeros it leaves in the spectra of a protocol's tests; none where none shows), `as-logged` (compare
-    /// the files as they are), or a window N in samples (every file went through a causal moving average of
-    /// N samples: the model is driven by the motion before it and its force averaged likewise).
-    #[arg(long, default_value = "auto")]
-    pub acquisition: AcquisitionChoice,
+    #[command(flatten)]
+    pub acquisition: AcquisitionArg,
 }
 
 #[derive(clap::Args, Debug, Clone)]
@@ -93,12 +96,8 @@ pub struct DiagnoseArgs {
     pub rerun: Option<PathBuf>,
     #[arg(long)]
     pub current_limit_a: Option<f64>,
-    /// The acquisition chain the files went through: `auto` (a moving average found in the data, by the comb
-    /// of zeros it leaves in the spectra of a protocol's tests; none where none shows), `as-logged` (compare
-    /// the files as they are), or a window N in samples (every file went through a causal moving average of
-    /// N samples: the model is driven by the motion before it and its force averaged likewise).
-    #[arg(long, default_value = "auto")]
-    pub acquisition: AcquisitionChoice,
+    #[command(flatten)]
+    pub acquisition: AcquisitionArg,
     /// When each logged current command takes effect: `after-sample` (a DAQ that reads the sensors, then
     /// writes the command), `at-sample` (already in force at the sample it is logged with), or `auto`: where
     /// some test's command changes, the starting model is fitted both ways and the smaller error kept.
@@ -140,11 +139,7 @@ fn limit_of(arg: Option<f64>, tests: &[Test]) -> anyhow::Result<f64> {
 /// The tests of the files, their acquisition chain taken as `choice` says, telling the person on stderr
 /// what was done about it.
 fn load_and_tell(paths: &[std::path::PathBuf], choice: AcquisitionChoice) -> anyhow::Result<Vec<Test>> {
-    if paths.is_empty() {
-        return Err(IdentError::NoData.into());
-    }
-    let ms = crate::measurement::read_all(paths)?;
-    let tests = tests_with(&ms, choice)?;
+    let tests = load_tests_with(paths, choice)?;
     match choice {
         AcquisitionChoice::Auto => {
             for line in super::acquisition_note(&tests) {
@@ -167,7 +162,7 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
         ParamsFile::check_path("--save", path).map_err(anyhow::Error::msg)?;
     }
     let registry = Registry::builtin();
-    let tests = load_and_tell(&a.data, a.acquisition)?;
+    let tests = load_and_tell(&a.data, a.acquisition.acquisition)?;
     let limit = limit_of(a.current_limit_a, &tests)?;
     let model = build_model(&a.model, &registry, limit)?;
     require(&tests, model.n_params())?;
@@ -277,7 +272,7 @@ fn outputs(
 
 pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
     let registry = Registry::builtin();
-    let tests = load_and_tell(&a.data, a.acquisition)?;
+    let tests = load_and_tell(&a.data, a.acquisition.acquisition)?;
     let cfg = DeviceConfig::load(&a.params, &registry)?;
     // Standard errors as saved, where the file is a PARAMS.json.
     let saved: Option<ParamsFile> = std::fs::read_to_string(&a.params)
@@ -318,7 +313,7 @@ pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
 
 pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
     let registry = Registry::builtin();
-    let tests = load_and_tell(&a.data, a.acquisition)?;
+    let tests = load_and_tell(&a.data, a.acquisition.acquisition)?;
     let limit = limit_of(a.current_limit_a, &tests)?;
     let base = build_model(&a.model, &registry, limit)?;
     // The largest model the search can reach needs the most samples.

@@ -454,12 +454,10 @@ fn compress(mut j: DMatrix<f64>, r: &DVector<f64>) -> DMatrix<f64> {
         j.ger(-1.0 / rho, r, &g, 1.0);
     }
     let rows = j.nrows();
-    let projected = j;
     if rows >= n {
-        let rf = projected.qr().r();
-        out.view_mut((1, 0), (n, n)).copy_from(&rf);
+        out.view_mut((1, 0), (n, n)).copy_from(&j.qr().r());
     } else {
-        out.view_mut((1, 0), (rows, n)).copy_from(&projected);
+        out.view_mut((1, 0), (rows, n)).copy_from(&j);
     }
     out
 }

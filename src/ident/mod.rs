@@ -553,13 +553,18 @@ pub fn group_of(m: &Measurement) -> String {
     }
 }
 
-/// Read files and directories of CSV files into tests.
+/// Read files and directories of CSV files into tests, their acquisition chain found in the data.
 pub fn load_tests(paths: &[PathBuf]) -> Result<Vec<Test>, IdentError> {
+    load_tests_with(paths, AcquisitionChoice::Auto)
+}
+
+/// [`load_tests`] with the acquisition chain taken as `choice` says ([`tests_with`]).
+pub fn load_tests_with(paths: &[PathBuf], choice: AcquisitionChoice) -> Result<Vec<Test>, IdentError> {
     if paths.is_empty() {
         return Err(IdentError::NoData);
     }
     let ms = crate::measurement::read_all(paths)?;
-    Ok(tests_from(&ms))
+    tests_with(&ms, choice)
 }
 
 /// The tests of measurements read together. Tests of one protocol (one clock, one drive period) went
@@ -642,21 +647,19 @@ pub fn tests_with(ms: &[Measurement], choice: AcquisitionChoice) -> Result<Vec<T
                         m.t_s.len()
                     )));
                 }
-                if crate::measurement::uniform_interval(&m.t_s).is_none() {
-                    return Err(fail(
-                        "its clock is not uniform (the format allows that, but a moving average over \
-                         samples cannot be undone on it)"
-                            .into(),
-                    ));
-                }
                 let filter = acquisition::MovingAverage {
                     window,
                     mean_depth: f64::NAN,
                 };
                 let test = Test::with_filter(m, Some(filter));
+                // [`drive_of`] undoes the filter on a uniform clock only.
                 match test.drive {
                     Some(_) => Ok(test),
-                    None => Err(fail("the motion before the filter could not be recovered".into())),
+                    None => Err(fail(
+                        "its clock is not uniform (the format allows that, but a moving average over \
+                         samples cannot be undone on it)"
+                            .into(),
+                    )),
                 }
             })
             // Every file in parallel, the first failing one in the order given named.
