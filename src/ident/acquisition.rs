@@ -199,9 +199,9 @@ fn null_depth(p: &[f64], l: usize, window: usize, k: usize, harmonics: Option<f6
     )
 }
 
-/// One channel's comb for one window, summed over comb frequencies (and, pooled, over records).
+/// Depths of comb frequencies, summed (over comb frequencies, records and channels).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Comb {
+pub struct Tally {
     /// Summed depth of the comb frequencies counted, decades.
     pub depth: f64,
     /// Comb frequencies counted (not left out by [`null_depth`]).
@@ -212,12 +212,45 @@ pub struct Comb {
     pub tried: f64,
 }
 
-impl Comb {
-    fn add(&mut self, o: Comb) {
+impl Tally {
+    fn add(&mut self, o: Tally) {
         self.depth += o.depth;
         self.counted += o.counted;
         self.below += o.below;
         self.tried += o.tried;
+    }
+}
+
+/// One channel's comb for one window (and, pooled, over records and channels): a [`Tally`] for each of
+/// its first [`NULLS`] comb frequencies.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Comb {
+    /// `at[k − 1]`: the `k`-th comb frequency, `k/window` cycles per sample.
+    pub at: [Tally; NULLS],
+}
+
+impl Comb {
+    fn add(&mut self, o: &Comb) {
+        for (a, b) in self.at.iter_mut().zip(&o.at) {
+            a.add(*b);
+        }
+    }
+
+    /// Over every comb frequency.
+    pub fn total(&self) -> Tally {
+        self.except_multiples_of(usize::MAX)
+    }
+
+    /// Over the comb frequencies `k` that are not multiples of `m`: for a window `m` times another, the
+    /// zeros that the other window's average does not have.
+    pub fn except_multiples_of(&self, m: usize) -> Tally {
+        let mut t = Tally::default();
+        for (k, a) in self.at.iter().enumerate() {
+            if (k + 1) % m != 0 {
+                t.add(*a);
+            }
+        }
+        t
     }
 }
 
@@ -231,16 +264,14 @@ pub fn comb_depths(y: &[f64], harmonics: Option<f64>) -> Vec<(usize, Comb)> {
     let l = y.len() - 1;
     (2..=l / 25)
         .map(|window| {
-            let tried = (window / 2).min(NULLS);
-            let mut comb = Comb {
-                tried: tried as f64,
-                ..Comb::default()
-            };
-            for k in 1..=tried {
+            let mut comb = Comb::default();
+            for k in 1..=(window / 2).min(NULLS) {
+                let at = &mut comb.at[k - 1];
+                at.tried = 1.0;
                 if let Some(d) = null_depth(&p, l, window, k, harmonics) {
-                    comb.depth += d;
-                    comb.counted += 1.0;
-                    comb.below += f64::from(u8::from(d < 0.0));
+                    at.depth = d;
+                    at.counted = 1.0;
+                    at.below = f64::from(u8::from(d < 0.0));
                 }
             }
             (window, comb)
@@ -248,29 +279,54 @@ pub fn comb_depths(y: &[f64], harmonics: Option<f64>) -> Vec<(usize, Comb)> {
         .collect()
 }
 
-/// The moving average that the displacement `x` and force `f` of every record in `records` (tests of one
+/// One test's channels, as [`detect_moving_average`] reads them.
+#[derive(Debug, Clone, Copy)]
+pub struct Channels<'a> {
+    pub t: &'a [f64],
+    /// Displacement.
+    pub x: &'a [f64],
+    /// Velocity, when the file measured it (one derived here from `x` has comb-like zeros of its own
+    /// differentiator, and is no witness).
+    pub v: Option<&'a [f64]>,
+    /// Force.
+    pub f: &'a [f64],
+}
+
+/// The moving average that the displacement and force of every record in `records` (tests of one
 /// protocol, on one even clock) went through, from their combs pooled over the records (see the module's
 /// notes); `None` without such a comb, on an uneven clock, or with fewer than 64 samples in a record.
-pub fn detect_moving_average(records: &[(&[f64], &[f64], &[f64])]) -> Option<MovingAverage> {
+///
+/// A measured velocity is a third witness, never a needed one: where it shows the comb clearly on its own
+/// it adds its evidence to the displacement's. A velocity differenced from the filtered displacement (the
+/// UTFSM source's) carries the displacement's comb through a finer rounding than the displacement itself
+/// was logged with; a velocity from a transducer outside the filter shows no comb and is left out. The
+/// displacement must show the comb on its own in every case: a rig's own smoothing differentiator (a
+/// difference over `N` samples has the zeros of an `N`-sample average) puts a comb in the velocity alone,
+/// and that is no filter on the displacement and the force.
+pub fn detect_moving_average(records: &[Channels<'_>]) -> Option<MovingAverage> {
     if records.is_empty()
         || records
             .iter()
-            .any(|(t, _, _)| t.len() < 64 || crate::measurement::uniform_interval(t).is_none())
+            .any(|r| r.t.len() < 64 || crate::measurement::uniform_interval(r.t).is_none())
     {
         return None;
     }
-    // Pooled per window: the displacement's comb and the force's.
-    let mut pooled: std::collections::BTreeMap<usize, [Comb; 2]> = Default::default();
-    for (t, x, f) in records {
+    // Pooled per window: the displacement's comb, the force's and the measured velocity's.
+    let mut pooled: std::collections::BTreeMap<usize, [Comb; 3]> = Default::default();
+    for r in records {
         // The force's own harmonics of the drive (in bins of its differences' periodogram) are no evidence:
         // a damper's force has lines at the odd ones and gaps at the even ones. The displacement of a sine
         // test has neither, so it is the witness where the filter's zeros fall on the drive's harmonics
         // (the UTFSM source's window is a tenth of the period: every zero on an even harmonic).
-        let dt = t[1] - t[0];
-        let drive_bins = (x.len() - 1) as f64 * dt / dominant_period(x, dt);
-        for (channel, y, harmonics) in [(0, x, None), (1, f, Some(drive_bins))] {
+        let dt = r.t[1] - r.t[0];
+        let drive_bins = (r.x.len() - 1) as f64 * dt / dominant_period(r.x, dt);
+        let mut channels = vec![(X, r.x, None), (F, r.f, Some(drive_bins))];
+        if let Some(v) = r.v.filter(|v| is_first_difference(r.x, v, dt)) {
+            channels.push((V, v, None));
+        }
+        for (channel, y, harmonics) in channels {
             for (window, comb) in comb_depths(y, harmonics) {
-                pooled.entry(window).or_default()[channel].add(comb);
+                pooled.entry(window).or_default()[channel].add(&comb);
             }
         }
     }
@@ -279,50 +335,97 @@ pub fn detect_moving_average(records: &[(&[f64], &[f64], &[f64])]) -> Option<Mov
     // gaps between harmonic lines can be deep, but every second comb frequency then sits on a line), and
     // most of the frequencies tried counted (a window whose other comb frequencies all sit beside lines
     // would be judged on its few that fall on a true comb).
-    let channel_ok = |c: Comb, sigmas: f64| {
+    let channel_ok = |c: Tally, sigmas: f64| {
         c.counted > 0.0
             && c.counted >= COUNTED_SHARE * c.tried
             && c.depth <= need(sigmas, c.counted)
             && c.below >= BELOW_SHARE * c.counted
     };
-    // Both channels, each clearly and together strongly; or, where most comb frequencies of the force lie
-    // on the drive's harmonics or beside lines, the displacement alone as strongly as both together would
-    // have to.
-    let force_witness = |f: Comb| f.counted > 0.0 && f.counted >= COUNTED_SHARE * f.tried;
-    let passes = |x: Comb, f: Comb| {
-        if force_witness(f) {
-            channel_ok(x, CHANNEL_SIGMAS)
-                && channel_ok(f, CHANNEL_SIGMAS)
-                && x.depth + f.depth <= need(COMB_SIGMAS, x.counted + f.counted)
-        } else {
-            channel_ok(x, COMB_SIGMAS)
+    let force_witness = |f: Tally| f.counted > 0.0 && f.counted >= COUNTED_SHARE * f.tried;
+    let sigmas = |t: Tally| (NOISE_MEAN * t.counted - t.depth) / (NOISE_SD * t.counted.sqrt());
+    // The evidence a window has: the motion's comb (the displacement's, or the velocity's where that shows
+    // it more clearly: one record of the motion through two roundings, so one witness, not two), with the
+    // force's where the force can witness; `None` where a needed witness does not show it.
+    let evidence = |[x, f, v]: &[Comb; 3]| -> Option<Comb> {
+        if !channel_ok(x.total(), CHANNEL_SIGMAS) {
+            return None;
         }
+        let mut all = if channel_ok(v.total(), CHANNEL_SIGMAS) && sigmas(v.total()) > sigmas(x.total()) {
+            *v
+        } else {
+            *x
+        };
+        if force_witness(f.total()) {
+            if !channel_ok(f.total(), CHANNEL_SIGMAS) {
+                return None;
+            }
+            all.add(f);
+        }
+        Some(all)
     };
-    // Of the windows that pass, the one whose comb stands out most from white noise (in noise spreads of
-    // its mean over every value counted): a window's half has only every second zero of the window's, so
-    // fewer values, and a window a sample off has its zeros drifting off the true ones, so shallower ones;
-    // twice the window has a peak where its first zero would be and does not pass.
-    let sigmas = |sum: f64, count: f64| (NOISE_MEAN * count - sum) / (NOISE_SD * count.sqrt());
-    pooled
-        .into_iter()
-        .filter(|(_, [x, f])| passes(*x, *f))
-        .map(|(window, [x, f])| {
-            let (sum, count) = if force_witness(f) {
-                (x.depth + f.depth, x.counted + f.counted)
-            } else {
-                (x.depth, x.counted)
-            };
+    // Every witness together strongly: far beyond what white noise does. Where most comb frequencies of the
+    // force lie on the drive's harmonics or beside lines, the motion alone must show it as strongly as the
+    // motion and the force together otherwise would have to.
+    let passing: Vec<(usize, Comb)> = pooled
+        .iter()
+        .filter_map(|(&window, combs)| evidence(combs).map(|all| (window, all)))
+        .filter(|(_, all)| {
+            let t = all.total();
+            t.depth <= need(COMB_SIGMAS, t.counted)
+        })
+        .collect();
+    // Every zero of a window is a zero of each multiple of it: a window whose multiple passes too, with
+    // the zeros of its own that the window lacks showing clearly, is that multiple's comb seen in part.
+    let explained = |window: usize| {
+        passing.iter().any(|(longer, all)| {
+            longer % window == 0
+                && *longer > window
+                && channel_ok(all.except_multiples_of(longer / window), CHANNEL_SIGMAS)
+        })
+    };
+    // Of the others, the one whose comb stands out most from white noise (in noise spreads of its mean over
+    // every value counted): a window a sample off has its zeros drifting off the true ones, so shallower
+    // ones, and twice the window has a peak where every second zero of its own would be.
+    passing
+        .iter()
+        .filter(|(window, _)| !explained(*window))
+        .map(|(window, all)| {
+            let t = all.total();
             (
-                sigmas(sum, count),
+                sigmas(t),
                 MovingAverage {
-                    window,
-                    mean_depth: sum / count,
+                    window: *window,
+                    mean_depth: t.depth / t.counted,
                 },
             )
         })
         .max_by(|a, b| a.0.total_cmp(&b.0))
         .map(|(_, m)| m)
 }
+
+/// Whether the velocity `v` is the backward first difference of the displacement `x` before its
+/// rounding (as the UTFSM source's is): closer to `(x[k] − x[k−1])/dt` by half in rms than to a difference
+/// over two samples or one a sample later. Only such a velocity carries the displacement's comb and no
+/// other: a difference over `N` samples has the zeros of an `N`-sample average of its own, and a velocity
+/// from a transducer none of the displacement's filter.
+fn is_first_difference(x: &[f64], v: &[f64], dt: f64) -> bool {
+    if v.len() != x.len() || x.len() < 3 {
+        return false;
+    }
+    let (mut back, mut two, mut later) = (0.0, 0.0, 0.0);
+    for k in 2..x.len() {
+        let d = (x[k] - x[k - 1]) / dt;
+        back += (v[k] - d).powi(2);
+        two += (v[k] - (x[k] - x[k - 2]) / (2.0 * dt)).powi(2);
+        later += (v[k - 1] - d).powi(2);
+    }
+    back < 0.25 * two.min(later)
+}
+
+/// The witnesses' places in a window's pooled combs.
+const X: usize = 0;
+const F: usize = 1;
+const V: usize = 2;
 
 /// Period of the strongest spectral line of `x` (mean removed, Hann window, the peak placed between bins by a
 /// parabola through the log magnitudes: a tenth of a bin or better), s; NaN for fewer than 8 samples.
@@ -466,72 +569,186 @@ mod tests {
         (0..n).map(|_| d.sample(&mut rng)).collect()
     }
 
-    /// A sine test through a causal moving average, with white noise before the filter and rounding after.
-    fn filtered_sine(n: usize, fs: f64, f0: f64, window: usize, seed: u64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    /// A sine test as a rig logs it.
+    struct Logged {
+        t: Vec<f64>,
+        x: Vec<f64>,
+        /// Velocity: the difference of the filtered (unrounded) displacement over `span` samples.
+        v: Vec<f64>,
+        f: Vec<f64>,
+    }
+
+    impl Logged {
+        fn channels(&self, with_velocity: bool) -> Channels<'_> {
+            Channels {
+                t: &self.t,
+                x: &self.x,
+                v: with_velocity.then_some(self.v.as_slice()),
+                f: &self.f,
+            }
+        }
+    }
+
+    /// The test protocol of [`logged_sine`].
+    #[derive(Clone, Copy)]
+    struct Protocol {
+        n: usize,
+        fs: f64,
+        f0: f64,
+        window: usize,
+        /// Displacement noise before the filter, m (rounding after it: 0.1 µm, as the UTFSM files).
+        x_noise: f64,
+        /// Samples the logged velocity is differenced over.
+        span: usize,
+    }
+
+    /// A sine test through a causal moving average: white noise before the filter, rounding after it
+    /// (0.1 µm, 1 µm/s, 0.01 N), the velocity differenced from the filtered displacement.
+    fn logged_sine(p: Protocol, seed: u64) -> Logged {
+        let Protocol {
+            n,
+            fs,
+            f0,
+            window,
+            x_noise,
+            span,
+        } = p;
         let dt = 1.0 / fs;
-        let m = n + window - 1;
-        let nz = noise(m, 2e-6, seed);
-        let u: Vec<f64> = (0..m)
-            .map(|k| {
-                0.01 * (2.0 * std::f64::consts::PI * f0 * (k as f64 - (window - 1) as f64) * dt).sin() + nz[k]
-            })
-            .collect();
+        // `span` samples more than the record before it, for the first differences.
+        let m = n + span + window - 1;
+        let phase = |k: usize| 2.0 * std::f64::consts::PI * f0 * (k as f64 - (span + window - 1) as f64) * dt;
+        let nz = noise(m, x_noise, seed);
+        let u: Vec<f64> = (0..m).map(|k| 0.01 * phase(k).sin() + nz[k]).collect();
         let fnz = noise(m, 5.0, seed + 1);
         let f_true: Vec<f64> = (0..m)
-            .map(|k| {
-                let v = (2.0 * std::f64::consts::PI * f0 * (k as f64 - (window - 1) as f64) * dt).cos();
-                1000.0 * (v / 0.1).tanh() + fnz[k]
-            })
+            .map(|k| 1000.0 * (phase(k).cos() / 0.1).tanh() + fnz[k])
             .collect();
         let round = |v: f64, q: f64| (v / q).round() * q;
-        let x: Vec<f64> = moving_average(&u, window)
-            .into_iter()
-            .map(|v| round(v, 1e-7))
+        let xf = moving_average(&u, window);
+        let x = xf[span..].iter().map(|&v| round(v, 1e-7)).collect();
+        let v = (span..xf.len())
+            .map(|k| round((xf[k] - xf[k - span]) / (span as f64 * dt), 1e-6))
             .collect();
-        let f: Vec<f64> = moving_average(&f_true, window)
-            .into_iter()
-            .map(|v| round(v, 0.01))
+        let f = moving_average(&f_true, window)[span..]
+            .iter()
+            .map(|&v| round(v, 0.01))
             .collect();
-        let t: Vec<f64> = (0..n).map(|k| k as f64 * dt).collect();
-        (t, x, f)
+        let t = (0..n).map(|k| k as f64 * dt).collect();
+        Logged { t, x, v, f }
+    }
+
+    /// The three clocks and windows of the UTFSM tests (a tenth of the period), and two others.
+    const PROTOCOLS: [(usize, f64, f64, usize); 5] = [
+        (11000, 1000.0, 1.0, 100),
+        (4600, 200.0, 0.25, 80),
+        (450, 200.0, 5.0, 4),
+        (6000, 2000.0, 2.0, 37),
+        (3000, 500.0, 3.0, 9),
+    ];
+
+    fn protocol((n, fs, f0, window): (usize, f64, f64, usize), x_noise: f64) -> Protocol {
+        Protocol {
+            n,
+            fs,
+            f0,
+            window,
+            x_noise,
+            span: 1,
+        }
     }
 
     #[test]
     fn the_window_of_a_moving_average_is_found_from_its_comb() {
-        // The three clocks and windows of the UTFSM tests (a tenth of the period), and two others; five
-        // tests of each protocol pooled, as `load_tests` pools them.
-        for (n, fs, f0, window) in [
-            (11000, 1000.0, 1.0, 100),
-            (4600, 200.0, 0.25, 80),
-            (450, 200.0, 5.0, 4),
-            (6000, 2000.0, 2.0, 37),
-            (3000, 500.0, 3.0, 9),
-        ] {
+        // Five tests of each protocol pooled, as `load_tests` pools them, without their velocities.
+        for p in PROTOCOLS {
+            let p = protocol(p, 2e-6);
             for trial in 0..2u64 {
                 let tests: Vec<_> = (0..5u64)
-                    .map(|k| filtered_sine(n, fs, f0, window, 100 * trial + 10 * k + window as u64))
+                    .map(|k| logged_sine(p, 100 * trial + 10 * k + p.window as u64))
                     .collect();
-                let records: Vec<(&[f64], &[f64], &[f64])> = tests
-                    .iter()
-                    .map(|(t, x, f)| (t.as_slice(), x.as_slice(), f.as_slice()))
-                    .collect();
+                let records: Vec<_> = tests.iter().map(|r| r.channels(false)).collect();
                 let got = detect_moving_average(&records);
                 assert_eq!(
                     got.map(|m| m.window),
-                    Some(window),
-                    "{fs} Hz, window {window}, trial {trial}: {got:?}"
+                    Some(p.window),
+                    "{} Hz, window {}, trial {trial}: {got:?}",
+                    p.fs,
+                    p.window
                 );
             }
         }
     }
 
     #[test]
+    fn a_velocity_differenced_from_the_filtered_displacement_shows_the_window_in_one_test() {
+        // One test alone, as `validate` reads a held-out file: the displacement's rounding (0.1 µm) leaves
+        // its comb too shallow to decide on its own, the velocity's finer one (1 µm/s) does not. (Not the
+        // 450-sample protocol: its window has two comb frequencies, and two can show at most 5.6 spreads.)
+        let (mut with, mut without, mut tries) = (0, 0, 0);
+        for p in PROTOCOLS.into_iter().filter(|p| p.0 != 450) {
+            let p = protocol(p, 2e-6);
+            for seed in 0..4u64 {
+                let test = logged_sine(p, 1000 + 10 * seed + p.window as u64);
+                let got = detect_moving_average(&[test.channels(true)]).map(|m| m.window);
+                assert_eq!(got, Some(p.window), "{} Hz, seed {seed}", p.fs);
+                with += 1;
+                // (The displacement alone found a window a sample too long in one of these.)
+                let alone = detect_moving_average(&[test.channels(false)]).map(|m| m.window);
+                without += usize::from(alone == Some(p.window));
+                tries += 1;
+            }
+        }
+        assert!(
+            without < tries / 2,
+            "the displacement alone: {without} of {tries}, with the velocity {with}"
+        );
+    }
+
+    #[test]
+    fn a_velocity_that_is_no_first_difference_is_no_witness() {
+        // The same tests with a velocity differenced over 3 samples (a rig's smoothing differentiator, the
+        // comb of a 3-sample average of its own): no witness, the detection as without it.
+        for p in PROTOCOLS.into_iter().filter(|p| p.0 != 450) {
+            let p = Protocol {
+                span: 3,
+                ..protocol(p, 2e-6)
+            };
+            for seed in 0..4u64 {
+                let test = logged_sine(p, 1000 + 10 * seed + p.window as u64);
+                assert!(!is_first_difference(&test.x, &test.v, 1.0 / p.fs));
+                assert_eq!(
+                    detect_moving_average(&[test.channels(true)]),
+                    detect_moving_average(&[test.channels(false)])
+                );
+            }
+            let direct = logged_sine(protocol((p.n, p.fs, p.f0, p.window), 2e-6), 7);
+            assert!(is_first_difference(&direct.x, &direct.v, 1.0 / p.fs));
+        }
+    }
+
+    #[test]
     fn white_noise_shows_no_comb() {
-        // Unfiltered sine tests with white noise on both channels: no window may be found.
+        // Unfiltered sine tests with white noise on every channel, the velocity differenced over one sample
+        // or smoothed over several (a rig's differentiator: a comb in the velocity alone): no window.
         for seed in 0..200u64 {
             let (n, fs) = [(2000, 1000.0), (450, 200.0), (5000, 500.0), (8000, 2000.0)][seed as usize % 4];
-            let (t, x, f) = filtered_sine(n, fs, 1.7, 1, seed);
-            assert_eq!(detect_moving_average(&[(&t, &x, &f)]), None, "seed {seed}");
+            let p = Protocol {
+                n,
+                fs,
+                f0: 1.7,
+                window: 1,
+                x_noise: [2e-6, 2e-8][seed as usize % 2],
+                span: [1, 5, 10, 16][(seed as usize / 4) % 4],
+            };
+            let test = logged_sine(p, seed);
+            for with_velocity in [false, true] {
+                let got = detect_moving_average(&[test.channels(with_velocity)]);
+                assert_eq!(
+                    got, None,
+                    "seed {seed}, span {}, velocity {with_velocity}",
+                    p.span
+                );
+            }
         }
     }
 

@@ -124,11 +124,16 @@ impl Test {
 }
 
 /// The moving average that the measurements `ms` (tests of one protocol) went through, if their
-/// displacements and forces show its comb ([`acquisition::detect_moving_average`]).
+/// displacements and forces (and measured velocities) show its comb ([`acquisition::detect_moving_average`]).
 pub fn filter_of(ms: &[&Measurement]) -> Option<acquisition::MovingAverage> {
-    let records: Vec<(&[f64], &[f64], &[f64])> = ms
+    let records: Vec<acquisition::Channels<'_>> = ms
         .iter()
-        .map(|m| (m.t_s.as_slice(), m.x_m.as_slice(), m.f_n.as_slice()))
+        .map(|m| acquisition::Channels {
+            t: &m.t_s,
+            x: &m.x_m,
+            v: m.velocity_measured.then_some(m.v_m_s.as_slice()),
+            f: &m.f_n,
+        })
         .collect();
     acquisition::detect_moving_average(&records)
 }
