@@ -254,15 +254,16 @@ impl Comb {
     }
 }
 
-/// The comb of every candidate window (2 to a 25th of the record, so that a band can keep
-/// [`MIN_BAND_BINS`] bins) in one channel's periodogram.
-pub fn comb_depths(y: &[f64], harmonics: Option<f64>) -> Vec<(usize, Comb)> {
+/// The comb of every candidate window that `keep` accepts (2 to a 25th of the record, so that a band can
+/// keep [`MIN_BAND_BINS`] bins) in one channel's periodogram.
+pub fn comb_depths(y: &[f64], harmonics: Option<f64>, keep: impl Fn(usize) -> bool) -> Vec<(usize, Comb)> {
     if y.len() < 64 {
         return Vec::new();
     }
     let p = periodogram_of_differences(y);
     let l = y.len() - 1;
     (2..=l / 25)
+        .filter(|&window| keep(window))
         .map(|window| {
             let mut comb = Comb::default();
             for k in 1..=(window / 2).min(NULLS) {
@@ -296,13 +297,13 @@ pub struct Channels<'a> {
 /// protocol, on one even clock) went through, from their combs pooled over the records (see the module's
 /// notes); `None` without such a comb, on an uneven clock, or with fewer than 64 samples in a record.
 ///
-/// A measured velocity is a third witness, never a needed one: where it shows the comb clearly on its own
-/// it adds its evidence to the displacement's. A velocity differenced from the filtered displacement (the
+/// A measured velocity can stand in for the displacement as the motion's witness, never a needed one: one
+/// that is the backward first difference of the filtered displacement ([`is_first_difference`], the
 /// UTFSM source's) carries the displacement's comb through a finer rounding than the displacement itself
-/// was logged with; a velocity from a transducer outside the filter shows no comb and is left out. The
-/// displacement must show the comb on its own in every case: a rig's own smoothing differentiator (a
-/// difference over `N` samples has the zeros of an `N`-sample average) puts a comb in the velocity alone,
-/// and that is no filter on the displacement and the force.
+/// was logged with, and is taken where it shows the comb more clearly. It is the same record of the motion,
+/// so its evidence replaces the displacement's and is never added to it. The displacement must show the
+/// comb on its own in every case; a velocity differenced over `N` samples (a rig's smoothing
+/// differentiator, the comb of an `N`-sample average of its own) or from a transducer is no witness.
 pub fn detect_moving_average(records: &[Channels<'_>]) -> Option<MovingAverage> {
     if records.is_empty()
         || records
@@ -310,25 +311,6 @@ pub fn detect_moving_average(records: &[Channels<'_>]) -> Option<MovingAverage> 
             .any(|r| r.t.len() < 64 || crate::measurement::uniform_interval(r.t).is_none())
     {
         return None;
-    }
-    // Pooled per window: the displacement's comb, the force's and the measured velocity's.
-    let mut pooled: std::collections::BTreeMap<usize, [Comb; 3]> = Default::default();
-    for r in records {
-        // The force's own harmonics of the drive (in bins of its differences' periodogram) are no evidence:
-        // a damper's force has lines at the odd ones and gaps at the even ones. The displacement of a sine
-        // test has neither, so it is the witness where the filter's zeros fall on the drive's harmonics
-        // (the UTFSM source's window is a tenth of the period: every zero on an even harmonic).
-        let dt = r.t[1] - r.t[0];
-        let drive_bins = (r.x.len() - 1) as f64 * dt / dominant_period(r.x, dt);
-        let mut channels = vec![(X, r.x, None), (F, r.f, Some(drive_bins))];
-        if let Some(v) = r.v.filter(|v| is_first_difference(r.x, v, dt)) {
-            channels.push((V, v, None));
-        }
-        for (channel, y, harmonics) in channels {
-            for (window, comb) in comb_depths(y, harmonics) {
-                pooled.entry(window).or_default()[channel].add(&comb);
-            }
-        }
     }
     let need = |sigmas: f64, count: f64| (NOISE_MEAN - sigmas * NOISE_SD / count.sqrt()) * count;
     // A channel's comb: deep enough on average, most of its frequencies below the noise (a damper force's
@@ -341,6 +323,37 @@ pub fn detect_moving_average(records: &[Channels<'_>]) -> Option<MovingAverage> 
             && c.depth <= need(sigmas, c.counted)
             && c.below >= BELOW_SHARE * c.counted
     };
+    // Pooled per window: the displacement's comb, the force's and the measured velocity's.
+    let mut pooled: std::collections::BTreeMap<usize, [Comb; 3]> = Default::default();
+    for r in records {
+        // The force's own harmonics of the drive (in bins of its differences' periodogram) are no evidence:
+        // a damper's force has lines at the odd ones and gaps at the even ones. The displacement of a sine
+        // test has neither, so it is the witness where the filter's zeros fall on the drive's harmonics
+        // (the UTFSM source's window is a tenth of the period: every zero on an even harmonic).
+        let dt = r.t[1] - r.t[0];
+        let drive_bins = (r.x.len() - 1) as f64 * dt / dominant_period(r.x, dt);
+        for (channel, y, harmonics) in [(X, r.x, None), (F, r.f, Some(drive_bins))] {
+            for (window, comb) in comb_depths(y, harmonics, |_| true) {
+                pooled.entry(window).or_default()[channel].add(&comb);
+            }
+        }
+    }
+    // The velocity only where the displacement shows the comb on its own (it must, below).
+    let shown: std::collections::BTreeSet<usize> = pooled
+        .iter()
+        .filter(|(_, c)| channel_ok(c[X].total(), CHANNEL_SIGMAS))
+        .map(|(&window, _)| window)
+        .collect();
+    for r in records {
+        let dt = r.t[1] - r.t[0];
+        if let Some(v) =
+            r.v.filter(|v| !shown.is_empty() && is_first_difference(r.x, v, dt))
+        {
+            for (window, comb) in comb_depths(v, None, |w| shown.contains(&w)) {
+                pooled.entry(window).or_default()[V].add(&comb);
+            }
+        }
+    }
     let force_witness = |f: Tally| f.counted > 0.0 && f.counted >= COUNTED_SHARE * f.tried;
     let sigmas = |t: Tally| (NOISE_MEAN * t.counted - t.depth) / (NOISE_SD * t.counted.sqrt());
     // The evidence a window has: the motion's comb (the displacement's, or the velocity's where that shows
