@@ -12,17 +12,17 @@
 //!
 //! 1. [`detect_moving_average`]: the filter leaves a comb of zeros in the spectrum of both channels, at
 //!    every multiple of `fs/N`. For each candidate window the periodogram at its first (up to [`NULLS`])
-//!    comb frequencies is compared with the noise level of the band around each ([`null_depth`]), pooled
+//!    comb frequencies is compared with the noise level of the band around each (`null_depth`), pooled
 //!    over the tests of one protocol (one clock, one drive period: they went through one chain). Both
 //!    channels together must show it far beyond what white noise does ([`COMB_SIGMAS`]), and each on its
 //!    own clearly ([`CHANNEL_SIGMAS`]) with most of its comb frequencies below the noise ([`BELOW_SHARE`]).
 //!    A damper's force has lines at the odd harmonics and gaps at the even ones, which must not pass for a
 //!    comb: the periodogram's window has low sidelobes, and a band counts only where it is noise
-//!    ([`MIN_ROUGHNESS`]) and no line in it is strong enough to leak through the sidelobes
-//!    ([`LINE_TO_NOISE`]). A measured velocity that is the first difference of the filtered displacement
-//!    ([`is_first_difference`]) may stand in for the displacement where it shows the comb more clearly
+//!    (`MIN_ROUGHNESS`) and no line in it is strong enough to leak through the sidelobes
+//!    (`LINE_TO_NOISE`). A measured velocity that is the first difference of the filtered displacement
+//!    (`is_first_difference`) may stand in for the displacement where it shows the comb more clearly
 //!    (a finer rounding of the same motion). Near the drive's harmonics the force is no witness at all
-//!    ([`HARMONIC_GUARD_BINS`]); where that leaves it nothing, the displacement alone must show the comb as
+//!    (`HARMONIC_GUARD_BINS`); where that leaves it nothing, the displacement alone must show the comb as
 //!    strongly as both channels together otherwise would. White noise gives no window (200 unfiltered tests in
 //!    `tests::white_noise_shows_no_comb`), nor do the hidden-effect sweeps' data sets.
 //! 2. [`deconvolve_moving_average`]: the motion before the filter, by regularised least squares, with the
@@ -43,7 +43,7 @@ use crate::device::Inputs;
 
 /// Comb frequencies checked per candidate window (the first ones, up to the Nyquist frequency).
 pub const NULLS: usize = 8;
-/// The depth of one comb frequency on white noise ([`null_depth`]: the least of three ordinates against
+/// The depth of one comb frequency on white noise (`null_depth`: the least of three ordinates against
 /// the band's 20th percentile), measured over 2,731 of them in records of 450–8,000 samples: mean, decades.
 const NOISE_MEAN: f64 = 0.04;
 /// ... and its spread, decades.
@@ -142,8 +142,8 @@ fn power_spectrum(y: &[f64], window: impl Fn(f64) -> f64) -> Vec<f64> {
 /// Depth, decades (negative = a dip), of the periodogram `p` (of `l` points) at `k/window` cycles per
 /// sample: the least of the three bins around it against the noise level of its band (half a comb spacing
 /// on either side, clipped at the Nyquist frequency, the nine bins of the window's main lobe left out;
-/// [`BAND_QUANTILE`]). `None` when fewer than [`MIN_BAND_BINS`] bins are left in the band, when the band is
-/// not noise, and within [`HARMONIC_GUARD_BINS`] of a multiple of `harmonics` (the drive frequency in
+/// [`BAND_QUANTILE`]). `None` when fewer than `MIN_BAND_BINS` bins are left in the band, when the band is
+/// not noise, and within `HARMONIC_GUARD_BINS` of a multiple of `harmonics` (the drive frequency in
 /// bins, given for a channel whose own harmonics fill its spectrum), or with a line ([`LINE_FACTOR`])
 /// within as many bins of it.
 fn null_depth(p: &[f64], l: usize, window: usize, k: usize, harmonics: Option<f64>) -> Option<f64> {
@@ -206,7 +206,7 @@ fn null_depth(p: &[f64], l: usize, window: usize, k: usize, harmonics: Option<f6
 pub struct Tally {
     /// Summed depth of the comb frequencies counted, decades.
     pub depth: f64,
-    /// Comb frequencies counted (not left out by [`null_depth`]).
+    /// Comb frequencies counted (not left out by `null_depth`).
     pub counted: f64,
     /// ... of them below their band's noise level.
     pub below: f64,
@@ -257,7 +257,7 @@ impl Comb {
 }
 
 /// The comb of every candidate window that `keep` accepts (2 to a 25th of the record, so that a band can
-/// keep [`MIN_BAND_BINS`] bins) in one channel's periodogram.
+/// keep `MIN_BAND_BINS` bins) in one channel's periodogram.
 pub fn comb_depths(y: &[f64], harmonics: Option<f64>, keep: impl Fn(usize) -> bool) -> Vec<(usize, Comb)> {
     if y.len() < 64 {
         return Vec::new();
@@ -300,7 +300,7 @@ pub struct Channels<'a> {
 /// notes); `None` without such a comb, on an uneven clock, or with fewer than 64 samples in a record.
 ///
 /// A measured velocity can stand in for the displacement as the motion's witness, never a needed one: one
-/// that is the backward first difference of the filtered displacement ([`is_first_difference`], the
+/// that is the backward first difference of the filtered displacement (`is_first_difference`, the
 /// UTFSM source's) carries the displacement's comb through a finer rounding than the displacement itself
 /// was logged with, and is taken where it shows the comb more clearly. It is the same record of the motion,
 /// so its evidence replaces the displacement's and is never added to it. The displacement must show the
