@@ -63,6 +63,64 @@ pub struct DaqSample {
     pub v_m_s: f64,
 }
 
+/// A sensor channel's setting that cannot be simulated: which channel, which field, the value given and
+/// what it must be. Its message names all of them, e.g. ``load_cell.range` = -250: the full-scale range must
+/// be a positive, finite number (readings saturate at ±range)`.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("`{channel}.{field}` = {value}: {why}")]
+pub struct SensorFieldError {
+    /// The channel, e.g. `load_cell`, `displacement`, `velocity`.
+    pub channel: String,
+    /// The field: `noise_rms`, `range` or `adc_bits`.
+    pub field: &'static str,
+    /// The value as given.
+    pub value: String,
+    /// What the field must be.
+    pub why: &'static str,
+}
+
+/// The largest ADC resolution a channel may have, bits.
+pub const MAX_ADC_BITS: u32 = 32;
+
+/// Check one channel's noise (standard deviation, ≥ 0 and finite), full-scale range (> 0 and finite) and
+/// ADC resolution (≤ [`MAX_ADC_BITS`]; 0 = no quantisation), in the channel's unit; the error names the
+/// first field that is wrong, with its value.
+pub fn check_channel(
+    channel: &str,
+    noise_rms: f64,
+    range: f64,
+    adc_bits: u32,
+) -> Result<(), SensorFieldError> {
+    let err = |field, value: String, why| SensorFieldError {
+        channel: channel.to_string(),
+        field,
+        value,
+        why,
+    };
+    if !(noise_rms.is_finite() && noise_rms >= 0.0) {
+        return Err(err(
+            "noise_rms",
+            noise_rms.to_string(),
+            "the noise's standard deviation must be a finite number ≥ 0",
+        ));
+    }
+    if !(range.is_finite() && range > 0.0) {
+        return Err(err(
+            "range",
+            range.to_string(),
+            "the full-scale range must be a positive, finite number (readings saturate at ±range)",
+        ));
+    }
+    if adc_bits > MAX_ADC_BITS {
+        return Err(err(
+            "adc_bits",
+            adc_bits.to_string(),
+            "the ADC resolution must be at most 32 bits (0: no quantisation)",
+        ));
+    }
+    Ok(())
+}
+
 /// Uniform mid-tread quantiser over `[-range, range]` with `2^bits` levels, saturating at the range.
 pub fn quantise(value: f64, range: f64, bits: u32) -> f64 {
     let clipped = value.clamp(-range, range);
@@ -195,6 +253,28 @@ mod tests {
                 latency_samples: latency,
                 adc_bits: bits,
             },
+        }
+    }
+
+    #[test]
+    fn a_channel_error_names_the_channel_the_field_and_the_value() {
+        assert_eq!(check_channel("load_cell", 0.15, 250.0, 16), Ok(()));
+        assert_eq!(check_channel("load_cell", 0.0, 250.0, 0), Ok(()));
+        for (noise, range, bits, field, value) in [
+            (0.15, -250.0, 16, "range", "-250"),
+            (0.15, 0.0, 16, "range", "0"),
+            (0.15, f64::NAN, 16, "range", "NaN"),
+            (-1.0, 250.0, 16, "noise_rms", "-1"),
+            (f64::INFINITY, 250.0, 16, "noise_rms", "inf"),
+            (0.15, 250.0, 64, "adc_bits", "64"),
+        ] {
+            let e = check_channel("load_cell", noise, range, bits).unwrap_err();
+            assert_eq!((e.field, e.value.as_str()), (field, value));
+            let msg = e.to_string();
+            assert!(
+                msg.starts_with(&format!("`load_cell.{field}` = {value}: ")),
+                "{msg}"
+            );
         }
     }
 

@@ -66,9 +66,11 @@ pub const N_STATES: usize = 2;
 pub const STATE_PARAMS: [usize; 2] = [TE, TM];
 
 /// The driver's saturation: the coil current command is limited to ±`limit_a` (the paper's driver
-/// saturates at 14 A; its supply could give 17 A).
+/// saturates at 14 A; its supply could give 17 A). `limit_a` is positive ([`super::Model::new`] refuses any
+/// other); this never panics on another (its magnitude is taken, and a NaN limit leaves the command as it is).
 pub fn saturate(current_cmd_a: f64, limit_a: f64) -> f64 {
-    current_cmd_a.clamp(-limit_a, limit_a)
+    let l = limit_a.abs();
+    current_cmd_a.max(-l).min(l)
 }
 
 /// Lag states at rest for a command held since long before the first sample.
@@ -123,4 +125,24 @@ pub fn initial_guess(stats: &DataStats) -> Vec<f64> {
         lag,
         lag,
     ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn saturation_limits_the_command_to_the_drivers_14_a_either_way() {
+        assert_eq!(saturate(20.0, 14.0), 14.0);
+        assert_eq!(saturate(-20.0, 14.0), -14.0);
+        assert_eq!(saturate(5.0, 14.0), 5.0);
+    }
+
+    /// A limit that `Model::new` would refuse never panics here (it did on a negative or NaN limit).
+    #[test]
+    fn saturation_does_not_panic_on_a_limit_that_is_not_positive() {
+        assert_eq!(saturate(20.0, -14.0), 14.0);
+        assert_eq!(saturate(5.0, f64::NAN), 5.0);
+        assert_eq!(saturate(5.0, 0.0), 0.0);
+    }
 }

@@ -67,88 +67,272 @@ impl DeviceConfig {
 
     pub fn from_toml(text: &str, path: &Path, registry: &Registry) -> Result<Self, DeviceError> {
         let file: TomlDevice = toml::from_str(text).map_err(|e| {
-            let line = e.span().map(|s| line_of(text, s.start)).unwrap_or(0);
-            DeviceError::Parse {
-                path: path.to_path_buf(),
-                line,
-                msg: e.message().to_string(),
+            // A missing key is reported with the span of the table that lacks it; no span at all is the
+            // file's start.
+            let line = e.span().map_or(1, |s| line_of(text, s.start));
+            let msg = e.message().trim_end().to_string();
+            // A value of the wrong type: name the key of its line (toml's message does not).
+            match toml_key_of_line(text, line).filter(|_| !msg.contains("field `")) {
+                Some(field) => field_err(path, line, &field, msg),
+                None => DeviceError::Parse {
+                    path: path.to_path_buf(),
+                    line,
+                    msg,
+                },
             }
         })?;
-        let limit = file
-            .driver
-            .current_limit_a
-            .map(|s| s.into_inner())
-            .unwrap_or(PAPER_CURRENT_LIMIT_A);
-        let spec = ModelSpec::parse(file.model.get_ref()).map_err(|e| DeviceError::Field {
-            path: path.to_path_buf(),
-            line: line_of(text, file.model.span().start),
-            field: "model".into(),
-            msg: e.to_string(),
-        })?;
-        let model = Model::new(&spec, registry, limit).map_err(|e| DeviceError::Field {
-            path: path.to_path_buf(),
-            line: line_of(text, file.model.span().start),
-            field: "model".into(),
-            msg: e.to_string(),
-        })?;
-        let values: BTreeMap<String, (f64, usize)> = file
+        let at = |v: &toml::Spanned<f64>| (*v.get_ref(), line_of(text, v.span().start));
+        let limit = match &file.driver.current_limit_a {
+            Some(v) => {
+                let (limit, line) = at(v);
+                check_current_limit(limit, path, line, "driver.current_limit_a")?
+            }
+            None => PAPER_CURRENT_LIMIT_A,
+        };
+        let supply_limit_a = match &file.driver.supply_limit_a {
+            Some(v) => {
+                let (supply, line) = at(v);
+                let field = "driver.supply_limit_a";
+                positive(supply, "A", path, line, field)?;
+                if supply < limit {
+                    return Err(field_err(
+                        path,
+                        line,
+                        field,
+                        format!(
+                            "value {} A is below the driver's saturation current_limit_a = {} A: the \
+                             driver saturates at a current the supply can give (the paper's 14 A from a 17 A \
+                             supply), so the supply's limit is at least the saturation",
+                            num(supply),
+                            num(limit)
+                        ),
+                    ));
+                }
+                Some(supply)
+            }
+            None => None,
+        };
+        let model_line = line_of(text, file.model.span().start);
+        let spec = ModelSpec::parse(file.model.get_ref())
+            .map_err(|e| field_err(path, model_line, "model", e.to_string()))?;
+        let model = Model::new(&spec, registry, limit)
+            .map_err(|e| field_err(path, model_line, "model", e.to_string()))?;
+        let params_line = line_of(text, file.params.span().start);
+        let values: BTreeMap<String, ParamIn> = file
             .params
+            .into_inner()
             .into_iter()
             .map(|(k, v)| {
-                let line = line_of(text, v.span().start);
-                (k, (v.into_inner(), line))
+                let (value, line) = at(&v);
+                (
+                    k,
+                    ParamIn {
+                        value,
+                        line,
+                        unit: None,
+                    },
+                )
             })
             .collect();
-        let params = assign_params(&model, &values, path)?;
-        let geometry = file.geometry.map(|g| Geometry {
-            piston_diameter_m: g.piston_diameter_in * IN_TO_M,
-            piston_rod_length_m: g.piston_rod_length_in * IN_TO_M,
-            cylinder_id_m: g.cylinder_id_in * IN_TO_M,
-            cylinder_od_m: g.cylinder_od_in * IN_TO_M,
-            cylinder_length_m: g.cylinder_length_in * IN_TO_M,
-            stroke_half_m: g.stroke_half_in * IN_TO_M,
-        });
+        let params = assign_params(&model, &values, path, params_line)?;
+        check_force(&model, &params, &values, path, params_line)?;
+        let geometry = match &file.geometry {
+            Some(g) => Some(g.check(path, text)?),
+            None => None,
+        };
+        let load_cell_range_n = match &file.load_cell {
+            Some(l) => {
+                let (range, line) = at(&l.range_n);
+                Some(positive(range, "N", path, line, "load_cell.range_n")?)
+            }
+            None => None,
+        };
         Ok(Self {
             model: Arc::new(model),
             params,
-            supply_limit_a: file.driver.supply_limit_a,
+            supply_limit_a,
             geometry,
-            load_cell_range_n: file.load_cell.map(|l| l.range_n),
+            load_cell_range_n,
             command_timing: CommandTiming::AfterSample,
             path: path.to_path_buf(),
         })
     }
 
+    /// Read a `PARAMS.json` (the model-discovery contract's parameter file): the keys `model` and `params`
+    /// (each parameter an object with `value`, and optionally `std_err` and `unit`), and the optional
+    /// `current_limit_a` (default: the paper's 14 A) and `command_timing` (default: `after-sample`, what files
+    /// saved before session 11 meant). Any other key, a key given twice, a unit other than the parameter's
+    /// and a value of the wrong type are errors that name the line and the key. A leading UTF-8 byte-order
+    /// mark is skipped, as the CSV and TOML readers do.
     pub fn from_json(text: &str, path: &Path, registry: &Registry) -> Result<Self, DeviceError> {
-        let file: ParamsFile = serde_json::from_str(text).map_err(|e| DeviceError::Parse {
-            path: path.to_path_buf(),
-            line: e.line(),
-            msg: e.to_string(),
-        })?;
-        let limit = file.current_limit_a.unwrap_or(PAPER_CURRENT_LIMIT_A);
-        let model = Model::from_spec(&file.model, registry, limit).map_err(|e| DeviceError::Field {
-            path: path.to_path_buf(),
-            line: 0,
-            field: "model".into(),
-            msg: e.to_string(),
-        })?;
-        let values: BTreeMap<String, (f64, usize)> =
-            file.params.into_iter().map(|(k, v)| (k, (v.value, 0))).collect();
-        let params = assign_params(&model, &values, path)?;
-        let command_timing = match file.command_timing.as_deref() {
-            None => CommandTiming::AfterSample,
-            Some(name) => <CommandTiming as clap::ValueEnum>::from_str(name, false).map_err(|_| {
-                DeviceError::Field {
-                    path: path.to_path_buf(),
-                    line: text.find("\"command_timing\"").map_or(0, |o| line_of(text, o)),
-                    field: "command_timing".into(),
-                    msg: format!(
-                        "`{name}` is not a command timing: `after-sample` (a command acts after the sample it \
-                         is logged with) or `at-sample` (in force at it)"
-                    ),
-                }
-            })?,
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        if text.trim().is_empty() {
+            return Err(DeviceError::Parse {
+                path: path.to_path_buf(),
+                line: 1,
+                msg: "empty file: a parameter file is a JSON object {\"model\": …, \"params\": {…}}".into(),
+            });
+        }
+        let root: serde_json::Value = serde_json::from_str(text).map_err(|e| json_err(&e, text, path))?;
+        let keys = JsonKeys::scan(text);
+        if let Some((key, line, first)) = keys.duplicate() {
+            return Err(field_err(
+                path,
+                line,
+                &json_field(key),
+                format!("given twice (first at line {first}); each key may appear once"),
+            ));
+        }
+        let Some(top) = root.as_object() else {
+            return Err(DeviceError::Parse {
+                path: path.to_path_buf(),
+                line: 1,
+                msg: format!(
+                    "a parameter file is a JSON object {{\"model\": …, \"params\": {{…}}}}, not {}",
+                    json_kind(&root)
+                ),
+            });
         };
+        let line = |key: &[&str]| keys.key(key).unwrap_or_else(|| keys.object(&[]));
+        for key in top.keys() {
+            if !TOP_KEYS.contains(&key.as_str()) {
+                return Err(field_err(
+                    path,
+                    line(&[key]),
+                    key,
+                    format!(
+                        "unknown key; a parameter file has the keys {}",
+                        TOP_KEYS.join(", ")
+                    ),
+                ));
+            }
+        }
+        let missing = |key: &str, what: &str| {
+            field_err(
+                path,
+                keys.object(&[]),
+                key,
+                format!("missing: a parameter file names {what}"),
+            )
+        };
+        let wrong = |key: &[&str], want: &str, v: &serde_json::Value| {
+            field_err(
+                path,
+                line(key),
+                &json_field(key),
+                format!("expected {want}, found {}", json_kind(v)),
+            )
+        };
+        let model_spec = match top.get("model") {
+            None => {
+                return Err(missing(
+                    "model",
+                    "its model (`\"model\": \"bingham+hysteresis\"`)",
+                ))
+            }
+            Some(serde_json::Value::String(s)) => s,
+            Some(v) => {
+                return Err(wrong(
+                    &["model"],
+                    "a model spec string such as \"bingham+hysteresis\"",
+                    v,
+                ))
+            }
+        };
+        let limit = match top.get("current_limit_a") {
+            None => PAPER_CURRENT_LIMIT_A,
+            Some(v) => {
+                let Some(limit) = v.as_f64() else {
+                    return Err(wrong(&["current_limit_a"], "a number of amperes", v));
+                };
+                check_current_limit(limit, path, line(&["current_limit_a"]), "current_limit_a")?
+            }
+        };
+        let command_timing = match top.get("command_timing") {
+            None => CommandTiming::AfterSample,
+            Some(serde_json::Value::String(name)) => {
+                <CommandTiming as clap::ValueEnum>::from_str(name, false).map_err(|_| {
+                    field_err(
+                        path,
+                        line(&["command_timing"]),
+                        "command_timing",
+                        format!(
+                        "`{name}` is not a command timing: `after-sample` (a command acts after the sample \
+                             it is logged with) or `at-sample` (in force at it)"
+                    ),
+                    )
+                })?
+            }
+            Some(v) => return Err(wrong(&["command_timing"], "\"after-sample\" or \"at-sample\"", v)),
+        };
+        let model = Model::from_spec(model_spec, registry, limit)
+            .map_err(|e| field_err(path, line(&["model"]), "model", e.to_string()))?;
+        let params_obj = match top.get("params") {
+            None => {
+                return Err(missing(
+                    "params",
+                    "its parameters (`\"params\": {\"te_s\": {\"value\": …}}`)",
+                ))
+            }
+            Some(serde_json::Value::Object(m)) => m,
+            Some(v) => return Err(wrong(&["params"], "an object of parameters", v)),
+        };
+        let mut values = BTreeMap::new();
+        for (name, entry) in params_obj {
+            let at = |sub: &str| line(&["params", name, sub]);
+            let here = line(&["params", name]);
+            let Some(obj) = entry.as_object() else {
+                return Err(wrong(
+                    &["params", name],
+                    "an object such as {\"value\": 0.01, \"std_err\": null, \"unit\": \"s\"}",
+                    entry,
+                ));
+            };
+            for key in obj.keys() {
+                if !PARAM_KEYS.contains(&key.as_str()) {
+                    return Err(field_err(
+                        path,
+                        line(&["params", name, key]),
+                        &format!("{name}.{key}"),
+                        format!("unknown key; a parameter has the keys {}", PARAM_KEYS.join(", ")),
+                    ));
+                }
+            }
+            let value = match obj.get("value") {
+                None => {
+                    return Err(field_err(
+                        path,
+                        here,
+                        &format!("{name}.value"),
+                        "missing: every parameter has a value".to_string(),
+                    ))
+                }
+                Some(v) => v
+                    .as_f64()
+                    .ok_or_else(|| wrong(&["params", name, "value"], "a number", v))?,
+            };
+            if let Some(v) = obj.get("std_err") {
+                if !(v.is_null() || v.is_number()) {
+                    return Err(wrong(&["params", name, "std_err"], "a number or null", v));
+                }
+            }
+            let unit = match obj.get("unit") {
+                None => None,
+                Some(serde_json::Value::String(u)) => Some((u.clone(), at("unit"))),
+                Some(v) => return Err(wrong(&["params", name, "unit"], "a unit string", v)),
+            };
+            values.insert(
+                name.clone(),
+                ParamIn {
+                    value,
+                    line: here,
+                    unit,
+                },
+            );
+        }
+        let params_line = line(&["params"]);
+        let params = assign_params(&model, &values, path, params_line)?;
+        check_force(&model, &params, &values, path, params_line)?;
         Ok(Self {
             model: Arc::new(model),
             params,
@@ -161,20 +345,257 @@ impl DeviceConfig {
     }
 }
 
+/// The keys of a `PARAMS.json`, and of each of its parameters.
+const TOP_KEYS: [&str; 4] = ["model", "current_limit_a", "command_timing", "params"];
+const PARAM_KEYS: [&str; 3] = ["value", "std_err", "unit"];
+
+/// One parameter value as a file gives it: the line it is on, and the unit it is said to be in (JSON).
+struct ParamIn {
+    value: f64,
+    line: usize,
+    unit: Option<(String, usize)>,
+}
+
+fn field_err(path: &Path, line: usize, field: &str, msg: String) -> DeviceError {
+    DeviceError::Field {
+        path: path.to_path_buf(),
+        line,
+        field: field.to_string(),
+        msg,
+    }
+}
+
+/// A value that must be a positive, finite number of `unit`.
+fn positive(v: f64, unit: &str, path: &Path, line: usize, field: &str) -> Result<f64, DeviceError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(field_err(
+            path,
+            line,
+            field,
+            format!("value {} {unit}: must be a positive, finite number", num(v)),
+        ))
+    }
+}
+
+/// The driver's saturation: the command is limited to ±limit, so the limit is a positive number of amperes.
+fn check_current_limit(limit: f64, path: &Path, line: usize, field: &str) -> Result<f64, DeviceError> {
+    if limit.is_finite() && limit > 0.0 {
+        Ok(limit)
+    } else {
+        Err(field_err(
+            path,
+            line,
+            field,
+            format!(
+                "value {} A: the driver's saturation limits the coil current command to ±current_limit_a, \
+                 so it must be a positive, finite number of amperes (the paper's driver: 14 A)",
+                num(limit)
+            ),
+        ))
+    }
+}
+
+/// A JSON syntax error at its line, without serde_json's own " at line L column C" (the line leads the
+/// error already), naming the key whose value it is in where there is one (not for a file that ends early).
+fn json_err(e: &serde_json::Error, text: &str, path: &Path) -> DeviceError {
+    let s = e.to_string();
+    let msg = match s.rfind(" at line ") {
+        Some(k) => format!("{} (column {})", &s[..k], e.column()),
+        None => s,
+    };
+    let line = e.line().max(1);
+    let key = match e.classify() {
+        serde_json::error::Category::Eof => None,
+        _ => {
+            // The byte the reader stopped at: its line's start plus the column.
+            let start: usize = text.split_inclusive('\n').take(line - 1).map(str::len).sum();
+            let mut end = (start + e.column()).min(text.len());
+            while !text.is_char_boundary(end) {
+                end -= 1;
+            }
+            JsonKeys::scan(&text[..end]).keys.pop().map(|(p, _)| p)
+        }
+    };
+    match key {
+        Some(key) => field_err(path, line, &json_field(&key), msg),
+        None => DeviceError::Parse {
+            path: path.to_path_buf(),
+            line,
+            msg,
+        },
+    }
+}
+
+/// The field a JSON key path names in a message: `te_s.unit` for `params.te_s.unit` (parameters are named
+/// as in a device file), the top-level keys as they are.
+fn json_field<S: AsRef<str>>(path: &[S]) -> String {
+    let parts: Vec<&str> = path.iter().map(AsRef::as_ref).collect();
+    match parts.as_slice() {
+        ["params", rest @ ..] if !rest.is_empty() => rest.join("."),
+        all => all.join("."),
+    }
+}
+
+/// The key a TOML line sets (`name = value`), if it sets one.
+fn toml_key_of_line(text: &str, line: usize) -> Option<String> {
+    let l = text
+        .lines()
+        .nth(line.checked_sub(1)?)?
+        .trim_start_matches('\u{feff}')
+        .trim();
+    let (key, _) = l.split_once('=')?;
+    let key = key.trim().trim_matches('"');
+    let bare = !key.is_empty()
+        && key
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
+    bare.then(|| key.to_string())
+}
+
+/// A number for a message: plain where that is short, in exponent form where it is not (1e300, not three
+/// hundred digits).
+fn num(v: f64) -> String {
+    let a = v.abs();
+    if v.is_finite() && a != 0.0 && !(1e-4..1e15).contains(&a) {
+        format!("{v:e}")
+    } else {
+        v.to_string()
+    }
+}
+
+fn json_kind(v: &serde_json::Value) -> &'static str {
+    match v {
+        serde_json::Value::Null => "null",
+        serde_json::Value::Bool(_) => "a boolean",
+        serde_json::Value::Number(_) => "a number",
+        serde_json::Value::String(_) => "a string",
+        serde_json::Value::Array(_) => "an array",
+        serde_json::Value::Object(_) => "an object",
+    }
+}
+
+/// Where the keys of a JSON text are: each key's path (the keys and array indices above it, then itself)
+/// with the line it starts on, in text order, and the line each object opens on. It reads text that
+/// `serde_json` has accepted (on other text it gives some lines, never a panic).
+struct JsonKeys {
+    keys: Vec<(Vec<String>, usize)>,
+    objects: Vec<(Vec<String>, usize)>,
+}
+
+impl JsonKeys {
+    fn scan(text: &str) -> Self {
+        enum Frame {
+            Object { key: Option<String>, want_key: bool },
+            Array { index: usize },
+        }
+        fn here(stack: &[Frame]) -> Vec<String> {
+            stack
+                .iter()
+                .filter_map(|f| match f {
+                    Frame::Object { key, .. } => key.clone(),
+                    Frame::Array { index } => Some(index.to_string()),
+                })
+                .collect()
+        }
+        let b = text.as_bytes();
+        let (mut keys, mut objects) = (Vec::new(), Vec::new());
+        let mut stack: Vec<Frame> = Vec::new();
+        let (mut i, mut line) = (0usize, 1usize);
+        while i < b.len() {
+            match b[i] {
+                b'\n' => line += 1,
+                b'"' => {
+                    let (start, start_line) = (i, line);
+                    i += 1;
+                    while i < b.len() && b[i] != b'"' {
+                        if b[i] == b'\\' {
+                            i += 1;
+                        } else if b[i] == b'\n' {
+                            line += 1;
+                        }
+                        i += 1;
+                    }
+                    let end = (i + 1).min(b.len());
+                    if let Some(Frame::Object { key, want_key }) = stack.last_mut() {
+                        if *want_key {
+                            let raw = text.get(start..end).unwrap_or_default();
+                            let name = serde_json::from_str::<String>(raw)
+                                .unwrap_or_else(|_| raw.trim_matches('"').to_string());
+                            *key = Some(name);
+                            *want_key = false;
+                            keys.push((here(&stack), start_line));
+                        }
+                    }
+                }
+                b'{' => {
+                    objects.push((here(&stack), line));
+                    stack.push(Frame::Object {
+                        key: None,
+                        want_key: true,
+                    });
+                }
+                b'[' => stack.push(Frame::Array { index: 0 }),
+                b'}' | b']' => {
+                    stack.pop();
+                }
+                b',' => match stack.last_mut() {
+                    Some(Frame::Object { want_key, .. }) => *want_key = true,
+                    Some(Frame::Array { index }) => *index += 1,
+                    None => {}
+                },
+                _ => {}
+            }
+            i += 1;
+        }
+        Self { keys, objects }
+    }
+
+    /// Line of the first occurrence of a key.
+    fn key(&self, path: &[&str]) -> Option<usize> {
+        self.keys
+            .iter()
+            .find(|(p, _)| p.iter().map(String::as_str).eq(path.iter().copied()))
+            .map(|(_, l)| *l)
+    }
+
+    /// Line on which the object at `path` opens (1 when there is none).
+    fn object(&self, path: &[&str]) -> usize {
+        self.objects
+            .iter()
+            .find(|(p, _)| p.iter().map(String::as_str).eq(path.iter().copied()))
+            .map_or(1, |(_, l)| *l)
+    }
+
+    /// The first key given twice in the same object: its path, its second line and its first line.
+    fn duplicate(&self) -> Option<(&[String], usize, usize)> {
+        let mut seen: BTreeMap<&[String], usize> = BTreeMap::new();
+        for (p, line) in &self.keys {
+            if let Some(first) = seen.insert(p.as_slice(), *line) {
+                return Some((p.as_slice(), *line, first));
+            }
+        }
+        None
+    }
+}
+
 /// Match named values to the model's parameters: every parameter present (or one whose absence has a
-/// meaning, [`ParamSpec::absent`]), no unknown name, inside bounds.
+/// meaning, [`ParamSpec::absent`](super::ParamSpec::absent)), no unknown name, in the parameter's unit where a unit is given, inside
+/// bounds. A missing parameter is reported at `section_line`, the line of the table or object that lacks it.
 fn assign_params(
     model: &Model,
-    values: &BTreeMap<String, (f64, usize)>,
+    values: &BTreeMap<String, ParamIn>,
     path: &Path,
+    section_line: usize,
 ) -> Result<Vec<f64>, DeviceError> {
-    for (name, (_, line)) in values {
-        if model.param_index(name).is_none() {
-            return Err(DeviceError::Field {
-                path: path.to_path_buf(),
-                line: *line,
-                field: name.clone(),
-                msg: format!(
+    for (name, p) in values {
+        let Some(k) = model.param_index(name) else {
+            return Err(field_err(
+                path,
+                p.line,
+                name,
+                format!(
                     "unknown parameter for model `{}`; its parameters are: {}",
                     model.name(),
                     model
@@ -184,34 +605,109 @@ fn assign_params(
                         .collect::<Vec<_>>()
                         .join(", ")
                 ),
-            });
+            ));
+        };
+        let spec = &model.param_specs()[k];
+        if let Some((unit, line)) = &p.unit {
+            if unit != spec.unit {
+                return Err(field_err(
+                    path,
+                    *line,
+                    &format!("{name}.unit"),
+                    format!(
+                        "unit \"{unit}\" is not the parameter's: {name} is in \"{}\" (values are read in that \
+                         unit only; convert the value)",
+                        spec.unit
+                    ),
+                ));
+            }
         }
     }
     let mut out = Vec::with_capacity(model.n_params());
     for spec in model.param_specs() {
-        let absent = spec.absent.map(|v| (v, 0));
-        let Some((v, line)) = values.get(spec.name).or(absent.as_ref()) else {
-            return Err(DeviceError::Field {
-                path: path.to_path_buf(),
-                line: 0,
-                field: spec.name.to_string(),
-                msg: format!("missing parameter ({}, {})", spec.unit, spec.doc),
-            });
+        let (v, line) = match (values.get(spec.name), spec.absent) {
+            (Some(p), _) => (p.value, p.line),
+            (None, Some(v)) => (v, section_line),
+            (None, None) => {
+                return Err(field_err(
+                    path,
+                    section_line,
+                    spec.name,
+                    format!("missing parameter ({}, {})", spec.unit, spec.doc),
+                ))
+            }
         };
-        if !v.is_finite() || *v < spec.lower || *v > spec.upper {
-            return Err(DeviceError::Field {
-                path: path.to_path_buf(),
-                line: *line,
-                field: spec.name.to_string(),
-                msg: format!(
-                    "value {v} outside the allowed range [{}, {}] {}",
-                    spec.lower, spec.upper, spec.unit
+        if !v.is_finite() || v < spec.lower || v > spec.upper {
+            return Err(field_err(
+                path,
+                line,
+                spec.name,
+                format!(
+                    "value {} outside the allowed range [{}, {}] {}",
+                    num(v),
+                    spec.lower,
+                    spec.upper,
+                    spec.unit
                 ),
-            });
+            ));
         }
-        out.push(*v);
+        out.push(v);
     }
     Ok(out)
+}
+
+/// Refuse parameters with which the model's force is not a usable number anywhere a damper works
+/// ([`Model::unusable_force`]): name the parameter that makes it so (the one whose return to zero, or its
+/// nearest bound, gives a usable force), or every parameter when no single one does.
+fn check_force(
+    model: &Model,
+    params: &[f64],
+    values: &BTreeMap<String, ParamIn>,
+    path: &Path,
+    section_line: usize,
+) -> Result<(), DeviceError> {
+    let Some((inp, f)) = model.unusable_force(params) else {
+        return Ok(());
+    };
+    let specs = model.param_specs();
+    let at = format!(
+        "a damper force of {f:e} N at v = {} m/s, x = {} m, a = {} m/s², i = {} A (beyond ±{:e} N, where the \
+         force and the error figures stop being numbers)",
+        inp.v_m_s,
+        inp.x_m,
+        inp.a_m_s2,
+        inp.current_cmd_a,
+        super::model::FORCE_LIMIT_N
+    );
+    for (k, spec) in specs.iter().enumerate() {
+        let mut q = params.to_vec();
+        q[k] = spec.clamp(0.0);
+        if q[k] != params[k] && model.unusable_force(&q).is_none() {
+            let line = values.get(spec.name).map_or(section_line, |p| p.line);
+            return Err(field_err(
+                path,
+                line,
+                spec.name,
+                format!(
+                    "value {} {} gives {at}; correct the value or refit",
+                    num(params[k]),
+                    spec.unit
+                ),
+            ));
+        }
+    }
+    let all = specs
+        .iter()
+        .zip(params)
+        .map(|(s, v)| format!("{} = {}", s.name, num(*v)))
+        .collect::<Vec<_>>()
+        .join(", ");
+    Err(field_err(
+        path,
+        section_line,
+        "params",
+        format!("these parameters ({all}) give {at}; correct them or refit"),
+    ))
 }
 
 /// 1-based line of a byte offset.
@@ -229,7 +725,7 @@ struct TomlDevice {
     model: toml::Spanned<String>,
     #[serde(default)]
     driver: TomlDriver,
-    params: BTreeMap<String, toml::Spanned<f64>>,
+    params: toml::Spanned<BTreeMap<String, toml::Spanned<f64>>>,
     geometry: Option<TomlGeometry>,
     load_cell: Option<TomlLoadCell>,
 }
@@ -238,24 +734,77 @@ struct TomlDevice {
 #[serde(deny_unknown_fields)]
 struct TomlDriver {
     current_limit_a: Option<toml::Spanned<f64>>,
-    supply_limit_a: Option<f64>,
+    supply_limit_a: Option<toml::Spanned<f64>>,
 }
 
+/// Table 1 geometry, inches as printed.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct TomlGeometry {
-    piston_diameter_in: f64,
-    piston_rod_length_in: f64,
-    cylinder_id_in: f64,
-    cylinder_od_in: f64,
-    cylinder_length_in: f64,
-    stroke_half_in: f64,
+    piston_diameter_in: toml::Spanned<f64>,
+    piston_rod_length_in: toml::Spanned<f64>,
+    cylinder_id_in: toml::Spanned<f64>,
+    cylinder_od_in: toml::Spanned<f64>,
+    cylinder_length_in: toml::Spanned<f64>,
+    stroke_half_in: toml::Spanned<f64>,
+}
+
+impl TomlGeometry {
+    /// Every dimension a positive length, and the parts fit together: the piston in the bore, the bore in the
+    /// tube's outside, the full stroke in the cylinder.
+    fn check(&self, path: &Path, text: &str) -> Result<Geometry, DeviceError> {
+        let line = |v: &toml::Spanned<f64>| line_of(text, v.span().start);
+        let len = |v: &toml::Spanned<f64>, name: &str| {
+            positive(*v.get_ref(), "in", path, line(v), &format!("geometry.{name}"))
+        };
+        let piston = len(&self.piston_diameter_in, "piston_diameter_in")?;
+        let rod = len(&self.piston_rod_length_in, "piston_rod_length_in")?;
+        let id = len(&self.cylinder_id_in, "cylinder_id_in")?;
+        let od = len(&self.cylinder_od_in, "cylinder_od_in")?;
+        let cyl_len = len(&self.cylinder_length_in, "cylinder_length_in")?;
+        let stroke = len(&self.stroke_half_in, "stroke_half_in")?;
+        let clash = |v: &toml::Spanned<f64>, name: &str, why: String| {
+            Err(field_err(path, line(v), &format!("geometry.{name}"), why))
+        };
+        if piston > id {
+            return clash(
+                &self.piston_diameter_in,
+                "piston_diameter_in",
+                format!("value {piston} in is larger than the cylinder's bore, cylinder_id_in = {id} in"),
+            );
+        }
+        if id >= od {
+            return clash(
+                &self.cylinder_id_in,
+                "cylinder_id_in",
+                format!("value {id} in is not smaller than the cylinder's outside diameter, cylinder_od_in = {od} in"),
+            );
+        }
+        if 2.0 * stroke > cyl_len {
+            return clash(
+                &self.stroke_half_in,
+                "stroke_half_in",
+                format!(
+                    "value {stroke} in: the full stroke, 2 × {stroke} in, is longer than the cylinder, \
+                     cylinder_length_in = {cyl_len} in"
+                ),
+            );
+        }
+        Ok(Geometry {
+            piston_diameter_m: piston * IN_TO_M,
+            piston_rod_length_m: rod * IN_TO_M,
+            cylinder_id_m: id * IN_TO_M,
+            cylinder_od_m: od * IN_TO_M,
+            cylinder_length_m: cyl_len * IN_TO_M,
+            stroke_half_m: stroke * IN_TO_M,
+        })
+    }
 }
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct TomlLoadCell {
-    range_n: f64,
+    range_n: toml::Spanned<f64>,
 }
 
 /// `PARAMS.json` as written by `mrfeel fit --save` and read by `mrfeel validate --params`.
@@ -323,6 +872,70 @@ impl ParamsFile {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The key scanner finds each key's line by its path, objects' opening lines, and keys given twice in
+    /// the same object only (the same name in two objects is no duplicate); escaped quotes and keys inside
+    /// string values do not confuse it.
+    #[test]
+    fn json_keys_are_found_at_their_lines_by_path() {
+        let text =
+            "{\n  \"a\": \"not \\\"b\\\": a key\",\n  \"p\": {\n    \"x\": {\"value\": 1},\n    \"y\": \
+                    [ {\"value\": 2}, {\"value\": 3} ]\n  }\n}";
+        let k = JsonKeys::scan(text);
+        assert_eq!(k.key(&["a"]), Some(2));
+        assert_eq!(k.key(&["b"]), None);
+        assert_eq!(k.key(&["p"]), Some(3));
+        assert_eq!(k.key(&["p", "x", "value"]), Some(4));
+        assert_eq!(k.key(&["p", "y", "1", "value"]), Some(5));
+        assert_eq!(k.object(&[]), 1);
+        assert_eq!(k.object(&["p"]), 3);
+        assert_eq!(k.duplicate(), None);
+        let twice = JsonKeys::scan("{\"p\": {\"x\": 1,\n \"y\": 2,\n \"x\": 3}}");
+        let (path, line, first) = twice.duplicate().expect("x twice");
+        assert_eq!((path.join("."), line, first), ("p.x".to_string(), 3, 1));
+        // Text serde_json would refuse: some lines, no panic.
+        for bad in ["{\"a", "}}]]", "{\"a\": \"\\", "\""] {
+            let _ = JsonKeys::scan(bad);
+        }
+    }
+
+    /// Every load error carries a line ≥ 1: the offending key's, or the table's or object's that lacks one.
+    #[test]
+    fn no_error_is_at_line_zero() {
+        let registry = Registry::builtin();
+        let json = |t: &str| DeviceConfig::from_json(t, Path::new("p.json"), &registry).unwrap_err();
+        let toml = |t: &str| DeviceConfig::from_toml(t, Path::new("d.toml"), &registry).unwrap_err();
+        let line = |e: DeviceError| match e {
+            DeviceError::Parse { line, .. } | DeviceError::Field { line, .. } => line,
+            other => panic!("{other}"),
+        };
+        for e in [
+            json(""),
+            json("[]"),
+            json("{}"),
+            json("{\"model\": \"bingham\"}"),
+            json("{\"model\": \"bingham\",\n \"params\": {}}"),
+            json("{\"model\": \"bingham\",\n \"params\": {\"te_s\": {}}}"),
+            toml(""),
+            toml("model = \"bingham\""),
+            toml("model = \"bingham\"\n[params]\n"),
+        ] {
+            assert!(line(e) >= 1);
+        }
+        match json("{\"model\": \"bingham\",\n \"params\": {\n}}") {
+            DeviceError::Field { line, field, .. } => assert_eq!((line, field.as_str()), (2, "fc0_n")),
+            other => panic!("{other}"),
+        }
+    }
+
+    #[test]
+    fn numbers_in_messages_are_short() {
+        assert_eq!(num(1e300), "1e300");
+        assert_eq!(num(-14.0), "-14");
+        assert_eq!(num(0.015), "0.015");
+        assert_eq!(num(f64::NAN), "NaN");
+        assert_eq!(num(2.5e-7), "2.5e-7");
+    }
 
     /// A parameter file saved before `hysteresis` had its shape parameters (`fit --save` until session 8)
     /// describes the Dahl element; it still loads, as that model. A parameter without such a meaning is

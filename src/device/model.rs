@@ -14,6 +14,16 @@ pub const BASE: &str = "bingham";
 /// The driver saturation the paper set (Section 4): 14 A.
 pub const PAPER_CURRENT_LIMIT_A: f64 = 14.0;
 
+/// The largest damper force, N, a model may give anywhere in [`PROBE_ENVELOPE`]: not a physical limit but
+/// the one where numbers stop working. The sum of squared forces (or residuals) over 10⁸ samples of ±10¹⁵⁰ N
+/// is 10³⁰⁸, still below `f64::MAX` (1.8·10³⁰⁸); beyond it error figures become infinite and their ratios NaN.
+pub const FORCE_LIMIT_N: f64 = 1e150;
+
+/// Where [`Model::unusable_force`] looks: piston speed, displacement from mid-stroke and acceleration up to
+/// (100 m/s, 10 m, 10⁴ m/s²), each far past any damper's (the paper's device: ±2 in of stroke, tested at
+/// 0.08 m/s), at zero current and at the driver's saturation either way.
+pub const PROBE_ENVELOPE: (f64, f64, f64) = (100.0, 10.0, 1e4);
+
 /// Effects that can be named in a model spec. [`Registry::builtin`] holds the canonical vocabulary.
 #[derive(Clone, Default)]
 pub struct Registry {
@@ -145,6 +155,15 @@ impl std::fmt::Debug for Model {
 impl Model {
     /// Build a model from a spec; unknown effects are an error that lists the known ones.
     pub fn new(spec: &ModelSpec, registry: &Registry, current_limit_a: f64) -> Result<Self, DeviceError> {
+        if !(current_limit_a.is_finite() && current_limit_a > 0.0) {
+            return Err(DeviceError::BadSpec {
+                spec: spec.to_string(),
+                why: format!(
+                    "current limit {current_limit_a} A: the driver's saturation limits the command to \
+                     ±current_limit_a, a positive, finite number of amperes"
+                ),
+            });
+        }
         let mut param_specs: Vec<ParamSpec> = bingham::PARAMS.to_vec();
         let mut n_states = bingham::N_STATES;
         let mut slots = Vec::new();
@@ -273,6 +292,38 @@ impl Model {
             .zip(&self.param_specs)
             .map(|(v, s)| s.clamp(*v))
             .collect())
+    }
+
+    /// Whether the force is a usable number everywhere a damper may be driven: the first inputs of
+    /// [`PROBE_ENVELOPE`] (each state at rest, as at a test's first sample) where the force is not finite or
+    /// exceeds [`FORCE_LIMIT_N`], with that force; `None` when there is none. Parameters inside their bounds
+    /// can still be absurd (a damping of 10³⁰⁰ N·s/m): this is what keeps them from giving infinite or NaN
+    /// error figures.
+    pub fn unusable_force(&self, p: &[f64]) -> Option<(Inputs, f64)> {
+        let (v_max, x_max, a_max) = PROBE_ENVELOPE;
+        let limit = self.current_limit_a;
+        let speeds = [0.0, 1e-3, -1e-3, 1.0, -1.0, v_max, -v_max];
+        for i in [0.0, limit, -limit] {
+            for v in speeds {
+                for x in [0.0, x_max, -x_max] {
+                    for a in [0.0, a_max, -a_max] {
+                        let inp = Inputs {
+                            t_s: 0.0,
+                            x_m: x,
+                            v_m_s: v,
+                            a_m_s2: a,
+                            current_cmd_a: i,
+                        };
+                        let s = self.init_state(p, &inp);
+                        let f = self.eval(p, &s, &inp).force_n(v);
+                        if f.is_nan() || f.abs() > FORCE_LIMIT_N {
+                            return Some((inp, f));
+                        }
+                    }
+                }
+            }
+        }
+        None
     }
 
     /// States at the first sample of a test: lags at rest for the first command, effects initialised.
@@ -467,5 +518,43 @@ impl Damper {
     /// Fluid excitation (Eq. 4 state), A.
     pub fn fluid_excitation_a(&self) -> f64 {
         self.state.get(1).copied().unwrap_or(0.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_current_limit_that_is_not_a_positive_number_is_refused() {
+        let r = Registry::builtin();
+        for bad in [0.0, -14.0, f64::NAN, f64::INFINITY] {
+            match Model::from_spec("bingham", &r, bad) {
+                Err(DeviceError::BadSpec { why, .. }) => assert!(why.contains("current limit"), "{why}"),
+                other => panic!("limit {bad}: {other:?}"),
+            }
+        }
+        assert!(Model::from_spec("bingham", &r, PAPER_CURRENT_LIMIT_A).is_ok());
+    }
+
+    /// The paper's device gives a usable force everywhere; a damping of 10³⁰⁰ N·s/m (inside its bounds)
+    /// does not, and neither does a NaN.
+    #[test]
+    fn absurd_parameters_give_an_unusable_force_and_the_papers_do_not() {
+        let model = Model::from_spec("bingham+stiffness+inertia", &Registry::builtin(), 14.0).unwrap();
+        let mut p = vec![0.0, 4.83, 1.0, 0.015, 0.008];
+        p.extend([1e3, 0.0, 1e4, 0.5]);
+        assert_eq!(p.len(), model.n_params());
+        assert_eq!(model.unusable_force(&p), None);
+        let mut huge = p.clone();
+        huge[bingham::C0] = 1e300;
+        let (inp, f) = model.unusable_force(&huge).expect("1e300 N·s/m");
+        assert!(
+            (f.is_nan() || f.abs() > FORCE_LIMIT_N) && inp.v_m_s != 0.0,
+            "{f} at {inp:?}"
+        );
+        let mut nan = p.clone();
+        nan[bingham::FC_GAIN] = f64::NAN;
+        assert!(model.unusable_force(&nan).is_some());
     }
 }
