@@ -2,7 +2,9 @@
 //!
 //! One test is one file: `# key: value` metadata lines, one header row of SI-unit-suffixed column names, then
 //! numeric rows. Required columns: `t_s`, `x_m`, `i_a`, `f_n`; optional `v_m_s` (derived from `x_m` with a
-//! smoothing differentiator when absent), `i_meas_a`, `a_m_s2`, `temp_c`; any other column is kept and ignored.
+//! smoothing differentiator when absent), `i_meas_a`, `a_m_s2`, `temp_c`; any other column is kept as text
+//! and ignored, whatever it holds (the spec's own columns are checked strictly). The metadata key the spec
+//! defines, `sample_rate_hz`, must be a positive number that agrees with the file's clock (`t_s`).
 //! Bad input is an error that names the file, the line and the column; a BOM and mixed line endings are
 //! accepted.
 
@@ -65,6 +67,14 @@ pub enum MeasurementError {
         value: f64,
         prev: f64,
     },
+    #[error("{}:{line}: metadata `{key}`: {why} (value `{value}`)", path.display())]
+    BadMeta {
+        path: PathBuf,
+        line: usize,
+        key: String,
+        value: String,
+        why: String,
+    },
     #[error("{}: {found} samples, fewer than the {need} that {what} needs", path.display())]
     TooFewSamples {
         path: PathBuf,
@@ -92,8 +102,9 @@ pub struct Measurement {
     pub i_meas_a: Option<Vec<f64>>,
     pub a_m_s2: Option<Vec<f64>>,
     pub temp_c: Option<Vec<f64>>,
-    /// Other columns, kept and ignored by the models (name → values).
-    pub extra: BTreeMap<String, Vec<f64>>,
+    /// Other columns, kept as written (trimmed, unquoted) and ignored by the models (name → fields). The
+    /// spec keeps them whatever they hold: text, empty fields, numbers.
+    pub extra: BTreeMap<String, Vec<String>>,
     /// 1-based file line of each sample (for error messages downstream).
     pub lines: Vec<usize>,
 }
@@ -142,7 +153,8 @@ impl Measurement {
             .collect()
     }
 
-    /// Sample rate from the metadata, else from the median interval.
+    /// Sample rate from the metadata (checked when read: a positive number that agrees with `t_s`), else
+    /// from the median interval.
     pub fn sample_rate_hz(&self) -> f64 {
         if let Some(r) = self
             .meta
@@ -199,12 +211,33 @@ impl Measurement {
 
         // Metadata, then the header.
         let mut k = 0;
+        // The declared sample rate and the line that declares it.
+        let mut rate: Option<(f64, usize)> = None;
         while k < lines.len() && (lines[k].trim_start().starts_with('#') || lines[k].trim().is_empty()) {
             let l = lines[k].trim_start().trim_start_matches('#').trim();
             if !l.is_empty() {
                 match l.split_once(':') {
                     Some((key, val)) if !key.trim().is_empty() && !key.trim().contains(' ') => {
-                        m.meta.insert(key.trim().to_string(), val.trim().to_string());
+                        let (key, val) = (key.trim(), val.trim());
+                        if key == RATE_KEY {
+                            let r = parse_rate(val, k + 1, path)?;
+                            if let Some((first, at)) = rate {
+                                if first != r {
+                                    return Err(MeasurementError::BadMeta {
+                                        path: p(),
+                                        line: k + 1,
+                                        key: RATE_KEY.into(),
+                                        value: val.into(),
+                                        why: format!(
+                                            "declared again with another rate: {first} Hz at line {at} and {r} Hz \
+                                             here (one file, one rate)"
+                                        ),
+                                    });
+                                }
+                            }
+                            rate = Some((r, k + 1));
+                        }
+                        m.meta.insert(key.to_string(), val.to_string());
                     }
                     _ => m.notes.push(l.to_string()),
                 }
@@ -253,8 +286,16 @@ impl Measurement {
             }
         }
 
-        // Data rows.
+        // Data rows. The spec's columns are numbers, checked strictly; other columns are kept as text.
+        let known: Vec<bool> = header
+            .iter()
+            .map(|h| REQUIRED.contains(&h.as_str()) || OPTIONAL.contains(&h.as_str()))
+            .collect();
+        let t_col = col("t_s").unwrap_or(0);
+        // Finest resolution the times are written with (for the clock check of `sample_rate_hz`).
+        let mut t_resolution = f64::INFINITY;
         let mut cols: Vec<Vec<f64>> = vec![Vec::new(); header.len()];
+        let mut text_cols: Vec<Vec<String>> = vec![Vec::new(); header.len()];
         for (j, line) in lines.iter().enumerate().skip(k + 1) {
             if line.trim().is_empty() {
                 continue;
@@ -271,6 +312,13 @@ impl Measurement {
             }
             for (c, f) in fields.iter().enumerate() {
                 let s = f.trim();
+                if !known[c] {
+                    text_cols[c].push(s.to_string());
+                    continue;
+                }
+                if c == t_col {
+                    t_resolution = t_resolution.min(written_resolution(s));
+                }
                 let v: f64 = s.parse().map_err(|_| MeasurementError::BadValue {
                     path: p(),
                     line: lineno,
@@ -318,6 +366,17 @@ impl Measurement {
                 });
             }
         }
+        if let Some((r, line)) = rate {
+            if let Some(why) = clock_contradicts(r, &m.t_s, t_resolution) {
+                return Err(MeasurementError::BadMeta {
+                    path: p(),
+                    line,
+                    key: RATE_KEY.into(),
+                    value: m.meta.get(RATE_KEY).cloned().unwrap_or_default(),
+                    why,
+                });
+            }
+        }
         m.x_m = take("x_m", &mut cols).unwrap_or_default();
         m.i_a = take("i_a", &mut cols).unwrap_or_default();
         m.f_n = take("f_n", &mut cols).unwrap_or_default();
@@ -335,8 +394,8 @@ impl Measurement {
         m.a_m_s2 = take("a_m_s2", &mut cols);
         m.temp_c = take("temp_c", &mut cols);
         for (c, name) in header.iter().enumerate() {
-            if !REQUIRED.contains(&name.as_str()) && !OPTIONAL.contains(&name.as_str()) {
-                m.extra.insert(name.clone(), std::mem::take(&mut cols[c]));
+            if !known[c] {
+                m.extra.insert(name.clone(), std::mem::take(&mut text_cols[c]));
             }
         }
         Ok(m)
@@ -370,10 +429,9 @@ impl Measurement {
                 cols.push(c);
             }
         }
-        for (name, c) in &self.extra {
-            names.push(name);
-            cols.push(c);
-        }
+        let extra: Vec<&[String]> = self.extra.values().map(Vec::as_slice).collect();
+        names.extend(self.extra.keys().map(String::as_str));
+        let names: Vec<String> = names.iter().map(|n| csv_field(n)).collect();
         s.push_str(&names.join(","));
         s.push('\n');
         for r in 0..self.len() {
@@ -382,6 +440,10 @@ impl Measurement {
                     s.push(',');
                 }
                 let _ = write!(s, "{}", col[r]);
+            }
+            for col in &extra {
+                s.push(',');
+                s.push_str(&csv_field(col.get(r).map_or("", String::as_str)));
             }
             s.push('\n');
         }
@@ -473,6 +535,81 @@ fn split_fields(line: &str) -> Vec<String> {
     }
     out.push(cur);
     out
+}
+
+/// A field as written in a CSV row: quoted (RFC 4180) when it holds a comma, a quote, a line break or
+/// leading or trailing blanks, so that it reads back the same.
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) || s.trim() != s {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// The metadata key the spec defines for the sampling rate.
+const RATE_KEY: &str = "sample_rate_hz";
+
+/// `# sample_rate_hz: <value>` at `line`: a finite positive number of hertz.
+fn parse_rate(val: &str, line: usize, path: &Path) -> Result<f64, MeasurementError> {
+    let bad = |why: &str| MeasurementError::BadMeta {
+        path: path.to_path_buf(),
+        line,
+        key: RATE_KEY.into(),
+        value: val.to_string(),
+        why: why.to_string(),
+    };
+    let r: f64 = val
+        .parse()
+        .map_err(|_| bad("not a number (the sampling rate in Hz, e.g. `1000`)"))?;
+    if !r.is_finite() {
+        return Err(bad("not a finite number of Hz"));
+    }
+    if r <= 0.0 {
+        return Err(bad("a sampling rate must be > 0 Hz"));
+    }
+    Ok(r)
+}
+
+/// The resolution a number is written with: `0.0010` → 1e-4, `12` → 1, `2.5e-3` → 1e-4.
+fn written_resolution(s: &str) -> f64 {
+    let (mant, exp) = match s.find(['e', 'E']) {
+        Some(i) => (&s[..i], s[i + 1..].parse::<i32>().unwrap_or(0)),
+        None => (s, 0),
+    };
+    let decimals = mant.split_once('.').map_or(0, |(_, d)| d.len()) as i32;
+    10f64.powi(exp - decimals)
+}
+
+/// Why a declared rate `rate_hz` contradicts the time column, `None` when they agree: the median or the
+/// mean interval of `t` lies within 1 % of `1 / rate_hz` plus the rounding of times written with
+/// `resolution_s`. The median alone would refuse a record whose clock is coarsely rounded; the mean alone,
+/// one with lost samples; a rate that neither matches is a different clock (times in ms, a wrong rate).
+fn clock_contradicts(rate_hz: f64, t: &[f64], resolution_s: f64) -> Option<String> {
+    if t.len() < 2 {
+        return None;
+    }
+    let nominal = 1.0 / rate_hz;
+    // Times rounded more coarsely than the nominal interval would repeat (refused before this check):
+    // the rounding allowed is at most one nominal interval.
+    let q = if resolution_s.is_finite() {
+        resolution_s.min(nominal)
+    } else {
+        0.0
+    };
+    let median = median_interval(t);
+    let n = (t.len() - 1) as f64;
+    let mean = (t[t.len() - 1] - t[0]) / n;
+    let median_ok = (median - nominal).abs() <= 0.01 * nominal + q;
+    let mean_ok = (mean - nominal).abs() <= 0.01 * nominal + 2.0 * q / n;
+    if median_ok || mean_ok {
+        return None;
+    }
+    Some(format!(
+        "{rate_hz} Hz means a sample every {nominal:.6e} s, but column `t_s` has a sample every {median:.6e} s \
+         ({:.6} Hz, median interval): the metadata or the time column is wrong (is `t_s` in seconds?)",
+        1.0 / median
+    ))
 }
 
 fn truncate(s: &str, n: usize) -> String {
@@ -593,7 +730,7 @@ mod tests {
         assert_eq!(m.meta["source"], "unit test");
         assert_eq!(m.sample_rate_hz(), 100.0);
         assert_eq!(m.notes, vec!["free words here"]);
-        assert_eq!(m.extra["extra_u"], vec![7.0, 8.0, 9.0]);
+        assert_eq!(m.extra["extra_u"], vec!["7", "8", "9"]);
         assert!(m.velocity_measured);
         assert_eq!(m.lines, vec![5, 6, 7]);
     }
@@ -694,6 +831,73 @@ mod tests {
         assert_eq!(back.v_m_s, m.v_m_s);
         assert_eq!(back.meta, m.meta);
         assert_eq!(back.extra, m.extra);
+    }
+
+    #[test]
+    fn extra_columns_are_kept_and_ignored_whatever_they_hold() {
+        let m =
+            parse("t_s,x_m,i_a,f_n,note_x,empty_x\n0,0,1,2,hello,\n0.1,0,1,3,\"a, b\",\n0.2,0,1,4,NaN,7\n")
+                .unwrap();
+        assert_eq!(m.extra["note_x"], vec!["hello", "a, b", "NaN"]);
+        assert_eq!(m.extra["empty_x"], vec!["", "", "7"]);
+        // Kept: written back and read again to the same text.
+        let back = Measurement::parse(m.to_csv_string().as_bytes(), Path::new("back.csv")).unwrap();
+        assert_eq!(back.extra, m.extra);
+        assert_eq!(back.f_n, m.f_n);
+        // The spec's own columns stay strict, also the optional ones.
+        let e = err("t_s,x_m,i_a,f_n,temp_c,note_x\n0,0,1,2,hot,ok\n");
+        assert!(
+            e.contains("test.csv:2") && e.contains("`temp_c`") && e.contains("not a number"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn malformed_or_non_positive_sample_rate_names_line_and_key() {
+        for (v, why) in [
+            ("abc", "not a number"),
+            ("-200", "must be > 0"),
+            ("0", "must be > 0"),
+            ("inf", "not a finite"),
+            ("NaN", "not a finite"),
+            ("", "not a number"),
+        ] {
+            let e = err(&format!(
+                "# source: x\n# sample_rate_hz: {v}\nt_s,x_m,i_a,f_n\n0,0,0,0\n"
+            ));
+            assert!(
+                e.contains("test.csv:2") && e.contains("`sample_rate_hz`") && e.contains(why),
+                "{v}: {e}"
+            );
+        }
+        let e = err("# sample_rate_hz: 100\n# sample_rate_hz: 200\nt_s,x_m,i_a,f_n\n0,0,0,0\n");
+        assert!(
+            e.contains("test.csv:2") && e.contains("line 1") && e.contains("another rate"),
+            "{e}"
+        );
+        // The same rate twice is no contradiction.
+        parse("# sample_rate_hz: 100\n# sample_rate_hz: 100.0\nt_s,x_m,i_a,f_n\n0,0,0,0\n").unwrap();
+    }
+
+    #[test]
+    fn declared_rate_must_agree_with_the_time_column() {
+        // Times in milliseconds under a 1 kHz declaration: a sample every 1 "s".
+        let e = err("# sample_rate_hz: 1000\nt_s,x_m,i_a,f_n\n0,0,0,0\n1,0,0,0\n2,0,0,0\n");
+        assert!(
+            e.contains("test.csv:1") && e.contains("`sample_rate_hz`") && e.contains("`t_s`"),
+            "{e}"
+        );
+        // 3 kHz written with 4 decimals (intervals 0.0003 and 0.0004): agrees within the rounding.
+        let mut rows = String::from("# sample_rate_hz: 3000\nt_s,x_m,i_a,f_n\n");
+        for k in 0..30 {
+            rows.push_str(&format!("{:.4},0,0,0\n", k as f64 / 3000.0));
+        }
+        assert_eq!(parse(&rows).unwrap().sample_rate_hz(), 3000.0);
+        // Lost samples (a constant rate is not required): the median interval still agrees.
+        parse("# sample_rate_hz: 10\nt_s,x_m,i_a,f_n\n0,0,0,0\n0.1,0,0,0\n0.2,0,0,0\n0.5,0,0,0\n").unwrap();
+        // 3 % off is beyond the 1 % allowance and the rounding of 3-decimal times.
+        let e = err("# sample_rate_hz: 10\nt_s,x_m,i_a,f_n\n0,0,0,0\n0.103,0,0,0\n0.206,0,0,0\n");
+        assert!(e.contains("test.csv:1"), "{e}");
     }
 
     #[test]

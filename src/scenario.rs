@@ -3,7 +3,8 @@
 //! feel loop's controller and feel law, and the pilot (hand model file and task).
 //!
 //! Every key is checked: unknown keys, wrong types and out-of-range values are errors naming the file, the
-//! line, the key and the allowed range. Paths are relative to the scenario file.
+//! line, the key and the allowed range. Paths are relative to the scenario file; a file it names that
+//! cannot be read, or that is bad, is an error naming the scenario's line and key as well as the file.
 
 use std::path::{Path, PathBuf};
 
@@ -150,6 +151,10 @@ impl Scenario {
         let dir = path.parent().unwrap_or(Path::new("."));
         let mut rig = f.rig.get_ref().clone();
         rig.urdf = dir.join(&rig.urdf);
+        // The files the run reads later: named here, with the line that names them, when they are missing.
+        c.readable(&f.rig, "urdf", "rig.urdf", &rig.urdf)?;
+        let device_path = dir.join(f.device.file.get_ref());
+        c.readable(&f.device.file, "", "device.file", &device_path)?;
         let physics_rate_hz = rig.physics_hz;
         if !(physics_rate_hz.is_finite() && (100.0..=100_000.0).contains(&physics_rate_hz)) {
             return Err(c.err(
@@ -390,7 +395,7 @@ impl Scenario {
             duration_s,
             seed,
             rig,
-            device_path: dir.join(f.device.file),
+            device_path,
             sensors,
             controller,
             feel,
@@ -544,8 +549,22 @@ fn parse_aircraft(
         },
         Some(pts) => c.schedule(pts, "aircraft.throttle", 0.0, 3.0, "(ratio of the trim throttle)")?,
     };
+    let model = a.model.get_ref();
+    let name = match model.split_once(':') {
+        Some(("jsbsim", name)) => name,
+        Some((other, _)) => {
+            return Err(c.err(
+                &a.model,
+                "aircraft.model",
+                &format!("unknown backend `{other}` (use `<name>` or `jsbsim:<name>`)"),
+            ))
+        }
+        None => model.as_str(),
+    };
+    crate::aero::AircraftModel::builtin(name)
+        .map_err(|e| c.err(&a.model, "aircraft.model", &e.to_string()))?;
     Ok(AircraftConfig {
-        model: a.model.get_ref().clone(),
+        model: model.clone(),
         airspeed_m_s: c.num(&a.airspeed_m_s, "aircraft.airspeed_m_s", 10.0, 300.0, "m/s")?,
         altitude_m: c.num(&a.altitude_m, "aircraft.altitude_m", 0.0, 11_000.0, "m")?,
         rate_hz: match &a.rate_hz {
@@ -676,8 +695,8 @@ fn parse_pilot(
     dt_s: f64,
     seed: u64,
 ) -> Result<PilotConfig, ScenarioError> {
-    let hand_path = dir.join(&p.model);
-    let hand = load_hand(&hand_path)?;
+    let hand_path = dir.join(p.model.get_ref());
+    let hand = load_hand(&hand_path).map_err(|e| c.err(&p.model, "pilot.model", &e.to_string()))?;
     let task = match p.task.get_ref().as_str() {
         "position" => Task::Position,
         "force" => Task::Force,
@@ -878,6 +897,34 @@ impl Ctx<'_> {
         }
     }
 
+    /// A file the scenario names at `at` (`key`; `inner`: the key's name inside the table `at`, `""` when
+    /// `at` is the value itself) exists and is a file.
+    fn readable<T>(&self, at: &Spanned<T>, inner: &str, key: &str, file: &Path) -> Result<(), ScenarioError> {
+        let msg = match std::fs::metadata(file) {
+            Ok(m) if m.is_file() => return Ok(()),
+            Ok(_) => format!("{}: not a file", file.display()),
+            Err(e) => format!("{}: {e}", file.display()),
+        };
+        let span = at.span();
+        let mut line = line_of(self.text, span.start);
+        if !inner.is_empty() {
+            let table = &self.text[span.start.min(self.text.len())..span.end.min(self.text.len())];
+            if let Some(k) = table.lines().position(|l| {
+                l.trim_start()
+                    .strip_prefix(inner)
+                    .is_some_and(|r| r.trim_start().starts_with('='))
+            }) {
+                line += k;
+            }
+        }
+        Err(ScenarioError::Field {
+            path: self.path.to_path_buf(),
+            line,
+            key: key.to_string(),
+            msg,
+        })
+    }
+
     fn num(&self, v: &Spanned<f64>, key: &str, lo: f64, hi: f64, unit: &str) -> Result<f64, ScenarioError> {
         let x = *v.get_ref();
         if !x.is_finite() || x < lo || x > hi {
@@ -1047,7 +1094,7 @@ struct OuterLoopSection {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct DeviceSection {
-    file: PathBuf,
+    file: Spanned<PathBuf>,
 }
 
 #[derive(Deserialize)]
@@ -1108,7 +1155,7 @@ struct FeelSection {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct PilotSection {
-    model: PathBuf,
+    model: Spanned<PathBuf>,
     task: Spanned<String>,
     signal: Spanned<String>,
     value_rad: Option<Spanned<f64>>,

@@ -29,11 +29,12 @@ pub trait AircraftBackend {
 }
 
 /// Open the backend a scenario names: `"<name>"` (embedded model `models/aircraft/<name>.toml`) or
-/// `"jsbsim:<name>"` (live JSBSim through `python/jsbsim_bridge.py`).
+/// `"jsbsim:<name>"` (live JSBSim through `python/jsbsim_bridge.py`). `<name>` is a model name, never a
+/// path ([`AircraftModel::builtin`]).
 pub fn open(spec: &str) -> Result<Box<dyn AircraftBackend>, AeroError> {
     match spec.split_once(':') {
         Some(("jsbsim", name)) => {
-            let model = Arc::new(AircraftModel::load(&AircraftModel::builtin_path(name))?);
+            let model = Arc::new(AircraftModel::load_builtin(name)?);
             Ok(Box::new(JsbsimBridge::spawn(name, model)?))
         }
         Some((other, _)) => Err(AeroError::Input {
@@ -41,7 +42,7 @@ pub fn open(spec: &str) -> Result<Box<dyn AircraftBackend>, AeroError> {
             why: format!("unknown backend `{other}` (use `<name>` or `jsbsim:<name>`)"),
         }),
         None => {
-            let model = Arc::new(AircraftModel::load(&AircraftModel::builtin_path(spec))?);
+            let model = Arc::new(AircraftModel::load_builtin(spec)?);
             Ok(Box::new(Embedded::new(spec, model)))
         }
     }

@@ -114,6 +114,9 @@ pub struct AircraftModel {
 }
 
 type S<T> = Spanned<T>;
+/// A table as written: `[[x, y], ...]`, each row spanned so that a row with the wrong number of values is
+/// named by its line (a fixed-size `[f64; 2]` would silently drop a third value).
+type Rows = S<Vec<S<Vec<f64>>>>;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -178,20 +181,20 @@ struct FilePropulsion {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct FileAero {
-    cl_alpha: S<Vec<[f64; 2]>>,
+    cl_alpha: Rows,
     cl_elevator_per_rad: S<f64>,
     cl_q_per_rad: S<f64>,
     cl_alphadot_per_rad: S<f64>,
     cd0: S<f64>,
-    cd_alpha: S<Vec<[f64; 2]>>,
+    cd_alpha: Rows,
     cd_induced_per_cl2: S<f64>,
     cd_elevator_abs_per_rad: S<f64>,
-    cd_mach: Option<S<Vec<[f64; 2]>>>,
+    cd_mach: Option<Rows>,
     cm0: S<f64>,
     cm_alpha_per_rad: S<f64>,
     cm_q_per_rad: S<f64>,
     cm_alphadot_per_rad: S<f64>,
-    cm_elevator_per_rad: S<Vec<[f64; 2]>>,
+    cm_elevator_per_rad: Rows,
     elevator_in_slipstream: bool,
 }
 
@@ -262,20 +265,49 @@ impl Ctx<'_> {
         Ok(x)
     }
 
-    fn opt(&self, v: &Option<S<f64>>, field: &str, lo: f64, hi: f64, kind: &str) -> Result<f64, AeroError> {
+    /// A value the propulsion `kind` (its line is named when the value is missing) requires.
+    fn opt(
+        &self,
+        v: &Option<S<f64>>,
+        field: &str,
+        lo: f64,
+        hi: f64,
+        kind: &S<String>,
+    ) -> Result<f64, AeroError> {
         match v {
             Some(v) => self.num(v, field, lo, hi),
-            None => Err(AeroError::Field {
-                path: self.path.to_path_buf(),
-                line: 0,
-                field: field.to_string(),
-                msg: format!("required for propulsion kind \"{kind}\" (allowed range [{lo}, {hi}])"),
-            }),
+            None => Err(self.err(
+                kind.span(),
+                field,
+                format!(
+                    "required for propulsion kind \"{}\" (allowed range [{lo}, {hi}])",
+                    kind.get_ref()
+                ),
+            )),
         }
     }
 
-    fn table(&self, v: &S<Vec<[f64; 2]>>, field: &str) -> Result<Table1, AeroError> {
-        Table1::new(v.get_ref()).map_err(|m| self.err(v.span(), field, m))
+    /// A table of `[x, y]` rows: every row exactly two values (a row is named by its line and number).
+    fn table(&self, v: &Rows, field: &str) -> Result<Table1, AeroError> {
+        let mut rows = Vec::with_capacity(v.get_ref().len());
+        for (k, r) in v.get_ref().iter().enumerate() {
+            match r.get_ref().as_slice() {
+                &[x, y] => rows.push([x, y]),
+                other => {
+                    return Err(self.err(
+                        r.span(),
+                        field,
+                        format!(
+                            "row {} has {} value{}, a table row is [x, y] (2 values)",
+                            k + 1,
+                            other.len(),
+                            if other.len() == 1 { "" } else { "s" }
+                        ),
+                    ))
+                }
+            }
+        }
+        Table1::new(&rows).map_err(|m| self.err(v.span(), field, m))
     }
 }
 
@@ -340,19 +372,19 @@ impl AircraftModel {
         let kind = p.kind.get_ref().as_str();
         let propulsion = match kind {
             "propeller" => Propulsion::Propeller {
-                max_power_w: c.opt(&p.max_power_w, "propulsion.max_power_w", 1.0, big, kind)?,
-                efficiency: c.opt(&p.efficiency, "propulsion.efficiency", 0.05, 1.0, kind)?,
+                max_power_w: c.opt(&p.max_power_w, "propulsion.max_power_w", 1.0, big, &p.kind)?,
+                efficiency: c.opt(&p.efficiency, "propulsion.efficiency", 0.05, 1.0, &p.kind)?,
                 min_airspeed_m_s: c.opt(
                     &p.min_airspeed_m_s,
                     "propulsion.min_airspeed_m_s",
                     0.1,
                     100.0,
-                    kind,
+                    &p.kind,
                 )?,
-                diameter_m: c.opt(&p.diameter_m, "propulsion.diameter_m", 0.1, 10.0, kind)?,
+                diameter_m: c.opt(&p.diameter_m, "propulsion.diameter_m", 0.1, 10.0, &p.kind)?,
             },
             "jet" => Propulsion::Jet {
-                max_thrust_n: c.opt(&p.max_thrust_n, "propulsion.max_thrust_n", 1.0, big, kind)?,
+                max_thrust_n: c.opt(&p.max_thrust_n, "propulsion.max_thrust_n", 1.0, big, &p.kind)?,
             },
             other => {
                 return Err(c.err(
@@ -462,12 +494,65 @@ impl AircraftModel {
         Ok(model)
     }
 
-    /// The model shipped in `models/aircraft/<name>.toml` of this crate.
+    /// The model shipped in `models/aircraft/<name>.toml` of this crate. The name is not checked: see
+    /// [`AircraftModel::builtin`] for a name a user gave.
     pub fn builtin_path(name: &str) -> PathBuf {
+        Self::builtin_dir().join(format!("{name}.toml"))
+    }
+
+    fn builtin_dir() -> PathBuf {
         Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("models")
             .join("aircraft")
-            .join(format!("{name}.toml"))
+    }
+
+    /// Names of the models in `models/aircraft/`, sorted.
+    pub fn builtin_names() -> Vec<String> {
+        let mut names: Vec<String> = std::fs::read_dir(Self::builtin_dir())
+            .map(|rd| {
+                rd.filter_map(|e| e.ok().map(|e| e.path()))
+                    .filter(|p| p.extension().and_then(|e| e.to_str()) == Some("toml"))
+                    .filter_map(|p| p.file_stem().and_then(|s| s.to_str()).map(str::to_string))
+                    .collect()
+            })
+            .unwrap_or_default();
+        names.sort();
+        names
+    }
+
+    /// The file of a model a user names (`c172p`, `737`): a name of a file in `models/aircraft/`, never a
+    /// path. A name with a path separator, `..`, a leading `.` or characters other than letters, digits,
+    /// `_`, `-` and `.` is refused (it would reach files outside the models), as is a name with no file.
+    pub fn builtin(name: &str) -> Result<PathBuf, AeroError> {
+        let available = || Self::builtin_names().join(", ");
+        let plain = !name.is_empty()
+            && !name.starts_with('.')
+            && !name.contains("..")
+            && name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'));
+        if !plain {
+            return Err(AeroError::Input {
+                what: format!("aircraft `{name}`"),
+                why: format!(
+                    "not a model name: give the name of a model in models/aircraft/ ({}), not a path",
+                    available()
+                ),
+            });
+        }
+        let path = Self::builtin_path(name);
+        if !path.is_file() {
+            return Err(AeroError::Input {
+                what: format!("aircraft `{name}`"),
+                why: format!("no model {} (available: {})", path.display(), available()),
+            });
+        }
+        Ok(path)
+    }
+
+    /// Load the model a user names ([`AircraftModel::builtin`]).
+    pub fn load_builtin(name: &str) -> Result<Self, AeroError> {
+        Self::load(&Self::builtin(name)?)
     }
 
     /// Maximum lift coefficient of the unstalled lift curve (largest value of `cl_alpha`).
@@ -478,5 +563,87 @@ impl AircraftModel {
     /// Aspect ratio b²/S.
     pub fn aspect_ratio(&self) -> f64 {
         self.span_m * self.span_m / self.wing_area_m2
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn c172p() -> (PathBuf, String) {
+        let path = AircraftModel::builtin_path("c172p");
+        let text = std::fs::read_to_string(&path).unwrap();
+        (path, text)
+    }
+
+    fn line_with(text: &str, needle: &str) -> usize {
+        text.lines().position(|l| l.contains(needle)).unwrap() + 1
+    }
+
+    #[test]
+    fn a_table_row_with_a_value_too_many_or_too_few_is_an_error_naming_its_line() {
+        let (path, text) = c172p();
+        AircraftModel::from_toml(&text, &path).unwrap();
+        for (row, n) in [("[0.0, 0.25, 1.0]", 3), ("[0.0]", 1)] {
+            let bad = text.replacen("[0.0, 0.25]", row, 1);
+            let e = AircraftModel::from_toml(&bad, Path::new("bad.toml"))
+                .unwrap_err()
+                .to_string();
+            let line = line_with(&bad, row);
+            assert!(
+                e.contains(&format!(
+                    "bad.toml:{line}: field `aero.cl_alpha`: row 2 has {n} value"
+                )),
+                "{e}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_missing_propulsion_value_names_the_kind_line() {
+        let (_, text) = c172p();
+        let bad: String = text
+            .lines()
+            .filter(|l| !l.starts_with("max_power_w"))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        let e = AircraftModel::from_toml(&bad, Path::new("bad.toml"))
+            .unwrap_err()
+            .to_string();
+        let line = line_with(&bad, "kind = \"propeller\"");
+        assert!(
+            e.contains(&format!(
+                "bad.toml:{line}: field `propulsion.max_power_w`: required"
+            )),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_model_name_is_never_a_path() {
+        assert!(AircraftModel::builtin("c172p")
+            .unwrap()
+            .ends_with("models/aircraft/c172p.toml"));
+        for name in [
+            "../c172p",
+            "../../etc/passwd",
+            "/tmp/x",
+            "a/b",
+            "a\\b",
+            ".hidden",
+            "",
+            "c172p/",
+        ] {
+            let e = AircraftModel::builtin(name).unwrap_err().to_string();
+            assert!(
+                e.contains("not a model name") && e.contains("c172p"),
+                "{name}: {e}"
+            );
+        }
+        let e = AircraftModel::builtin("c17").unwrap_err().to_string();
+        assert!(
+            e.contains("aircraft `c17`: no model") && e.contains("737, c172p"),
+            "{e}"
+        );
     }
 }

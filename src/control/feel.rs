@@ -329,12 +329,35 @@ pub enum FeelError {
         line: usize,
         msg: String,
     },
-    #[error("{}: field `{field}`: {msg}", path.display())]
+    #[error("{}:{line}: field `{field}`: {msg}", path.display())]
     Field {
         path: std::path::PathBuf,
+        line: usize,
         field: String,
         msg: String,
     },
+}
+
+/// 1-based line of `key = ...` inside `[table]` of a TOML text (the table's header line if the key is
+/// not written on its own line, 1 if neither is found).
+fn line_of_key(text: &str, table: &str, key: &str) -> usize {
+    let mut in_table = false;
+    let mut header = 1;
+    for (k, l) in text.lines().enumerate() {
+        let t = l.trim();
+        if t.starts_with('[') {
+            in_table = t.trim_start_matches('[').trim_end_matches(']').trim() == table;
+            if in_table {
+                header = k + 1;
+            }
+        } else if in_table
+            && t.strip_prefix(key)
+                .is_some_and(|r| r.trim_start().starts_with('='))
+        {
+            return k + 1;
+        }
+    }
+    header
 }
 
 impl FeelSprings {
@@ -377,8 +400,10 @@ impl FeelSprings {
         ];
         for (field, v, lo, hi) in checks {
             if !(v.is_finite() && v >= lo && v <= hi) {
+                let (table, key) = field.split_once('.').unwrap_or(("", field));
                 return Err(FeelError::Field {
                     path: path.to_path_buf(),
+                    line: line_of_key(&text, table, key),
                     field: field.into(),
                     msg: format!("{v} outside the allowed range [{lo}, {hi}]"),
                 });
@@ -439,8 +464,16 @@ mod tests {
             .replace("nonlinearity = ", "nonlinearity = -");
         std::fs::write(&bad, text).unwrap();
         let e = FeelSprings::load(&bad).unwrap_err().to_string();
+        let line = std::fs::read_to_string(&bad)
+            .unwrap()
+            .lines()
+            .position(|l| l.starts_with("nonlinearity"))
+            .unwrap()
+            + 1;
         assert!(
-            e.contains("variable_gradient.nonlinearity") && e.contains("[0, 100]"),
+            e.contains(&format!(
+                "bad.toml:{line}: field `variable_gradient.nonlinearity`"
+            )) && e.contains("[0, 100]"),
             "{e}"
         );
         let _ = std::fs::remove_dir_all(&dir);

@@ -46,9 +46,10 @@ use urdf::UrdfModel;
 pub enum RigError {
     #[error("{}: {msg}", path.display())]
     Io { path: PathBuf, msg: String },
-    #[error("{}:{line}: {msg}", path.display())]
+    /// `line` 0: no line to name (the message names what is missing).
+    #[error("{}: {msg}", at(path, *line))]
     Urdf { path: PathBuf, line: usize, msg: String },
-    #[error("{}:{line}: {field}: {msg}", path.display())]
+    #[error("{}: {field}: {msg}", at(path, *line))]
     Field {
         path: PathBuf,
         line: usize,
@@ -57,6 +58,15 @@ pub enum RigError {
     },
     #[error("rig configuration: field `{field}`: {msg}")]
     Config { field: String, msg: String },
+}
+
+/// `file:line`, or `file` alone for line 0 (nothing to point at).
+fn at(path: &Path, line: usize) -> String {
+    if line == 0 {
+        path.display().to_string()
+    } else {
+        format!("{}:{line}", path.display())
+    }
 }
 
 /// Which URDF elements play which role in the rig.

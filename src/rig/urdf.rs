@@ -1,6 +1,11 @@
 //! Reading the rig's URDF: the kinematic tree (for `rapier3d-urdf`), the loop-closing joints
 //! (`<loop_joint>`, an mrfeel extension that standard URDF parsers ignore), link visuals for Rerun, and
 //! errors that name the file, the line and the element.
+//!
+//! The text is first read here with every element's and attribute's line (`scan_xml`, on quick-xml) and checked
+//! against what `urdf-rs` reads (required attributes, numbers, 3-vectors, joint types; unknown
+//! attributes and elements inside links and joints are errors, not silently dropped), and link and joint
+//! names must be unique: `urdf-rs` itself reports no position.
 
 use std::path::{Path, PathBuf};
 
@@ -10,7 +15,8 @@ use super::RigError;
 #[derive(Debug, Clone)]
 pub struct UrdfModel {
     pub path: PathBuf,
-    text: String,
+    /// The element tree with lines (for messages).
+    xml: XmlElement,
     /// The kinematic tree (every `<joint>`), as `rapier3d-urdf` will load it.
     pub robot: urdf_rs::Robot,
     /// Loop-closing joints (`<loop_joint>`), each with the same fields as a URDF `<joint>`.
@@ -29,9 +35,21 @@ impl UrdfModel {
 
     /// Parse URDF text; `path` is used for messages and to resolve nothing else.
     pub fn parse(text: &str, path: &Path) -> Result<Self, RigError> {
+        let xml = scan_xml(text).map_err(|(line, msg)| RigError::Urdf {
+            path: path.to_path_buf(),
+            line,
+            msg: format!("not a valid URDF (XML): {msg}"),
+        })?;
+        check_schema(&xml).map_err(|(line, field, msg)| RigError::Field {
+            path: path.to_path_buf(),
+            line,
+            field,
+            msg,
+        })?;
+        // What the checks above let through, `urdf-rs` reads; should it not, the <robot> line is named.
         let robot = urdf_rs::read_from_string(text).map_err(|e| RigError::Urdf {
             path: path.to_path_buf(),
-            line: 0,
+            line: xml.line,
             msg: format!("not a valid URDF: {e}"),
         })?;
         // The loop joints read as ordinary joints once their tag is renamed; those whose names are not
@@ -41,17 +59,27 @@ impl UrdfModel {
             .replace("</loop_joint>", "</joint>");
         let all = urdf_rs::read_from_string(&renamed).map_err(|e| RigError::Urdf {
             path: path.to_path_buf(),
-            line: 0,
+            line: xml
+                .children
+                .iter()
+                .find(|c| c.name == "loop_joint")
+                .map_or(xml.line, |c| c.line),
             msg: format!("a <loop_joint> element is not a valid joint: {e}"),
         })?;
+        let loop_names: Vec<&str> = xml
+            .children
+            .iter()
+            .filter(|c| c.name == "loop_joint")
+            .map(XmlElement::name_attr)
+            .collect();
         let loops: Vec<urdf_rs::Joint> = all
             .joints
             .into_iter()
-            .filter(|j| text_has_element(text, "loop_joint", &j.name))
+            .filter(|j| loop_names.contains(&j.name.as_str()))
             .collect();
         let model = Self {
             path: path.to_path_buf(),
-            text: text.to_string(),
+            xml,
             robot,
             loops,
         };
@@ -59,17 +87,31 @@ impl UrdfModel {
         Ok(model)
     }
 
-    /// 1-based line of `<element name="name"`, or 0 when not found.
+    /// 1-based line of `<element name="name"` (a child of `<robot>`), or 0 when there is none.
     pub fn line_of(&self, element: &str, name: &str) -> usize {
-        find_element(&self.text, element, name)
-            .map(|off| {
-                self.text.as_bytes()[..off]
-                    .iter()
-                    .filter(|&&b| b == b'\n')
-                    .count()
-                    + 1
-            })
-            .unwrap_or(0)
+        self.element(element, name).map_or(0, |e| e.line)
+    }
+
+    /// 1-based line of the first nested element along `path` (`["inertial", "mass"]`) in `<element
+    /// name="name">`, or of the element itself where the path stops.
+    pub fn line_in(&self, element: &str, name: &str, path: &[&str]) -> usize {
+        let Some(mut e) = self.element(element, name) else {
+            return 0;
+        };
+        for step in path {
+            match e.children.iter().find(|c| c.name == *step) {
+                Some(c) => e = c,
+                None => break,
+            }
+        }
+        e.line
+    }
+
+    fn element(&self, element: &str, name: &str) -> Option<&XmlElement> {
+        self.xml
+            .children
+            .iter()
+            .find(|c| c.name == element && c.name_attr() == name)
     }
 
     /// An error about a field of a named element.
@@ -174,20 +216,15 @@ impl UrdfModel {
             }
             let m = l.inertial.mass.value;
             if !m.is_finite() || m < 0.0 {
-                return Err(self.field_error(
-                    "link",
-                    &l.name,
-                    "inertial/mass",
-                    format!("mass {m} must be ≥ 0"),
-                ));
+                return Err(self.mass_error(&l.name, format!("mass {m} must be ≥ 0")));
             }
             let i = &l.inertial.inertia;
             for (name, v) in [("ixx", i.ixx), ("iyy", i.iyy), ("izz", i.izz)] {
                 if !v.is_finite() || v < 0.0 {
-                    return Err(self.field_error(
-                        "link",
+                    return Err(self.inertial_error(
                         &l.name,
-                        &format!("inertia/{name}"),
+                        "inertia",
+                        &format!("inertial/inertia `{name}`"),
                         format!("{v} must be ≥ 0"),
                     ));
                 }
@@ -197,52 +234,575 @@ impl UrdfModel {
                 let (a, b, c) = (i.ixx, i.iyy, i.izz);
                 let tol = 1e-9 * (a + b + c);
                 if a + b < c - tol || a + c < b - tol || b + c < a - tol {
-                    return Err(self.field_error(
-                        "link",
+                    return Err(self.inertial_error(
                         &l.name,
                         "inertia",
+                        "inertial/inertia",
                         format!("moments ixx={a}, iyy={b}, izz={c} violate the triangle inequality (not a physical body)"),
                     ));
                 }
             }
         }
-        Ok(())
-    }
-}
-
-/// Byte offset of `<element` whose `name="name"` attribute matches.
-fn find_element(text: &str, element: &str, name: &str) -> Option<usize> {
-    let open = format!("<{element}");
-    let mut from = 0;
-    while let Some(rel) = text[from..].find(&open) {
-        let start = from + rel;
-        let after = start + open.len();
-        // The tag name must end here (`<joint` must not match `<jointx`).
-        let next = text[after..].chars().next();
-        if matches!(next, Some(c) if c.is_whitespace() || c == '>' || c == '/') {
-            let end = text[after..].find('>').map(|e| after + e).unwrap_or(text.len());
-            let tag = &text[after..end];
-            if tag_name_is(tag, name) {
-                return Some(start);
+        // A link that a joint moves is a body: it needs mass, alone or with the links fixed to it (a
+        // massless body has no dynamics; the loader would give it an arbitrary one).
+        for j in &self.robot.joints {
+            if matches!(j.joint_type, urdf_rs::JointType::Fixed) {
+                continue;
+            }
+            let mut group = vec![j.child.link.as_str()];
+            loop {
+                let before = group.len();
+                for f in &self.robot.joints {
+                    if matches!(f.joint_type, urdf_rs::JointType::Fixed)
+                        && group.contains(&f.parent.link.as_str())
+                        && !group.contains(&f.child.link.as_str())
+                    {
+                        group.push(&f.child.link);
+                    }
+                }
+                if group.len() == before {
+                    break;
+                }
+            }
+            let mass: f64 = self
+                .robot
+                .links
+                .iter()
+                .filter(|l| group.contains(&l.name.as_str()))
+                .map(|l| l.inertial.mass.value)
+                .sum();
+            if mass <= 0.0 {
+                let child = &j.child.link;
+                let fixed = if group.len() > 1 {
+                    format!(" (with the links fixed to it: {})", group[1..].join(", "))
+                } else {
+                    String::new()
+                };
+                return Err(self.mass_error(
+                    child,
+                    format!(
+                        "mass {mass} kg{fixed}: the link moves on joint `{}` ({}) and must have a mass > 0",
+                        j.name,
+                        format!("{:?}", j.joint_type).to_lowercase()
+                    ),
+                ));
             }
         }
-        from = after;
+        Ok(())
     }
-    None
-}
 
-fn tag_name_is(tag: &str, name: &str) -> bool {
-    for quote in ['"', '\''] {
-        let pat = format!("name={quote}{name}{quote}");
-        if tag.contains(&pat) {
-            return true;
+    /// An error about the mass of a link, at the line of its `<mass>` (of the link without one).
+    fn mass_error(&self, link: &str, msg: String) -> RigError {
+        self.inertial_error(link, "mass", "inertial/mass", msg)
+    }
+
+    /// An error about `<inertial><child>` of a link, at the line of that element.
+    fn inertial_error(&self, link: &str, child: &str, field: &str, msg: String) -> RigError {
+        RigError::Field {
+            path: self.path.clone(),
+            line: self.line_in("link", link, &["inertial", child]),
+            field: format!("link `{link}`: {field}"),
+            msg,
         }
     }
-    false
 }
 
-fn text_has_element(text: &str, element: &str, name: &str) -> bool {
-    find_element(text, element, name).is_some()
+// ---------------------------------------------------------------------------------------------------
+// The URDF text read with positions: `urdf-rs` reports where nothing is, so the text is first read here,
+// every element and attribute with its line, and checked against the elements `urdf-rs` reads (their
+// required attributes, numbers, vectors and joint types). What passes here, `urdf-rs` reads.
+
+/// An element of the file, with the 1-based line of its start tag.
+#[derive(Debug, Clone, Default)]
+struct XmlElement {
+    name: String,
+    line: usize,
+    attrs: Vec<XmlAttr>,
+    children: Vec<XmlElement>,
+}
+
+#[derive(Debug, Clone)]
+struct XmlAttr {
+    name: String,
+    value: String,
+    line: usize,
+}
+
+impl XmlElement {
+    fn attr(&self, name: &str) -> Option<&XmlAttr> {
+        self.attrs.iter().find(|a| a.name == name)
+    }
+
+    /// The `name` attribute's value, `""` without one.
+    fn name_attr(&self) -> &str {
+        self.attr("name").map_or("", |a| a.value.as_str())
+    }
+}
+
+/// A position in the text: byte offset to 1-based line.
+struct Lines {
+    starts: Vec<usize>,
+}
+
+impl Lines {
+    fn new(text: &str) -> Self {
+        let mut starts = vec![0];
+        starts.extend(
+            text.bytes()
+                .enumerate()
+                .filter(|(_, b)| *b == b'\n')
+                .map(|(i, _)| i + 1),
+        );
+        Self { starts }
+    }
+
+    fn line(&self, offset: usize) -> usize {
+        self.starts.partition_point(|&s| s <= offset)
+    }
+}
+
+type XmlError = (usize, String);
+
+/// Read the XML text into its element tree (the root element), or the line and reason it is not XML. The
+/// parsing is quick-xml's (the XML reader urdf-rs itself uses); this adds the lines of elements and
+/// attributes, which urdf-rs's errors do not give.
+fn scan_xml(text: &str) -> Result<XmlElement, XmlError> {
+    use quick_xml::events::{BytesStart, Event};
+    let lines = Lines::new(text);
+    let mut reader = quick_xml::Reader::from_str(text);
+    // End tags are matched here, to name the line the unmatched element was opened at.
+    reader.config_mut().check_end_names = false;
+    let mut stack: Vec<XmlElement> = Vec::new();
+    let mut root: Option<XmlElement> = None;
+    let at_error = |reader: &quick_xml::Reader<&[u8]>| lines.line(reader.error_position() as usize);
+    // An element from its start tag, which begins at byte `start` of the text.
+    let element = |tag: &BytesStart<'_>, start: usize| -> Result<XmlElement, XmlError> {
+        let name = String::from_utf8_lossy(tag.name().as_ref()).into_owned();
+        let line = lines.line(start);
+        let raw = &text[start..];
+        let mut el = XmlElement {
+            name,
+            line,
+            ..Default::default()
+        };
+        for attr in tag.attributes() {
+            let attr = attr.map_err(|e| (line, format!("in tag `<{}>`: {e}", el.name)))?;
+            let key = String::from_utf8_lossy(attr.key.as_ref()).into_owned();
+            let value = attr
+                .unescape_value()
+                .map_err(|e| (line, format!("attribute `{key}` of `<{}>`: {e}", el.name)))?
+                .into_owned();
+            el.attrs.push(XmlAttr {
+                line: lines.line(start + attribute_offset(raw, &key)),
+                name: key,
+                value,
+            });
+        }
+        Ok(el)
+    };
+    loop {
+        let before = reader.buffer_position() as usize;
+        let event = reader
+            .read_event()
+            .map_err(|e| (at_error(&reader), e.to_string()))?;
+        // Where the event's markup begins: its `<` (text events begin where the last event ended).
+        let start = before + text[before..].find('<').unwrap_or(0);
+        let closed = match event {
+            Event::Start(tag) => {
+                stack.push(element(&tag, start)?);
+                None
+            }
+            Event::Empty(tag) => Some(element(&tag, start)?),
+            Event::End(tag) => {
+                let name = String::from_utf8_lossy(tag.name().as_ref()).into_owned();
+                let line = lines.line(start);
+                let Some(open) = stack.pop() else {
+                    return Err((line, format!("`</{name}>` closes no open element")));
+                };
+                if open.name != name {
+                    return Err((
+                        line,
+                        format!(
+                            "`</{name}>` does not close `<{}>` opened at line {}",
+                            open.name, open.line
+                        ),
+                    ));
+                }
+                Some(open)
+            }
+            Event::Text(t) if stack.is_empty() && !<[u8]>::trim_ascii(&t).is_empty() => {
+                let shown: String = String::from_utf8_lossy(&t).trim().chars().take(30).collect();
+                let at = before + text[before..].find(|c: char| !c.is_whitespace()).unwrap_or(0);
+                let where_ = if root.is_some() {
+                    "after the root element"
+                } else {
+                    "before any element (not an XML file?)"
+                };
+                return Err((lines.line(at), format!("text `{shown}` {where_}")));
+            }
+            Event::Eof => break,
+            _ => None,
+        };
+        if let Some(el) = closed {
+            match stack.last_mut() {
+                Some(parent) => parent.children.push(el),
+                None if root.is_some() => {
+                    return Err((
+                        el.line,
+                        format!("a second root element `<{}>` after the first", el.name),
+                    ));
+                }
+                None => root = Some(el),
+            }
+        }
+    }
+    if let Some(open) = stack.last() {
+        return Err((
+            open.line,
+            format!(
+                "`<{}>` is never closed (the file ends inside it: truncated?)",
+                open.name
+            ),
+        ));
+    }
+    root.ok_or((1, "no XML element at all (not a URDF file?)".to_string()))
+}
+
+/// Byte offset, in the tag text `raw` (from its `<`), of the attribute `key`: where `key` stands after
+/// white space and before `=`; 0 (the tag's start) if not found.
+fn attribute_offset(raw: &str, key: &str) -> usize {
+    let end = raw.find('>').unwrap_or(raw.len());
+    let tag = &raw[..end];
+    tag.match_indices(key)
+        .find(|&(k, _)| {
+            tag[..k].ends_with(|c: char| c.is_whitespace())
+                && tag[k + key.len()..].trim_start().starts_with('=')
+        })
+        .map_or(0, |(k, _)| k)
+}
+
+/// What an attribute must hold.
+#[derive(Clone, Copy)]
+enum Val {
+    Text,
+    Num,
+    Vec3,
+    Vec4,
+    JointType,
+}
+
+/// An attribute of a URDF element: name, kind, required.
+type AttrSpec = (&'static str, Val, bool);
+/// A child element: name, at most one, required.
+type ChildSpec = (&'static str, bool, bool);
+
+const JOINT_TYPES: [&str; 7] = [
+    "revolute",
+    "continuous",
+    "prismatic",
+    "fixed",
+    "floating",
+    "planar",
+    "spherical",
+];
+
+/// The attributes and children `urdf-rs` reads from an element (by its name and its parent's), `None`
+/// for an element this checker does not know (left to `urdf-rs`).
+fn schema(parent: &str, name: &str) -> Option<(&'static [AttrSpec], &'static [ChildSpec])> {
+    use Val::*;
+    const NO_CHILD: &[ChildSpec] = &[];
+    Some(match (parent, name) {
+        ("robot", "link") => (
+            &[("name", Text, true)],
+            &[
+                ("inertial", true, false),
+                ("visual", false, false),
+                ("collision", false, false),
+            ],
+        ),
+        ("robot", "joint") | ("robot", "loop_joint") => (
+            &[("name", Text, true), ("type", JointType, true)],
+            &[
+                ("origin", true, false),
+                ("parent", true, true),
+                ("child", true, true),
+                ("axis", true, false),
+                ("limit", true, false),
+                ("calibration", true, false),
+                ("dynamics", true, false),
+                ("mimic", true, false),
+                ("safety_controller", true, false),
+            ],
+        ),
+        ("robot", "material") | ("visual", "material") => (
+            &[("name", Text, true)],
+            &[("color", true, false), ("texture", true, false)],
+        ),
+        ("link", "inertial") => (
+            &[],
+            &[
+                ("origin", true, false),
+                ("mass", true, true),
+                ("inertia", true, true),
+            ],
+        ),
+        ("link", "visual") => (
+            &[("name", Text, false)],
+            &[
+                ("origin", true, false),
+                ("geometry", true, true),
+                ("material", true, false),
+            ],
+        ),
+        ("link", "collision") => (
+            &[("name", Text, false)],
+            &[("origin", true, false), ("geometry", true, true)],
+        ),
+        (_, "origin") => (
+            &[
+                ("xyz", Vec3, false),
+                ("rpy", Vec3, false),
+                ("quat_xyzw", Vec4, false),
+            ],
+            NO_CHILD,
+        ),
+        ("inertial", "mass") => (&[("value", Num, true)], NO_CHILD),
+        ("inertial", "inertia") => (
+            &[
+                ("ixx", Num, true),
+                ("ixy", Num, true),
+                ("ixz", Num, true),
+                ("iyy", Num, true),
+                ("iyz", Num, true),
+                ("izz", Num, true),
+            ],
+            NO_CHILD,
+        ),
+        (_, "geometry") => (
+            &[],
+            &[
+                ("box", true, false),
+                ("cylinder", true, false),
+                ("capsule", true, false),
+                ("sphere", true, false),
+                ("mesh", true, false),
+            ],
+        ),
+        ("geometry", "box") => (&[("size", Vec3, true)], NO_CHILD),
+        ("geometry", "cylinder") | ("geometry", "capsule") => {
+            (&[("radius", Num, true), ("length", Num, true)], NO_CHILD)
+        }
+        ("geometry", "sphere") => (&[("radius", Num, true)], NO_CHILD),
+        ("geometry", "mesh") => (&[("filename", Text, true), ("scale", Vec3, false)], NO_CHILD),
+        ("material", "color") => (&[("rgba", Vec4, true)], NO_CHILD),
+        ("material", "texture") => (&[("filename", Text, true)], NO_CHILD),
+        (_, "parent") | (_, "child") => (&[("link", Text, true)], NO_CHILD),
+        (_, "axis") => (&[("xyz", Vec3, true)], NO_CHILD),
+        (_, "limit") => (
+            &[
+                ("lower", Num, false),
+                ("upper", Num, false),
+                ("effort", Num, false),
+                ("velocity", Num, true),
+            ],
+            NO_CHILD,
+        ),
+        (_, "calibration") => (&[("rising", Num, false), ("falling", Num, false)], NO_CHILD),
+        (_, "dynamics") => (&[("damping", Num, false), ("friction", Num, false)], NO_CHILD),
+        (_, "mimic") => (
+            &[
+                ("joint", Text, true),
+                ("multiplier", Num, false),
+                ("offset", Num, false),
+            ],
+            NO_CHILD,
+        ),
+        (_, "safety_controller") => (
+            &[
+                ("soft_lower_limit", Num, false),
+                ("soft_upper_limit", Num, false),
+                ("k_position", Num, false),
+                ("k_velocity", Num, true),
+            ],
+            NO_CHILD,
+        ),
+        _ => return None,
+    })
+}
+
+/// A finding of the checker: line, the element (`link `stick`: inertial/mass`), the message.
+type SchemaError = (usize, String, String);
+
+/// Check the robot's links, joints and loop joints against [`schema`], and that link names and joint names
+/// (`<joint>` and `<loop_joint>` together) are unique.
+fn check_schema(root: &XmlElement) -> Result<(), SchemaError> {
+    if root.name != "robot" {
+        return Err((
+            root.line,
+            format!("<{}>", root.name),
+            "the root element must be <robot> (not a URDF file?)".into(),
+        ));
+    }
+    let mut links: Vec<(&str, usize)> = Vec::new();
+    let mut joints: Vec<(&str, &str, usize)> = Vec::new();
+    for el in &root.children {
+        if schema("robot", &el.name).is_none() {
+            continue; // <gazebo>, <transmission>, ...: not read
+        }
+        let owner = match el.attr("name") {
+            Some(a) => format!("{} `{}`", el.name, a.value),
+            None => format!("<{}>", el.name),
+        };
+        check_element("robot", el, &owner, "")?;
+        let name = el.name_attr();
+        match el.name.as_str() {
+            "link" => {
+                if let Some((_, first)) = links.iter().find(|(n, _)| *n == name) {
+                    return Err((
+                        el.line,
+                        owner,
+                        format!("name: a second link named `{name}` (the first is at line {first})"),
+                    ));
+                }
+                links.push((name, el.line));
+            }
+            "joint" | "loop_joint" => {
+                if let Some((_, kind, first)) = joints.iter().find(|(n, _, _)| *n == name) {
+                    return Err((
+                        el.line,
+                        owner,
+                        format!(
+                            "name: a second joint named `{name}` (the first, a <{kind}>, is at line {first})"
+                        ),
+                    ));
+                }
+                joints.push((name, &el.name, el.line));
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+fn check_element(parent: &str, el: &XmlElement, owner: &str, path: &str) -> Result<(), SchemaError> {
+    let Some((attrs, children)) = schema(parent, &el.name) else {
+        return Ok(());
+    };
+    let here = if path.is_empty() {
+        owner.to_string()
+    } else {
+        format!("{owner}: {path}")
+    };
+    for a in &el.attrs {
+        let Some(&(_, kind, _)) = attrs.iter().find(|(n, _, _)| *n == a.name) else {
+            // Attributes of the top-level elements other than these are left alone (`name`, `type` known).
+            let known: Vec<&str> = attrs.iter().map(|(n, _, _)| *n).collect();
+            return Err((
+                a.line,
+                here,
+                format!(
+                    "unknown attribute `{}` (allowed: {})",
+                    a.name,
+                    if known.is_empty() {
+                        "none".to_string()
+                    } else {
+                        known.join(", ")
+                    }
+                ),
+            ));
+        };
+        check_value(kind, &a.value).map_err(|m| (a.line, here.clone(), format!("`{}`: {m}", a.name)))?;
+    }
+    for &(name, _, required) in attrs {
+        if required && el.attr(name).is_none() {
+            return Err((el.line, here, format!("missing attribute `{name}`")));
+        }
+    }
+    for c in &el.children {
+        let Some(&(_, single, _)) = children.iter().find(|(n, _, _)| *n == c.name) else {
+            let known: Vec<String> = children.iter().map(|(n, _, _)| format!("<{n}>")).collect();
+            return Err((
+                c.line,
+                here,
+                format!(
+                    "unknown element <{}> (allowed here: {})",
+                    c.name,
+                    if known.is_empty() {
+                        "none".to_string()
+                    } else {
+                        known.join(", ")
+                    }
+                ),
+            ));
+        };
+        if single {
+            if let Some(first) = el.children.iter().find(|d| d.name == c.name) {
+                if !std::ptr::eq(first, c) {
+                    return Err((
+                        c.line,
+                        here,
+                        format!(
+                            "a second <{}> (one allowed; the first is at line {})",
+                            c.name, first.line
+                        ),
+                    ));
+                }
+            }
+        }
+        let sub = if path.is_empty() {
+            c.name.clone()
+        } else {
+            format!("{path}/{}", c.name)
+        };
+        check_element(&el.name, c, owner, &sub)?;
+    }
+    for &(name, _, required) in children {
+        if required && !el.children.iter().any(|c| c.name == name) {
+            return Err((el.line, here, format!("missing element <{name}>")));
+        }
+    }
+    if el.name == "geometry" && el.children.len() != 1 {
+        return Err((
+            el.line,
+            here,
+            "needs exactly one shape: <box>, <cylinder>, <capsule>, <sphere> or <mesh>".into(),
+        ));
+    }
+    Ok(())
+}
+
+fn check_value(kind: Val, v: &str) -> Result<(), String> {
+    let num = |s: &str| -> Result<f64, String> {
+        match s.trim().parse::<f64>() {
+            Ok(x) if x.is_finite() => Ok(x),
+            Ok(_) => Err(format!("`{s}` is not a finite number")),
+            Err(_) => Err(format!("`{s}` is not a number")),
+        }
+    };
+    let vector = |n: usize| -> Result<(), String> {
+        let parts: Vec<&str> = v.split_whitespace().collect();
+        if parts.len() != n {
+            return Err(format!(
+                "`{v}` has {} value{}, {n} expected (numbers separated by spaces)",
+                parts.len(),
+                if parts.len() == 1 { "" } else { "s" }
+            ));
+        }
+        parts.iter().try_for_each(|p| num(p).map(|_| ()))
+    };
+    match kind {
+        Val::Text => Ok(()),
+        Val::Num => num(v).map(|_| ()),
+        Val::Vec3 => vector(3),
+        Val::Vec4 => vector(4),
+        Val::JointType => {
+            if JOINT_TYPES.contains(&v) {
+                Ok(())
+            } else {
+                Err(format!("`{v}` is not one of: {}", JOINT_TYPES.join(", ")))
+            }
+        }
+    }
 }
 
 /// Rotation of a URDF `rpy` (fixed-axis roll, pitch, yaw: `Rz(yaw) Ry(pitch) Rx(roll)`) as a unit
@@ -311,6 +871,116 @@ mod tests {
             e.contains("triangle inequality") && e.contains("bad.urdf:3"),
             "{e}"
         );
+    }
+
+    fn parse_err(text: &str) -> String {
+        UrdfModel::parse(text, Path::new("bad.urdf"))
+            .expect_err("must be rejected")
+            .to_string()
+    }
+
+    #[test]
+    fn the_shipped_rig_passes_the_checks() {
+        let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/models/stick-rig.urdf"));
+        let m = UrdfModel::load(path).unwrap();
+        assert_eq!(m.loops.len(), 1);
+        // Lines come from elements, not from mentions in comments.
+        assert_eq!(m.line_of("loop_joint", "rod_end_pin"), 207);
+        assert_eq!(m.line_in("link", "stick", &["inertial", "mass"]), 75);
+    }
+
+    #[test]
+    fn bad_values_name_the_line_element_and_attribute() {
+        let e = parse_err(&MINI.replacen(r#"<mass value="1"/>"#, r#"<mass value="heavy"/>"#, 1));
+        assert!(
+            e.contains("bad.urdf:3: link `a`: inertial/mass: `value`: `heavy` is not a number"),
+            "{e}"
+        );
+        let e = parse_err(&MINI.replace(r#"type="prismatic""#, r#"type="prismatik""#));
+        assert!(
+            e.contains("bad.urdf:8: joint `ac`: `type`: `prismatik` is not one of"),
+            "{e}"
+        );
+        let e = parse_err(&MINI.replace(r#"<origin xyz="0.5 0 0"/>"#, r#"<origin xyz="0.5 0"/>"#));
+        assert!(
+            e.contains("bad.urdf:10: loop_joint `cb`: origin: `xyz`: `0.5 0` has 2 values, 3 expected"),
+            "{e}"
+        );
+        // A value that urdf-rs would silently drop from a vector.
+        let e = parse_err(&MINI.replacen(r#"<axis xyz="0 1 0"/>"#, r#"<axis xyz="0 one 0"/>"#, 1));
+        assert!(
+            e.contains("bad.urdf:6:") && e.contains("`one` is not a number"),
+            "{e}"
+        );
+        let e = parse_err(&MINI.replacen(r#"<mass value="1"/>"#, r#"<mass valu="1"/>"#, 1));
+        assert!(
+            e.contains("bad.urdf:3:") && e.contains("unknown attribute `valu` (allowed: value)"),
+            "{e}"
+        );
+        let e = parse_err(&MINI.replacen(r#"<mass value="1"/>"#, r#"<mass/>"#, 1));
+        assert!(
+            e.contains("bad.urdf:3:") && e.contains("missing attribute `value`"),
+            "{e}"
+        );
+        let e = parse_err(&MINI.replacen("<limit ", "<limits ", 1));
+        assert!(
+            e.contains("bad.urdf:7:") && e.contains("unknown element <limits>"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn malformed_xml_names_the_line() {
+        let e = parse_err(&MINI.replace("</loop_joint>", "</loop_jont>"));
+        assert!(
+            e.contains("bad.urdf:11:") && e.contains("does not close `<loop_joint>` opened at line 10"),
+            "{e}"
+        );
+        let cut = &MINI[..MINI.find("<origin").unwrap() + 12];
+        let e = parse_err(cut);
+        assert!(e.contains("bad.urdf:10:") && e.contains("not closed"), "{e}");
+        let e = parse_err(&MINI.replace("</robot>", ""));
+        assert!(
+            e.contains("bad.urdf:2:") && e.contains("`<robot>` is never closed"),
+            "{e}"
+        );
+        assert!(parse_err("").contains("bad.urdf:1:"));
+        assert!(parse_err("hello").contains("bad.urdf:1:"));
+        let e = parse_err("<?xml version=\"1.0\"?>\n<link name=\"a\"/>\n");
+        assert!(e.contains("bad.urdf:2:") && e.contains("must be <robot>"), "{e}");
+    }
+
+    #[test]
+    fn duplicate_names_are_errors_at_the_second() {
+        let e = parse_err(&MINI.replacen(r#"<link name="b">"#, r#"<link name="a">"#, 1));
+        assert!(
+            e.contains("bad.urdf:4: link `a`: name: a second link named `a` (the first is at line 3)"),
+            "{e}"
+        );
+        let e = parse_err(&MINI.replace(r#"<loop_joint name="cb""#, r#"<loop_joint name="ab""#));
+        assert!(
+            e.contains("bad.urdf:10:") && e.contains("a second joint named `ab`") && e.contains("line 6"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_moving_link_without_mass_is_an_error_a_fixed_one_is_not() {
+        let massless = |link: &str| {
+            MINI.replacen(
+                &format!(r#"<link name="{link}"><inertial><mass value="1"/>"#),
+                &format!(r#"<link name="{link}"><inertial><mass value="0"/>"#),
+                1,
+            )
+        };
+        let e = parse_err(&massless("b"));
+        assert!(
+            e.contains("bad.urdf:4: link `b`: inertial/mass: mass 0 kg")
+                && e.contains("joint `ab` (revolute)"),
+            "{e}"
+        );
+        // The root is fixed to the world: no mass needed.
+        UrdfModel::parse(&massless("a"), Path::new("ok.urdf")).unwrap();
     }
 
     #[test]

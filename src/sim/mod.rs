@@ -39,10 +39,12 @@ use crate::sensors::{Daq, DaqSample};
 /// Errors of a run (the scenario itself was validated when loaded).
 #[derive(Debug, thiserror::Error)]
 pub enum SimError {
-    #[error("{}: aircraft: {source}", scenario.display())]
+    /// The aircraft's error is part of the message, not a source in the chain: printed with `{:#}`, a
+    /// source would repeat it.
+    #[error("{}: aircraft: {error}", scenario.display())]
     Aero {
         scenario: std::path::PathBuf,
-        source: crate::aero::AeroError,
+        error: crate::aero::AeroError,
     },
 }
 
@@ -120,9 +122,9 @@ impl<P: Plant> Loop<P> {
             .as_ref()
             .map(|a| Flight::open(a, scn.outer_loop.as_ref(), plant.stick_limits_rad()))
             .transpose()
-            .map_err(|source| SimError::Aero {
+            .map_err(|error| SimError::Aero {
                 scenario: scn.path.clone(),
-                source,
+                error,
             })?;
         let has_latency_faults = scn
             .faults
@@ -184,9 +186,9 @@ impl<P: Plant> Loop<P> {
         let t = self.step_index as f64 * dt;
         let s = self.plant.state();
         if let Some(f) = self.flight.as_mut() {
-            f.update(t, s.stick_angle_rad).map_err(|source| SimError::Aero {
+            f.update(t, s.stick_angle_rad).map_err(|error| SimError::Aero {
                 scenario: self.scenario_path.clone(),
-                source,
+                error,
             })?;
             if let FeelLaw::Target { .. } = self.controller.law {
                 // Grip → piston by virtual work at the present linkage angle.
