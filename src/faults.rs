@@ -212,7 +212,7 @@ impl FaultSchedule {
                 }
             };
             let start_s = range("start_s", e.start_s, 0.0, duration_s, "s (within the run)")?;
-            let end_s = range("end_s", e.end_s, start_s, f64::MAX, "s (after start_s)")?;
+            let end_s = range("end_s", e.end_s, start_s, f64::INFINITY, "s (after start_s)")?;
             let mut f = Fault::new(kind, start_s, end_s);
             if let Some(n) = e.noise_rms_n {
                 if kind != FaultKind::LoadCellNoisy {

@@ -7,6 +7,7 @@ pub mod faults;
 pub mod ident;
 pub mod measurement;
 pub mod mts;
+pub mod outputs;
 pub mod pilot;
 pub mod rig;
 pub mod scenario;

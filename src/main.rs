@@ -1,5 +1,9 @@
 //! The `mrfeel` command line: parse, call the library, print. All work is in the library.
 
+use std::path::PathBuf;
+
+use mrfeel::outputs::{check_outputs, Kind, Output};
+
 use clap::{Parser, Subcommand};
 
 /// Simulation and model discovery for magneto-rheological (MR) artificial feel systems on aircraft
@@ -30,16 +34,64 @@ enum Command {
     Diagnose(mrfeel::ident::cli::DiagnoseArgs),
 }
 
+/// Every file or directory the command will write, by option. The one list of a command's outputs: a new
+/// output option goes here, so that it is checked with the others before anything runs.
+fn outputs(command: &Command) -> Vec<Output<'_>> {
+    use Kind::{Dir, File};
+    let list: Vec<(&'static str, Option<&PathBuf>, Kind)> = match command {
+        Command::Mts(a) => vec![
+            ("--out", Some(&a.out), File),
+            ("--save-device", a.save_device.as_ref(), File),
+            ("--plot", a.plot.as_ref(), Dir),
+        ],
+        Command::Run(a) => vec![
+            ("--out", a.out.as_ref(), File),
+            ("--rerun", a.rerun.as_ref(), File),
+        ],
+        Command::DaqSweep(a) => vec![("--plot", a.plot.as_ref(), Dir)],
+        Command::Compare(a) => vec![
+            ("--plot", a.plot.as_ref(), Dir),
+            ("--rerun", a.rerun.as_ref(), File),
+        ],
+        Command::Fit(a) => vec![
+            ("--save", a.save.as_ref(), File),
+            ("--plot", a.plot.as_ref(), Dir),
+            ("--rerun", a.rerun.as_ref(), File),
+        ],
+        Command::Validate(a) => vec![
+            ("--plot", a.plot.as_ref(), Dir),
+            ("--rerun", a.rerun.as_ref(), File),
+        ],
+        Command::Diagnose(a) => vec![
+            ("--plot", a.plot.as_ref(), Dir),
+            ("--rerun", a.rerun.as_ref(), File),
+        ],
+    };
+    list.into_iter()
+        .filter_map(|(opt, p, kind)| p.map(|p| (opt, p.as_path(), kind)))
+        .collect()
+}
+
 fn main() -> std::process::ExitCode {
+    // Rust ignores SIGPIPE, so a closed pipe (`mrfeel validate … --json | head`) made `println!` panic.
+    // With the default action the process ends quietly when its reader has gone, as other Unix tools do.
+    #[cfg(unix)]
+    // SAFETY: called first thing in `main`, before any other thread exists; SIG_DFL is a valid action.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
-    let result = match cli.command {
-        Command::Mts(a) => mrfeel::mts::cli::run(a),
-        Command::Run(a) => mrfeel::sim::cli::run_cmd(&a),
-        Command::DaqSweep(a) => mrfeel::sim::cli::daq_sweep_cmd(&a),
-        Command::Compare(a) => mrfeel::compare::cli::run_cmd(a),
-        Command::Fit(a) => mrfeel::ident::cli::run_fit(&a),
-        Command::Validate(a) => mrfeel::ident::cli::run_validate(&a),
-        Command::Diagnose(a) => mrfeel::ident::cli::run_diagnose(&a),
+    let result = match check_outputs(&outputs(&cli.command)) {
+        Err(msg) => Err(anyhow::Error::msg(msg)),
+        Ok(()) => match cli.command {
+            Command::Mts(a) => mrfeel::mts::cli::run(a),
+            Command::Run(a) => mrfeel::sim::cli::run_cmd(&a),
+            Command::DaqSweep(a) => mrfeel::sim::cli::daq_sweep_cmd(&a),
+            Command::Compare(a) => mrfeel::compare::cli::run_cmd(a),
+            Command::Fit(a) => mrfeel::ident::cli::run_fit(&a),
+            Command::Validate(a) => mrfeel::ident::cli::run_validate(&a),
+            Command::Diagnose(a) => mrfeel::ident::cli::run_diagnose(&a),
+        },
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

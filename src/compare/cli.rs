@@ -285,9 +285,11 @@ fn plots(c: &Comparison, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
 }
 
 fn rerun_log(c: &Comparison, path: &Path) -> anyhow::Result<()> {
+    // Rerun's errors repeat their sources in their own text: report the text once, not its chain.
+    let once = |e: &dyn std::fmt::Display| anyhow::anyhow!("--rerun {}: {e}", path.display());
     let rec = rerun::RecordingStreamBuilder::new("mrfeel-compare")
         .save(path)
-        .with_context(|| format!("opening {}", path.display()))?;
+        .map_err(|e| once(&e))?;
     let log = |prefix: String, tr: &Trace| -> anyhow::Result<()> {
         let times: Vec<f64> = tr.rows.iter().map(|r| r.t_s).collect();
         type Col = (&'static str, fn(&super::Row) -> f64);
@@ -307,8 +309,11 @@ fn rerun_log(c: &Comparison, path: &Path) -> anyhow::Result<()> {
                     "time",
                     times.iter().copied(),
                 )],
-                rerun::Scalars::new(values).columns_of_unit_batches()?,
-            )?;
+                rerun::Scalars::new(values)
+                    .columns_of_unit_batches()
+                    .map_err(|e| once(&e))?,
+            )
+            .map_err(|e| once(&e))?;
         }
         Ok(())
     };
@@ -319,14 +324,17 @@ fn rerun_log(c: &Comparison, path: &Path) -> anyhow::Result<()> {
     for (r, tr) in &c.faults {
         log(format!("faults/{}/{}", r.fault.name(), r.system.name()), tr)?;
     }
-    rec.flush_blocking()?;
+    rec.flush_blocking().map_err(|e| once(&e))?;
     Ok(())
 }
 
 pub fn run_cmd(a: CompareArgs) -> anyhow::Result<()> {
     let scn = CompareScenario::load(&a.scenario)?;
     let systems = match &a.feel {
-        Some(list) => super::parse_feel_list(list)?,
+        Some(list) => super::parse_feel_list(list).map_err(|e| match e {
+            super::CompareError::Feel(msg) => anyhow::anyhow!("--feel {list}: {msg} (nothing was run)"),
+            e => e.into(),
+        })?,
         None => scn.systems.clone(),
     };
     let bar = ProgressBar::new(1);
@@ -358,12 +366,7 @@ pub fn run_cmd(a: CompareArgs) -> anyhow::Result<()> {
         text += "\n";
         text += &fault_table(&scn, &c);
     }
-    if a.json {
-        eprint!("{text}");
-        println!("{}", serde_json::to_string_pretty(&to_json(&scn, &c))?);
-    } else {
-        print!("{text}");
-    }
+    // The files first, stdout last: a run that fails to write prints no result.
     if let Some(dir) = &a.plot {
         for f in plots(&c, dir)? {
             eprintln!("wrote {}", f.display());
@@ -372,6 +375,12 @@ pub fn run_cmd(a: CompareArgs) -> anyhow::Result<()> {
     if let Some(p) = &a.rerun {
         rerun_log(&c, p)?;
         eprintln!("wrote {}", p.display());
+    }
+    if a.json {
+        eprint!("{text}");
+        println!("{}", serde_json::to_string_pretty(&to_json(&scn, &c))?);
+    } else {
+        print!("{text}");
     }
     Ok(())
 }

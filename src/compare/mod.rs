@@ -42,17 +42,31 @@ use crate::sim::{Loop, Plant};
 
 pub use crate::control::feel::FeelKind;
 
-/// Parse a comma-separated list of feel systems (`--feel a,b`), in the order given, without duplicates.
+/// Parse a comma-separated list of feel systems (`--feel a,b`), in the order given; an empty name or a
+/// system named twice is an error.
 pub fn parse_feel_list(s: &str) -> Result<Vec<FeelKind>, CompareError> {
-    let mut out = Vec::new();
-    for name in s.split(',').map(str::trim).filter(|n| !n.is_empty()) {
-        let k = FeelKind::from_name(name).ok_or_else(|| CompareError::Feel(unknown_feel(name)))?;
-        if !out.contains(&k) {
-            out.push(k);
-        }
+    let names: Vec<&str> = s.split(',').map(str::trim).collect();
+    if names.iter().all(|n| n.is_empty()) {
+        return Err(CompareError::Feel(format!(
+            "no feel system given; name at least one of: {}",
+            FeelKind::names()
+        )));
     }
-    if out.is_empty() {
-        return Err(CompareError::Feel("no feel system given".into()));
+    feel_kinds(&names).map_err(CompareError::Feel)
+}
+
+/// The feel systems of a list of names, in order: each a known system, named once.
+fn feel_kinds(names: &[&str]) -> Result<Vec<FeelKind>, String> {
+    let mut out = Vec::with_capacity(names.len());
+    for (pos, name) in names.iter().enumerate() {
+        if name.is_empty() {
+            return Err(format!("empty name at position {}", pos + 1));
+        }
+        let k = FeelKind::from_name(name).ok_or_else(|| unknown_feel(name))?;
+        if out.contains(&k) {
+            return Err(format!("`{name}` named twice; name each system once"));
+        }
+        out.push(k);
     }
     Ok(out)
 }
@@ -275,18 +289,20 @@ impl CompareScenario {
                     })
                 }
             };
-        let mut systems = Vec::new();
-        for s in &f.systems {
-            let k = FeelKind::from_name(s).ok_or_else(|| CompareError::Field {
-                path: path.to_path_buf(),
-                line: line_of_key(text, "", "systems"),
-                key: "systems".into(),
-                msg: unknown_feel(s),
-            })?;
-            if !systems.contains(&k) {
-                systems.push(k);
-            }
+        let systems_err = |msg: String| CompareError::Field {
+            path: path.to_path_buf(),
+            line: line_of_key(text, "", "systems"),
+            key: "systems".into(),
+            msg,
+        };
+        if f.systems.is_empty() {
+            return Err(systems_err(format!(
+                "no feel system listed; name at least one of: {}",
+                FeelKind::names()
+            )));
         }
+        let names: Vec<&str> = f.systems.iter().map(String::as_str).collect();
+        let systems = feel_kinds(&names).map_err(systems_err)?;
         let base = Scenario::load(&dir.join(&f.base)).map_err(|e| CompareError::Field {
             path: path.to_path_buf(),
             line: line_of_key(text, "", "base"),
@@ -303,7 +319,12 @@ impl CompareScenario {
             1000.0,
             "Ω",
         )?;
-        let springs = FeelSprings::load(&dir.join(&f.springs.file))?;
+        let springs = FeelSprings::load(&dir.join(&f.springs.file)).map_err(|e| CompareError::Field {
+            path: path.to_path_buf(),
+            line: line_of_key(text, "springs", "file"),
+            key: "springs.file".into(),
+            msg: e.to_string(),
+        })?;
         let s = &f.springs;
         chk(
             "springs",
@@ -420,7 +441,7 @@ impl CompareScenario {
             "end_s",
             f.fault_test.end_s,
             f.fault_test.start_s,
-            f64::MAX,
+            f64::INFINITY,
             "s (after start_s)",
         )?;
         if let Some(a) = &f.active {

@@ -2,7 +2,7 @@
 //! `--json`) or a table on stdout, nothing else; progress and notes on stderr.
 
 use std::io::IsTerminal;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 
@@ -118,7 +118,7 @@ fn require(tests_m: &[Test], n: usize) -> anyhow::Result<()> {
                 path: t.path.clone(),
                 found: t.len(),
                 need: 2 * n,
-                what: format!("a fit of {n} parameters"),
+                what: format!("a fit or validation of a model of {n} parameters"),
             }
             .into());
         }
@@ -136,10 +136,34 @@ fn limit_of(arg: Option<f64>, tests: &[Test]) -> anyhow::Result<f64> {
     }
 }
 
+/// Refuse a file read twice (named twice, or named and also inside a named directory): its test would
+/// count twice in every fit and figure.
+fn no_file_twice(tests: &[Test]) -> anyhow::Result<()> {
+    let mut seen: Vec<(PathBuf, &Path)> = Vec::with_capacity(tests.len());
+    for t in tests {
+        let key = std::fs::canonicalize(&t.path).unwrap_or_else(|_| t.path.clone());
+        if let Some((_, first)) = seen.iter().find(|(k, _)| *k == key) {
+            let also = if *first == t.path.as_path() {
+                String::new()
+            } else {
+                format!(" (also as `{}`)", first.display())
+            };
+            anyhow::bail!(
+                "DATA: `{}`{also} is read twice: named twice, or named and also found in a named directory; \
+                 its test would count twice: name every file once (nothing was run)",
+                t.path.display()
+            );
+        }
+        seen.push((key, &t.path));
+    }
+    Ok(())
+}
+
 /// The tests of the files, their acquisition chain taken as `choice` says, telling the person on stderr
 /// what was done about it.
 fn load_and_tell(paths: &[std::path::PathBuf], choice: AcquisitionChoice) -> anyhow::Result<Vec<Test>> {
     let tests = load_tests_with(paths, choice)?;
+    no_file_twice(&tests)?;
     match choice {
         AcquisitionChoice::Auto => {
             for line in super::acquisition_note(&tests) {
@@ -254,11 +278,7 @@ fn outputs(
     tests: &[Test],
     pred: &[Vec<f64>],
 ) -> anyhow::Result<()> {
-    if json {
-        println!("{}", serde_json::to_string_pretty(out)?);
-    } else {
-        print!("{}", out.table(title));
-    }
+    // The files first, stdout last: a run that fails to write prints no result.
     if let Some(dir) = plot {
         let files = super::plots::plot_model(dir, tests, pred, &out.model, "")?;
         eprintln!("wrote {} plot files into {}", files.len(), dir.display());
@@ -267,6 +287,11 @@ fn outputs(
         super::rerun_log::record(path, tests, &[(&out.model, pred)])?;
         eprintln!("wrote Rerun recording {}", path.display());
     }
+    if json {
+        println!("{}", serde_json::to_string_pretty(out)?);
+    } else {
+        print!("{}", out.table(title));
+    }
     Ok(())
 }
 
@@ -274,10 +299,11 @@ pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
     let registry = Registry::builtin();
     let tests = load_and_tell(&a.data, a.acquisition.acquisition)?;
     let cfg = DeviceConfig::load(&a.params, &registry)?;
+    require(&tests, cfg.model.n_params())?;
     // Standard errors as saved, where the file is a PARAMS.json.
     let saved: Option<ParamsFile> = std::fs::read_to_string(&a.params)
         .ok()
-        .and_then(|s| serde_json::from_str(&s).ok());
+        .and_then(|s| serde_json::from_str(s.trim_start_matches('\u{feff}')).ok());
     let timing = TimingDecision {
         timing: cfg.command_timing,
         fits: None,
@@ -340,11 +366,7 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
     note_timing(&timing);
     let d = diagnose(&tests, base.spec(), &registry, &opts)?;
     eprintln!("diagnosed in {:.1} s", t0.elapsed().as_secs_f64());
-    if a.json {
-        println!("{}", serde_json::to_string_pretty(&DiagnoseJson::new(&d))?);
-    } else {
-        print!("{}", diagnose_table(&d));
-    }
+    // The files first, stdout last: a run that fails to write prints no result.
     if let Some(dir) = &a.plot {
         let files = super::plots::plot_diagnosis(dir, &tests, &d)?;
         eprintln!("wrote {} plot files into {}", files.len(), dir.display());
@@ -356,6 +378,11 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
         }
         super::rerun_log::record(path, &tests, &models)?;
         eprintln!("wrote Rerun recording {}", path.display());
+    }
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&DiagnoseJson::new(&d))?);
+    } else {
+        print!("{}", diagnose_table(&d));
     }
     Ok(())
 }

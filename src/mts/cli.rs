@@ -94,20 +94,76 @@ pub fn load_device(path: Option<&Path>, registry: &Registry) -> Result<DeviceCon
     })
 }
 
+/// `--set NAME=VALUE` items; a parameter set twice is refused (which value was meant?).
 fn parse_set(items: &[String]) -> Result<Vec<(String, f64)>> {
-    items
-        .iter()
-        .map(|s| {
-            let (k, v) = s
-                .split_once('=')
-                .with_context(|| format!("--set `{s}`: expected NAME=VALUE"))?;
-            let v: f64 = v
-                .trim()
-                .parse()
-                .with_context(|| format!("--set `{s}`: `{v}` is not a number"))?;
-            Ok((k.trim().to_string(), v))
-        })
-        .collect()
+    let mut out: Vec<(String, f64)> = Vec::with_capacity(items.len());
+    for s in items {
+        let (k, v) = s
+            .split_once('=')
+            .with_context(|| format!("--set `{s}`: expected NAME=VALUE"))?;
+        let v: f64 = v
+            .trim()
+            .parse()
+            .with_context(|| format!("--set `{s}`: `{v}` is not a number"))?;
+        let k = k.trim().to_string();
+        if k.is_empty() {
+            bail!("--set `{s}`: expected NAME=VALUE (the name is empty)");
+        }
+        if let Some((_, first)) = out.iter().find(|(name, _)| *name == k) {
+            bail!("--set {k}: set twice (to {first} and to {v}); give each parameter once (nothing was run)");
+        }
+        out.push((k, v));
+    }
+    Ok(out)
+}
+
+/// `--effects` items: each named once, and none the device already has (it would be added to nothing).
+fn check_effects(effects: &[String], device: &DeviceConfig) -> Result<()> {
+    for (k, e) in effects.iter().enumerate() {
+        if e.trim().is_empty() {
+            bail!(
+                "--effects {}: empty effect name (nothing was run)",
+                effects.join(",")
+            );
+        }
+        if effects[..k].contains(e) {
+            bail!(
+                "--effects {}: effect `{e}` named twice; name each effect once (nothing was run)",
+                effects.join(",")
+            );
+        }
+        if device.model.spec().has(e) {
+            bail!(
+                "--effects {}: the device (`{}`, model `{}`) already has `{e}`; a hidden effect is one the \
+                 device lacks (nothing was run)",
+                effects.join(","),
+                device.path.display(),
+                device.model.name()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The sensor options checked where the user gave them, so that an error names the option (the device
+/// file's load-cell range is checked, at its line, when the file is read).
+fn check_sensor_options(a: &MtsArgs, range_n: f64) -> Result<()> {
+    let channels = [
+        ("load_cell", a.force_noise_n, range_n, "--force-noise-n"),
+        ("displacement", a.position_noise_m, 1.0, "--position-noise-m"),
+        ("velocity", a.velocity_noise_m_s, 1.0, "--velocity-noise-m-s"),
+    ];
+    for (channel, noise, range, noise_option) in channels {
+        if let Err(e) = crate::sensors::check_channel(channel, noise, range, a.adc_bits) {
+            let option = match e.field {
+                "noise_rms" => noise_option,
+                "range" => "--load-cell-range-n",
+                _ => "--adc-bits",
+            };
+            bail!("{option}: {e}");
+        }
+    }
+    Ok(())
 }
 
 pub fn run(a: MtsArgs) -> Result<()> {
@@ -115,9 +171,12 @@ pub fn run(a: MtsArgs) -> Result<()> {
         crate::device::ParamsFile::check_path("--save-device", path).map_err(anyhow::Error::msg)?;
     }
     let registry = Registry::builtin();
+    let overrides = parse_set(&a.set)?;
     let device = load_device(a.device.as_deref(), &registry)?;
+    check_effects(&a.effects, &device)?;
     let protocol = Protocol::from_name(&a.protocol, a.amplitude_m, a.frequency_hz)?;
     let range_n = a.load_cell_range_n.or(device.load_cell_range_n).unwrap_or(250.0);
+    check_sensor_options(&a, range_n)?;
     let stroke = device.geometry.map(|g| g.stroke_half_m);
     let test = MtsTest {
         protocol,
@@ -145,7 +204,6 @@ pub fn run(a: MtsArgs) -> Result<()> {
         stroke_limit_m: stroke,
         seed: a.seed,
     };
-    let overrides = parse_set(&a.set)?;
     let mut damper = if a.effects.is_empty() && overrides.is_empty() {
         device.damper()
     } else {
@@ -178,13 +236,14 @@ pub fn run(a: MtsArgs) -> Result<()> {
         damper.model().name(),
         a.out.display()
     );
-    print_summary(&m, &test);
+    // The files first, stdout last: a run that fails to write prints no result.
     if let Some(dir) = &a.plot {
         let files = plot_test(&m, &test, dir)?;
         for f in files {
             eprintln!("plot: {}", f.display());
         }
     }
+    print_summary(&m, &test);
     Ok(())
 }
 

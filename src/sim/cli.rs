@@ -32,7 +32,8 @@ pub struct RunArgs {
     /// Print the summary as JSON on stdout (nothing else on stdout).
     #[arg(long)]
     pub json: bool,
-    /// Fly another aircraft backend than the scenario's `[aircraft] model` (`c172p`, `jsbsim:c172p`, ...).
+    /// Fly another aircraft backend than the scenario's `[aircraft] model`: a model name from
+    /// `models/aircraft/` (`c172p`, `737`) or `jsbsim:<name>`; a name, never a path (`/`, `\`, `..` are refused).
     #[arg(long)]
     pub aircraft: Option<String>,
 }
@@ -126,10 +127,10 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
         })?;
     }
     let want_viz = args.rerun.is_some() || args.spawn;
-    let rec = if args.spawn {
+    // A viewer is spawned before the run (it shows the run as it comes); a recording file is made after it,
+    // so that a run that fails leaves no file behind.
+    let mut rec = if args.spawn {
         Some(crate::viz::rerun_rig::spawn_on_port(args.spawn_port)?)
-    } else if let Some(p) = &args.rerun {
-        Some(crate::viz::rerun_rig::to_file(p)?)
     } else {
         None
     };
@@ -137,6 +138,9 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
         frames_hz: want_viz.then_some(60.0),
     };
     let res = run_with_progress(&scn, &device, rig, opts)?;
+    if let (None, Some(p)) = (&rec, &args.rerun) {
+        rec = Some(crate::viz::rerun_rig::to_file(p)?);
+    }
     if let Some(path) = &args.out {
         let f = std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
         res.write_csv(std::io::BufWriter::new(f))
@@ -199,6 +203,15 @@ pub fn sweep(scn: &Scenario, device: &DeviceConfig, rates: &[f64]) -> anyhow::Re
 }
 
 pub fn daq_sweep_cmd(args: &DaqSweepArgs) -> anyhow::Result<()> {
+    for (k, r) in args.rates.iter().enumerate() {
+        if args.rates[..k].contains(r) {
+            let list: Vec<String> = args.rates.iter().map(f64::to_string).collect();
+            anyhow::bail!(
+                "--rates {}: {r} Hz given twice; give each rate once (nothing was run)",
+                list.join(",")
+            );
+        }
+    }
     let scn = Scenario::load(&args.scenario)?;
     let device = DeviceConfig::load(&scn.device_path, &Registry::builtin())
         .with_context(|| format!("device of scenario {}", args.scenario.display()))?;

@@ -1,0 +1,113 @@
+//! Every output a command will write, checked before the command runs: a run either writes all it was
+//! asked to or fails before it writes or prints anything (the path and the option named in the error).
+
+use std::path::{Component, Path, PathBuf};
+
+/// What an output option names: a file the command writes (its directory must exist), or a directory it
+/// creates if need be and writes files into.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Kind {
+    File,
+    Dir,
+}
+
+/// One output of a command: the option that names it, the path, and what it is.
+pub type Output<'a> = (&'static str, &'a Path, Kind);
+
+/// `path` without `.` components, so that `out/a` and `./out/a` compare equal.
+fn normalised(path: &Path) -> PathBuf {
+    path.components().filter(|c| *c != Component::CurDir).collect()
+}
+
+/// `dir` as a directory to look at (`.` for the empty parent of a bare file name).
+fn or_here(dir: &Path) -> &Path {
+    if dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        dir
+    }
+}
+
+/// Whether a file can be made in the existing directory `dir`: make one and remove it again.
+fn probe_dir(dir: &Path) -> std::io::Result<()> {
+    let probe = dir.join(format!(".mrfeel-write-check-{}", std::process::id()));
+    std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&probe)?;
+    std::fs::remove_file(&probe)
+}
+
+/// Check that one output can be written, without writing it: a file's directory exists and takes a new
+/// file (an existing file is opened for writing, unchanged); a directory exists or can be created (its
+/// nearest existing ancestor is a directory that takes a new file).
+fn check_output(option: &str, path: &Path, kind: Kind) -> Result<(), String> {
+    let fail = |why: String| Err(format!("{option} {}: {why} (nothing was run)", path.display()));
+    match kind {
+        Kind::File => {
+            if path.is_dir() {
+                return fail("is a directory, not a file".into());
+            }
+            let dir = or_here(path.parent().unwrap_or(Path::new("")));
+            match std::fs::metadata(dir) {
+                Ok(m) if m.is_dir() => {}
+                Ok(_) => return fail(format!("`{}` is not a directory", dir.display())),
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                    return fail(format!("directory `{}` does not exist", dir.display()))
+                }
+                Err(e) => return fail(format!("directory `{}`: {e}", dir.display())),
+            }
+            let probe = if path.exists() {
+                std::fs::OpenOptions::new().write(true).open(path).map(drop)
+            } else {
+                std::fs::OpenOptions::new()
+                    .write(true)
+                    .create_new(true)
+                    .open(path)
+                    .and_then(|_| std::fs::remove_file(path))
+            };
+            probe.or_else(|e| fail(format!("cannot write the file: {e}")))
+        }
+        Kind::Dir => {
+            for (n, p) in path.ancestors().enumerate() {
+                let p = or_here(p);
+                let Ok(m) = std::fs::metadata(p) else {
+                    continue; // does not exist (yet): created with the directory
+                };
+                let what = if n == 0 {
+                    "exists and is not a directory".to_string()
+                } else {
+                    format!(
+                        "cannot create the directory: `{}` is not a directory",
+                        p.display()
+                    )
+                };
+                if !m.is_dir() {
+                    return fail(what);
+                }
+                return probe_dir(p).or_else(|e| fail(format!("cannot write into `{}`: {e}", p.display())));
+            }
+            Ok(())
+        }
+    }
+}
+
+/// Check every output of a command before it runs, so that a run either writes all it was asked to or fails
+/// before it writes or prints anything: each path must be writable, and no two options may name the same path.
+pub fn check_outputs(outs: &[Output<'_>]) -> Result<(), String> {
+    for (k, &(opt, path, _)) in outs.iter().enumerate() {
+        if let Some(&(first, _, _)) = outs[..k]
+            .iter()
+            .find(|(_, q, _)| normalised(q) == normalised(path))
+        {
+            return Err(format!(
+                "{first} and {opt} both name {}: give each output its own path (nothing was run)",
+                path.display()
+            ));
+        }
+    }
+    for &(opt, path, kind) in outs {
+        check_output(opt, path, kind)?;
+    }
+    Ok(())
+}

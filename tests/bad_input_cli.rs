@@ -1,0 +1,475 @@
+//! Bad input on the command line: an output that cannot be written, or a list that names a thing twice, is
+//! an error that names the option (or file:line: field) and the culprit, with a non-zero exit, before
+//! anything is run: nothing printed on stdout, no file written.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn mrfeel(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_mrfeel"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A small real test (448 samples) from the damper data beside the repository.
+fn small_test() -> String {
+    s(&root().join("../shared/data/utfsm-mr-damper/2mm5Hz_0p50A.csv"))
+}
+
+fn scenario(name: &str) -> String {
+    s(&root().join("scenarios").join(name))
+}
+
+fn s(p: &Path) -> String {
+    p.to_str().expect("utf-8 path").to_string()
+}
+
+/// A temporary folder with a regular file `afile` in it, so that `afile/x` cannot be written (the tests
+/// may run as root, who may write anywhere a directory exists or can be made).
+fn setup() -> (tempfile::TempDir, PathBuf) {
+    let d = tempfile::tempdir().expect("temp dir");
+    let afile = d.path().join("afile");
+    std::fs::write(&afile, "").unwrap();
+    (d, afile)
+}
+
+/// The run failed cleanly before producing anything: non-zero exit, no panic, nothing on stdout, and the
+/// error names every one of `needles`. Returns stderr.
+fn refused(o: &Output, needles: &[&str]) -> String {
+    let out = String::from_utf8_lossy(&o.stdout);
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(!o.status.success(), "exit 0; stderr: {err}");
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(
+        out.is_empty(),
+        "stdout not empty on an error: {out}\nstderr: {err}"
+    );
+    for n in needles {
+        assert!(err.contains(n), "the error does not name `{n}`: {err}");
+    }
+    err
+}
+
+/// The files a folder holds (names), sorted.
+fn listing(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+// ------------------------------------------------------------------ outputs checked before any work
+
+#[test]
+fn ident_commands_with_an_unwritable_plot_or_recording_print_nothing_and_write_nothing() {
+    let (d, afile) = setup();
+    let data = small_test();
+    let plot = s(&afile.join("p"));
+    let rrd = s(&afile.join("x.rrd"));
+    let params = s(&root().join("models/paper-device.toml"));
+    let cases: Vec<(Vec<&str>, &str, &str)> = vec![
+        (vec!["fit", &data, "--json", "--plot", &plot], "--plot", &plot),
+        (vec!["fit", &data, "--json", "--rerun", &rrd], "--rerun", &rrd),
+        (vec!["fit", &data, "--plot", &plot], "--plot", &plot),
+        (
+            vec!["validate", &data, "--params", &params, "--json", "--plot", &plot],
+            "--plot",
+            &plot,
+        ),
+        (
+            vec!["validate", &data, "--params", &params, "--rerun", &rrd],
+            "--rerun",
+            &rrd,
+        ),
+        (
+            vec!["diagnose", &data, "--json", "--plot", &plot],
+            "--plot",
+            &plot,
+        ),
+        (vec!["diagnose", &data, "--rerun", &rrd], "--rerun", &rrd),
+    ];
+    for (args, option, path) in cases {
+        let o = mrfeel(&args);
+        let err = refused(&o, &[option, path, "not a directory"]);
+        assert!(err.contains("nothing was run"), "{args:?}: {err}");
+        // Refused before loading or fitting: no notes about the data on stderr.
+        assert!(
+            !err.contains("fitting") && !err.contains("acquisition"),
+            "{args:?}: {err}"
+        );
+    }
+    assert_eq!(listing(d.path()), vec!["afile"], "nothing written");
+}
+
+#[test]
+fn fit_save_is_not_written_when_the_plot_cannot_be() {
+    let (d, afile) = setup();
+    let save = d.path().join("ok.json");
+    let plot = s(&afile.join("x"));
+    let o = mrfeel(&["fit", &small_test(), "--save", &s(&save), "--plot", &plot]);
+    refused(&o, &["--plot", &plot]);
+    assert!(!save.exists(), "--save written by a run that failed");
+    // And the other way round: a save path in a missing directory stops the run before the plots.
+    let save = d.path().join("no-such-dir").join("p.json");
+    let plot_dir = d.path().join("plots");
+    let o = mrfeel(&["fit", &small_test(), "--save", &s(&save), "--plot", &s(&plot_dir)]);
+    refused(&o, &["--save", &s(&save), "does not exist"]);
+    assert!(!plot_dir.exists(), "plots written by a run that failed");
+}
+
+#[test]
+fn mts_writes_no_csv_when_the_plot_or_device_file_cannot_be_written() {
+    let (d, afile) = setup();
+    let out = d.path().join("o.csv");
+    let out_s = s(&out);
+    let base = [
+        "mts",
+        "--current",
+        "2",
+        "--cycles",
+        "1",
+        "--frequency-hz",
+        "2",
+        "--out",
+    ];
+    for (option, path) in [
+        ("--plot", s(&afile.join("p"))),
+        ("--save-device", s(&afile.join("d.json"))),
+    ] {
+        let args: Vec<&str> = base
+            .iter()
+            .copied()
+            .chain([out_s.as_str(), option, path.as_str()])
+            .collect();
+        let o = mrfeel(&args);
+        refused(&o, &[option, &path]);
+        assert!(
+            !out.exists(),
+            "{option}: the CSV was written by a run that failed"
+        );
+    }
+    // An --out that is a directory.
+    let dir_s = s(d.path());
+    let o = mrfeel(&[&base[..], &[dir_s.as_str()]].concat());
+    refused(&o, &["--out", &dir_s, "is a directory"]);
+    assert_eq!(listing(d.path()), vec!["afile"], "nothing written");
+}
+
+#[test]
+fn mts_creates_a_plot_directory_that_does_not_exist_yet() {
+    // The check refuses what cannot be written, not what is merely new.
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("o.csv");
+    let plot = d.path().join("new").join("plots");
+    let o = mrfeel(&[
+        "mts",
+        "--current",
+        "2",
+        "--cycles",
+        "1",
+        "--frequency-hz",
+        "2",
+        "--out",
+        &s(&out),
+        "--plot",
+        &s(&plot),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(out.is_file());
+    assert!(
+        plot.join("mts.png").is_file() && plot.join("mts.svg").is_file(),
+        "{:?}",
+        listing(&plot)
+    );
+    assert!(
+        !String::from_utf8_lossy(&o.stdout).is_empty(),
+        "the summary is printed"
+    );
+}
+
+#[test]
+fn run_daq_sweep_and_compare_refuse_unwritable_outputs_before_running() {
+    let (d, afile) = setup();
+    let out = d.path().join("ok.csv");
+    let rrd = s(&afile.join("x.rrd"));
+    let plot = s(&afile.join("p"));
+    let o = mrfeel(&[
+        "run",
+        &scenario("paper-feel-loop.toml"),
+        "--out",
+        &s(&out),
+        "--rerun",
+        &rrd,
+    ]);
+    refused(&o, &["--rerun", &rrd]);
+    assert!(!out.exists(), "run: --out written by a run that failed");
+    let o = mrfeel(&[
+        "daq-sweep",
+        &scenario("response-time.toml"),
+        "--rates",
+        "100",
+        "--plot",
+        &plot,
+    ]);
+    refused(&o, &["--plot", &plot]);
+    let compare = scenario("compare-feel.toml");
+    for (option, path) in [("--plot", &plot), ("--rerun", &rrd)] {
+        let o = mrfeel(&[
+            "compare",
+            &compare,
+            "--feel",
+            "centring_spring",
+            "--json",
+            option,
+            path,
+        ]);
+        let err = refused(&o, &[option, path]);
+        // One error, said once (Rerun's error text used to come three times over).
+        assert_eq!(err.matches(path.as_str()).count(), 1, "{err}");
+        assert_eq!(err.lines().count(), 1, "{err}");
+    }
+    assert_eq!(listing(d.path()), vec!["afile"], "nothing written");
+}
+
+#[test]
+fn two_options_naming_one_path_are_refused() {
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path().join("same");
+    let dotted = format!("{}/./same", d.path().display());
+    let o = mrfeel(&["fit", &small_test(), "--plot", &s(&p), "--rerun", &dotted]);
+    refused(&o, &["--plot", "--rerun", "same"]);
+    assert!(listing(d.path()).is_empty(), "nothing written");
+}
+
+// ------------------------------------------------------------------ a thing named twice
+
+#[test]
+fn a_measurement_file_given_twice_is_refused_by_fit_validate_and_diagnose() {
+    let d = tempfile::tempdir().unwrap();
+    let data = d.path().join("data");
+    std::fs::create_dir(&data).unwrap();
+    let file = data.join("a.csv");
+    std::fs::copy(small_test(), &file).unwrap();
+    let params = s(&root().join("models/paper-device.toml"));
+    let (f, dir) = (s(&file), s(&data));
+    let dotted = format!("{}/./a.csv", data.display());
+    for files in [
+        vec![f.as_str(), f.as_str()],
+        vec![dir.as_str(), f.as_str()],
+        vec![f.as_str(), &dotted],
+    ] {
+        for cmd in ["fit", "validate", "diagnose"] {
+            let mut args = vec![cmd];
+            args.extend(&files);
+            args.push("--json");
+            if cmd == "validate" {
+                args.extend(["--params", params.as_str()]);
+            }
+            let o = mrfeel(&args);
+            refused(&o, &["DATA", "a.csv", "read twice"]);
+        }
+    }
+    // Named once, the same file fits.
+    let o = mrfeel(&["fit", &f, "--json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON on stdout");
+    assert_eq!(v["samples"], 448, "{v}");
+}
+
+#[test]
+fn mts_refuses_an_effect_or_a_parameter_named_twice() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("o.csv");
+    let o_s = s(&out);
+    let base = [
+        "mts",
+        "--current",
+        "2",
+        "--cycles",
+        "1",
+        "--frequency-hz",
+        "2",
+        "--out",
+        o_s.as_str(),
+    ];
+    let o = mrfeel(&[&base[..], &["--effects", "hysteresis,hysteresis"]].concat());
+    refused(&o, &["--effects", "`hysteresis` named twice"]);
+    let o = mrfeel(&[&base[..], &["--set", "te_s=0.01", "--set", "te_s=0.02"]].concat());
+    refused(&o, &["--set te_s", "twice", "0.01", "0.02"]);
+    // An effect the device already has would be added to nothing.
+    let saved = s(&d.path().join("truth.json"));
+    let o = mrfeel(
+        &[
+            &base[..],
+            &["--effects", "hysteresis", "--save-device", saved.as_str()],
+        ]
+        .concat(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    std::fs::remove_file(&out).unwrap();
+    let o = mrfeel(
+        &[
+            &base[..],
+            &["--device", saved.as_str(), "--effects", "hysteresis"],
+        ]
+        .concat(),
+    );
+    refused(&o, &["--effects", "already has `hysteresis`", "truth.json"]);
+    assert!(!out.exists(), "nothing written");
+}
+
+#[test]
+fn compare_refuses_a_feel_system_named_twice_or_none() {
+    let compare = scenario("compare-feel.toml");
+    let o = mrfeel(&["compare", &compare, "--feel", "mr,mr"]);
+    refused(&o, &["--feel mr,mr", "`mr` named twice"]);
+    let o = mrfeel(&["compare", &compare, "--feel", "mr,,q_feel"]);
+    refused(&o, &["--feel", "empty name"]);
+
+    // The scenario's `systems`, with the repository's paths made absolute so that the copy loads.
+    let text = std::fs::read_to_string(&compare).unwrap();
+    let text = text
+        .replace(
+            "\"paper-feel-loop.toml\"",
+            &format!("{:?}", scenario("paper-feel-loop.toml")),
+        )
+        .replace(
+            "\"../models/feel-springs.toml\"",
+            &format!("{:?}", s(&root().join("models/feel-springs.toml"))),
+        );
+    let (line, original) = text
+        .lines()
+        .enumerate()
+        .find(|(_, l)| l.starts_with("systems = "))
+        .map(|(k, l)| (k + 1, l.to_string()))
+        .expect("a `systems` line");
+    let d = tempfile::tempdir().unwrap();
+    for (systems, needle) in [
+        (
+            r#"systems = ["centring_spring", "q_feel", "q_feel"]"#,
+            "`q_feel` named twice",
+        ),
+        ("systems = []", "no feel system listed"),
+    ] {
+        let path = d.path().join("c.toml");
+        std::fs::write(&path, text.replace(&original, systems)).unwrap();
+        let o = mrfeel(&["compare", &s(&path), "--feel", "centring_spring"]);
+        refused(&o, &[&format!("{}:{line}: `systems`", path.display()), needle]);
+    }
+    // The copy itself, unchanged but for its paths, loads and runs.
+    let path = d.path().join("c.toml");
+    std::fs::write(&path, text.replace(&original, r#"systems = ["centring_spring"]"#)).unwrap();
+    let o = mrfeel(&["compare", &s(&path)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("| centring_spring |"));
+}
+
+#[test]
+fn daq_sweep_refuses_a_rate_given_twice() {
+    let o = mrfeel(&[
+        "daq-sweep",
+        &scenario("response-time.toml"),
+        "--rates",
+        "100,200,100",
+    ]);
+    refused(&o, &["--rates 100,200,100", "100 Hz given twice"]);
+}
+
+// ------------------------------------------------------------------ options and files named where they were given
+
+#[test]
+fn mts_sensor_options_out_of_range_name_the_option_and_write_nothing() {
+    let d = tempfile::tempdir().unwrap();
+    let out = s(&d.path().join("o.csv"));
+    for (option, value, field) in [
+        ("--force-noise-n", "-1", "load_cell.noise_rms"),
+        ("--position-noise-m", "-1e-6", "displacement.noise_rms"),
+        ("--velocity-noise-m-s", "NaN", "velocity.noise_rms"),
+        ("--load-cell-range-n", "0", "load_cell.range"),
+        ("--adc-bits", "64", "adc_bits"),
+    ] {
+        let arg = format!("{option}={value}");
+        let o = mrfeel(&["mts", "--current", "2", "--out", &out, &arg]);
+        refused(&o, &[option, field]);
+        assert!(listing(d.path()).is_empty(), "{option}: a file was written");
+    }
+}
+
+#[test]
+fn validate_refuses_a_test_too_short_to_judge_a_model_by() {
+    let d = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(small_test()).unwrap();
+    // The header and three samples: fewer than twice the paper device's parameters.
+    let short: String = text
+        .lines()
+        .take_while(|l| l.starts_with('#'))
+        .chain(text.lines().filter(|l| !l.starts_with('#')).take(4))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let path = d.path().join("short.csv");
+    std::fs::write(&path, short).unwrap();
+    let params = s(&root().join("models/paper-device.toml"));
+    let o = mrfeel(&["validate", &s(&path), "--params", &params, "--json"]);
+    refused(&o, &["short.csv", "3 samples"]);
+}
+
+#[test]
+fn compare_names_the_scenario_line_of_a_missing_springs_file_and_a_readable_fault_bound() {
+    let d = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(scenario("compare-feel.toml")).unwrap();
+    // Relative paths in the scenario resolve from its folder: point them back at the repository.
+    let models = s(&root().join("models"));
+    let scenarios = s(&root().join("scenarios"));
+    let fixed = text
+        .replace("\"../models/", &format!("\"{models}/"))
+        .replace("base = \"", &format!("base = \"{scenarios}/"));
+    let missing = d.path().join("missing-springs.toml");
+    std::fs::write(
+        &missing,
+        fixed.replace("feel-springs.toml", "no-such-springs.toml"),
+    )
+    .unwrap();
+    let line = fixed.lines().position(|l| l.starts_with("file = ")).unwrap() + 1;
+    let e = refused(
+        &mrfeel(&["compare", &s(&missing)]),
+        &["missing-springs.toml", "springs.file", "no-such-springs.toml"],
+    );
+    assert!(e.contains(&format!(":{line}:")), "line {line} not named: {e}");
+
+    let early = d.path().join("early-end.toml");
+    std::fs::write(&early, fixed.replace("end_s = 10.0", "end_s = 1.0")).unwrap();
+    let e = refused(&mrfeel(&["compare", &s(&early)]), &["fault_test.end_s", "inf"]);
+    assert!(!e.contains("179769"), "the bound is printed as f64::MAX: {e}");
+}
+
+#[test]
+#[cfg(unix)]
+fn a_reader_that_closes_the_pipe_ends_the_run_quietly() {
+    use std::os::unix::process::ExitStatusExt;
+    // `mrfeel fit … --json | head -c0`: the reader is gone long before the fit prints (it loads and fits
+    // first). The run must end by SIGPIPE, as Unix tools do, not panic in `println!`.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_mrfeel"))
+        .args(["fit", &small_test(), "--json"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(o.status.signal(), Some(libc_sigpipe()), "{:?}: {err}", o.status);
+}
+
+/// SIGPIPE's number on Linux and the BSDs.
+fn libc_sigpipe() -> i32 {
+    13
+}
