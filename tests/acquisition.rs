@@ -4,6 +4,9 @@
 //! the noise and recovers the damper, and a model fitted on two protocols predicts the third; compared as
 //! logged, the same model is far off and its pre-yield parameters take up the filter's smear.
 
+mod common;
+use common::mrfeel;
+
 use std::f64::consts::PI;
 use std::path::PathBuf;
 
@@ -211,13 +214,6 @@ fn through_the_chain_a_model_fitted_on_two_protocols_predicts_the_third() {
 }
 
 // ---------------------------------------------------------------- `--acquisition` on the command line
-
-fn mrfeel(args: &[String]) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_mrfeel"))
-        .args(args)
-        .output()
-        .expect("run mrfeel")
-}
 
 fn fit_nrmse(files: &[String], acquisition: &str) -> (f64, String) {
     let mut args: Vec<String> = ["fit", "--model", MODEL, "--json", "--acquisition", acquisition]

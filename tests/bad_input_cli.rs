@@ -2,15 +2,11 @@
 //! an error that names the option (or file:line: field) and the culprit, with a non-zero exit, before
 //! anything is run: nothing printed on stdout, no file written.
 
+mod common;
+use common::mrfeel;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-
-fn mrfeel(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mrfeel"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

@@ -4,15 +4,11 @@
 //! Good files that differ from the usual one only in what the format allows (a byte-order mark, an optional
 //! key left out) load and give the same figures.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
+use common::mrfeel;
 
-fn mrfeel(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mrfeel"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
+use std::path::{Path, PathBuf};
+use std::process::Output;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

@@ -2,15 +2,11 @@
 //! metadata), the rig's URDF, the files a scenario names and the aircraft it flies. Each bad file is an
 //! error naming the file, the line and the field, with a non-zero exit and no output file; never a panic.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
+use common::mrfeel;
 
-fn mrfeel(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mrfeel"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
+use std::path::{Path, PathBuf};
+use std::process::Output;
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()

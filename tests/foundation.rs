@@ -5,12 +5,8 @@ use std::process::{Command, Output};
 
 use mrfeel::measurement::Measurement;
 
-fn mrfeel(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mrfeel"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
+mod common;
+use common::mrfeel;
 
 fn text(o: &Output) -> (String, String) {
     (

@@ -2,8 +2,10 @@
 //! synthetic data (each effect alone, none, pairs; several protocols, sample rates, measured or derived
 //! velocity), a user's own effect is diagnosed like the built-in ones, and the CLI keeps its contract.
 
+mod common;
+use common::mrfeel;
+
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -551,13 +553,6 @@ fn a_users_own_effect_is_diagnosed_like_the_built_in_ones() {
 }
 
 // ---------------------------------------------------------------- CLI contract
-
-fn mrfeel(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_mrfeel"))
-        .args(args)
-        .output()
-        .expect("run mrfeel")
-}
 
 fn write_tests(dir: &Path, tests: &[Test]) -> Vec<String> {
     tests

@@ -1,5 +1,8 @@
 //! Helpers shared by the integration tests (each test file includes this module).
 
+// Each test file uses a part of these helpers.
+#![allow(dead_code)]
+
 use std::path::{Path, PathBuf};
 
 /// The repository's Python (made by the test command with rerun-sdk and jsbsim); panics with how to make
@@ -44,4 +47,12 @@ pub fn record_and_read_back(res: &mrfeel::sim::Results) -> (bool, String) {
         mrfeel::viz::rerun_rig::log_run(&rec, res).unwrap();
     }
     rerun_readback(&rrd, &csv)
+}
+
+/// Run the `mrfeel` binary with `args` to the end; its exit status, stdout and stderr.
+pub fn mrfeel<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_mrfeel"))
+        .args(args)
+        .output()
+        .expect("the mrfeel binary runs")
 }
