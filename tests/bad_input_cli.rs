@@ -52,6 +52,25 @@ fn refused(o: &Output, needles: &[&str]) -> String {
     err
 }
 
+/// A short `mts` run (one cycle at 2 Hz) writing its CSV to `out`, then `more`.
+fn mts_args(out: &str, more: &[&str]) -> Vec<String> {
+    [
+        "mts",
+        "--current",
+        "2",
+        "--cycles",
+        "1",
+        "--frequency-hz",
+        "2",
+        "--out",
+        out,
+    ]
+    .iter()
+    .chain(more)
+    .map(|a| a.to_string())
+    .collect()
+}
+
 /// The files a folder holds (names), sorted.
 fn listing(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> = std::fs::read_dir(dir)
@@ -126,26 +145,11 @@ fn mts_writes_no_csv_when_the_plot_or_device_file_cannot_be_written() {
     let (d, afile) = setup();
     let out = d.path().join("o.csv");
     let out_s = s(&out);
-    let base = [
-        "mts",
-        "--current",
-        "2",
-        "--cycles",
-        "1",
-        "--frequency-hz",
-        "2",
-        "--out",
-    ];
     for (option, path) in [
         ("--plot", s(&afile.join("p"))),
         ("--save-device", s(&afile.join("d.json"))),
     ] {
-        let args: Vec<&str> = base
-            .iter()
-            .copied()
-            .chain([out_s.as_str(), option, path.as_str()])
-            .collect();
-        let o = mrfeel(&args);
+        let o = mrfeel(&mts_args(&out_s, &[option, &path]));
         refused(&o, &[option, &path]);
         assert!(
             !out.exists(),
@@ -154,7 +158,7 @@ fn mts_writes_no_csv_when_the_plot_or_device_file_cannot_be_written() {
     }
     // An --out that is a directory.
     let dir_s = s(d.path());
-    let o = mrfeel(&[&base[..], &[dir_s.as_str()]].concat());
+    let o = mrfeel(&mts_args(&dir_s, &[]));
     refused(&o, &["--out", &dir_s, "is a directory"]);
     assert_eq!(listing(d.path()), vec!["afile"], "nothing written");
 }
@@ -165,19 +169,7 @@ fn mts_creates_a_plot_directory_that_does_not_exist_yet() {
     let d = tempfile::tempdir().unwrap();
     let out = d.path().join("o.csv");
     let plot = d.path().join("new").join("plots");
-    let o = mrfeel(&[
-        "mts",
-        "--current",
-        "2",
-        "--cycles",
-        "1",
-        "--frequency-hz",
-        "2",
-        "--out",
-        &s(&out),
-        "--plot",
-        &s(&plot),
-    ]);
+    let o = mrfeel(&mts_args(&s(&out), &["--plot", &s(&plot)]));
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(out.is_file());
     assert!(
@@ -285,39 +277,19 @@ fn mts_refuses_an_effect_or_a_parameter_named_twice() {
     let d = tempfile::tempdir().unwrap();
     let out = d.path().join("o.csv");
     let o_s = s(&out);
-    let base = [
-        "mts",
-        "--current",
-        "2",
-        "--cycles",
-        "1",
-        "--frequency-hz",
-        "2",
-        "--out",
-        o_s.as_str(),
-    ];
-    let o = mrfeel(&[&base[..], &["--effects", "hysteresis,hysteresis"]].concat());
+    let o = mrfeel(&mts_args(&o_s, &["--effects", "hysteresis,hysteresis"]));
     refused(&o, &["--effects", "`hysteresis` named twice"]);
-    let o = mrfeel(&[&base[..], &["--set", "te_s=0.01", "--set", "te_s=0.02"]].concat());
+    let o = mrfeel(&mts_args(&o_s, &["--set", "te_s=0.01", "--set", "te_s=0.02"]));
     refused(&o, &["--set te_s", "twice", "0.01", "0.02"]);
     // An effect the device already has would be added to nothing.
     let saved = s(&d.path().join("truth.json"));
-    let o = mrfeel(
-        &[
-            &base[..],
-            &["--effects", "hysteresis", "--save-device", saved.as_str()],
-        ]
-        .concat(),
-    );
+    let o = mrfeel(&mts_args(
+        &o_s,
+        &["--effects", "hysteresis", "--save-device", &saved],
+    ));
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     std::fs::remove_file(&out).unwrap();
-    let o = mrfeel(
-        &[
-            &base[..],
-            &["--device", saved.as_str(), "--effects", "hysteresis"],
-        ]
-        .concat(),
-    );
+    let o = mrfeel(&mts_args(&o_s, &["--device", &saved, "--effects", "hysteresis"]));
     refused(&o, &["--effects", "already has `hysteresis`", "truth.json"]);
     assert!(!out.exists(), "nothing written");
 }
