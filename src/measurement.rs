@@ -159,7 +159,7 @@ impl Measurement {
         if let Some(r) = self
             .meta
             .get("sample_rate_hz")
-            .and_then(|s| s.trim().parse::<f64>().ok())
+            .and_then(|s| rate_number(s).parse::<f64>().ok())
         {
             if r.is_finite() && r > 0.0 {
                 return r;
@@ -550,6 +550,15 @@ fn csv_field(s: &str) -> String {
 /// The metadata key the spec defines for the sampling rate.
 const RATE_KEY: &str = "sample_rate_hz";
 
+/// The number of a `sample_rate_hz` value: the unit may be written after it (`1000 Hz`), it is the key's own.
+fn rate_number(val: &str) -> &str {
+    let v = val.trim();
+    v.strip_suffix("Hz")
+        .or_else(|| v.strip_suffix("hz"))
+        .unwrap_or(v)
+        .trim()
+}
+
 /// `# sample_rate_hz: <value>` at `line`: a finite positive number of hertz.
 fn parse_rate(val: &str, line: usize, path: &Path) -> Result<f64, MeasurementError> {
     let bad = |why: &str| MeasurementError::BadMeta {
@@ -559,7 +568,7 @@ fn parse_rate(val: &str, line: usize, path: &Path) -> Result<f64, MeasurementErr
         value: val.to_string(),
         why: why.to_string(),
     };
-    let r: f64 = val
+    let r: f64 = rate_number(val)
         .parse()
         .map_err(|_| bad("not a number (the sampling rate in Hz, e.g. `1000`)"))?;
     if !r.is_finite() {
@@ -877,6 +886,9 @@ mod tests {
         );
         // The same rate twice is no contradiction.
         parse("# sample_rate_hz: 100\n# sample_rate_hz: 100.0\nt_s,x_m,i_a,f_n\n0,0,0,0\n").unwrap();
+        // The key's own unit may follow the number.
+        let m = parse("# sample_rate_hz: 100 Hz\nt_s,x_m,i_a,f_n\n0,0,0,0\n0.0099,0,0,0\n").unwrap();
+        assert_eq!(m.sample_rate_hz(), 100.0, "the declared rate, not the clock's");
     }
 
     #[test]
