@@ -72,6 +72,37 @@ fn outputs(command: &Command) -> Vec<Output<'_>> {
         .collect()
 }
 
+/// The files a command reads, which no output may overwrite: the files named, and the CSVs of a named
+/// measurement directory.
+fn inputs(command: &Command) -> Vec<(&'static str, PathBuf)> {
+    let data = |paths: &[PathBuf]| -> Vec<(&'static str, PathBuf)> {
+        paths
+            .iter()
+            .flat_map(|p| match std::fs::read_dir(p) {
+                Ok(dir) => dir
+                    .filter_map(|e| e.ok().map(|e| e.path()))
+                    .filter(|p| p.extension().is_some_and(|e| e == "csv"))
+                    .collect(),
+                Err(_) => vec![p.clone()],
+            })
+            .map(|p| ("measurement", p))
+            .collect()
+    };
+    match command {
+        Command::Mts(a) => a.device.iter().map(|p| ("device file", p.clone())).collect(),
+        Command::Run(a) => vec![("scenario", a.scenario.clone())],
+        Command::DaqSweep(a) => vec![("scenario", a.scenario.clone())],
+        Command::Compare(a) => vec![("scenario", a.scenario.clone())],
+        Command::Fit(a) => data(&a.data),
+        Command::Validate(a) => {
+            let mut v = data(&a.data);
+            v.push(("params file", a.params.clone()));
+            v
+        }
+        Command::Diagnose(a) => data(&a.data),
+    }
+}
+
 fn main() -> std::process::ExitCode {
     // Rust ignores SIGPIPE, so a closed pipe (`mrfeel validate … --json | head`) made `println!` panic.
     // With the default action the process ends quietly when its reader has gone, as other Unix tools do.
@@ -81,7 +112,9 @@ fn main() -> std::process::ExitCode {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     let cli = Cli::parse();
-    let result = match check_outputs(&outputs(&cli.command)) {
+    let read = inputs(&cli.command);
+    let read: Vec<(&'static str, &std::path::Path)> = read.iter().map(|(w, p)| (*w, p.as_path())).collect();
+    let result = match check_outputs(&outputs(&cli.command), &read) {
         Err(msg) => Err(anyhow::Error::msg(msg)),
         Ok(()) => match cli.command {
             Command::Mts(a) => mrfeel::mts::cli::run(a),

@@ -609,7 +609,9 @@ fn clock_contradicts(rate_hz: f64, t: &[f64], resolution_s: f64) -> Option<Strin
     let median = median_interval(t);
     let n = (t.len() - 1) as f64;
     let mean = (t[t.len() - 1] - t[0]) / n;
-    let median_ok = (median - nominal).abs() <= 0.01 * nominal + q;
+    // One interval is off by up to a rounding step, so the median tells a clock only where the step is
+    // under half the interval (else twice the interval passes too); the mean over the record always does.
+    let median_ok = q < 0.5 * nominal && (median - nominal).abs() <= 0.01 * nominal + q;
     let mean_ok = (mean - nominal).abs() <= 0.01 * nominal + 2.0 * q / n;
     if median_ok || mean_ok {
         return None;
@@ -908,6 +910,18 @@ mod tests {
         // Lost samples (a constant rate is not required): the median interval still agrees.
         parse("# sample_rate_hz: 10\nt_s,x_m,i_a,f_n\n0,0,0,0\n0.1,0,0,0\n0.2,0,0,0\n0.5,0,0,0\n").unwrap();
         // 3 % off is beyond the 1 % allowance and the rounding of 3-decimal times.
+        // Times written to the rate's own step (3 decimals at 1 kHz) cannot hide a clock at half the rate.
+        let mut half = String::from("# sample_rate_hz: 1000\nt_s,x_m,i_a,f_n\n");
+        for k in 0..200 {
+            half.push_str(&format!("{:.3},0,0,0\n", 0.002 * k as f64));
+        }
+        let e = err(&half);
+        assert!(e.contains("`sample_rate_hz`") && e.contains("`t_s`"), "{e}");
+        let mut right = String::from("# sample_rate_hz: 1000\nt_s,x_m,i_a,f_n\n");
+        for k in 0..200 {
+            right.push_str(&format!("{:.3},0,0,0\n", 0.001 * k as f64));
+        }
+        parse(&right).unwrap();
         let e = err("# sample_rate_hz: 10\nt_s,x_m,i_a,f_n\n0,0,0,0\n0.103,0,0,0\n0.206,0,0,0\n");
         assert!(e.contains("test.csv:1"), "{e}");
     }

@@ -92,17 +92,58 @@ fn check_output(option: &str, path: &Path, kind: Kind) -> Result<(), String> {
     }
 }
 
+/// What a path names on disk, to tell whether two paths are one file: an existing file by its device and
+/// inode (so a hard link, a symlink or `a/../b` spelling is the same file), otherwise the canonical path of
+/// its nearest existing ancestor with the rest appended.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum FileId {
+    Inode(u64, u64),
+    Path(PathBuf),
+}
+
+/// The [`FileId`] of `path`.
+pub fn file_id(path: &Path) -> FileId {
+    #[cfg(unix)]
+    if let Ok(m) = std::fs::metadata(path) {
+        use std::os::unix::fs::MetadataExt;
+        return FileId::Inode(m.dev(), m.ino());
+    }
+    let mut rest = Vec::new();
+    let mut p = normalised(path);
+    loop {
+        if let Ok(c) = std::fs::canonicalize(or_here(&p)) {
+            return FileId::Path(rest.iter().rev().fold(c, |acc: PathBuf, part| acc.join(part)));
+        }
+        match (p.file_name().map(|n| n.to_os_string()), p.parent()) {
+            (Some(name), Some(parent)) => {
+                rest.push(name);
+                p = parent.to_path_buf();
+            }
+            _ => return FileId::Path(normalised(path)),
+        }
+    }
+}
+
 /// Check every output of a command before it runs, so that a run either writes all it was asked to or fails
-/// before it writes or prints anything: each path must be writable, and no two options may name the same path.
-pub fn check_outputs(outs: &[Output<'_>]) -> Result<(), String> {
+/// before it writes or prints anything: each path must be writable, no two options may name the same path
+/// (however it is spelled), and no output may be one of the command's `inputs` (the files it reads).
+pub fn check_outputs(outs: &[Output<'_>], inputs: &[(&'static str, &Path)]) -> Result<(), String> {
+    let ids: Vec<FileId> = outs.iter().map(|(_, p, _)| file_id(p)).collect();
     for (k, &(opt, path, _)) in outs.iter().enumerate() {
-        if let Some(&(first, _, _)) = outs[..k]
-            .iter()
-            .find(|(_, q, _)| normalised(q) == normalised(path))
-        {
+        if let Some(j) = ids[..k].iter().position(|id| *id == ids[k]) {
+            let (first, other, _) = outs[j];
             return Err(format!(
-                "{first} and {opt} both name {}: give each output its own path (nothing was run)",
+                "{first} {} and {opt} {} name the same file: give each output its own path (nothing was run)",
+                other.display(),
                 path.display()
+            ));
+        }
+        if let Some((what, input)) = inputs.iter().find(|(_, i)| file_id(i) == ids[k]) {
+            return Err(format!(
+                "{opt} {}: is the input {what} `{}`, which the run reads; writing it would destroy it (nothing \
+                 was run)",
+                path.display(),
+                input.display()
             ));
         }
     }

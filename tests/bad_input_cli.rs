@@ -237,6 +237,74 @@ fn two_options_naming_one_path_are_refused() {
     assert!(listing(d.path()).is_empty(), "nothing written");
 }
 
+#[test]
+#[cfg(unix)]
+fn one_file_spelled_two_ways_or_linked_is_one_output() {
+    let d = tempfile::tempdir().unwrap();
+    std::fs::create_dir(d.path().join("sub")).unwrap();
+    let saved = d.path().join("same.json");
+    // `sub/../same.json`, an absolute spelling, a symlink and a hard link to an existing file.
+    let up = s(&d.path().join("sub/../same.json"));
+    let o = mrfeel(&["fit", &small_test(), "--save", &s(&saved), "--rerun", &up]);
+    refused(&o, &["--save", "--rerun", "name the same file"]);
+    assert!(listing(d.path()) == vec!["sub"], "nothing written");
+    std::fs::write(&saved, "{}").unwrap();
+    let link = d.path().join("link.json");
+    std::os::unix::fs::symlink(&saved, &link).unwrap();
+    let hard = d.path().join("hard.json");
+    std::fs::hard_link(&saved, &hard).unwrap();
+    for other in [&link, &hard] {
+        let o = mrfeel(&["fit", &small_test(), "--save", &s(&saved), "--rerun", &s(other)]);
+        refused(&o, &["name the same file"]);
+        assert_eq!(
+            std::fs::read_to_string(&saved).unwrap(),
+            "{}",
+            "the file was changed"
+        );
+    }
+}
+
+#[test]
+fn an_output_that_is_one_of_the_inputs_is_refused_and_the_input_kept() {
+    let d = tempfile::tempdir().unwrap();
+    let data = d.path().join("test.csv");
+    std::fs::copy(small_test(), &data).unwrap();
+    let before = std::fs::read(&data).unwrap();
+    let data_s = s(&data);
+    let o = mrfeel(&["fit", &data_s, "--rerun", &data_s]);
+    refused(&o, &["--rerun", "input measurement"]);
+    // Reached through the directory the data were named by.
+    let o = mrfeel(&["fit", &s(d.path()), "--save", &data_s]);
+    refused(&o, &["--save", "input measurement"]);
+    let params = d.path().join("p.json");
+    let o = mrfeel(&["fit", &data_s, "--save", &s(&params)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = mrfeel(&[
+        "validate",
+        &data_s,
+        "--params",
+        &s(&params),
+        "--rerun",
+        &s(&params),
+    ]);
+    refused(&o, &["--rerun", "input params file"]);
+    let o = mrfeel(&mts_args(&s(&params), &["--device", &s(&params)]));
+    refused(&o, &["--out", "input device file"]);
+    assert_eq!(
+        std::fs::read(&data).unwrap(),
+        before,
+        "the measurement was changed"
+    );
+    assert!(
+        std::fs::read_to_string(&params).unwrap().contains("\"model\""),
+        "the params file was changed"
+    );
+    let scenario_copy = d.path().join("scenario.toml");
+    std::fs::copy(scenario("paper-feel-loop.toml"), &scenario_copy).unwrap();
+    let o = mrfeel(&["run", &s(&scenario_copy), "--out", &s(&scenario_copy)]);
+    refused(&o, &["--out", "input scenario"]);
+}
+
 // ------------------------------------------------------------------ a thing named twice
 
 #[test]
@@ -440,4 +508,15 @@ fn a_reader_that_closes_the_pipe_ends_the_run_quietly() {
 /// SIGPIPE's number on Linux and the BSDs.
 fn libc_sigpipe() -> i32 {
     13
+}
+
+#[test]
+#[cfg(unix)]
+fn a_hard_link_to_a_measurement_given_is_the_same_test() {
+    let d = tempfile::tempdir().unwrap();
+    let a = d.path().join("a.csv");
+    std::fs::copy(small_test(), &a).unwrap();
+    let b = d.path().join("b.csv");
+    std::fs::hard_link(&a, &b).unwrap();
+    refused(&mrfeel(&["fit", &s(&a), &s(&b)]), &["read twice", "b.csv"]);
 }

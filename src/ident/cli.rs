@@ -139,9 +139,10 @@ fn limit_of(arg: Option<f64>, tests: &[Test]) -> anyhow::Result<f64> {
 /// Refuse a file read twice (named twice, or named and also inside a named directory): its test would
 /// count twice in every fit and figure.
 fn no_file_twice(tests: &[Test]) -> anyhow::Result<()> {
-    let mut seen: Vec<(PathBuf, &Path)> = Vec::with_capacity(tests.len());
+    let mut seen: Vec<(crate::outputs::FileId, &Path)> = Vec::with_capacity(tests.len());
     for t in tests {
-        let key = std::fs::canonicalize(&t.path).unwrap_or_else(|_| t.path.clone());
+        // One file however it is reached: symlinks, `..`, hard links.
+        let key = crate::outputs::file_id(&t.path);
         if let Some((_, first)) = seen.iter().find(|(k, _)| *k == key) {
             let also = if *first == t.path.as_path() {
                 String::new()

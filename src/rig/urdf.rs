@@ -46,11 +46,15 @@ impl UrdfModel {
             field,
             msg,
         })?;
-        // What the checks above let through, `urdf-rs` reads; should it not, the <robot> line is named.
-        let robot = urdf_rs::read_from_string(text).map_err(|e| RigError::Urdf {
-            path: path.to_path_buf(),
-            line: xml.line,
-            msg: format!("not a valid URDF: {e}"),
+        // What the checks above let through, `urdf-rs` reads; should it not, the line its XML reader names
+        // (`Line: N`, e.g. for `--` inside a comment, which quick-xml lets pass), else the <robot> line.
+        let robot = urdf_rs::read_from_string(text).map_err(|e| {
+            let msg = e.to_string();
+            RigError::Urdf {
+                path: path.to_path_buf(),
+                line: line_in_message(&msg).unwrap_or(xml.line),
+                msg: format!("not a valid URDF: {msg}"),
+            }
         })?;
         // The loop joints read as ordinary joints once their tag is renamed; those whose names are not
         // in the tree are the loop joints.
@@ -466,6 +470,15 @@ fn scan_xml(text: &str) -> Result<XmlElement, XmlError> {
         ));
     }
     root.ok_or((1, "no XML element at all (not a URDF file?)".to_string()))
+}
+
+/// The line an XML reader's message names (`... Line: 169, Column: 21 ...`).
+fn line_in_message(msg: &str) -> Option<usize> {
+    let rest = &msg[msg.find("Line: ")? + "Line: ".len()..];
+    rest[..rest.find(|c: char| !c.is_ascii_digit())?]
+        .parse()
+        .ok()
+        .filter(|l| *l > 0)
 }
 
 /// Byte offset, in the tag text `raw` (from its `<`), of the attribute `key`: where `key` stands after
@@ -948,6 +961,9 @@ mod tests {
         assert!(parse_err("hello").contains("bad.urdf:1:"));
         let e = parse_err("<?xml version=\"1.0\"?>\n<link name=\"a\"/>\n");
         assert!(e.contains("bad.urdf:2:") && e.contains("must be <robot>"), "{e}");
+        // `--` inside a comment: quick-xml lets it pass, urdf-rs's reader refuses it at its line.
+        let e = parse_err(&MINI.replace("  <joint name=\"ac\"", "  <!-- a -- b -->\n  <joint name=\"ac\""));
+        assert!(e.contains("bad.urdf:8:") && e.contains("not a valid URDF"), "{e}");
     }
 
     #[test]
