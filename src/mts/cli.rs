@@ -75,7 +75,9 @@ pub struct MtsArgs {
     /// Write the device this run simulated (model with its hidden effects, every parameter) as a
     /// PARAMS.json. The hidden effects' strengths are scaled to each run's test, so runs with other
     /// protocols are other devices; give this file to later runs as `--device` (without `--effects`) to
-    /// test the same device again.
+    /// test the same device again. The file holds the damper model, not the rig: a device TOML's
+    /// `[geometry]` (stroke) and load-cell range are not in it, so the displacement channel's full scale,
+    /// and with it its ADC rounding (about 1 µm), can differ from a run of the TOML.
     #[arg(long, value_name = "PARAMS.json")]
     pub save_device: Option<PathBuf>,
     /// Output CSV (measurement format).
