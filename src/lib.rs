@@ -15,3 +15,24 @@ pub mod sensors;
 pub mod sim;
 pub mod units;
 pub mod viz;
+
+/// `print!` to stdout that returns the write's error (a full disk, a closed stream) to the caller instead
+/// of panicking as `print!` does: `out!(...)?`.
+#[macro_export]
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        write!(std::io::stdout(), $($arg)*)
+            .map_err(|e| std::io::Error::new(e.kind(), format!("writing to stdout: {e}")))
+    }};
+}
+
+/// `println!` that returns the write's error instead of panicking: `outln!(...)?`.
+#[macro_export]
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout(), $($arg)*)
+            .map_err(|e| std::io::Error::new(e.kind(), format!("writing to stdout: {e}")))
+    }};
+}

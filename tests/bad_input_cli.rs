@@ -520,3 +520,25 @@ fn a_hard_link_to_a_measurement_given_is_the_same_test() {
     std::fs::hard_link(&a, &b).unwrap();
     refused(&mrfeel(&["fit", &s(&a), &s(&b)]), &["read twice", "b.csv"]);
 }
+
+#[test]
+#[cfg(target_os = "linux")]
+fn a_full_stdout_is_an_error_not_a_panic() {
+    for args in [
+        vec!["fit".to_string(), small_test(), "--json".into()],
+        vec!["run".into(), scenario("paper-feel-loop.toml"), "--json".into()],
+    ] {
+        let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_mrfeel"))
+            .args(&args)
+            .stdout(full)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+        assert!(
+            !err.contains("panicked") && err.contains("writing to stdout"),
+            "{args:?}: {err}"
+        );
+    }
+}

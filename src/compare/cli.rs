@@ -378,9 +378,9 @@ pub fn run_cmd(a: CompareArgs) -> anyhow::Result<()> {
     }
     if a.json {
         eprint!("{text}");
-        println!("{}", serde_json::to_string_pretty(&to_json(&scn, &c))?);
+        crate::outln!("{}", serde_json::to_string_pretty(&to_json(&scn, &c))?)?;
     } else {
-        print!("{text}");
+        crate::out!("{text}")?;
     }
     Ok(())
 }

@@ -289,9 +289,9 @@ fn outputs(
         eprintln!("wrote Rerun recording {}", path.display());
     }
     if json {
-        println!("{}", serde_json::to_string_pretty(out)?);
+        crate::outln!("{}", serde_json::to_string_pretty(out)?)?;
     } else {
-        print!("{}", out.table(title));
+        crate::out!("{}", out.table(title))?;
     }
     Ok(())
 }
@@ -381,9 +381,9 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
         eprintln!("wrote Rerun recording {}", path.display());
     }
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&DiagnoseJson::new(&d))?);
+        crate::outln!("{}", serde_json::to_string_pretty(&DiagnoseJson::new(&d))?)?;
     } else {
-        print!("{}", diagnose_table(&d));
+        crate::out!("{}", diagnose_table(&d))?;
     }
     Ok(())
 }

@@ -245,7 +245,7 @@ pub fn run(a: MtsArgs) -> Result<()> {
             eprintln!("plot: {}", f.display());
         }
     }
-    print_summary(&m, &test);
+    print_summary(&m, &test)?;
     Ok(())
 }
 
@@ -273,19 +273,22 @@ pub fn steady_force_per_block(m: &Measurement, test: &MtsTest) -> Vec<(f64, f64,
         .collect()
 }
 
-fn print_summary(m: &Measurement, test: &MtsTest) {
-    println!(
+fn print_summary(m: &Measurement, test: &MtsTest) -> std::io::Result<()> {
+    crate::outln!(
         "{:>10}  {:>16}  {:>16}",
-        "current_a", "force_n (steady)", "paper (Sec. 4)"
-    );
+        "current_a",
+        "force_n (steady)",
+        "paper (Sec. 4)"
+    )?;
     for (i, f, _) in steady_force_per_block(m, test) {
         let paper = PAPER_POINTS
             .iter()
             .find(|(pi, _)| (pi - i).abs() < 1e-9)
             .map(|(_, pf)| format!("{pf:.0} N"))
             .unwrap_or_else(|| "-".into());
-        println!("{i:>10.2}  {f:>16.2}  {paper:>16}");
+        crate::outln!("{i:>10.2}  {f:>16.2}  {paper:>16}")?;
     }
+    Ok(())
 }
 
 /// Force–displacement (the paper's Fig. 8), force–velocity (Fig. 9 / 11) and force–time plots, one series

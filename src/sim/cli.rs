@@ -156,17 +156,17 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
         if let (Some(m), Some(obj)) = (&flight, v.as_object_mut()) {
             obj.insert("flight".into(), serde_json::to_value(m)?);
         }
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        crate::outln!("{}", serde_json::to_string_pretty(&v)?)?;
     } else {
-        println!("{summary}");
+        crate::outln!("{summary}")?;
         if let Some(m) = &flight {
-            println!("{m}");
+            crate::outln!("{m}")?;
         }
         if let Some(p) = &args.out {
-            println!("  results: {}", p.display());
+            crate::outln!("  results: {}", p.display())?;
         }
         if let Some(p) = &args.rerun {
-            println!("  recording: {} (open with `rerun {}`)", p.display(), p.display());
+            crate::outln!("  recording: {} (open with `rerun {}`)", p.display(), p.display())?;
         }
     }
     Ok(())
@@ -224,15 +224,15 @@ pub fn daq_sweep_cmd(args: &DaqSweepArgs) -> anyhow::Result<()> {
         )?;
     }
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&points)?);
+        crate::outln!("{}", serde_json::to_string_pretty(&points)?)?;
     } else {
-        print!("{}", response::markdown_table(&points));
+        crate::out!("{}", response::markdown_table(&points))?;
         if let Some(dir) = &args.plot {
-            println!(
+            crate::outln!(
                 "plots: {}/daq-sweep.png, {}/daq-sweep.svg",
                 dir.display(),
                 dir.display()
-            );
+            )?;
         }
     }
     Ok(())
