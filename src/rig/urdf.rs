@@ -383,7 +383,8 @@ fn scan_xml(text: &str) -> Result<XmlElement, XmlError> {
     let element = |tag: &BytesStart<'_>, start: usize| -> Result<XmlElement, XmlError> {
         let name = String::from_utf8_lossy(tag.name().as_ref()).into_owned();
         let line = lines.line(start);
-        let raw = &text[start..];
+        // The tag's text from its `<`: quick-xml's tag content (quotes may hold a `>`) and the `<`.
+        let raw = text.get(start..start + 1 + tag.len()).unwrap_or(&text[start..]);
         let mut el = XmlElement {
             name,
             line,
@@ -484,12 +485,10 @@ fn line_in_message(msg: &str) -> Option<usize> {
 /// Byte offset, in the tag text `raw` (from its `<`), of the attribute `key`: where `key` stands after
 /// white space and before `=`; 0 (the tag's start) if not found.
 fn attribute_offset(raw: &str, key: &str) -> usize {
-    let end = raw.find('>').unwrap_or(raw.len());
-    let tag = &raw[..end];
-    tag.match_indices(key)
+    raw.match_indices(key)
         .find(|&(k, _)| {
-            tag[..k].ends_with(|c: char| c.is_whitespace())
-                && tag[k + key.len()..].trim_start().starts_with('=')
+            raw[..k].ends_with(|c: char| c.is_whitespace())
+                && raw[k + key.len()..].trim_start().starts_with('=')
         })
         .map_or(0, |(k, _)| k)
 }
@@ -914,6 +913,12 @@ mod tests {
             e.contains("bad.urdf:8: joint `ac`: `type`: `prismatik` is not one of"),
             "{e}"
         );
+        // An attribute on the next line of its tag, after a quoted `>`, is still found at its own line.
+        let e = parse_err(&MINI.replace(
+            r#"<joint name="ac" type="prismatic">"#,
+            "<joint name=\"a>c\"\n    type=\"prismatik\">",
+        ));
+        assert!(e.contains("bad.urdf:9:") && e.contains("`prismatik`"), "{e}");
         let e = parse_err(&MINI.replace(r#"<origin xyz="0.5 0 0"/>"#, r#"<origin xyz="0.5 0"/>"#));
         assert!(
             e.contains("bad.urdf:10: loop_joint `cb`: origin: `xyz`: `0.5 0` has 2 values, 3 expected"),
