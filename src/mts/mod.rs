@@ -346,9 +346,8 @@ impl MtsTest {
             ("displacement", &self.displacement),
             ("velocity", &self.velocity),
         ] {
-            if !(s.noise_std >= 0.0 && s.noise_std.is_finite() && s.range > 0.0 && s.bits <= 32) {
-                return Err(cfg_err(name, "noise must be ≥ 0, range > 0 and bits ≤ 32"));
-            }
+            crate::sensors::check_channel(name, s.noise_std, s.range, s.bits)
+                .map_err(|e| cfg_err(&format!("{name}.{}", e.field), format!("{}: {}", e.value, e.why)))?;
         }
         Ok(())
     }
@@ -721,6 +720,30 @@ mod tests {
         t.stroke_limit_m = dev.geometry.map(|g| g.stroke_half_m);
         let e = t.run(&mut dev.damper()).unwrap_err().to_string();
         assert!(e.contains("amplitude_m") && e.contains("0.0508"), "{e}");
+    }
+
+    #[test]
+    fn a_sensor_setting_that_cannot_be_simulated_is_refused_naming_the_field() {
+        let dev = paper();
+        let base = MtsTest::paper(
+            Protocol::Sine {
+                amplitude_m: 0.01,
+                frequency_hz: 1.0,
+            },
+            vec![1.0],
+        );
+        let mut t = base.clone();
+        t.load_cell.range = -250.0;
+        let e = t.run(&mut dev.damper()).unwrap_err().to_string();
+        assert!(e.contains("`load_cell.range`") && e.contains("-250"), "{e}");
+        let mut t = base.clone();
+        t.velocity.noise_std = f64::NAN;
+        let e = t.run(&mut dev.damper()).unwrap_err().to_string();
+        assert!(e.contains("`velocity.noise_rms`"), "{e}");
+        let mut t = base;
+        t.displacement.bits = 33;
+        let e = t.run(&mut dev.damper()).unwrap_err().to_string();
+        assert!(e.contains("`displacement.adc_bits`") && e.contains("33"), "{e}");
     }
 
     #[test]
