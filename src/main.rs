@@ -75,16 +75,11 @@ fn outputs(command: &Command) -> Vec<Output<'_>> {
 /// The files a command reads, which no output may overwrite: the files named, and the CSVs of a named
 /// measurement directory.
 fn inputs(command: &Command) -> Vec<(&'static str, PathBuf)> {
+    // As the loader lists them; where it cannot, the command will say why before it writes anything.
     let data = |paths: &[PathBuf]| -> Vec<(&'static str, PathBuf)> {
-        paths
-            .iter()
-            .flat_map(|p| match std::fs::read_dir(p) {
-                Ok(dir) => dir
-                    .filter_map(|e| e.ok().map(|e| e.path()))
-                    .filter(|p| p.extension().is_some_and(|e| e == "csv"))
-                    .collect(),
-                Err(_) => vec![p.clone()],
-            })
+        mrfeel::measurement::measurement_files(paths)
+            .unwrap_or_else(|_| paths.to_vec())
+            .into_iter()
             .map(|p| ("measurement", p))
             .collect()
     };

@@ -461,6 +461,15 @@ impl Measurement {
 
 /// Read many files and directories of files (`*.csv`, sorted by name); directories are not recursed.
 pub fn read_all(paths: &[PathBuf]) -> Result<Vec<Measurement>, MeasurementError> {
+    measurement_files(paths)?
+        .iter()
+        .map(|f| Measurement::read(f))
+        .collect()
+}
+
+/// The files [`read_all`] reads: each file as given, each directory's `*.csv` files sorted by name; a
+/// directory without any is an error.
+pub fn measurement_files(paths: &[PathBuf]) -> Result<Vec<PathBuf>, MeasurementError> {
     let mut files = Vec::new();
     for p in paths {
         if p.is_dir() {
@@ -484,7 +493,7 @@ pub fn read_all(paths: &[PathBuf]) -> Result<Vec<Measurement>, MeasurementError>
             files.push(p.clone());
         }
     }
-    files.iter().map(|f| Measurement::read(f)).collect()
+    Ok(files)
 }
 
 /// Split on `\r\n`, `\n` or a lone `\r` (mixed line endings are accepted).

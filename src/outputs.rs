@@ -129,6 +129,7 @@ pub fn file_id(path: &Path) -> FileId {
 /// (however it is spelled), and no output may be one of the command's `inputs` (the files it reads).
 pub fn check_outputs(outs: &[Output<'_>], inputs: &[(&'static str, &Path)]) -> Result<(), String> {
     let ids: Vec<FileId> = outs.iter().map(|(_, p, _)| file_id(p)).collect();
+    let input_ids: Vec<FileId> = inputs.iter().map(|(_, p)| file_id(p)).collect();
     for (k, &(opt, path, _)) in outs.iter().enumerate() {
         if let Some(j) = ids[..k].iter().position(|id| *id == ids[k]) {
             let (first, other, _) = outs[j];
@@ -138,7 +139,7 @@ pub fn check_outputs(outs: &[Output<'_>], inputs: &[(&'static str, &Path)]) -> R
                 path.display()
             ));
         }
-        if let Some((what, input)) = inputs.iter().find(|(_, i)| file_id(i) == ids[k]) {
+        if let Some((what, input)) = input_ids.iter().position(|id| *id == ids[k]).map(|j| inputs[j]) {
             return Err(format!(
                 "{opt} {}: is the input {what} `{}`, which the run reads; writing it would destroy it (nothing \
                  was run)",
