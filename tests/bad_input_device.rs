@@ -151,14 +151,19 @@ fn validate_refuses(text: &str, line: usize, field: &str, needles: &[&str]) -> S
 }
 
 /// `mrfeel validate --json` with a parameter file of this bytes: its `nrmse` (the run must succeed).
-fn validate_nrmse(bytes: &[u8]) -> f64 {
+/// `validate --json` with a params file of these bytes: its JSON.
+fn validate_json(bytes: &[u8]) -> serde_json::Value {
     let d = tempfile::tempdir().unwrap();
     let params = d.path().join("p.json");
     std::fs::write(&params, bytes).unwrap();
     let o = mrfeel(&["validate", &small_test(), "--params", &s(&params), "--json"]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
-    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON on stdout");
+    serde_json::from_slice(&o.stdout).expect("JSON on stdout")
+}
+
+fn validate_nrmse(bytes: &[u8]) -> f64 {
+    let v = validate_json(bytes);
     let nrmse = v["nrmse"]
         .as_f64()
         .unwrap_or_else(|| panic!("nrmse not a number: {}", v["nrmse"]));
@@ -434,6 +439,15 @@ fn a_params_file_with_a_byte_order_mark_loads_as_without() {
     let mut bom = "\u{feff}".as_bytes().to_vec();
     bom.extend_from_slice(PARAMS_JSON.as_bytes());
     assert_eq!(validate_nrmse(&bom), validate_nrmse(PARAMS_JSON.as_bytes()));
+    // The standard errors the file saved are reported as saved, with the mark or without.
+    for bytes in [&bom[..], PARAMS_JSON.as_bytes()] {
+        let v = validate_json(bytes);
+        assert_eq!(
+            v["params"]["c0_n_s_per_m"]["std_err"].as_f64(),
+            Some(341.80334754392925)
+        );
+        assert!(v["params"]["te_s"]["std_err"].is_null(), "{}", v["params"]);
+    }
     // Lines are still counted from the first: an error after the mark is on its own line.
     let mut bad = "\u{feff}".as_bytes().to_vec();
     bad.extend_from_slice(edit(PARAMS_JSON, "\"after-sample\"", "\"sometimes\"").as_bytes());

@@ -38,6 +38,9 @@ pub struct DeviceConfig {
     /// When the logged current commands of the data the parameters were fitted to took effect (a
     /// `PARAMS.json`'s `command_timing`; after their sample for device files).
     pub command_timing: CommandTiming,
+    /// Each parameter's standard error as a `PARAMS.json` saved it (in the model's parameter order; all
+    /// `None` for a device file).
+    pub std_errs: Vec<Option<f64>>,
     pub path: PathBuf,
 }
 
@@ -128,6 +131,7 @@ impl DeviceConfig {
                     k,
                     ParamIn {
                         value,
+                        std_err: None,
                         line,
                         unit: None,
                     },
@@ -148,6 +152,7 @@ impl DeviceConfig {
             None => None,
         };
         Ok(Self {
+            std_errs: vec![None; params.len()],
             model: Arc::new(model),
             params,
             supply_limit_a,
@@ -311,11 +316,13 @@ impl DeviceConfig {
                     .as_f64()
                     .ok_or_else(|| wrong(&["params", name, "value"], "a number", v))?,
             };
-            if let Some(v) = obj.get("std_err") {
-                if !(v.is_null() || v.is_number()) {
-                    return Err(wrong(&["params", name, "std_err"], "a number or null", v));
-                }
-            }
+            let std_err = match obj.get("std_err") {
+                None | Some(serde_json::Value::Null) => None,
+                Some(v) => Some(
+                    v.as_f64()
+                        .ok_or_else(|| wrong(&["params", name, "std_err"], "a number or null", v))?,
+                ),
+            };
             let unit = match obj.get("unit") {
                 None => None,
                 Some(serde_json::Value::String(u)) => Some((u.clone(), at("unit"))),
@@ -325,6 +332,7 @@ impl DeviceConfig {
                 name.clone(),
                 ParamIn {
                     value,
+                    std_err,
                     line: here,
                     unit,
                 },
@@ -333,7 +341,13 @@ impl DeviceConfig {
         let params_line = line(&["params"]);
         let params = assign_params(&model, &values, path, params_line)?;
         check_force(&model, &params, &values, path, params_line)?;
+        let std_errs = model
+            .param_specs()
+            .iter()
+            .map(|spec| values.get(spec.name).and_then(|p| p.std_err))
+            .collect();
         Ok(Self {
+            std_errs,
             model: Arc::new(model),
             params,
             supply_limit_a: None,
@@ -352,6 +366,7 @@ const PARAM_KEYS: [&str; 3] = ["value", "std_err", "unit"];
 /// One parameter value as a file gives it: the line it is on, and the unit it is said to be in (JSON).
 struct ParamIn {
     value: f64,
+    std_err: Option<f64>,
     line: usize,
     unit: Option<(String, usize)>,
 }

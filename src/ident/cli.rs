@@ -301,10 +301,6 @@ pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
     let tests = load_and_tell(&a.data, a.acquisition.acquisition)?;
     let cfg = DeviceConfig::load(&a.params, &registry)?;
     require(&tests, cfg.model.n_params())?;
-    // Standard errors as saved, where the file is a PARAMS.json.
-    let saved: Option<ParamsFile> = std::fs::read_to_string(&a.params)
-        .ok()
-        .and_then(|s| serde_json::from_str(s.trim_start_matches('\u{feff}')).ok());
     let timing = TimingDecision {
         timing: cfg.command_timing,
         fits: None,
@@ -322,10 +318,9 @@ pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
         &total,
         where_regions(&tests, &pred),
     );
-    if let Some(s) = saved {
-        for (name, p) in out.params.iter_mut() {
-            p.std_err = s.params.get(name).and_then(|v| v.std_err);
-        }
+    // Standard errors as the PARAMS.json saved them.
+    for (name, p) in out.params.iter_mut() {
+        p.std_err = cfg.model.param_index(name).and_then(|k| cfg.std_errs[k]);
     }
     outputs(
         &out,
