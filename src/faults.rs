@@ -32,6 +32,8 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::text_lines::line_of;
+
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -354,15 +356,6 @@ impl FaultInjector {
             .map(|f| f.extra_latency_s)
             .unwrap_or(0.0)
     }
-}
-
-/// 1-based line of a byte offset.
-fn line_of(text: &str, offset: usize) -> usize {
-    text.as_bytes()[..offset.min(text.len())]
-        .iter()
-        .filter(|&&b| b == b'\n')
-        .count()
-        + 1
 }
 
 #[cfg(test)]

@@ -17,6 +17,7 @@ use crate::pilot::attitude::{CrossoverPilotConfig, PilotLoop, Schedule};
 use crate::pilot::{HandConfig, Signal, Task};
 use crate::rig::RigConfig;
 use crate::sensors::{DaqConfig, LaserConfig, LoadCellConfig, SensorsConfig};
+use crate::text_lines::line_of;
 
 #[derive(Debug, thiserror::Error)]
 pub enum ScenarioError {
@@ -868,15 +869,6 @@ fn from_toml<T: serde::de::DeserializeOwned>(text: &str, path: &Path) -> Result<
         line: e.span().map(|s| line_of(text, s.start)).unwrap_or(0),
         msg: e.message().trim().to_string(),
     })
-}
-
-/// 1-based line of a byte offset.
-fn line_of(text: &str, offset: usize) -> usize {
-    text.as_bytes()[..offset.min(text.len())]
-        .iter()
-        .filter(|&&b| b == b'\n')
-        .count()
-        + 1
 }
 
 /// A variant's optional key and its value, if given.

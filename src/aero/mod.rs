@@ -57,12 +57,3 @@ pub enum AeroError {
     #[error("{what}: {why}")]
     Input { what: String, why: String },
 }
-
-/// 1-based line number of a byte offset in `text`.
-pub(crate) fn line_of(text: &str, offset: usize) -> usize {
-    text.as_bytes()[..offset.min(text.len())]
-        .iter()
-        .filter(|&&b| b == b'\n')
-        .count()
-        + 1
-}

@@ -11,7 +11,8 @@ use toml::Spanned;
 
 use super::hinge::FeelComputer;
 use super::table::Table1;
-use super::{line_of, AeroError};
+use super::AeroError;
+use crate::text_lines::line_of;
 
 /// Which certification basis the aircraft's control forces are checked against.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]

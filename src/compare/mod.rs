@@ -39,6 +39,7 @@ use crate::pilot::Signal;
 use crate::rig::RigConfig;
 use crate::scenario::Scenario;
 use crate::sim::{Loop, Plant};
+use crate::text_lines::{line_of, toml_key_line as line_of_key};
 
 pub use crate::control::feel::FeelKind;
 
@@ -807,29 +808,4 @@ pub fn run(
         dt_s: dt,
         rows,
     })
-}
-
-/// 1-based line of a byte offset.
-fn line_of(text: &str, offset: usize) -> usize {
-    text.as_bytes()[..offset.min(text.len())]
-        .iter()
-        .filter(|&&b| b == b'\n')
-        .count()
-        + 1
-}
-
-/// Line of `key = ...` inside `[section]` (top level for an empty section); 0 if not found.
-fn line_of_key(text: &str, section: &str, key: &str) -> usize {
-    let mut in_section = section.is_empty();
-    for (k, l) in text.lines().enumerate() {
-        let l = l.trim();
-        if l.starts_with('[') {
-            in_section = l.trim_matches(|c| c == '[' || c == ']').trim() == section;
-            continue;
-        }
-        if in_section && l.split('=').next().map(str::trim) == Some(key) {
-            return k + 1;
-        }
-    }
-    0
 }

@@ -338,28 +338,6 @@ pub enum FeelError {
     },
 }
 
-/// 1-based line of `key = ...` inside `[table]` of a TOML text (the table's header line if the key is
-/// not written on its own line, 1 if neither is found).
-fn line_of_key(text: &str, table: &str, key: &str) -> usize {
-    let mut in_table = false;
-    let mut header = 1;
-    for (k, l) in text.lines().enumerate() {
-        let t = l.trim();
-        if t.starts_with('[') {
-            in_table = t.trim_start_matches('[').trim_end_matches(']').trim() == table;
-            if in_table {
-                header = k + 1;
-            }
-        } else if in_table
-            && t.strip_prefix(key)
-                .is_some_and(|r| r.trim_start().starts_with('='))
-        {
-            return k + 1;
-        }
-    }
-    header
-}
-
 impl FeelSprings {
     pub fn load(path: &Path) -> Result<Self, FeelError> {
         let text = std::fs::read_to_string(path).map_err(|e| FeelError::Io {
@@ -403,7 +381,7 @@ impl FeelSprings {
                 let (table, key) = field.split_once('.').unwrap_or(("", field));
                 return Err(FeelError::Field {
                     path: path.to_path_buf(),
-                    line: line_of_key(&text, table, key),
+                    line: crate::text_lines::toml_key_line(&text, table, key),
                     field: field.into(),
                     msg: format!("{v} outside the allowed range [{lo}, {hi}]"),
                 });

@@ -12,6 +12,7 @@ use super::model::{Damper, Model, ModelSpec, Registry, PAPER_CURRENT_LIMIT_A};
 use super::params::ParamValue;
 use super::DeviceError;
 use crate::measurement::CommandTiming;
+use crate::text_lines::line_of;
 use crate::units::IN_TO_M;
 
 /// Table 1 geometry of the paper's device, in SI units (converted once from inches on load).
@@ -723,15 +724,6 @@ fn check_force(
         "params",
         format!("these parameters ({all}) give {at}; correct them or refit"),
     ))
-}
-
-/// 1-based line of a byte offset.
-pub(crate) fn line_of(text: &str, offset: usize) -> usize {
-    text.as_bytes()[..offset.min(text.len())]
-        .iter()
-        .filter(|&&b| b == b'\n')
-        .count()
-        + 1
 }
 
 #[derive(Deserialize)]

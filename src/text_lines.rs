@@ -1,0 +1,54 @@
+//! Where things are in an input file's text, for errors that name the line.
+
+/// 1-based line of a byte offset in `text` (offsets past the end are on the last line).
+pub fn line_of(text: &str, offset: usize) -> usize {
+    text.as_bytes()[..offset.min(text.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
+}
+
+/// 1-based line of `key = ...` inside `[table]` of a TOML text (`table` empty: the top level, before any
+/// table); where the key is not written on a line of its own, the table's header line, or 1.
+pub fn toml_key_line(text: &str, table: &str, key: &str) -> usize {
+    let mut in_table = table.is_empty();
+    let mut header = 1;
+    for (k, l) in text.lines().enumerate() {
+        let t = l.trim();
+        if t.starts_with('[') {
+            in_table = t.trim_matches(|c| c == '[' || c == ']').trim() == table;
+            if in_table {
+                header = k + 1;
+            }
+        } else if in_table
+            && t.strip_prefix(key)
+                .is_some_and(|r| r.trim_start().starts_with('='))
+        {
+            return k + 1;
+        }
+    }
+    header
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const TEXT: &str =
+        "base = \"a.toml\"\n\n[springs]\nfile = \"s.toml\"\nfiles_extra = 1\n[[faults]]\nkind = \"x\"\n";
+
+    #[test]
+    fn offsets_and_keys_are_found_at_their_lines() {
+        assert_eq!(line_of(TEXT, 0), 1);
+        assert_eq!(line_of(TEXT, TEXT.find("file =").unwrap()), 4);
+        assert_eq!(line_of(TEXT, usize::MAX), TEXT.lines().count() + 1);
+        assert_eq!(toml_key_line(TEXT, "", "base"), 1);
+        assert_eq!(toml_key_line(TEXT, "springs", "file"), 4);
+        assert_eq!(toml_key_line(TEXT, "springs", "files_extra"), 5);
+        assert_eq!(toml_key_line(TEXT, "faults", "kind"), 7);
+        // Not written: the table's header, or the first line without one.
+        assert_eq!(toml_key_line(TEXT, "springs", "damping"), 3);
+        assert_eq!(toml_key_line(TEXT, "nowhere", "x"), 1);
+    }
+}
