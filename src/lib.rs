@@ -17,6 +17,26 @@ pub mod text_lines;
 pub mod units;
 pub mod viz;
 
+/// `eprintln!` that never panics: a note on stderr (progress, what was written where, the final error) is
+/// dropped if stderr cannot be written (a full disk, a closed stream), where `eprintln!` panics. The
+/// results go to files and stdout, whose errors are checked; the exit status still tells a failed run.
+#[macro_export]
+macro_rules! noteln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+
+/// `eprint!` that never panics (see [`noteln!`]).
+#[macro_export]
+macro_rules! note {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stderr(), $($arg)*);
+    }};
+}
+
 /// `print!` to stdout that returns the write's error (a full disk, a closed stream) to the caller instead
 /// of panicking as `print!` does: `out!(...)?`.
 #[macro_export]

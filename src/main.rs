@@ -124,7 +124,7 @@ fn main() -> std::process::ExitCode {
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            mrfeel::noteln!("error: {e:#}");
             std::process::ExitCode::FAILURE
         }
     }

@@ -542,3 +542,32 @@ fn a_full_stdout_is_an_error_not_a_panic() {
         );
     }
 }
+
+/// stderr only carries notes (what was written, the timing, the error): a run whose stderr cannot be
+/// written still does its work and exits as it would have, and a refused run still exits 1, not with a
+/// panic's 101.
+#[test]
+#[cfg(target_os = "linux")]
+fn a_full_stderr_loses_the_notes_not_the_run() {
+    let d = tempfile::tempdir().unwrap();
+    let saved = d.path().join("p.json");
+    let full = || std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
+    let ok = std::process::Command::new(env!("CARGO_BIN_EXE_mrfeel"))
+        .args(["fit", &small_test(), "--json", "--save", &s(&saved)])
+        .stderr(full())
+        .output()
+        .unwrap();
+    assert_eq!(ok.status.code(), Some(0));
+    let json: serde_json::Value = serde_json::from_slice(&ok.stdout).expect("the fit's JSON on stdout");
+    assert!(json["nrmse"].as_f64().is_some_and(|e| e.is_finite()), "{json}");
+    assert!(
+        std::fs::metadata(&saved).is_ok_and(|m| m.len() > 0),
+        "--save written"
+    );
+    let refused = std::process::Command::new(env!("CARGO_BIN_EXE_mrfeel"))
+        .args(["fit", "no-such-file.csv"])
+        .stderr(full())
+        .output()
+        .unwrap();
+    assert_eq!(refused.status.code(), Some(1));
+}

@@ -359,7 +359,7 @@ pub fn run_cmd(a: CompareArgs) -> anyhow::Result<()> {
             .iter()
             .map(|f| format!("{} {}–{} s", f.kind.name(), f.start_s, f.end_s))
             .collect();
-        eprintln!("scheduled faults (in every run): {}", names.join(", "));
+        crate::noteln!("scheduled faults (in every run): {}", names.join(", "));
     }
     let mut text = comparison_table(&scn, &c);
     if a.faults {
@@ -369,15 +369,15 @@ pub fn run_cmd(a: CompareArgs) -> anyhow::Result<()> {
     // The files first, stdout last: a run that fails to write prints no result.
     if let Some(dir) = &a.plot {
         for f in plots(&c, dir)? {
-            eprintln!("wrote {}", f.display());
+            crate::noteln!("wrote {}", f.display());
         }
     }
     if let Some(p) = &a.rerun {
         rerun_log(&c, p)?;
-        eprintln!("wrote {}", p.display());
+        crate::noteln!("wrote {}", p.display());
     }
     if a.json {
-        eprint!("{text}");
+        crate::note!("{text}");
         crate::outln!("{}", serde_json::to_string_pretty(&to_json(&scn, &c))?)?;
     } else {
         crate::out!("{text}")?;

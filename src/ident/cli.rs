@@ -168,13 +168,13 @@ fn load_and_tell(paths: &[std::path::PathBuf], choice: AcquisitionChoice) -> any
     match choice {
         AcquisitionChoice::Auto => {
             for line in super::acquisition_note(&tests) {
-                eprintln!("{line} (`--acquisition as-logged` compares the files as they are)");
+                crate::noteln!("{line} (`--acquisition as-logged` compares the files as they are)");
             }
         }
         AcquisitionChoice::AsLogged => {
-            eprintln!("acquisition: the files are compared as they are (--acquisition as-logged)")
+            crate::noteln!("acquisition: the files are compared as they are (--acquisition as-logged)")
         }
-        AcquisitionChoice::MovingAverage(n) => eprintln!(
+        AcquisitionChoice::MovingAverage(n) => crate::noteln!(
             "acquisition: every file was logged through a moving average of {n} samples (--acquisition {n}); \
              the model is driven by the motion before it and its force goes through the same average"
         ),
@@ -192,7 +192,7 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
     let model = build_model(&a.model, &registry, limit)?;
     require(&tests, model.n_params())?;
     let n: usize = tests.iter().map(Test::len).sum();
-    eprintln!(
+    crate::noteln!(
         "fitting {} ({} parameters) to {} tests, {n} samples",
         model.name(),
         model.n_params(),
@@ -205,7 +205,7 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
         Some(fr) => fr.clone(),
         None => fit(&model, &tests, &all_spans(&tests), &FitOptions::default()),
     };
-    eprintln!(
+    crate::noteln!(
         "fitted in {:.2} s ({}{} simulations of the data: {} evaluations and {} Jacobian columns; {} more \
          columns assembled on kept states; {})",
         t0.elapsed().as_secs_f64(),
@@ -236,19 +236,19 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
         file.command_timing = Some(timing.timing.as_str().to_string());
         file.write(path)
             .with_context(|| format!("writing {}", path.display()))?;
-        eprintln!("saved {}", path.display());
+        crate::noteln!("saved {}", path.display());
     }
     if a.heldout {
         let (folds, how) = make_folds(&tests, 4, 5);
         let bar = indicatif::ProgressBar::hidden();
         let cv = super::diagnose::cross_validate(&model, &tests, &folds, None, &FitOptions::default(), &bar);
-        eprintln!(
+        crate::noteln!(
             "held-out NRMSE {:.4} (RMSE {:.3} N), {how}",
             cv.heldout_nrmse(),
             cv.total.rmse_n()
         );
         for (f, fig) in folds.iter().zip(&cv.per_fold) {
-            eprintln!("  {:<32} held-out NRMSE {:.4}", f.label, fig.nrmse());
+            crate::noteln!("  {:<32} held-out NRMSE {:.4}", f.label, fig.nrmse());
         }
     }
     outputs(
@@ -266,7 +266,7 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
 /// or where at-sample was asked for.
 fn note_timing(timing: &TimingDecision) {
     if timing.fits.is_some() || timing.timing == CommandTiming::AtSample {
-        eprintln!("{}", timing.note());
+        crate::noteln!("{}", timing.note());
     }
 }
 
@@ -282,11 +282,11 @@ fn outputs(
     // The files first, stdout last: a run that fails to write prints no result.
     if let Some(dir) = plot {
         let files = super::plots::plot_model(dir, tests, pred, &out.model, "")?;
-        eprintln!("wrote {} plot files into {}", files.len(), dir.display());
+        crate::noteln!("wrote {} plot files into {}", files.len(), dir.display());
     }
     if let Some(path) = rerun {
         super::rerun_log::record(path, tests, &[(&out.model, pred)])?;
-        eprintln!("wrote Rerun recording {}", path.display());
+        crate::noteln!("wrote Rerun recording {}", path.display());
     }
     if json {
         crate::outln!("{}", serde_json::to_string_pretty(out)?)?;
@@ -361,11 +361,11 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
     let (tests, timing) = decide(&base, tests, a.command_timing, &quick);
     note_timing(&timing);
     let d = diagnose(&tests, base.spec(), &registry, &opts)?;
-    eprintln!("diagnosed in {:.1} s", t0.elapsed().as_secs_f64());
+    crate::noteln!("diagnosed in {:.1} s", t0.elapsed().as_secs_f64());
     // The files first, stdout last: a run that fails to write prints no result.
     if let Some(dir) = &a.plot {
         let files = super::plots::plot_diagnosis(dir, &tests, &d)?;
-        eprintln!("wrote {} plot files into {}", files.len(), dir.display());
+        crate::noteln!("wrote {} plot files into {}", files.len(), dir.display());
     }
     if let Some(path) = &a.rerun {
         let mut models: Vec<(&str, &[Vec<f64>])> = vec![(&d.base_model, &d.base_pred)];
@@ -373,7 +373,7 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
             models.push((&d.final_model, &d.final_pred));
         }
         super::rerun_log::record(path, &tests, &models)?;
-        eprintln!("wrote Rerun recording {}", path.display());
+        crate::noteln!("wrote Rerun recording {}", path.display());
     }
     if a.json {
         crate::outln!("{}", serde_json::to_string_pretty(&DiagnoseJson::new(&d))?)?;

@@ -230,9 +230,9 @@ pub fn run(a: MtsArgs) -> Result<()> {
         crate::device::ParamsFile::new(damper.model(), damper.params(), None)
             .write(path)
             .with_context(|| format!("writing {}", path.display()))?;
-        eprintln!("saved the simulated device to {}", path.display());
+        crate::noteln!("saved the simulated device to {}", path.display());
     }
-    eprintln!(
+    crate::noteln!(
         "wrote {} samples of `{}` to {}",
         m.len(),
         damper.model().name(),
@@ -242,7 +242,7 @@ pub fn run(a: MtsArgs) -> Result<()> {
     if let Some(dir) = &a.plot {
         let files = plot_test(&m, &test, dir)?;
         for f in files {
-            eprintln!("plot: {}", f.display());
+            crate::noteln!("plot: {}", f.display());
         }
     }
     print_summary(&m, &test)?;
