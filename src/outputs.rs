@@ -38,6 +38,9 @@ fn probe_dir(dir: &Path) -> std::io::Result<()> {
     std::fs::remove_file(&probe)
 }
 
+/// The kinds of file an output directory receives: every plot is written as PNG and SVG.
+const PLOT_EXTENSIONS: [&str; 2] = ["png", "svg"];
+
 /// Check that one output can be written, without writing it: a file's directory exists and takes a new
 /// file (an existing file is opened for writing, unchanged); a directory exists or can be created (its
 /// nearest existing ancestor is a directory that takes a new file).
@@ -69,6 +72,28 @@ fn check_output(option: &str, path: &Path, kind: Kind) -> Result<(), String> {
             probe.or_else(|e| fail(format!("cannot write the file: {e}")))
         }
         Kind::Dir => {
+            if let Ok(link) = std::fs::read_link(path) {
+                if std::fs::metadata(path).is_err() {
+                    return fail(format!(
+                        "is a symbolic link to `{}`, which does not exist",
+                        link.display()
+                    ));
+                }
+            }
+            if let Ok(entries) = std::fs::read_dir(path) {
+                // The directory's files are plots and recordings; one that is itself a directory would
+                // stop the run after its other outputs were written.
+                for e in entries.flatten() {
+                    let name = e.path();
+                    let ext = name.extension().and_then(|x| x.to_str()).unwrap_or("");
+                    if PLOT_EXTENSIONS.contains(&ext) && name.is_dir() {
+                        return fail(format!(
+                            "holds a directory `{}` where a plot file would be written",
+                            name.display()
+                        ));
+                    }
+                }
+            }
             for (n, p) in path.ancestors().enumerate() {
                 let p = or_here(p);
                 let Ok(m) = std::fs::metadata(p) else {

@@ -571,3 +571,42 @@ fn a_full_stderr_loses_the_notes_not_the_run() {
         .unwrap();
     assert_eq!(refused.status.code(), Some(1));
 }
+
+/// A plot directory that cannot take the plots is refused before anything is written: a symbolic link to
+/// nothing (was "File exists" from the directory's creation), and a directory holding a directory named
+/// like a plot file (was an error after `--save` had been written).
+#[test]
+#[cfg(unix)]
+fn a_plot_directory_that_cannot_take_plots_is_refused_before_the_run() {
+    let d = tempfile::tempdir().unwrap();
+    let saved = d.path().join("p.json");
+    let dangling = d.path().join("plots-link");
+    std::os::unix::fs::symlink(d.path().join("nowhere"), &dangling).unwrap();
+    let err = refused(
+        &mrfeel(&[
+            "fit",
+            &small_test(),
+            "--save",
+            &s(&saved),
+            "--plot",
+            &s(&dangling),
+        ]),
+        &[
+            "--plot",
+            "plots-link",
+            "symbolic link",
+            "nowhere",
+            "does not exist",
+        ],
+    );
+    assert!(!err.contains("File exists"), "{err}");
+    assert!(!saved.exists(), "--save written before the refusal");
+
+    let plots = d.path().join("plots");
+    std::fs::create_dir_all(plots.join("force_time.svg")).unwrap();
+    refused(
+        &mrfeel(&["fit", &small_test(), "--save", &s(&saved), "--plot", &s(&plots)]),
+        &["--plot", "force_time.svg", "a directory"],
+    );
+    assert!(!saved.exists(), "--save written before the refusal");
+}
