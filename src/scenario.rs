@@ -857,9 +857,9 @@ pub fn load_hand(path: &Path) -> Result<HandConfig, ScenarioError> {
 }
 
 fn read(path: &Path) -> Result<String, ScenarioError> {
-    std::fs::read_to_string(path).map_err(|e| ScenarioError::Io {
+    crate::text_lines::read_text(path).map_err(|msg| ScenarioError::Io {
         path: path.to_path_buf(),
-        msg: e.to_string(),
+        msg,
     })
 }
 

@@ -52,3 +52,21 @@ mod tests {
         assert_eq!(toml_key_line(TEXT, "nowhere", "x"), 1);
     }
 }
+
+/// Read a text input file. An error reading it is the system's message; a file that is not UTF-8 (a
+/// binary file, another encoding) names the line of its first invalid byte, which
+/// `std::fs::read_to_string` does not ("stream did not contain valid UTF-8").
+pub fn read_text(path: &std::path::Path) -> Result<String, String> {
+    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+    String::from_utf8(bytes).map_err(|e| {
+        let bytes = e.as_bytes();
+        let at = e.utf8_error().valid_up_to();
+        let line = bytes[..at].iter().filter(|&&b| b == b'\n').count() + 1;
+        let column = at - bytes[..at].iter().rposition(|&b| b == b'\n').map_or(0, |p| p + 1) + 1;
+        format!(
+            "line {line}, column {column}: byte 0x{:02x} is not UTF-8 text (a binary file, or another \
+             encoding?)",
+            bytes[at]
+        )
+    })
+}

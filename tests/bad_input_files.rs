@@ -341,3 +341,41 @@ fn an_aircraft_name_is_never_a_path() {
     );
     assert!(!e.contains("No such file"), "{e}");
 }
+
+/// `text` with the line `extra` (bytes, not UTF-8) put after its first line.
+fn after_first_line(text: &str, extra: &[u8]) -> Vec<u8> {
+    let at = text.find('\n').unwrap() + 1;
+    [&text.as_bytes()[..at], extra, b"\n", &text.as_bytes()[at..]].concat()
+}
+
+/// Text inputs in another encoding (a Latin-1 `é` in a comment on line 2): the error names the file and
+/// the line and column of the first byte that is not UTF-8, for the rig's URDF, the scenario and a device
+/// file.
+#[test]
+fn a_text_input_that_is_not_utf8_names_its_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let urdf = std::fs::read_to_string(root().join("models/stick-rig.urdf")).unwrap();
+    let path = dir.path().join("latin1.urdf");
+    std::fs::write(&path, after_first_line(&urdf, b"<!-- caf\xe9 -->")).unwrap();
+    let (scn, text) = scenario(dir.path(), "paper-feel-loop.toml", |t| {
+        t.replace(&format!("{}/models/stick-rig.urdf", root().display()), s(&path))
+    });
+    refused(
+        &run(dir.path(), &scn, &[]),
+        &["latin1.urdf", "line 2, column 9", "0xe9", "not UTF-8"],
+    );
+    std::fs::write(&scn, after_first_line(&text, b"# caf\xe9")).unwrap();
+    refused(
+        &run(dir.path(), &scn, &[]),
+        &["scn.toml", "line 2, column 6", "not UTF-8"],
+    );
+    let device = std::fs::read_to_string(root().join("models/paper-device.toml")).unwrap();
+    let dev = dir.path().join("dev.toml");
+    std::fs::write(&dev, after_first_line(&device, b"# caf\xe9")).unwrap();
+    let out = dir.path().join("mts.csv");
+    refused(
+        &mrfeel(&["mts", "--device", s(&dev), "--current", "1", "--out", s(&out)]),
+        &["dev.toml", "line 2, column 6", "not UTF-8"],
+    );
+    assert!(!out.exists());
+}

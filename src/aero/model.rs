@@ -315,9 +315,9 @@ impl Ctx<'_> {
 impl AircraftModel {
     /// Load `models/aircraft/<name>.toml`.
     pub fn load(path: &Path) -> Result<Self, AeroError> {
-        let text = std::fs::read_to_string(path).map_err(|e| AeroError::Io {
+        let text = crate::text_lines::read_text(path).map_err(|msg| AeroError::Io {
             path: path.to_path_buf(),
-            msg: e.to_string(),
+            msg,
         })?;
         Self::from_toml(&text, path)
     }

@@ -17,9 +17,9 @@ pub struct ReferenceRun {
 
 impl ReferenceRun {
     pub fn load(path: &Path) -> Result<Self, AeroError> {
-        let text = std::fs::read_to_string(path).map_err(|e| AeroError::Io {
+        let text = crate::text_lines::read_text(path).map_err(|msg| AeroError::Io {
             path: path.to_path_buf(),
-            msg: e.to_string(),
+            msg,
         })?;
         Self::parse(&text, path)
     }

@@ -259,9 +259,9 @@ pub struct CompareScenario {
 
 impl CompareScenario {
     pub fn load(path: &Path) -> Result<Self, CompareError> {
-        let text = std::fs::read_to_string(path).map_err(|e| CompareError::Io {
+        let text = crate::text_lines::read_text(path).map_err(|msg| CompareError::Io {
             path: path.to_path_buf(),
-            msg: e.to_string(),
+            msg,
         })?;
         Self::parse(&text, path)
     }

@@ -340,9 +340,9 @@ pub enum FeelError {
 
 impl FeelSprings {
     pub fn load(path: &Path) -> Result<Self, FeelError> {
-        let text = std::fs::read_to_string(path).map_err(|e| FeelError::Io {
+        let text = crate::text_lines::read_text(path).map_err(|msg| FeelError::Io {
             path: path.to_path_buf(),
-            msg: e.to_string(),
+            msg,
         })?;
         let f: FeelSprings = toml::from_str(&text).map_err(|e| FeelError::Parse {
             path: path.to_path_buf(),

@@ -48,9 +48,9 @@ pub struct DeviceConfig {
 impl DeviceConfig {
     /// Load a `.toml` device file or a `.json` parameter file written by `mrfeel fit --save`.
     pub fn load(path: &Path, registry: &Registry) -> Result<Self, DeviceError> {
-        let text = std::fs::read_to_string(path).map_err(|e| DeviceError::Io {
+        let text = crate::text_lines::read_text(path).map_err(|msg| DeviceError::Io {
             path: path.to_path_buf(),
-            msg: e.to_string(),
+            msg,
         })?;
         if path.extension().and_then(|e| e.to_str()) == Some("json") {
             Self::from_json(&text, path, registry)

@@ -26,9 +26,9 @@ pub struct UrdfModel {
 impl UrdfModel {
     /// Read and parse a URDF file with its loop joints.
     pub fn load(path: &Path) -> Result<Self, RigError> {
-        let text = std::fs::read_to_string(path).map_err(|e| RigError::Io {
+        let text = crate::text_lines::read_text(path).map_err(|msg| RigError::Io {
             path: path.to_path_buf(),
-            msg: e.to_string(),
+            msg,
         })?;
         Self::parse(&text, path)
     }
