@@ -31,6 +31,26 @@ pub fn toml_key_line(text: &str, table: &str, key: &str) -> usize {
     header
 }
 
+/// Read a text input file. An error reading it is the system's message; a file that is not UTF-8 (a
+/// binary file, another encoding) names the line of its first invalid byte, which
+/// `std::fs::read_to_string` does not ("stream did not contain valid UTF-8").
+pub fn read_text(path: &std::path::Path) -> Result<String, String> {
+    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+    String::from_utf8(bytes).map_err(|e| {
+        let bytes = e.as_bytes();
+        let at = e.utf8_error().valid_up_to();
+        let line = bytes[..at].iter().filter(|&&b| b == b'\n').count() + 1;
+        let start = bytes[..at].iter().rposition(|&b| b == b'\n').map_or(0, |p| p + 1);
+        // The bytes before `at` are valid UTF-8: the column counts characters, as an editor shows it.
+        let column = std::str::from_utf8(&bytes[start..at]).map_or(at - start, |l| l.chars().count()) + 1;
+        format!(
+            "line {line}, column {column}: byte 0x{:02x} is not UTF-8 text (a binary file, or another \
+             encoding?)",
+            bytes[at]
+        )
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -51,22 +71,17 @@ mod tests {
         assert_eq!(toml_key_line(TEXT, "springs", "damping"), 3);
         assert_eq!(toml_key_line(TEXT, "nowhere", "x"), 1);
     }
-}
 
-/// Read a text input file. An error reading it is the system's message; a file that is not UTF-8 (a
-/// binary file, another encoding) names the line of its first invalid byte, which
-/// `std::fs::read_to_string` does not ("stream did not contain valid UTF-8").
-pub fn read_text(path: &std::path::Path) -> Result<String, String> {
-    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
-    String::from_utf8(bytes).map_err(|e| {
-        let bytes = e.as_bytes();
-        let at = e.utf8_error().valid_up_to();
-        let line = bytes[..at].iter().filter(|&&b| b == b'\n').count() + 1;
-        let column = at - bytes[..at].iter().rposition(|&b| b == b'\n').map_or(0, |p| p + 1) + 1;
-        format!(
-            "line {line}, column {column}: byte 0x{:02x} is not UTF-8 text (a binary file, or another \
-             encoding?)",
-            bytes[at]
-        )
-    })
+    #[test]
+    fn a_byte_that_is_not_utf8_is_placed_by_line_and_character() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("t.toml");
+        // Line 2 holds `x`, a two-byte `é`, then a lone 0xff: the third character.
+        std::fs::write(&p, b"ab\nx\xc3\xa9\xff\n").unwrap();
+        let e = read_text(&p).unwrap_err();
+        assert!(e.starts_with("line 2, column 3: byte 0xff"), "{e}");
+        std::fs::write(&p, "ab\nxé\n").unwrap();
+        assert_eq!(read_text(&p).unwrap(), "ab\nxé\n");
+        assert!(read_text(&d.path().join("none")).is_err());
+    }
 }
