@@ -967,3 +967,47 @@ fn real_damper_diagnosis_finds_hysteresis() {
     assert!(d.missing.iter().any(|m| m == "hysteresis"), "{report}");
     assert!(d.final_heldout_nrmse < d.base_heldout_nrmse, "{report}");
 }
+
+/// Design rule: same inputs, same outputs, bit for bit. The diagnosis fits its candidates and folds in
+/// parallel; its JSON, and a fit's saved parameters, are the same bytes on one thread and on four.
+#[test]
+fn diagnose_and_fit_give_the_same_bytes_on_any_number_of_threads() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let tests = synth(
+        &case(Protocol::Sine, 500.0, true, 3, 2.0, 21),
+        &["hysteresis"],
+        &Registry::builtin(),
+        0.3,
+    );
+    let files = write_tests(dir.path(), &tests);
+    let run = |threads: &str, what: &str| -> Vec<u8> {
+        let saved = dir.path().join(format!("p{threads}.json"));
+        let mut args: Vec<String> = vec![what.into()];
+        args.extend(files.iter().cloned());
+        if what == "fit" {
+            args.extend(["--model".into(), "bingham+hysteresis".into()]);
+            args.extend(["--save".into(), saved.to_str().unwrap().into()]);
+        } else {
+            args.push("--json".into());
+        }
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_mrfeel"))
+            .args(&args)
+            .env("RAYON_NUM_THREADS", threads)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        if what == "fit" {
+            std::fs::read(&saved).unwrap()
+        } else {
+            out.stdout
+        }
+    };
+    for what in ["diagnose", "fit"] {
+        let one = run("1", what);
+        assert!(!one.is_empty());
+        assert!(
+            one == run("4", what),
+            "{what}: other bytes on 4 threads than on 1"
+        );
+    }
+}
