@@ -481,3 +481,21 @@ fn parameters_that_make_the_force_unusable_are_refused_naming_the_parameter() {
     let big = edit(PARAMS_JSON, "\"value\": 12513.063281463727", "\"value\": 1e12");
     assert!(validate_nrmse(big.as_bytes()) > 1.0);
 }
+
+#[test]
+fn an_acquisition_share_that_is_no_share_of_the_period_is_refused_at_its_line() {
+    for bad in ["0", "-0.1", "1.5", "\"a tenth\""] {
+        let text = edit(
+            PARAMS_JSON,
+            "  \"command_timing\": \"after-sample\",\n",
+            &format!("  \"command_timing\": \"after-sample\",\n  \"acquisition_window_periods\": {bad},\n"),
+        );
+        let line = line_of(&text, "\"acquisition_window_periods\"");
+        validate_refuses(
+            &text,
+            line,
+            "acquisition_window_periods",
+            &["a share of the drive period between 0 and 1"],
+        );
+    }
+}

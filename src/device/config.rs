@@ -39,6 +39,10 @@ pub struct DeviceConfig {
     /// When the logged current commands of the data the parameters were fitted to took effect (a
     /// `PARAMS.json`'s `command_timing`; after their sample for device files).
     pub command_timing: CommandTiming,
+    /// The share of the drive period that the fitted data's acquisition filter spanned in every protocol
+    /// (a `PARAMS.json`'s `acquisition_window_periods`, where the fit found one; see
+    /// `ident::acquisition::window_law`).
+    pub acquisition_window_periods: Option<f64>,
     /// Each parameter's standard error as a `PARAMS.json` saved it (in the model's parameter order; all
     /// `None` for a device file).
     pub std_errs: Vec<Option<f64>>,
@@ -160,14 +164,15 @@ impl DeviceConfig {
             geometry,
             load_cell_range_n,
             command_timing: CommandTiming::AfterSample,
+            acquisition_window_periods: None,
             path: path.to_path_buf(),
         })
     }
 
     /// Read a `PARAMS.json` (the model-discovery contract's parameter file): the keys `model` and `params`
     /// (each parameter an object with `value`, and optionally `std_err` and `unit`), and the optional
-    /// `current_limit_a` (default: the paper's 14 A) and `command_timing` (default: `after-sample`, what files
-    /// saved before session 11 meant). Any other key, a key given twice, a unit other than the parameter's
+    /// `current_limit_a` (default: the paper's 14 A), `command_timing` (default: `after-sample`, what files
+    /// saved before session 11 meant) and `acquisition_window_periods` (default: none). Any other key, a key given twice, a unit other than the parameter's
     /// and a value of the wrong type are errors that name the line and the key. A leading UTF-8 byte-order
     /// mark is skipped, as the CSV and TOML readers do.
     pub fn from_json(text: &str, path: &Path, registry: &Registry) -> Result<Self, DeviceError> {
@@ -271,6 +276,19 @@ impl DeviceConfig {
             }
             Some(v) => return Err(wrong(&["command_timing"], "\"after-sample\" or \"at-sample\"", v)),
         };
+        let acquisition_window_periods = match top.get("acquisition_window_periods") {
+            None => None,
+            Some(v) => match v.as_f64() {
+                Some(share) if share > 0.0 && share < 1.0 => Some(share),
+                _ => {
+                    return Err(wrong(
+                        &["acquisition_window_periods"],
+                        "a share of the drive period between 0 and 1",
+                        v,
+                    ))
+                }
+            },
+        };
         let model = Model::from_spec(model_spec, registry, limit)
             .map_err(|e| field_err(path, line(&["model"]), "model", e.to_string()))?;
         let params_obj = match top.get("params") {
@@ -355,13 +373,20 @@ impl DeviceConfig {
             geometry: None,
             load_cell_range_n: None,
             command_timing,
+            acquisition_window_periods,
             path: path.to_path_buf(),
         })
     }
 }
 
 /// The keys of a `PARAMS.json`, and of each of its parameters.
-const TOP_KEYS: [&str; 4] = ["model", "current_limit_a", "command_timing", "params"];
+const TOP_KEYS: [&str; 5] = [
+    "model",
+    "current_limit_a",
+    "command_timing",
+    "acquisition_window_periods",
+    "params",
+];
 const PARAM_KEYS: [&str; 3] = ["value", "std_err", "unit"];
 
 /// One parameter value as a file gives it: the line it is on, and the unit it is said to be in (JSON).
@@ -825,6 +850,11 @@ pub struct ParamsFile {
     /// ([`CommandTiming`]); absent in files saved before session 11, which were all read after their sample.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub command_timing: Option<String>,
+    /// The share of the drive period that the fitted data's acquisition filter (a moving average) spanned
+    /// in every protocol, where the fit found one; `validate` then checks new tests for the window it
+    /// predicts where their own spectra are too short to show one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub acquisition_window_periods: Option<f64>,
     pub params: BTreeMap<String, ParamValue>,
 }
 
@@ -850,6 +880,7 @@ impl ParamsFile {
             model: model.name(),
             current_limit_a: Some(model.current_limit_a),
             command_timing: None,
+            acquisition_window_periods: None,
             params,
         }
     }

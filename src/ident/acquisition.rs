@@ -39,6 +39,8 @@
 use rustfft::num_complex::Complex;
 use rustfft::FftPlanner;
 
+use std::collections::{BTreeMap, BTreeSet};
+
 use crate::device::Inputs;
 
 /// Comb frequencies checked per candidate window (the first ones, up to the Nyquist frequency).
@@ -60,6 +62,10 @@ pub const CHANNEL_SIGMAS: f64 = 2.0;
 pub const BELOW_SHARE: f64 = 2.0 / 3.0;
 /// ... and at least this share of the comb frequencies tried left to count in it (not beside a line).
 pub const COUNTED_SHARE: f64 = 0.75;
+/// A window predicted from other tests ([`window_law`]) is confirmed when both channels' combs together
+/// lie this many noise spreads below white noise's mean (one window tested, not the best of many: 3 of
+/// 800 tries passed on white noise, `tests::white_noise_rarely_confirms_a_predicted_window`).
+pub const CONFIRM_SIGMAS: f64 = 3.0;
 /// One comb frequency's depth counts down to this many decades (and up to one above): a single
 /// near-empty bin of white noise must not pass for a comb.
 const DEPTH_CLAMP: f64 = 2.5;
@@ -92,6 +98,9 @@ pub struct MovingAverage {
     /// Mean depth of the comb below the noise of its bands, over the records, the comb frequencies counted
     /// and the channels that witness it, decades (negative).
     pub mean_depth: f64,
+    /// Whether the window was predicted from other tests and confirmed ([`confirm_moving_average`]),
+    /// rather than found among every window the records allow ([`detect_moving_average`]).
+    pub predicted: bool,
 }
 
 /// The model's drive for a test whose channels went through a moving average: the motion before the
@@ -295,38 +304,32 @@ pub struct Channels<'a> {
     pub f: &'a [f64],
 }
 
-/// The moving average that the displacement and force of every record in `records` (tests of one
-/// protocol, on one even clock) went through, from their combs pooled over the records (see the module's
-/// notes); `None` without such a comb, on an uneven clock, or with fewer than 64 samples in a record.
-///
-/// A measured velocity can stand in for the displacement as the motion's witness, never a needed one: one
-/// that is the backward first difference of the filtered displacement (`is_first_difference`, the
-/// UTFSM source's) carries the displacement's comb through a finer rounding than the displacement itself
-/// was logged with, and is taken where it shows the comb more clearly. It is the same record of the motion,
-/// so its evidence replaces the displacement's and is never added to it. The displacement must show the
-/// comb on its own in every case; a velocity differenced over `N` samples (a rig's smoothing
-/// differentiator, the comb of an `N`-sample average of its own) or from a transducer is no witness.
-pub fn detect_moving_average(records: &[Channels<'_>]) -> Option<MovingAverage> {
-    if records.is_empty()
-        || records
-            .iter()
-            .any(|r| r.t.len() < 64 || crate::measurement::uniform_interval(r.t).is_none())
-    {
-        return None;
-    }
-    let need = |sigmas: f64, count: f64| (NOISE_MEAN - sigmas * NOISE_SD / count.sqrt()) * count;
-    // A channel's comb: deep enough on average, most of its frequencies below the noise (a damper force's
-    // gaps between harmonic lines can be deep, but every second comb frequency then sits on a line), and
-    // most of the frequencies tried counted (a window whose other comb frequencies all sit beside lines
-    // would be judged on its few that fall on a true comb).
-    let channel_ok = |c: Tally, sigmas: f64| {
-        c.counted > 0.0
-            && c.counted >= COUNTED_SHARE * c.tried
-            && c.depth <= need(sigmas, c.counted)
-            && c.below >= BELOW_SHARE * c.counted
-    };
-    // Pooled per window: the displacement's comb, the force's and the measured velocity's.
-    let mut pooled: std::collections::BTreeMap<usize, [Comb; 3]> = Default::default();
+/// A channel's summed comb against what white noise gives: `NOISE_MEAN − sigmas · NOISE_SD / √count`
+/// decades a value, summed over `count` values.
+fn need(sigmas: f64, count: f64) -> f64 {
+    (NOISE_MEAN - sigmas * NOISE_SD / count.sqrt()) * count
+}
+
+/// A channel's comb: deep enough on average, most of its frequencies below the noise (a damper force's
+/// gaps between harmonic lines can be deep, but every second comb frequency then sits on a line), and
+/// most of the frequencies tried counted (a window whose other comb frequencies all sit beside lines
+/// would be judged on its few that fall on a true comb).
+fn channel_ok(c: Tally, sigmas: f64) -> bool {
+    c.counted > 0.0
+        && c.counted >= COUNTED_SHARE * c.tried
+        && c.depth <= need(sigmas, c.counted)
+        && c.below >= BELOW_SHARE * c.counted
+}
+
+/// How far a summed comb lies below white noise's mean, in noise spreads of the mean over its values.
+fn sigmas(t: Tally) -> f64 {
+    (NOISE_MEAN * t.counted - t.depth) / (NOISE_SD * t.counted.sqrt())
+}
+
+/// The combs of the windows `keep` accepts, pooled over `records`: the displacement's, the force's, and the
+/// measured velocity's where the displacement shows the window on its own (it must, in [`evidence`]).
+fn pooled_combs(records: &[Channels<'_>], keep: impl Fn(usize) -> bool + Copy) -> BTreeMap<usize, [Comb; 3]> {
+    let mut pooled: BTreeMap<usize, [Comb; 3]> = BTreeMap::new();
     for r in records {
         // The force's own harmonics of the drive (in bins of its differences' periodogram) are no evidence:
         // a damper's force has lines at the odd ones and gaps at the even ones. The displacement of a sine
@@ -335,13 +338,12 @@ pub fn detect_moving_average(records: &[Channels<'_>]) -> Option<MovingAverage> 
         let dt = r.t[1] - r.t[0];
         let drive_bins = (r.x.len() - 1) as f64 * dt / dominant_period(r.x, dt);
         for (channel, y, harmonics) in [(X, r.x, None), (F, r.f, Some(drive_bins))] {
-            for (window, comb) in comb_depths(y, harmonics, |_| true) {
+            for (window, comb) in comb_depths(y, harmonics, keep) {
                 pooled.entry(window).or_default()[channel].add(&comb);
             }
         }
     }
-    // The velocity only where the displacement shows the comb on its own (it must, below).
-    let shown: std::collections::BTreeSet<usize> = pooled
+    let shown: BTreeSet<usize> = pooled
         .iter()
         .filter(|(_, c)| channel_ok(c[X].total(), CHANNEL_SIGMAS))
         .map(|(&window, _)| window)
@@ -356,28 +358,56 @@ pub fn detect_moving_average(records: &[Channels<'_>]) -> Option<MovingAverage> 
             }
         }
     }
+    pooled
+}
+
+/// The evidence a window has: the motion's comb (the displacement's, or the velocity's where that shows
+/// it more clearly: one record of the motion through two roundings, so one witness, not two), with the
+/// force's where the force can witness; `None` where a needed witness does not show it.
+fn evidence([x, f, v]: &[Comb; 3]) -> Option<Comb> {
+    if !channel_ok(x.total(), CHANNEL_SIGMAS) {
+        return None;
+    }
+    let mut all = if channel_ok(v.total(), CHANNEL_SIGMAS) && sigmas(v.total()) > sigmas(x.total()) {
+        *v
+    } else {
+        *x
+    };
     let force_witness = |f: Tally| f.counted > 0.0 && f.counted >= COUNTED_SHARE * f.tried;
-    let sigmas = |t: Tally| (NOISE_MEAN * t.counted - t.depth) / (NOISE_SD * t.counted.sqrt());
-    // The evidence a window has: the motion's comb (the displacement's, or the velocity's where that shows
-    // it more clearly: one record of the motion through two roundings, so one witness, not two), with the
-    // force's where the force can witness; `None` where a needed witness does not show it.
-    let evidence = |[x, f, v]: &[Comb; 3]| -> Option<Comb> {
-        if !channel_ok(x.total(), CHANNEL_SIGMAS) {
+    if force_witness(f.total()) {
+        if !channel_ok(f.total(), CHANNEL_SIGMAS) {
             return None;
         }
-        let mut all = if channel_ok(v.total(), CHANNEL_SIGMAS) && sigmas(v.total()) > sigmas(x.total()) {
-            *v
-        } else {
-            *x
-        };
-        if force_witness(f.total()) {
-            if !channel_ok(f.total(), CHANNEL_SIGMAS) {
-                return None;
-            }
-            all.add(f);
-        }
-        Some(all)
-    };
+        all.add(f);
+    }
+    Some(all)
+}
+
+/// Records `detect_moving_average` and `confirm_moving_average` can read: some, each of 64 samples or
+/// more on an even clock.
+fn readable(records: &[Channels<'_>]) -> bool {
+    !records.is_empty()
+        && records
+            .iter()
+            .all(|r| r.t.len() >= 64 && crate::measurement::uniform_interval(r.t).is_some())
+}
+
+/// The moving average that the displacement and force of every record in `records` (tests of one
+/// protocol, on one even clock) went through, from their combs pooled over the records (see the module's
+/// notes); `None` without such a comb, on an uneven clock, or with fewer than 64 samples in a record.
+///
+/// A measured velocity can stand in for the displacement as the motion's witness, never a needed one: one
+/// that is the backward first difference of the filtered displacement (`is_first_difference`, the
+/// UTFSM source's) carries the displacement's comb through a finer rounding than the displacement itself
+/// was logged with, and is taken where it shows the comb more clearly. It is the same record of the motion,
+/// so its evidence replaces the displacement's and is never added to it. The displacement must show the
+/// comb on its own in every case; a velocity differenced over `N` samples (a rig's smoothing
+/// differentiator, the comb of an `N`-sample average of its own) or from a transducer is no witness.
+pub fn detect_moving_average(records: &[Channels<'_>]) -> Option<MovingAverage> {
+    if !readable(records) {
+        return None;
+    }
+    let pooled = pooled_combs(records, |_| true);
     // Every witness together strongly: far beyond what white noise does. Where most comb frequencies of the
     // force lie on the drive's harmonics or beside lines, the motion alone must show it as strongly as the
     // motion and the force together otherwise would have to.
@@ -411,11 +441,49 @@ pub fn detect_moving_average(records: &[Channels<'_>]) -> Option<MovingAverage> 
                 MovingAverage {
                     window: *window,
                     mean_depth: t.depth / t.counted,
+                    predicted: false,
                 },
             )
         })
         .max_by(|a, b| a.0.total_cmp(&b.0))
         .map(|(_, m)| m)
+}
+
+/// Whether the records show the comb of one window named beforehand (predicted from other tests, see
+/// [`window_law`]), with the witnesses [`detect_moving_average`] asks for but at [`CONFIRM_SIGMAS`]
+/// together: one hypothesis tested, not the best of every window a record allows, so the bar of the
+/// search is not needed (its 6 spreads stand for the deepest of some hundred windows of white noise).
+pub fn confirm_moving_average(records: &[Channels<'_>], window: usize) -> Option<MovingAverage> {
+    if !readable(records) || window < 2 {
+        return None;
+    }
+    let pooled = pooled_combs(records, |w| w == window);
+    let all = evidence(pooled.get(&window)?)?;
+    let t = all.total();
+    (t.depth <= need(CONFIRM_SIGMAS, t.counted)).then(|| MovingAverage {
+        window,
+        mean_depth: t.depth / t.counted,
+        predicted: true,
+    })
+}
+
+/// The share of the drive period that the moving average of every protocol found in `found` (window,
+/// sample interval s, drive period s) spans, where there is one: two protocols or more, and each
+/// protocol's window within half a sample of that share of its period (the median of theirs). A source
+/// that filters each test over a fixed share of its period (the UTFSM tests: a tenth) is then known to
+/// do so, and a test of another protocol whose own comb is too short to show it alone can be checked
+/// for the window that share predicts ([`confirm_moving_average`]).
+pub fn window_law(found: &[(usize, f64, f64)]) -> Option<f64> {
+    if found.len() < 2 {
+        return None;
+    }
+    let mut shares: Vec<f64> = found.iter().map(|&(w, dt, p)| w as f64 * dt / p).collect();
+    shares.sort_by(f64::total_cmp);
+    let share = shares[shares.len() / 2];
+    let fits = found
+        .iter()
+        .all(|&(w, dt, p)| (share * p / dt - w as f64).abs() <= 0.5);
+    (share.is_finite() && share > 0.0 && fits).then_some(share)
 }
 
 /// Whether the velocity `v` is the backward first difference of the displacement `x` before its
@@ -764,6 +832,75 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn a_predicted_window_is_confirmed_in_one_short_test_where_no_window_is_found() {
+        // The UTFSM 2mm5Hz clock alone (450 samples at 200 Hz, a window of 4): two comb frequencies, too few
+        // for the search over every window, enough to confirm the one window predicted. Windows a sample
+        // off are not confirmed, nor is the window in a test that was not filtered.
+        let mut confirmed = 0;
+        for seed in 0..20u64 {
+            let filtered = logged_sine(protocol(PROTOCOLS[2], 2e-6), 1000 + seed);
+            for with_velocity in [false, true] {
+                let records = [filtered.channels(with_velocity)];
+                assert_eq!(detect_moving_average(&records), None, "seed {seed}");
+                if confirm_moving_average(&records, 4).is_some_and(|m| m.window == 4 && m.predicted) {
+                    confirmed += 1;
+                }
+                for off in [3, 5, 6] {
+                    assert_eq!(
+                        confirm_moving_average(&records, off),
+                        None,
+                        "seed {seed}, window {off}"
+                    );
+                }
+            }
+            let unfiltered = logged_sine(protocol((450, 200.0, 5.0, 1), 2e-6), 2000 + seed);
+            assert_eq!(
+                confirm_moving_average(&[unfiltered.channels(true)], 4),
+                None,
+                "seed {seed}"
+            );
+        }
+        assert!(confirmed >= 36, "confirmed in {confirmed} of 40");
+    }
+
+    #[test]
+    fn white_noise_rarely_confirms_a_predicted_window() {
+        // One window tested at 3 noise spreads: white noise passes about one time in 700. Over the 200
+        // unfiltered records of `white_noise_shows_no_comb` and four predicted windows each (800 tries),
+        // a handful at most.
+        let mut passed = Vec::new();
+        for seed in 0..200u64 {
+            let (n, fs) = [(2000, 1000.0), (450, 200.0), (5000, 500.0), (8000, 2000.0)][seed as usize % 4];
+            let p = Protocol {
+                n,
+                fs,
+                f0: 1.7,
+                window: 1,
+                x_noise: [2e-6, 2e-8][seed as usize % 2],
+                span: [1, 5, 10, 16][(seed as usize / 4) % 4],
+            };
+            let test = logged_sine(p, seed);
+            for window in [4, 9, 12, 17] {
+                if confirm_moving_average(&[test.channels(seed % 3 == 0)], window).is_some() {
+                    passed.push((seed, window));
+                }
+            }
+        }
+        assert!(passed.len() <= 4, "{} of 800 confirmed: {passed:?}", passed.len());
+    }
+
+    #[test]
+    fn a_share_of_the_period_is_a_law_only_where_every_protocol_keeps_it() {
+        // The UTFSM protocols: a tenth of the period at 1 kHz/1 Hz, 200 Hz/0.25 Hz and 200 Hz/5 Hz.
+        let utfsm = [(100, 0.001, 1.0), (80, 0.005, 4.0), (4, 0.005, 0.2)];
+        let share = window_law(&utfsm).expect("a tenth");
+        assert!((share - 0.1).abs() < 1e-12, "{share}");
+        assert_eq!(window_law(&utfsm[..1]), None, "one protocol is no law");
+        // A fixed window in time (20 ms at both clocks) is no share of the period.
+        assert_eq!(window_law(&[(20, 0.001, 1.0), (4, 0.005, 0.2)]), None);
     }
 
     #[test]

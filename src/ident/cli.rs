@@ -12,7 +12,7 @@ use super::report::{diagnose_table, DiagnoseJson, FitJson};
 use super::residual::where_regions;
 use super::timing::{decide, retimed, CommandTiming, TimingChoice, TimingDecision};
 use super::validate::{evaluate, figures};
-use super::{default_current_limit_a, load_tests_with, AcquisitionChoice, Test};
+use super::{default_current_limit_a, load_tests_predicting, AcquisitionChoice, Test};
 use crate::device::{DeviceConfig, Model, ModelSpec, ParamsFile, Registry};
 
 /// `--acquisition`, shared by `fit`, `validate` and `diagnose`.
@@ -162,8 +162,12 @@ fn no_file_twice(tests: &[Test]) -> anyhow::Result<()> {
 
 /// The tests of the files, their acquisition chain taken as `choice` says, telling the person on stderr
 /// what was done about it.
-fn load_and_tell(paths: &[std::path::PathBuf], choice: AcquisitionChoice) -> anyhow::Result<Vec<Test>> {
-    let tests = load_tests_with(paths, choice)?;
+fn load_and_tell(
+    paths: &[std::path::PathBuf],
+    choice: AcquisitionChoice,
+    share: Option<f64>,
+) -> anyhow::Result<(Vec<Test>, Option<f64>)> {
+    let (tests, found) = load_tests_predicting(paths, choice, share)?;
     no_file_twice(&tests)?;
     match choice {
         AcquisitionChoice::Auto => {
@@ -179,7 +183,7 @@ fn load_and_tell(paths: &[std::path::PathBuf], choice: AcquisitionChoice) -> any
              the model is driven by the motion before it and its force goes through the same average"
         ),
     }
-    Ok(tests)
+    Ok((tests, found))
 }
 
 pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
@@ -187,7 +191,7 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
         ParamsFile::check_path("--save", path).map_err(anyhow::Error::msg)?;
     }
     let registry = Registry::builtin();
-    let tests = load_and_tell(&a.data, a.acquisition.acquisition)?;
+    let (tests, window_periods) = load_and_tell(&a.data, a.acquisition.acquisition, None)?;
     let limit = limit_of(a.current_limit_a, &tests)?;
     let model = build_model(&a.model, &registry, limit)?;
     require(&tests, model.n_params())?;
@@ -234,6 +238,7 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
     if let Some(path) = &a.save {
         let mut file = ParamsFile::new(&model, &fr.params, Some(&fr.std_err));
         file.command_timing = Some(timing.timing.as_str().to_string());
+        file.acquisition_window_periods = window_periods;
         file.write(path)
             .with_context(|| format!("writing {}", path.display()))?;
         crate::noteln!("saved {}", path.display());
@@ -298,8 +303,8 @@ fn outputs(
 
 pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
     let registry = Registry::builtin();
-    let tests = load_and_tell(&a.data, a.acquisition.acquisition)?;
     let cfg = DeviceConfig::load(&a.params, &registry)?;
+    let (tests, _) = load_and_tell(&a.data, a.acquisition.acquisition, cfg.acquisition_window_periods)?;
     require(&tests, cfg.model.n_params())?;
     let timing = TimingDecision {
         timing: cfg.command_timing,
@@ -335,7 +340,7 @@ pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
 
 pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
     let registry = Registry::builtin();
-    let tests = load_and_tell(&a.data, a.acquisition.acquisition)?;
+    let (tests, _) = load_and_tell(&a.data, a.acquisition.acquisition, None)?;
     let limit = limit_of(a.current_limit_a, &tests)?;
     let base = build_model(&a.model, &registry, limit)?;
     // The largest model the search can reach needs the most samples.

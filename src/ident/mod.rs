@@ -126,16 +126,25 @@ impl Test {
 /// The moving average that the measurements `ms` (tests of one protocol) went through, if their
 /// displacements and forces (and measured velocities) show its comb ([`acquisition::detect_moving_average`]).
 pub fn filter_of(ms: &[&Measurement]) -> Option<acquisition::MovingAverage> {
-    let records: Vec<acquisition::Channels<'_>> = ms
-        .iter()
+    acquisition::detect_moving_average(&channels(ms))
+}
+
+/// The channels of measurements as the acquisition chain's detection reads them.
+fn channels<'a>(ms: &[&'a Measurement]) -> Vec<acquisition::Channels<'a>> {
+    ms.iter()
         .map(|m| acquisition::Channels {
             t: &m.t_s,
             x: &m.x_m,
             v: m.velocity_measured.then_some(m.v_m_s.as_slice()),
             f: &m.f_n,
         })
-        .collect();
-    acquisition::detect_moving_average(&records)
+        .collect()
+}
+
+/// Whether the measurements `ms` (tests of one protocol) show the comb of a moving average of `window`
+/// samples, predicted for them ([`acquisition::confirm_moving_average`]).
+fn confirm_filter(ms: &[&Measurement], window: usize) -> Option<acquisition::MovingAverage> {
+    acquisition::confirm_moving_average(&channels(ms), window)
 }
 
 /// The model's drive for a file whose displacement and force went through the moving average `filter`:
@@ -565,17 +574,39 @@ pub fn load_tests(paths: &[PathBuf]) -> Result<Vec<Test>, IdentError> {
 
 /// [`load_tests`] with the acquisition chain taken as `choice` says ([`tests_with`]).
 pub fn load_tests_with(paths: &[PathBuf], choice: AcquisitionChoice) -> Result<Vec<Test>, IdentError> {
+    Ok(load_tests_predicting(paths, choice, None)?.0)
+}
+
+/// [`load_tests_with`], where `auto` also checks the window a share of the drive period predicts
+/// ([`tests_predicting`]); returns the tests and the share found in them.
+pub fn load_tests_predicting(
+    paths: &[PathBuf],
+    choice: AcquisitionChoice,
+    share: Option<f64>,
+) -> Result<(Vec<Test>, Option<f64>), IdentError> {
     if paths.is_empty() {
         return Err(IdentError::NoData);
     }
     let ms = crate::measurement::read_all(paths)?;
-    tests_with(&ms, choice)
+    match choice {
+        AcquisitionChoice::Auto => Ok(tests_predicting(&ms, share)),
+        _ => Ok((tests_with(&ms, choice)?, None)),
+    }
 }
 
 /// The tests of measurements read together. Tests of one protocol (one clock, one drive period) went
 /// through one acquisition chain: their spectra are pooled to find its filter ([`filter_of`]), and each
 /// test is read with the protocol's filter.
 pub fn tests_from(ms: &[Measurement]) -> Vec<Test> {
+    tests_predicting(ms, None).0
+}
+
+/// [`tests_from`], and where a protocol's tests do not show a filter themselves, the window that a share
+/// of the drive period predicts for them is checked in their spectra ([`acquisition::confirm_moving_average`]):
+/// the share found across the protocols that do show theirs ([`acquisition::window_law`]), else `share`
+/// (one saved with a model, `PARAMS.json`'s `acquisition_window_periods`). Returns the tests and the share
+/// found in these measurements, if any.
+pub fn tests_predicting(ms: &[Measurement], share: Option<f64>) -> (Vec<Test>, Option<f64>) {
     let mut protocols: Vec<(ProtocolKey, Vec<usize>)> = Vec::new();
     for (k, m) in ms.iter().enumerate() {
         let key = protocol_key(m);
@@ -584,19 +615,37 @@ pub fn tests_from(ms: &[Measurement]) -> Vec<Test> {
             None => protocols.push((key, vec![k])),
         }
     }
+    let group_of = |members: &[usize]| -> Vec<&Measurement> { members.iter().map(|&k| &ms[k]).collect() };
+    let found: Vec<Option<acquisition::MovingAverage>> = protocols
+        .iter()
+        .map(|(_, members)| filter_of(&group_of(members)))
+        .collect();
+    let shown: Vec<(usize, f64, f64)> = protocols
+        .iter()
+        .zip(&found)
+        .filter_map(|((key, _), f)| Some((f.as_ref()?.window, key.interval?, key.period)))
+        .collect();
+    let law = acquisition::window_law(&shown);
     let mut filters = vec![None; ms.len()];
-    for (_, members) in &protocols {
-        let group: Vec<&Measurement> = members.iter().map(|&k| &ms[k]).collect();
-        let filter = filter_of(&group);
+    for ((key, members), filter) in protocols.iter().zip(found) {
+        let filter = filter.or_else(|| {
+            let share = law.or(share)?;
+            let window = (share * key.period / key.interval?).round();
+            (window >= 2.0 && window.is_finite())
+                .then(|| confirm_filter(&group_of(members), window as usize))
+                .flatten()
+        });
         for &k in members {
             filters[k] = filter;
         }
     }
     // In parallel: undoing a filter is a banded solve of a test's length times the window squared.
-    ms.par_iter()
+    let tests = ms
+        .par_iter()
         .zip(filters)
         .map(|(m, f)| Test::with_filter(m, f))
-        .collect()
+        .collect();
+    (tests, law)
 }
 
 /// How the acquisition chain of the tests is taken (`--acquisition`).
@@ -655,6 +704,7 @@ pub fn tests_with(ms: &[Measurement], choice: AcquisitionChoice) -> Result<Vec<T
                 let filter = acquisition::MovingAverage {
                     window,
                     mean_depth: f64::NAN,
+                    predicted: false,
                 };
                 let test = Test::with_filter(m, Some(filter));
                 // [`drive_of`] undoes the filter on a uniform clock only.
@@ -677,29 +727,35 @@ pub fn tests_with(ms: &[Measurement], choice: AcquisitionChoice) -> Result<Vec<T
 /// Lines for a person: which tests were found logged through a moving average, and what is done about it
 /// (one line per window and clock, with the tests' groups); empty when none was.
 pub fn acquisition_note(tests: &[Test]) -> Vec<String> {
-    let mut seen: Vec<(usize, f64, Vec<String>, usize)> = Vec::new();
+    let mut seen: Vec<(usize, f64, bool, Vec<String>, usize)> = Vec::new();
     for t in tests {
         let Some(d) = &t.drive else { continue };
         let dt = d.inputs.get(1).map_or(f64::NAN, |b| b.t_s - d.inputs[0].t_s);
-        match seen
-            .iter_mut()
-            .find(|(w, step, _, _)| *w == d.window() && (*step - dt).abs() <= 1e-9 * dt.abs())
-        {
-            Some((_, _, groups, n)) => {
+        let predicted = d.filter.predicted;
+        match seen.iter_mut().find(|(w, step, p, _, _)| {
+            *w == d.window() && *p == predicted && (*step - dt).abs() <= 1e-9 * dt.abs()
+        }) {
+            Some((_, _, _, groups, n)) => {
                 *n += 1;
                 if !groups.contains(&t.group) {
                     groups.push(t.group.clone());
                 }
             }
-            None => seen.push((d.window(), dt, vec![t.group.clone()], 1)),
+            None => seen.push((d.window(), dt, predicted, vec![t.group.clone()], 1)),
         }
     }
     seen.into_iter()
-        .map(|(w, dt, groups, n)| {
+        .map(|(w, dt, predicted, groups, n)| {
+            let why = if predicted {
+                "the share of the drive period that the other protocols' filters span (or the model's \
+                 PARAMS.json saved) predicts it, and its comb of zeros shows in their spectra"
+            } else {
+                "its comb of zeros shows in their spectra"
+            };
             format!(
                 "acquisition: {n} test(s) ({}) were logged through a moving average of {w} samples ({:.3} s): \
-                 its comb of zeros shows in their spectra; the model is driven by the motion before the \
-                 filter and its force goes through the same average",
+                 {why}; the model is driven by the motion before the filter and its force goes through the \
+                 same average",
                 groups.join(", "),
                 w as f64 * dt
             )
