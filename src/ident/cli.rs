@@ -19,7 +19,10 @@ use crate::device::{DeviceConfig, Model, ModelSpec, ParamsFile, Registry};
 #[derive(clap::Args, Debug, Clone)]
 pub struct AcquisitionArg {
     /// The acquisition chain the files went through: `auto` (a moving average found in the data, by the comb
-    /// of zeros it leaves in the spectra of a protocol's tests; none where none shows), `as-logged` (compare
+    /// of zeros it leaves in the spectra of a protocol's tests; where a protocol's tests are too short to
+    /// show one, the window that the other protocols' windows predict as a share of the drive period, or
+    /// the share `fit --save` stored in PARAMS.json, if their spectra confirm it; none where none shows),
+    /// `as-logged` (compare
     /// the files as they are), or a window N in samples (every file went through a causal moving average of
     /// N samples: the model is driven by the motion before it and its force averaged likewise).
     #[arg(long, default_value = "auto")]
