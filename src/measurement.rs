@@ -183,17 +183,14 @@ impl Measurement {
         if bytes.is_empty() {
             return Err(MeasurementError::Empty { path: p() });
         }
-        let text = std::str::from_utf8(bytes).map_err(|e| {
-            let line = bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count() + 1;
-            MeasurementError::NotCsv {
-                path: p(),
-                line,
-                why: "not UTF-8 text (a binary file?)".into(),
-            }
+        let text = crate::text_lines::decode(bytes).map_err(|e| MeasurementError::NotCsv {
+            path: p(),
+            line: e.line,
+            why: e.what(),
         })?;
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-        if text.contains('\0') {
-            let line = text[..text.find('\0').unwrap_or(0)].matches('\n').count() + 1;
+        if let Some(nul) = text.find('\0') {
+            let line = crate::text_lines::line_of(text, nul);
             return Err(MeasurementError::NotCsv {
                 path: p(),
                 line,
@@ -809,6 +806,11 @@ mod tests {
         let e =
             Measurement::parse(&[0x89, 0x50, 0x4e, 0x47, 0xff, 0xfe, 0x00], Path::new("x.png")).unwrap_err();
         assert!(e.to_string().contains("not a CSV"), "{e}");
+        // A Latin-1 byte on line 3: its line and column.
+        let e =
+            Measurement::parse(b"t_s,x_m,i_a,f_n\n0,0,0,0\n1,0,\xe9,0\n", Path::new("l.csv")).unwrap_err();
+        let e = e.to_string();
+        assert!(e.contains("l.csv:3:") && e.contains("column 5: byte 0xe9"), "{e}");
         let e = err("# only comments\n");
         assert!(e.contains("no header"), "{e}");
     }

@@ -31,23 +31,54 @@ pub fn toml_key_line(text: &str, table: &str, key: &str) -> usize {
     header
 }
 
+/// Where a text's first byte that is not UTF-8 is: 1-based line and column (in characters, as an editor
+/// shows it), and the byte.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct NotUtf8 {
+    pub line: usize,
+    pub column: usize,
+    pub byte: u8,
+}
+
+impl NotUtf8 {
+    /// What is wrong at the line, without the line: `column C: byte 0xNN is not UTF-8 text (…)`.
+    pub fn what(&self) -> String {
+        format!(
+            "column {}: byte 0x{:02x} is not UTF-8 text (a binary file, or another encoding?)",
+            self.column, self.byte
+        )
+    }
+}
+
+impl std::fmt::Display for NotUtf8 {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "line {}, {}", self.line, self.what())
+    }
+}
+
+/// `bytes` as text, or where its first byte that is not UTF-8 is.
+pub fn decode(bytes: &[u8]) -> Result<&str, NotUtf8> {
+    std::str::from_utf8(bytes).map_err(|e| {
+        let at = e.valid_up_to();
+        // The bytes before `at` are valid UTF-8.
+        let valid = std::str::from_utf8(&bytes[..at]).unwrap_or_default();
+        let start = valid.rfind('\n').map_or(0, |p| p + 1);
+        NotUtf8 {
+            line: line_of(valid, at),
+            column: valid[start..].chars().count() + 1,
+            byte: bytes[at],
+        }
+    })
+}
+
 /// Read a text input file. An error reading it is the system's message; a file that is not UTF-8 (a
-/// binary file, another encoding) names the line of its first invalid byte, which
+/// binary file, another encoding) names the line and column of its first invalid byte ([`decode`]), which
 /// `std::fs::read_to_string` does not ("stream did not contain valid UTF-8").
 pub fn read_text(path: &std::path::Path) -> Result<String, String> {
     let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
-    String::from_utf8(bytes).map_err(|e| {
-        let bytes = e.as_bytes();
-        let at = e.utf8_error().valid_up_to();
-        let line = bytes[..at].iter().filter(|&&b| b == b'\n').count() + 1;
-        let start = bytes[..at].iter().rposition(|&b| b == b'\n').map_or(0, |p| p + 1);
-        // The bytes before `at` are valid UTF-8: the column counts characters, as an editor shows it.
-        let column = std::str::from_utf8(&bytes[start..at]).map_or(at - start, |l| l.chars().count()) + 1;
-        format!(
-            "line {line}, column {column}: byte 0x{:02x} is not UTF-8 text (a binary file, or another \
-             encoding?)",
-            bytes[at]
-        )
+    String::from_utf8(bytes).map_err(|e| match decode(e.as_bytes()) {
+        Err(at) => at.to_string(),
+        Ok(_) => e.to_string(),
     })
 }
 
