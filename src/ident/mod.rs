@@ -569,16 +569,12 @@ pub fn group_of(m: &Measurement) -> String {
 
 /// Read files and directories of CSV files into tests, their acquisition chain found in the data.
 pub fn load_tests(paths: &[PathBuf]) -> Result<Vec<Test>, IdentError> {
-    load_tests_with(paths, AcquisitionChoice::Auto)
+    Ok(load_tests_predicting(paths, AcquisitionChoice::Auto, None)?.0)
 }
 
-/// [`load_tests`] with the acquisition chain taken as `choice` says ([`tests_with`]).
-pub fn load_tests_with(paths: &[PathBuf], choice: AcquisitionChoice) -> Result<Vec<Test>, IdentError> {
-    Ok(load_tests_predicting(paths, choice, None)?.0)
-}
-
-/// [`load_tests_with`], where `auto` also checks the window a share of the drive period predicts
-/// ([`tests_predicting`]); returns the tests and the share found in them.
+/// [`load_tests`] with the acquisition chain taken as `choice` says ([`tests_with`]), where `auto` also
+/// checks the window a share of the drive period predicts ([`tests_predicting`]); returns the tests and
+/// the share found in them.
 pub fn load_tests_predicting(
     paths: &[PathBuf],
     choice: AcquisitionChoice,
