@@ -484,7 +484,12 @@ fn parameters_that_make_the_force_unusable_are_refused_naming_the_parameter() {
 
 #[test]
 fn an_acquisition_share_that_is_no_share_of_the_period_is_refused_at_its_line() {
-    for bad in ["0", "-0.1", "1.5", "\"a tenth\""] {
+    for (bad, shown) in [
+        ("0", "value 0 is not"),
+        ("-0.1", "value -0.1 is not"),
+        ("1.5", "value 1.5 is not"),
+        ("\"a tenth\"", "found a string"),
+    ] {
         let text = edit(
             PARAMS_JSON,
             "  \"command_timing\": \"after-sample\",\n",
@@ -495,7 +500,7 @@ fn an_acquisition_share_that_is_no_share_of_the_period_is_refused_at_its_line() 
             &text,
             line,
             "acquisition_window_periods",
-            &["a share of the drive period between 0 and 1"],
+            &["a share of the drive period between 0 and 1", shown],
         );
     }
 }

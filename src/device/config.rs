@@ -280,7 +280,15 @@ impl DeviceConfig {
             None => None,
             Some(v) => match v.as_f64() {
                 Some(share) if share > 0.0 && share < 1.0 => Some(share),
-                _ => {
+                Some(share) => {
+                    return Err(field_err(
+                        path,
+                        line(&["acquisition_window_periods"]),
+                        "acquisition_window_periods",
+                        format!("value {share} is not a share of the drive period between 0 and 1"),
+                    ))
+                }
+                None => {
                     return Err(wrong(
                         &["acquisition_window_periods"],
                         "a share of the drive period between 0 and 1",
