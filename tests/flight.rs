@@ -226,6 +226,14 @@ fn pull_up_reaches_the_load_factor_with_the_feel_capped_at_the_device_force() {
         lc_max < 1.1 * yield_14,
         "load cell {lc_max} N above the device's {yield_14} N"
     );
+    // Nowhere in this task is the desired force both resisting and within the damper's range while the
+    // stick moves: the summary says it was not judged, not "RMS NaN N".
+    assert_eq!(m.follow_fraction, 0.0, "the task never leaves the ceiling");
+    let summary = m.to_string();
+    assert!(
+        !summary.contains("NaN") && summary.contains("not judged"),
+        "{summary}"
+    );
 }
 
 /// The same task flown by a pilot adapted to the aircraft (McRuer's crossover model designed on the

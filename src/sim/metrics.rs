@@ -102,14 +102,26 @@ impl std::fmt::Display for FlightMetrics {
             "  flight: tracking RMS {:.4} (command span {:.4}); desired force vs stick force correlation {:.5}",
             self.tracking_rms, self.command_span, self.desired_vs_stick_force_corr
         )?;
+        if self.follow_fraction > 0.0 {
+            write!(
+                f,
+                "  load cell vs desired where the damper can provide it: RMS {:.2} N of {:.2} N over {:.1} % of the run;",
+                self.follow_rms_n,
+                self.follow_desired_rms_n,
+                100.0 * self.follow_fraction,
+            )?;
+        } else {
+            // An empty set has no RMS: say why nothing was judged instead of printing NaN.
+            write!(
+                f,
+                "  load cell vs desired: not judged, at no sample did the loop track a desired force that resisted \
+                 the stick's motion, under 90 % of the damper's ceiling, while the stick moved;"
+            )?;
+        }
         write!(
             f,
-            "  load cell vs desired where the damper can provide it: RMS {:.2} N of {:.2} N over {:.1} % of the run; peak stick force {:.1} N at the grip (damper ceiling there {:.1} N)",
-            self.follow_rms_n,
-            self.follow_desired_rms_n,
-            100.0 * self.follow_fraction,
-            self.stick_force_peak_n,
-            self.ceiling_at_grip_n
+            " peak stick force {:.1} N at the grip (damper ceiling there {:.1} N)",
+            self.stick_force_peak_n, self.ceiling_at_grip_n
         )?;
         if self.round_trip_mean_us.is_finite() {
             write!(
