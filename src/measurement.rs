@@ -447,12 +447,17 @@ impl Measurement {
         s
     }
 
-    /// Write to a file.
+    /// Write to a file, whole or not at all ([`crate::outputs::write_whole`]).
     pub fn write(&self, path: &Path) -> Result<(), MeasurementError> {
-        std::fs::write(path, self.to_csv_string()).map_err(|e| MeasurementError::Io {
+        let io = |e: std::io::Error| MeasurementError::Io {
             path: path.into(),
             msg: e.to_string(),
-        })
+        };
+        crate::outputs::write_whole(
+            path,
+            |tmp| std::fs::write(tmp, self.to_csv_string()).map_err(io),
+            io,
+        )
     }
 }
 

@@ -61,7 +61,14 @@ fn check_output(option: &str, path: &Path, kind: Kind) -> Result<(), String> {
                 Err(e) => return fail(format!("directory `{}`: {e}", dir.display())),
             }
             let probe = if path.exists() {
-                std::fs::OpenOptions::new().write(true).open(path).map(drop)
+                // The file is replaced through a new file beside what it names (`write_whole`): both must
+                // be possible.
+                let dir_of_target = resolved(path).parent().map(Path::to_path_buf).unwrap_or_default();
+                std::fs::OpenOptions::new()
+                    .write(true)
+                    .open(path)
+                    .map(drop)
+                    .and_then(|()| probe_dir(or_here(&dir_of_target)))
             } else {
                 std::fs::OpenOptions::new()
                     .write(true)
@@ -115,6 +122,58 @@ fn check_output(option: &str, path: &Path, kind: Kind) -> Result<(), String> {
             Ok(())
         }
     }
+}
+
+/// Where a file output ends up: the file a symbolic link points to (it is replaced, the link kept), else the
+/// path itself.
+fn resolved(path: &Path) -> PathBuf {
+    match std::fs::symlink_metadata(path) {
+        Ok(m) if m.file_type().is_symlink() => {
+            std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf())
+        }
+        _ => path.to_path_buf(),
+    }
+}
+
+/// The temporary file beside `target` that [`write_whole`] writes first: hidden, named after the process,
+/// with `target`'s extension (plot backends choose the image format by it).
+fn partial_path(target: &Path) -> PathBuf {
+    let name = target
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let pid = std::process::id();
+    let tmp = match name.rsplit_once('.') {
+        Some((stem, ext)) if !stem.is_empty() => format!(".{stem}.partial-{pid}.{ext}"),
+        _ => format!(".{name}.partial-{pid}"),
+    };
+    target.with_file_name(tmp)
+}
+
+/// Write the file `path` whole or not at all. `write` writes a temporary file beside it (the path it is
+/// given), which is renamed over `path` only once `write` has succeeded; a failure (a full disk, a plot or a
+/// recording that cannot be made) leaves an existing file as it was and no partial file behind. A replaced
+/// file keeps its permissions; a symbolic link is followed and the file it points to replaced. `io_error`
+/// turns a failed rename into the caller's error.
+pub fn write_whole<T, E>(
+    path: &Path,
+    write: impl FnOnce(&Path) -> Result<T, E>,
+    io_error: impl FnOnce(std::io::Error) -> E,
+) -> Result<T, E> {
+    let target = resolved(path);
+    let tmp = partial_path(&target);
+    let done = write(&tmp).and_then(|v| {
+        if let Ok(m) = std::fs::metadata(&target) {
+            // Best effort: a file that cannot take the old permissions still replaces the old one whole.
+            let _ = std::fs::set_permissions(&tmp, m.permissions());
+        }
+        std::fs::rename(&tmp, &target).map(|()| v).map_err(io_error)
+    });
+    if done.is_err() {
+        // Nothing to remove if `write` failed before making the file.
+        let _ = std::fs::remove_file(&tmp);
+    }
+    done
 }
 
 /// What a path names on disk, to tell whether two paths are one file: an existing file by its device and
@@ -177,4 +236,79 @@ pub fn check_outputs(outs: &[Output<'_>], inputs: &[(&'static str, &Path)]) -> R
         check_output(opt, path, kind)?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn names(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    /// A writer that fails after writing part of its file leaves the old file as it was and nothing beside
+    /// it; one that succeeds replaces it whole, with the old file's permissions; the error is the writer's.
+    #[test]
+    fn write_whole_replaces_a_file_only_when_the_writer_succeeds() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("out.csv");
+        std::fs::write(&p, "old\n").unwrap();
+        let failed: Result<(), String> = write_whole(
+            &p,
+            |tmp| {
+                std::fs::write(tmp, "half a fi").unwrap();
+                Err("disk full".into())
+            },
+            |e| e.to_string(),
+        );
+        assert_eq!(failed, Err("disk full".into()));
+        assert_eq!(std::fs::read_to_string(&p).unwrap(), "old\n");
+        assert_eq!(names(d.path()), ["out.csv"]);
+
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o640)).unwrap();
+        }
+        let written: Result<u8, String> = write_whole(
+            &p,
+            |tmp| {
+                // Plot backends choose the format by the extension: the temporary file keeps it.
+                assert_eq!(tmp.extension().and_then(|e| e.to_str()), Some("csv"));
+                assert_eq!(tmp.parent(), p.parent());
+                std::fs::write(tmp, "new\n").map_err(|e| e.to_string())?;
+                Ok(7)
+            },
+            |e| e.to_string(),
+        );
+        assert_eq!(written, Ok(7));
+        assert_eq!(std::fs::read_to_string(&p).unwrap(), "new\n");
+        assert_eq!(names(d.path()), ["out.csv"]);
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let mode = std::fs::metadata(&p).unwrap().permissions().mode() & 0o777;
+            assert_eq!(mode, 0o640);
+        }
+    }
+
+    /// An output that is a symbolic link to a file: the file it points to is replaced, the link stays a link.
+    #[test]
+    #[cfg(unix)]
+    fn write_whole_follows_a_symbolic_link() {
+        let d = tempfile::tempdir().unwrap();
+        let real = d.path().join("real.json");
+        let link = d.path().join("link.json");
+        std::fs::write(&real, "old").unwrap();
+        std::os::unix::fs::symlink(&real, &link).unwrap();
+        write_whole(&link, |tmp| std::fs::write(tmp, "new"), |e| e).unwrap();
+        assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+        assert_eq!(std::fs::read_to_string(&real).unwrap(), "new");
+        assert_eq!(names(d.path()), ["link.json", "real.json"]);
+    }
 }

@@ -610,3 +610,61 @@ fn a_plot_directory_that_cannot_take_plots_is_refused_before_the_run() {
     );
     assert!(!saved.exists(), "--save written before the refusal");
 }
+
+/// `argv` run under a file-size limit of 8 KiB, with `SIGXFSZ` ignored so that a write past the limit fails
+/// with an error (`EFBIG`) as on a full disk, instead of killing the process.
+#[cfg(target_os = "linux")]
+fn under_a_file_size_limit(argv: &[String]) -> Output {
+    Command::new("sh")
+        .arg("-c")
+        .arg("trap '' XFSZ; ulimit -f 16; exec \"$0\" \"$@\"")
+        .arg(env!("CARGO_BIN_EXE_mrfeel"))
+        .args(argv)
+        .output()
+        .expect("sh runs")
+}
+
+/// A write that fails half way (here past a file-size limit, as on a full disk) leaves the file that was
+/// there whole and no partial file beside it, and the run fails naming the file: `mts --out`, `run --out`
+/// and `fit --save` wrote in place, so the old file was gone and 8 KiB of a CSV was left in its stead.
+#[test]
+#[cfg(target_os = "linux")]
+fn a_write_that_fails_half_way_keeps_the_old_file_whole() {
+    let d = tempfile::tempdir().unwrap();
+    let keep = d.path().join("keep.csv");
+    let old = "the results of an earlier run\n";
+    let cases: [Vec<String>; 2] = [
+        ["mts", "--current", "1,2,3", "--cycles", "4", "--out", &s(&keep)]
+            .map(String::from)
+            .to_vec(),
+        ["run", &scenario("paper-feel-loop.toml"), "--out", &s(&keep)]
+            .map(String::from)
+            .to_vec(),
+    ];
+    for argv in cases {
+        std::fs::write(&keep, old).unwrap();
+        let o = under_a_file_size_limit(&argv);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{argv:?}: {err}");
+        assert!(
+            !err.contains("panicked") && err.contains("keep.csv"),
+            "{argv:?}: {err}"
+        );
+        assert_eq!(
+            std::fs::read_to_string(&keep).unwrap(),
+            old,
+            "{argv:?}: the old file was changed"
+        );
+        assert_eq!(
+            listing(d.path()),
+            ["keep.csv"],
+            "{argv:?}: a partial file was left"
+        );
+    }
+    // Unlimited, the same runs replace the file whole.
+    let o = mrfeel(&["mts", "--current", "1,2,3", "--cycles", "4", "--out", &s(&keep)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(&keep).unwrap();
+    assert!(csv.len() > 16 * 512 && !csv.contains(old), "{} bytes", csv.len());
+    assert_eq!(listing(d.path()), ["keep.csv"]);
+}

@@ -284,11 +284,20 @@ fn plots(c: &Comparison, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     Ok(files)
 }
 
+/// Write the recording `path` whole or not at all ([`crate::outputs::write_whole`]).
 fn rerun_log(c: &Comparison, path: &Path) -> anyhow::Result<()> {
     // Rerun's errors repeat their sources in their own text: report the text once, not its chain.
     let once = |e: &dyn std::fmt::Display| anyhow::anyhow!("--rerun {}: {e}", path.display());
+    crate::outputs::write_whole(path, |tmp| rerun_log_into(c, tmp, once), |e| once(&e))
+}
+
+fn rerun_log_into(
+    c: &Comparison,
+    tmp: &Path,
+    once: impl Fn(&dyn std::fmt::Display) -> anyhow::Error,
+) -> anyhow::Result<()> {
     let rec = rerun::RecordingStreamBuilder::new("mrfeel-compare")
-        .save(path)
+        .save(tmp)
         .map_err(|e| once(&e))?;
     let log = |prefix: String, tr: &Trace| -> anyhow::Result<()> {
         let times: Vec<f64> = tr.rows.iter().map(|r| r.t_s).collect();

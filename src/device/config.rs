@@ -908,10 +908,11 @@ impl ParamsFile {
         }
     }
 
-    /// Write as pretty JSON with a final newline (what `fit --save` and `mts --save-device` write).
+    /// Write as pretty JSON with a final newline (what `fit --save` and `mts --save-device` write), whole or
+    /// not at all ([`crate::outputs::write_whole`]).
     pub fn write(&self, path: &Path) -> std::io::Result<()> {
-        let text = serde_json::to_string_pretty(self).map_err(std::io::Error::other)?;
-        std::fs::write(path, text + "\n")
+        let text = serde_json::to_string_pretty(self).map_err(std::io::Error::other)? + "\n";
+        crate::outputs::write_whole(path, |tmp| std::fs::write(tmp, &text), |e| e)
     }
 }
 

@@ -20,24 +20,33 @@ fn e2s<E: std::fmt::Display>(e: E) -> IdentError {
     IdentError::Other(format!("plot: {e}"))
 }
 
-/// Draw the same figure into `NAME.png` and `NAME.svg`.
+/// Draw the same figure into `NAME.png` and `NAME.svg`, each whole or not at all
+/// ([`crate::outputs::write_whole`]).
 macro_rules! both {
     ($dir:expr, $name:expr, $size:expr, $out:expr, |$root:ident| $body:expr) => {{
         font();
         let png = $dir.join(format!("{}.png", $name));
-        {
-            let $root = BitMapBackend::new(&png, $size).into_drawing_area();
-            $root.fill(&WHITE).map_err(e2s)?;
-            $body?;
-            $root.present().map_err(e2s)?;
-        }
+        crate::outputs::write_whole(
+            &png,
+            |tmp| -> Result<(), IdentError> {
+                let $root = BitMapBackend::new(tmp, $size).into_drawing_area();
+                $root.fill(&WHITE).map_err(e2s)?;
+                $body?;
+                $root.present().map_err(e2s)
+            },
+            e2s,
+        )?;
         let svg = $dir.join(format!("{}.svg", $name));
-        {
-            let $root = SVGBackend::new(&svg, $size).into_drawing_area();
-            $root.fill(&WHITE).map_err(e2s)?;
-            $body?;
-            $root.present().map_err(e2s)?;
-        }
+        crate::outputs::write_whole(
+            &svg,
+            |tmp| -> Result<(), IdentError> {
+                let $root = SVGBackend::new(tmp, $size).into_drawing_area();
+                $root.fill(&WHITE).map_err(e2s)?;
+                $body?;
+                $root.present().map_err(e2s)
+            },
+            e2s,
+        )?;
         $out.push(png);
         $out.push(svg);
     }};

@@ -25,8 +25,17 @@ fn ent(name: &str) -> String {
         .collect()
 }
 
-/// Write `path` (`.rrd`) with one or more models' predictions (`(label, prediction per test)`).
+/// Write `path` (`.rrd`) with one or more models' predictions (`(label, prediction per test)`), whole or not
+/// at all ([`crate::outputs::write_whole`]).
 pub fn record(path: &Path, tests: &[Test], models: &[(&str, &[Vec<f64>])]) -> Result<(), IdentError> {
+    crate::outputs::write_whole(
+        path,
+        |tmp| record_into(tmp, tests, models),
+        |e| IdentError::Other(format!("--rerun {}: {e}", path.display())),
+    )
+}
+
+fn record_into(path: &Path, tests: &[Test], models: &[(&str, &[Vec<f64>])]) -> Result<(), IdentError> {
     let rec = RecordingStreamBuilder::new("mrfeel").save(path).map_err(rr)?;
     for (j, t) in tests.iter().enumerate() {
         let base = format!("tests/{}", ent(&t.name));

@@ -1,6 +1,6 @@
 //! The `run` and `daq-sweep` subcommands.
 
-use std::io::IsTerminal;
+use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
@@ -129,7 +129,7 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
     let want_viz = args.rerun.is_some() || args.spawn;
     // A viewer is spawned before the run (it shows the run as it comes); a recording file is made after it,
     // so that a run that fails leaves no file behind.
-    let mut rec = if args.spawn {
+    let rec = if args.spawn {
         Some(crate::viz::rerun_rig::spawn_on_port(args.spawn_port)?)
     } else {
         None
@@ -138,16 +138,32 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
         frames_hz: want_viz.then_some(60.0),
     };
     let res = run_with_progress(&scn, &device, rig, opts)?;
-    if let (None, Some(p)) = (&rec, &args.rerun) {
-        rec = Some(crate::viz::rerun_rig::to_file(p)?);
-    }
     if let Some(path) = &args.out {
-        let f = std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
-        res.write_csv(std::io::BufWriter::new(f))
-            .with_context(|| format!("writing {}", path.display()))?;
+        let writing = || format!("writing {}", path.display());
+        crate::outputs::write_whole(
+            path,
+            |tmp| -> anyhow::Result<()> {
+                let f = std::fs::File::create(tmp).with_context(|| format!("creating {}", path.display()))?;
+                let mut w = std::io::BufWriter::new(f);
+                res.write_csv(&mut w).with_context(writing)?;
+                // A buffered writer drops its last failure: flush it here, where the error can be reported.
+                w.flush().with_context(writing)
+            },
+            |e| anyhow::Error::new(e).context(writing()),
+        )?;
     }
-    if let Some(rec) = &rec {
-        crate::viz::rerun_rig::log_run(rec, &res)?;
+    match (&rec, &args.rerun) {
+        (Some(rec), _) => crate::viz::rerun_rig::log_run(rec, &res)?,
+        (None, Some(p)) => crate::outputs::write_whole(
+            p,
+            |tmp| -> anyhow::Result<()> {
+                let rec = crate::viz::rerun_rig::to_file(tmp)?;
+                crate::viz::rerun_rig::log_run(&rec, &res)?;
+                Ok(())
+            },
+            |e| anyhow::Error::new(e).context(format!("--rerun {}", p.display())),
+        )?,
+        (None, None) => {}
     }
     let summary = res.summary();
     let flight = super::metrics::FlightMetrics::of(&res, &scn);

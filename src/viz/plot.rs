@@ -157,16 +157,25 @@ fn save_both(fig: Figure<'_>, size: (u32, u32), dir: &Path, stem: &str) -> Resul
     })?;
     let png = dir.join(format!("{stem}.png"));
     let svg = dir.join(format!("{stem}.svg"));
-    {
-        let root = BitMapBackend::new(&png, size).into_drawing_area();
-        fig.draw(&root).map_err(|m| plot_error(&png, m))?;
-        root.present().map_err(|e| plot_error(&png, e.to_string()))?;
-    }
-    {
-        let root = SVGBackend::new(&svg, size).into_drawing_area();
-        fig.draw(&root).map_err(|m| plot_error(&svg, m))?;
-        root.present().map_err(|e| plot_error(&svg, e.to_string()))?;
-    }
+    // Each file whole or not at all (`write_whole`); errors name the file asked for, not the temporary one.
+    crate::outputs::write_whole(
+        &png,
+        |tmp| {
+            let root = BitMapBackend::new(tmp, size).into_drawing_area();
+            fig.draw(&root).map_err(|m| plot_error(&png, m))?;
+            root.present().map_err(|e| plot_error(&png, e.to_string()))
+        },
+        |e| plot_error(&png, e.to_string()),
+    )?;
+    crate::outputs::write_whole(
+        &svg,
+        |tmp| {
+            let root = SVGBackend::new(tmp, size).into_drawing_area();
+            fig.draw(&root).map_err(|m| plot_error(&svg, m))?;
+            root.present().map_err(|e| plot_error(&svg, e.to_string()))
+        },
+        |e| plot_error(&svg, e.to_string()),
+    )?;
     Ok(vec![png, svg])
 }
 
