@@ -177,7 +177,8 @@ fn response_time_grows_by_the_daq_latency_as_the_rate_falls() {
     // seen at the next tick (0–1 period later): at 100 Hz the delay grows by 1–2 periods (10–20 ms) over
     // 5 kHz. Without the latency line it would grow by less than one period; counted twice, by more than 2.
     let latency = scn.sensors.daq.latency_samples as f64;
-    let grow_ms = slow.mean_delay_ms - fast.mean_delay_ms;
+    let ms = |v: Option<f64>| v.expect("steps were measured, so they have times");
+    let grow_ms = ms(slow.mean_delay_ms) - ms(fast.mean_delay_ms);
     let lo = latency * (1e3 / 100.0 - 1e3 / 5000.0);
     let hi = (latency + 1.0) * 1e3 / 100.0 + 2.0;
     assert!(
@@ -186,8 +187,32 @@ fn response_time_grows_by_the_daq_latency_as_the_rate_falls() {
     );
     // And the force reaches 90 % later at 100 Hz than at 5 kHz.
     assert!(
-        slow.mean_rise_ms + slow.mean_delay_ms > fast.mean_rise_ms + fast.mean_delay_ms,
+        ms(slow.mean_rise_ms) + ms(slow.mean_delay_ms) > ms(fast.mean_rise_ms) + ms(fast.mean_delay_ms),
         "{pts:?}"
+    );
+}
+
+/// A DAQ too slow to follow the scenario's force steps measures none: the point says so (no times, `null`
+/// in the JSON, `–` in the table), where it used to report delays and rises of 0 ms.
+#[test]
+fn a_rate_that_measures_no_step_reports_no_times() {
+    let (scn, device) = load("response-time.toml");
+    let pts = cli::sweep(&scn, &device, &[1.0]).unwrap();
+    let p = &pts[0];
+    assert_eq!(p.steps, 0, "{p:?}");
+    assert_eq!(
+        (p.mean_delay_ms, p.mean_rise_ms, p.max_rise_ms),
+        (None, None, None)
+    );
+    let json = serde_json::to_value(p).unwrap();
+    assert!(
+        json["mean_delay_ms"].is_null() && json["max_rise_ms"].is_null(),
+        "{json}"
+    );
+    let table = sim::response::markdown_table(&pts);
+    assert!(
+        table.lines().last().unwrap().starts_with("| 1 | 0 | – | – / – |"),
+        "{table}"
     );
 }
 

@@ -13,7 +13,9 @@
 //!   alternation at 10 kHz physics, which would otherwise decide when a ±1.5 N band is last left).
 //!
 //! A step counts only where the piston keeps one direction and moves faster than the rest speed over the
-//! whole window (otherwise the damper force is not the controlled quantity).
+//! whole window (otherwise the damper force is not the controlled quantity), and where the force is still
+//! on the old level's side of the 10 % point when the step comes (at a DAQ slower than the steps it may
+//! already have moved, and a "delay" of 0 ms would be measured).
 
 use std::path::Path;
 
@@ -74,6 +76,11 @@ pub fn step_responses(res: &Results, law: &FeelLaw) -> Vec<StepResponse> {
             continue;
         }
         let frac = |r: &crate::sim::Row| (r.load_cell_true_n * dir - f0) / (f1 - f0);
+        if frac(&w[0]) >= 0.1 {
+            // The force had left the old level before the step (a DAQ slower than the steps): what follows
+            // is no response to this step.
+            continue;
+        }
         let t10 = w.iter().find(|r| frac(r) >= 0.1).map(|r| r.t_s);
         let t90 = w.iter().find(|r| frac(r) >= 0.9).map(|r| r.t_s);
         let (Some(t10), Some(t90)) = (t10, t90) else {
@@ -118,9 +125,11 @@ pub fn step_responses(res: &Results, law: &FeelLaw) -> Vec<StepResponse> {
 pub struct SweepPoint {
     pub daq_rate_hz: f64,
     pub steps: usize,
-    pub mean_delay_ms: f64,
-    pub mean_rise_ms: f64,
-    pub max_rise_ms: f64,
+    /// Delay to 10 % and rise 10–90 %, over the steps measured; `None` when no step could be measured at
+    /// this rate (a DAQ too slow to follow the scenario's steps), not a made-up 0.
+    pub mean_delay_ms: Option<f64>,
+    pub mean_rise_ms: Option<f64>,
+    pub max_rise_ms: Option<f64>,
     /// Mean over the steps that settled; `None` if none did.
     pub mean_settling_ms: Option<f64>,
     pub max_settling_ms: Option<f64>,
@@ -130,14 +139,15 @@ pub struct SweepPoint {
 }
 
 pub fn summarise(rate_hz: f64, steps: &[StepResponse], res: &Results) -> SweepPoint {
-    let n = steps.len().max(1) as f64;
+    let n = steps.len() as f64;
+    let any = !steps.is_empty();
     let settled: Vec<f64> = steps.iter().filter_map(|s| s.settling_s).collect();
     SweepPoint {
         daq_rate_hz: rate_hz,
         steps: steps.len(),
-        mean_delay_ms: 1e3 * steps.iter().map(|s| s.delay_s).sum::<f64>() / n,
-        mean_rise_ms: 1e3 * steps.iter().map(|s| s.rise_s).sum::<f64>() / n,
-        max_rise_ms: 1e3 * steps.iter().map(|s| s.rise_s).fold(0.0, f64::max),
+        mean_delay_ms: any.then(|| 1e3 * steps.iter().map(|s| s.delay_s).sum::<f64>() / n),
+        mean_rise_ms: any.then(|| 1e3 * steps.iter().map(|s| s.rise_s).sum::<f64>() / n),
+        max_rise_ms: any.then(|| 1e3 * steps.iter().map(|s| s.rise_s).fold(0.0, f64::max)),
         mean_settling_ms: (!settled.is_empty())
             .then(|| 1e3 * settled.iter().sum::<f64>() / settled.len() as f64),
         max_settling_ms: (!settled.is_empty()).then(|| 1e3 * settled.iter().copied().fold(0.0, f64::max)),
@@ -154,12 +164,12 @@ pub fn markdown_table(points: &[SweepPoint]) -> String {
     let opt = |v: Option<f64>| v.map(|x| format!("{x:.1}")).unwrap_or_else(|| "–".into());
     for p in points {
         s.push_str(&format!(
-            "| {:.0} | {} | {:.1} | {:.1} / {:.1} | {} / {} | {} | {:.3} |\n",
+            "| {:.0} | {} | {} | {} / {} | {} / {} | {} | {:.3} |\n",
             p.daq_rate_hz,
             p.steps,
-            p.mean_delay_ms,
-            p.mean_rise_ms,
-            p.max_rise_ms,
+            opt(p.mean_delay_ms),
+            opt(p.mean_rise_ms),
+            opt(p.max_rise_ms),
             opt(p.mean_settling_ms),
             opt(p.max_settling_ms),
             p.unsettled,
@@ -179,9 +189,9 @@ pub fn plot(points: &[SweepPoint], dir: &Path, title: &str) -> Result<Vec<std::p
             .collect()
     };
     let chart = Chart::new(title, "DAQ period (ms) = 1000 / rate (Hz)", "time (ms)")
-        .with(Series::line("delay to 10 %", per(|p| Some(p.mean_delay_ms))))
-        .with(Series::line("rise 10–90 %, mean", per(|p| Some(p.mean_rise_ms))))
-        .with(Series::points("rise 10–90 %, max", per(|p| Some(p.max_rise_ms))))
+        .with(Series::line("delay to 10 %", per(|p| p.mean_delay_ms)))
+        .with(Series::line("rise 10–90 %, mean", per(|p| p.mean_rise_ms)))
+        .with(Series::points("rise 10–90 %, max", per(|p| p.max_rise_ms)))
         .with(Series::line("settling ±5 %, mean", per(|p| p.mean_settling_ms)));
     save_charts(&[chart], 1, dir, "daq-sweep")
 }
