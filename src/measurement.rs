@@ -84,6 +84,11 @@ pub enum MeasurementError {
     },
 }
 
+/// Largest magnitude a measured value may have (any column, its own unit): the model's force limit
+/// ([`crate::device::model::FORCE_LIMIT_N`]). Beyond it a sum of squares overflows and the fit's figures are
+/// not numbers; no instrument reads such a value.
+pub const MAGNITUDE_LIMIT: f64 = crate::device::model::FORCE_LIMIT_N;
+
 /// One test: signals in SI units, one value per sample.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Measurement {
@@ -327,7 +332,7 @@ impl Measurement {
                         "not a number".into()
                     },
                 })?;
-                if !v.is_finite() {
+                if !v.is_finite() || v.abs() > MAGNITUDE_LIMIT {
                     return Err(MeasurementError::BadValue {
                         path: p(),
                         line: lineno,
@@ -335,8 +340,13 @@ impl Measurement {
                         value: s.to_string(),
                         why: if v.is_nan() {
                             "NaN is not a measurement".into()
-                        } else {
+                        } else if v.is_infinite() {
                             "infinite value".into()
+                        } else {
+                            format!(
+                                "beyond ±{MAGNITUDE_LIMIT:e}, where squares and the error figures stop being \
+                                 numbers (no instrument reads this)"
+                            )
                         },
                     });
                 }

@@ -668,3 +668,78 @@ fn a_write_that_fails_half_way_keeps_the_old_file_whole() {
     assert!(csv.len() > 16 * 512 && !csv.contains(old), "{} bytes", csv.len());
     assert_eq!(listing(d.path()), ["keep.csv"]);
 }
+
+/// `mts` options that give no usable record are refused before anything runs, naming the setting: a physics
+/// rate below the sample rate (was raised to it without a word), a sample rate below the motion's Nyquist
+/// rate (was a header-only CSV that `fit` refuses), a protocol of more samples than any test (a frequency of
+/// 1e-9 Hz ran until the memory was full), a current beyond what a measurement file may hold (was a CSV
+/// whose forces made the fit's figures `null`).
+#[test]
+fn mts_refuses_settings_that_give_no_usable_record() {
+    let d = tempfile::tempdir().unwrap();
+    let out = s(&d.path().join("m.csv"));
+    let cases: [(&[&str], &[&str]); 5] = [
+        (
+            &["--physics-hz", "500"],
+            &["physics_hz", "500 Hz is below the sample rate 1000 Hz"],
+        ),
+        (
+            &["--frequency-hz", "200", "--sample-rate-hz", "100"],
+            &[
+                "sample_rate_hz",
+                "100 Hz cannot record a motion of 200 Hz",
+                "400 Hz",
+            ],
+        ),
+        (&["--frequency-hz", "1e-9"], &["cycles", "samples", "1e7"]),
+        (&["--cycles", "1e-6"], &["cycles", "give 0 samples"]),
+        (&["--current", "2,1e300"], &["current", "1e300 A", "1e150"]),
+    ];
+    for (more, needles) in cases {
+        let mut argv = vec!["mts", "--current", "2", "--out", &out];
+        argv.extend_from_slice(more);
+        // A later `--current` replaces the first.
+        let o = mrfeel(&argv);
+        refused(&o, needles);
+        assert!(!Path::new(&out).exists(), "{more:?}: a file was written");
+    }
+}
+
+/// A measured value beyond ±1e150 is refused at its line and column (the fit's squares overflowed and
+/// it reported `null` figures with exit 0 and saved them); a test whose force is zero in every sample is
+/// refused, naming the file and column (its NRMSE, relative to the rms force, read 6.9e149 in `fit`).
+#[test]
+fn a_force_no_instrument_reads_or_none_at_all_is_refused() {
+    let d = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(small_test()).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let header = lines.iter().position(|l| l.starts_with("t_s,")).unwrap();
+    let with_force = |k: usize, f: &str| -> String {
+        let mut out: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+        for (j, l) in out.iter_mut().enumerate().skip(header + 1) {
+            if k == usize::MAX || j == k {
+                let mut fields: Vec<&str> = l.split(',').collect();
+                *fields.last_mut().unwrap() = f;
+                *l = fields.join(",");
+            }
+        }
+        out.join("\n") + "\n"
+    };
+    let huge = d.path().join("huge.csv");
+    std::fs::write(&huge, with_force(header + 10, "1e300")).unwrap();
+    let zero = d.path().join("zero.csv");
+    std::fs::write(&zero, with_force(usize::MAX, "0.0")).unwrap();
+    let saved = d.path().join("p.json");
+    let line = format!("huge.csv:{}", header + 11);
+    refused(
+        &mrfeel(&["fit", &s(&huge), "--save", &s(&saved)]),
+        &[&line, "f_n", "1e300", "beyond ±1e150"],
+    );
+    for cmd in ["fit", "diagnose"] {
+        refused(
+            &mrfeel(&[cmd, &s(&zero)]),
+            &["zero.csv", "`f_n` is zero in every one"],
+        );
+    }
+    assert!(!saved.exists());
+}

@@ -584,6 +584,16 @@ pub fn load_tests_predicting(
         return Err(IdentError::NoData);
     }
     let ms = crate::measurement::read_all(paths)?;
+    if let Some(m) = ms.iter().find(|m| m.f_n.iter().all(|&f| f == 0.0)) {
+        return Err(IdentError::Other(format!(
+            "{}:{}-{}: column `f_n` is zero in every one of the {} samples: no force was measured (a load cell \
+             not connected?), and the error figures, relative to the rms measured force, have no value",
+            m.path.display(),
+            m.lines.first().copied().unwrap_or(0),
+            m.lines.last().copied().unwrap_or(0),
+            m.len()
+        )));
+    }
     match choice {
         AcquisitionChoice::Auto => Ok(tests_predicting(&ms, share)),
         _ => Ok((tests_with(&ms, choice)?, None)),

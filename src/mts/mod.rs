@@ -16,7 +16,7 @@ use rand_distr::{Distribution, Normal};
 
 use crate::device::params::TestSignals;
 use crate::device::{Damper, DataStats, Inputs, Model, ModelSpec, Registry, Step};
-use crate::measurement::Measurement;
+use crate::measurement::{Measurement, MAGNITUDE_LIMIT};
 
 pub mod cli;
 
@@ -28,6 +28,13 @@ pub enum MtsError {
     #[error(transparent)]
     Device(#[from] crate::device::DeviceError),
 }
+
+/// Fewest samples a test may have: a record the readers take (a velocity from two samples).
+const MIN_SAMPLES: usize = 2;
+
+/// Most samples a test may have: 10⁷, about 3 hours at 1 kHz and a few hundred MB in memory. More than any
+/// MTS test; it keeps a mistyped frequency or cycle count from filling the memory.
+const MAX_SAMPLES: usize = 10_000_000;
 
 fn cfg_err(field: &str, msg: impl Into<String>) -> MtsError {
     MtsError::Config {
@@ -129,6 +136,14 @@ impl Protocol {
             }
         }
         Ok(())
+    }
+
+    /// The highest frequency of the motion's fundamentals, Hz (a multisine's top tone).
+    fn highest_frequency_hz(&self) -> f64 {
+        match *self {
+            Protocol::Multisine { f_max_hz, .. } => f_max_hz,
+            _ => self.base_frequency_hz(),
+        }
     }
 
     /// Tones `(amplitude, angular frequency, phase)` of a multisine, scaled to peak amplitude A.
@@ -326,6 +341,12 @@ impl MtsTest {
                 format!("{c} A: current levels must be finite and ≥ 0"),
             ));
         }
+        if let Some(c) = self.currents_a.iter().find(|c| **c > MAGNITUDE_LIMIT) {
+            return Err(cfg_err(
+                "current",
+                format!("{c:e} A: beyond the ±{MAGNITUDE_LIMIT:e} a measurement file may hold"),
+            ));
+        }
         if !(self.cycles_per_block.is_finite() && self.cycles_per_block > 0.0) {
             return Err(cfg_err("cycles", "must be positive"));
         }
@@ -339,6 +360,42 @@ impl MtsTest {
             return Err(cfg_err(
                 "physics_hz",
                 format!("{} must be in (0, 1e7] Hz", self.physics_hz),
+            ));
+        }
+        if self.physics_hz < self.sample_rate_hz {
+            // It used to be raised to the sample rate without a word.
+            return Err(cfg_err(
+                "physics_hz",
+                format!(
+                    "{} Hz is below the sample rate {} Hz: the device model is integrated at least once a \
+                     sample (give a physics rate ≥ the sample rate)",
+                    self.physics_hz, self.sample_rate_hz
+                ),
+            ));
+        }
+        let top = self.protocol.highest_frequency_hz();
+        if self.sample_rate_hz < 2.0 * top {
+            return Err(cfg_err(
+                "sample_rate_hz",
+                format!(
+                    "{} Hz cannot record a motion of {top} Hz: at least two samples a period are needed (the \
+                     Nyquist rate, {} Hz)",
+                    self.sample_rate_hz,
+                    2.0 * top
+                ),
+            ));
+        }
+        let n = self.block_s() * self.currents_a.len() as f64 * self.sample_rate_hz;
+        if !(n.round() >= MIN_SAMPLES as f64 && n.round() <= MAX_SAMPLES as f64) {
+            return Err(cfg_err(
+                "cycles",
+                format!(
+                    "{} cycles a block × {} blocks at {} Hz give {n:.0} samples: a test holds {MIN_SAMPLES} to \
+                     {MAX_SAMPLES:e} samples (change the cycles, the frequency or the sample rate)",
+                    self.cycles_per_block,
+                    self.currents_a.len(),
+                    self.sample_rate_hz
+                ),
             ));
         }
         for (name, s) in [
