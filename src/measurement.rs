@@ -479,8 +479,8 @@ pub fn read_all(paths: &[PathBuf]) -> Result<Vec<Measurement>, MeasurementError>
         .collect()
 }
 
-/// The files [`read_all`] reads: each file as given, each directory's `*.csv` files sorted by name; a
-/// directory without any is an error.
+/// The files [`read_all`] reads: each file as given, each directory's `*.csv` files (the extension in any
+/// case: `A.CSV` too) sorted by name; a directory without any is an error.
 pub fn measurement_files(paths: &[PathBuf]) -> Result<Vec<PathBuf>, MeasurementError> {
     let mut files = Vec::new();
     for p in paths {
@@ -491,7 +491,12 @@ pub fn measurement_files(paths: &[PathBuf]) -> Result<Vec<PathBuf>, MeasurementE
             })?;
             let mut inner: Vec<PathBuf> = rd
                 .filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|q| q.is_file() && q.extension().and_then(|e| e.to_str()) == Some("csv"))
+                .filter(|q| {
+                    q.is_file()
+                        && q.extension()
+                            .and_then(|e| e.to_str())
+                            .is_some_and(|e| e.eq_ignore_ascii_case("csv"))
+                })
                 .collect();
             inner.sort();
             if inner.is_empty() {
@@ -744,6 +749,22 @@ impl CommandTiming {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A directory's measurement files are found whatever the case of their extension (`.CSV` files were
+    /// skipped without a word), other files are not, and they come sorted by name.
+    #[test]
+    fn a_directory_gives_its_csv_files_in_any_case() {
+        let d = tempfile::tempdir().unwrap();
+        for name in ["b.csv", "A.CSV", "c.Csv", "notes.txt", "d.csv.bak"] {
+            std::fs::write(d.path().join(name), "").unwrap();
+        }
+        let files = measurement_files(&[d.path().to_path_buf()]).unwrap();
+        let names: Vec<_> = files
+            .iter()
+            .map(|f| f.file_name().unwrap().to_str().unwrap())
+            .collect();
+        assert_eq!(names, ["A.CSV", "b.csv", "c.Csv"]);
+    }
 
     fn parse(s: &str) -> Result<Measurement, MeasurementError> {
         Measurement::parse(s.as_bytes(), Path::new("test.csv"))
