@@ -613,3 +613,24 @@ fn the_active_stick_renders_the_feel_best_but_a_stuck_motor_drives_the_stick_by_
     // The motor has no coil: nothing reaches the (absent) MR element.
     assert!(tr.rows.iter().all(|r| r.current_applied_a == 0.0));
 }
+
+/// `compare --help` names every feel system that `--feel` accepts (it left out `active`).
+#[test]
+fn compare_help_names_every_feel_system() {
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_mrfeel"))
+        .args(["compare", "--help"])
+        .output()
+        .unwrap();
+    let help = String::from_utf8_lossy(&o.stdout);
+    let line = help
+        .lines()
+        .find(|l| l.contains("--feel"))
+        .expect("a --feel line");
+    for k in FeelKind::ALL {
+        assert!(
+            line.contains(k.name()),
+            "--help does not name {}: {line}",
+            k.name()
+        );
+    }
+}

@@ -17,7 +17,7 @@ pub struct CompareArgs {
     /// Comparison scenario (`scenarios/compare-feel.toml`).
     pub scenario: PathBuf,
     /// Feel systems to compare, comma-separated (default: the scenario's `systems`): centring_spring,
-    /// variable_gradient_spring, q_feel, mr, mr_spring.
+    /// variable_gradient_spring, q_feel, mr, mr_spring, active.
     #[arg(long)]
     pub feel: Option<String>,
     /// Print the results as JSON on stdout (the tables go to stderr).
