@@ -119,6 +119,9 @@ pub struct Scenario {
     pub outer_loop: Option<OuterLoopConfig>,
     /// The feel system on the rig (`[feel_system]`; the paper's MR damper alone by default).
     pub feel_system: FeelSystemConfig,
+    /// The feel-spring file `[feel_system] springs` names, if any (resolved against the scenario's
+    /// directory).
+    pub springs_path: Option<PathBuf>,
 }
 
 impl Scenario {
@@ -137,6 +140,33 @@ impl Scenario {
         let mut s = self.clone();
         s.aircraft.as_mut()?.model = model.to_string();
         Some(s)
+    }
+
+    /// The files other than the scenario itself that a run of it reads, each with what it is (for errors):
+    /// the device file, the rig's URDF, the pilot model, the feel-spring file, and the aircraft model (and
+    /// for a JSBSim backend the bridge script) it flies. An output must not be one of them.
+    pub fn named_files(&self) -> Vec<(&'static str, PathBuf)> {
+        let mut files = vec![
+            ("device file", self.device_path.clone()),
+            ("URDF", self.rig.urdf.clone()),
+            ("pilot model", self.pilot.hand_path.clone()),
+        ];
+        if let Some(p) = &self.springs_path {
+            files.push(("feel-spring file", p.clone()));
+        }
+        if let Some(a) = &self.aircraft {
+            let (jsbsim, name) = match a.model.split_once(':') {
+                Some(("jsbsim", name)) => (true, name),
+                _ => (false, a.model.as_str()),
+            };
+            if let Ok(p) = crate::aero::AircraftModel::builtin(name) {
+                files.push(("aircraft model", p));
+            }
+            if jsbsim {
+                files.push(("JSBSim bridge script", crate::aero::jsbsim_bridge::script_path()));
+            }
+        }
+        files
     }
 
     /// The same scenario with another DAQ rate (for the DAQ-rate sweep).
@@ -406,6 +436,11 @@ impl Scenario {
             aircraft,
             outer_loop,
             feel_system,
+            springs_path: f
+                .feel_system
+                .as_ref()
+                .and_then(|fs| fs.springs.as_ref())
+                .map(|p| dir.join(p.get_ref())),
         })
     }
 

@@ -54,6 +54,19 @@ pub struct DaqSweepArgs {
     pub json: bool,
 }
 
+/// Every file `mrfeel run` or `daq-sweep` of `scenario` reads, each with what it is, which no output may
+/// overwrite: the scenario and the files it names ([`Scenario::named_files`]), flying `aircraft`
+/// (`--aircraft`) instead of its own aircraft where given. A scenario that cannot be loaded is listed
+/// alone: the command then fails on it before it writes anything.
+pub fn input_files(scenario: &Path, aircraft: Option<&str>) -> Vec<(&'static str, PathBuf)> {
+    let mut files = vec![("scenario", scenario.to_path_buf())];
+    if let Ok(scn) = Scenario::load(scenario) {
+        let scn = aircraft.and_then(|m| scn.with_aircraft_model(m)).unwrap_or(scn);
+        files.extend(scn.named_files());
+    }
+    files
+}
+
 /// Load the scenario's device and build its rig.
 pub fn load(path: &Path) -> anyhow::Result<(Scenario, DeviceConfig, crate::rig::Rig)> {
     let scn = Scenario::load(path)?;
