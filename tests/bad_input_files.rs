@@ -242,6 +242,26 @@ fn urdf_that_is_not_xml_names_the_line() {
 }
 
 #[test]
+fn urdf_nested_too_deep_is_an_error_at_its_line_not_a_crash() {
+    // 50 000 nested unknown elements took the URDF reader past the stack (SIGABRT, exit 134).
+    let deep = format!(
+        "\n  {}{}\n</robot>",
+        "<deep>".repeat(50_000),
+        "</deep>".repeat(50_000)
+    );
+    bad_urdf(
+        "\n</robot>",
+        &deep,
+        "<deep>",
+        &[
+            "not a valid URDF (XML)",
+            "`<deep>` is nested 257 elements deep",
+            "256",
+        ],
+    );
+}
+
+#[test]
 fn duplicate_link_names_and_massless_moving_links_are_errors() {
     // The line of the duplicate, not of the first link; the first is named by its line.
     let urdf = std::fs::read_to_string(root().join("models/stick-rig.urdf")).unwrap();
