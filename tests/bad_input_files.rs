@@ -231,6 +231,23 @@ fn urdf_value_errors_name_the_real_line_element_and_attribute() {
 }
 
 #[test]
+fn negative_joint_losses_in_the_urdf_are_errors_naming_the_attribute() {
+    // A negative pivot damping fed energy in: an energy residual of -1.01 and an 85 kN load cell.
+    bad_urdf(
+        r#"<dynamics damping="0" friction="0"/>"#,
+        r#"<dynamics damping="-5" friction="0"/>"#,
+        r#"damping="-5""#,
+        &["joint `stick_pivot`: dynamics: `damping`: -5 must be ≥ 0"],
+    );
+    bad_urdf(
+        r#"<dynamics damping="0" friction="0"/>"#,
+        r#"<dynamics damping="0" friction="-0.5"/>"#,
+        r#"friction="-0.5""#,
+        &["joint `stick_pivot`: dynamics: `friction`: -0.5 must be ≥ 0"],
+    );
+}
+
+#[test]
 fn urdf_that_is_not_xml_names_the_line() {
     bad_urdf(
         r#"<loop_joint name="rod_end_pin" type="revolute">"#,

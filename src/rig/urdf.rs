@@ -514,6 +514,8 @@ fn attribute_offset(raw: &str, key: &str) -> usize {
 enum Val {
     Text,
     Num,
+    /// A number ≥ 0 (a joint's losses: a negative one would feed energy in).
+    NonNeg,
     Vec3,
     Vec4,
     JointType,
@@ -636,7 +638,10 @@ fn schema(parent: &str, name: &str) -> Option<(&'static [AttrSpec], &'static [Ch
             NO_CHILD,
         ),
         (_, "calibration") => (&[("rising", Num, false), ("falling", Num, false)], NO_CHILD),
-        (_, "dynamics") => (&[("damping", Num, false), ("friction", Num, false)], NO_CHILD),
+        (_, "dynamics") => (
+            &[("damping", NonNeg, false), ("friction", NonNeg, false)],
+            NO_CHILD,
+        ),
         (_, "mimic") => (
             &[
                 ("joint", Text, true),
@@ -821,6 +826,12 @@ fn check_value(kind: Val, v: &str) -> Result<(), String> {
     match kind {
         Val::Text => Ok(()),
         Val::Num => num(v).map(|_| ()),
+        Val::NonNeg => match num(v)? {
+            x if x >= 0.0 => Ok(()),
+            x => Err(format!(
+                "{x} must be ≥ 0 (a joint's loss: a negative one feeds energy into the rig)"
+            )),
+        },
         Val::Vec3 => vector(3),
         Val::Vec4 => vector(4),
         Val::JointType => {
