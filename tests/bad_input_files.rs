@@ -279,6 +279,43 @@ fn urdf_nested_too_deep_is_an_error_at_its_line_not_a_crash() {
 }
 
 #[test]
+fn a_schedule_point_is_exactly_two_numbers() {
+    // `[3.0]` was refused, but `[3.0, 5.0, "junk", 7]` passed as `[3.0, 5.0]`, the rest dropped.
+    let dir = tempfile::tempdir().unwrap();
+    for (point, found) in [
+        ("[3.0, 5.0, \"junk\", 7]", "4"),
+        ("[3.0, 5.0, 6.0]", "3"),
+        ("[3.0]", "1"),
+    ] {
+        let (scn, text) = scenario(dir.path(), "c172p-pitch-tracking.toml", |t| {
+            t.replacen("[3.0, 5.0]", point, 1)
+        });
+        let line = line_of(&text, point);
+        refused(
+            &run(dir.path(), &scn, &[]),
+            &[
+                &format!("scn.toml:{line}: "),
+                &format!("invalid length {found}"),
+                "[t_s, value]",
+            ],
+        );
+    }
+    let (scn, text) = scenario(dir.path(), "737-approach.toml", |t| {
+        t.replacen("[3.0, 0.6]", "[3.0, 0.6, 0.7]", 1)
+    });
+    let line = line_of(&text, "[3.0, 0.6, 0.7]");
+    refused(
+        &run(dir.path(), &scn, &[]),
+        &[&format!("scn.toml:{line}: "), "invalid length 3"],
+    );
+}
+
+/// `paper-feel-loop.toml` with `tables` appended.
+fn with_faults(dir: &Path, tables: &str) -> (PathBuf, String) {
+    scenario(dir, "paper-feel-loop.toml", |t| format!("{t}\n{tables}"))
+}
+
+#[test]
 fn duplicate_link_names_and_massless_moving_links_are_errors() {
     // The line of the duplicate, not of the first link; the first is named by its line.
     let urdf = std::fs::read_to_string(root().join("models/stick-rig.urdf")).unwrap();
