@@ -316,6 +316,39 @@ fn with_faults(dir: &Path, tables: &str) -> (PathBuf, String) {
 }
 
 #[test]
+fn a_fault_table_error_names_the_line_of_its_key_however_the_header_is_spelled() {
+    // `[[ fault ]]` (valid TOML) was not found by a text search for `[[fault]]`: the error said line 0.
+    let dir = tempfile::tempdir().unwrap();
+    let (scn, text) = with_faults(
+        dir.path(),
+        "[[ fault ]]\nkind = \"coil_open\"\nstart_s = 1.0\nend_s = 2.0\n\n[[ fault ]]\n\
+         kind = \"coil_shorted\"\nstart_s = 1.0\nend_s = 2.0\n",
+    );
+    let line = line_of(&text, "coil_shorted");
+    refused(
+        &run(dir.path(), &scn, &[]),
+        &[&format!(
+            "scn.toml:{line}: [[fault]] #2: `kind`: `coil_shorted` is not one of"
+        )],
+    );
+}
+
+#[test]
+fn a_fault_that_ends_where_it_starts_is_refused() {
+    // Active on start_s ≤ t < end_s, it never acts: it was accepted and changed nothing.
+    let dir = tempfile::tempdir().unwrap();
+    let (scn, text) = with_faults(
+        dir.path(),
+        "[[fault]]\nkind = \"coil_open\"\nstart_s = 2.0\nend_s = 2.0\n",
+    );
+    let line = line_of(&text, "end_s = 2.0");
+    refused(
+        &run(dir.path(), &scn, &[]),
+        &[&format!("scn.toml:{line}: [[fault]] #1: `end_s`: "), "never act"],
+    );
+}
+
+#[test]
 fn duplicate_link_names_and_massless_moving_links_are_errors() {
     // The line of the duplicate, not of the first link; the first is named by its line.
     let urdf = std::fs::read_to_string(root().join("models/stick-rig.urdf")).unwrap();

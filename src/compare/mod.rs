@@ -448,6 +448,18 @@ impl CompareScenario {
             f64::INFINITY,
             "s (after start_s)",
         )?;
+        if f.fault_test.end_s <= f.fault_test.start_s {
+            return Err(CompareError::Field {
+                path: path.to_path_buf(),
+                line: line_of_key(text, "fault_test", "end_s"),
+                key: "fault_test.end_s".into(),
+                msg: format!(
+                    "value {} s is not after start_s = {} s: the faults would never act (each is active \
+                     from start_s until end_s)",
+                    f.fault_test.end_s, f.fault_test.start_s
+                ),
+            });
+        }
         if let Some(a) = &f.active {
             chk("active", "max_force_n", a.max_force_n, 0.0, 1e4, "N")?;
             chk(
