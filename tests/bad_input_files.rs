@@ -349,6 +349,34 @@ fn a_fault_that_ends_where_it_starts_is_refused() {
 }
 
 #[test]
+fn a_device_stroke_that_the_urdf_contradicts_is_refused_naming_both_files() {
+    // The device file's stroke_half_in was ignored by `run`, which took the URDF's piston stops.
+    let dir = tempfile::tempdir().unwrap();
+    let device = std::fs::read_to_string(root().join("models/paper-device.toml")).unwrap();
+    let short = device.replacen("stroke_half_in = 2.0", "stroke_half_in = 1.0", 1);
+    assert_ne!(short, device);
+    let device_path = dir.path().join("short-stroke.toml");
+    std::fs::write(&device_path, &short).unwrap();
+    let (scn, _) = scenario(dir.path(), "paper-feel-loop.toml", |t| {
+        t.replace(
+            &format!("{}/models/paper-device.toml", root().display()),
+            s(&device_path),
+        )
+    });
+    let urdf = std::fs::read_to_string(root().join("models/stick-rig.urdf")).unwrap();
+    let limit = line_of(&urdf, r#"<limit lower="-0.0508" upper="0.0508""#);
+    refused(
+        &run(dir.path(), &scn, &[]),
+        &[
+            &format!("stick-rig.urdf:{limit}: joint `piston_slide`: limit"),
+            "[-0.0508, 0.0508] m",
+            "±0.0254 m (±1 in",
+            &format!("short-stroke.toml:{}", line_of(&short, "stroke_half_in")),
+        ],
+    );
+}
+
+#[test]
 fn duplicate_link_names_and_massless_moving_links_are_errors() {
     // The line of the duplicate, not of the first link; the first is named by its line.
     let urdf = std::fs::read_to_string(root().join("models/stick-rig.urdf")).unwrap();
