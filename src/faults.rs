@@ -38,6 +38,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::Deserialize;
+use toml::Spanned;
 
 /// Kinds of fault, in table order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -137,11 +138,23 @@ pub enum FaultError {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct FaultEntry {
-    kind: String,
-    start_s: f64,
-    end_s: f64,
-    noise_rms_n: Option<f64>,
-    extra_latency_s: Option<f64>,
+    kind: Spanned<String>,
+    start_s: Spanned<f64>,
+    end_s: Spanned<f64>,
+    noise_rms_n: Option<Spanned<f64>>,
+    extra_latency_s: Option<Spanned<f64>>,
+}
+
+/// A scenario's `fault` key, whatever it holds (other keys are left to their own parsers).
+#[derive(Deserialize)]
+struct AnyFault {
+    fault: Option<Spanned<toml::Value>>,
+}
+
+/// A scenario's `[[fault]]` tables, each where it is in the text.
+#[derive(Deserialize)]
+struct FaultTables<T> {
+    fault: Vec<Spanned<T>>,
 }
 
 /// The faults of a run.
@@ -160,75 +173,100 @@ impl FaultSchedule {
     }
 
     /// Read the `[[fault]]` tables of a scenario file's text (other tables are left to their own
-    /// parsers). Times must lie within `[0, duration_s]`, `start_s < end_s`.
+    /// parsers). Times must lie within `[0, duration_s]`, `start_s < end_s`. Errors name the line of the
+    /// key at fault (from the TOML parser's spans, however the header is spelled: `[[ fault ]]`).
     pub fn from_scenario_text(text: &str, path: &Path, duration_s: f64) -> Result<Self, FaultError> {
-        let doc: toml::Table = toml::from_str(text).map_err(|e| FaultError::Parse {
+        let line = |at: usize| line_of(text, at);
+        let parse_err = |e: toml::de::Error| FaultError::Parse {
             path: path.to_path_buf(),
-            line: e.span().map(|s| line_of(text, s.start)).unwrap_or(0),
+            line: e.span().map_or(1, |s| line(s.start)),
             msg: e.message().trim().to_string(),
-        })?;
-        let Some(value) = doc.get("fault") else {
+        };
+        let any: AnyFault = toml::from_str(text).map_err(parse_err)?;
+        let Some(value) = any.fault else {
             return Ok(Self::none());
         };
-        let entries = value.as_array().ok_or_else(|| FaultError::Parse {
-            path: path.to_path_buf(),
-            line: line_of(text, text.find("fault").unwrap_or(0)),
-            msg: "`fault` must be an array of tables: write `[[fault]]`".into(),
-        })?;
-        // Line of the k-th `[[fault]]` header, for messages (toml::Value carries no spans).
-        let headers: Vec<usize> = text
-            .lines()
-            .enumerate()
-            .filter(|(_, l)| l.trim_start().starts_with("[[fault]]"))
-            .map(|(k, _)| k + 1)
-            .collect();
-        let mut faults = Vec::with_capacity(entries.len());
-        for (k, v) in entries.iter().enumerate() {
-            let line = headers.get(k).copied().unwrap_or(0);
-            let field = |key: &str, msg: String| FaultError::Field {
+        if !value.get_ref().is_array() {
+            return Err(FaultError::Parse {
                 path: path.to_path_buf(),
-                line,
+                line: line(value.span().start),
+                msg: "`fault` must be an array of tables: write `[[fault]]`".into(),
+            });
+        }
+        // Where each table is, to name the one a parse error is in.
+        let tables: FaultTables<toml::Value> = toml::from_str(text).map_err(parse_err)?;
+        let entries: FaultTables<FaultEntry> = toml::from_str(text).map_err(|e| {
+            let at = e.span().map(|s| s.start);
+            match at.and_then(|a| tables.fault.iter().position(|t| t.span().contains(&a))) {
+                Some(k) => FaultError::Field {
+                    path: path.to_path_buf(),
+                    line: at.map_or(1, line),
+                    index: k + 1,
+                    key: "fault".into(),
+                    msg: e.message().trim().to_string(),
+                },
+                None => parse_err(e),
+            }
+        })?;
+        let mut faults = Vec::with_capacity(entries.fault.len());
+        for (k, e) in entries.fault.iter().enumerate() {
+            let e = e.get_ref();
+            let field = |key: &str, at: usize, msg: String| FaultError::Field {
+                path: path.to_path_buf(),
+                line: line(at),
                 index: k + 1,
                 key: key.to_string(),
                 msg,
             };
-            let e: FaultEntry = v
-                .clone()
-                .try_into()
-                .map_err(|err: toml::de::Error| field("fault", err.message().trim().to_string()))?;
-            let kind = FaultKind::from_name(&e.kind).ok_or_else(|| {
+            let kind = FaultKind::from_name(e.kind.get_ref()).ok_or_else(|| {
                 let names: Vec<&str> = FaultKind::ALL.iter().map(|k| k.name()).collect();
                 field(
                     "kind",
-                    format!("`{}` is not one of: {}", e.kind, names.join(", ")),
+                    e.kind.span().start,
+                    format!("`{}` is not one of: {}", e.kind.get_ref(), names.join(", ")),
                 )
             })?;
-            let range = |key: &str, x: f64, lo: f64, hi: f64, unit: &str| {
+            let range = |key: &str, v: &Spanned<f64>, lo: f64, hi: f64, unit: &str| {
+                let x = *v.get_ref();
                 if x.is_finite() && x >= lo && x <= hi {
                     Ok(x)
                 } else {
                     Err(field(
                         key,
+                        v.span().start,
                         format!("value {x} outside the allowed range [{lo}, {hi}] {unit}"),
                     ))
                 }
             };
-            let start_s = range("start_s", e.start_s, 0.0, duration_s, "s (within the run)")?;
-            let end_s = range("end_s", e.end_s, start_s, f64::INFINITY, "s (after start_s)")?;
+            let start_s = range("start_s", &e.start_s, 0.0, duration_s, "s (within the run)")?;
+            let end_s = range("end_s", &e.end_s, start_s, f64::INFINITY, "s (after start_s)")?;
+            if end_s <= start_s {
+                // Active on start_s ≤ t < end_s: a fault that ends where it starts never acts.
+                return Err(field(
+                    "end_s",
+                    e.end_s.span().start,
+                    format!(
+                        "value {end_s} s is not after start_s = {start_s} s: the fault would never act \
+                         (it is active from start_s until end_s)"
+                    ),
+                ));
+            }
             let mut f = Fault::new(kind, start_s, end_s);
-            if let Some(n) = e.noise_rms_n {
+            if let Some(n) = &e.noise_rms_n {
                 if kind != FaultKind::LoadCellNoisy {
                     return Err(field(
                         "noise_rms_n",
+                        n.span().start,
                         "only used by kind = \"load_cell_noisy\"".into(),
                     ));
                 }
                 f.noise_rms_n = range("noise_rms_n", n, 0.0, 250.0, "N")?;
             }
-            if let Some(d) = e.extra_latency_s {
+            if let Some(d) = &e.extra_latency_s {
                 if kind != FaultKind::LatencySpike {
                     return Err(field(
                         "extra_latency_s",
+                        d.span().start,
                         "only used by kind = \"latency_spike\"".into(),
                     ));
                 }
@@ -381,15 +419,32 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(
-            e.contains("s.toml:1") && e.contains("`kind`") && e.contains("coil_open"),
+            e.contains("s.toml:2: [[fault]] #1: `kind`") && e.contains("coil_open"),
             "{e}"
         );
+        // The header spelled with spaces (valid TOML), the bad table the second: its own `kind` line.
+        let spaced = format!(
+            "[[ fault ]]\nkind = \"coil_open\"\nstart_s = 1.0\nend_s = 2.0\n\n[[ fault ]]\n{}",
+            &bad_kind[10..]
+        );
+        let e = FaultSchedule::from_scenario_text(&spaced, Path::new("s.toml"), 5.0)
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("s.toml:7: [[fault]] #2: `kind`"), "{e}");
         let late = "a = 1\n[[fault]]\nkind = \"coil_open\"\nstart_s = 9.0\nend_s = 10.0\n";
         let e = FaultSchedule::from_scenario_text(late, Path::new("s.toml"), 5.0)
             .unwrap_err()
             .to_string();
         assert!(
-            e.contains("s.toml:2") && e.contains("start_s") && e.contains("[0, 5]"),
+            e.contains("s.toml:4") && e.contains("start_s") && e.contains("[0, 5]"),
+            "{e}"
+        );
+        let empty = "[[fault]]\nkind = \"coil_open\"\nstart_s = 2.0\nend_s = 2.0\n";
+        let e = FaultSchedule::from_scenario_text(empty, Path::new("s.toml"), 5.0)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("s.toml:4: [[fault]] #1: `end_s`") && e.contains("never act"),
             "{e}"
         );
         let wrong_param = "[[fault]]\nkind = \"coil_open\"\nstart_s = 1.0\nend_s = 2.0\nnoise_rms_n = 1.0\n";
@@ -401,7 +456,10 @@ mod tests {
         let e = FaultSchedule::from_scenario_text(unknown, Path::new("s.toml"), 5.0)
             .unwrap_err()
             .to_string();
-        assert!(e.contains("severity"), "{e}");
+        assert!(
+            e.contains("s.toml:5: [[fault]] #1") && e.contains("severity"),
+            "{e}"
+        );
     }
 
     #[test]

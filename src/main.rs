@@ -72,8 +72,8 @@ fn outputs(command: &Command) -> Vec<Output<'_>> {
         .collect()
 }
 
-/// The files a command reads, which no output may overwrite: the files named, and the CSVs of a named
-/// measurement directory.
+/// The files a command reads, which no output may overwrite: the files named, the CSVs of a named
+/// measurement directory, and the files a scenario names (device, URDF, pilot model, springs, aircraft).
 fn inputs(command: &Command) -> Vec<(&'static str, PathBuf)> {
     // As the loader lists them; where it cannot, the command will say why before it writes anything.
     let data = |paths: &[PathBuf]| -> Vec<(&'static str, PathBuf)> {
@@ -85,9 +85,9 @@ fn inputs(command: &Command) -> Vec<(&'static str, PathBuf)> {
     };
     match command {
         Command::Mts(a) => a.device.iter().map(|p| ("device file", p.clone())).collect(),
-        Command::Run(a) => vec![("scenario", a.scenario.clone())],
-        Command::DaqSweep(a) => vec![("scenario", a.scenario.clone())],
-        Command::Compare(a) => vec![("scenario", a.scenario.clone())],
+        Command::Run(a) => mrfeel::sim::cli::input_files(&a.scenario, a.aircraft.as_deref()),
+        Command::DaqSweep(a) => mrfeel::sim::cli::input_files(&a.scenario, None),
+        Command::Compare(a) => mrfeel::compare::cli::input_files(&a.scenario),
         Command::Fit(a) => data(&a.data),
         Command::Validate(a) => {
             let mut v = data(&a.data);

@@ -119,6 +119,9 @@ pub struct Scenario {
     pub outer_loop: Option<OuterLoopConfig>,
     /// The feel system on the rig (`[feel_system]`; the paper's MR damper alone by default).
     pub feel_system: FeelSystemConfig,
+    /// The feel-spring file `[feel_system] springs` names, if any (resolved against the scenario's
+    /// directory).
+    pub springs_path: Option<PathBuf>,
 }
 
 impl Scenario {
@@ -137,6 +140,33 @@ impl Scenario {
         let mut s = self.clone();
         s.aircraft.as_mut()?.model = model.to_string();
         Some(s)
+    }
+
+    /// The files other than the scenario itself that a run of it reads, each with what it is (for errors):
+    /// the device file, the rig's URDF, the pilot model, the feel-spring file, and the aircraft model (and
+    /// for a JSBSim backend the bridge script) it flies. An output must not be one of them.
+    pub fn named_files(&self) -> Vec<(&'static str, PathBuf)> {
+        let mut files = vec![
+            ("device file", self.device_path.clone()),
+            ("URDF", self.rig.urdf.clone()),
+            ("pilot model", self.pilot.hand_path.clone()),
+        ];
+        if let Some(p) = &self.springs_path {
+            files.push(("feel-spring file", p.clone()));
+        }
+        if let Some(a) = &self.aircraft {
+            let (jsbsim, name) = match a.model.split_once(':') {
+                Some(("jsbsim", name)) => (true, name),
+                _ => (false, a.model.as_str()),
+            };
+            if let Ok(p) = crate::aero::AircraftModel::builtin(name) {
+                files.push(("aircraft model", p));
+            }
+            if jsbsim {
+                files.push(("JSBSim bridge script", crate::aero::jsbsim_bridge::script_path()));
+            }
+        }
+        files
     }
 
     /// The same scenario with another DAQ rate (for the DAQ-rate sweep).
@@ -406,6 +436,11 @@ impl Scenario {
             aircraft,
             outer_loop,
             feel_system,
+            springs_path: f
+                .feel_system
+                .as_ref()
+                .and_then(|fs| fs.springs.as_ref())
+                .map(|p| dir.join(p.get_ref())),
         })
     }
 
@@ -945,13 +980,13 @@ impl Ctx<'_> {
     /// increasing, values within `[lo, hi]`.
     fn schedule(
         &self,
-        pts: &Spanned<Vec<[f64; 2]>>,
+        pts: &Spanned<Vec<Point>>,
         key: &str,
         lo: f64,
         hi: f64,
         unit: &str,
     ) -> Result<Schedule, ScenarioError> {
-        let p = pts.get_ref();
+        let p: Vec<[f64; 2]> = pts.get_ref().iter().map(|q| q.0).collect();
         if p.is_empty() {
             return Err(self.err(pts, key, "needs at least one [t_s, value] point"));
         }
@@ -1045,6 +1080,41 @@ struct File {
     feel_system: Option<FeelSystemSection>,
 }
 
+/// A point `[t_s, value]` of a schedule: exactly two numbers. (serde's `[f64; 2]` reads the first two
+/// elements of a longer array and drops the rest: `[3.0, 5.0, "junk", 7]` passed as `[3.0, 5.0]`.)
+#[derive(Clone, Copy)]
+struct Point([f64; 2]);
+
+impl<'de> Deserialize<'de> for Point {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Two;
+        impl<'de> serde::de::Visitor<'de> for Two {
+            type Value = Point;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a point [t_s, value] of two numbers")
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Point, A::Error> {
+                use serde::de::Error;
+                let t = seq
+                    .next_element::<f64>()?
+                    .ok_or_else(|| A::Error::invalid_length(0, &self))?;
+                let v = seq
+                    .next_element::<f64>()?
+                    .ok_or_else(|| A::Error::invalid_length(1, &self))?;
+                let mut n = 2;
+                while seq.next_element::<serde::de::IgnoredAny>()?.is_some() {
+                    n += 1;
+                }
+                if n > 2 {
+                    return Err(A::Error::invalid_length(n, &self));
+                }
+                Ok(Point([t, v]))
+            }
+        }
+        d.deserialize_seq(Two)
+    }
+}
+
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct FeelSystemSection {
@@ -1064,7 +1134,7 @@ struct AircraftSection {
     airspeed_m_s: Spanned<f64>,
     altitude_m: Spanned<f64>,
     rate_hz: Option<Spanned<f64>>,
-    throttle: Option<Spanned<Vec<[f64; 2]>>>,
+    throttle: Option<Spanned<Vec<Point>>>,
 }
 
 #[derive(Deserialize)]
@@ -1080,7 +1150,7 @@ struct OuterLoopSection {
     crossover_rad_s: Option<Spanned<f64>>,
     stick_lag_s: Option<Spanned<f64>>,
     /// `[[t_s, value], ...]`: pitch in degrees relative to trim, or load factor in g.
-    command: Spanned<Vec<[f64; 2]>>,
+    command: Spanned<Vec<Point>>,
 }
 
 #[derive(Deserialize)]

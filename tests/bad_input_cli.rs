@@ -305,6 +305,90 @@ fn an_output_that_is_one_of_the_inputs_is_refused_and_the_input_kept() {
     refused(&o, &["--out", "input scenario"]);
 }
 
+/// A copy of the repository's `scenarios/` and `models/` in a temporary folder (the scenarios name the
+/// models as `../models/…`), so that a run that wrongly writes over an input destroys only the copy.
+fn scenario_tree() -> tempfile::TempDir {
+    let d = tempfile::tempdir().unwrap();
+    for sub in ["scenarios", "models"] {
+        std::fs::create_dir(d.path().join(sub)).unwrap();
+        for e in std::fs::read_dir(root().join(sub)).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_file() {
+                std::fs::copy(&p, d.path().join(sub).join(p.file_name().unwrap())).unwrap();
+            }
+        }
+    }
+    d
+}
+
+#[test]
+#[cfg(unix)]
+fn run_and_compare_refuse_an_output_that_is_a_file_the_scenario_names() {
+    let d = scenario_tree();
+    let models = d.path().join("models");
+    let scn = d.path().join("scenarios/paper-feel-loop.toml");
+    // A spring feel unit, so that the run also reads the feel-spring file.
+    let springs_scn = d.path().join("scenarios/springs.toml");
+    std::fs::write(
+        &springs_scn,
+        std::fs::read_to_string(&scn).unwrap()
+            + "\n[feel_system]\nkind = \"centring_spring\"\nsprings = \"../models/feel-springs.toml\"\n\
+               damping_n_s_per_m = 100.0\n",
+    )
+    .unwrap();
+    let device = models.join("paper-device.toml");
+    let link = d.path().join("device-link.toml");
+    std::os::unix::fs::symlink(&device, &link).unwrap();
+    let before: Vec<(PathBuf, Vec<u8>)> = std::fs::read_dir(&models)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .map(|p| (p.clone(), std::fs::read(&p).unwrap()))
+        .collect();
+    let run_cases = [
+        (&scn, "--out", device.clone(), "input device file"),
+        (&scn, "--rerun", models.join("stick-rig.urdf"), "input URDF"),
+        (&scn, "--out", models.join("pilot-hand.toml"), "input pilot model"),
+        (&scn, "--out", link.clone(), "input device file"),
+        (
+            &springs_scn,
+            "--rerun",
+            models.join("feel-springs.toml"),
+            "input feel-spring file",
+        ),
+    ];
+    for (scenario, option, path, what) in run_cases {
+        let o = mrfeel(&["run", &s(scenario), option, &s(&path)]);
+        refused(&o, &[option, &s(&path), what, "nothing was run"]);
+    }
+    let o = mrfeel(&["daq-sweep", &s(&scn), "--rates", "100", "--plot", &s(&device)]);
+    refused(&o, &["--plot", "input device file"]);
+    let compare = d.path().join("scenarios/compare-feel.toml");
+    let compare_cases = [
+        (
+            "--rerun",
+            models.join("feel-springs.toml"),
+            "input feel-spring file",
+        ),
+        ("--rerun", scn.clone(), "input base scenario"),
+        ("--rerun", link.clone(), "input device file"),
+        ("--plot", models.join("stick-rig.urdf"), "input URDF"),
+    ];
+    for (option, path, what) in compare_cases {
+        let o = mrfeel(&[
+            "compare",
+            &s(&compare),
+            "--feel",
+            "centring_spring",
+            option,
+            &s(&path),
+        ]);
+        refused(&o, &[option, &s(&path), what, "nothing was run"]);
+    }
+    for (p, bytes) in before {
+        assert!(std::fs::read(&p).unwrap() == bytes, "{} was changed", p.display());
+    }
+}
+
 // ------------------------------------------------------------------ a thing named twice
 
 #[test]

@@ -231,6 +231,23 @@ fn urdf_value_errors_name_the_real_line_element_and_attribute() {
 }
 
 #[test]
+fn negative_joint_losses_in_the_urdf_are_errors_naming_the_attribute() {
+    // A negative pivot damping fed energy in: an energy residual of -1.01 and an 85 kN load cell.
+    bad_urdf(
+        r#"<dynamics damping="0" friction="0"/>"#,
+        r#"<dynamics damping="-5" friction="0"/>"#,
+        r#"damping="-5""#,
+        &["joint `stick_pivot`: dynamics: `damping`: -5 must be ≥ 0"],
+    );
+    bad_urdf(
+        r#"<dynamics damping="0" friction="0"/>"#,
+        r#"<dynamics damping="0" friction="-0.5"/>"#,
+        r#"friction="-0.5""#,
+        &["joint `stick_pivot`: dynamics: `friction`: -0.5 must be ≥ 0"],
+    );
+}
+
+#[test]
 fn urdf_that_is_not_xml_names_the_line() {
     bad_urdf(
         r#"<loop_joint name="rod_end_pin" type="revolute">"#,
@@ -239,6 +256,124 @@ fn urdf_that_is_not_xml_names_the_line() {
         &["`</loop_joint>` does not close `<loop_jont>` opened at line 207"],
     );
     bad_urdf("</robot>", "", "<robot name", &["`<robot>` is never closed"]);
+}
+
+#[test]
+fn urdf_nested_too_deep_is_an_error_at_its_line_not_a_crash() {
+    // 50 000 nested unknown elements took the URDF reader past the stack (SIGABRT, exit 134).
+    let deep = format!(
+        "\n  {}{}\n</robot>",
+        "<deep>".repeat(50_000),
+        "</deep>".repeat(50_000)
+    );
+    bad_urdf(
+        "\n</robot>",
+        &deep,
+        "<deep>",
+        &[
+            "not a valid URDF (XML)",
+            "`<deep>` is nested 257 elements deep",
+            "256",
+        ],
+    );
+}
+
+#[test]
+fn a_schedule_point_is_exactly_two_numbers() {
+    // `[3.0]` was refused, but `[3.0, 5.0, "junk", 7]` passed as `[3.0, 5.0]`, the rest dropped.
+    let dir = tempfile::tempdir().unwrap();
+    for (point, found) in [
+        ("[3.0, 5.0, \"junk\", 7]", "4"),
+        ("[3.0, 5.0, 6.0]", "3"),
+        ("[3.0]", "1"),
+    ] {
+        let (scn, text) = scenario(dir.path(), "c172p-pitch-tracking.toml", |t| {
+            t.replacen("[3.0, 5.0]", point, 1)
+        });
+        let line = line_of(&text, point);
+        refused(
+            &run(dir.path(), &scn, &[]),
+            &[
+                &format!("scn.toml:{line}: "),
+                &format!("invalid length {found}"),
+                "[t_s, value]",
+            ],
+        );
+    }
+    let (scn, text) = scenario(dir.path(), "737-approach.toml", |t| {
+        t.replacen("[3.0, 0.6]", "[3.0, 0.6, 0.7]", 1)
+    });
+    let line = line_of(&text, "[3.0, 0.6, 0.7]");
+    refused(
+        &run(dir.path(), &scn, &[]),
+        &[&format!("scn.toml:{line}: "), "invalid length 3"],
+    );
+}
+
+/// `paper-feel-loop.toml` with `tables` appended.
+fn with_faults(dir: &Path, tables: &str) -> (PathBuf, String) {
+    scenario(dir, "paper-feel-loop.toml", |t| format!("{t}\n{tables}"))
+}
+
+#[test]
+fn a_fault_table_error_names_the_line_of_its_key_however_the_header_is_spelled() {
+    // `[[ fault ]]` (valid TOML) was not found by a text search for `[[fault]]`: the error said line 0.
+    let dir = tempfile::tempdir().unwrap();
+    let (scn, text) = with_faults(
+        dir.path(),
+        "[[ fault ]]\nkind = \"coil_open\"\nstart_s = 1.0\nend_s = 2.0\n\n[[ fault ]]\n\
+         kind = \"coil_shorted\"\nstart_s = 1.0\nend_s = 2.0\n",
+    );
+    let line = line_of(&text, "coil_shorted");
+    refused(
+        &run(dir.path(), &scn, &[]),
+        &[&format!(
+            "scn.toml:{line}: [[fault]] #2: `kind`: `coil_shorted` is not one of"
+        )],
+    );
+}
+
+#[test]
+fn a_fault_that_ends_where_it_starts_is_refused() {
+    // Active on start_s ≤ t < end_s, it never acts: it was accepted and changed nothing.
+    let dir = tempfile::tempdir().unwrap();
+    let (scn, text) = with_faults(
+        dir.path(),
+        "[[fault]]\nkind = \"coil_open\"\nstart_s = 2.0\nend_s = 2.0\n",
+    );
+    let line = line_of(&text, "end_s = 2.0");
+    refused(
+        &run(dir.path(), &scn, &[]),
+        &[&format!("scn.toml:{line}: [[fault]] #1: `end_s`: "), "never act"],
+    );
+}
+
+#[test]
+fn a_device_stroke_that_the_urdf_contradicts_is_refused_naming_both_files() {
+    // The device file's stroke_half_in was ignored by `run`, which took the URDF's piston stops.
+    let dir = tempfile::tempdir().unwrap();
+    let device = std::fs::read_to_string(root().join("models/paper-device.toml")).unwrap();
+    let short = device.replacen("stroke_half_in = 2.0", "stroke_half_in = 1.0", 1);
+    assert_ne!(short, device);
+    let device_path = dir.path().join("short-stroke.toml");
+    std::fs::write(&device_path, &short).unwrap();
+    let (scn, _) = scenario(dir.path(), "paper-feel-loop.toml", |t| {
+        t.replace(
+            &format!("{}/models/paper-device.toml", root().display()),
+            s(&device_path),
+        )
+    });
+    let urdf = std::fs::read_to_string(root().join("models/stick-rig.urdf")).unwrap();
+    let limit = line_of(&urdf, r#"<limit lower="-0.0508" upper="0.0508""#);
+    refused(
+        &run(dir.path(), &scn, &[]),
+        &[
+            &format!("stick-rig.urdf:{limit}: joint `piston_slide`: limit"),
+            "[-0.0508, 0.0508] m",
+            "±0.0254 m (±1 in",
+            &format!("short-stroke.toml:{}", line_of(&short, "stroke_half_in")),
+        ],
+    );
 }
 
 #[test]

@@ -34,6 +34,20 @@ pub struct CompareArgs {
     pub faults: bool,
 }
 
+/// Every file `mrfeel compare` of the comparison scenario `path` reads, each with what it is, which no
+/// output may overwrite: the comparison scenario, its base scenario and the files that names
+/// ([`crate::scenario::Scenario::named_files`]), and its feel-spring file. A comparison that cannot be
+/// loaded is listed alone: the command then fails on it before it writes anything.
+pub fn input_files(path: &Path) -> Vec<(&'static str, PathBuf)> {
+    let mut files = vec![("comparison scenario", path.to_path_buf())];
+    if let Ok(scn) = CompareScenario::load(path) {
+        files.push(("base scenario", scn.base.path.clone()));
+        files.extend(scn.base.named_files());
+        files.push(("feel-spring file", scn.springs_path));
+    }
+    files
+}
+
 /// Everything `mrfeel compare` computes.
 pub struct Comparison {
     pub systems: Vec<(FeelKind, SystemMetrics, Trace, Trace)>,

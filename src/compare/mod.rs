@@ -239,6 +239,8 @@ pub struct CompareScenario {
     pub device: DeviceConfig,
     pub coil_resistance_ohm: f64,
     pub springs: FeelSprings,
+    /// The feel-spring file `[springs] file` names.
+    pub springs_path: PathBuf,
     pub spring_damping_n_s_per_m: f64,
     pub qbar_pa: f64,
     pub hybrid_spring: CentringSpring,
@@ -320,7 +322,8 @@ impl CompareScenario {
             1000.0,
             "Ω",
         )?;
-        let springs = FeelSprings::load(&dir.join(&f.springs.file)).map_err(|e| CompareError::Field {
+        let springs_path = dir.join(&f.springs.file);
+        let springs = FeelSprings::load(&springs_path).map_err(|e| CompareError::Field {
             path: path.to_path_buf(),
             line: line_of_key(text, "springs", "file"),
             key: "springs.file".into(),
@@ -445,6 +448,18 @@ impl CompareScenario {
             f64::INFINITY,
             "s (after start_s)",
         )?;
+        if f.fault_test.end_s <= f.fault_test.start_s {
+            return Err(CompareError::Field {
+                path: path.to_path_buf(),
+                line: line_of_key(text, "fault_test", "end_s"),
+                key: "fault_test.end_s".into(),
+                msg: format!(
+                    "value {} s is not after start_s = {} s: the faults would never act (each is active \
+                     from start_s until end_s)",
+                    f.fault_test.end_s, f.fault_test.start_s
+                ),
+            });
+        }
         if let Some(a) = &f.active {
             chk("active", "max_force_n", a.max_force_n, 0.0, 1e4, "N")?;
             chk(
@@ -473,6 +488,7 @@ impl CompareScenario {
             device,
             coil_resistance_ohm: f.device.coil_resistance_ohm,
             springs,
+            springs_path,
             spring_damping_n_s_per_m: s.damping_n_s_per_m,
             qbar_pa: s.qbar_pa,
             hybrid_spring: CentringSpring {

@@ -69,6 +69,10 @@ fn at(path: &Path, line: usize) -> String {
     }
 }
 
+/// How far the URDF's piston stops may lie from a device's half stroke, m: 0.1 mm, the rounding of a
+/// length in metres written to four decimals (2 in = 0.0508 m exactly).
+pub const STROKE_TOLERANCE_M: f64 = 1e-4;
+
 /// Which URDF elements play which role in the rig.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -330,6 +334,8 @@ pub struct Rig {
     linkage: Linkage,
     stick_limits_rad: (f64, f64),
     stroke_limits_m: (f64, f64),
+    /// Where the piston's stops are written: the URDF, the line of the piston joint's `<limit>`, the joint.
+    stroke_limits_at: (PathBuf, usize, String),
     damper: DamperJoint,
     dt_s: f64,
     substep_dt_s: f64,
@@ -784,6 +790,11 @@ impl Rig {
             linkage,
             stick_limits_rad: stick_limits,
             stroke_limits_m: stroke_limits,
+            stroke_limits_at: (
+                model.path.clone(),
+                model.line_in("joint", &piston_j.name, &["limit"]),
+                piston_j.name.clone(),
+            ),
             damper: DamperJoint::new(damper),
             dt_s,
             substep_dt_s,
@@ -978,6 +989,32 @@ impl Rig {
     /// Half stroke of the piston, m (the smaller of the URDF's two limits).
     pub fn stroke_limit_m(&self) -> f64 {
         self.stroke_limits_m.1.min(-self.stroke_limits_m.0)
+    }
+
+    /// The piston's stops are the device's stroke ±`stroke_half_m` (its `geometry.stroke_half_in`, at
+    /// `device`: `file:line`), within [`STROKE_TOLERANCE_M`]. The rig's piston is the device's damper: a
+    /// stroke in the device file that the URDF contradicts is an error naming both, not a value one of
+    /// them silently overrides.
+    pub fn check_device_stroke(&self, stroke_half_m: f64, device: &str) -> Result<(), RigError> {
+        let (lo, hi) = self.stroke_limits_m;
+        if (hi - stroke_half_m).abs() <= STROKE_TOLERANCE_M
+            && (-lo - stroke_half_m).abs() <= STROKE_TOLERANCE_M
+        {
+            return Ok(());
+        }
+        let (path, line, joint) = &self.stroke_limits_at;
+        Err(RigError::Field {
+            path: path.clone(),
+            line: *line,
+            field: format!("joint `{joint}`: limit"),
+            msg: format!(
+                "the piston's stops [{lo}, {hi}] m are not the device's stroke ±{stroke_half_m} m \
+                 (±{} in, {device}): the rig's piston is the device's damper; make the two agree (within \
+                 {} mm)",
+                stroke_half_m / crate::units::IN_TO_M,
+                STROKE_TOLERANCE_M * 1e3
+            ),
+        })
     }
 
     /// Piston x per stick angle at neutral, m/rad.

@@ -367,6 +367,11 @@ impl Lines {
 
 type XmlError = (usize, String);
 
+/// The deepest nesting of elements read. A URDF nests a few levels (`robot/link/visual/geometry/box`); the
+/// tree is built, checked and dropped, and `urdf-rs` reads it, by recursion, which a file nesting tens of
+/// thousands of elements would take past the stack (a crash, not an error).
+const MAX_DEPTH: usize = 256;
+
 /// Read the XML text into its element tree (the root element), or the line and reason it is not XML. The
 /// parsing is quick-xml's (the XML reader urdf-rs itself uses); this adds the lines of elements and
 /// attributes, which urdf-rs's errors do not give.
@@ -414,6 +419,17 @@ fn scan_xml(text: &str) -> Result<XmlElement, XmlError> {
         let start = before + text[before..].find('<').unwrap_or(0);
         let closed = match event {
             Event::Start(tag) => {
+                if stack.len() >= MAX_DEPTH {
+                    let name = String::from_utf8_lossy(tag.name().as_ref()).into_owned();
+                    return Err((
+                        lines.line(start),
+                        format!(
+                            "`<{name}>` is nested {} elements deep, more than the {MAX_DEPTH} allowed (a URDF \
+                             nests a few)",
+                            stack.len() + 1
+                        ),
+                    ));
+                }
                 stack.push(element(&tag, start)?);
                 None
             }
@@ -498,6 +514,8 @@ fn attribute_offset(raw: &str, key: &str) -> usize {
 enum Val {
     Text,
     Num,
+    /// A number ≥ 0 (a joint's losses: a negative one would feed energy in).
+    NonNeg,
     Vec3,
     Vec4,
     JointType,
@@ -620,7 +638,10 @@ fn schema(parent: &str, name: &str) -> Option<(&'static [AttrSpec], &'static [Ch
             NO_CHILD,
         ),
         (_, "calibration") => (&[("rising", Num, false), ("falling", Num, false)], NO_CHILD),
-        (_, "dynamics") => (&[("damping", Num, false), ("friction", Num, false)], NO_CHILD),
+        (_, "dynamics") => (
+            &[("damping", NonNeg, false), ("friction", NonNeg, false)],
+            NO_CHILD,
+        ),
         (_, "mimic") => (
             &[
                 ("joint", Text, true),
@@ -805,6 +826,12 @@ fn check_value(kind: Val, v: &str) -> Result<(), String> {
     match kind {
         Val::Text => Ok(()),
         Val::Num => num(v).map(|_| ()),
+        Val::NonNeg => match num(v)? {
+            x if x >= 0.0 => Ok(()),
+            x => Err(format!(
+                "{x} must be ≥ 0 (a joint's loss: a negative one feeds energy into the rig)"
+            )),
+        },
         Val::Vec3 => vector(3),
         Val::Vec4 => vector(4),
         Val::JointType => {

@@ -54,6 +54,19 @@ pub struct DaqSweepArgs {
     pub json: bool,
 }
 
+/// Every file `mrfeel run` or `daq-sweep` of `scenario` reads, each with what it is, which no output may
+/// overwrite: the scenario and the files it names ([`Scenario::named_files`]), flying `aircraft`
+/// (`--aircraft`) instead of its own aircraft where given. A scenario that cannot be loaded is listed
+/// alone: the command then fails on it before it writes anything.
+pub fn input_files(scenario: &Path, aircraft: Option<&str>) -> Vec<(&'static str, PathBuf)> {
+    let mut files = vec![("scenario", scenario.to_path_buf())];
+    if let Ok(scn) = Scenario::load(scenario) {
+        let scn = aircraft.and_then(|m| scn.with_aircraft_model(m)).unwrap_or(scn);
+        files.extend(scn.named_files());
+    }
+    files
+}
+
 /// Load the scenario's device and build its rig.
 pub fn load(path: &Path) -> anyhow::Result<(Scenario, DeviceConfig, crate::rig::Rig)> {
     let scn = Scenario::load(path)?;
@@ -82,7 +95,19 @@ pub fn build_rig(scn: &Scenario, device: &DeviceConfig) -> anyhow::Result<crate:
         damper = crate::device::Damper::new(device.model.clone(), p)
             .with_context(|| format!("feel unit of scenario {}", scn.path.display()))?;
     }
-    crate::rig::Rig::new(&scn.rig, damper).with_context(|| format!("rig of scenario {}", scn.path.display()))
+    let rig = crate::rig::Rig::new(&scn.rig, damper);
+    let rig = rig.and_then(|rig| match device.geometry {
+        Some(g) => {
+            // The device file's line, read again only to name it.
+            let line = crate::text_lines::read_text(&device.path)
+                .map(|t| crate::text_lines::toml_key_line(&t, "geometry", "stroke_half_in"))
+                .unwrap_or(1);
+            let at = format!("`geometry.stroke_half_in` at {}:{line}", device.path.display());
+            rig.check_device_stroke(g.stroke_half_m, &at).map(|()| rig)
+        }
+        None => Ok(rig),
+    });
+    rig.with_context(|| format!("rig of scenario {}", scn.path.display()))
 }
 
 fn progress_bar(len: u64, msg: &str) -> ProgressBar {
