@@ -480,7 +480,9 @@ pub fn read_all(paths: &[PathBuf]) -> Result<Vec<Measurement>, MeasurementError>
 }
 
 /// The files [`read_all`] reads: each file as given, each directory's `*.csv` files (the extension in any
-/// case: `A.CSV` too) sorted by name; a directory without any is an error.
+/// case: `A.CSV` too) sorted by name, hidden ones (`.name.csv`) left out as a shell's `*.csv` leaves them (an
+/// output's temporary file, `.name.partial-PID.csv`, left by a run that was killed, is one); a directory
+/// without any is an error.
 pub fn measurement_files(paths: &[PathBuf]) -> Result<Vec<PathBuf>, MeasurementError> {
     let mut files = Vec::new();
     for p in paths {
@@ -493,6 +495,9 @@ pub fn measurement_files(paths: &[PathBuf]) -> Result<Vec<PathBuf>, MeasurementE
                 .filter_map(|e| e.ok().map(|e| e.path()))
                 .filter(|q| {
                     q.is_file()
+                        && !q
+                            .file_name()
+                            .is_some_and(|n| n.to_string_lossy().starts_with('.'))
                         && q.extension()
                             .and_then(|e| e.to_str())
                             .is_some_and(|e| e.eq_ignore_ascii_case("csv"))
@@ -751,11 +756,19 @@ mod tests {
     use super::*;
 
     /// A directory's measurement files are found whatever the case of their extension (`.CSV` files were
-    /// skipped without a word), other files are not, and they come sorted by name.
+    /// skipped without a word), other files and hidden ones (a killed run's temporary output) are not, and
+    /// they come sorted by name.
     #[test]
     fn a_directory_gives_its_csv_files_in_any_case() {
         let d = tempfile::tempdir().unwrap();
-        for name in ["b.csv", "A.CSV", "c.Csv", "notes.txt", "d.csv.bak"] {
+        for name in [
+            "b.csv",
+            "A.CSV",
+            "c.Csv",
+            "notes.txt",
+            "d.csv.bak",
+            ".e.partial-7.csv",
+        ] {
             std::fs::write(d.path().join(name), "").unwrap();
         }
         let files = measurement_files(&[d.path().to_path_buf()]).unwrap();

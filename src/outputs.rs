@@ -60,10 +60,15 @@ fn check_output(option: &str, path: &Path, kind: Kind) -> Result<(), String> {
                 }
                 Err(e) => return fail(format!("directory `{}`: {e}", dir.display())),
             }
-            let probe = if path.exists() {
-                // The file is replaced through a new file beside what it names (`write_whole`): both must
-                // be possible.
-                let dir_of_target = resolved(path).parent().map(Path::to_path_buf).unwrap_or_default();
+            let target = resolved(path);
+            let probe = if target.exists() && !target.is_file() {
+                // A stream (`/dev/null`, a named pipe) is written directly when the results are ready;
+                // opening a pipe now would wait for its reader, or end its reading.
+                Ok(())
+            } else if path.exists() {
+                // A regular file is replaced through a new file beside what it names (`write_whole`): both
+                // must be possible.
+                let dir_of_target = target.parent().map(Path::to_path_buf).unwrap_or_default();
                 std::fs::OpenOptions::new()
                     .write(true)
                     .open(path)
@@ -153,14 +158,18 @@ fn partial_path(target: &Path) -> PathBuf {
 /// Write the file `path` whole or not at all. `write` writes a temporary file beside it (the path it is
 /// given), which is renamed over `path` only once `write` has succeeded; a failure (a full disk, a plot or a
 /// recording that cannot be made) leaves an existing file as it was and no partial file behind. A replaced
-/// file keeps its permissions; a symbolic link is followed and the file it points to replaced. `io_error`
-/// turns a failed rename into the caller's error.
+/// file keeps its permissions; a symbolic link is followed and the file it points to replaced. An output
+/// that exists and is not a regular file (`/dev/null`, a named pipe) is written directly: it is a stream,
+/// not a file to replace. `io_error` turns a failed rename into the caller's error.
 pub fn write_whole<T, E>(
     path: &Path,
     write: impl FnOnce(&Path) -> Result<T, E>,
     io_error: impl FnOnce(std::io::Error) -> E,
 ) -> Result<T, E> {
     let target = resolved(path);
+    if std::fs::metadata(&target).is_ok_and(|m| !m.is_file()) {
+        return write(&target);
+    }
     let tmp = partial_path(&target);
     let done = write(&tmp).and_then(|v| {
         if let Ok(m) = std::fs::metadata(&target) {
@@ -232,8 +241,68 @@ pub fn check_outputs(outs: &[Output<'_>], inputs: &[(&'static str, &Path)]) -> R
             ));
         }
     }
+    for &(opt, dir, kind) in outs {
+        if kind == Kind::Dir {
+            check_plot_dir(opt, dir, outs, inputs)?;
+        }
+    }
     for &(opt, path, kind) in outs {
         check_output(opt, path, kind)?;
+    }
+    Ok(())
+}
+
+/// Whether `path` names a plot file: a `.png` or `.svg` (any case).
+fn is_plot_file(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| PLOT_EXTENSIONS.iter().any(|p| e.eq_ignore_ascii_case(p)))
+}
+
+/// The files a command writes into the plot directory `dir` must not be anything else it reads or writes:
+/// no input and no other output may lie in it with a plot file's name, and none of its plot files may be a
+/// link to one.
+fn check_plot_dir(
+    opt: &str,
+    dir: &Path,
+    outs: &[Output<'_>],
+    inputs: &[(&'static str, &Path)],
+) -> Result<(), String> {
+    let dir_id = file_id(dir);
+    let others: Vec<(String, &Path)> = outs
+        .iter()
+        .filter(|(_, p, k)| *k == Kind::File && !p.as_os_str().is_empty())
+        .map(|(o, p, _)| (o.to_string(), *p))
+        .chain(inputs.iter().map(|(what, p)| (format!("the input {what}"), *p)))
+        .collect();
+    for (what, p) in &others {
+        let parent = or_here(p.parent().unwrap_or(Path::new("")));
+        if is_plot_file(p) && file_id(parent) == dir_id {
+            return Err(format!(
+                "{opt} {}: {what} `{}` is in it with a plot file's name, which a plot could overwrite: give \
+                 one of them another name or directory (nothing was run)",
+                dir.display(),
+                p.display()
+            ));
+        }
+    }
+    if let Ok(entries) = std::fs::read_dir(dir) {
+        let ids: Vec<(FileId, &String, &Path)> = others.iter().map(|(w, p)| (file_id(p), w, *p)).collect();
+        for e in entries.flatten() {
+            let name = e.path();
+            if !is_plot_file(&name) {
+                continue;
+            }
+            let id = file_id(&name);
+            if let Some((_, what, p)) = ids.iter().find(|(i, _, _)| *i == id) {
+                return Err(format!(
+                    "{opt} {}: its `{}` is {what} `{}`, which a plot would overwrite (nothing was run)",
+                    dir.display(),
+                    name.file_name().unwrap_or_default().to_string_lossy(),
+                    p.display()
+                ));
+            }
+        }
     }
     Ok(())
 }

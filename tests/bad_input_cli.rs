@@ -827,3 +827,78 @@ fn a_force_no_instrument_reads_or_none_at_all_is_refused() {
     }
     assert!(!saved.exists());
 }
+
+/// The files a command writes into its plot directory are outputs like any other: an input or another
+/// output in it with a plot file's name, or a plot file there that links to an input, is refused before
+/// the run (a measurement named `force_time.png`, a recording named like a plot, `mts --out mp/mts.svg
+/// --plot mp` and a plot linked to the measurement were all overwritten, with exit 0).
+#[test]
+#[cfg(unix)]
+fn nothing_read_or_written_may_sit_in_a_plot_directory_under_a_plot_name() {
+    let d = tempfile::tempdir().unwrap();
+    let pd = d.path().join("pd");
+    std::fs::create_dir(&pd).unwrap();
+    let as_png = pd.join("force_time.png");
+    std::fs::copy(small_test(), &as_png).unwrap();
+    let before = std::fs::read(&as_png).unwrap();
+    refused(
+        &mrfeel(&["fit", &s(&as_png), "--plot", &s(&pd)]),
+        &["--plot", "the input measurement", "force_time.png"],
+    );
+    refused(
+        &mrfeel(&[
+            "fit",
+            &small_test(),
+            "--plot",
+            &s(&pd),
+            "--rerun",
+            &s(&pd.join("x.png")),
+        ]),
+        &["--plot", "--rerun", "x.png"],
+    );
+    let mp = d.path().join("mp");
+    refused(
+        &mrfeel(&mts_args(&s(&mp.join("mts.svg")), &["--plot", &s(&mp)])),
+        &["--plot", "--out", "mts.svg"],
+    );
+    let ld = d.path().join("ld");
+    std::fs::create_dir(&ld).unwrap();
+    let data = d.path().join("m.csv");
+    std::fs::copy(small_test(), &data).unwrap();
+    std::os::unix::fs::symlink(&data, ld.join("force_time.svg")).unwrap();
+    refused(
+        &mrfeel(&["fit", &s(&data), "--plot", &s(&ld)]),
+        &["--plot", "force_time.svg", "m.csv"],
+    );
+    assert_eq!(std::fs::read(&as_png).unwrap(), before);
+    assert_eq!(
+        std::fs::read(&data).unwrap(),
+        std::fs::read(small_test()).unwrap()
+    );
+    assert!(!mp.exists());
+}
+
+/// An output that is a stream, not a file (a named pipe here, `/dev/null` alike), is written to, not
+/// replaced by a regular file: the reader gets the CSV and the pipe stays a pipe.
+#[test]
+#[cfg(target_os = "linux")]
+fn an_output_that_is_a_pipe_is_written_not_replaced() {
+    use std::os::unix::fs::FileTypeExt;
+    let d = tempfile::tempdir().unwrap();
+    let fifo = d.path().join("pipe.csv");
+    let made = Command::new("mkfifo").arg(&fifo).status().expect("mkfifo runs");
+    assert!(made.success());
+    let reader = {
+        let fifo = fifo.clone();
+        std::thread::spawn(move || std::fs::read_to_string(fifo).unwrap())
+    };
+    let o = mrfeel(&mts_args(&s(&fifo), &[]));
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let got = reader.join().unwrap();
+    assert!(
+        got.contains("t_s,") && got.lines().count() > 100,
+        "{} bytes",
+        got.len()
+    );
+    assert!(std::fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo());
+}
