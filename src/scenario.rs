@@ -97,6 +97,10 @@ pub enum PilotDesign {
     },
 }
 
+/// Most physics steps a run may take ([`Scenario::load`] refuses more): each keeps a row of the results, so
+/// this bounds the memory at about 3 GB (an hour at 100 kHz asked for 107 GB and aborted).
+pub const MAX_PHYSICS_STEPS: f64 = 1e7;
+
 /// A validated scenario.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scenario {
@@ -195,6 +199,18 @@ impl Scenario {
             ));
         }
         let duration_s = c.num(&f.duration_s, "duration_s", 1e-3, 3600.0, "s")?;
+        let steps = duration_s * physics_rate_hz;
+        if steps > MAX_PHYSICS_STEPS {
+            return Err(c.err(
+                &f.duration_s,
+                "duration_s",
+                &format!(
+                    "{duration_s} s at rig.physics_hz = {physics_rate_hz} Hz is {steps:.0} physics steps: at most \
+                     {MAX_PHYSICS_STEPS:e} (a run keeps a row of ~300 bytes per step: 3 GB); shorten the run or \
+                     lower the physics rate"
+                ),
+            ));
+        }
         let seed = c.int(&f.seed, "seed", 0, i64::MAX)? as u64;
 
         let sensors = SensorsConfig {

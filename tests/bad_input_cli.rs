@@ -762,7 +762,7 @@ fn a_write_that_fails_half_way_keeps_the_old_file_whole() {
 fn mts_refuses_settings_that_give_no_usable_record() {
     let d = tempfile::tempdir().unwrap();
     let out = s(&d.path().join("m.csv"));
-    let cases: [(&[&str], &[&str]); 5] = [
+    let cases: [(&[&str], &[&str]); 6] = [
         (
             &["--physics-hz", "500"],
             &["physics_hz", "500 Hz is below the sample rate 1000 Hz"],
@@ -778,6 +778,10 @@ fn mts_refuses_settings_that_give_no_usable_record() {
         (&["--frequency-hz", "1e-9"], &["cycles", "samples", "1e7"]),
         (&["--cycles", "1e-6"], &["cycles", "give 0 samples"]),
         (&["--current", "2,1e300"], &["current", "1e300 A", "1e150"]),
+        (
+            &["--physics-hz", "1e7", "--frequency-hz", "0.001", "--cycles", "1"],
+            &["physics_hz", "10000000000 integration steps", "1e9"],
+        ),
     ];
     for (more, needles) in cases {
         let mut argv = vec!["mts", "--current", "2", "--out", &out];

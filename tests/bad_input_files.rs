@@ -514,3 +514,42 @@ fn a_text_input_that_is_not_utf8_names_its_line() {
     );
     assert!(!out.exists());
 }
+
+/// A physics rate within the scenario's range but too coarse for the rig and loop makes the integration
+/// blow up: the run stops with an error naming `rig.physics_hz` and the time, writing nothing (it exited 0
+/// with a piston at 1e32 m and NaN in the CSV); the same scenario at its own rate runs.
+#[test]
+fn a_simulation_that_diverges_is_an_error_not_results() {
+    let dir = tempfile::tempdir().unwrap();
+    let (scn, _) = scenario(dir.path(), "paper-feel-loop.toml", |t| {
+        t.replace("physics_hz = 1000.0", "physics_hz = 100.0")
+            .replace("sample_rate_hz = 1000.0", "sample_rate_hz = 100.0")
+    });
+    let err = refused(
+        &run(dir.path(), &scn, &[]),
+        &["scn.toml", "rig.physics_hz", "diverged at t ="],
+    );
+    assert!(
+        err.contains("stroke") || err.contains("is NaN") || err.contains("is inf"),
+        "{err}"
+    );
+    let (ok, _) = scenario(dir.path(), "paper-feel-loop.toml", |t| t);
+    let o = run(dir.path(), &ok, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// A run of more physics steps than its results can hold is refused at the `duration_s` line (an hour at
+/// 100 kHz, both within their ranges, aborted asking for 107 GB).
+#[test]
+fn a_run_too_long_for_its_physics_rate_is_refused_at_its_duration() {
+    let dir = tempfile::tempdir().unwrap();
+    let (scn, text) = scenario(dir.path(), "paper-feel-loop.toml", |t| {
+        t.replace("duration_s = 12.0", "duration_s = 3600.0")
+            .replace("physics_hz = 1000.0", "physics_hz = 100000.0")
+    });
+    let at = format!("scn.toml:{}", line_of(&text, "duration_s = 3600.0"));
+    refused(
+        &run(dir.path(), &scn, &[]),
+        &[&at, "duration_s", "360000000 physics steps", "1e7"],
+    );
+}

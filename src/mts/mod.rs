@@ -36,6 +36,10 @@ const MIN_SAMPLES: usize = 2;
 /// MTS test; it keeps a mistyped frequency or cycle count from filling the memory.
 const MAX_SAMPLES: usize = 10_000_000;
 
+/// Most integration steps of the device model a test may take: 10⁹, about a minute with the costliest
+/// effects.
+const MAX_PHYSICS_STEPS: f64 = 1e9;
+
 fn cfg_err(field: &str, msg: impl Into<String>) -> MtsError {
     MtsError::Config {
         field: field.to_string(),
@@ -395,6 +399,17 @@ impl MtsTest {
                     self.cycles_per_block,
                     self.currents_a.len(),
                     self.sample_rate_hz
+                ),
+            ));
+        }
+        let steps = n.round() * (self.physics_hz / self.sample_rate_hz).ceil();
+        if steps > MAX_PHYSICS_STEPS {
+            return Err(cfg_err(
+                "physics_hz",
+                format!(
+                    "{} Hz over {n:.0} samples is {steps:.0} integration steps: at most {MAX_PHYSICS_STEPS:e} (hours \
+                     of computing); lower the physics rate or shorten the test",
+                    self.physics_hz
                 ),
             ));
         }

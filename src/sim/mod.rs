@@ -46,6 +46,39 @@ pub enum SimError {
         scenario: std::path::PathBuf,
         error: crate::aero::AeroError,
     },
+    /// The integration blew up: a run whose numbers would be reported as results is stopped instead.
+    #[error(
+        "{}: rig.physics_hz: the simulation diverged at t = {t_s} s ({what}); {physics_hz} Hz is too coarse \
+         for this rig and loop: raise the physics rate",
+        scenario.display()
+    )]
+    Diverged {
+        scenario: std::path::PathBuf,
+        t_s: f64,
+        what: String,
+        physics_hz: f64,
+    },
+}
+
+/// Why a step's row shows that the integration has blown up, if it does: a state that is not a number,
+/// or the piston beyond twice its stroke (its end stops hold it within the stroke; the solver's overshoot
+/// is a fraction of a millimetre).
+fn diverged(row: &Row, stroke_half_m: f64) -> Option<String> {
+    let states = [
+        ("piston position", row.piston_x_m),
+        ("piston velocity", row.piston_v_m_s),
+        ("stick angle", row.stick_angle_rad),
+        ("load-cell force", row.load_cell_true_n),
+    ];
+    if let Some((name, v)) = states.iter().find(|(_, v)| !v.is_finite()) {
+        return Some(format!("the {name} is {v}"));
+    }
+    (row.piston_x_m.abs() > 2.0 * stroke_half_m).then(|| {
+        format!(
+            "the piston at {:.3e} m, beyond twice its ±{stroke_half_m} m stroke",
+            row.piston_x_m
+        )
+    })
 }
 
 /// Options of one run that are not part of the scenario.
@@ -297,6 +330,14 @@ impl<P: Plant> Loop<P> {
         // Work of a force held over the step: F·Δx along the grip path (exact for the zero-order hold).
         self.pilot_work_j += hand_force * (after.grip_x_m - s.grip_x_m);
         self.step_index += 1;
+        if let Some(what) = diverged(&row, self.plant.stroke_half_m()) {
+            return Err(SimError::Diverged {
+                scenario: self.scenario_path.clone(),
+                t_s: row.t_s,
+                what,
+                physics_hz: 1.0 / self.plant.dt_s(),
+            });
+        }
         Ok(row)
     }
 }
