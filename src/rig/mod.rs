@@ -991,11 +991,15 @@ impl Rig {
         self.stroke_limits_m.1.min(-self.stroke_limits_m.0)
     }
 
-    /// The piston's stops are the device's stroke ±`stroke_half_m` (its `geometry.stroke_half_in`, at
-    /// `device`: `file:line`), within [`STROKE_TOLERANCE_M`]. The rig's piston is the device's damper: a
-    /// stroke in the device file that the URDF contradicts is an error naming both, not a value one of
-    /// them silently overrides.
-    pub fn check_device_stroke(&self, stroke_half_m: f64, device: &str) -> Result<(), RigError> {
+    /// The piston's stops are the device's stroke ±`stroke_half_m` (its `geometry.stroke_half_in`, where
+    /// `device` says: `file:line`, asked for only to name it in the error), within [`STROKE_TOLERANCE_M`].
+    /// The rig's piston is the device's damper: a stroke in the device file that the URDF contradicts is an
+    /// error naming both, not a value one of them silently overrides.
+    pub fn check_device_stroke(
+        &self,
+        stroke_half_m: f64,
+        device: impl FnOnce() -> String,
+    ) -> Result<(), RigError> {
         let (lo, hi) = self.stroke_limits_m;
         if (hi - stroke_half_m).abs() <= STROKE_TOLERANCE_M
             && (-lo - stroke_half_m).abs() <= STROKE_TOLERANCE_M
@@ -1003,6 +1007,7 @@ impl Rig {
             return Ok(());
         }
         let (path, line, joint) = &self.stroke_limits_at;
+        let device = device();
         Err(RigError::Field {
             path: path.clone(),
             line: *line,

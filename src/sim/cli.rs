@@ -97,14 +97,15 @@ pub fn build_rig(scn: &Scenario, device: &DeviceConfig) -> anyhow::Result<crate:
     }
     let rig = crate::rig::Rig::new(&scn.rig, damper);
     let rig = rig.and_then(|rig| match device.geometry {
-        Some(g) => {
-            // The device file's line, read again only to name it.
-            let line = crate::text_lines::read_text(&device.path)
-                .map(|t| crate::text_lines::toml_key_line(&t, "geometry", "stroke_half_in"))
-                .unwrap_or(1);
-            let at = format!("`geometry.stroke_half_in` at {}:{line}", device.path.display());
-            rig.check_device_stroke(g.stroke_half_m, &at).map(|()| rig)
-        }
+        Some(g) => rig
+            .check_device_stroke(g.stroke_half_m, || {
+                // The device file's line, read again only to name it in the error.
+                let line = crate::text_lines::read_text(&device.path)
+                    .map(|t| crate::text_lines::toml_key_line(&t, "geometry", "stroke_half_in"))
+                    .unwrap_or(1);
+                format!("`geometry.stroke_half_in` at {}:{line}", device.path.display())
+            })
+            .map(|()| rig),
         None => Ok(rig),
     });
     rig.with_context(|| format!("rig of scenario {}", scn.path.display()))
