@@ -389,8 +389,8 @@ impl MtsTest {
                 ),
             ));
         }
-        let n = self.block_s() * self.currents_a.len() as f64 * self.sample_rate_hz;
-        if !(n.round() >= MIN_SAMPLES as f64 && n.round() <= MAX_SAMPLES as f64) {
+        let n = self.samples();
+        if !(n >= MIN_SAMPLES as f64 && n <= MAX_SAMPLES as f64) {
             return Err(cfg_err(
                 "cycles",
                 format!(
@@ -402,7 +402,7 @@ impl MtsTest {
                 ),
             ));
         }
-        let steps = n.round() * (self.physics_hz / self.sample_rate_hz).ceil();
+        let steps = n * self.substeps();
         if steps > MAX_PHYSICS_STEPS {
             return Err(cfg_err(
                 "physics_hz",
@@ -422,6 +422,17 @@ impl MtsTest {
                 .map_err(|e| cfg_err(&format!("{name}.{}", e.field), format!("{}: {}", e.value, e.why)))?;
         }
         Ok(())
+    }
+
+    /// Samples the test records (a whole number, as an `f64`: checked against the bounds before it is used
+    /// as a count).
+    fn samples(&self) -> f64 {
+        (self.block_s() * self.currents_a.len() as f64 * self.sample_rate_hz).round()
+    }
+
+    /// Integration steps of the device model per sample (at least one).
+    fn substeps(&self) -> f64 {
+        (self.physics_hz / self.sample_rate_hz).ceil().max(1.0)
     }
 
     /// Duration of one current block, s.
@@ -444,11 +455,11 @@ impl MtsTest {
             }
         }
         let tones = self.protocol.tones();
-        let substeps = (self.physics_hz / self.sample_rate_hz).ceil().max(1.0) as usize;
+        let substeps = self.substeps() as usize;
         let dt_sample = 1.0 / self.sample_rate_hz;
         let dt = dt_sample / substeps as f64;
         let block_s = self.block_s();
-        let n_samples = (block_s * self.currents_a.len() as f64 * self.sample_rate_hz).round() as usize;
+        let n_samples = self.samples() as usize;
         let current_at = |t: f64| {
             let k = ((t / block_s).floor() as usize).min(self.currents_a.len() - 1);
             self.currents_a[k]
