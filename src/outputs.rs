@@ -61,7 +61,7 @@ fn check_output(option: &str, path: &Path, kind: Kind) -> Result<(), String> {
                 Err(e) => return fail(format!("directory `{}`: {e}", dir.display())),
             }
             let target = resolved(path);
-            let probe = if target.exists() && !target.is_file() {
+            let probe = if is_stream(&target) {
                 // A stream (`/dev/null`, a named pipe) is written directly when the results are ready;
                 // opening a pipe now would wait for its reader, or end its reading.
                 Ok(())
@@ -97,8 +97,7 @@ fn check_output(option: &str, path: &Path, kind: Kind) -> Result<(), String> {
                 // stop the run after its other outputs were written.
                 for e in entries.flatten() {
                     let name = e.path();
-                    let ext = name.extension().and_then(|x| x.to_str()).unwrap_or("");
-                    if PLOT_EXTENSIONS.contains(&ext) && name.is_dir() {
+                    if is_plot_file(&name) && name.is_dir() {
                         return fail(format!(
                             "holds a directory `{}` where a plot file would be written",
                             name.display()
@@ -140,6 +139,12 @@ fn resolved(path: &Path) -> PathBuf {
     }
 }
 
+/// Whether an output's target exists and is not a regular file (`/dev/null`, a named pipe): a stream,
+/// written directly, not a file to replace ([`write_whole`]) or to open before the run ([`check_output`]).
+fn is_stream(target: &Path) -> bool {
+    std::fs::metadata(target).is_ok_and(|m| !m.is_file())
+}
+
 /// The temporary file beside `target` that [`write_whole`] writes first: hidden, named after the process,
 /// with `target`'s extension (plot backends choose the image format by it).
 fn partial_path(target: &Path) -> PathBuf {
@@ -167,7 +172,7 @@ pub fn write_whole<T, E>(
     io_error: impl FnOnce(std::io::Error) -> E,
 ) -> Result<T, E> {
     let target = resolved(path);
-    if std::fs::metadata(&target).is_ok_and(|m| !m.is_file()) {
+    if is_stream(&target) {
         return write(&target);
     }
     let tmp = partial_path(&target);
