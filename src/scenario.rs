@@ -159,14 +159,12 @@ impl Scenario {
             files.push(("feel-spring file", p.clone()));
         }
         if let Some(a) = &self.aircraft {
-            let (jsbsim, name) = match a.model.split_once(':') {
-                Some(("jsbsim", name)) => (true, name),
-                _ => (false, a.model.as_str()),
-            };
-            if let Ok(p) = crate::aero::AircraftModel::builtin(name) {
+            // As the flight reads the spec (`sim::flight`): `jsbsim:<name>` flies the model `<name>` live.
+            let live = a.model.strip_prefix("jsbsim:");
+            if let Ok(p) = crate::aero::AircraftModel::builtin(live.unwrap_or(&a.model)) {
                 files.push(("aircraft model", p));
             }
-            if jsbsim {
+            if live.is_some() {
                 files.push(("JSBSim bridge script", crate::aero::jsbsim_bridge::script_path()));
             }
         }
