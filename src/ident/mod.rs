@@ -621,10 +621,11 @@ pub fn tests_predicting(ms: &[Measurement], share: Option<f64>) -> (Vec<Test>, O
             None => protocols.push((key, vec![k])),
         }
     }
-    let group_of = |members: &[usize]| -> Vec<&Measurement> { members.iter().map(|&k| &ms[k]).collect() };
+    let measurements_of =
+        |members: &[usize]| -> Vec<&Measurement> { members.iter().map(|&k| &ms[k]).collect() };
     let found: Vec<Option<acquisition::MovingAverage>> = protocols
         .iter()
-        .map(|(_, members)| filter_of(&group_of(members)))
+        .map(|(_, members)| filter_of(&measurements_of(members)))
         .collect();
     let shown: Vec<(usize, f64, f64)> = protocols
         .iter()
@@ -638,7 +639,7 @@ pub fn tests_predicting(ms: &[Measurement], share: Option<f64>) -> (Vec<Test>, O
             let share = law.or(share)?;
             let window = (share * key.period / key.interval?).round();
             (window >= 2.0 && window.is_finite())
-                .then(|| confirm_filter(&group_of(members), window as usize))
+                .then(|| confirm_filter(&measurements_of(members), window as usize))
                 .flatten()
         });
         for &k in members {
