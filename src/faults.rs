@@ -173,14 +173,17 @@ impl FaultSchedule {
     }
 
     /// Read the `[[fault]]` tables of a scenario file's text (other tables are left to their own
-    /// parsers). Times must lie within `[0, duration_s]`, `start_s < end_s`. Errors name the line of the
+    /// parsers). Times must lie within `[0, duration_s]`, `start_s < end_s`, `start_s < duration_s`. Errors name the line of the
     /// key at fault (from the TOML parser's spans, however the header is spelled: `[[ fault ]]`).
     pub fn from_scenario_text(text: &str, path: &Path, duration_s: f64) -> Result<Self, FaultError> {
         let line = |at: usize| line_of(text, at);
-        let parse_err = |e: toml::de::Error| FaultError::Parse {
-            path: path.to_path_buf(),
-            line: e.span().map_or(1, |s| line(s.start)),
-            msg: e.message().trim().to_string(),
+        let parse_err = |e: toml::de::Error| {
+            let e = crate::text_lines::TomlError::new(text, &e);
+            FaultError::Parse {
+                path: path.to_path_buf(),
+                line: e.line,
+                msg: e.message(),
+            }
         };
         let any: AnyFault = toml::from_str(text).map_err(parse_err)?;
         let Some(value) = any.fault else {
@@ -239,7 +242,24 @@ impl FaultSchedule {
                 }
             };
             let start_s = range("start_s", &e.start_s, 0.0, duration_s, "s (within the run)")?;
-            let end_s = range("end_s", &e.end_s, start_s, f64::INFINITY, "s (after start_s)")?;
+            if start_s >= duration_s {
+                // The run's last step is before `duration_s`: a fault that starts there never acts.
+                return Err(field(
+                    "start_s",
+                    e.start_s.span().start,
+                    format!(
+                        "value {start_s} s is where the run ends (duration_s = {duration_s} s): the fault \
+                         would never act"
+                    ),
+                ));
+            }
+            let end_s = range(
+                "end_s",
+                &e.end_s,
+                start_s,
+                duration_s,
+                "s (after start_s, within the run: to last to the end, write duration_s)",
+            )?;
             if end_s <= start_s {
                 // Active on start_s ≤ t < end_s: a fault that ends where it starts never acts.
                 return Err(field(
@@ -439,6 +459,26 @@ mod tests {
             e.contains("s.toml:4") && e.contains("start_s") && e.contains("[0, 5]"),
             "{e}"
         );
+        // A fault that starts where the run ends, or ends after it: never acting, or acting on a time the
+        // run does not reach (the file says something the run would not do).
+        let at_end = "[[fault]]\nkind = \"coil_open\"\nstart_s = 5.0\nend_s = 6.0\n";
+        let e = FaultSchedule::from_scenario_text(at_end, Path::new("s.toml"), 5.0)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("s.toml:3: [[fault]] #1: `start_s`") && e.contains("never act"),
+            "{e}"
+        );
+        let past = "[[fault]]\nkind = \"coil_open\"\nstart_s = 4.0\nend_s = 6.0\n";
+        let e = FaultSchedule::from_scenario_text(past, Path::new("s.toml"), 5.0)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("s.toml:4: [[fault]] #1: `end_s`") && e.contains("[4, 5]"),
+            "{e}"
+        );
+        let to_the_end = "[[fault]]\nkind = \"coil_open\"\nstart_s = 4.0\nend_s = 5.0\n";
+        assert!(FaultSchedule::from_scenario_text(to_the_end, Path::new("s.toml"), 5.0).is_ok());
         let empty = "[[fault]]\nkind = \"coil_open\"\nstart_s = 2.0\nend_s = 2.0\n";
         let e = FaultSchedule::from_scenario_text(empty, Path::new("s.toml"), 5.0)
             .unwrap_err()

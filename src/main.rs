@@ -34,67 +34,118 @@ enum Command {
     Diagnose(mrfeel::ident::cli::DiagnoseArgs),
 }
 
-/// Every file or directory the command will write, by option. The one list of a command's outputs: a new
-/// output option goes here, so that it is checked with the others before anything runs.
-fn outputs(command: &Command) -> Vec<Output<'_>> {
-    use Kind::{Dir, File};
-    let list: Vec<(&'static str, Option<&PathBuf>, Kind)> = match command {
-        Command::Mts(a) => vec![
-            ("--out", Some(&a.out), File),
-            ("--save-device", a.save_device.as_ref(), File),
-            ("--plot", a.plot.as_ref(), Dir),
-        ],
-        Command::Run(a) => vec![
-            ("--out", a.out.as_ref(), File),
-            ("--rerun", a.rerun.as_ref(), File),
-        ],
-        Command::DaqSweep(a) => vec![("--plot", a.plot.as_ref(), Dir)],
-        Command::Compare(a) => vec![
-            ("--plot", a.plot.as_ref(), Dir),
-            ("--rerun", a.rerun.as_ref(), File),
-        ],
-        Command::Fit(a) => vec![
-            ("--save", a.save.as_ref(), File),
-            ("--plot", a.plot.as_ref(), Dir),
-            ("--rerun", a.rerun.as_ref(), File),
-        ],
-        Command::Validate(a) => vec![
-            ("--plot", a.plot.as_ref(), Dir),
-            ("--rerun", a.rerun.as_ref(), File),
-        ],
-        Command::Diagnose(a) => vec![
-            ("--plot", a.plot.as_ref(), Dir),
-            ("--rerun", a.rerun.as_ref(), File),
-        ],
-    };
-    list.into_iter()
-        .filter_map(|(opt, p, kind)| p.map(|p| (opt, p.as_path(), kind)))
-        .collect()
+/// A command with the scenario it runs read, once, before anything else: a scenario given as a pipe
+/// (`mrfeel run /dev/stdin`) cannot be read a second time.
+enum Job {
+    Mts(mrfeel::mts::cli::MtsArgs),
+    Run(mrfeel::sim::cli::RunArgs, Box<mrfeel::scenario::Scenario>),
+    DaqSweep(mrfeel::sim::cli::DaqSweepArgs, Box<mrfeel::scenario::Scenario>),
+    Compare(
+        mrfeel::compare::cli::CompareArgs,
+        Box<mrfeel::compare::CompareScenario>,
+    ),
+    Fit(mrfeel::ident::cli::FitArgs),
+    Validate(mrfeel::ident::cli::ValidateArgs),
+    Diagnose(mrfeel::ident::cli::DiagnoseArgs),
 }
 
-/// The files a command reads, which no output may overwrite: the files named, the CSVs of a named
-/// measurement directory, and the files a scenario names (device, URDF, pilot model, springs, aircraft).
-fn inputs(command: &Command) -> Vec<(&'static str, PathBuf)> {
-    // As the loader lists them; where it cannot, the command will say why before it writes anything.
-    let data = |paths: &[PathBuf]| -> Vec<(&'static str, PathBuf)> {
-        mrfeel::measurement::measurement_files(paths)
-            .unwrap_or_else(|_| paths.to_vec())
-            .into_iter()
-            .map(|p| ("measurement", p))
-            .collect()
-    };
-    match command {
-        Command::Mts(a) => a.device.iter().map(|p| ("device file", p.clone())).collect(),
-        Command::Run(a) => mrfeel::sim::cli::input_files(&a.scenario, a.aircraft.as_deref()),
-        Command::DaqSweep(a) => mrfeel::sim::cli::input_files(&a.scenario, None),
-        Command::Compare(a) => mrfeel::compare::cli::input_files(&a.scenario),
-        Command::Fit(a) => data(&a.data),
-        Command::Validate(a) => {
-            let mut v = data(&a.data);
-            v.push(("params file", a.params.clone()));
-            v
+impl Job {
+    fn load(command: Command) -> anyhow::Result<Self> {
+        use mrfeel::scenario::Scenario;
+        Ok(match command {
+            Command::Mts(a) => Job::Mts(a),
+            Command::Run(a) => {
+                let scn = Scenario::load(&a.scenario)?;
+                Job::Run(a, Box::new(scn))
+            }
+            Command::DaqSweep(a) => {
+                let scn = Scenario::load(&a.scenario)?;
+                Job::DaqSweep(a, Box::new(scn))
+            }
+            Command::Compare(a) => {
+                let scn = mrfeel::compare::CompareScenario::load(&a.scenario)?;
+                Job::Compare(a, Box::new(scn))
+            }
+            Command::Fit(a) => Job::Fit(a),
+            Command::Validate(a) => Job::Validate(a),
+            Command::Diagnose(a) => Job::Diagnose(a),
+        })
+    }
+
+    fn run(self) -> anyhow::Result<()> {
+        match self {
+            Job::Mts(a) => mrfeel::mts::cli::run(a),
+            Job::Run(a, scn) => mrfeel::sim::cli::run_cmd(&a, *scn),
+            Job::DaqSweep(a, scn) => mrfeel::sim::cli::daq_sweep_cmd(&a, *scn),
+            Job::Compare(a, scn) => mrfeel::compare::cli::run_cmd(a, *scn),
+            Job::Fit(a) => mrfeel::ident::cli::run_fit(&a),
+            Job::Validate(a) => mrfeel::ident::cli::run_validate(&a),
+            Job::Diagnose(a) => mrfeel::ident::cli::run_diagnose(&a),
         }
-        Command::Diagnose(a) => data(&a.data),
+    }
+
+    /// Every file or directory the job will write, by option. The one list of a command's outputs: a new
+    /// output option goes here, so that it is checked with the others before anything runs.
+    fn outputs(&self) -> Vec<Output<'_>> {
+        use Kind::{Dir, File};
+        let list: Vec<(&'static str, Option<&PathBuf>, Kind)> = match self {
+            Job::Mts(a) => vec![
+                ("--out", Some(&a.out), File),
+                ("--save-device", a.save_device.as_ref(), File),
+                ("--plot", a.plot.as_ref(), Dir),
+            ],
+            Job::Run(a, _) => vec![
+                ("--out", a.out.as_ref(), File),
+                ("--rerun", a.rerun.as_ref(), File),
+            ],
+            Job::DaqSweep(a, _) => vec![("--plot", a.plot.as_ref(), Dir)],
+            Job::Compare(a, _) => vec![
+                ("--plot", a.plot.as_ref(), Dir),
+                ("--rerun", a.rerun.as_ref(), File),
+            ],
+            Job::Fit(a) => vec![
+                ("--save", a.save.as_ref(), File),
+                ("--plot", a.plot.as_ref(), Dir),
+                ("--rerun", a.rerun.as_ref(), File),
+            ],
+            Job::Validate(a) => vec![
+                ("--plot", a.plot.as_ref(), Dir),
+                ("--rerun", a.rerun.as_ref(), File),
+            ],
+            Job::Diagnose(a) => vec![
+                ("--plot", a.plot.as_ref(), Dir),
+                ("--rerun", a.rerun.as_ref(), File),
+            ],
+        };
+        list.into_iter()
+            .filter_map(|(opt, p, kind)| p.map(|p| (opt, p.as_path(), kind)))
+            .collect()
+    }
+
+    /// The files the job reads, which no output may overwrite: the files named, the CSVs of a named
+    /// measurement directory, and the files a scenario names (device, URDF, pilot model, springs, aircraft).
+    fn inputs(&self) -> Vec<(&'static str, PathBuf)> {
+        // As the loader lists them; where it cannot, the command will say why before it writes anything.
+        let data = |paths: &[PathBuf]| -> Vec<(&'static str, PathBuf)> {
+            mrfeel::measurement::measurement_files(paths)
+                .unwrap_or_else(|_| paths.to_vec())
+                .into_iter()
+                .map(|p| ("measurement", p))
+                .collect()
+        };
+        match self {
+            Job::Mts(a) => a.device.iter().map(|p| ("device file", p.clone())).collect(),
+            Job::Run(a, scn) => mrfeel::sim::cli::input_files(&a.scenario, scn, a.aircraft.as_deref()),
+            Job::DaqSweep(a, scn) => mrfeel::sim::cli::input_files(&a.scenario, scn, None),
+            Job::Compare(a, scn) => mrfeel::compare::cli::input_files(&a.scenario, scn),
+            Job::Fit(a) => data(&a.data),
+            Job::Validate(a) => {
+                let mut v = data(&a.data);
+                v.push(("params file", a.params.clone()));
+                v
+            }
+            Job::Diagnose(a) => data(&a.data),
+        }
     }
 }
 
@@ -107,20 +158,13 @@ fn main() -> std::process::ExitCode {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     let cli = Cli::parse();
-    let read = inputs(&cli.command);
-    let read: Vec<(&'static str, &std::path::Path)> = read.iter().map(|(w, p)| (*w, p.as_path())).collect();
-    let result = match check_outputs(&outputs(&cli.command), &read) {
-        Err(msg) => Err(anyhow::Error::msg(msg)),
-        Ok(()) => match cli.command {
-            Command::Mts(a) => mrfeel::mts::cli::run(a),
-            Command::Run(a) => mrfeel::sim::cli::run_cmd(&a),
-            Command::DaqSweep(a) => mrfeel::sim::cli::daq_sweep_cmd(&a),
-            Command::Compare(a) => mrfeel::compare::cli::run_cmd(a),
-            Command::Fit(a) => mrfeel::ident::cli::run_fit(&a),
-            Command::Validate(a) => mrfeel::ident::cli::run_validate(&a),
-            Command::Diagnose(a) => mrfeel::ident::cli::run_diagnose(&a),
-        },
-    };
+    let result = Job::load(cli.command).and_then(|job| {
+        let read = job.inputs();
+        let read: Vec<(&'static str, &std::path::Path)> =
+            read.iter().map(|(w, p)| (*w, p.as_path())).collect();
+        check_outputs(&job.outputs(), &read).map_err(anyhow::Error::msg)?;
+        job.run()
+    });
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {

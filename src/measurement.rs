@@ -89,6 +89,10 @@ pub enum MeasurementError {
 /// not numbers; no instrument reads such a value.
 pub const MAGNITUDE_LIMIT: f64 = crate::device::model::FORCE_LIMIT_N;
 
+/// Largest measurement file read, bytes: `mrfeel mts` writes at most 10⁷ samples of at most about 110
+/// bytes each (1.1 GB).
+pub const MEASUREMENT_LIMIT_BYTES: u64 = 2 << 30;
+
 /// One test: signals in SI units, one value per sample.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Measurement {
@@ -173,11 +177,13 @@ impl Measurement {
         1.0 / median_interval(&self.t_s)
     }
 
-    /// Read a measurement file.
+    /// Read a measurement file (at most [`MEASUREMENT_LIMIT_BYTES`]; a device is refused).
     pub fn read(path: &Path) -> Result<Self, MeasurementError> {
-        let bytes = std::fs::read(path).map_err(|e| MeasurementError::Io {
-            path: path.into(),
-            msg: e.to_string(),
+        let bytes = crate::text_lines::read_bytes(path, MEASUREMENT_LIMIT_BYTES).map_err(|msg| {
+            MeasurementError::Io {
+                path: path.into(),
+                msg,
+            }
         })?;
         Self::parse(&bytes, path)
     }

@@ -101,10 +101,25 @@ pub enum PilotDesign {
 /// this bounds the memory at about 3 GB (an hour at 100 kHz asked for 107 GB and aborted).
 pub const MAX_PHYSICS_STEPS: f64 = 1e7;
 
+/// Lines of a scenario's keys that errors found during a run name (the run's own errors: a trim that has
+/// no solution, an integration that blows up).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct KeyLines {
+    /// `rig.physics_hz`.
+    pub physics_hz: usize,
+    /// `aircraft.airspeed_m_s`, the trim condition (the `[aircraft]` header where it is not written, 1
+    /// without an aircraft).
+    pub airspeed: usize,
+    /// `aircraft.model`, the aircraft flown (for its errors in flight).
+    pub aircraft_model: usize,
+}
+
 /// A validated scenario.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scenario {
     pub path: PathBuf,
+    /// Where the keys a run's errors name are in the file.
+    pub lines: KeyLines,
     pub name: String,
     pub duration_s: f64,
     pub seed: u64,
@@ -436,6 +451,11 @@ impl Scenario {
         let pilot = parse_pilot(&f.pilot, &c, dir, duration_s, 1.0 / physics_rate_hz, seed)?;
         Ok(Scenario {
             path: path.to_path_buf(),
+            lines: KeyLines {
+                physics_hz: crate::text_lines::toml_key_line(text, "rig", "physics_hz"),
+                airspeed: crate::text_lines::toml_key_line(text, "aircraft", "airspeed_m_s"),
+                aircraft_model: crate::text_lines::toml_key_line(text, "aircraft", "model"),
+            },
             name: f.name,
             duration_s,
             seed,
@@ -913,10 +933,13 @@ fn read(path: &Path) -> Result<String, ScenarioError> {
 }
 
 fn from_toml<T: serde::de::DeserializeOwned>(text: &str, path: &Path) -> Result<T, ScenarioError> {
-    toml::from_str(text).map_err(|e| ScenarioError::Parse {
-        path: path.to_path_buf(),
-        line: e.span().map(|s| line_of(text, s.start)).unwrap_or(0),
-        msg: e.message().trim().to_string(),
+    toml::from_str(text).map_err(|e| {
+        let e = crate::text_lines::TomlError::new(text, &e);
+        ScenarioError::Parse {
+            path: path.to_path_buf(),
+            line: e.line,
+            msg: e.message(),
+        }
     })
 }
 

@@ -31,6 +31,65 @@ pub fn toml_key_line(text: &str, table: &str, key: &str) -> usize {
     header
 }
 
+/// A TOML parser's error placed in its file, for a `file:line: …` message.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TomlError {
+    /// The line of the error's span (1 where the parser gives none).
+    pub line: usize,
+    /// The key that line sets, where the parser's message names no field: a value of the wrong type
+    /// (`duration_s = "12"`: ``invalid type: string "12", expected f64``) is then named by its key.
+    pub field: Option<String>,
+    /// The parser's message; for a file whose lines end in a bare carriage return, which TOML does not
+    /// allow (and for which the parser's message can be empty), what to do about it.
+    pub msg: String,
+}
+
+impl TomlError {
+    pub fn new(text: &str, e: &toml::de::Error) -> Self {
+        if let Some(cr) = text
+            .match_indices('\r')
+            .find(|(at, _)| text.as_bytes().get(at + 1) != Some(&b'\n'))
+        {
+            return Self {
+                line: line_of(text, cr.0),
+                field: None,
+                msg: "a line ends in a bare carriage return (CR, old Mac line endings), which TOML does not \
+                      allow: save the file with LF or CRLF line endings"
+                    .into(),
+            };
+        }
+        let line = e.span().map_or(1, |s| line_of(text, s.start));
+        let msg = e.message().trim().to_string();
+        let field = toml_key_of_line(text, line).filter(|_| !msg.contains("field `"));
+        Self { line, field, msg }
+    }
+
+    /// The message with the field named where the parser's does not name it: `` `duration_s`: invalid
+    /// type: … ``.
+    pub fn message(&self) -> String {
+        match &self.field {
+            Some(f) => format!("`{f}`: {}", self.msg),
+            None => self.msg.clone(),
+        }
+    }
+}
+
+/// The key a TOML line sets (`name = value`), if it sets one.
+pub fn toml_key_of_line(text: &str, line: usize) -> Option<String> {
+    let l = text
+        .lines()
+        .nth(line.checked_sub(1)?)?
+        .trim_start_matches('\u{feff}')
+        .trim();
+    let (key, _) = l.split_once('=')?;
+    let key = key.trim().trim_matches('"');
+    let bare = !key.is_empty()
+        && key
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
+    bare.then(|| key.to_string())
+}
+
 /// Where a text's first byte that is not UTF-8 is: 1-based line and column (in characters, as an editor
 /// shows it), and the byte.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -71,11 +130,43 @@ pub fn decode(bytes: &[u8]) -> Result<&str, NotUtf8> {
     })
 }
 
-/// Read a text input file. An error reading it is the system's message; a file that is not UTF-8 (a
+/// Largest text input (a scenario, device, parameter, pilot, spring, aircraft or URDF file) read, bytes:
+/// the largest of them in this repository is under 100 KiB.
+pub const TEXT_LIMIT_BYTES: u64 = 64 << 20;
+
+/// Read an input file whole, refusing what no input of this tool can be: a device (`/dev/zero`, a disk,
+/// a terminal), or more than `limit` bytes (a stream that never ends, such as `yes |`), so that a wrong
+/// path is an error and not a read until memory runs out. A pipe (`/dev/stdin`, `<(…)`) is read as a
+/// file. An error reading it is the system's message.
+pub fn read_bytes(path: &std::path::Path, limit: u64) -> Result<Vec<u8>, String> {
+    use std::io::Read;
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        let kind = std::fs::metadata(path).map_err(|e| e.to_string())?.file_type();
+        if kind.is_char_device() || kind.is_block_device() {
+            return Err("not a file but a device; give a file or a pipe".into());
+        }
+    }
+    let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
+    let mut bytes = Vec::new();
+    file.take(limit + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| e.to_string())?;
+    if bytes.len() as u64 > limit {
+        return Err(format!(
+            "longer than {} MiB, more than any input of this kind can be (is this the file you meant?)",
+            limit >> 20
+        ));
+    }
+    Ok(bytes)
+}
+
+/// Read a text input file ([`read_bytes`], at most [`TEXT_LIMIT_BYTES`]). A file that is not UTF-8 (a
 /// binary file, another encoding) names the line and column of its first invalid byte ([`decode`]), which
 /// `std::fs::read_to_string` does not ("stream did not contain valid UTF-8").
 pub fn read_text(path: &std::path::Path) -> Result<String, String> {
-    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+    let bytes = read_bytes(path, TEXT_LIMIT_BYTES)?;
     String::from_utf8(bytes).map_err(|e| match decode(e.as_bytes()) {
         Err(at) => at.to_string(),
         Ok(_) => e.to_string(),

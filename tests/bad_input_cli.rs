@@ -299,10 +299,16 @@ fn an_output_that_is_one_of_the_inputs_is_refused_and_the_input_kept() {
         std::fs::read_to_string(&params).unwrap().contains("\"model\""),
         "the params file was changed"
     );
-    let scenario_copy = d.path().join("scenario.toml");
-    std::fs::copy(scenario("paper-feel-loop.toml"), &scenario_copy).unwrap();
+    let tree = scenario_tree();
+    let scenario_copy = tree.path().join("scenarios/paper-feel-loop.toml");
+    let text = std::fs::read(&scenario_copy).unwrap();
     let o = mrfeel(&["run", &s(&scenario_copy), "--out", &s(&scenario_copy)]);
     refused(&o, &["--out", "input scenario"]);
+    assert_eq!(
+        std::fs::read(&scenario_copy).unwrap(),
+        text,
+        "the scenario was changed"
+    );
 }
 
 /// A copy of the repository's `scenarios/` and `models/` in a temporary folder (the scenarios name the
@@ -566,8 +572,15 @@ fn compare_names_the_scenario_line_of_a_missing_springs_file_and_a_readable_faul
 
     let early = d.path().join("early-end.toml");
     std::fs::write(&early, fixed.replace("end_s = 10.0", "end_s = 1.0")).unwrap();
-    let e = refused(&mrfeel(&["compare", &s(&early)]), &["fault_test.end_s", "inf"]);
+    let e = refused(
+        &mrfeel(&["compare", &s(&early)]),
+        &["fault_test.end_s", "within the task"],
+    );
     assert!(!e.contains("179769"), "the bound is printed as f64::MAX: {e}");
+    // A window past the task's end would say the faults act where the run never goes.
+    let late = d.path().join("late-end.toml");
+    std::fs::write(&late, fixed.replace("end_s = 10.0", "end_s = 1000.0")).unwrap();
+    refused(&mrfeel(&["compare", &s(&late)]), &["fault_test.end_s", "1000"]);
 }
 
 #[test]
@@ -905,4 +918,126 @@ fn an_output_that_is_a_pipe_is_written_not_replaced() {
         got.len()
     );
     assert!(std::fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo());
+}
+
+/// `mrfeel` with `args` and `stdin` written to its standard input from a thread (errors writing are the
+/// reader having stopped, as it should on a refused input).
+#[cfg(unix)]
+fn mrfeel_fed(args: &[&str], stdin: impl FnOnce(&mut dyn std::io::Write) + Send + 'static) -> Output {
+    use std::process::Stdio;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_mrfeel"))
+        .args(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("mrfeel starts");
+    let mut input = child.stdin.take().unwrap();
+    let writer = std::thread::spawn(move || stdin(&mut input));
+    let out = child.wait_with_output().expect("mrfeel ends");
+    writer.join().unwrap();
+    out
+}
+
+/// An input that is a device (`/dev/zero`) or a stream that never ends used to be read until the memory
+/// ran out (10 GB in 6 s). A device is refused by name, a stream past the most any input of its kind can
+/// be (64 MiB for a scenario) too, before anything is written.
+#[test]
+#[cfg(unix)]
+fn an_input_that_is_a_device_or_an_endless_stream_is_refused_not_read_until_memory_runs_out() {
+    let d = tempfile::tempdir().unwrap();
+    let out = s(&d.path().join("o.csv"));
+    for argv in [
+        vec!["run", "/dev/zero", "--out", &out],
+        vec!["daq-sweep", "/dev/zero"],
+        vec!["compare", "/dev/zero"],
+        vec!["fit", "/dev/zero"],
+        vec!["validate", &small_test(), "--params", "/dev/zero"],
+        vec!["mts", "--current", "1", "--out", &out, "--device", "/dev/zero"],
+    ] {
+        refused(&mrfeel(&argv), &["/dev/zero", "not a file but a device"]);
+    }
+    let endless = mrfeel_fed(&["run", "/dev/stdin", "--out", &out], |w| {
+        let block = "# a comment\n".repeat(1 << 16);
+        while w.write_all(block.as_bytes()).is_ok() {}
+    });
+    refused(&endless, &["/dev/stdin", "longer than 64 MiB"]);
+    assert!(!d.path().join("o.csv").exists());
+}
+
+/// A scenario given as a pipe (`cat s.toml | mrfeel run /dev/stdin`) is read once. It was read twice,
+/// once to list the files no output may overwrite and once to run, and the second read found the pipe
+/// empty: "missing field `name`" (or, from a named pipe, a wait for ever). Read once, it runs as the same
+/// scenario from a file does, to the bit.
+#[test]
+#[cfg(unix)]
+fn a_scenario_from_a_pipe_is_read_once_and_runs_as_from_its_file() {
+    let d = tempfile::tempdir().unwrap();
+    let models = s(&root().join("models"));
+    let text = std::fs::read_to_string(scenario("paper-feel-loop.toml"))
+        .unwrap()
+        .replace("\"../models/", &format!("\"{models}/"))
+        .replace("duration_s = 12.0", "duration_s = 2.0");
+    assert!(
+        text.contains("duration_s = 2.0"),
+        "the scenario's duration line moved"
+    );
+    let file = d.path().join("s.toml");
+    std::fs::write(&file, &text).unwrap();
+    let from_file = mrfeel(&["run", &s(&file), "--json"]);
+    assert!(
+        from_file.status.success(),
+        "{}",
+        String::from_utf8_lossy(&from_file.stderr)
+    );
+    let piped = mrfeel_fed(&["run", "/dev/stdin", "--json"], move |w| {
+        let _ = w.write_all(text.as_bytes());
+    });
+    assert!(
+        piped.status.success(),
+        "{}",
+        String::from_utf8_lossy(&piped.stderr)
+    );
+    assert_eq!(
+        String::from_utf8_lossy(&piped.stdout),
+        String::from_utf8_lossy(&from_file.stdout)
+    );
+}
+
+/// TOML files: a value of the wrong type is named by its key (the parser's message names none), and a file
+/// whose lines end in a bare carriage return, which TOML does not allow, says so (the message was empty).
+#[test]
+fn a_toml_value_of_the_wrong_type_is_named_and_bare_cr_line_endings_are_explained() {
+    let d = tempfile::tempdir().unwrap();
+    let models = s(&root().join("models"));
+    let text = std::fs::read_to_string(scenario("paper-feel-loop.toml"))
+        .unwrap()
+        .replace("\"../models/", &format!("\"{models}/"));
+    let typed = d.path().join("typed.toml");
+    std::fs::write(&typed, text.replace("duration_s = 12.0", "duration_s = \"12\"")).unwrap();
+    let line = text.lines().position(|l| l.starts_with("duration_s")).unwrap() + 1;
+    refused(
+        &mrfeel(&["run", &s(&typed)]),
+        &[&format!("typed.toml:{line}: `duration_s`: "), "expected f64"],
+    );
+    let cr = d.path().join("cr.toml");
+    std::fs::write(&cr, text.replace('\n', "\r")).unwrap();
+    for argv in [vec!["run", &s(&cr)], vec!["compare", &s(&cr)]] {
+        refused(
+            &mrfeel(&argv),
+            &["cr.toml:1: ", "bare carriage return", "LF or CRLF"],
+        );
+    }
+    // The same file with CRLF endings is read as with LF.
+    let crlf = d.path().join("crlf.toml");
+    std::fs::write(
+        &crlf,
+        text.replace('\n', "\r\n")
+            .replace("duration_s = 12.0", "duration_s = \"12\""),
+    )
+    .unwrap();
+    refused(
+        &mrfeel(&["run", &s(&crlf)]),
+        &[&format!("crlf.toml:{line}: `duration_s`: ")],
+    );
 }

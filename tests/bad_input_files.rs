@@ -521,13 +521,14 @@ fn a_text_input_that_is_not_utf8_names_its_line() {
 #[test]
 fn a_simulation_that_diverges_is_an_error_not_results() {
     let dir = tempfile::tempdir().unwrap();
-    let (scn, _) = scenario(dir.path(), "paper-feel-loop.toml", |t| {
+    let (scn, text) = scenario(dir.path(), "paper-feel-loop.toml", |t| {
         t.replace("physics_hz = 1000.0", "physics_hz = 100.0")
             .replace("sample_rate_hz = 1000.0", "sample_rate_hz = 100.0")
     });
+    let line = line_of(&text, "physics_hz = 100.0");
     let err = refused(
         &run(dir.path(), &scn, &[]),
-        &["scn.toml", "rig.physics_hz", "diverged at t ="],
+        &[&format!("scn.toml:{line}: `rig.physics_hz`"), "diverged at t ="],
     );
     assert!(
         err.contains("stroke") || err.contains("is NaN") || err.contains("is inf"),
@@ -551,5 +552,20 @@ fn a_run_too_long_for_its_physics_rate_is_refused_at_its_duration() {
     refused(
         &run(dir.path(), &scn, &[]),
         &[&at, "duration_s", "360000000 physics steps", "1e7"],
+    );
+}
+
+/// A flight condition the aircraft cannot hold (the C172 at 70 m/s needs 127 % throttle) is refused by the
+/// trim with the line of `aircraft.airspeed_m_s`, where it had named the file alone; nothing is written.
+#[test]
+fn an_untrimmable_flight_condition_names_the_airspeed_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let (scn, text) = scenario(dir.path(), "c172p-pitch-tracking.toml", |t| {
+        t.replace("airspeed_m_s = 50.0", "airspeed_m_s = 70.0")
+    });
+    let line = line_of(&text, "airspeed_m_s = 70.0");
+    refused(
+        &run(dir.path(), &scn, &[]),
+        &[&format!("scn.toml:{line}: aircraft: trim failed"), "throttle"],
     );
 }

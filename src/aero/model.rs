@@ -324,10 +324,13 @@ impl AircraftModel {
 
     /// Parse and validate model TOML; `path` is used in error messages.
     pub fn from_toml(text: &str, path: &Path) -> Result<Self, AeroError> {
-        let f: FileModel = toml::from_str(text).map_err(|e| AeroError::Parse {
-            path: path.to_path_buf(),
-            line: e.span().map(|s| line_of(text, s.start)).unwrap_or(0),
-            msg: e.message().to_string(),
+        let f: FileModel = toml::from_str(text).map_err(|e| {
+            let e = crate::text_lines::TomlError::new(text, &e);
+            AeroError::Parse {
+                path: path.to_path_buf(),
+                line: e.line,
+                msg: e.message(),
+            }
         })?;
         let c = Ctx { text, path };
         let big = 1e12;

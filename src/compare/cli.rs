@@ -36,15 +36,13 @@ pub struct CompareArgs {
 
 /// Every file `mrfeel compare` of the comparison scenario `path` reads, each with what it is, which no
 /// output may overwrite: the comparison scenario, its base scenario and the files that names
-/// ([`crate::scenario::Scenario::named_files`]), and its feel-spring file. A comparison that cannot be
-/// loaded is listed alone: the command then fails on it before it writes anything.
-pub fn input_files(path: &Path) -> Vec<(&'static str, PathBuf)> {
+/// ([`crate::scenario::Scenario::named_files`]), and its feel-spring file. `scn` is the comparison as
+/// loaded from `path` (once: a file read from a pipe cannot be read again).
+pub fn input_files(path: &Path, scn: &CompareScenario) -> Vec<(&'static str, PathBuf)> {
     let mut files = vec![("comparison scenario", path.to_path_buf())];
-    if let Ok(scn) = CompareScenario::load(path) {
-        files.push(("base scenario", scn.base.path.clone()));
-        files.extend(scn.base.named_files());
-        files.push(("feel-spring file", scn.springs_path));
-    }
+    files.push(("base scenario", scn.base.path.clone()));
+    files.extend(scn.base.named_files());
+    files.push(("feel-spring file", scn.springs_path.clone()));
     files
 }
 
@@ -351,8 +349,8 @@ fn rerun_log_into(
     Ok(())
 }
 
-pub fn run_cmd(a: CompareArgs) -> anyhow::Result<()> {
-    let scn = CompareScenario::load(&a.scenario)?;
+/// `mrfeel compare` of the comparison loaded from `a.scenario`.
+pub fn run_cmd(a: CompareArgs, scn: CompareScenario) -> anyhow::Result<()> {
     let systems = match &a.feel {
         Some(list) => super::parse_feel_list(list).map_err(|e| match e {
             super::CompareError::Feel(msg) => anyhow::anyhow!("--feel {list}: {msg} (nothing was run)"),

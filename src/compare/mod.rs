@@ -39,7 +39,7 @@ use crate::pilot::Signal;
 use crate::rig::RigConfig;
 use crate::scenario::Scenario;
 use crate::sim::{Loop, Plant};
-use crate::text_lines::{line_of, toml_key_line as line_of_key};
+use crate::text_lines::toml_key_line as line_of_key;
 
 pub use crate::control::feel::FeelKind;
 
@@ -269,10 +269,13 @@ impl CompareScenario {
     }
 
     pub fn parse(text: &str, path: &Path) -> Result<Self, CompareError> {
-        let f: File = toml::from_str(text).map_err(|e| CompareError::Parse {
-            path: path.to_path_buf(),
-            line: e.span().map(|s| line_of(text, s.start)).unwrap_or(0),
-            msg: e.message().trim().to_string(),
+        let f: File = toml::from_str(text).map_err(|e| {
+            let e = crate::text_lines::TomlError::new(text, &e);
+            CompareError::Parse {
+                path: path.to_path_buf(),
+                line: e.line,
+                msg: e.message(),
+            }
         })?;
         let dir = path.parent().unwrap_or(Path::new("."));
         let chk =
@@ -440,13 +443,24 @@ impl CompareScenario {
             task_s,
             "s (within the task)",
         )?;
+        if f.fault_test.start_s >= task_s {
+            return Err(CompareError::Field {
+                path: path.to_path_buf(),
+                line: line_of_key(text, "fault_test", "start_s"),
+                key: "fault_test.start_s".into(),
+                msg: format!(
+                    "value {} s is where the task ends ({task_s} s): the faults would never act",
+                    f.fault_test.start_s
+                ),
+            });
+        }
         chk(
             "fault_test",
             "end_s",
             f.fault_test.end_s,
             f.fault_test.start_s,
-            f64::INFINITY,
-            "s (after start_s)",
+            task_s,
+            "s (after start_s, within the task: to last to its end, write its duration)",
         )?;
         if f.fault_test.end_s <= f.fault_test.start_s {
             return Err(CompareError::Field {

@@ -344,13 +344,13 @@ impl FeelSprings {
             path: path.to_path_buf(),
             msg,
         })?;
-        let f: FeelSprings = toml::from_str(&text).map_err(|e| FeelError::Parse {
-            path: path.to_path_buf(),
-            line: e
-                .span()
-                .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1)
-                .unwrap_or(0),
-            msg: e.message().to_string(),
+        let f: FeelSprings = toml::from_str(&text).map_err(|e| {
+            let e = crate::text_lines::TomlError::new(&text, &e);
+            FeelError::Parse {
+                path: path.to_path_buf(),
+                line: e.line,
+                msg: e.message(),
+            }
         })?;
         let checks = [
             ("centring.k_n_per_m", f.centring.k_n_per_m, 0.0, 1e6),

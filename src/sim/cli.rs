@@ -56,13 +56,13 @@ pub struct DaqSweepArgs {
 
 /// Every file `mrfeel run` or `daq-sweep` of `scenario` reads, each with what it is, which no output may
 /// overwrite: the scenario and the files it names ([`Scenario::named_files`]), flying `aircraft`
-/// (`--aircraft`) instead of its own aircraft where given. A scenario that cannot be loaded is listed
-/// alone: the command then fails on it before it writes anything.
-pub fn input_files(scenario: &Path, aircraft: Option<&str>) -> Vec<(&'static str, PathBuf)> {
-    let mut files = vec![("scenario", scenario.to_path_buf())];
-    if let Ok(scn) = Scenario::load(scenario) {
-        let scn = aircraft.and_then(|m| scn.with_aircraft_model(m)).unwrap_or(scn);
-        files.extend(scn.named_files());
+/// (`--aircraft`) instead of its own aircraft where given. `scn` is the scenario as loaded from `path`
+/// (once: a scenario read from a pipe cannot be read again).
+pub fn input_files(path: &Path, scn: &Scenario, aircraft: Option<&str>) -> Vec<(&'static str, PathBuf)> {
+    let mut files = vec![("scenario", path.to_path_buf())];
+    match aircraft.and_then(|m| scn.with_aircraft_model(m)) {
+        Some(flown) => files.extend(flown.named_files()),
+        None => files.extend(scn.named_files()),
     }
     files
 }
@@ -70,10 +70,16 @@ pub fn input_files(scenario: &Path, aircraft: Option<&str>) -> Vec<(&'static str
 /// Load the scenario's device and build its rig.
 pub fn load(path: &Path) -> anyhow::Result<(Scenario, DeviceConfig, crate::rig::Rig)> {
     let scn = Scenario::load(path)?;
+    let (device, rig) = device_and_rig(&scn, path)?;
+    Ok((scn, device, rig))
+}
+
+/// The device of a loaded scenario (read from `path`) and its rig.
+fn device_and_rig(scn: &Scenario, path: &Path) -> anyhow::Result<(DeviceConfig, crate::rig::Rig)> {
     let device = DeviceConfig::load(&scn.device_path, &Registry::builtin())
         .with_context(|| format!("device of scenario {}", path.display()))?;
-    let rig = build_rig(&scn, &device)?;
-    Ok((scn, device, rig))
+    let rig = build_rig(scn, &device)?;
+    Ok((device, rig))
 }
 
 /// The scenario's rig with the device's damper, or for a spring feel unit (no MR element) the same
@@ -142,8 +148,9 @@ pub fn run_with_progress<P: Plant>(
     res
 }
 
-pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
-    let (mut scn, device, rig) = load(&args.scenario)?;
+/// `mrfeel run` of the scenario loaded from `args.scenario`.
+pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
+    let (device, rig) = device_and_rig(&scn, &args.scenario)?;
     if let Some(model) = &args.aircraft {
         scn = scn.with_aircraft_model(model).with_context(|| {
             format!(
@@ -244,7 +251,8 @@ pub fn sweep(scn: &Scenario, device: &DeviceConfig, rates: &[f64]) -> anyhow::Re
     out
 }
 
-pub fn daq_sweep_cmd(args: &DaqSweepArgs) -> anyhow::Result<()> {
+/// `mrfeel daq-sweep` of the scenario loaded from `args.scenario`.
+pub fn daq_sweep_cmd(args: &DaqSweepArgs, scn: Scenario) -> anyhow::Result<()> {
     for (k, r) in args.rates.iter().enumerate() {
         if args.rates[..k].contains(r) {
             let list: Vec<String> = args.rates.iter().map(f64::to_string).collect();
@@ -254,7 +262,6 @@ pub fn daq_sweep_cmd(args: &DaqSweepArgs) -> anyhow::Result<()> {
             );
         }
     }
-    let scn = Scenario::load(&args.scenario)?;
     let device = DeviceConfig::load(&scn.device_path, &Registry::builtin())
         .with_context(|| format!("device of scenario {}", args.scenario.display()))?;
     let points = sweep(&scn, &device, &args.rates)?;

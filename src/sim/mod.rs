@@ -41,19 +41,24 @@ use crate::sensors::{Daq, DaqSample};
 pub enum SimError {
     /// The aircraft's error is part of the message, not a source in the chain: printed with `{:#}`, a
     /// source would repeat it.
-    #[error("{}: aircraft: {error}", scenario.display())]
+    /// `line` is the scenario's `aircraft.airspeed_m_s` for a trim that failed, its `aircraft.model` for an
+    /// error in flight.
+    #[error("{}:{line}: aircraft: {error}", scenario.display())]
     Aero {
         scenario: std::path::PathBuf,
+        line: usize,
         error: crate::aero::AeroError,
     },
     /// The integration blew up: a run whose numbers would be reported as results is stopped instead.
     #[error(
-        "{}: rig.physics_hz: the simulation diverged at t = {t_s} s ({what}); {physics_hz} Hz is too coarse \
-         for this rig and loop: raise the physics rate",
+        "{}:{line}: `rig.physics_hz`: the simulation diverged at t = {t_s} s ({what}); {physics_hz} Hz is too \
+         coarse for this rig and loop: raise the physics rate",
         scenario.display()
     )]
     Diverged {
         scenario: std::path::PathBuf,
+        /// The scenario's line of `rig.physics_hz`.
+        line: usize,
         t_s: f64,
         what: String,
         physics_hz: f64,
@@ -120,6 +125,7 @@ pub struct Loop<P: Plant> {
     actuator_force_n: f64,
     actuator_work_j: f64,
     scenario_path: std::path::PathBuf,
+    scenario_lines: crate::scenario::KeyLines,
 }
 
 impl<P: Plant> Loop<P> {
@@ -157,6 +163,7 @@ impl<P: Plant> Loop<P> {
             .transpose()
             .map_err(|error| SimError::Aero {
                 scenario: scn.path.clone(),
+                line: scn.lines.airspeed,
                 error,
             })?;
         let has_latency_faults = scn
@@ -184,6 +191,7 @@ impl<P: Plant> Loop<P> {
             last_delivered_t_s: f64::NEG_INFINITY,
             flight,
             scenario_path: scn.path.clone(),
+            scenario_lines: scn.lines,
             spring: fs.spring,
             feel_system: fs,
             motor_cmd_n: 0.0,
@@ -221,6 +229,7 @@ impl<P: Plant> Loop<P> {
         if let Some(f) = self.flight.as_mut() {
             f.update(t, s.stick_angle_rad).map_err(|error| SimError::Aero {
                 scenario: self.scenario_path.clone(),
+                line: self.scenario_lines.aircraft_model,
                 error,
             })?;
             if let FeelLaw::Target { .. } = self.controller.law {
@@ -333,6 +342,7 @@ impl<P: Plant> Loop<P> {
         if let Some(what) = diverged(&row, self.plant.stroke_half_m()) {
             return Err(SimError::Diverged {
                 scenario: self.scenario_path.clone(),
+                line: self.scenario_lines.physics_hz,
                 t_s: row.t_s,
                 what,
                 physics_hz: 1.0 / self.plant.dt_s(),
