@@ -343,10 +343,21 @@ impl DeviceConfig {
             };
             let std_err = match obj.get("std_err") {
                 None | Some(serde_json::Value::Null) => None,
-                Some(v) => Some(
-                    v.as_f64()
-                        .ok_or_else(|| wrong(&["params", name, "std_err"], "a number or null", v))?,
-                ),
+                Some(v) => {
+                    let e = v
+                        .as_f64()
+                        .ok_or_else(|| wrong(&["params", name, "std_err"], "a number or null", v))?;
+                    // A spread is not negative; `fit` writes null where it has none.
+                    if e < 0.0 {
+                        return Err(field_err(
+                            path,
+                            at("std_err"),
+                            &format!("{name}.std_err"),
+                            format!("value {e} is negative: a standard error is ≥ 0 (null where unknown)"),
+                        ));
+                    }
+                    Some(e)
+                }
             };
             let unit = match obj.get("unit") {
                 None => None,
@@ -455,6 +466,8 @@ fn json_err(e: &serde_json::Error, text: &str, path: &Path) -> DeviceError {
     let line = e.line().max(1);
     let key = match e.classify() {
         serde_json::error::Category::Eof => None,
+        // After the closing brace no key is at fault: the file goes on past its object.
+        _ if msg.starts_with("trailing characters") => None,
         _ => {
             // The byte the reader stopped at: its line's start plus the column.
             let start: usize = text.split_inclusive('\n').take(line - 1).map(str::len).sum();
@@ -968,6 +981,36 @@ mod tests {
             file.params["c0_n_s_per_m"].std_err.map(f64::to_bits),
             Some(3.0f64.sqrt().to_bits())
         );
+    }
+
+    /// A negative standard error is refused at its line (it was read as given).
+    #[test]
+    fn a_negative_standard_error_is_refused_at_its_line() {
+        let registry = Registry::builtin();
+        let text = "{\"model\": \"bingham\",\n \"params\": {\n  \"fc0_n\": {\"value\": 1.0,\n   \"std_err\": -0.5}\n}}";
+        match DeviceConfig::from_json(text, Path::new("p.json"), &registry) {
+            Err(DeviceError::Field { line, field, msg, .. }) => {
+                assert_eq!((line, field.as_str()), (4, "fc0_n.std_err"));
+                assert!(msg.contains("negative"), "{msg}");
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+
+    /// Text after the JSON object is the file's fault at its line, not the last key's before it (it was
+    /// blamed on `tm_s.unit`).
+    #[test]
+    fn text_after_the_object_names_no_key() {
+        let registry = Registry::builtin();
+        let text =
+            "{\"model\": \"bingham\",\n \"params\": {\"te_s\": {\"value\": 0.01, \"unit\": \"s\"}}}\nx\n";
+        match DeviceConfig::from_json(text, Path::new("p.json"), &registry) {
+            Err(DeviceError::Parse { line, msg, .. }) => {
+                assert_eq!(line, 3);
+                assert!(msg.contains("trailing characters"), "{msg}");
+            }
+            other => panic!("{other:?}"),
+        }
     }
 
     /// Every load error carries a line ≥ 1: the offending key's, or the table's or object's that lacks one.
