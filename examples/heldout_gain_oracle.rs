@@ -17,8 +17,7 @@
 use mrfeel::device::{Model, Registry};
 use std::collections::BTreeMap;
 
-use mrfeel::ident::diagnose::{cross_validate, make_folds, CvResult, Fold};
-use mrfeel::ident::fit::FitOptions;
+use mrfeel::ident::diagnose::{cross_validate, CvResult, DiagnoseOptions, Fold};
 use mrfeel::ident::residual::direction_weights;
 use mrfeel::ident::{default_current_limit_a, load_tests, Test};
 
@@ -28,14 +27,11 @@ fn main() -> anyhow::Result<()> {
         .unwrap_or_else(|| "../shared/data/utfsm-mr-damper".into());
     let tests = load_tests(&[dir.into()])?;
     let registry = Registry::builtin();
-    let (folds, how) = make_folds(&tests, 4, 5);
+    // The diagnosis's folds and fold fits.
+    let diagnosis = DiagnoseOptions::default();
+    let (folds, how) = diagnosis.folds(&tests);
     println!("{how}");
-    // As the diagnosis's fold fits: no standard errors, stop at a relative step of 1e-5.
-    let opts = FitOptions {
-        std_errors: false,
-        tol: 1e-5,
-        ..FitOptions::default()
-    };
+    let opts = diagnosis.cv_fit();
     for spec in [
         "bingham",
         "bingham+hysteresis",

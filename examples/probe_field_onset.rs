@@ -17,8 +17,7 @@
 //! 0.25 A over-prediction is not a law of the current the other groups teach. Not added to the vocabulary.
 
 use mrfeel::device::{DataStats, Effect, EffectStage, Inputs, Model, ParamSpec, Registry, Stage};
-use mrfeel::ident::diagnose::{cross_validate, make_folds};
-use mrfeel::ident::fit::FitOptions;
+use mrfeel::ident::diagnose::{cross_validate, DiagnoseOptions};
 use mrfeel::ident::{default_current_limit_a, load_tests};
 
 /// Yield force quadratic in the current below an onset current, linear above.
@@ -78,14 +77,11 @@ fn main() -> anyhow::Result<()> {
     let tests = load_tests(&[dir.into()])?;
     let mut registry = Registry::builtin();
     registry.register(FieldOnset);
-    let (folds, how) = make_folds(&tests, 4, 5);
+    // The diagnosis's folds and fold fits.
+    let diagnosis = DiagnoseOptions::default();
+    let (folds, how) = diagnosis.folds(&tests);
     println!("{how}");
-    // As the diagnosis's fold fits: no standard errors, stop at a relative step of 1e-5.
-    let opts = FitOptions {
-        std_errors: false,
-        tol: 1e-5,
-        ..FitOptions::default()
-    };
+    let opts = diagnosis.cv_fit();
     for spec in [
         "bingham+hysteresis",
         "bingham+hysteresis+field_onset",

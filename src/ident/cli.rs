@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 
-use super::diagnose::{diagnose, make_folds, DiagnoseOptions};
+use super::diagnose::{diagnose, DiagnoseOptions};
 use super::fit::{all_spans, fit, FitOptions};
 use super::report::{diagnose_table, DiagnoseJson, FitJson};
 use super::residual::where_regions;
@@ -247,7 +247,8 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
         crate::noteln!("saved {}", path.display());
     }
     if a.heldout {
-        let (folds, how) = make_folds(&tests, 4, 5);
+        // The diagnosis's folds; each fold fitted as `fit` fits (tolerance, standard errors).
+        let (folds, how) = DiagnoseOptions::default().folds(&tests);
         let bar = indicatif::ProgressBar::hidden();
         let cv = super::diagnose::cross_validate(&model, &tests, &folds, None, &FitOptions::default(), &bar);
         crate::noteln!(

@@ -66,6 +66,22 @@ pub struct DiagnoseOptions {
     pub progress: bool,
 }
 
+impl DiagnoseOptions {
+    /// The folds the diagnosis judges held-out errors on ([`make_folds`]) and how they were made.
+    pub fn folds(&self, tests: &[Test]) -> (Vec<Fold>, String) {
+        make_folds(tests, self.blocks, self.max_folds)
+    }
+
+    /// The options of the diagnosis's cross-validation fits: no standard errors, tolerance `cv_tol`.
+    pub fn cv_fit(&self) -> FitOptions {
+        FitOptions {
+            tol: self.cv_tol,
+            std_errors: false,
+            ..self.fit.clone()
+        }
+    }
+}
+
 impl Default for DiagnoseOptions {
     fn default() -> Self {
         Self {
@@ -506,17 +522,13 @@ pub fn diagnose(
     }
     let build = |spec: &ModelSpec| Model::new(spec, registry, opts.current_limit_a);
     let base_model = build(base)?;
-    let (folds, cv_scheme) = make_folds(tests, opts.blocks, opts.max_folds);
+    let (folds, cv_scheme) = opts.folds(tests);
     let all: Vec<Span> = super::fit::all_spans(tests);
     let samples: usize = tests.iter().map(Test::len).sum();
     let f_ss: f64 = tests.iter().flat_map(|t| &t.f_n).map(|f| f * f).sum();
     let f_rms = (f_ss / samples.max(1) as f64).sqrt();
     let noise = noise_floor_n(tests);
-    let cv_fit = FitOptions {
-        tol: opts.cv_tol,
-        std_errors: false,
-        ..opts.fit.clone()
-    };
+    let cv_fit = opts.cv_fit();
 
     let bar = if opts.progress {
         let b = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
