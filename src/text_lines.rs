@@ -140,13 +140,24 @@ pub const TEXT_LIMIT_BYTES: u64 = 64 << 20;
 /// file. An error reading it is the system's message.
 pub fn read_bytes(path: &std::path::Path, limit: u64) -> Result<Vec<u8>, String> {
     use std::io::Read;
+    let too_long = || {
+        format!(
+            "longer than {} MiB, more than any input of this kind can be (is this the file you meant?)",
+            limit >> 20
+        )
+    };
+    let meta = std::fs::metadata(path).map_err(|e| e.to_string())?;
     #[cfg(unix)]
     {
         use std::os::unix::fs::FileTypeExt;
-        let kind = std::fs::metadata(path).map_err(|e| e.to_string())?.file_type();
+        let kind = meta.file_type();
         if kind.is_char_device() || kind.is_block_device() {
             return Err("not a file but a device; give a file or a pipe".into());
         }
+    }
+    // A file says its length: refused before reading it (a pipe only when it has said too much).
+    if meta.is_file() && meta.len() > limit {
+        return Err(too_long());
     }
     let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
     let mut bytes = Vec::new();
@@ -154,10 +165,7 @@ pub fn read_bytes(path: &std::path::Path, limit: u64) -> Result<Vec<u8>, String>
         .read_to_end(&mut bytes)
         .map_err(|e| e.to_string())?;
     if bytes.len() as u64 > limit {
-        return Err(format!(
-            "longer than {} MiB, more than any input of this kind can be (is this the file you meant?)",
-            limit >> 20
-        ));
+        return Err(too_long());
     }
     Ok(bytes)
 }

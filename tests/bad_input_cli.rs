@@ -962,6 +962,13 @@ fn an_input_that_is_a_device_or_an_endless_stream_is_refused_not_read_until_memo
         while w.write_all(block.as_bytes()).is_ok() {}
     });
     refused(&endless, &["/dev/stdin", "longer than 64 MiB"]);
+    // A file says its length and is refused without being read (a sparse file: no disk used).
+    let long = d.path().join("long.toml");
+    std::fs::File::create(&long).unwrap().set_len(65 << 20).unwrap();
+    refused(
+        &mrfeel(&["run", &s(&long), "--out", &out]),
+        &["long.toml", "longer than 64 MiB"],
+    );
     assert!(!d.path().join("o.csv").exists());
 }
 
@@ -1040,4 +1047,40 @@ fn a_toml_value_of_the_wrong_type_is_named_and_bare_cr_line_endings_are_explaine
         &mrfeel(&["run", &s(&crlf)]),
         &[&format!("crlf.toml:{line}: `duration_s`: ")],
     );
+}
+
+/// A parameter file is JSON by its extension in any case (`P.JSON`), or read from a pipe by its text: both
+/// were read as TOML and refused with "invalid key" at line 1. All three give the same figures.
+#[test]
+#[cfg(unix)]
+fn a_params_file_from_a_pipe_or_named_in_capitals_is_read_as_json() {
+    let d = tempfile::tempdir().unwrap();
+    let params = d.path().join("p.json");
+    let o = mrfeel(&["fit", &small_test(), "--save", &s(&params)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let validate = |p: &str| mrfeel(&["validate", &small_test(), "--params", p, "--json"]);
+    let named = validate(&s(&params));
+    assert!(
+        named.status.success(),
+        "{}",
+        String::from_utf8_lossy(&named.stderr)
+    );
+    let capitals = d.path().join("P.JSON");
+    std::fs::copy(&params, &capitals).unwrap();
+    let caps = validate(&s(&capitals));
+    assert!(caps.status.success(), "{}", String::from_utf8_lossy(&caps.stderr));
+    assert_eq!(caps.stdout, named.stdout);
+    let text = std::fs::read(&params).unwrap();
+    let piped = mrfeel_fed(
+        &["validate", &small_test(), "--params", "/dev/stdin", "--json"],
+        move |w| {
+            let _ = w.write_all(&text);
+        },
+    );
+    assert!(
+        piped.status.success(),
+        "{}",
+        String::from_utf8_lossy(&piped.stderr)
+    );
+    assert_eq!(piped.stdout, named.stdout);
 }

@@ -50,13 +50,24 @@ pub struct DeviceConfig {
 }
 
 impl DeviceConfig {
-    /// Load a `.toml` device file or a `.json` parameter file written by `mrfeel fit --save`.
+    /// Load a `.toml` device file or a `.json` parameter file written by `mrfeel fit --save`, told apart
+    /// by the extension in any case, or where there is none of the two (a pipe: `--params <(…)`) by the
+    /// text: a JSON object opens with `{`, which no TOML document does.
     pub fn load(path: &Path, registry: &Registry) -> Result<Self, DeviceError> {
         let text = crate::text_lines::read_text(path).map_err(|msg| DeviceError::Io {
             path: path.to_path_buf(),
             msg,
         })?;
-        if path.extension().and_then(|e| e.to_str()) == Some("json") {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        let json = match ext.as_deref() {
+            Some("json") => true,
+            Some("toml") => false,
+            _ => text.trim_start_matches('\u{feff}').trim_start().starts_with('{'),
+        };
+        if json {
             Self::from_json(&text, path, registry)
         } else {
             Self::from_toml(&text, path, registry)
@@ -892,7 +903,11 @@ impl ParamsFile {
     /// [`ParamsFile::write`] writes JSON, and [`DeviceConfig::load`] reads a file by its extension (a `.toml`
     /// as a device file, which JSON is not).
     pub fn check_path(flag: &str, path: &Path) -> Result<(), String> {
-        if path.extension().and_then(|e| e.to_str()) == Some("json") {
+        if path
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| e.eq_ignore_ascii_case("json"))
+        {
             Ok(())
         } else {
             Err(format!(
