@@ -863,30 +863,22 @@ mod tests {
     #[test]
     #[cfg(unix)]
     fn a_csv_entry_that_is_no_file_is_named_not_skipped() {
-        let cases: [(&str, &dyn Fn(&Path), &str); 3] = [
-            (
-                "x.csv",
-                &|p: &Path| {
-                    let made = std::process::Command::new("mkfifo").arg(p).status().unwrap();
-                    assert!(made.success());
-                },
-                "a named pipe",
-            ),
-            (
-                "broken.csv",
-                &|p: &Path| std::os::unix::fs::symlink("/nonexistent/m.csv", p).unwrap(),
-                "broken link",
-            ),
-            (
-                "sub.csv",
-                &|p: &Path| std::fs::create_dir(p).unwrap(),
-                "a directory",
-            ),
-        ];
-        for (name, make, what) in cases {
+        for (name, what) in [
+            ("x.csv", "a named pipe"),
+            ("broken.csv", "broken link"),
+            ("sub.csv", "a directory"),
+        ] {
             let d = tempfile::tempdir().unwrap();
             std::fs::write(d.path().join("a.csv"), "").unwrap();
-            make(&d.path().join(name));
+            let p = d.path().join(name);
+            match name {
+                "x.csv" => {
+                    let made = std::process::Command::new("mkfifo").arg(&p).status().unwrap();
+                    assert!(made.success());
+                }
+                "broken.csv" => std::os::unix::fs::symlink("/nonexistent/m.csv", &p).unwrap(),
+                _ => std::fs::create_dir(&p).unwrap(),
+            }
             let e = measurement_files(&[d.path().to_path_buf()])
                 .unwrap_err()
                 .to_string();
