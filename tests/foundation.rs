@@ -204,4 +204,21 @@ fn load_cell_saturation_is_an_error_not_a_clipped_record() {
         text(&o).1
     );
     assert!(!out.exists());
+    // The other channels clip too (noise pushes them to their sensor's range), and a force coarser than
+    // one step of the ADC reads zero throughout, which `fit` then refuses: each exited 0 with the file.
+    for (args, says) in [
+        (["--position-noise-m", "1"], "displacement reading reached"),
+        (["--velocity-noise-m-s", "100"], "velocity reading reached"),
+        (["--load-cell-range-n", "1e300"], "force reads 0 at every sample"),
+    ] {
+        let mut argv = vec!["mts", "--current", "1", "--out", s(&out)];
+        argv.extend(args);
+        let o = mrfeel(&argv);
+        assert!(
+            !o.status.success() && text(&o).1.contains(says),
+            "{args:?}: {}",
+            text(&o).1
+        );
+        assert!(!out.exists(), "{args:?} wrote the record");
+    }
 }

@@ -168,6 +168,51 @@ fn check_sensor_options(a: &MtsArgs, range_n: f64) -> Result<()> {
     Ok(())
 }
 
+/// Refuse a record that does not say what happened: a channel that saturated at its sensor's range (its
+/// readings clipped: the load cell's, and the displacement's or the velocity's, whose noise can push them
+/// there), or a force that quantised to zero at every sample, which the measurement reader then refuses.
+fn check_record(m: &crate::measurement::Measurement, test: &MtsTest) -> Result<()> {
+    let clipped = |y: &[f64], range: f64| y.iter().filter(|v| v.abs() >= range * 0.999).count();
+    // 250, not 2.5e2; 1e300, not three hundred digits.
+    let short = |v: f64| {
+        if (1e-3..1e6).contains(&v.abs()) {
+            v.to_string()
+        } else {
+            format!("{v:e}")
+        }
+    };
+    let range_n = short(test.load_cell.range);
+    let n = clipped(&m.f_n, test.load_cell.range);
+    if n > 0 {
+        bail!(
+            "the load cell saturated at ±{range_n} N on {n} samples: raise --load-cell-range-n or lower the current/velocity (nothing written)"
+        );
+    }
+    let n = clipped(&m.x_m, test.displacement.range);
+    if n > 0 {
+        bail!(
+            "the displacement reading reached the sensor's ±{} m on {n} samples (clipped there): lower --position-noise-m or raise --adc-bits (nothing written)",
+            short(test.displacement.range)
+        );
+    }
+    if m.velocity_measured {
+        let n = clipped(&m.v_m_s, test.velocity.range);
+        if n > 0 {
+            bail!(
+                "the velocity reading reached the sensor's ±{} m/s on {n} samples (clipped there): lower --velocity-noise-m-s or raise --adc-bits (nothing written)",
+                short(test.velocity.range)
+            );
+        }
+    }
+    if m.f_n.iter().all(|&f| f == 0.0) {
+        bail!(
+            "the force reads 0 at every sample: one step of the {}-bit load cell over ±{range_n} N is coarser than the force; lower --load-cell-range-n or raise --adc-bits (nothing written)",
+            test.load_cell.bits
+        );
+    }
+    Ok(())
+}
+
 pub fn run(a: MtsArgs) -> Result<()> {
     if let Some(path) = &a.save_device {
         crate::device::ParamsFile::check_path("--save-device", path).map_err(anyhow::Error::msg)?;
@@ -219,12 +264,7 @@ pub fn run(a: MtsArgs) -> Result<()> {
         )?
     };
     let m = test.run(&mut damper)?;
-    let saturated = m.f_n.iter().filter(|f| f.abs() >= range_n * 0.999).count();
-    if saturated > 0 {
-        bail!(
-            "the load cell saturated at ±{range_n} N on {saturated} samples: raise --load-cell-range-n or lower the current/velocity (nothing written)"
-        );
-    }
+    check_record(&m, &test)?;
     m.write(&a.out)?;
     if let Some(path) = &a.save_device {
         crate::device::ParamsFile::new(damper.model(), damper.params(), None)
