@@ -175,7 +175,7 @@ fn load_and_tell(
     match choice {
         AcquisitionChoice::Auto => {
             for line in super::acquisition_note(&tests) {
-                crate::noteln!("{line} (`--acquisition as-logged` compares the files as they are)");
+                crate::noteln!("{line}");
             }
         }
         AcquisitionChoice::AsLogged => {

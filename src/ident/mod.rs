@@ -732,7 +732,8 @@ pub fn tests_with(ms: &[Measurement], choice: AcquisitionChoice) -> Result<Vec<T
 }
 
 /// Lines for a person: which tests were found logged through a moving average, and what is done about it
-/// (one line per window and clock, with the tests' groups); empty when none was.
+/// (one line per window and clock, with the tests' groups), and which could not be searched for one (an
+/// uneven clock); empty when neither.
 pub fn acquisition_note(tests: &[Test]) -> Vec<String> {
     let mut seen: Vec<(usize, f64, bool, Vec<String>, usize)> = Vec::new();
     for t in tests {
@@ -751,23 +752,44 @@ pub fn acquisition_note(tests: &[Test]) -> Vec<String> {
             None => seen.push((d.window(), dt, predicted, vec![t.group.clone()], 1)),
         }
     }
-    seen.into_iter()
-        .map(|(w, dt, predicted, groups, n)| {
-            let why = if predicted {
-                "the share of the drive period that the other protocols' filters span (or the model's \
-                 PARAMS.json saved) predicts it, and its comb of zeros shows in their spectra"
-            } else {
-                "its comb of zeros shows in their spectra"
-            };
-            format!(
-                "acquisition: {n} test(s) ({}) were logged through a moving average of {w} samples ({:.3} s): \
-                 {why}; the model is driven by the motion before the filter and its force goes through the \
-                 same average",
-                groups.join(", "),
-                w as f64 * dt
-            )
+    // A test on an uneven clock (a gap, lost samples) cannot show a comb: say so, not fall back in silence.
+    let uneven: Vec<&str> = tests
+        .iter()
+        .filter(|t| {
+            t.drive.is_none() && {
+                let times: Vec<f64> = t.inputs.iter().map(|i| i.t_s).collect();
+                crate::measurement::uniform_interval(&times).is_none()
+            }
         })
-        .collect()
+        .map(|t| t.name.as_str())
+        .collect();
+    let mut notes = Vec::new();
+    if !uneven.is_empty() {
+        let shown: Vec<&str> = uneven.iter().copied().take(3).collect();
+        notes.push(format!(
+            "acquisition: {} test(s) ({}{}) are on an uneven clock, where the comb of a moving average cannot be \
+             looked for: compared as logged (give them on an even clock to have their chain found)",
+            uneven.len(),
+            shown.join(", "),
+            if uneven.len() > 3 { ", …" } else { "" }
+        ));
+    }
+    notes.extend(seen.into_iter().map(|(w, dt, predicted, groups, n)| {
+        let why = if predicted {
+            "the share of the drive period that the other protocols' filters span (or the model's \
+                 PARAMS.json saved) predicts it, and its comb of zeros shows in their spectra"
+        } else {
+            "its comb of zeros shows in their spectra"
+        };
+        format!(
+            "acquisition: {n} test(s) ({}) were logged through a moving average of {w} samples ({:.3} s): \
+                 {why}; the model is driven by the motion before the filter and its force goes through the \
+                 same average (`--acquisition as-logged` compares the files as they are)",
+            groups.join(", "),
+            w as f64 * dt
+        )
+    }));
+    notes
 }
 
 /// What makes two tests one protocol for the acquisition chain: the sample interval and the drive's
