@@ -60,7 +60,11 @@ impl TomlError {
         }
         let line = e.span().map_or(1, |s| line_of(text, s.start));
         let msg = e.message().trim().to_string();
-        let field = toml_key_of_line(text, line).filter(|_| !msg.contains("field `"));
+        let field = e
+            .span()
+            .and_then(|s| toml_key_at(text, s.start))
+            .or_else(|| toml_key_of_line(text, line))
+            .filter(|_| !msg.contains("field `"));
         Self { line, field, msg }
     }
 
@@ -74,7 +78,7 @@ impl TomlError {
     }
 }
 
-/// The key a TOML line sets (`name = value`), if it sets one.
+/// The key a TOML line sets (`name = value`, or dotted: `laser.noise_rms_m = value`), if it sets one.
 pub fn toml_key_of_line(text: &str, line: usize) -> Option<String> {
     let l = text
         .lines()
@@ -82,12 +86,43 @@ pub fn toml_key_of_line(text: &str, line: usize) -> Option<String> {
         .trim_start_matches('\u{feff}')
         .trim();
     let (key, _) = l.split_once('=')?;
-    let key = key.trim().trim_matches('"');
-    let bare = !key.is_empty()
-        && key
-            .chars()
-            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
-    bare.then(|| key.to_string())
+    bare_key(key)
+}
+
+/// A key as written before its `=`, quotes and spaces around its parts taken off, if it is a key.
+fn bare_key(written: &str) -> Option<String> {
+    let parts: Vec<&str> = written.split('.').map(|p| p.trim().trim_matches('"')).collect();
+    let bare = parts.iter().all(|p| {
+        !p.is_empty()
+            && p.chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+    });
+    bare.then(|| parts.join("."))
+}
+
+/// The key whose value is at byte `offset`: the line's own key, and inside an inline table on that line
+/// (`rig = { urdf = "…", physics_hz = "x" }`) the inner key after it (`rig.physics_hz`). `None` where the
+/// offset is not after a `key =` on its line.
+fn toml_key_at(text: &str, offset: usize) -> Option<String> {
+    let offset = offset.min(text.len());
+    let start = text[..offset].rfind('\n').map_or(0, |p| p + 1);
+    let before = text[start..offset].trim_start_matches('\u{feff}');
+    let outer = bare_key(before.split_once('=')?.0)?;
+    // The nearest `key =` before the value, inside the braces of an inline table.
+    let inner_text = before.rsplit_once('=')?.0;
+    let brace = inner_text.rfind('{');
+    let inner = match brace {
+        Some(b) => {
+            let seg = &inner_text[b + 1..];
+            let seg = seg.rsplit(',').next().unwrap_or(seg);
+            bare_key(seg)
+        }
+        None => None,
+    };
+    Some(match inner {
+        Some(k) => format!("{outer}.{k}"),
+        None => outer,
+    })
 }
 
 /// Where a text's first byte that is not UTF-8 is: 1-based line and column (in characters, as an editor
@@ -187,6 +222,65 @@ mod tests {
 
     const TEXT: &str =
         "base = \"a.toml\"\n\n[springs]\nfile = \"s.toml\"\nfiles_extra = 1\n[[faults]]\nkind = \"x\"\n";
+
+    /// A value of the wrong type is named by its key however the key is written: plain, dotted, or inside
+    /// an inline table (the parser's message names none; the inline table's own key was named before).
+    #[test]
+    fn a_wrong_value_is_named_by_its_full_key() {
+        #[derive(serde::Deserialize, Debug)]
+        #[allow(dead_code)]
+        struct Rig {
+            urdf: String,
+            physics_hz: f64,
+        }
+        #[derive(serde::Deserialize, Debug)]
+        #[allow(dead_code)]
+        struct Doc {
+            duration_s: f64,
+            rig: Rig,
+        }
+        for (text, line, key) in [
+            (
+                "duration_s = \"12\"\n[rig]\nurdf = \"a\"\nphysics_hz = 1.0\n",
+                1,
+                "duration_s",
+            ),
+            (
+                "duration_s = 1.0\n[rig]\nurdf = \"a\"\nphysics_hz = \"x\"\n",
+                4,
+                "physics_hz",
+            ),
+            (
+                "duration_s = 1.0\nrig.urdf = \"a\"\nrig.physics_hz = \"x\"\n",
+                3,
+                "rig.physics_hz",
+            ),
+            (
+                "duration_s = 1.0\nrig = { urdf = \"a\", physics_hz = \"x\" }\n",
+                2,
+                "rig.physics_hz",
+            ),
+        ] {
+            let e = toml::from_str::<Doc>(text).unwrap_err();
+            let placed = TomlError::new(text, &e);
+            assert_eq!(
+                (placed.line, placed.field.as_deref()),
+                (line, Some(key)),
+                "{text}: {}",
+                placed.msg
+            );
+            assert!(
+                placed.message().starts_with(&format!("`{key}`: ")),
+                "{}",
+                placed.message()
+            );
+        }
+        // Bare carriage returns are explained, whatever the parser said.
+        let e = toml::from_str::<Doc>("duration_s = 1.0\r[rig]\r").unwrap_err();
+        assert!(TomlError::new("duration_s = 1.0\r[rig]\r", &e)
+            .msg
+            .contains("bare carriage return"));
+    }
 
     #[test]
     fn offsets_and_keys_are_found_at_their_lines() {
