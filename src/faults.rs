@@ -258,7 +258,7 @@ impl FaultSchedule {
                 &e.end_s,
                 start_s,
                 duration_s,
-                "s (after start_s, within the run: to last to the end, write duration_s)",
+                &format!("s (after start_s, within the run: to last to its end, write {duration_s})"),
             )?;
             if end_s <= start_s {
                 // Active on start_s ≤ t < end_s: a fault that ends where it starts never acts.

@@ -1084,3 +1084,24 @@ fn a_params_file_from_a_pipe_or_named_in_capitals_is_read_as_json() {
     );
     assert_eq!(piped.stdout, named.stdout);
 }
+
+/// A comparison replaces its base scenario's faults with its own: a `[[fault]]` in the base was dropped
+/// without a word (the results byte-identical to a base without it). It is now said, naming both files.
+#[test]
+fn compare_says_that_the_base_scenarios_faults_are_not_used() {
+    let tree = scenario_tree();
+    let base = tree.path().join("scenarios/paper-feel-loop.toml");
+    let mut text = std::fs::read_to_string(&base).unwrap();
+    text.push_str("\n[[fault]]\nkind = \"coil_open\"\nstart_s = 2.0\nend_s = 3.0\n");
+    std::fs::write(&base, text).unwrap();
+    let cmp = tree.path().join("scenarios/compare-feel.toml");
+    let o = mrfeel(&["compare", &s(&cmp), "--feel", "mr", "--json"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("1 [[fault]] table(s)")
+            && err.contains("paper-feel-loop.toml")
+            && err.contains("not used"),
+        "{err}"
+    );
+}

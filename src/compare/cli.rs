@@ -351,6 +351,15 @@ fn rerun_log_into(
 
 /// `mrfeel compare` of the comparison loaded from `a.scenario`.
 pub fn run_cmd(a: CompareArgs, scn: CompareScenario) -> anyhow::Result<()> {
+    let dropped = scn.base.faults.faults.len();
+    if dropped > 0 {
+        crate::noteln!(
+            "compare: the {dropped} [[fault]] table(s) of the base scenario {} are not used: a comparison runs \
+             the faults of its own file ({}) and, with --faults, each fault of its [fault_test] in turn",
+            scn.base.path.display(),
+            a.scenario.display()
+        );
+    }
     let systems = match &a.feel {
         Some(list) => super::parse_feel_list(list).map_err(|e| match e {
             super::CompareError::Feel(msg) => anyhow::anyhow!("--feel {list}: {msg} (nothing was run)"),
