@@ -964,9 +964,15 @@ impl Ctx<'_> {
     /// A file the scenario names at `at` (`key`; `inner`: the key's name inside the table `at`, `""` when
     /// `at` is the value itself) exists and is a file.
     fn readable<T>(&self, at: &Spanned<T>, inner: &str, key: &str, file: &Path) -> Result<(), ScenarioError> {
+        // A regular file only: the rig's URDF and the device are read again for every run of a comparison
+        // or a DAQ sweep, which a pipe cannot give twice.
         let msg = match std::fs::metadata(file) {
             Ok(m) if m.is_file() => return Ok(()),
-            Ok(_) => format!("{}: not a file", file.display()),
+            Ok(m) if m.is_dir() => format!("{}: a directory, not a file", file.display()),
+            Ok(_) => format!(
+                "{}: not a regular file (a pipe or a device); this file is read once per run, so it must be one",
+                file.display()
+            ),
             Err(e) => format!("{}: {e}", file.display()),
         };
         let span = at.span();

@@ -569,3 +569,29 @@ fn an_untrimmable_flight_condition_names_the_airspeed_line() {
         &[&format!("scn.toml:{line}: aircraft: trim failed"), "throttle"],
     );
 }
+
+/// The device and the URDF a scenario names must be regular files (a comparison or a DAQ sweep reads them
+/// for every run, which a pipe cannot give twice): a device node or a directory is refused at the key's
+/// line, saying what it is.
+#[test]
+#[cfg(unix)]
+fn a_scenario_file_that_is_a_device_or_a_directory_is_refused_at_its_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let models = format!("{}/models/", root().display());
+    for (to, says) in [
+        ("/dev/zero", "not a regular file"),
+        (models.as_str(), "a directory, not a file"),
+    ] {
+        let (scn, text) = scenario(dir.path(), "paper-feel-loop.toml", |t| {
+            t.replace(
+                &format!("file = \"{models}paper-device.toml\""),
+                &format!("file = \"{to}\""),
+            )
+        });
+        let line = line_of(&text, &format!("file = \"{to}\""));
+        refused(
+            &run(dir.path(), &scn, &[]),
+            &[&format!("scn.toml:{line}: `device.file`"), says],
+        );
+    }
+}
