@@ -237,7 +237,9 @@ impl FaultSchedule {
                     Err(field(
                         key,
                         v.span().start,
-                        format!("value {x} outside the allowed range [{lo}, {hi}] {unit}"),
+                        format!("value {x} outside the allowed range [{lo}, {hi}] {unit}")
+                            .trim_end()
+                            .to_string(),
                     ))
                 }
             };

@@ -112,6 +112,8 @@ pub struct KeyLines {
     pub airspeed: usize,
     /// `aircraft.model`, the aircraft flown (for its errors in flight).
     pub aircraft_model: usize,
+    /// `feel.law` (a DAQ sweep needs a step test).
+    pub feel_law: usize,
 }
 
 /// A validated scenario.
@@ -455,6 +457,7 @@ impl Scenario {
                 physics_hz: crate::text_lines::toml_key_line(text, "rig", "physics_hz"),
                 airspeed: crate::text_lines::toml_key_line(text, "aircraft", "airspeed_m_s"),
                 aircraft_model: crate::text_lines::toml_key_line(text, "aircraft", "model"),
+                feel_law: crate::text_lines::toml_key_line(text, "feel", "law"),
             },
             name: f.name,
             duration_s,
@@ -1001,7 +1004,7 @@ impl Ctx<'_> {
             return Err(self.err(
                 v,
                 key,
-                &format!("value {x} outside the allowed range [{lo}, {hi}] {unit}"),
+                format!("value {x} outside the allowed range [{lo}, {hi}] {unit}").trim_end(),
             ));
         }
         Ok(x)
@@ -1038,10 +1041,11 @@ impl Ctx<'_> {
                 return Err(self.err(
                     pts,
                     key,
-                    &format!(
+                    format!(
                         "point {i}: value {} outside the allowed range [{lo}, {hi}] {unit}",
                         q[1]
-                    ),
+                    )
+                    .trim_end(),
                 ));
             }
             if !q[0].is_finite() || (i > 0 && q[0] <= p[i - 1][0]) {

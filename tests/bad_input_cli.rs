@@ -1105,3 +1105,43 @@ fn compare_says_that_the_base_scenarios_faults_are_not_used() {
         "{err}"
     );
 }
+
+/// `daq-sweep` names the scenario's line when the scenario is no step test (`feel.law`) and when a rate is
+/// beyond its physics rate (`rig.physics_hz`); both named no file or line, and the rate was reported
+/// before the law that makes every rate moot.
+#[test]
+fn daq_sweep_errors_name_the_scenario_line() {
+    let pfl = scenario("paper-feel-loop.toml");
+    let text = std::fs::read_to_string(&pfl).unwrap();
+    let law = text.lines().position(|l| l.starts_with("law = ")).unwrap() + 1;
+    refused(
+        &mrfeel(&["daq-sweep", &pfl, "--rates", "100000"]),
+        &[&format!("paper-feel-loop.toml:{law}: `feel.law`"), "force-steps"],
+    );
+    let rt = scenario("response-time.toml");
+    let text = std::fs::read_to_string(&rt).unwrap();
+    let hz = text.lines().position(|l| l.starts_with("physics_hz")).unwrap() + 1;
+    refused(
+        &mrfeel(&["daq-sweep", &rt, "--rates", "100000"]),
+        &[
+            "--rates",
+            "100000 Hz",
+            &format!("response-time.toml:{hz}: `rig.physics_hz`"),
+        ],
+    );
+}
+
+/// A range message of a quantity without a unit ends at its bracket (it ended in a space).
+#[test]
+fn a_unitless_range_message_has_no_trailing_space() {
+    let d = tempfile::tempdir().unwrap();
+    let models = s(&root().join("models"));
+    let text = std::fs::read_to_string(scenario("paper-feel-loop.toml"))
+        .unwrap()
+        .replace("\"../models/", &format!("\"{models}/"))
+        .replace("gain = 1.005", "gain = 9.0");
+    let p = d.path().join("g.toml");
+    std::fs::write(&p, text).unwrap();
+    let e = refused(&mrfeel(&["run", &s(&p)]), &["`load_cell.gain`", "[0.5, 2]"]);
+    assert!(e.trim_end_matches('\n').ends_with("[0.5, 2]"), "{e:?}");
+}

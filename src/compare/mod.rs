@@ -291,7 +291,9 @@ impl CompareScenario {
                         } else {
                             format!("{section}.{key}")
                         },
-                        msg: format!("value {v} outside the allowed range [{lo}, {hi}] {unit}"),
+                        msg: format!("value {v} outside the allowed range [{lo}, {hi}] {unit}")
+                            .trim_end()
+                            .to_string(),
                     })
                 }
             };

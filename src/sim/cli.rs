@@ -223,18 +223,22 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
 
 /// Run the scenario at each DAQ rate (in parallel, results in order) and measure the step responses.
 pub fn sweep(scn: &Scenario, device: &DeviceConfig, rates: &[f64]) -> anyhow::Result<Vec<SweepPoint>> {
+    // The scenario's own fault first: a sweep of a scenario that is not a step test has no rate to try.
+    anyhow::ensure!(
+        matches!(scn.feel, crate::control::FeelLaw::ForceSteps { .. }),
+        "{}:{}: `feel.law`: daq-sweep needs `feel.law = \"force-steps\"` (a step test of the feel loop)",
+        scn.path.display(),
+        scn.lines.feel_law
+    );
     for &r in rates {
         anyhow::ensure!(
             r > 0.0 && r <= scn.physics_rate_hz(),
-            "DAQ rate {r} Hz: allowed range (0, {}] Hz (the scenario's physics rate)",
-            scn.physics_rate_hz()
+            "--rates: DAQ rate {r} Hz is outside (0, {}] Hz, the scenario's physics rate ({}:{}: `rig.physics_hz`)",
+            scn.physics_rate_hz(),
+            scn.path.display(),
+            scn.lines.physics_hz
         );
     }
-    anyhow::ensure!(
-        matches!(scn.feel, crate::control::FeelLaw::ForceSteps { .. }),
-        "{}: daq-sweep needs `feel.law = \"force-steps\"`",
-        scn.path.display()
-    );
     let pb = progress_bar(rates.len() as u64, "daq-sweep");
     let out: anyhow::Result<Vec<SweepPoint>> = rates
         .par_iter()
