@@ -980,11 +980,7 @@ fn an_input_that_is_a_device_or_an_endless_stream_is_refused_not_read_until_memo
 #[cfg(unix)]
 fn a_scenario_from_a_pipe_is_read_once_and_runs_as_from_its_file() {
     let d = tempfile::tempdir().unwrap();
-    let models = s(&root().join("models"));
-    let text = std::fs::read_to_string(scenario("paper-feel-loop.toml"))
-        .unwrap()
-        .replace("\"../models/", &format!("\"{models}/"))
-        .replace("duration_s = 12.0", "duration_s = 2.0");
+    let text = paper_feel_loop_absolute().replace("duration_s = 12.0", "duration_s = 2.0");
     assert!(
         text.contains("duration_s = 2.0"),
         "the scenario's duration line moved"
@@ -1016,10 +1012,7 @@ fn a_scenario_from_a_pipe_is_read_once_and_runs_as_from_its_file() {
 #[test]
 fn a_toml_value_of_the_wrong_type_is_named_and_bare_cr_line_endings_are_explained() {
     let d = tempfile::tempdir().unwrap();
-    let models = s(&root().join("models"));
-    let text = std::fs::read_to_string(scenario("paper-feel-loop.toml"))
-        .unwrap()
-        .replace("\"../models/", &format!("\"{models}/"));
+    let text = paper_feel_loop_absolute();
     let typed = d.path().join("typed.toml");
     std::fs::write(&typed, text.replace("duration_s = 12.0", "duration_s = \"12\"")).unwrap();
     let line = text.lines().position(|l| l.starts_with("duration_s")).unwrap() + 1;
@@ -1135,13 +1128,18 @@ fn daq_sweep_errors_name_the_scenario_line() {
 #[test]
 fn a_unitless_range_message_has_no_trailing_space() {
     let d = tempfile::tempdir().unwrap();
-    let models = s(&root().join("models"));
-    let text = std::fs::read_to_string(scenario("paper-feel-loop.toml"))
-        .unwrap()
-        .replace("\"../models/", &format!("\"{models}/"))
-        .replace("gain = 1.005", "gain = 9.0");
+    let text = paper_feel_loop_absolute().replace("gain = 1.005", "gain = 9.0");
     let p = d.path().join("g.toml");
     std::fs::write(&p, text).unwrap();
     let e = refused(&mrfeel(&["run", &s(&p)]), &["`load_cell.gain`", "[0.5, 2]"]);
     assert!(e.trim_end_matches('\n').ends_with("[0.5, 2]"), "{e:?}");
+}
+
+/// The paper's feel-loop scenario with its model paths absolute, so that it runs from anywhere (a
+/// temporary folder, a pipe).
+fn paper_feel_loop_absolute() -> String {
+    let models = s(&root().join("models"));
+    std::fs::read_to_string(scenario("paper-feel-loop.toml"))
+        .unwrap()
+        .replace("\"../models/", &format!("\"{models}/"))
 }
