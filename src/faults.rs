@@ -201,13 +201,18 @@ impl FaultSchedule {
         let entries: FaultTables<FaultEntry> = toml::from_str(text).map_err(|e| {
             let at = e.span().map(|s| s.start);
             match at.and_then(|a| tables.fault.iter().position(|t| t.span().contains(&a))) {
-                Some(k) => FaultError::Field {
-                    path: path.to_path_buf(),
-                    line: at.map_or(1, line),
-                    index: k + 1,
-                    key: "fault".into(),
-                    msg: e.message().trim().to_string(),
-                },
+                Some(k) => {
+                    // The key of the value at fault (a wrong type), else the table's (a key missing).
+                    let placed = crate::text_lines::TomlError::new(text, &e);
+                    let key = placed.field.unwrap_or_else(|| "fault".into());
+                    FaultError::Field {
+                        path: path.to_path_buf(),
+                        line: at.map_or(1, line),
+                        index: k + 1,
+                        key,
+                        msg: placed.msg,
+                    }
+                }
                 None => parse_err(e),
             }
         })?;
@@ -481,6 +486,20 @@ mod tests {
         );
         let to_the_end = "[[fault]]\nkind = \"coil_open\"\nstart_s = 4.0\nend_s = 5.0\n";
         assert!(FaultSchedule::from_scenario_text(to_the_end, Path::new("s.toml"), 5.0).is_ok());
+        // A value of the wrong type is named by its key (it was named `fault`); a missing key by the table.
+        let typed = "[[fault]]\nkind = \"coil_open\"\nstart_s = \"x\"\nend_s = 2.0\n";
+        let e = FaultSchedule::from_scenario_text(typed, Path::new("s.toml"), 5.0)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("s.toml:3: [[fault]] #1: `start_s`") && e.contains("invalid type"),
+            "{e}"
+        );
+        let missing = "[[fault]]\nkind = \"coil_open\"\nstart_s = 1.0\n";
+        let e = FaultSchedule::from_scenario_text(missing, Path::new("s.toml"), 5.0)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("[[fault]] #1: `fault`") && e.contains("end_s"), "{e}");
         let empty = "[[fault]]\nkind = \"coil_open\"\nstart_s = 2.0\nend_s = 2.0\n";
         let e = FaultSchedule::from_scenario_text(empty, Path::new("s.toml"), 5.0)
             .unwrap_err()
