@@ -199,19 +199,25 @@ impl Scenario {
         let f: File = from_toml(text, path)?;
         let c = Ctx { path, text };
         let dir = path.parent().unwrap_or(Path::new("."));
-        let mut rig = f.rig.get_ref().clone();
+        let mut rig = f.rig.clone();
         rig.urdf = dir.join(&rig.urdf);
+        let rig_line = |key: &str| crate::text_lines::toml_key_line(text, "rig", key);
         // The files the run reads later: named here, with the line that names them, when they are missing.
-        c.readable(&f.rig, "urdf", "rig.urdf", &rig.urdf)?;
+        c.readable(rig_line("urdf"), "rig.urdf", &rig.urdf)?;
         let device_path = dir.join(f.device.file.get_ref());
-        c.readable(&f.device.file, "", "device.file", &device_path)?;
+        c.readable(
+            line_of(text, f.device.file.span().start),
+            "device.file",
+            &device_path,
+        )?;
         let physics_rate_hz = rig.physics_hz;
         if !(physics_rate_hz.is_finite() && (100.0..=100_000.0).contains(&physics_rate_hz)) {
-            return Err(c.err(
-                &f.rig,
-                "rig.physics_hz",
-                &format!("value {physics_rate_hz} outside the allowed range [100, 100000] Hz"),
-            ));
+            return Err(ScenarioError::Field {
+                path: path.to_path_buf(),
+                line: rig_line("physics_hz"),
+                key: "rig.physics_hz".into(),
+                msg: format!("value {physics_rate_hz} outside the allowed range [100, 100000] Hz"),
+            });
         }
         let duration_s = c.num(&f.duration_s, "duration_s", 1e-3, 3600.0, "s")?;
         let steps = duration_s * physics_rate_hz;
@@ -964,9 +970,8 @@ impl Ctx<'_> {
         }
     }
 
-    /// A file the scenario names at `at` (`key`; `inner`: the key's name inside the table `at`, `""` when
-    /// `at` is the value itself) exists and is a file.
-    fn readable<T>(&self, at: &Spanned<T>, inner: &str, key: &str, file: &Path) -> Result<(), ScenarioError> {
+    /// A file the scenario names at `line` (`key`) exists and is a regular file.
+    fn readable(&self, line: usize, key: &str, file: &Path) -> Result<(), ScenarioError> {
         // A regular file only: the rig's URDF and the device are read again for every run of a comparison
         // or a DAQ sweep, which a pipe cannot give twice.
         let msg = match std::fs::metadata(file) {
@@ -978,18 +983,6 @@ impl Ctx<'_> {
             ),
             Err(e) => format!("{}: {e}", file.display()),
         };
-        let span = at.span();
-        let mut line = line_of(self.text, span.start);
-        if !inner.is_empty() {
-            let table = &self.text[span.start.min(self.text.len())..span.end.min(self.text.len())];
-            if let Some(k) = table.lines().position(|l| {
-                l.trim_start()
-                    .strip_prefix(inner)
-                    .is_some_and(|r| r.trim_start().starts_with('='))
-            }) {
-                line += k;
-            }
-        }
         Err(ScenarioError::Field {
             path: self.path.to_path_buf(),
             line,
@@ -1110,7 +1103,9 @@ struct File {
     description: String,
     duration_s: Spanned<f64>,
     seed: Spanned<i64>,
-    rig: Spanned<RigConfig>,
+    /// Not `Spanned`: the toml crate cannot give a span to a table written with dotted keys
+    /// (`rig.physics_hz = …` at the top level, valid TOML), and refused it; its keys' lines are found by name.
+    rig: RigConfig,
     device: DeviceSection,
     load_cell: LoadCellSection,
     laser: LaserSection,

@@ -10,21 +10,23 @@ pub fn line_of(text: &str, offset: usize) -> usize {
 }
 
 /// 1-based line of `key = ...` inside `[table]` of a TOML text (`table` empty: the top level, before any
-/// table); where the key is not written on a line of its own, the table's header line, or 1.
+/// table), or of `table.key = ...` at the top level (dotted keys); where the key is not written on a line
+/// of its own, the table's header line, or 1.
 pub fn toml_key_line(text: &str, table: &str, key: &str) -> usize {
     let mut in_table = table.is_empty();
+    let mut top = true;
     let mut header = 1;
+    let dotted = format!("{table}.{key}");
+    let sets = |t: &str, k: &str| t.strip_prefix(k).is_some_and(|r| r.trim_start().starts_with('='));
     for (k, l) in text.lines().enumerate() {
         let t = l.trim();
         if t.starts_with('[') {
+            top = false;
             in_table = t.trim_matches(|c| c == '[' || c == ']').trim() == table;
             if in_table {
                 header = k + 1;
             }
-        } else if in_table
-            && t.strip_prefix(key)
-                .is_some_and(|r| r.trim_start().starts_with('='))
-        {
+        } else if (in_table && sets(t, key)) || (top && !table.is_empty() && sets(t, &dotted)) {
             return k + 1;
         }
     }
@@ -294,6 +296,15 @@ mod tests {
         // Not written: the table's header, or the first line without one.
         assert_eq!(toml_key_line(TEXT, "springs", "damping"), 3);
         assert_eq!(toml_key_line(TEXT, "nowhere", "x"), 1);
+        // Dotted at the top level.
+        assert_eq!(
+            toml_key_line("a = 1\nrig.physics_hz = 2.0\n[x]\n", "rig", "physics_hz"),
+            2
+        );
+        assert_eq!(
+            toml_key_line("a = 1\n[x]\nrig.physics_hz = 2.0\n", "rig", "physics_hz"),
+            1
+        );
     }
 
     #[test]

@@ -1143,3 +1143,52 @@ fn paper_feel_loop_absolute() -> String {
         .unwrap()
         .replace("\"../models/", &format!("\"{models}/"))
 }
+
+/// `[rig]` written as dotted keys at the top level (`rig.physics_hz = 1000.0`, valid TOML) was refused
+/// with "expected a borrowed string"; it now runs as the table form does, to the bit, and an error in it
+/// names the dotted key's line.
+#[test]
+fn a_rig_written_with_dotted_keys_runs_as_its_table() {
+    let d = tempfile::tempdir().unwrap();
+    let text = paper_feel_loop_absolute().replace("duration_s = 12.0", "duration_s = 2.0");
+    let mut rig = Vec::new();
+    let mut rest = Vec::new();
+    let mut in_rig = false;
+    for l in text.lines() {
+        let t = l.trim();
+        if t.starts_with('[') {
+            in_rig = t == "[rig]";
+            if in_rig {
+                continue;
+            }
+        }
+        if in_rig {
+            if t.contains('=') && !t.starts_with('#') {
+                rig.push(format!("rig.{t}"));
+            }
+        } else {
+            rest.push(l.to_string());
+        }
+    }
+    assert_eq!(rig.len(), 2, "the [rig] table changed: {rig:?}");
+    let at = rest.iter().position(|l| l.starts_with("seed")).unwrap() + 1;
+    rest.splice(at..at, rig);
+    let dotted = rest.join("\n") + "\n";
+    let (table_file, dotted_file) = (d.path().join("table.toml"), d.path().join("dotted.toml"));
+    std::fs::write(&table_file, &text).unwrap();
+    std::fs::write(&dotted_file, &dotted).unwrap();
+    let run = |p: &Path| {
+        let o = mrfeel(&["run", &s(p), "--json"]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        o.stdout
+    };
+    assert_eq!(run(&dotted_file), run(&table_file));
+    let slow = d.path().join("slow.toml");
+    let bad = dotted.replace("rig.physics_hz = 1000.0", "rig.physics_hz = 5.0");
+    std::fs::write(&slow, &bad).unwrap();
+    let line = bad.lines().position(|l| l.starts_with("rig.physics_hz")).unwrap() + 1;
+    refused(
+        &mrfeel(&["run", &s(&slow)]),
+        &[&format!("slow.toml:{line}: `rig.physics_hz`"), "[100, 100000]"],
+    );
+}
