@@ -167,6 +167,17 @@ pub fn decode(bytes: &[u8]) -> Result<&str, NotUtf8> {
     })
 }
 
+/// A number for a message: plain where that is short, in exponent form where it is not (1e300, not three
+/// hundred digits).
+pub fn short_number(v: f64) -> String {
+    let a = v.abs();
+    if v.is_finite() && a != 0.0 && !(1e-4..1e15).contains(&a) {
+        format!("{v:e}")
+    } else {
+        v.to_string()
+    }
+}
+
 /// Largest text input (a scenario, device, parameter, pilot, spring, aircraft or URDF file) read, bytes:
 /// the largest of them in this repository is under 100 KiB.
 pub const TEXT_LIMIT_BYTES: u64 = 64 << 20;

@@ -12,7 +12,7 @@ use super::model::{Damper, Model, ModelSpec, Registry, PAPER_CURRENT_LIMIT_A};
 use super::params::ParamValue;
 use super::DeviceError;
 use crate::measurement::CommandTiming;
-use crate::text_lines::line_of;
+use crate::text_lines::{line_of, short_number as num};
 use crate::units::IN_TO_M;
 
 /// Table 1 geometry of the paper's device, in SI units (converted once from inches on load).
@@ -506,17 +506,6 @@ fn json_field<S: AsRef<str>>(path: &[S]) -> String {
     match parts.as_slice() {
         ["params", rest @ ..] if !rest.is_empty() => rest.join("."),
         all => all.join("."),
-    }
-}
-
-/// A number for a message: plain where that is short, in exponent form where it is not (1e300, not three
-/// hundred digits).
-fn num(v: f64) -> String {
-    let a = v.abs();
-    if v.is_finite() && a != 0.0 && !(1e-4..1e15).contains(&a) {
-        format!("{v:e}")
-    } else {
-        v.to_string()
     }
 }
 
