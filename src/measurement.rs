@@ -566,35 +566,15 @@ pub fn measurement_files(paths: &[PathBuf]) -> Result<Vec<PathBuf>, MeasurementE
 
 /// What a directory entry is when it is not a regular file (after following a link), or `None` for a file.
 fn not_a_file(q: &Path) -> Option<String> {
-    let meta = match std::fs::metadata(q) {
-        Ok(m) => m,
-        Err(e) => return Some(format!("unreadable ({e}; a broken link?)")),
-    };
-    let kind = meta.file_type();
-    if kind.is_file() {
-        return None;
+    use crate::text_lines::NotAFile;
+    match std::fs::metadata(q) {
+        Err(e) => Some(format!("unreadable ({e}; a broken link?)")),
+        Ok(meta) => NotAFile::of(&meta).map(|kind| match kind {
+            NotAFile::Directory => "a directory named like a measurement,".to_string(),
+            NotAFile::Other => "not a file,".to_string(),
+            other => format!("{}, not a file,", other.noun()),
+        }),
     }
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::FileTypeExt;
-        if kind.is_fifo() {
-            return Some("a named pipe, not a file,".into());
-        }
-        if kind.is_char_device() || kind.is_block_device() {
-            return Some("a device, not a file,".into());
-        }
-        if kind.is_socket() {
-            return Some("a socket, not a file,".into());
-        }
-    }
-    Some(
-        if kind.is_dir() {
-            "a directory named like a measurement,"
-        } else {
-            "not a file,"
-        }
-        .into(),
-    )
 }
 
 /// Split on `\r\n`, `\n` or a lone `\r` (mixed line endings are accepted).

@@ -974,12 +974,14 @@ impl Ctx<'_> {
     fn readable(&self, line: usize, key: &str, file: &Path) -> Result<(), ScenarioError> {
         // A regular file only: the rig's URDF and the device are read again for every run of a comparison
         // or a DAQ sweep, which a pipe cannot give twice.
-        let msg = match std::fs::metadata(file) {
-            Ok(m) if m.is_file() => return Ok(()),
-            Ok(m) if m.is_dir() => format!("{}: a directory, not a file", file.display()),
-            Ok(_) => format!(
-                "{}: not a regular file (a pipe or a device); this file is read once per run, so it must be one",
-                file.display()
+        use crate::text_lines::NotAFile;
+        let msg = match std::fs::metadata(file).map(|m| NotAFile::of(&m)) {
+            Ok(None) => return Ok(()),
+            Ok(Some(NotAFile::Directory)) => format!("{}: a directory, not a file", file.display()),
+            Ok(Some(kind)) => format!(
+                "{}: not a regular file ({}); this file is read once per run, so it must be one",
+                file.display(),
+                kind.noun()
             ),
             Err(e) => format!("{}: {e}", file.display()),
         };

@@ -178,6 +178,55 @@ pub fn short_number(v: f64) -> String {
     }
 }
 
+/// What a path is when it is not a regular file (links followed), for messages that say so.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NotAFile {
+    Directory,
+    NamedPipe,
+    /// A character or block device (`/dev/zero`, a disk, a terminal).
+    Device,
+    Socket,
+    Other,
+}
+
+impl NotAFile {
+    /// `None` for a regular file.
+    pub fn of(meta: &std::fs::Metadata) -> Option<Self> {
+        let kind = meta.file_type();
+        if kind.is_file() {
+            return None;
+        }
+        if kind.is_dir() {
+            return Some(Self::Directory);
+        }
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::FileTypeExt;
+            if kind.is_fifo() {
+                return Some(Self::NamedPipe);
+            }
+            if kind.is_char_device() || kind.is_block_device() {
+                return Some(Self::Device);
+            }
+            if kind.is_socket() {
+                return Some(Self::Socket);
+            }
+        }
+        Some(Self::Other)
+    }
+
+    /// `a named pipe`, `a device`, …
+    pub fn noun(self) -> &'static str {
+        match self {
+            Self::Directory => "a directory",
+            Self::NamedPipe => "a named pipe",
+            Self::Device => "a device",
+            Self::Socket => "a socket",
+            Self::Other => "something else",
+        }
+    }
+}
+
 /// Largest text input (a scenario, device, parameter, pilot, spring, aircraft or URDF file) read, bytes:
 /// the largest of them in this repository is under 100 KiB.
 pub const TEXT_LIMIT_BYTES: u64 = 64 << 20;
@@ -195,13 +244,8 @@ pub fn read_bytes(path: &std::path::Path, limit: u64) -> Result<Vec<u8>, String>
         )
     };
     let meta = std::fs::metadata(path).map_err(|e| e.to_string())?;
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::FileTypeExt;
-        let kind = meta.file_type();
-        if kind.is_char_device() || kind.is_block_device() {
-            return Err("not a file but a device; give a file or a pipe".into());
-        }
+    if NotAFile::of(&meta) == Some(NotAFile::Device) {
+        return Err("not a file but a device; give a file or a pipe".into());
     }
     // A file says its length: refused before reading it (a pipe only when it has said too much).
     if meta.is_file() && meta.len() > limit {
