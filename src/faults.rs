@@ -92,6 +92,45 @@ pub const DEFAULT_NOISE_RMS_N: f64 = 10.0;
 /// order of a Windows/LabVIEW scheduling hiccup).
 pub const DEFAULT_EXTRA_LATENCY_S: f64 = 0.05;
 
+/// What is wrong with a fault window `start_s ≤ t < end_s` in a run of `run_s` seconds (`run`: what the
+/// run is called in the message, "run" or "task"), if anything: the key at fault and why. A window starts
+/// inside the run, before its end (the last step is before `run_s`), and ends after its start, no later
+/// than the run's end: otherwise the fault never acts, or acts where the run never goes. One rule for a
+/// scenario's `[[fault]]` tables and a comparison's `[fault_test]`.
+pub fn window_error(start_s: f64, end_s: f64, run_s: f64, run: &str) -> Option<(&'static str, String)> {
+    if !(start_s.is_finite() && (0.0..=run_s).contains(&start_s)) {
+        return Some((
+            "start_s",
+            format!("value {start_s} outside the allowed range [0, {run_s}] s (within the {run})"),
+        ));
+    }
+    if start_s >= run_s {
+        return Some((
+            "start_s",
+            format!("value {start_s} s is where the {run} ends ({run_s} s): the fault would never act"),
+        ));
+    }
+    if !(end_s.is_finite() && end_s >= start_s && end_s <= run_s) {
+        return Some((
+            "end_s",
+            format!(
+                "value {end_s} outside the allowed range [{start_s}, {run_s}] s (after start_s, within the \
+                 {run}: to last to its end, write {run_s})"
+            ),
+        ));
+    }
+    if end_s <= start_s {
+        return Some((
+            "end_s",
+            format!(
+                "value {end_s} s is not after start_s = {start_s} s: the fault would never act (it is active \
+                 from start_s until end_s)"
+            ),
+        ));
+    }
+    None
+}
+
 /// One scheduled fault, active on `start_s ≤ t < end_s`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Fault {
@@ -248,35 +287,10 @@ impl FaultSchedule {
                     ))
                 }
             };
-            let start_s = range("start_s", &e.start_s, 0.0, duration_s, "s (within the run)")?;
-            if start_s >= duration_s {
-                // The run's last step is before `duration_s`: a fault that starts there never acts.
-                return Err(field(
-                    "start_s",
-                    e.start_s.span().start,
-                    format!(
-                        "value {start_s} s is where the run ends (duration_s = {duration_s} s): the fault \
-                         would never act"
-                    ),
-                ));
-            }
-            let end_s = range(
-                "end_s",
-                &e.end_s,
-                start_s,
-                duration_s,
-                &format!("s (after start_s, within the run: to last to its end, write {duration_s})"),
-            )?;
-            if end_s <= start_s {
-                // Active on start_s ≤ t < end_s: a fault that ends where it starts never acts.
-                return Err(field(
-                    "end_s",
-                    e.end_s.span().start,
-                    format!(
-                        "value {end_s} s is not after start_s = {start_s} s: the fault would never act \
-                         (it is active from start_s until end_s)"
-                    ),
-                ));
+            let (start_s, end_s) = (*e.start_s.get_ref(), *e.end_s.get_ref());
+            if let Some((key, msg)) = window_error(start_s, end_s, duration_s, "run") {
+                let at = if key == "start_s" { &e.start_s } else { &e.end_s };
+                return Err(field(key, at.span().start, msg));
             }
             let mut f = Fault::new(kind, start_s, end_s);
             if let Some(n) = &e.noise_rms_n {

@@ -437,43 +437,14 @@ impl CompareScenario {
             "lbf",
         )?;
         let task_s = main_task(k).duration_s();
-        chk(
-            "fault_test",
-            "start_s",
-            f.fault_test.start_s,
-            0.0,
-            task_s,
-            "s (within the task)",
-        )?;
-        if f.fault_test.start_s >= task_s {
+        if let Some((key, msg)) =
+            crate::faults::window_error(f.fault_test.start_s, f.fault_test.end_s, task_s, "task")
+        {
             return Err(CompareError::Field {
                 path: path.to_path_buf(),
-                line: line_of_key(text, "fault_test", "start_s"),
-                key: "fault_test.start_s".into(),
-                msg: format!(
-                    "value {} s is where the task ends ({task_s} s): the faults would never act",
-                    f.fault_test.start_s
-                ),
-            });
-        }
-        chk(
-            "fault_test",
-            "end_s",
-            f.fault_test.end_s,
-            f.fault_test.start_s,
-            task_s,
-            "s (after start_s, within the task: to last to its end, write its duration)",
-        )?;
-        if f.fault_test.end_s <= f.fault_test.start_s {
-            return Err(CompareError::Field {
-                path: path.to_path_buf(),
-                line: line_of_key(text, "fault_test", "end_s"),
-                key: "fault_test.end_s".into(),
-                msg: format!(
-                    "value {} s is not after start_s = {} s: the faults would never act (each is active \
-                     from start_s until end_s)",
-                    f.fault_test.end_s, f.fault_test.start_s
-                ),
+                line: line_of_key(text, "fault_test", key),
+                key: format!("fault_test.{key}"),
+                msg,
             });
         }
         if let Some(a) = &f.active {
