@@ -76,10 +76,15 @@ pub fn load(path: &Path) -> anyhow::Result<(Scenario, DeviceConfig, crate::rig::
 
 /// The device of a loaded scenario (read from `path`) and its rig.
 fn device_and_rig(scn: &Scenario, path: &Path) -> anyhow::Result<(DeviceConfig, crate::rig::Rig)> {
-    let device = DeviceConfig::load(&scn.device_path, &Registry::builtin())
-        .with_context(|| format!("device of scenario {}", path.display()))?;
+    let device = device_of(scn, path)?;
     let rig = build_rig(scn, &device)?;
     Ok((device, rig))
+}
+
+/// The device file a loaded scenario (read from `path`) names.
+fn device_of(scn: &Scenario, path: &Path) -> anyhow::Result<DeviceConfig> {
+    DeviceConfig::load(&scn.device_path, &Registry::builtin())
+        .with_context(|| format!("device of scenario {}", path.display()))
 }
 
 /// The scenario's rig with the device's damper, or for a spring feel unit (no MR element) the same
@@ -266,8 +271,7 @@ pub fn daq_sweep_cmd(args: &DaqSweepArgs, scn: Scenario) -> anyhow::Result<()> {
             );
         }
     }
-    let device = DeviceConfig::load(&scn.device_path, &Registry::builtin())
-        .with_context(|| format!("device of scenario {}", args.scenario.display()))?;
+    let device = device_of(&scn, &args.scenario)?;
     let points = sweep(&scn, &device, &args.rates)?;
     if let Some(dir) = &args.plot {
         response::plot(
