@@ -81,7 +81,7 @@ impl TomlError {
 }
 
 /// The key a TOML line sets (`name = value`, or dotted: `laser.noise_rms_m = value`), if it sets one.
-pub fn toml_key_of_line(text: &str, line: usize) -> Option<String> {
+fn toml_key_of_line(text: &str, line: usize) -> Option<String> {
     let l = text
         .lines()
         .nth(line.checked_sub(1)?)?
