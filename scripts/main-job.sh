@@ -23,7 +23,8 @@ step "3. Force response time against the DAQ sample rate (100 Hz to 5 kHz)"
 
 step "4. Model discovery on the real MR damper: where Bingham fails, the missing effect, the error falling"
 "$mrfeel" diagnose "$data" --plot "$out/diagnose" --rerun "$out/diagnose.rrd"
-"$mrfeel" fit "$data" --model bingham+hysteresis --save "$out/utfsm-bingham+hysteresis.json" --plot "$out/fit"
+"$mrfeel" fit "$data" --model bingham+hysteresis+current_viscosity --heldout \
+    --save "$out/utfsm-bingham+hysteresis+current_viscosity.json" --plot "$out/fit"
 
 step "5. Pilot-in-the-loop flight: c172p pitch tracking, the hinge moment chooses the feel force"
 "$mrfeel" run scenarios/c172p-pitch-tracking.toml --out "$out/c172p-pitch-tracking.csv" --rerun "$out/c172p-pitch-tracking.rrd"

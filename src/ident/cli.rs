@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 
 use super::diagnose::{diagnose, DiagnoseOptions};
-use super::fit::{all_spans, fit, FitOptions};
+use super::fit::{all_spans, fit, FitOptions, Weighting};
 use super::report::{diagnose_table, DiagnoseJson, FitJson};
 use super::residual::where_regions;
 use super::timing::{decide, retimed, CommandTiming, TimingChoice, TimingDecision};
@@ -27,6 +27,26 @@ pub struct AcquisitionArg {
     /// N samples: the model is driven by the motion before it and its force averaged likewise).
     #[arg(long, default_value = "auto")]
     pub acquisition: AcquisitionChoice,
+}
+
+/// `--weighting`, shared by `fit` and `diagnose`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct WeightingArg {
+    /// How the tests share the loss of a joint fit: `tests` (each test counts once, whatever its length
+    /// and logging rate: a measured damper's tests each have their own force scale, an error every
+    /// sample of the test shares) or `samples` (every sample counts once, the plain sum of squares). The
+    /// reported figures are over samples either way.
+    #[arg(long, value_enum, default_value_t = Weighting::Tests)]
+    pub weighting: Weighting,
+}
+
+impl WeightingArg {
+    fn fit_options(&self) -> FitOptions {
+        FitOptions {
+            weighting: self.weighting,
+            ..FitOptions::default()
+        }
+    }
 }
 
 #[derive(clap::Args, Debug, Clone)]
@@ -58,6 +78,8 @@ pub struct FitArgs {
     pub heldout: bool,
     #[command(flatten)]
     pub acquisition: AcquisitionArg,
+    #[command(flatten)]
+    pub weighting: WeightingArg,
     /// When each logged current command takes effect: `after-sample` (a DAQ that reads the sensors, then
     /// writes the command), `at-sample` (already in force at the sample it is logged with), or `auto`: where
     /// some test's command changes, the model is fitted both ways and the smaller error kept.
@@ -101,6 +123,8 @@ pub struct DiagnoseArgs {
     pub current_limit_a: Option<f64>,
     #[command(flatten)]
     pub acquisition: AcquisitionArg,
+    #[command(flatten)]
+    pub weighting: WeightingArg,
     /// When each logged current command takes effect: `after-sample` (a DAQ that reads the sensors, then
     /// writes the command), `at-sample` (already in force at the sample it is logged with), or `auto`: where
     /// some test's command changes, the starting model is fitted both ways and the smaller error kept.
@@ -189,6 +213,24 @@ fn load_and_tell(
     Ok((tests, found))
 }
 
+/// Says how the tests share the loss where it matters: tests of unequal length (in samples).
+fn weighting_note(tests: &[Test], weighting: Weighting) -> String {
+    let lens = || tests.iter().map(Test::len);
+    let (lo, hi) = (lens().min().unwrap_or(0), lens().max().unwrap_or(0));
+    if lo == hi {
+        return String::new();
+    }
+    match weighting {
+        Weighting::Tests => format!(
+            "; each test counts once in the loss, from {lo} to {hi} samples (--weighting tests)"
+        ),
+        Weighting::Samples => format!(
+            "; every sample counts once in the loss, the longest test {:.1}× the shortest (--weighting samples)",
+            hi as f64 / lo.max(1) as f64
+        ),
+    }
+}
+
 pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
     if let Some(path) = &a.save {
         ParamsFile::check_path("--save", path).map_err(anyhow::Error::msg)?;
@@ -199,18 +241,20 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
     let model = build_model(&a.model, &registry, limit)?;
     require(&tests, model.n_params())?;
     let n: usize = tests.iter().map(Test::len).sum();
+    let opts = a.weighting.fit_options();
     crate::noteln!(
-        "fitting {} ({} parameters) to {} tests, {n} samples",
+        "fitting {} ({} parameters) to {} tests, {n} samples{}",
         model.name(),
         model.n_params(),
-        tests.len()
+        tests.len(),
+        weighting_note(&tests, opts.weighting)
     );
     let t0 = std::time::Instant::now();
-    let (tests, timing) = decide(&model, tests, a.command_timing, &FitOptions::default());
+    let (tests, timing) = decide(&model, tests, a.command_timing, &opts);
     note_timing(&timing);
     let fr = match timing.kept_fit() {
         Some(fr) => fr.clone(),
-        None => fit(&model, &tests, &all_spans(&tests), &FitOptions::default()),
+        None => fit(&model, &tests, &all_spans(&tests), &opts),
     };
     crate::noteln!(
         "fitted in {:.2} s ({}{} simulations of the data: {} evaluations and {} Jacobian columns; {} more \
@@ -250,7 +294,7 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
         // The diagnosis's folds; each fold fitted as `fit` fits (tolerance, standard errors).
         let (folds, how) = DiagnoseOptions::default().folds(&tests);
         let bar = indicatif::ProgressBar::hidden();
-        let cv = super::diagnose::cross_validate(&model, &tests, &folds, None, &FitOptions::default(), &bar);
+        let cv = super::diagnose::cross_validate(&model, &tests, &folds, None, &opts, &bar);
         crate::noteln!(
             "held-out NRMSE {:.4} (RMSE {:.3} N), {how}",
             cv.heldout_nrmse(),
@@ -360,12 +404,17 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
     let opts = DiagnoseOptions {
         current_limit_a: limit,
         progress: std::io::stderr().is_terminal(),
+        fit: a.weighting.fit_options(),
         ..Default::default()
     };
+    let note = weighting_note(&tests, opts.fit.weighting);
+    if !note.is_empty() {
+        crate::noteln!("diagnosing{note}");
+    }
     let t0 = std::time::Instant::now();
     let quick = FitOptions {
         std_errors: false,
-        ..FitOptions::default()
+        ..opts.fit.clone()
     };
     let (tests, timing) = decide(&base, tests, a.command_timing, &quick);
     note_timing(&timing);

@@ -272,8 +272,8 @@ pub struct CvResult {
     pub total: Figures,
     /// Fitted parameters of each fold's model (for warm starts).
     pub fold_params: Vec<Vec<f64>>,
-    /// Each fold's fitted sum of squares on its training samples, N².
-    pub fold_train_sse: Vec<f64>,
+    /// Each fold's fitted loss on its training samples ([`crate::ident::fit::FitResult::loss`]), N².
+    pub fold_train_loss: Vec<f64>,
     /// Out-of-fold prediction at every sample (each sample is scored by exactly one fold).
     pub oof: Vec<Vec<f64>>,
 }
@@ -287,7 +287,7 @@ impl CvResult {
     /// held-out samples play no part in the choice). `None` when no fold of `other` fits better.
     fn better_fits(&self, other: &CvResult, folds: &[Fold]) -> Option<CvResult> {
         let better: Vec<usize> = (0..folds.len())
-            .filter(|&f| other.fold_train_sse[f] < self.fold_train_sse[f] * (1.0 - 1e-9))
+            .filter(|&f| other.fold_train_loss[f] < self.fold_train_loss[f] * (1.0 - 1e-9))
             .collect();
         if better.is_empty() {
             return None;
@@ -296,7 +296,7 @@ impl CvResult {
         for f in better {
             out.per_fold[f] = other.per_fold[f];
             out.fold_params[f] = other.fold_params[f].clone();
-            out.fold_train_sse[f] = other.fold_train_sse[f];
+            out.fold_train_loss[f] = other.fold_train_loss[f];
             for s in &folds[f].test {
                 out.oof[s.test][s.start..s.end].copy_from_slice(&other.oof[s.test][s.start..s.end]);
             }
@@ -402,8 +402,8 @@ pub fn cross_validate(
                     // freeing the parent's other parameters as well would not make it remove the
                     // `min_gain` (5 %) of the held-out error that significance asks, and costs a whole-model
                     // fit.
-                    let parent_sse = parent.map(|(_, cv)| cv.fold_train_sse[fi]);
-                    if parent_sse.is_some_and(|ps| first.sse > (1.0 - STAGE_TWO_MIN_GAIN) * ps) {
+                    let parent_loss = parent.map(|(_, cv)| cv.fold_train_loss[fi]);
+                    if parent_loss.is_some_and(|pl| first.loss > (1.0 - STAGE_TWO_MIN_GAIN) * pl) {
                         first
                     } else {
                         whole(Some(first.params))
@@ -425,19 +425,19 @@ pub fn cross_validate(
                 preds.push((*s, p));
             }
             bar.inc(1);
-            (fr.params, fr.sse, fig, preds)
+            (fr.params, fr.loss, fig, preds)
         })
         .collect();
     let mut oof: Vec<Vec<f64>> = tests.iter().map(|t| vec![f64::NAN; t.len()]).collect();
     let mut total = Figures::default();
     let mut per_fold = Vec::new();
     let mut fold_params = Vec::new();
-    let mut fold_train_sse = Vec::new();
-    for (p, sse, fig, preds) in out {
+    let mut fold_train_loss = Vec::new();
+    for (p, loss, fig, preds) in out {
         total.add(&fig);
         per_fold.push(fig);
         fold_params.push(p);
-        fold_train_sse.push(sse);
+        fold_train_loss.push(loss);
         for (s, pr) in preds {
             oof[s.test][s.start..s.end].copy_from_slice(&pr);
         }
@@ -447,7 +447,7 @@ pub fn cross_validate(
         per_fold,
         total,
         fold_params,
-        fold_train_sse,
+        fold_train_loss,
         oof,
     }
 }
@@ -1006,7 +1006,7 @@ mod tests {
             per_fold,
             total,
             fold_params: folds.iter().map(|&(t, _, _)| vec![t]).collect(),
-            fold_train_sse: folds.iter().map(|&(t, _, _)| t).collect(),
+            fold_train_loss: folds.iter().map(|&(t, _, _)| t).collect(),
             oof: vec![vec![folds[0].2, folds[0].2, folds[1].2, folds[1].2]],
         }
     }
@@ -1027,7 +1027,7 @@ mod tests {
         let again = cv_of([(8.0, 7.0, 3.0), (12.0, 1.0, 4.0)]);
         let merged = cur.better_fits(&again, &folds).expect("fold 0 fits better");
         // Chosen by the training error alone: the held-out samples play no part.
-        assert_eq!(merged.fold_train_sse, vec![8.0, 10.0]);
+        assert_eq!(merged.fold_train_loss, vec![8.0, 10.0]);
         assert_eq!(merged.per_fold[0].sse, 7.0);
         assert_eq!(merged.per_fold[1].sse, 5.0);
         assert_eq!(merged.total.sse, 12.0);

@@ -9,6 +9,9 @@
 //!   (rayon, results collected in a fixed order: deterministic).
 //! - Samples where the velocity is within its noise of zero (its sign unknown) do not count in the loss
 //!   ([`direction_weights`]); every sample is still simulated, so states carry through them.
+//! - Each test counts once in the loss, whatever its length and logging rate ([`Weighting::Tests`], the
+//!   default): its squared residuals are weighted by the inverse of its number of counted samples. The
+//!   figures reported (`sse`, NRMSE) are the plain sums over samples, as the contract defines them.
 //! - Standard errors `s² (JᵀJ)⁻¹`. A parameter the data do not determine (a zero Jacobian column, e.g. the
 //!   lag time constants when the current never changes, or an enormous standard error) is held at its
 //!   initial value and reported with no standard error and a note.
@@ -55,6 +58,67 @@ pub fn all_spans(tests: &[Test]) -> Vec<Span> {
         .collect()
 }
 
+/// How the tests of a joint fit share the loss.
+///
+/// A plain sum over samples lets the longest test, or the one logged at the highest rate, decide the fit:
+/// on the UTFSM damper the five 10 mm 1 Hz tests (1 kHz, 12 s each) hold 69 % of the samples and the five
+/// 2 mm 5 Hz tests (200 Hz, 2 s) 3 %. That is the maximum-likelihood loss only if the residual is white
+/// noise. A measured damper's residual is not: each test has its own force scale (its temperature, the
+/// fluid's settling, the fixture; ±10 % between tests of the same damper at the same current, see the
+/// README), an error shared by every sample of the test, so a test's samples together carry about one
+/// test's worth of evidence on it, not one per sample. The generalised least-squares weight of a test
+/// with such a shared error, `1/(σ²_noise + n·σ²_test)`, tends to `1/n` per sample as `n` grows: each test
+/// counts once. Where the tests are alike in length the two losses are the same.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum Weighting {
+    /// Each test counts once: its squared residuals are weighted by `N / (T·n)`, where `n` is its number
+    /// of counted samples, `N` that of all the tests and `T` the number of tests (the weights add up to
+    /// `N`, so the loss is on the scale of a sum of squares).
+    #[default]
+    Tests,
+    /// Every sample counts once (the plain sum of squares).
+    Samples,
+}
+
+impl Weighting {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Weighting::Tests => "tests",
+            Weighting::Samples => "samples",
+        }
+    }
+}
+
+/// The weight of each sample's residual in the loss (its square multiplies the squared residual): the
+/// counted samples of [`direction_weights`] (1, or 0 where the velocity's sign is unknown), scaled per test
+/// as `weighting` says over the samples of `spans`.
+pub fn loss_weights(tests: &[Test], spans: &[Span], weighting: Weighting) -> Vec<Vec<f64>> {
+    let mut weights: Vec<Vec<f64>> = tests.par_iter().map(direction_weights).collect();
+    if weighting == Weighting::Samples {
+        return weights;
+    }
+    let mut counted = vec![0usize; tests.len()];
+    for s in spans {
+        counted[s.test] += weights[s.test][s.start..s.end]
+            .iter()
+            .filter(|w| **w > 0.0)
+            .count();
+    }
+    let total: usize = counted.iter().sum();
+    let n_tests = counted.iter().filter(|&&c| c > 0).count();
+    for (w, &c) in weights.iter_mut().zip(&counted) {
+        if c == 0 {
+            continue;
+        }
+        // The residual is multiplied by the square root of the test's share.
+        let scale = (total as f64 / (n_tests * c) as f64).sqrt();
+        for v in w.iter_mut() {
+            *v *= scale;
+        }
+    }
+    weights
+}
+
 /// Settings of one fit.
 #[derive(Debug, Clone)]
 pub struct FitOptions {
@@ -71,6 +135,8 @@ pub struct FitOptions {
     /// Compute standard errors (one more Jacobian per round) and hold parameters the data barely determine.
     /// Cross-validation fits, which only predict, skip it.
     pub std_errors: bool,
+    /// How the tests share the loss.
+    pub weighting: Weighting,
 }
 
 impl Default for FitOptions {
@@ -81,6 +147,7 @@ impl Default for FitOptions {
             tol: 1e-6,
             max_iterations: 40,
             std_errors: true,
+            weighting: Weighting::Tests,
         }
     }
 }
@@ -96,6 +163,9 @@ pub struct FitResult {
     /// Sum of squared residuals over the fitted samples that count (velocity sign known, see
     /// [`direction_weights`]), N².
     pub sse: f64,
+    /// The loss the search minimised: the sum of squares weighted as [`FitOptions::weighting`] says, N²
+    /// (equal to `sse` when every test has as many counted samples, or with [`Weighting::Samples`]).
+    pub loss: f64,
     /// Number of fitted samples that count.
     pub n: usize,
     /// Sum of squared measured force over the same samples, N².
@@ -291,6 +361,21 @@ impl<'a> Problem<'a> {
             self.tf.clone(),
             z,
         )
+    }
+
+    /// The plain sum of squared residuals over the samples that count (non-zero weight) at `z`.
+    fn counted_sse(&self) -> f64 {
+        let mut sse = 0.0;
+        for s in self.spans {
+            let sim = &self.sims[s.test];
+            let f = &self.tests[s.test].f_n;
+            let w = &self.weights[s.test];
+            for k in (s.start..s.end).filter(|&k| w[k] > 0.0) {
+                let r = sim[k] - f[k];
+                sse += r * r;
+            }
+        }
+        sse
     }
 
     fn params_of(&self, z: &[f64]) -> Vec<f64> {
@@ -518,7 +603,7 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
         Some(p) if p.len() == model.n_params() => p.iter().zip(specs).map(|(v, s)| s.clamp(*v)).collect(),
         _ => model.initial_guess(&stats),
     };
-    let weights: Vec<Vec<f64>> = tests.par_iter().map(direction_weights).collect();
+    let weights = loss_weights(tests, spans, opts.weighting);
     let staged = !opts.hold.is_empty();
     if !staged {
         linear_warm_start(model, tests, spans, &weights, &mut p0);
@@ -548,7 +633,8 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
             tests[s.test].f_n[s.start..s.end]
                 .iter()
                 .zip(&weights[s.test][s.start..s.end])
-                .map(|(f, w)| w * f * f)
+                .filter(|(_, w)| **w > 0.0)
+                .map(|(f, _)| f * f)
                 .sum::<f64>()
         })
         .sum::<f64>()
@@ -703,7 +789,8 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
             params,
             std_err,
             notes,
-            sse,
+            sse: prob.counted_sse(),
+            loss: sse,
             n: prob.n_weighted,
             f_ss: f_norm * f_norm,
             evaluations,
@@ -969,7 +1056,7 @@ fn linear_warm_start(model: &Model, tests: &[Test], spans: &[Span], weights: &[V
                 })
                 .collect()
         };
-        // Sum of squares over the samples that count.
+        // The loss: the weighted sum of squares over the samples that count.
         let rr: f64 = spans
             .iter()
             .zip(&base)
@@ -980,7 +1067,7 @@ fn linear_warm_start(model: &Model, tests: &[Test], spans: &[Span], weights: &[V
                     .zip(f)
                     .zip(w)
                     .filter(|(_, w)| **w != 0.0)
-                    .map(|((b, f), _)| (b - f) * (b - f))
+                    .map(|((b, f), w)| (w * (b - f)) * (w * (b - f)))
             })
             .sum();
         if let Some(pred) = predicted {
@@ -1007,14 +1094,15 @@ fn linear_warm_start(model: &Model, tests: &[Test], spans: &[Span], weights: &[V
                 if w[k] == 0.0 {
                     continue;
                 }
-                let r = base[si][k] - f[k];
+                // Rows weighted as the loss weights them.
+                let r = w[k] * (base[si][k] - f[k]);
                 if !r.is_finite() {
                     return;
                 }
                 let c = [
-                    (cols[0][si][k] - base[si][k]) / steps[0],
-                    (cols[1][si][k] - base[si][k]) / steps[1],
-                    (cols[2][si][k] - base[si][k]) / steps[2],
+                    w[k] * (cols[0][si][k] - base[si][k]) / steps[0],
+                    w[k] * (cols[1][si][k] - base[si][k]) / steps[1],
+                    w[k] * (cols[2][si][k] - base[si][k]) / steps[2],
                 ];
                 for a in 0..3 {
                     atb[a] -= c[a] * r;
@@ -1105,6 +1193,7 @@ fn bounded_lstsq3(ata: [[f64; 3]; 3], atb: [f64; 3], lo: &[f64], hi: &[f64]) -> 
 mod tests {
     use super::*;
     use crate::device::Registry;
+    use crate::ident::validate::Figures;
 
     #[test]
     fn the_compressed_problem_has_the_same_linear_model() {
@@ -1211,6 +1300,182 @@ mod tests {
             held.sse,
             free.sse
         );
+    }
+
+    /// Two tests of the paper's device at 7 A whose force scales differ as a measured damper's tests do
+    /// (+10 % and −10 %): a long one (10 s at 1 kHz) and a short one (2 s at 200 Hz, 25× fewer samples).
+    fn long_and_short_tests(model: &Model) -> Vec<Test> {
+        [(1e-3, 10.0, 1.1, "long"), (5e-3, 2.0, 0.9, "short")]
+            .iter()
+            .map(|&(dt, dur, scale, name)| {
+                let inputs = crate::device::effects::testkit::sine(0.02, 1.0, 7.0, dt, dur);
+                let f_n = model
+                    .simulate(&TRUTH, &inputs)
+                    .iter()
+                    .map(|f| scale * f)
+                    .collect();
+                Test {
+                    path: format!("{name}.csv").into(),
+                    name: format!("{name}.csv"),
+                    group: name.into(),
+                    f_n,
+                    inputs,
+                    velocity_measured: true,
+                    velocity_noise_m_s: None,
+                    drive: None,
+                }
+            })
+            .collect()
+    }
+
+    /// Per test, the NRMSE of the fitted model over its counted samples (from a fresh simulation).
+    fn per_test_nrmse(model: &Model, tests: &[Test], p: &[f64]) -> Vec<f64> {
+        tests
+            .iter()
+            .map(|t| {
+                let pred = t.predict(model, p, t.len());
+                Figures::of_weighted(&pred, &t.f_n, &direction_weights(t)).nrmse()
+            })
+            .collect()
+    }
+
+    /// With each test counting once, a test 25× longer than another does not decide the fit alone: the
+    /// fitted damper sits between the two tests' scales, each missed by about its 10 %. With every sample
+    /// counting once, the long test is fitted almost exactly and the short one carries the whole 20 %
+    /// difference.
+    #[test]
+    fn each_test_counts_once_in_the_loss_whatever_its_length_and_rate() {
+        let model = Model::from_spec("bingham", &Registry::builtin(), 14.0).expect("model");
+        let tests = long_and_short_tests(&model);
+        let ratio = tests[0].len() as f64 / tests[1].len() as f64;
+        assert!(
+            (24.0..26.0).contains(&ratio),
+            "the long test has {ratio}× the samples"
+        );
+        let spans = all_spans(&tests);
+        let run = |weighting| {
+            let fr = fit(
+                &model,
+                &tests,
+                &spans,
+                &FitOptions {
+                    weighting,
+                    ..Default::default()
+                },
+            );
+            let per = per_test_nrmse(&model, &tests, &fr.params);
+            (fr, per)
+        };
+        let (by_tests, per_tests) = run(Weighting::Tests);
+        let (by_samples, per_samples) = run(Weighting::Samples);
+        // Between the scales: each test about 10 % (1/1.1 and 1/0.9 of the scale difference) off.
+        for (k, e) in per_tests.iter().enumerate() {
+            assert!(
+                (0.07..0.13).contains(e),
+                "test {k}: NRMSE {e} with each test counting once"
+            );
+        }
+        // One current (7 A): the yield force there, not its split into fc0 and the gain, is what the data say.
+        let yield_at_7a = |p: &[f64]| p[bingham::FC0] + 7.0 * p[bingham::FC_GAIN];
+        let gain = yield_at_7a(&by_tests.params) / yield_at_7a(&TRUTH);
+        assert!((0.96..1.04).contains(&gain), "yield force {gain}× the truth's");
+        // The long test decides: fitted within 1 %, the short one off by about 20 %.
+        assert!(per_samples[0] < 0.01, "long test: {}", per_samples[0]);
+        assert!(per_samples[1] > 0.17, "short test: {}", per_samples[1]);
+        let gain = yield_at_7a(&by_samples.params) / yield_at_7a(&TRUTH);
+        assert!((1.08..1.11).contains(&gain), "yield force {gain}× the truth's");
+    }
+
+    /// The figures a fit reports are plain sums over the counted samples, as `validate` computes them from
+    /// the fitted parameters; the weighted loss the search minimised is reported apart.
+    #[test]
+    fn a_fit_reports_its_error_over_samples_and_its_weighted_loss_apart() {
+        let model = Model::from_spec("bingham", &Registry::builtin(), 14.0).expect("model");
+        let tests = long_and_short_tests(&model);
+        let fr = fit(&model, &tests, &all_spans(&tests), &FitOptions::default());
+        let mut total = Figures::default();
+        // Each test's mean squared residual, counted once per test and scaled to the number of samples.
+        let mut loss = 0.0;
+        for t in &tests {
+            let pred = t.predict(&model, &fr.params, t.len());
+            let fig = Figures::of_weighted(&pred, &t.f_n, &direction_weights(t));
+            loss += fig.mse();
+            total.add(&fig);
+        }
+        loss *= total.samples as f64 / tests.len() as f64;
+        assert_eq!(fr.n, total.samples);
+        assert!(
+            (fr.sse - total.sse).abs() <= 1e-9 * total.sse,
+            "{} vs {}",
+            fr.sse,
+            total.sse
+        );
+        assert!(
+            (fr.nrmse() - total.nrmse()).abs() <= 1e-9,
+            "{} vs {}",
+            fr.nrmse(),
+            total.nrmse()
+        );
+        assert!(
+            (fr.loss - loss).abs() <= 1e-9 * loss,
+            "loss {} vs {loss}",
+            fr.loss
+        );
+    }
+
+    /// Tests of equal length: both losses are the same and so are the fits, to the bit.
+    #[test]
+    fn tests_of_equal_length_are_fitted_the_same_either_way() {
+        let model = Model::from_spec("bingham", &Registry::builtin(), 14.0).expect("model");
+        let mut tests = long_and_short_tests(&model);
+        tests.truncate(1);
+        let mut other = tests[0].clone();
+        for f in &mut other.f_n {
+            *f *= 0.9 / 1.1;
+        }
+        tests.push(other);
+        let spans = all_spans(&tests);
+        let w = loss_weights(&tests, &spans, Weighting::Tests);
+        assert!(w.iter().flatten().all(|w| *w == 0.0 || *w == 1.0));
+        let a = fit(&model, &tests, &spans, &FitOptions::default());
+        let b = fit(
+            &model,
+            &tests,
+            &spans,
+            &FitOptions {
+                weighting: Weighting::Samples,
+                ..Default::default()
+            },
+        );
+        assert_eq!(a.params, b.params);
+        assert!((a.sse - a.loss).abs() <= 1e-12 * a.sse, "{} vs {}", a.sse, a.loss);
+    }
+
+    /// The weights give each test the same total over its counted samples, and add up to the number of
+    /// counted samples; samples not counted (velocity sign unknown) stay at 0; a test outside the spans
+    /// takes no share.
+    #[test]
+    fn loss_weights_share_the_counted_samples_equally_between_tests() {
+        let model = Model::from_spec("bingham", &Registry::builtin(), 14.0).expect("model");
+        let mut tests = long_and_short_tests(&model);
+        tests.push(tests[1].clone());
+        let spans: Vec<Span> = all_spans(&tests).into_iter().take(2).collect();
+        let mask: Vec<Vec<f64>> = tests.iter().map(direction_weights).collect();
+        let w = loss_weights(&tests, &spans, Weighting::Tests);
+        let counted: Vec<usize> = mask
+            .iter()
+            .map(|m| m.iter().filter(|w| **w > 0.0).count())
+            .collect();
+        let total = (counted[0] + counted[1]) as f64;
+        for k in 0..2 {
+            let share: f64 = w[k].iter().map(|w| w * w).sum();
+            assert!(
+                (share - total / 2.0).abs() <= 1e-9 * total,
+                "test {k}: {share} of {total}"
+            );
+            assert!(w[k].iter().zip(&mask[k]).all(|(w, m)| (*w == 0.0) == (*m == 0.0)));
+        }
+        assert_eq!(w[2], mask[2], "a test outside the spans is left as it is");
     }
 
     /// A spring and a mass seen at two frequencies, the fit started with the spring rate on its bound (0) and

@@ -273,7 +273,7 @@ pub fn diagnose_table(d: &Diagnosis) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "{} on {} samples: NRMSE {:.4} fitted on all (the fit's loss, without the samples whose velocity sign \
+        "{} on {} samples: NRMSE {:.4} fitted on all (over the samples the fit counts, without those whose velocity sign \
          is unknown), held-out NRMSE {:.4} ({}); noise floor NRMSE {}",
         d.base_model,
         d.samples,

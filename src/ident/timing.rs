@@ -114,7 +114,7 @@ pub fn decide(
             let spans = all_spans(&tests);
             let fa = fit(model, &tests, &spans, opts);
             let fb = fit(model, &at, &spans, opts);
-            if fb.sse < fa.sse {
+            if fb.loss < fa.loss {
                 let fits = Some((fa, fb));
                 return (
                     at,
