@@ -1,6 +1,7 @@
 //! Speed of model discovery, each figure with its baseline in the same run:
 //! - `fit/real`: one simulation pass of `bingham+hysteresis` over the 15 real tests (82,638 samples, the
-//!   unit of work), the plain `bingham` fit, and the `bingham+hysteresis` fit (goal < 0.5 s; scipy ~10 s);
+//!   unit of work), the plain `bingham` fit, and the `bingham+hysteresis` fit (goal < 0.5 s; scipy ~10 s),
+//!   beside the same fit as logged and with each sample counted once in the loss (baselines);
 //! - `diagnose/60k`: a `bingham` fit of 60,000 synthetic samples (baseline), the reading of their current
 //!   commands that `mrfeel fit` and `mrfeel diagnose` decide first where a test's current steps (`auto`: the
 //!   starting model fitted both ways, without standard errors), and `diagnose` over the whole effect
@@ -19,7 +20,7 @@ use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 
 use mrfeel::device::{Inputs, Model, ModelSpec, Registry};
-use mrfeel::ident::fit::{all_spans, fit, FitOptions};
+use mrfeel::ident::fit::{all_spans, fit, FitOptions, Weighting};
 use mrfeel::ident::timing::{decide, TimingChoice};
 use mrfeel::ident::{
     data_stats, diagnose, inputs_and_velocity_noise, load_tests, AcquisitionChoice, DiagnoseOptions, Test,
@@ -57,6 +58,14 @@ fn bench_fit(c: &mut Criterion) {
     let plain: Vec<Test> = tests.iter().cloned().map(|t| Test { drive: None, ..t }).collect();
     g.bench_function("fit bingham+hysteresis, as logged (baseline)", |b| {
         b.iter(|| fit(&hyst, &plain, &spans, &FitOptions::default()))
+    });
+    // Baseline: each sample counted once in the loss (the default counts each test once).
+    let by_samples = FitOptions {
+        weighting: Weighting::Samples,
+        ..FitOptions::default()
+    };
+    g.bench_function("fit bingham+hysteresis, each sample once (baseline)", |b| {
+        b.iter(|| fit(&hyst, &tests, &spans, &by_samples))
     });
     g.finish();
 }

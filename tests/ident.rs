@@ -1042,6 +1042,80 @@ fn counting_each_test_once_costs_nothing_where_each_test_has_its_own_scale() {
     assert!(ratio < 1.03, "{by_tests} vs {by_samples}");
 }
 
+/// `mrfeel fit --weighting`: two tests of the paper's device at 7 A whose force scales differ by 20 % (+10 %
+/// and −10 %), one 10 s at 1 kHz, one 2 s at 200 Hz. By default each test counts once and both are missed
+/// by about their 10 %; with `--weighting samples` the long test (25× the samples) decides the fit and the
+/// short one carries the whole difference. Each run says on stderr which loss it used.
+#[test]
+fn fit_counts_each_test_once_unless_told_to_count_samples() {
+    use std::f64::consts::PI;
+    let model = Model::from_spec("bingham", &Registry::builtin(), LIMIT_A).expect("model");
+    let tests: Vec<Test> = [(1000.0, 10.0, 1.1), (200.0, 2.0, 0.9)]
+        .iter()
+        .map(|&(rate_hz, seconds, scale)| {
+            let n = (rate_hz * seconds) as usize;
+            let w = 2.0 * PI;
+            let inputs: Vec<Inputs> = (0..n)
+                .map(|k| {
+                    let t = k as f64 / rate_hz;
+                    Inputs {
+                        t_s: t,
+                        x_m: 0.02 * (w * t).sin(),
+                        v_m_s: 0.02 * w * (w * t).cos(),
+                        a_m_s2: -0.02 * w * w * (w * t).sin(),
+                        current_cmd_a: 7.0,
+                    }
+                })
+                .collect();
+            let f_n = model
+                .simulate(&PAPER_BASE, &inputs)
+                .iter()
+                .map(|f| scale * f)
+                .collect();
+            Test {
+                path: PathBuf::from("t.csv"),
+                name: "t.csv".into(),
+                group: "t".into(),
+                f_n,
+                inputs,
+                velocity_measured: true,
+                velocity_noise_m_s: None,
+                drive: None,
+            }
+        })
+        .collect();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let files = write_tests(dir.path(), &tests);
+    let run = |extra: &[&str]| {
+        let mut args = vec!["fit", &files[0], &files[1], "--json"];
+        args.extend_from_slice(extra);
+        let out = mrfeel(&args);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("fit --json");
+        let per: Vec<f64> = v["files"]
+            .as_array()
+            .expect("files")
+            .iter()
+            .map(|f| f["nrmse"].as_f64().expect("nrmse"))
+            .collect();
+        (per, String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    let (by_tests, note) = run(&[]);
+    assert!(note.contains("each test counts once"), "{note}");
+    for e in &by_tests {
+        assert!(
+            (0.07..0.13).contains(e),
+            "each test once: per-file NRMSE {by_tests:?}"
+        );
+    }
+    let (by_samples, note) = run(&["--weighting", "samples"]);
+    assert!(note.contains("every sample counts once"), "{note}");
+    assert!(
+        by_samples[0] < 0.01 && by_samples[1] > 0.17,
+        "each sample once: per-file NRMSE {by_samples:?}"
+    );
+}
+
 /// The real damper (`shared/data/utfsm-mr-damper`): diagnosis from `bingham` finds hysteresis, judged by
 /// leaving one amplitude/frequency group out at a time. Slow in the dev profile: run with
 /// `cargo test --release --test ident -- --ignored real_damper`.

@@ -213,22 +213,22 @@ fn load_and_tell(
     Ok((tests, found))
 }
 
-/// Says how the tests share the loss where it matters: tests of unequal length (in samples).
-fn weighting_note(tests: &[Test], weighting: Weighting) -> String {
+/// How the tests share the loss, said where it matters: tests of unequal length (in samples).
+fn weighting_note(tests: &[Test], weighting: Weighting) -> Option<String> {
     let lens = || tests.iter().map(Test::len);
-    let (lo, hi) = (lens().min().unwrap_or(0), lens().max().unwrap_or(0));
+    let (lo, hi) = (lens().min()?, lens().max()?);
     if lo == hi {
-        return String::new();
+        return None;
     }
-    match weighting {
-        Weighting::Tests => format!(
-            "; each test counts once in the loss, from {lo} to {hi} samples (--weighting tests)"
-        ),
+    Some(match weighting {
+        Weighting::Tests => {
+            format!("each test counts once in the loss, from {lo} to {hi} samples (--weighting tests)")
+        }
         Weighting::Samples => format!(
-            "; every sample counts once in the loss, the longest test {:.1}× the shortest (--weighting samples)",
-            hi as f64 / lo.max(1) as f64
+            "every sample counts once in the loss, the longest test {:.1}× the shortest (--weighting samples)",
+            hi as f64 / lo as f64
         ),
-    }
+    })
 }
 
 pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
@@ -247,7 +247,7 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
         model.name(),
         model.n_params(),
         tests.len(),
-        weighting_note(&tests, opts.weighting)
+        weighting_note(&tests, opts.weighting).map_or(String::new(), |w| format!("; {w}"))
     );
     let t0 = std::time::Instant::now();
     let (tests, timing) = decide(&model, tests, a.command_timing, &opts);
@@ -407,9 +407,8 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
         fit: a.weighting.fit_options(),
         ..Default::default()
     };
-    let note = weighting_note(&tests, opts.fit.weighting);
-    if !note.is_empty() {
-        crate::noteln!("diagnosing{note}");
+    if let Some(w) = weighting_note(&tests, opts.fit.weighting) {
+        crate::noteln!("diagnose: in every fit {w}");
     }
     let t0 = std::time::Instant::now();
     let quick = FitOptions {
