@@ -12,23 +12,34 @@
 //! the held-out tests at that level. That is no oracle: if the scale were a function of the current, it would
 //! carry over to the group left out.
 //!
-//! `cargo run --release --example heldout_gain_oracle [DIR]` (default `../shared/data/utfsm-mr-damper`)
+//! `cargo run --release --example heldout_gain_oracle [DIR] [--weighting samples]` (default
+//! `../shared/data/utfsm-mr-damper`, each test counted once in the fits)
 
 use mrfeel::device::{Model, Registry};
 use std::collections::BTreeMap;
 
 use mrfeel::ident::diagnose::{cross_validate, CvResult, DiagnoseOptions, Fold};
+use mrfeel::ident::fit::{FitOptions, Weighting};
 use mrfeel::ident::residual::direction_weights;
 use mrfeel::ident::{default_current_limit_a, load_tests, Test};
 
 fn main() -> anyhow::Result<()> {
-    let dir = std::env::args()
-        .nth(1)
+    let (weighting, args) =
+        Weighting::from_args(std::env::args().skip(1).collect()).map_err(anyhow::Error::msg)?;
+    let dir = args
+        .first()
+        .cloned()
         .unwrap_or_else(|| "../shared/data/utfsm-mr-damper".into());
     let tests = load_tests(&[dir.into()])?;
     let registry = Registry::builtin();
     // The diagnosis's folds and fold fits.
-    let diagnosis = DiagnoseOptions::default();
+    let diagnosis = DiagnoseOptions {
+        fit: FitOptions {
+            weighting,
+            ..FitOptions::default()
+        },
+        ..DiagnoseOptions::default()
+    };
     let (folds, how) = diagnosis.folds(&tests);
     println!("{how}");
     let opts = diagnosis.cv_fit();

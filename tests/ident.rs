@@ -1116,8 +1116,9 @@ fn fit_counts_each_test_once_unless_told_to_count_samples() {
     );
 }
 
-/// The real damper (`shared/data/utfsm-mr-damper`): diagnosis from `bingham` finds hysteresis, judged by
-/// leaving one amplitude/frequency group out at a time. Slow in the dev profile: run with
+/// The real damper (`shared/data/utfsm-mr-damper`): diagnosis from `bingham` finds hysteresis first, and its
+/// final model meets the held-out NRMSE ≤ 0.08, judged by leaving one amplitude/frequency group out
+/// at a time. Slow in the dev profile: run with
 /// `cargo test --release --test ident -- --ignored real_damper`.
 #[test]
 #[ignore]
@@ -1141,8 +1142,15 @@ fn real_damper_diagnosis_finds_hysteresis() {
     .expect("diagnose");
     let report = mrfeel::ident::report::diagnose_table(&d);
     eprintln!("{report}");
-    assert!(d.missing.iter().any(|m| m == "hysteresis"), "{report}");
+    assert_eq!(
+        d.missing.first().map(String::as_str),
+        Some("hysteresis"),
+        "{report}"
+    );
     assert!(d.final_heldout_nrmse < d.base_heldout_nrmse, "{report}");
+    // The goal on tests of the same damper the model never saw (pooled over samples, as the
+    // contract's NRMSE: the 10mm1Hz group holds 69 % of them).
+    assert!(d.final_heldout_nrmse <= 0.08, "{report}");
 }
 
 /// Design rule: same inputs, same outputs, bit for bit. The diagnosis fits its candidates and folds in

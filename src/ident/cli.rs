@@ -213,11 +213,11 @@ fn load_and_tell(
     Ok((tests, found))
 }
 
-/// How the tests share the loss, said where it matters: tests of unequal length (in samples).
+/// How the tests share the loss, said wherever there are several.
 fn weighting_note(tests: &[Test], weighting: Weighting) -> Option<String> {
     let lens = || tests.iter().map(Test::len);
     let (lo, hi) = (lens().min()?, lens().max()?);
-    if lo == hi {
+    if tests.len() < 2 {
         return None;
     }
     Some(match weighting {

@@ -330,7 +330,7 @@ fn start_from(
 /// the gains) must remove in a fold for the second stage (every parameter) to run there.
 const STAGE_TWO_MIN_GAIN: f64 = 0.01;
 
-/// A fold's fitted parameters, training sum of squares, held-out figures and held-out predictions.
+/// A fold's fitted parameters, training loss, held-out figures and held-out predictions.
 type FoldOutcome = (Vec<f64>, f64, Figures, Vec<(Span, Vec<f64>)>);
 
 /// Cross-validate one model over the folds (parallel over folds, results in fold order).

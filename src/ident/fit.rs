@@ -68,7 +68,7 @@ pub fn all_spans(tests: &[Test]) -> Vec<Span> {
 /// README), an error shared by every sample of the test, so a test's samples together carry about one
 /// test's worth of evidence on it, not one per sample. The generalised least-squares weight of a test
 /// with such a shared error, `1/(σ²_noise + n·σ²_test)`, tends to `1/n` per sample as `n` grows: each test
-/// counts once. Where the tests are alike in length the two losses are the same.
+/// counts once. Where the tests have as many counted samples the two losses are the same.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum Weighting {
     /// Each test counts once: its squared residuals are weighted by `N / (T·n)`, where `n` is its number
@@ -86,6 +86,24 @@ impl Weighting {
             Weighting::Tests => "tests",
             Weighting::Samples => "samples",
         }
+    }
+
+    /// For programs without a command-line parser (the examples): the weighting `--weighting NAME` names
+    /// among `args` (each test once without it), and the other arguments in order.
+    pub fn from_args(args: Vec<String>) -> Result<(Weighting, Vec<String>), String> {
+        let mut weighting = Weighting::default();
+        let mut rest = Vec::new();
+        let mut it = args.into_iter();
+        while let Some(a) = it.next() {
+            if a == "--weighting" {
+                let name = it.next().ok_or("--weighting needs a value: tests or samples")?;
+                weighting = <Weighting as clap::ValueEnum>::from_str(&name, false)
+                    .map_err(|_| format!("--weighting {name}: expected tests or samples"))?;
+            } else {
+                rest.push(a);
+            }
+        }
+        Ok((weighting, rest))
     }
 }
 
@@ -164,7 +182,8 @@ pub struct FitResult {
     /// [`direction_weights`]), N².
     pub sse: f64,
     /// The loss the search minimised: the sum of squares weighted as [`FitOptions::weighting`] says, N²
-    /// (equal to `sse` when every test has as many counted samples, or with [`Weighting::Samples`]).
+    /// (equal to `sse` up to rounding when every test has as many counted samples, or with
+    /// [`Weighting::Samples`]). Fits of the same samples are compared by it.
     pub loss: f64,
     /// Number of fitted samples that count.
     pub n: usize,
@@ -277,7 +296,7 @@ struct Problem<'a> {
     /// settled on it and stay there exactly, so their time constants' columns are zero without integrating.
     steady_current: Vec<bool>,
     resid: DVector<f64>,
-    /// Weight of each sample in the loss, per test ([`direction_weights`]).
+    /// Weight of each sample's residual in the loss, per test ([`loss_weights`]; 0 where it does not count).
     weights: &'a [Vec<f64>],
     /// Samples with a non-zero weight.
     n_weighted: usize,
@@ -285,7 +304,8 @@ struct Problem<'a> {
     blowup_n: f64,
     /// The Jacobian of every parameter at one search vector, computed before the search.
     first_jac: Option<(Vec<f64>, DMatrix<f64>)>,
-    /// Lowest sum of squares seen and its search vector (the search may end on a rejected trial).
+    /// Lowest loss (weighted sum of squares) seen and its search vector (the search may end on a rejected
+    /// trial).
     best: (f64, Vec<f64>),
     evaluations: usize,
     /// Jacobian columns integrated and assembled on kept states, so far.
@@ -805,7 +825,7 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
 }
 
 /// Where a parameter is held that the data barely determine at the point the search reached (an enormous
-/// standard error), and why. The sum of squares there is `sse`. In order, the first that fits as well (within
+/// standard error), and why. The loss (weighted sum of squares) there is `sse`. In order, the first that fits as well (within
 /// 10⁻⁶ of `sse`; one simulation each):
 /// - its initial value `z_init`: the force does not depend on it over that range either;
 /// - its nearest bound: the force is flat only because the parameter's effect is spent. A coil lag far
@@ -849,7 +869,7 @@ fn where_to_hold(prob: &Problem<'_>, k: usize, z_init: f64, sse: f64) -> (f64, S
 /// sensitivity to the parameter itself (a forward difference inwards of a thousandth of its data-derived
 /// initial guess, `guess`, or of its bounds' span where the guess is 0) gives the Gauss–Newton step in it
 /// alone; the parameter whose step points inside and promises most is moved there, or a half, a quarter, an
-/// eighth of the way. Returns the search vector to refit from when that lowers the sum of squares `sse` by
+/// eighth of the way. Returns the search vector to refit from when that lowers the loss `sse` by
 /// more than 10⁻⁴ of it (else `None`), and the simulations spent.
 fn step_off_bound(prob: &Problem<'_>, stuck: &[usize], guess: &[f64], sse: f64) -> (Option<Vec<f64>>, usize) {
     let specs = prob.model.param_specs();
@@ -1449,6 +1469,23 @@ mod tests {
         );
         assert_eq!(a.params, b.params);
         assert!((a.sse - a.loss).abs() <= 1e-12 * a.sse, "{} vs {}", a.sse, a.loss);
+    }
+
+    #[test]
+    fn the_examples_read_the_weighting_from_their_arguments() {
+        let args = |a: &[&str]| a.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        assert_eq!(
+            Weighting::from_args(args(&["DIR", "--weighting", "samples"])),
+            Ok((Weighting::Samples, args(&["DIR"])))
+        );
+        assert_eq!(
+            Weighting::from_args(args(&["DIR"])),
+            Ok((Weighting::Tests, args(&["DIR"])))
+        );
+        assert!(Weighting::from_args(args(&["--weighting", "sample"]))
+            .unwrap_err()
+            .contains("sample"));
+        assert!(Weighting::from_args(args(&["--weighting"])).is_err());
     }
 
     /// The weights give each test the same total over its counted samples, and add up to the number of

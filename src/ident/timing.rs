@@ -84,11 +84,14 @@ impl TimingDecision {
     pub fn note(&self) -> String {
         match &self.fits {
             Some((a, b)) => format!(
-                "current command timing: {} ({}; fitted both ways: NRMSE {:.4} after its sample, {:.4} at it)",
+                "current command timing: {} ({}; fitted both ways: NRMSE {:.4} after its sample, {:.4} at it; \
+                 the fit's loss, which decides, {:.6e} and {:.6e} N²)",
                 self.timing.as_str(),
                 self.timing.describe(),
                 a.nrmse(),
-                b.nrmse()
+                b.nrmse(),
+                a.loss,
+                b.loss
             ),
             None => format!("current command timing: {} ({})", self.timing.as_str(), self.timing.describe()),
         }
@@ -96,7 +99,7 @@ impl TimingDecision {
 }
 
 /// Decide the reading for `tests` (as loaded): the one asked for, or under `auto` the one whose fit of
-/// `model` on every sample has the smaller sum of squares (after-sample on a tie, and without fitting where
+/// `model` on every sample has the smaller loss ([`super::fit::FitResult::loss`]; after-sample on a tie, and without fitting where
 /// no command changes). Returns the tests as the model reads them.
 pub fn decide(
     model: &Model,
