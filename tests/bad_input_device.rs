@@ -482,6 +482,23 @@ fn parameters_that_make_the_force_unusable_are_refused_naming_the_parameter() {
     assert!(validate_nrmse(big.as_bytes()) > 1.0);
 }
 
+/// `weighting` records how the fit's tests shared its loss; a value that is neither is refused at its line.
+#[test]
+fn a_weighting_that_is_neither_tests_nor_samples_is_refused_at_its_line() {
+    for (bad, shown) in [
+        ("\"sample\"", "`sample` is not a weighting"),
+        ("1", "found a number"),
+    ] {
+        let text = edit(
+            PARAMS_JSON,
+            "  \"command_timing\": \"after-sample\",\n",
+            &format!("  \"command_timing\": \"after-sample\",\n  \"weighting\": {bad},\n"),
+        );
+        let line = line_of(&text, "\"weighting\"");
+        validate_refuses(&text, line, "weighting", &["\"tests\" or \"samples\"", shown]);
+    }
+}
+
 #[test]
 fn an_acquisition_share_that_is_no_share_of_the_period_is_refused_at_its_line() {
     for (bad, shown) in [

@@ -1108,12 +1108,20 @@ fn fit_counts_each_test_once_unless_told_to_count_samples() {
             "each test once: per-file NRMSE {by_tests:?}"
         );
     }
-    let (by_samples, note) = run(&["--weighting", "samples"]);
+    let params = dir.path().join("p.json").display().to_string();
+    let (by_samples, note) = run(&["--weighting", "samples", "--save", &params]);
     assert!(note.contains("every sample counts once"), "{note}");
     assert!(
         by_samples[0] < 0.01 && by_samples[1] > 0.17,
         "each sample once: per-file NRMSE {by_samples:?}"
     );
+    // The saved parameters record the loss, and `validate` runs them as fitted.
+    let saved = std::fs::read_to_string(&params).expect("saved");
+    assert!(saved.contains("\"weighting\": \"samples\""), "{saved}");
+    let out = mrfeel(&["validate", &files[1], "--params", &params, "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("validate --json");
+    assert_eq!(v["nrmse"].as_f64(), Some(by_samples[1]), "{v}");
 }
 
 /// The real damper (`shared/data/utfsm-mr-damper`): diagnosis from `bingham` finds hysteresis first, and its

@@ -285,6 +285,21 @@ impl DeviceConfig {
             }
             Some(v) => return Err(wrong(&["command_timing"], "\"after-sample\" or \"at-sample\"", v)),
         };
+        // How the fit's tests shared its loss: a record of how the parameters (and their standard errors) were
+        // found; the model runs the same either way.
+        match top.get("weighting") {
+            None => {}
+            Some(serde_json::Value::String(name)) if name == "tests" || name == "samples" => {}
+            Some(serde_json::Value::String(name)) => {
+                return Err(field_err(
+                    path,
+                    line(&["weighting"]),
+                    "weighting",
+                    format!("`{name}` is not a weighting: expected \"tests\" or \"samples\""),
+                ))
+            }
+            Some(v) => return Err(wrong(&["weighting"], "\"tests\" or \"samples\"", v)),
+        }
         let acquisition_window_periods = match top.get("acquisition_window_periods") {
             None => None,
             Some(v) => match v.as_f64() {
@@ -408,11 +423,12 @@ impl DeviceConfig {
 }
 
 /// The keys of a `PARAMS.json`, and of each of its parameters.
-const TOP_KEYS: [&str; 5] = [
+const TOP_KEYS: [&str; 6] = [
     "model",
     "current_limit_a",
     "command_timing",
     "acquisition_window_periods",
+    "weighting",
     "params",
 ];
 const PARAM_KEYS: [&str; 3] = ["value", "std_err", "unit"];
@@ -858,6 +874,11 @@ pub struct ParamsFile {
     /// predicts where their own spectra are too short to show one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub acquisition_window_periods: Option<f64>,
+    /// How the fit's tests shared its loss, `tests` (each once) or `samples` (each sample once); absent in
+    /// files saved before session 20, whose fits counted samples. A record only: `validate` runs the model
+    /// the same either way.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub weighting: Option<String>,
     pub params: BTreeMap<String, ParamValue>,
 }
 
@@ -884,6 +905,7 @@ impl ParamsFile {
             current_limit_a: Some(model.current_limit_a),
             command_timing: None,
             acquisition_window_periods: None,
+            weighting: None,
             params,
         }
     }

@@ -285,6 +285,7 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
     if let Some(path) = &a.save {
         let mut file = ParamsFile::new(&model, &fr.params, Some(&fr.std_err));
         file.command_timing = Some(timing.timing.as_str().to_string());
+        file.weighting = Some(opts.weighting.as_str().to_string());
         file.acquisition_window_periods = window_periods;
         file.write(path)
             .with_context(|| format!("writing {}", path.display()))?;
