@@ -939,13 +939,29 @@ fn diagnose_json_follows_the_contract() {
     }
 }
 
+/// A sine of displacement `x = amp sin(2π f t)` at a constant current, logged at `rate_hz` for `seconds`.
+fn sine_inputs(amp_m: f64, freq_hz: f64, current_a: f64, rate_hz: f64, seconds: f64) -> Vec<Inputs> {
+    let w = 2.0 * std::f64::consts::PI * freq_hz;
+    (0..(seconds * rate_hz) as usize)
+        .map(|k| {
+            let t = k as f64 / rate_hz;
+            Inputs {
+                t_s: t,
+                x_m: amp_m * (w * t).sin(),
+                v_m_s: amp_m * w * (w * t).cos(),
+                a_m_s2: -amp_m * w * w * (w * t).sin(),
+                current_cmd_a: current_a,
+            }
+        })
+        .collect()
+}
+
 /// MTS tests of a damper whose every test has its own force scale, as a measured damper's tests do (its
 /// temperature, the fluid's settling, the fixture): the paper's device at one constant current per test,
 /// its force times `1 + 0.1·N(0, 1)` per test, plus load-cell noise. Three sine protocols like the UTFSM
 /// files': 10 mm 1 Hz logged at 1 kHz for 12 s, 25 mm 0.25 Hz at 200 Hz for 22 s, 2 mm 5 Hz at 200 Hz for
 /// 2.2 s, so one protocol holds most of the samples.
 fn tests_with_their_own_scales(seed: u64) -> Vec<Test> {
-    use std::f64::consts::PI;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let model = Model::from_spec("bingham", &Registry::builtin(), LIMIT_A).expect("model");
     let scale = Normal::new(1.0, 0.1).expect("sigma");
@@ -958,20 +974,8 @@ fn tests_with_their_own_scales(seed: u64) -> Vec<Test> {
         ("2mm5Hz", 0.002, 5.0, 200.0, 2.2),
     ] {
         for current_a in [0.0, 3.5, 7.0, 10.5, 14.0] {
-            let n = (seconds * rate_hz) as usize;
-            let w = 2.0 * PI * freq_hz;
-            let truth: Vec<Inputs> = (0..n)
-                .map(|k| {
-                    let t = k as f64 / rate_hz;
-                    Inputs {
-                        t_s: t,
-                        x_m: amp_m * (w * t).sin(),
-                        v_m_s: amp_m * w * (w * t).cos(),
-                        a_m_s2: -amp_m * w * w * (w * t).sin(),
-                        current_cmd_a: current_a,
-                    }
-                })
-                .collect();
+            let truth = sine_inputs(amp_m, freq_hz, current_a, rate_hz, seconds);
+            let n = truth.len();
             let s = scale.sample(&mut rng);
             let f_n = model
                 .simulate(&PAPER_BASE, &truth)
@@ -1048,25 +1052,11 @@ fn counting_each_test_once_costs_nothing_where_each_test_has_its_own_scale() {
 /// short one carries the whole difference. Each run says on stderr which loss it used.
 #[test]
 fn fit_counts_each_test_once_unless_told_to_count_samples() {
-    use std::f64::consts::PI;
     let model = Model::from_spec("bingham", &Registry::builtin(), LIMIT_A).expect("model");
     let tests: Vec<Test> = [(1000.0, 10.0, 1.1), (200.0, 2.0, 0.9)]
         .iter()
         .map(|&(rate_hz, seconds, scale)| {
-            let n = (rate_hz * seconds) as usize;
-            let w = 2.0 * PI;
-            let inputs: Vec<Inputs> = (0..n)
-                .map(|k| {
-                    let t = k as f64 / rate_hz;
-                    Inputs {
-                        t_s: t,
-                        x_m: 0.02 * (w * t).sin(),
-                        v_m_s: 0.02 * w * (w * t).cos(),
-                        a_m_s2: -0.02 * w * w * (w * t).sin(),
-                        current_cmd_a: 7.0,
-                    }
-                })
-                .collect();
+            let inputs = sine_inputs(0.02, 1.0, 7.0, rate_hz, seconds);
             let f_n = model
                 .simulate(&PAPER_BASE, &inputs)
                 .iter()
