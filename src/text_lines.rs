@@ -67,6 +67,15 @@ impl TomlError {
             .and_then(|s| toml_key_at(text, s.start))
             .or_else(|| toml_key_of_line(text, line))
             .filter(|_| !msg.contains("field `"));
+        // A dotted key (`te.s = 0.015` in `[params]`) makes a table where a value with a line is expected;
+        // the parser then says "expected a borrowed string", which tells a person nothing.
+        let msg = match field.as_deref().and_then(|f| f.split_once('.')) {
+            Some((table, rest)) if msg.contains("expected a borrowed string") => format!(
+                "a dotted key makes a table here (`{table}` holding `{rest}`) where one value is expected; no \
+                 name here has a dot in it"
+            ),
+            _ => msg,
+        };
         Self { line, field, msg }
     }
 

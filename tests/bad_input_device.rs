@@ -277,6 +277,19 @@ fn a_non_positive_load_cell_range_in_a_device_file_names_the_field_and_value() {
     }
 }
 
+/// A parameter name written with a dot (`te.s` for `te_s`) is a dotted key to TOML: a table where a number
+/// is expected. The error says so at its line, not "expected a borrowed string".
+#[test]
+fn a_dotted_parameter_name_is_explained_at_its_line() {
+    let text = edit(&paper_device(), "te_s = ", "te.s = ");
+    mts_refuses(
+        &text,
+        line_of(&text, "te.s = "),
+        "te.s",
+        &["a dotted key makes a table here (`te` holding `s`) where one value is expected"],
+    );
+}
+
 // ------------------------------------------------------------------ 4: geometry and supply
 
 #[test]
