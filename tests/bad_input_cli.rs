@@ -529,6 +529,29 @@ fn mts_sensor_options_out_of_range_name_the_option_and_write_nothing() {
     }
 }
 
+/// A negative number after an option, with a space (`--amplitude-m -0.01`), is that option's value, refused
+/// by the check that names it (exit 1), not an unknown flag `-0` (clap's usage error, exit 2).
+#[test]
+fn a_negative_number_after_an_option_is_its_value_refused_by_name() {
+    let d = tempfile::tempdir().unwrap();
+    let out = s(&d.path().join("o.csv"));
+    for (option, value, field) in [
+        ("--amplitude-m", "-0.01", "amplitude_m"),
+        ("--force-noise-n", "-1", "load_cell.noise_rms"),
+        ("--current", "-3", "current"),
+    ] {
+        let current = if option == "--current" { value } else { "2" };
+        let mut args = vec!["mts", "--current", current, "--out", &out];
+        if option != "--current" {
+            args.extend([option, value]);
+        }
+        let o = mrfeel(&args);
+        refused(&o, &[field, value]);
+        assert_eq!(o.status.code(), Some(1), "{option} {value}");
+        assert!(listing(d.path()).is_empty(), "{option}: a file was written");
+    }
+}
+
 #[test]
 fn validate_refuses_a_test_too_short_to_judge_a_model_by() {
     let d = tempfile::tempdir().unwrap();
