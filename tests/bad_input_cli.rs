@@ -641,6 +641,39 @@ fn a_hard_link_to_a_measurement_given_is_the_same_test() {
     refused(&mrfeel(&["fit", &s(&a), &s(&b)]), &["read twice", "b.csv"]);
 }
 
+/// A copy of a measurement under another name is the same test: every sample equal. Read as two tests it
+/// would count twice in the fit; it is refused, naming both files. One force sample changed, they are two.
+#[test]
+fn a_copy_of_a_measurement_under_another_name_is_refused() {
+    let d = tempfile::tempdir().unwrap();
+    let a = d.path().join("a.csv");
+    std::fs::copy(small_test(), &a).unwrap();
+    let b = d.path().join("b.csv");
+    std::fs::copy(small_test(), &b).unwrap();
+    for cmd in ["fit", "diagnose"] {
+        refused(
+            &mrfeel(&[cmd, &s(&a), &s(&b)]),
+            &["b.csv", "a.csv", "same samples"],
+        );
+    }
+    refused(
+        &mrfeel(&["fit", &s(d.path())]),
+        &["b.csv", "a.csv", "same samples"],
+    );
+    let text = std::fs::read_to_string(&b).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let header = lines.iter().position(|l| l.starts_with("t_s")).unwrap();
+    let fi = lines[header].split(',').position(|c| c == "f_n").unwrap();
+    let last = lines.len() - 1;
+    let mut fields: Vec<String> = lines[last].split(',').map(String::from).collect();
+    let f: f64 = fields[fi].parse().unwrap();
+    fields[fi] = format!("{}", f + 1.0);
+    lines[last] = fields.join(",");
+    std::fs::write(&b, lines.join("\n") + "\n").unwrap();
+    let o = mrfeel(&["fit", &s(&a), &s(&b), "--json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
 #[test]
 #[cfg(target_os = "linux")]
 fn a_full_stdout_is_an_error_not_a_panic() {

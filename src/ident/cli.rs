@@ -163,8 +163,8 @@ fn limit_of(arg: Option<f64>, tests: &[Test]) -> anyhow::Result<f64> {
     }
 }
 
-/// Refuse a file read twice (named twice, or named and also inside a named directory): its test would
-/// count twice in every fit and figure.
+/// Refuse a file read twice (named twice, or named and also inside a named directory), or one test under two
+/// names (a copy: every sample the same): its test would count twice in every fit and figure.
 fn no_file_twice(tests: &[Test]) -> anyhow::Result<()> {
     let mut seen: Vec<(crate::outputs::FileId, &Path)> = Vec::with_capacity(tests.len());
     for t in tests {
@@ -183,6 +183,17 @@ fn no_file_twice(tests: &[Test]) -> anyhow::Result<()> {
             );
         }
         seen.push((key, &t.path));
+    }
+    for (k, t) in tests.iter().enumerate() {
+        // Equal forces first: a cheap test that almost always fails for two different measurements.
+        if let Some(first) = tests[..k].iter().find(|u| u.f_n == t.f_n && u.inputs == t.inputs) {
+            anyhow::bail!(
+                "DATA: `{}` holds the same samples as `{}` (every time, motion, current and force equal): one \
+                 test under two names would count twice: give it once (nothing was run)",
+                t.path.display(),
+                first.path.display()
+            );
+        }
     }
     Ok(())
 }
