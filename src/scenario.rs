@@ -942,13 +942,10 @@ fn read(path: &Path) -> Result<String, ScenarioError> {
 }
 
 fn from_toml<T: serde::de::DeserializeOwned>(text: &str, path: &Path) -> Result<T, ScenarioError> {
-    toml::from_str(text).map_err(|e| {
-        let e = crate::text_lines::TomlError::new(text, &e);
-        ScenarioError::Parse {
-            path: path.to_path_buf(),
-            line: e.line,
-            msg: e.message(),
-        }
+    crate::text_lines::parse_toml(text).map_err(|e| ScenarioError::Parse {
+        path: path.to_path_buf(),
+        line: e.line,
+        msg: e.message(),
     })
 }
 

@@ -33,6 +33,52 @@ pub fn toml_key_line(text: &str, table: &str, key: &str) -> usize {
     header
 }
 
+/// Parse a TOML text, every error placed in it ([`TomlError`]). A number the parser would read as another
+/// is refused first: a decimal with a non-zero digit below the smallest double (`1e-400`), which TOML
+/// parsers read as 0 without a word, so that the error a range check then gives ("value 0") would not name
+/// the number written.
+pub fn parse_toml<T: serde::de::DeserializeOwned>(text: &str) -> Result<T, TomlError> {
+    check_numbers(text)?;
+    toml::from_str(text).map_err(|e| TomlError::new(text, &e))
+}
+
+/// The first `key = number` line (outside multi-line strings) whose decimal reads as 0 though it has a
+/// non-zero digit.
+fn check_numbers(text: &str) -> Result<(), TomlError> {
+    let mut open: Option<&str> = None;
+    for (k, l) in text.lines().enumerate() {
+        let was_open = open.is_some();
+        for delim in ["\"\"\"", "'''"] {
+            let odd = l.matches(delim).count() % 2 == 1;
+            match open {
+                Some(d) if d == delim && odd => open = None,
+                None if odd => open = Some(delim),
+                _ => {}
+            }
+        }
+        if was_open || open.is_some() || l.trim_start().starts_with('#') {
+            continue;
+        }
+        let Some((key, value)) = l.split_once('=') else {
+            continue;
+        };
+        let value = value.split('#').next().unwrap_or("").trim();
+        let digits = value.replace('_', "");
+        let mantissa = digits.split(['e', 'E']).next().unwrap_or("");
+        if digits.parse::<f64>() == Ok(0.0) && mantissa.contains(|c: char| ('1'..='9').contains(&c)) {
+            return Err(TomlError {
+                line: k + 1,
+                field: bare_key(key),
+                msg: format!(
+                    "{value} is below the smallest number a double holds (about 4.9e-324) and would be read as \
+                     0: write 0 if 0 is meant"
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
 /// A TOML parser's error placed in its file, for a `file:line: …` message.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct TomlError {
@@ -288,6 +334,30 @@ mod tests {
 
     const TEXT: &str =
         "base = \"a.toml\"\n\n[springs]\nfile = \"s.toml\"\nfiles_extra = 1\n[[faults]]\nkind = \"x\"\n";
+
+    /// A decimal below the smallest double, which the parser reads as 0 without a word, is refused at its
+    /// line and key; zeros, small numbers a double holds, comments and strings are not.
+    #[test]
+    fn a_number_that_would_be_read_as_zero_is_refused_at_its_line() {
+        let e = check_numbers("a = 1\n[t]\nb.c = 2.5e-400 # tiny\n").unwrap_err();
+        assert_eq!((e.line, e.field.as_deref()), (3, Some("b.c")));
+        assert!(
+            e.msg.starts_with("2.5e-400 is below the smallest number"),
+            "{}",
+            e.msg
+        );
+        for fine in [
+            "a = 0.0\nb = 0e5\nc = -0.0\nd = 1e-300\ne = 5e-324\n",
+            "# a = 1e-400\n",
+            "s = \"1e-400\"\n",
+            "s = \"\"\"\nx = 1e-400\n\"\"\"\n",
+            "s = '''\nx = 1e-400\n'''\n",
+        ] {
+            assert_eq!(check_numbers(fine), Ok(()), "{fine}");
+        }
+        let parsed: Result<toml::Value, _> = parse_toml("x = 1e-400\n");
+        assert_eq!(parsed.unwrap_err().line, 1);
+    }
 
     /// A value of the wrong type is named by its key however the key is written: plain, dotted, or inside
     /// an inline table (the parser's message names none; the inline table's own key was named before).

@@ -290,6 +290,22 @@ fn a_dotted_parameter_name_is_explained_at_its_line() {
     );
 }
 
+/// A number below the smallest double (`1e-400`), which TOML parsers read as 0, is refused at its line by
+/// the number written, not reported (or used) as 0.
+#[test]
+fn a_number_that_would_be_read_as_zero_is_refused_as_written() {
+    let text = edit(&paper_device(), "te_s = 0.015", "te_s = 1e-400");
+    mts_refuses(
+        &text,
+        line_of(&text, "te_s = "),
+        "te_s",
+        &[
+            "1e-400 is below the smallest number a double holds",
+            "write 0 if 0 is meant",
+        ],
+    );
+}
+
 // ------------------------------------------------------------------ 4: geometry and supply
 
 #[test]

@@ -324,13 +324,10 @@ impl AircraftModel {
 
     /// Parse and validate model TOML; `path` is used in error messages.
     pub fn from_toml(text: &str, path: &Path) -> Result<Self, AeroError> {
-        let f: FileModel = toml::from_str(text).map_err(|e| {
-            let e = crate::text_lines::TomlError::new(text, &e);
-            AeroError::Parse {
-                path: path.to_path_buf(),
-                line: e.line,
-                msg: e.message(),
-            }
+        let f: FileModel = crate::text_lines::parse_toml(text).map_err(|e| AeroError::Parse {
+            path: path.to_path_buf(),
+            line: e.line,
+            msg: e.message(),
         })?;
         let c = Ctx { text, path };
         let big = 1e12;

@@ -269,13 +269,10 @@ impl CompareScenario {
     }
 
     pub fn parse(text: &str, path: &Path) -> Result<Self, CompareError> {
-        let f: File = toml::from_str(text).map_err(|e| {
-            let e = crate::text_lines::TomlError::new(text, &e);
-            CompareError::Parse {
-                path: path.to_path_buf(),
-                line: e.line,
-                msg: e.message(),
-            }
+        let f: File = crate::text_lines::parse_toml(text).map_err(|e| CompareError::Parse {
+            path: path.to_path_buf(),
+            line: e.line,
+            msg: e.message(),
         })?;
         let dir = path.parent().unwrap_or(Path::new("."));
         let chk =

@@ -344,13 +344,10 @@ impl FeelSprings {
             path: path.to_path_buf(),
             msg,
         })?;
-        let f: FeelSprings = toml::from_str(&text).map_err(|e| {
-            let e = crate::text_lines::TomlError::new(&text, &e);
-            FeelError::Parse {
-                path: path.to_path_buf(),
-                line: e.line,
-                msg: e.message(),
-            }
+        let f: FeelSprings = crate::text_lines::parse_toml(&text).map_err(|e| FeelError::Parse {
+            path: path.to_path_buf(),
+            line: e.line,
+            msg: e.message(),
         })?;
         let checks = [
             ("centring.k_n_per_m", f.centring.k_n_per_m, 0.0, 1e6),

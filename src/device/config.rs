@@ -85,10 +85,9 @@ impl DeviceConfig {
     }
 
     pub fn from_toml(text: &str, path: &Path, registry: &Registry) -> Result<Self, DeviceError> {
-        let file: TomlDevice = toml::from_str(text).map_err(|e| {
+        let file: TomlDevice = crate::text_lines::parse_toml(text).map_err(|e| {
             // A missing key is reported with the span of the table that lacks it; a value of the wrong
             // type by the key of its line (toml's message does not name it).
-            let e = crate::text_lines::TomlError::new(text, &e);
             match e.field {
                 Some(field) => field_err(path, e.line, &field, e.msg),
                 None => DeviceError::Parse {
