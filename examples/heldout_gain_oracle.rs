@@ -18,46 +18,24 @@
 use mrfeel::device::{Model, Registry};
 use std::collections::BTreeMap;
 
-use mrfeel::ident::diagnose::{cross_validate, CvResult, DiagnoseOptions, Fold};
-use mrfeel::ident::fit::{FitOptions, Weighting};
+use mrfeel::ident::diagnose::{CvResult, Fold};
 use mrfeel::ident::residual::direction_weights;
-use mrfeel::ident::{default_current_limit_a, load_tests, Test};
+use mrfeel::ident::Test;
+
+mod heldout;
+use heldout::Heldout;
 
 fn main() -> anyhow::Result<()> {
-    let (weighting, args) =
-        Weighting::from_args(std::env::args().skip(1).collect()).map_err(anyhow::Error::msg)?;
-    let dir = args
-        .first()
-        .cloned()
-        .unwrap_or_else(|| "../shared/data/utfsm-mr-damper".into());
-    let tests = load_tests(&[dir.into()])?;
+    let heldout = Heldout::from_args()?;
+    let (tests, folds) = (&heldout.tests, &heldout.folds);
     let registry = Registry::builtin();
-    // The diagnosis's folds and fold fits.
-    let diagnosis = DiagnoseOptions {
-        fit: FitOptions {
-            weighting,
-            ..FitOptions::default()
-        },
-        ..DiagnoseOptions::default()
-    };
-    let (folds, how) = diagnosis.folds(&tests);
-    println!("{how}");
-    let opts = diagnosis.cv_fit();
     for spec in [
         "bingham",
         "bingham+hysteresis",
         "bingham+hysteresis+current_viscosity",
     ] {
-        let model = Model::from_spec(spec, &registry, default_current_limit_a(&tests))?;
-        let cv = cross_validate(
-            &model,
-            &tests,
-            &folds,
-            None,
-            &opts,
-            &indicatif::ProgressBar::hidden(),
-        );
-        let by_level = level_gains_learned_in_training(&model, &tests, &folds, &cv);
+        let (model, cv) = heldout.cross_validate(spec, &registry)?;
+        let by_level = level_gains_learned_in_training(&model, tests, folds, &cv);
         // Sums of squares: as predicted, scaled by each test's gain, and by gain and offset; of the force.
         let (mut raw, mut scaled, mut affine, mut drifting, mut force) = (0.0, 0.0, 0.0, 0.0, 0.0);
         let mut levelled = 0.0;

@@ -18,10 +18,10 @@
 //! Session 20, with each test counted once in the fit (the default since): `bingham+hysteresis` 0.0822,
 //! with `field_onset` 0.0860 (0.0805 / 0.0987 / 0.1154), with `field_onset+magnetic_saturation` 0.0846.
 
-use mrfeel::device::{DataStats, Effect, EffectStage, Inputs, Model, ParamSpec, Registry, Stage};
-use mrfeel::ident::diagnose::{cross_validate, DiagnoseOptions};
-use mrfeel::ident::fit::{FitOptions, Weighting};
-use mrfeel::ident::{default_current_limit_a, load_tests};
+use mrfeel::device::{DataStats, Effect, EffectStage, Inputs, ParamSpec, Registry, Stage};
+
+mod heldout;
+use heldout::Heldout;
 
 /// Yield force quadratic in the current below an onset current, linear above.
 pub struct FieldOnset;
@@ -74,40 +74,15 @@ impl Effect for FieldOnset {
 }
 
 fn main() -> anyhow::Result<()> {
-    let (weighting, args) =
-        Weighting::from_args(std::env::args().skip(1).collect()).map_err(anyhow::Error::msg)?;
-    let dir = args
-        .first()
-        .cloned()
-        .unwrap_or_else(|| "../shared/data/utfsm-mr-damper".into());
-    let tests = load_tests(&[dir.into()])?;
+    let heldout = Heldout::from_args()?;
     let mut registry = Registry::builtin();
     registry.register(FieldOnset);
-    // The diagnosis's folds and fold fits.
-    let diagnosis = DiagnoseOptions {
-        fit: FitOptions {
-            weighting,
-            ..FitOptions::default()
-        },
-        ..DiagnoseOptions::default()
-    };
-    let (folds, how) = diagnosis.folds(&tests);
-    println!("{how}");
-    let opts = diagnosis.cv_fit();
     for spec in [
         "bingham+hysteresis",
         "bingham+hysteresis+field_onset",
         "bingham+hysteresis+field_onset+magnetic_saturation",
     ] {
-        let model = Model::from_spec(spec, &registry, default_current_limit_a(&tests))?;
-        let cv = cross_validate(
-            &model,
-            &tests,
-            &folds,
-            None,
-            &opts,
-            &indicatif::ProgressBar::hidden(),
-        );
+        let (model, cv) = heldout.cross_validate(spec, &registry)?;
         let per: Vec<String> = cv.per_fold.iter().map(|f| format!("{:.4}", f.nrmse())).collect();
         println!(
             "{spec}: held-out NRMSE {:.4} (per group {})",

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use mrfeel::outputs::{check_outputs, Kind, Output};
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 /// Simulation and model discovery for magneto-rheological (MR) artificial feel systems on aircraft
 /// control sticks.
@@ -15,31 +15,22 @@ struct Cli {
     command: Command,
 }
 
-/// Every subcommand takes `--option -0.01` as the option's value (refused, where it must be positive, by
-/// the check that names the field), not as an unknown flag `-0`.
 #[derive(Subcommand)]
 enum Command {
     /// Virtual MTS machine: drive the damper with a displacement protocol and record the force (CSV).
-    #[command(allow_negative_numbers = true)]
     Mts(mrfeel::mts::cli::MtsArgs),
     /// Run a scenario headless: the stick rig, its feel loop and pilot, and the aircraft if it has one
     /// (CSV, Rerun recording, summary).
-    #[command(allow_negative_numbers = true)]
     Run(mrfeel::sim::cli::RunArgs),
     /// Force response time of the feel loop against the DAQ sample rate.
-    #[command(allow_negative_numbers = true)]
     DaqSweep(mrfeel::sim::cli::DaqSweepArgs),
     /// Compare feel systems (springs, MR damper, hybrid) on the same rig and pilot task, with faults.
-    #[command(allow_negative_numbers = true)]
     Compare(mrfeel::compare::cli::CompareArgs),
     /// Fit a model (`bingham+effect+...`) to measured tests, jointly, each from its own start.
-    #[command(allow_negative_numbers = true)]
     Fit(mrfeel::ident::cli::FitArgs),
     /// Run a saved model unchanged on other tests and report its error (no refit).
-    #[command(allow_negative_numbers = true)]
     Validate(mrfeel::ident::cli::ValidateArgs),
     /// Find where a model fails and name the missing effects by the held-out error they remove.
-    #[command(allow_negative_numbers = true)]
     Diagnose(mrfeel::ident::cli::DiagnoseArgs),
 }
 
@@ -158,6 +149,15 @@ impl Job {
     }
 }
 
+/// The command line, parsed. Every subcommand takes `--option -0.01` as the option's value (refused, where
+/// it must be positive, by the check that names the field), not as an unknown flag `-0`.
+fn parse_cli() -> Cli {
+    let cmd = Cli::command().mut_subcommands(|c| c.allow_negative_numbers(true));
+    Cli::from_arg_matches(&cmd.get_matches())
+        .map_err(|e| e.format(&mut Cli::command()))
+        .unwrap_or_else(|e| e.exit())
+}
+
 fn main() -> std::process::ExitCode {
     // Rust ignores SIGPIPE, so a closed pipe (`mrfeel validate … --json | head`) made `println!` panic.
     // With the default action the process ends quietly when its reader has gone, as other Unix tools do.
@@ -166,7 +166,7 @@ fn main() -> std::process::ExitCode {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
-    let cli = Cli::parse();
+    let cli = parse_cli();
     let result = Job::load(cli.command).and_then(|job| {
         let read = job.inputs();
         let read: Vec<(&'static str, &std::path::Path)> =
