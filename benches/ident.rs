@@ -30,9 +30,9 @@ use mrfeel::measurement::Measurement;
 fn real_tests() -> Vec<Test> {
     let dir = PathBuf::from(concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/../shared/data/utfsm-mr-damper"
+        "/data/utfsm-mr-damper"
     ));
-    load_tests(&[dir]).expect("real data in ../shared/data/utfsm-mr-damper")
+    load_tests(&[dir]).expect("real data in data/utfsm-mr-damper")
 }
 
 fn bench_fit(c: &mut Criterion) {
@@ -75,7 +75,7 @@ fn bench_fit(c: &mut Criterion) {
 fn bench_acquisition(c: &mut Criterion) {
     let dir = PathBuf::from(concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/../shared/data/utfsm-mr-damper"
+        "/data/utfsm-mr-damper"
     ));
     let ms = mrfeel::measurement::read_all(&[dir]).expect("real data");
     let mut g = c.benchmark_group("acquisition/real_15_files_82638_samples");

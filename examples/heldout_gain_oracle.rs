@@ -13,7 +13,7 @@
 //! carry over to the group left out.
 //!
 //! `cargo run --release --example heldout_gain_oracle [DIR] [--weighting samples]` (default
-//! `../shared/data/utfsm-mr-damper`, each test counted once in the fits)
+//! `data/utfsm-mr-damper`, each test counted once in the fits)
 
 use mrfeel::device::{Model, Registry};
 use std::collections::BTreeMap;

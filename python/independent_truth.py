@@ -12,7 +12,7 @@ Run:  python3 -m venv /tmp/pyenv && /tmp/pyenv/bin/pip install numpy
       /tmp/pyenv/bin/python python/independent_truth.py EFFECTS OUTDIR [SEED]     (EFFECTS: comma-separated)
       target/release/mrfeel diagnose OUTDIR --json
 Environment (all optional):
-  SCALE=real       a device like the real damper in ../shared/data (80 N + 900 N/A, 2000 N s/m, 0-1 A,
+  SCALE=real       a device like the real damper in data/ (80 N + 900 N/A, 2000 N s/m, 0-1 A,
                    groups 10 mm 1 Hz, 2 mm 5 Hz, 20 mm 0.3 Hz, effects scaled to it)
   K3=<N/m^3>       cubic spring term (K3=0: a linear spring)
   NOISE=<N>        load-cell noise (standard deviation)

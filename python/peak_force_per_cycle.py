@@ -10,7 +10,7 @@ At the end, per amplitude/frequency group: the mean force at peak speed (both di
 for each current, and its rise from one current to the next. A law of the current shared by the device's
 tests would rise alike in every group at the same speed.
 
-Run:  python3 python/peak_force_per_cycle.py ../shared/data/utfsm-mr-damper
+Run:  python3 python/peak_force_per_cycle.py data/utfsm-mr-damper
 """
 
 import csv
@@ -34,7 +34,7 @@ def runs(flags):
 
 
 def main():
-    d = sys.argv[1] if len(sys.argv) > 1 else "../shared/data/utfsm-mr-damper"
+    d = sys.argv[1] if len(sys.argv) > 1 else "data/utfsm-mr-damper"
     table = {}
     print(f"{'test':<24} mean |force| N at |v| > 0.9 max|v|, each half cycle: v > 0 | v < 0")
     for path in sorted(glob.glob(os.path.join(d, "*.csv"))):

@@ -17,7 +17,7 @@ import numpy as np, glob, os, sys, time
 import scipy.sparse as sp, scipy.sparse.linalg as spl
 from scipy.optimize import least_squares
 from numba import njit
-D=os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "shared", "data", "utfsm-mr-damper")
+D=os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "data", "utfsm-mr-damper")
 DETREND=bool(int(__import__("os").environ.get("DETREND","0")))
 GROUPS=["10mm1Hz","25mm0p25Hz","2mm5Hz"]
 

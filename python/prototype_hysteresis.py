@@ -22,7 +22,7 @@ import time
 import numpy as np
 from scipy.optimize import least_squares
 
-DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "shared", "data", "utfsm-mr-damper")
+DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "data", "utfsm-mr-damper")
 GROUPS = ["10mm1Hz", "25mm0p25Hz", "2mm5Hz"]
 
 

@@ -4,7 +4,7 @@
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 out="${1:-out}"
-data="../shared/data/utfsm-mr-damper"
+data="data/utfsm-mr-damper"
 mkdir -p "$out"/{mts,diagnose,fit,daq-sweep,compare}
 cargo build --locked --quiet
 mrfeel=target/debug/mrfeel

@@ -1,4 +1,4 @@
-//! Test-rig measurements in the project's CSV format (`shared/spec/measurement-format.md`), read and written.
+//! Test-rig measurements in the project's CSV format (`docs/spec/measurement-format.md`), read and written.
 //!
 //! One test is one file: `# key: value` metadata lines, one header row of SI-unit-suffixed column names, then
 //! numeric rows. Required columns: `t_s`, `x_m`, `i_a`, `f_n`; optional `v_m_s` (derived from `x_m` with a

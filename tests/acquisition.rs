@@ -1,5 +1,5 @@
 //! The acquisition chain end to end: tests of a known damper logged through a causal moving average of a
-//! tenth of the drive period on force and displacement (as the UTFSM tests in `shared/data` were), at three
+//! tenth of the drive period on force and displacement (as the UTFSM tests in `data/` were), at three
 //! amplitude/frequency/clock protocols. The window is found from the data, the fit through the chain ends at
 //! the noise and recovers the damper, and a model fitted on two protocols predicts the third; compared as
 //! logged, the same model is far off and its pre-yield parameters take up the filter's smear.
@@ -400,7 +400,7 @@ fn validate_checks_a_single_short_test_for_the_window_the_fitted_tests_predict()
 #[test]
 fn a_file_on_an_uneven_clock_is_said_to_be_compared_as_logged() {
     let real =
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data/utfsm-mr-damper/10mm1Hz_0p50A.csv");
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data/utfsm-mr-damper/10mm1Hz_0p50A.csv");
     let text = std::fs::read_to_string(&real).unwrap();
     let lines: Vec<&str> = text.lines().collect();
     // 100 samples lost in the middle of the record: a hole of 0.1 s in a 1 kHz clock.

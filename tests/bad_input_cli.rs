@@ -14,7 +14,7 @@ fn root() -> PathBuf {
 
 /// A small real test (448 samples) from the damper data beside the repository.
 fn small_test() -> String {
-    s(&root().join("../shared/data/utfsm-mr-damper/2mm5Hz_0p50A.csv"))
+    s(&root().join("data/utfsm-mr-damper/2mm5Hz_0p50A.csv"))
 }
 
 fn scenario(name: &str) -> String {

@@ -20,7 +20,7 @@ fn s(p: &Path) -> String {
 
 /// A small real test (448 samples) from the damper data beside the repository.
 fn small_test() -> String {
-    s(&root().join("../shared/data/utfsm-mr-damper/2mm5Hz_0p50A.csv"))
+    s(&root().join("data/utfsm-mr-damper/2mm5Hz_0p50A.csv"))
 }
 
 /// The paper's device file, as shipped.

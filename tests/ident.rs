@@ -1114,7 +1114,7 @@ fn fit_counts_each_test_once_unless_told_to_count_samples() {
     assert_eq!(v["nrmse"].as_f64(), Some(by_samples[1]), "{v}");
 }
 
-/// The real damper (`shared/data/utfsm-mr-damper`): diagnosis from `bingham` finds hysteresis first, and its
+/// The real damper (`data/utfsm-mr-damper`): diagnosis from `bingham` finds hysteresis first, and its
 /// final model meets the held-out NRMSE ≤ 0.08, judged by leaving one amplitude/frequency group out
 /// at a time. Slow in the dev profile: run with
 /// `cargo test --release --test ident -- --ignored real_damper`.
@@ -1123,7 +1123,7 @@ fn fit_counts_each_test_once_unless_told_to_count_samples() {
 fn real_damper_diagnosis_finds_hysteresis() {
     let dir = PathBuf::from(concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/../shared/data/utfsm-mr-damper"
+        "/data/utfsm-mr-damper"
     ));
     let tests = mrfeel::ident::load_tests(&[dir]).expect("real data");
     let registry = Registry::builtin();

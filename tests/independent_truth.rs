@@ -16,7 +16,7 @@
 //! | thermal_drift | temperature state lowering yield *and* viscosity (yield −7 % over the longest test) | heat lowering yield |
 //!
 //! The device is the paper's (Eq. 2 with fc0 = 2 N, 4.83 N/A, C0 = 60 N·s/m, 14 A), tested like the real
-//! damper in `../shared/data`: constant current per file (0, 3.5, 7, 10.5, 14 A), three amplitude/frequency
+//! damper in `data/`: constant current per file (0, 3.5, 7, 10.5, 14 A), three amplitude/frequency
 //! groups (one of them sampled at 500 Hz), load-cell and velocity noise; some cases without a velocity
 //! channel. `diagnose` must name exactly the hidden effects, and the held-out error must at least halve.
 //!
@@ -85,7 +85,7 @@ const PAPER_SPENCER: Device = Device {
     ..PAPER
 };
 
-/// A device on the scale of the real damper in `../shared/data` (80 N + 900 N/A, 2 kN·s/m, 0–1 A, the
+/// A device on the scale of the real damper in `data/` (80 N + 900 N/A, 2 kN·s/m, 0–1 A, the
 /// load cell's noise 5 N), its effects scaled to it: a 1.1 kN saturation, a 60 N + 20 kN/m + 2e7 N/m³
 /// spring, a 15 kg moving mass (piston, rod and the fixture above the load cell).
 const REAL: Device = Device {

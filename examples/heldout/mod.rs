@@ -14,7 +14,7 @@ pub struct Heldout {
 }
 
 impl Heldout {
-    /// The tests of `DIR` (default `../shared/data/utfsm-mr-damper`) and the diagnosis's folds, fitted with
+    /// The tests of `DIR` (default `data/utfsm-mr-damper`) and the diagnosis's folds, fitted with
     /// the `--weighting` given (default: each test once); prints how the folds were made.
     pub fn from_args() -> anyhow::Result<Self> {
         let (weighting, args) =
@@ -22,7 +22,7 @@ impl Heldout {
         let dir = args
             .first()
             .cloned()
-            .unwrap_or_else(|| "../shared/data/utfsm-mr-damper".into());
+            .unwrap_or_else(|| "data/utfsm-mr-damper".into());
         let tests = load_tests(&[dir.into()])?;
         let diagnosis = DiagnoseOptions {
             fit: FitOptions {

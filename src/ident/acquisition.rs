@@ -2,7 +2,7 @@
 //! the data and put into the comparison.
 //!
 //! Why: a test rig's software often smooths its channels before it writes them. A causal moving average of
-//! `N` samples on the force and the displacement (the UTFSM tests in `shared/data` were filtered so by their
+//! `N` samples on the force and the displacement (the UTFSM tests in `data/` were filtered so by their
 //! source: a tenth of the drive period on both channels, the velocity then differenced from the filtered
 //! displacement) smears the force's turn at every reversal over `N` samples and delays both channels by
 //! `(N − 1)/2` samples. A damper model driven by the filtered motion then has to bend its pre-yield branch to

@@ -1,4 +1,4 @@
-//! `mrfeel fit`, `mrfeel validate`, `mrfeel diagnose` (`shared/spec/model-discovery.md`). JSON (with
+//! `mrfeel fit`, `mrfeel validate`, `mrfeel diagnose` (`docs/spec/model-discovery.md`). JSON (with
 //! `--json`) or a table on stdout, nothing else; progress and notes on stderr.
 
 use std::io::IsTerminal;

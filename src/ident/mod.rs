@@ -1,4 +1,4 @@
-//! Model discovery on measured data (`shared/spec/model-discovery.md`): fit a composed damper model to one or
+//! Model discovery on measured data (`docs/spec/model-discovery.md`): fit a composed damper model to one or
 //! many tests, validate a saved model on other tests, map where the residual lives, and name the missing
 //! effect by the held-out error each registered effect removes.
 //!

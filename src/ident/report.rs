@@ -1,4 +1,4 @@
-//! The contract's JSON outputs (`shared/spec/model-discovery.md`) and the human-readable tables.
+//! The contract's JSON outputs (`docs/spec/model-discovery.md`) and the human-readable tables.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;

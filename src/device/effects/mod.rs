@@ -1,5 +1,5 @@
 //! The effect library: one file per physical effect of the model-discovery vocabulary
-//! (`/work/shared/spec/model-discovery.md`).
+//! (`docs/spec/model-discovery.md`).
 //!
 //! | name | stage | parameters |
 //! |---|---|---|
