@@ -8,12 +8,14 @@
 
 pub mod acquisition;
 pub mod cli;
+pub mod clipping;
 pub mod diagnose;
 pub mod fit;
 pub mod plots;
 pub mod report;
 pub mod rerun_log;
 pub mod residual;
+pub mod simulate;
 pub mod timing;
 pub mod validate;
 
@@ -584,6 +586,15 @@ pub fn load_tests_predicting(
         return Err(IdentError::NoData);
     }
     let ms = crate::measurement::read_all(paths)?;
+    tests_of_measurements(&ms, choice, share)
+}
+
+/// [`load_tests_predicting`] on measurements already read.
+pub fn tests_of_measurements(
+    ms: &[Measurement],
+    choice: AcquisitionChoice,
+    share: Option<f64>,
+) -> Result<(Vec<Test>, Option<f64>), IdentError> {
     if let Some(m) = ms.iter().find(|m| m.f_n.iter().all(|&f| f == 0.0)) {
         return Err(IdentError::Other(format!(
             "{}:{}-{}: column `f_n` is zero in every one of the {} samples: no force was measured (a load cell \
@@ -595,8 +606,8 @@ pub fn load_tests_predicting(
         )));
     }
     match choice {
-        AcquisitionChoice::Auto => Ok(tests_predicting(&ms, share)),
-        _ => Ok((tests_with(&ms, choice)?, None)),
+        AcquisitionChoice::Auto => Ok(tests_predicting(ms, share)),
+        _ => Ok((tests_with(ms, choice)?, None)),
     }
 }
 
