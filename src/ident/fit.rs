@@ -1035,6 +1035,10 @@ pub fn span_stats(tests: &[Test], spans: &[Span]) -> DataStats {
 /// force is linear in the gains, and the second is then skipped).
 fn linear_warm_start(model: &Model, tests: &[Test], spans: &[Span], weights: &[Vec<f64>], p: &mut [f64]) {
     let idx = model.linear_gains();
+    // Solved for the Bingham base's three gains; a base with other linear gains starts where it is.
+    if idx.len() != 3 {
+        return;
+    }
     let specs = model.param_specs();
     // The sum of squares the first step's linear model predicts: when the second step starts there, the
     // force is linear in the three gains (no effect's state depends on them) and the first step was exact.
