@@ -13,6 +13,7 @@ pub mod diagnose;
 pub mod fit;
 pub mod plots;
 pub mod report;
+#[cfg(feature = "rerun")]
 pub mod rerun_log;
 pub mod residual;
 pub mod simulate;
@@ -586,15 +587,6 @@ pub fn load_tests_predicting(
         return Err(IdentError::NoData);
     }
     let ms = crate::measurement::read_all(paths)?;
-    tests_of_measurements(&ms, choice, share)
-}
-
-/// [`load_tests_predicting`] on measurements already read.
-pub fn tests_of_measurements(
-    ms: &[Measurement],
-    choice: AcquisitionChoice,
-    share: Option<f64>,
-) -> Result<(Vec<Test>, Option<f64>), IdentError> {
     if let Some(m) = ms.iter().find(|m| m.f_n.iter().all(|&f| f == 0.0)) {
         return Err(IdentError::Other(format!(
             "{}:{}-{}: column `f_n` is zero in every one of the {} samples: no force was measured (a load cell \
@@ -606,8 +598,8 @@ pub fn tests_of_measurements(
         )));
     }
     match choice {
-        AcquisitionChoice::Auto => Ok(tests_predicting(ms, share)),
-        _ => Ok((tests_with(ms, choice)?, None)),
+        AcquisitionChoice::Auto => Ok(tests_predicting(&ms, share)),
+        _ => Ok((tests_with(&ms, choice)?, None)),
     }
 }
 

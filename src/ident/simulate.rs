@@ -1,29 +1,17 @@
 //! Predict, not only score: the force of a saved model on a person's own motion and current (`mrfeel
 //! simulate`), and the model's force beside the measured one (`mrfeel validate --out`).
 //!
-//! The force law is the model's ([`crate::device::Model::simulate`]); the motion is read as the fit reads
-//! it ([`super::inputs_of`]: a velocity derived from the displacement where the file has none, the
-//! acceleration derived likewise), and the current commands take effect as the saved model's
-//! `command_timing` says.
+//! The force is [`crate::prelude::predict`]'s: the model's own law, on the motion read as the fit reads it
+//! ([`super::inputs_of`]: a velocity derived from the displacement where the file has none, the
+//! acceleration likewise), the current commands taking effect as the saved model's `command_timing` says.
 
 use crate::device::DeviceConfig;
 use crate::measurement::{Measurement, TextColumn};
-
-use super::timing::retimed;
-use super::Test;
 
 /// The column the measured force is kept in when `simulate` writes the model's force as `f_n`.
 pub const MEASURED_COLUMN: &str = "f_measured_n";
 /// The column `validate --out` writes the model's force in, beside the measured `f_n`.
 pub const MODEL_COLUMN: &str = "f_model_n";
-
-/// The force of the device `cfg` at every sample of the motion and current of `m`, integrated from the
-/// record's start (the lags settled at its first command).
-pub fn predicted_force(cfg: &DeviceConfig, m: &Measurement) -> Vec<f64> {
-    let test = Test::with_filter(m, None);
-    let tests = retimed(vec![test], cfg.command_timing);
-    cfg.model.simulate(&cfg.params, &tests[0].inputs)
-}
 
 /// `m` with `f_n` replaced by `force`: the measurement format, as a rig logging the model would write it.
 /// A measured force, if `m` has one, is kept beside it as [`MEASURED_COLUMN`]; the other columns and the
