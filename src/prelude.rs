@@ -306,7 +306,7 @@ pub fn validate(cfg: &DeviceConfig, data: Data) -> anyhow::Result<(Vec<Test>, Ve
 pub fn predict(cfg: &DeviceConfig, m: &Measurement) -> Vec<f64> {
     let test = Test::with_filter(m, None);
     let test = retimed(vec![test], cfg.command_timing).remove(0);
-    test.predict(&cfg.model, &cfg.params, test.len())
+    test.predict(&cfg.model, &cfg.params, test.inputs.len())
 }
 
 /// What a diagnosis is asked to do (`mrfeel diagnose`'s options).

@@ -222,7 +222,7 @@ fn rates(p: &[f64], x: f64, xd: f64, u: f64, y: f64, z: f64) -> (f64, f64) {
 /// moving linearly by `step.dx_m` (its mean velocity), `u` exact, `(y, z)` by RK4 on substeps.
 pub fn advance(p: &[f64], s: &mut [f64], inp: &Inputs, limit_a: f64, step: Step) {
     let h_all = step.dt_s;
-    if !(h_all > 0.0) {
+    if h_all.is_nan() || h_all <= 0.0 {
         return;
     }
     let cmd = saturate(inp.current_cmd_a, limit_a);
@@ -343,14 +343,14 @@ mod tests {
         let mut s = [0.0; N_STATES];
         init_states(p, &mut s, &inputs[0], 14.0);
         let mut out = Vec::with_capacity(inputs.len());
-        for k in 0..inputs.len() {
-            out.push(stage(p, &s, &inputs[k]).force_n(inputs[k].v_m_s));
+        for (k, inp) in inputs.iter().enumerate() {
+            out.push(stage(p, &s, inp).force_n(inp.v_m_s));
             if let Some(n) = inputs.get(k + 1) {
                 let st = Step {
-                    dt_s: n.t_s - inputs[k].t_s,
-                    dx_m: n.x_m - inputs[k].x_m,
+                    dt_s: n.t_s - inp.t_s,
+                    dx_m: n.x_m - inp.x_m,
                 };
-                advance(p, &mut s, &inputs[k], 14.0, st);
+                advance(p, &mut s, inp, 14.0, st);
             }
         }
         out
