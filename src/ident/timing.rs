@@ -276,7 +276,7 @@ mod tests {
     #[test]
     fn a_coil_lag_as_short_as_a_sample_is_read_at_its_sample_when_so_logged() {
         // One lag of a sample interval: the step response is still mostly in the first sample. Read after
-        // their sample, the helper probe's sets like it ended at 1.6-2.0x the noise floor.
+        // their sample, independent sets like it ended at 1.6-2.0x the noise floor.
         let model = testkit::model("bingham");
         for (at_sample, want) in [
             (true, CommandTiming::AtSample),
