@@ -13,6 +13,7 @@ use super::residual::where_regions;
 use super::timing::{decide, retimed, CommandTiming, TimingChoice, TimingDecision};
 use super::validate::{evaluate, figures};
 use super::{default_current_limit_a, load_tests_predicting, AcquisitionChoice, Test};
+use crate::device::formula::{register_file, resolve_spec, FormulaEffect};
 use crate::device::{DeviceConfig, Model, ModelSpec, ParamsFile, Registry};
 
 /// `--acquisition`, shared by `fit`, `validate` and `diagnose`.
@@ -27,6 +28,30 @@ pub struct AcquisitionArg {
     /// N samples: the model is driven by the motion before it and its force averaged likewise).
     #[arg(long, default_value = "auto")]
     pub acquisition: AcquisitionChoice,
+}
+
+/// `--effects`, shared by `fit`, `validate` and `diagnose`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct EffectsArg {
+    /// Data-defined effect files (TOML, as `diagnose --save-effect` writes them: a name, a formula over
+    /// x, v, a, i, t and parameters with units and bounds) to register beside the built-in effects, so
+    /// `--model bingham+NAME` and saved parameters of such a model load. A model spec may also name the file
+    /// itself: `--model bingham+drag.toml`. Repeat for several.
+    #[arg(long = "effects", value_name = "FILE.toml")]
+    pub effects: Vec<PathBuf>,
+}
+
+impl EffectsArg {
+    /// The built-in effects plus these files', and `spec` with any effect file it names replaced by the
+    /// effect's name.
+    fn registry(&self, spec: &str) -> anyhow::Result<(Registry, String)> {
+        let mut registry = Registry::builtin();
+        for f in &self.effects {
+            register_file(&mut registry, f)?;
+        }
+        let spec = resolve_spec(spec, &mut registry, None)?;
+        Ok((registry, spec))
+    }
 }
 
 /// `--weighting`, shared by `fit` and `diagnose`.
@@ -77,6 +102,8 @@ pub struct FitArgs {
     #[arg(long)]
     pub heldout: bool,
     #[command(flatten)]
+    pub effects: EffectsArg,
+    #[command(flatten)]
     pub acquisition: AcquisitionArg,
     #[command(flatten)]
     pub weighting: WeightingArg,
@@ -102,6 +129,8 @@ pub struct ValidateArgs {
     #[arg(long)]
     pub rerun: Option<PathBuf>,
     #[command(flatten)]
+    pub effects: EffectsArg,
+    #[command(flatten)]
     pub acquisition: AcquisitionArg,
 }
 
@@ -121,6 +150,15 @@ pub struct DiagnoseArgs {
     pub rerun: Option<PathBuf>,
     #[arg(long)]
     pub current_limit_a: Option<f64>,
+    /// Write the terms the open search found as one data-defined effect (TOML) named after the file, for
+    /// `--effects FILE` (or `--model bingham+FILE`) in `fit`, `validate`, `diagnose` and device files.
+    #[arg(long, value_name = "FILE.toml")]
+    pub save_effect: Option<PathBuf>,
+    /// Search the named effects only (no open search for terms outside the vocabulary).
+    #[arg(long)]
+    pub named_only: bool,
+    #[command(flatten)]
+    pub effects: EffectsArg,
     #[command(flatten)]
     pub acquisition: AcquisitionArg,
     #[command(flatten)]
@@ -246,10 +284,10 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
     if let Some(path) = &a.save {
         ParamsFile::check_path("--save", path).map_err(anyhow::Error::msg)?;
     }
-    let registry = Registry::builtin();
+    let (registry, spec) = a.effects.registry(&a.model)?;
     let (tests, window_periods) = load_and_tell(&a.data, a.acquisition.acquisition, None)?;
     let limit = limit_of(a.current_limit_a, &tests)?;
-    let model = build_model(&a.model, &registry, limit)?;
+    let model = build_model(&spec, &registry, limit)?;
     require(&tests, model.n_params())?;
     let n: usize = tests.iter().map(Test::len).sum();
     let opts = a.weighting.fit_options();
@@ -362,7 +400,7 @@ fn outputs(
 }
 
 pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
-    let registry = Registry::builtin();
+    let (registry, _) = a.effects.registry("bingham")?;
     let cfg = DeviceConfig::load(&a.params, &registry)?;
     let (tests, _) = load_and_tell(&a.data, a.acquisition.acquisition, cfg.acquisition_window_periods)?;
     require(&tests, cfg.model.n_params())?;
@@ -399,10 +437,13 @@ pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
 }
 
 pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
-    let registry = Registry::builtin();
+    if let Some(path) = &a.save_effect {
+        effect_name_of(path)?;
+    }
+    let (registry, spec) = a.effects.registry(&a.model)?;
     let (tests, _) = load_and_tell(&a.data, a.acquisition.acquisition, None)?;
     let limit = limit_of(a.current_limit_a, &tests)?;
-    let base = build_model(&a.model, &registry, limit)?;
+    let base = build_model(&spec, &registry, limit)?;
     // The largest model the search can reach needs the most samples.
     let most = registry
         .names()
@@ -417,6 +458,7 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
         current_limit_a: limit,
         progress: std::io::stderr().is_terminal(),
         fit: a.weighting.fit_options(),
+        open_search: !a.named_only,
         ..Default::default()
     };
     if let Some(w) = weighting_note(&tests, opts.fit.weighting) {
@@ -441,8 +483,31 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
         if d.final_model != d.base_model {
             models.push((&d.final_model, &d.final_pred));
         }
-        super::rerun_log::record(path, &tests, &models)?;
+        // The final model's held-out prediction: its residual is what the verdict judged.
+        let heldout = format!("{} held out", d.final_model);
+        models.push((&heldout, &d.final_oof));
+        let words = super::report::verdict_words(&d);
+        super::rerun_log::record_with_notes(path, &tests, &models, Some(words.trim()))?;
         crate::noteln!("wrote Rerun recording {}", path.display());
+    }
+    if let Some(path) = &a.save_effect {
+        let name = effect_name_of(path)?;
+        let found: Vec<FormulaEffect> = d.discovered.iter().map(|t| t.effect.clone()).collect();
+        let Some(effect) = super::discover::merged(&name, &found) else {
+            anyhow::bail!(
+                "--save-effect {}: the diagnosis added no term beyond the vocabulary, so there is no effect to \
+                 write",
+                path.display()
+            );
+        };
+        std::fs::write(path, effect.to_toml()).with_context(|| format!("writing {}", path.display()))?;
+        crate::noteln!(
+            "saved the discovered effect `{name}` = {} in {} (use: --effects {} --model {}+{name})",
+            effect.formula(),
+            path.display(),
+            path.display(),
+            d.base_model
+        );
     }
     if a.json {
         crate::outln!("{}", serde_json::to_string_pretty(&DiagnoseJson::new(&d))?)?;
@@ -450,4 +515,20 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
         crate::out!("{}", diagnose_table(&d))?;
     }
     Ok(())
+}
+
+/// The effect name a `--save-effect` file gives: its stem, which must be a valid effect name.
+fn effect_name_of(path: &Path) -> anyhow::Result<String> {
+    let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or_default();
+    let ok = stem.chars().next().is_some_and(|c| c.is_ascii_alphabetic())
+        && stem.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+        && path.extension().is_some_and(|e| e == "toml");
+    if !ok {
+        anyhow::bail!(
+            "--save-effect {}: the file is named NAME.toml, NAME being the effect's name in model specs \
+             (letters, digits and `_`, starting with a letter)",
+            path.display()
+        );
+    }
+    Ok(stem.to_string())
 }

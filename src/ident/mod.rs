@@ -9,6 +9,7 @@
 pub mod acquisition;
 pub mod cli;
 pub mod diagnose;
+pub mod discover;
 pub mod fit;
 pub mod plots;
 pub mod report;
