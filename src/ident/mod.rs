@@ -13,6 +13,7 @@ pub mod discover;
 pub mod fit;
 pub mod plots;
 pub mod report;
+#[cfg(feature = "rerun")]
 pub mod rerun_log;
 pub mod residual;
 pub mod timing;
