@@ -8,6 +8,13 @@ Used in session 3 to probe the diagnosis before the Rust tests were written; the
 closing note come from it. Session 6 added the protocol options below, to probe data like an outside
 checker's (other rates, waveforms, no velocity channel).
 
+Effects outside mrfeel's vocabulary (no finite list of named effects covers them; `mrfeel diagnose` must
+find a term for them or say that structure is left, tests/discovery.rs):
+  drag         turbulent orifice flow: F += CD v|v|
+  gas_spring   an accumulator's gas compressed adiabatically: F += P0A ((L / (L - x))^1.4 - 1)
+  yield_lag    the yield force builds up after each reversal with a time constant: the direction function
+               sgn v through a first-order lag of TAU_Y
+
 Run:  python3 -m venv /tmp/pyenv && /tmp/pyenv/bin/pip install numpy
       /tmp/pyenv/bin/python python/independent_truth.py EFFECTS OUTDIR [SEED]     (EFFECTS: comma-separated)
       target/release/mrfeel diagnose OUTDIR --json
@@ -53,11 +60,13 @@ if os.environ.get("SCALE") == "real":
     CURRENTS = [0.0, 0.25, 0.5, 0.75, 1.0]
     # saturation force, current scale, spring preload / rate / cubic, mass, heat constants, noise
     SAT, IMAX, PRE, KS, K3, M, THY, THC, NOISE0 = 1100.0, 1.0, 60.0, 2e4, 2e7, 15.0, 3000.0, 6000.0, 5.0
+    CD, P0A, LGAS, TAU_Y = 8e4, 150.0, 0.04, 0.01
 else:
     FC0, K, C0 = 2.0, 4.83, 60.0
     GROUPS = [("s20mm1Hz", 0.02, 1.0), ("s10mm2p5Hz", 0.01, 2.5), ("s30mm0p4Hz", 0.03, 0.4)]
     CURRENTS = [0.0, 3.5, 7.0, 10.5, 14.0]
     SAT, IMAX, PRE, KS, K3, M, THY, THC, NOISE0 = 80.0, 14.0, 2.0, 250.0, 3e5, 3.0, 420.0, 800.0, 0.15
+    CD, P0A, LGAS, TAU_Y = 1000.0, 15.0, 0.05, 0.01
 K3 = float(os.environ.get("K3", K3))
 FS, SUB = float(os.environ.get("FS", "1000")), int(os.environ.get("SUB", "20"))
 CYCLES = float(os.environ.get("CYCLES", "4"))
@@ -114,6 +123,8 @@ def simulate(effect, A, f, i, rng, gi=0, cycles=CYCLES):
     kin = motion(WAVE, A, f, gi)
     h = 1 / FS / SUB
     z = (1.0 if kin(0.0)[1] >= 0 else -1.0) if "hysteresis" in effect.split(",") else 0.0
+    y = np.sign(kin(0.0)[1])  # yield_lag's lagged direction, settled at the start
+    stateful = any(e in effect.split(",") for e in ("hysteresis", "thermal_drift", "yield_lag"))
     T = 0.0
     out = np.zeros(n)
     lag = float(os.environ.get("LAG", "0")); after = os.environ.get("LAGAFTER") == "1"
@@ -129,6 +140,9 @@ def simulate(effect, A, f, i, rng, gi=0, cycles=CYCLES):
         x, v, a = kin(t[k]) if WAVE == "sine" else (XVA[0][k], XVA[1][k], XVA[2][k])
         fy = FC0 + K * i; c = C0; d = np.sign(v); extra = 0.0
         if "hysteresis" in effect.split(","): d = z
+        if "yield_lag" in effect.split(","): d = y
+        if "drag" in effect.split(","): extra += CD * v * abs(v)
+        if "gas_spring" in effect.split(","): extra += P0A * ((LGAS / (LGAS - x)) ** 1.4 - 1.0)
         if "magnetic_saturation" in effect.split(","): fy = FC0 + SAT * np.tanh(K * i / SAT)
         if "sat_exp" in effect.split(","): fy = FC0 + 95.0 * (1 - np.exp(-K * i / 95.0))
         # A constant extra 3 N one way: mathematically a 1.5 N preload plus 1.5 N of symmetric friction.
@@ -140,7 +154,7 @@ def simulate(effect, A, f, i, rng, gi=0, cycles=CYCLES):
         if "thermal_drift" in effect.split(","): fy = fy * (1 - T / THY); c = c * (1 - T / THC)
         out[k] = fy * d + c * v + extra
         if lag > 0: ic = cmd + (ic - cmd) * np.exp(-1 / FS / lag)
-        for s in range(SUB):
+        for s in range(SUB if stateful else 0):
             tt = t[k] + s * h
             v = kin(tt)[1] if WAVE == "sine" else VS[k, s]
             if "hysteresis" in effect.split(","):  # Bouc-Wen n = 2, beta = 1, gamma = 0, A = 1 (no viscous knee)
@@ -148,6 +162,8 @@ def simulate(effect, A, f, i, rng, gi=0, cycles=CYCLES):
                 def r(zz): return (v - abs(v) * zz * abs(zz)) / x0
                 k1 = r(z); k2 = r(z + h/2*k1); k3 = r(z + h/2*k2); k4 = r(z + h*k3)
                 z = float(np.clip(z + h/6*(k1 + 2*k2 + 2*k3 + k4), -1, 1))
+            if "yield_lag" in effect.split(","):
+                y += (1 - np.exp(-h / TAU_Y)) * (np.sign(v) - y)
             if "thermal_drift" in effect.split(","):
                 fy = (FC0 + K * i) * (1 - T / THY)
                 P = max((fy * np.sign(v) + C0 * (1 - T / THC) * v) * v, 0.0)

@@ -188,8 +188,13 @@ pub fn current_limit(given: Option<f64>, tests: &[Test]) -> anyhow::Result<f64> 
 
 /// The model `spec` with the builtin effects.
 pub fn model(spec: &str, current_limit_a: f64) -> anyhow::Result<Model> {
+    model_in(spec, &Registry::builtin(), current_limit_a)
+}
+
+/// The model `spec` with the effects of `registry` (the built-ins plus data-defined effects).
+pub fn model_in(spec: &str, registry: &Registry, current_limit_a: f64) -> anyhow::Result<Model> {
     let spec = ModelSpec::parse(if spec.trim().is_empty() { "bingham" } else { spec })?;
-    Ok(Model::new(&spec, &Registry::builtin(), current_limit_a)?)
+    Ok(Model::new(&spec, registry, current_limit_a)?)
 }
 
 /// Every test must have enough samples for a fit of `n` parameters.
@@ -211,8 +216,13 @@ pub fn require(tests: &[Test], n: usize) -> anyhow::Result<()> {
 /// The model a fit of `tests` starts from (`setup.model` at the driver saturation for them), checked to
 /// have few enough parameters for every test.
 pub fn fit_model(tests: &[Test], setup: &FitSetup) -> anyhow::Result<Model> {
+    fit_model_in(tests, setup, &Registry::builtin())
+}
+
+/// [`fit_model`] with the effects of `registry`.
+pub fn fit_model_in(tests: &[Test], setup: &FitSetup, registry: &Registry) -> anyhow::Result<Model> {
     let limit = current_limit(setup.current_limit_a, tests)?;
-    let model = model(&setup.model, limit)?;
+    let model = model_in(&setup.model, registry, limit)?;
     require(tests, model.n_params())?;
     Ok(model)
 }
@@ -335,10 +345,20 @@ pub struct Diagnosed {
 
 /// Diagnose the tests of `data` from `setup.model` as `mrfeel diagnose`.
 pub fn diagnose(data: Data, setup: &DiagnoseSetup) -> anyhow::Result<Diagnosed> {
-    let registry = Registry::builtin();
+    diagnose_in(data, setup, &Registry::builtin(), false)
+}
+
+/// [`diagnose`] with the effects of `registry`, and with the open search for terms beyond the vocabulary
+/// when `open_search` (`mrfeel diagnose` unless `--named-only`).
+pub fn diagnose_in(
+    data: Data,
+    setup: &DiagnoseSetup,
+    registry: &Registry,
+    open_search: bool,
+) -> anyhow::Result<Diagnosed> {
     let tests = data.tests;
     let limit = current_limit(setup.current_limit_a, &tests)?;
-    let base = model(&setup.model, limit)?;
+    let base = model_in(&setup.model, registry, limit)?;
     // The largest model the search can reach needs the most samples.
     let most = registry
         .names()
@@ -356,6 +376,7 @@ pub fn diagnose(data: Data, setup: &DiagnoseSetup) -> anyhow::Result<Diagnosed> 
             weighting: setup.weighting,
             ..FitOptions::default()
         },
+        open_search,
         ..Default::default()
     };
     let quick = FitOptions {
@@ -363,8 +384,8 @@ pub fn diagnose(data: Data, setup: &DiagnoseSetup) -> anyhow::Result<Diagnosed> 
         ..opts.fit.clone()
     };
     let (tests, timing) = decide(&base, tests, setup.command_timing, &quick);
-    let d = crate::ident::diagnose(&tests, base.spec(), &registry, &opts)?;
-    let final_spec = model(&d.final_model, limit)?;
+    let d = crate::ident::diagnose(&tests, base.spec(), registry, &opts)?;
+    let final_spec = model_in(&d.final_model, &d.registry, limit)?;
     let mut final_model = ParamsFile::new(&final_spec, &d.final_params, None);
     final_model.command_timing = Some(timing.timing.as_str().to_string());
     final_model.weighting = Some(setup.weighting.as_str().to_string());

@@ -129,9 +129,13 @@ impl DeviceConfig {
             None => None,
         };
         let model_line = line_of(text, file.model.span().start);
-        let spec = ModelSpec::parse(file.model.get_ref())
+        // Effect files the spec names (`bingham+drag.toml`) are read relative to this file.
+        let mut registry = registry.clone();
+        let spec_text = super::formula::resolve_spec(file.model.get_ref(), &mut registry, path.parent())
             .map_err(|e| field_err(path, model_line, "model", e.to_string()))?;
-        let model = Model::new(&spec, registry, limit)
+        let spec =
+            ModelSpec::parse(&spec_text).map_err(|e| field_err(path, model_line, "model", e.to_string()))?;
+        let model = Model::new(&spec, &registry, limit)
             .map_err(|e| field_err(path, model_line, "model", e.to_string()))?;
         let params_line = line_of(text, file.params.span().start);
         let values: BTreeMap<String, ParamIn> = file

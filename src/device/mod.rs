@@ -8,6 +8,7 @@ pub mod bingham;
 pub mod config;
 pub mod effect;
 pub mod effects;
+pub mod formula;
 pub mod lag;
 pub mod model;
 pub mod params;

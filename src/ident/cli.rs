@@ -2,7 +2,7 @@
 //! `--json`) or a table on stdout, nothing else; progress and notes on stderr.
 
 use std::io::IsTerminal;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 
@@ -11,6 +11,7 @@ use super::fit::Weighting;
 use super::report::{diagnose_table, DiagnoseJson, FitJson};
 use super::timing::{CommandTiming, TimingChoice, TimingDecision};
 use super::{AcquisitionChoice, Test};
+use crate::device::formula::{register_file, resolve_spec, FormulaEffect};
 use crate::device::{DeviceConfig, ParamsFile, Registry};
 use crate::measurement::Measurement;
 use crate::prelude;
@@ -27,6 +28,30 @@ pub struct AcquisitionArg {
     /// N samples: the model is driven by the motion before it and its force averaged likewise).
     #[arg(long, default_value = "auto")]
     pub acquisition: AcquisitionChoice,
+}
+
+/// `--effects`, shared by `fit`, `validate` and `diagnose`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct EffectsArg {
+    /// Data-defined effect files (TOML, as `diagnose --save-effect` writes them: a name, a formula over
+    /// x, v, a, i, t and parameters with units and bounds) to register beside the built-in effects, so
+    /// `--model bingham+NAME` and saved parameters of such a model load. A model spec may also name the file
+    /// itself: `--model bingham+drag.toml`. Repeat for several.
+    #[arg(long = "effects", value_name = "FILE.toml")]
+    pub effects: Vec<PathBuf>,
+}
+
+impl EffectsArg {
+    /// The built-in effects plus these files', and `spec` with any effect file it names replaced by the
+    /// effect's name.
+    fn registry(&self, spec: &str) -> anyhow::Result<(Registry, String)> {
+        let mut registry = Registry::builtin();
+        for f in &self.effects {
+            register_file(&mut registry, f)?;
+        }
+        let spec = resolve_spec(spec, &mut registry, None)?;
+        Ok((registry, spec))
+    }
 }
 
 /// `--weighting`, shared by `fit` and `diagnose`.
@@ -68,6 +93,8 @@ pub struct FitArgs {
     #[arg(long)]
     pub heldout: bool,
     #[command(flatten)]
+    pub effects: EffectsArg,
+    #[command(flatten)]
     pub acquisition: AcquisitionArg,
     #[command(flatten)]
     pub weighting: WeightingArg,
@@ -97,6 +124,8 @@ pub struct ValidateArgs {
     /// directory of files named as the tests for several.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub effects: EffectsArg,
     #[command(flatten)]
     pub acquisition: AcquisitionArg,
 }
@@ -131,6 +160,15 @@ pub struct DiagnoseArgs {
     pub rerun: Option<PathBuf>,
     #[arg(long)]
     pub current_limit_a: Option<f64>,
+    /// Write the terms the open search found as one data-defined effect (TOML) named after the file, for
+    /// `--effects FILE` (or `--model bingham+FILE`) in `fit`, `validate`, `diagnose` and device files.
+    #[arg(long, value_name = "FILE.toml")]
+    pub save_effect: Option<PathBuf>,
+    /// Search the named effects only (no open search for terms outside the vocabulary).
+    #[arg(long)]
+    pub named_only: bool,
+    #[command(flatten)]
+    pub effects: EffectsArg,
     #[command(flatten)]
     pub acquisition: AcquisitionArg,
     #[command(flatten)]
@@ -178,14 +216,15 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
     if let Some(path) = &a.save {
         ParamsFile::check_path("--save", path).map_err(anyhow::Error::msg)?;
     }
+    let (registry, spec) = a.effects.registry(&a.model)?;
     let data = load_and_tell(&a.data, a.acquisition.acquisition, None)?;
     let setup = prelude::FitSetup {
-        model: a.model.clone(),
+        model: spec,
         current_limit_a: a.current_limit_a,
         weighting: a.weighting.weighting,
         command_timing: a.command_timing,
     };
-    let model = prelude::fit_model(&data.tests, &setup)?;
+    let model = prelude::fit_model_in(&data.tests, &setup, &registry)?;
     let tests = &data.tests;
     let n: usize = tests.iter().map(Test::len).sum();
     let opts = setup.options();
@@ -288,7 +327,7 @@ fn outputs(
 }
 
 pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
-    let registry = Registry::builtin();
+    let (registry, _) = a.effects.registry("bingham")?;
     let cfg = DeviceConfig::load(&a.params, &registry)?;
     let (ms, data) =
         prelude::load_keeping(&a.data, a.acquisition.acquisition, cfg.acquisition_window_periods)?;
@@ -316,9 +355,13 @@ pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
 }
 
 pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
+    if let Some(path) = &a.save_effect {
+        effect_name_of(path)?;
+    }
+    let (registry, spec) = a.effects.registry(&a.model)?;
     let data = load_and_tell(&a.data, a.acquisition.acquisition, None)?;
     let setup = prelude::DiagnoseSetup {
-        model: a.model.clone(),
+        model: spec,
         current_limit_a: a.current_limit_a,
         weighting: a.weighting.weighting,
         command_timing: a.command_timing,
@@ -333,7 +376,7 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
         diagnosis: d,
         timing,
         ..
-    } = prelude::diagnose(data, &setup)?;
+    } = prelude::diagnose_in(data, &setup, &registry, !a.named_only)?;
     note_timing(&timing);
     crate::noteln!("diagnosed in {:.1} s", t0.elapsed().as_secs_f64());
     // The files first, stdout last: a run that fails to write prints no result.
@@ -347,8 +390,31 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
         if d.final_model != d.base_model {
             models.push((&d.final_model, &d.final_pred));
         }
-        super::rerun_log::record(path, &tests, &models)?;
+        // The final model's held-out prediction: its residual is what the verdict judged.
+        let heldout = format!("{} held out", d.final_model);
+        models.push((&heldout, &d.final_oof));
+        let words = super::report::verdict_words(&d);
+        super::rerun_log::record_with_notes(path, &tests, &models, Some(words.trim()))?;
         crate::noteln!("wrote Rerun recording {}", path.display());
+    }
+    if let Some(path) = &a.save_effect {
+        let name = effect_name_of(path)?;
+        let found: Vec<FormulaEffect> = d.discovered.iter().map(|t| t.effect.clone()).collect();
+        let Some(effect) = super::discover::merged(&name, &found) else {
+            anyhow::bail!(
+                "--save-effect {}: the diagnosis added no term beyond the vocabulary, so there is no effect to \
+                 write",
+                path.display()
+            );
+        };
+        std::fs::write(path, effect.to_toml()).with_context(|| format!("writing {}", path.display()))?;
+        crate::noteln!(
+            "saved the discovered effect `{name}` = {} in {} (use: --effects {} --model {}+{name})",
+            effect.formula(),
+            path.display(),
+            path.display(),
+            d.base_model
+        );
     }
     if a.json {
         crate::outln!("{}", serde_json::to_string_pretty(&DiagnoseJson::new(&d))?)?;
@@ -414,4 +480,20 @@ pub fn run_simulate(a: &SimulateArgs) -> anyhow::Result<()> {
         a.out.display()
     );
     Ok(())
+}
+
+/// The effect name a `--save-effect` file gives: its stem, which must be a valid effect name.
+fn effect_name_of(path: &Path) -> anyhow::Result<String> {
+    let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or_default();
+    let ok = stem.chars().next().is_some_and(|c| c.is_ascii_alphabetic())
+        && stem.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+        && path.extension().is_some_and(|e| e == "toml");
+    if !ok {
+        anyhow::bail!(
+            "--save-effect {}: the file is named NAME.toml, NAME being the effect's name in model specs \
+             (letters, digits and `_`, starting with a letter)",
+            path.display()
+        );
+    }
+    Ok(stem.to_string())
 }

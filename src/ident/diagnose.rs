@@ -27,11 +27,13 @@ use std::collections::BTreeMap;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 
+use super::discover::{lagged_current, library, propose_term, readable, verdict, Scales, Verdict};
 use super::fit::{fit, span_stats, FitOptions, Span};
 use super::residual::{direction_weights, noise_floor_n, quantile, where_regions, Region, Signatures};
 use super::validate::{evaluate, Figures};
 use super::{IdentError, Test};
-use crate::device::{Model, ModelSpec, Registry};
+use crate::device::formula::FormulaEffect;
+use crate::device::{Effect, Model, ModelSpec, Registry};
 
 /// Settings of a diagnosis.
 #[derive(Debug, Clone)]
@@ -64,6 +66,10 @@ pub struct DiagnoseOptions {
     pub cv_tol: f64,
     /// Show a progress bar on stderr (hidden when stderr is not a terminal).
     pub progress: bool,
+    /// Search the library of candidate force terms beside the named effects at each stage
+    /// ([`super::discover`]); `false`: the named effects only. `mrfeel diagnose` turns it on unless
+    /// `--named-only`; the library default keeps the named-only search.
+    pub open_search: bool,
 }
 
 impl DiagnoseOptions {
@@ -94,6 +100,7 @@ impl Default for DiagnoseOptions {
             fit: FitOptions::default(),
             cv_tol: 1e-5,
             progress: false,
+            open_search: false,
         }
     }
 }
@@ -478,6 +485,26 @@ pub struct StepResult {
     /// Pairs of effects tried at this step because no effect alone was significant (best first; `effect` is
     /// `a+b`).
     pub pairs: Vec<Candidate>,
+    /// The term the open search proposed at this step, judged like the named effects (`effect` is its
+    /// formula).
+    pub term: Option<Candidate>,
+}
+
+/// A force term outside the vocabulary that the diagnosis added.
+#[derive(Debug, Clone)]
+pub struct Discovered {
+    pub name: String,
+    /// The formula with the final fit's values and their units.
+    pub formula: String,
+    /// The library terms it is made of.
+    pub features: Vec<String>,
+    /// Held-out NRMSE of the model it completed, and the share of the previous model's it removed.
+    pub heldout_nrmse: f64,
+    pub improvement: f64,
+    /// The physical family its strongest term most resembles.
+    pub resembles: String,
+    /// The effect, its guesses set to the final fit's values (what `--save-effect` writes).
+    pub effect: FormulaEffect,
 }
 
 /// Everything a diagnosis found.
@@ -508,6 +535,21 @@ pub struct Diagnosis {
     pub cv_scheme: String,
     pub noise_floor_n: f64,
     pub noise_floor_nrmse: f64,
+    /// The final model's held-out prediction at every sample (each sample from the fold that held it out).
+    pub final_oof: Vec<Vec<f64>>,
+    /// Terms outside the vocabulary the diagnosis added, in the order added.
+    pub discovered: Vec<Discovered>,
+    /// What the final model's held-out residual is: structure or noise.
+    pub verdict: Verdict,
+    /// The registry the final model was built from (the given one plus the discovered terms).
+    pub registry: Registry,
+}
+
+impl Diagnosis {
+    /// The verdict when structure is left (`unexplained` in the JSON), else `None`.
+    pub fn unexplained(&self) -> Option<&Verdict> {
+        self.verdict.structure.then_some(&self.verdict)
+    }
 }
 
 /// Run the diagnosis of `base` on `tests` with the effects of `registry`.
@@ -520,8 +562,10 @@ pub fn diagnose(
     if tests.is_empty() {
         return Err(IdentError::NoData);
     }
-    let build = |spec: &ModelSpec| Model::new(spec, registry, opts.current_limit_a);
-    let base_model = build(base)?;
+    // The given effects, and the terms the open search adds as it finds them.
+    let mut reg = registry.clone();
+    let build = |spec: &ModelSpec, reg: &Registry| Model::new(spec, reg, opts.current_limit_a);
+    let base_model = build(base, &reg)?;
     let (folds, cv_scheme) = opts.folds(tests);
     let all: Vec<Span> = super::fit::all_spans(tests);
     let samples: usize = tests.iter().map(Test::len).sum();
@@ -545,6 +589,10 @@ pub fn diagnose(
     let base_fit = fit(&base_model, tests, &all, &opts.fit);
     let base_pred = evaluate(&base_model, &base_fit.params, tests);
     let where_ = where_regions(tests, &base_pred);
+    // The lagged current the library's and the verdict's features read: the base model's excitation state.
+    let current = lagged_current(&base_model, &base_fit.params, tests);
+    let lib = library(Scales::of(tests));
+    let mut discovered: Vec<(FormulaEffect, f64, f64)> = Vec::new();
 
     let mut cur_model = base_model;
     let mut cur = cross_validate(&cur_model, tests, &folds, None, &cv_fit, &bar);
@@ -556,6 +604,7 @@ pub fn diagnose(
         heldout_rmse_n: cur.total.rmse_n(),
         candidates: Vec::new(),
         pairs: Vec::new(),
+        term: None,
     }];
     let mut missing: Vec<String> = Vec::new();
     // The effects added at each step (one, or a pair), in order.
@@ -586,7 +635,7 @@ pub fn diagnose(
         let tried: Vec<Result<(Model, CvResult), IdentError>> = names
             .par_iter()
             .map(|n| {
-                let m = build(&cur.spec.with(n))?;
+                let m = build(&cur.spec.with(n), &reg)?;
                 let cv = cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &cv_fit, &bar);
                 Ok((m, cv))
             })
@@ -629,7 +678,7 @@ pub fn diagnose(
                     .map(|&(si, n)| {
                         // From the current model's fits, both effects from their initial guesses: the seed's
                         // own fit has taken its partner's part, the very thing the pair undoes.
-                        let m = build(&tried[si].0.spec().with(n))?;
+                        let m = build(&tried[si].0.spec().with(n), &reg)?;
                         let cv = cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &cv_fit, &bar);
                         Ok((m, cv))
                     })
@@ -646,29 +695,78 @@ pub fn diagnose(
                 }
             }
         }
+        // The open search: a term from the library, fitted and judged on the same folds by the same rules.
+        let mut term: Option<(Model, CvResult, FormulaEffect)> = None;
+        let mut term_cand: Option<Candidate> = None;
+        if opts.open_search && !search.at_floor(&cur) {
+            let name = next_term_name(&reg);
+            if let Some(effect) = propose_term(&name, tests, &cur.oof, &current, &lib) {
+                bar.set_message(format!("trying the term {} on {}", effect.formula(), cur.spec));
+                let mut with = reg.clone();
+                with.register(effect.clone());
+                let m = build(&cur.spec.with(&name), &with)?;
+                let cv = cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &cv_fit, &bar);
+                let (significant, folds_better) = search.judge(&cur, &cv);
+                term_cand = Some(Candidate {
+                    effect: format!("{name} = {}", effect.formula()),
+                    heldout_nrmse: cv.heldout_nrmse(),
+                    improvement: 1.0 - cv.heldout_nrmse() / cur.heldout_nrmse().max(f64::MIN_POSITIVE),
+                    significant,
+                    evidence: format!(
+                        "found by forward regression in the held-out residual; resembles {}; held-out RMSE \
+                         {:.4} → {:.4} N, lower in {folds_better} of {} folds",
+                        effect.resembles(),
+                        cur.total.rmse_n(),
+                        cv.total.rmse_n(),
+                        folds.len()
+                    ),
+                    folds_better,
+                    folds: folds.len(),
+                });
+                term = Some((m, cv, effect));
+            }
+        }
         if let Some(last) = steps.last_mut() {
             last.heldout_nrmse = cur.heldout_nrmse();
             last.heldout_rmse_n = cur.total.rmse_n();
             last.candidates = cands.clone();
             last.pairs = pair_cands.clone();
+            last.term = term_cand.clone();
         }
         if first_candidates.is_none() {
             first_candidates = Some(cands.clone());
         }
-        let chosen = match cands.iter().position(|c| c.significant) {
-            Some(bi) => tried.swap_remove(bi),
+        let named_choice = match cands.iter().position(|c| c.significant) {
+            Some(bi) => Some(tried.swap_remove(bi)),
             None => match pair_cands.iter().position(|c| c.significant) {
                 Some(pi) => {
                     // The single fits of both members are on the path, for the backward pass.
                     for (m, cv) in &tried {
                         path_cv.insert(m.name(), cv.clone());
                     }
-                    pairs.swap_remove(pi)
+                    Some(pairs.swap_remove(pi))
                 }
-                None => break,
+                None => None,
             },
         };
-        let (m, cv) = chosen;
+        // A term wins only when it is significant and, beside a significant named effect, significantly
+        // better than it too: a discovered term never hides a named effect that explains the data as well.
+        let term_wins = match (&term, &term_cand, &named_choice) {
+            (Some((_, tcv, _)), Some(tc), named) if tc.significant => {
+                named.as_ref().is_none_or(|(_, ncv)| search.judge(ncv, tcv).0)
+            }
+            _ => false,
+        };
+        let mut term_added: Option<FormulaEffect> = None;
+        let (m, cv) = match (term_wins, term, named_choice) {
+            (true, Some((m, cv, effect)), _) => {
+                reg.register(effect.clone());
+                term_added = Some(effect);
+                (m, cv)
+            }
+            (_, _, Some(chosen)) => chosen,
+            _ => break,
+        };
         // Its folds were fitted from the current model's fits, staged; a fit from the data-derived start may end
         // lower (on a real-scale triangle test the staged fits of hysteresis + spring stopped at 11x the noise
         // held out, where a fresh fit reaches it). Each fold keeps the fit with the lower training error.
@@ -680,7 +778,14 @@ pub fn diagnose(
         let fresh = cross_validate(&m, tests, &folds, None, &whole_fit, &bar);
         let cv = cv.better_fits(&fresh, &folds).unwrap_or(cv);
         let added: Vec<String> = added_effects(&m, &cur.spec).into_iter().cloned().collect();
-        missing.extend(added.iter().cloned());
+        match term_added {
+            Some(effect) => discovered.push((
+                effect,
+                cv.heldout_nrmse(),
+                1.0 - cv.heldout_nrmse() / cur.heldout_nrmse().max(f64::MIN_POSITIVE),
+            )),
+            None => missing.extend(added.iter().cloned()),
+        }
         added_groups.push(added.clone());
         steps.push(StepResult {
             model: m.name(),
@@ -689,6 +794,7 @@ pub fn diagnose(
             heldout_rmse_n: cv.total.rmse_n(),
             candidates: Vec::new(),
             pairs: Vec::new(),
+            term: None,
         });
         path_cv.insert(m.name(), cv.clone());
         cur_model = m;
@@ -717,7 +823,7 @@ pub fn diagnose(
                         .cloned()
                         .collect(),
                 };
-                let m = build(&spec)?;
+                let m = build(&spec, &reg)?;
                 let cv = match path_cv.get(&spec.to_string()) {
                     Some(cv) => cv.clone(),
                     None => cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &cv_fit, &bar),
@@ -739,6 +845,7 @@ pub fn diagnose(
         }
         let group = added_groups.remove(gi);
         missing.retain(|x| !group.contains(x));
+        discovered.retain(|(e, _, _)| !group.iter().any(|g| g == e.name()));
         pruned.extend(group);
         steps.push(StepResult {
             model: m.name(),
@@ -747,6 +854,7 @@ pub fn diagnose(
             heldout_rmse_n: cv.total.rmse_n(),
             candidates: Vec::new(),
             pairs: Vec::new(),
+            term: None,
         });
         cur_model = m;
         cur = cv;
@@ -758,11 +866,51 @@ pub fn diagnose(
         tests,
         &all,
         &FitOptions {
-            start: start_from(&cur_model, Some((&build(base)?, &base_fit.params)), tests, &all),
+            start: start_from(
+                &cur_model,
+                Some((&build(base, &reg)?, &base_fit.params)),
+                tests,
+                &all,
+            ),
             ..opts.fit.clone()
         },
     );
     let final_pred = evaluate(&cur_model, &final_fit.params, tests);
+    bar.set_message("judging what is left");
+    let noise_floor_nrmse = noise / f_rms.max(f64::MIN_POSITIVE);
+    let mut verdict = verdict(
+        tests,
+        &folds,
+        &cur.oof,
+        &current,
+        cur.heldout_nrmse(),
+        noise_floor_nrmse,
+        search.at_floor(&cur),
+    );
+    verdict.where_ = where_regions(tests, &cur.oof);
+    let discovered: Vec<Discovered> = discovered
+        .into_iter()
+        .map(|(effect, heldout_nrmse, improvement)| {
+            let values: Vec<f64> = effect
+                .params()
+                .iter()
+                .map(|s| {
+                    cur_model
+                        .param_index(s.name)
+                        .map_or(f64::NAN, |k| final_fit.params[k])
+                })
+                .collect();
+            Discovered {
+                name: effect.name().to_string(),
+                formula: readable(&effect, &values),
+                features: super::discover::features_of(&effect),
+                heldout_nrmse,
+                improvement,
+                resembles: effect.resembles().to_string(),
+                effect: effect.with_values(&values),
+            }
+        })
+        .collect();
     bar.finish_and_clear();
     Ok(Diagnosis {
         base_model: base.to_string(),
@@ -785,8 +933,20 @@ pub fn diagnose(
         steps,
         cv_scheme,
         noise_floor_n: noise,
-        noise_floor_nrmse: noise / f_rms.max(f64::MIN_POSITIVE),
+        noise_floor_nrmse,
+        final_oof: cur.oof.clone(),
+        discovered,
+        verdict,
+        registry: reg,
     })
+}
+
+/// The next free name of a discovered term: `term1`, `term2`, …
+fn next_term_name(reg: &Registry) -> String {
+    (1..)
+        .map(|k| format!("term{k}"))
+        .find(|n| reg.get(n).is_none())
+        .unwrap_or_default()
 }
 
 /// How many effects that remove enough error but fail a fold are each tried again beside every other effect.

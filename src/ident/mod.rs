@@ -10,6 +10,7 @@ pub mod acquisition;
 pub mod cli;
 pub mod clipping;
 pub mod diagnose;
+pub mod discover;
 pub mod fit;
 pub mod plots;
 pub mod report;

@@ -399,7 +399,8 @@ pub fn plot_diagnosis(dir: &Path, tests: &[Test], d: &Diagnosis) -> Result<Vec<P
         &root,
         "held-out NRMSE as each missing effect is added",
         &steps,
-        d.noise_floor_nrmse
+        d.noise_floor_nrmse,
+        NRMSE_AXIS,
     ));
     let mut cands: Vec<(String, f64)> = vec![(d.base_model.clone(), d.base_heldout_nrmse)];
     cands.extend(
@@ -411,16 +412,48 @@ pub fn plot_diagnosis(dir: &Path, tests: &[Test], d: &Diagnosis) -> Result<Vec<P
         &root,
         &format!("held-out NRMSE of {} with each effect added", d.base_model),
         &cands,
-        d.noise_floor_nrmse
+        d.noise_floor_nrmse,
+        NRMSE_AXIS,
+    ));
+    // What is left: the share of the final model's held-out residual a regressor predicts out of sample,
+    // from all signals and from each alone, against the share that separates structure from noise.
+    let v = &d.verdict;
+    let mut shares: Vec<(String, f64)> = vec![("all signals".into(), v.predictable_share.max(0.0))];
+    shares.extend(v.correlates_with.iter().map(|(n, s)| (n.clone(), *s)));
+    let caption = if v.structure {
+        format!(
+            "UNEXPLAINED: {:.0} % of what {} leaves is predictable (structure, not noise)",
+            100.0 * v.predictable_share,
+            d.final_model
+        )
+    } else {
+        format!(
+            "what {} leaves is noise: predictable share of the held-out residual",
+            d.final_model
+        )
+    };
+    both!(dir, "what_is_left", (1000, 600), out, |root| draw_bars(
+        &root,
+        &caption,
+        &shares,
+        super::discover::MIN_PREDICTABLE_SHARE,
+        (
+            "predictable share of the held-out residual",
+            "structure threshold"
+        ),
     ));
     Ok(out)
 }
+
+/// Axis and line labels of the held-out error charts.
+const NRMSE_AXIS: (&str, &str) = ("held-out NRMSE", "noise floor");
 
 fn draw_bars<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     caption: &str,
     bars: &[(String, f64)],
     floor: f64,
+    (y_desc, floor_label): (&str, &str),
 ) -> Result<(), IdentError> {
     let ymax = bars.iter().fold(floor, |m, b| m.max(b.1)) * 1.15 + 1e-12;
     let n = bars.len();
@@ -444,7 +477,7 @@ fn draw_bars<DB: DrawingBackend>(
                 String::new()
             }
         })
-        .y_desc("held-out NRMSE")
+        .y_desc(y_desc)
         .label_style(("sans-serif", 12))
         .draw()
         .map_err(e2s)?;
@@ -472,7 +505,7 @@ fn draw_bars<DB: DrawingBackend>(
                 RED.stroke_width(1),
             ))
             .map_err(e2s)?
-            .label("noise floor")
+            .label(floor_label)
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], RED));
         chart
             .configure_series_labels()

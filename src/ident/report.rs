@@ -200,6 +200,32 @@ pub struct DiagnoseJson {
     pub cross_validation: String,
     pub noise_floor_nrmse: f64,
     pub pruned: Vec<String>,
+    /// Terms outside the vocabulary the diagnosis added, in the order added.
+    pub discovered: Vec<DiscoveredJson>,
+    /// Present only when the final model's held-out residual is structure, not noise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub unexplained: Option<UnexplainedJson>,
+}
+
+/// One entry of `discovered`.
+#[derive(Debug, Clone, Serialize)]
+pub struct DiscoveredJson {
+    pub name: String,
+    pub formula: String,
+    pub features: Vec<String>,
+    pub heldout_nrmse: f64,
+    pub improvement: f64,
+    pub resembles: String,
+}
+
+/// `unexplained`: what is left when it is structure.
+#[derive(Debug, Clone, Serialize)]
+pub struct UnexplainedJson {
+    pub heldout_nrmse: f64,
+    pub floor_nrmse: f64,
+    pub predictable_share: f64,
+    pub r#where: Vec<Region>,
+    pub correlates_with: Vec<String>,
 }
 
 impl DiagnoseJson {
@@ -231,6 +257,25 @@ impl DiagnoseJson {
             cross_validation: d.cv_scheme.clone(),
             noise_floor_nrmse: d.noise_floor_nrmse,
             pruned: d.pruned.clone(),
+            discovered: d
+                .discovered
+                .iter()
+                .map(|t| DiscoveredJson {
+                    name: t.name.clone(),
+                    formula: t.formula.clone(),
+                    features: t.features.clone(),
+                    heldout_nrmse: t.heldout_nrmse,
+                    improvement: t.improvement,
+                    resembles: t.resembles.clone(),
+                })
+                .collect(),
+            unexplained: d.unexplained().map(|v| UnexplainedJson {
+                heldout_nrmse: v.heldout_nrmse,
+                floor_nrmse: v.floor_nrmse,
+                predictable_share: v.predictable_share,
+                r#where: v.where_.clone(),
+                correlates_with: v.correlates_with.iter().map(|c| c.0.clone()).collect(),
+            }),
         }
     }
 }
@@ -309,6 +354,18 @@ pub fn diagnose_table(d: &Diagnosis) -> String {
             "effect", "held-out", "improvement", "folds", "significant"
         );
         candidate_rows(&mut s, &st.candidates);
+        if let Some(t) = &st.term {
+            let _ = writeln!(
+                s,
+                "  open search, {}: held-out NRMSE {:.4} ({:.1} %), lower in {}/{} folds, significant: {}",
+                t.effect,
+                t.heldout_nrmse,
+                100.0 * t.improvement,
+                t.folds_better,
+                t.folds,
+                if t.significant { "yes" } else { "no" }
+            );
+        }
         if !st.pairs.is_empty() {
             let _ = writeln!(
                 s,
@@ -342,6 +399,64 @@ pub fn diagnose_table(d: &Diagnosis) -> String {
         d.final_heldout_nrmse,
         d.final_fit_nrmse
     );
+    for t in &d.discovered {
+        let _ = writeln!(
+            s,
+            "found beyond the vocabulary: {} = {} (resembles {}); held-out NRMSE {:.4}, {:.1} % below the model \
+             before it",
+            t.name,
+            t.formula,
+            t.resembles,
+            t.heldout_nrmse,
+            100.0 * t.improvement
+        );
+    }
+    s.push_str(&verdict_words(d));
+    s
+}
+
+/// The verdict on what is left, in words.
+pub fn verdict_words(d: &Diagnosis) -> String {
+    let v = &d.verdict;
+    let mut s = String::new();
+    if v.structure {
+        let _ = writeln!(
+            s,
+            "\nUNEXPLAINED: what {} leaves is structure, not noise. A regressor on the measured signals predicts \
+             {:.0} % of its held-out residual out of sample (held-out NRMSE {:.4} against a noise floor of {}); \
+             no named effect and no term of the open search's library explains it.",
+            d.final_model,
+            100.0 * v.predictable_share,
+            v.heldout_nrmse,
+            floor_words(v.floor_nrmse)
+        );
+        if !v.correlates_with.is_empty() {
+            let list: Vec<String> = v
+                .correlates_with
+                .iter()
+                .map(|(n, sh)| format!("{n} ({:.0} %)", 100.0 * sh))
+                .collect();
+            let _ = writeln!(s, "  it follows: {}", list.join(", "));
+        }
+        for r in v.where_.iter().take(3) {
+            let _ = writeln!(
+                s,
+                "  it lives at {:<40} {:>5.1} % of the squared error, RMSE {:.3} N",
+                r.region,
+                100.0 * r.share_of_error,
+                r.rmse_n
+            );
+        }
+    } else {
+        let _ = writeln!(
+            s,
+            "\nwhat is left is noise: a regressor on the measured signals predicts {:.1} % of the held-out \
+             residual out of sample (held-out NRMSE {:.4}, noise floor {})",
+            100.0 * v.predictable_share,
+            v.heldout_nrmse,
+            floor_words(v.floor_nrmse)
+        );
+    }
     s
 }
 

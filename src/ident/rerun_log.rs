@@ -28,15 +28,34 @@ fn ent(name: &str) -> String {
 /// Write `path` (`.rrd`) with one or more models' predictions (`(label, prediction per test)`), whole or not
 /// at all ([`crate::outputs::write_whole`]).
 pub fn record(path: &Path, tests: &[Test], models: &[(&str, &[Vec<f64>])]) -> Result<(), IdentError> {
+    record_with_notes(path, tests, models, None)
+}
+
+/// [`record`], with a text (the diagnosis's verdict on what is left) logged at `diagnosis/verdict`.
+pub fn record_with_notes(
+    path: &Path,
+    tests: &[Test],
+    models: &[(&str, &[Vec<f64>])],
+    notes: Option<&str>,
+) -> Result<(), IdentError> {
     crate::outputs::write_whole(
         path,
-        |tmp| record_into(tmp, tests, models),
+        |tmp| record_into(tmp, tests, models, notes),
         |e| IdentError::Other(format!("--rerun {}: {e}", path.display())),
     )
 }
 
-fn record_into(path: &Path, tests: &[Test], models: &[(&str, &[Vec<f64>])]) -> Result<(), IdentError> {
+fn record_into(
+    path: &Path,
+    tests: &[Test],
+    models: &[(&str, &[Vec<f64>])],
+    notes: Option<&str>,
+) -> Result<(), IdentError> {
     let rec = RecordingStreamBuilder::new("mrfeel").save(path).map_err(rr)?;
+    if let Some(text) = notes {
+        rec.log_static("diagnosis/verdict", &rerun::TextDocument::new(text))
+            .map_err(rr)?;
+    }
     for (j, t) in tests.iter().enumerate() {
         let base = format!("tests/{}", ent(&t.name));
         let times = || TimeColumn::new_duration_secs("t", t.inputs.iter().map(|i| i.t_s));

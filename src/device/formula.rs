@@ -1,0 +1,848 @@
+//! Data-defined effects: a force term written as a formula over named features, loaded from a TOML file
+//! (or built by the diagnosis's open term search) and registered beside the built-in effects.
+//!
+//! The term is additive: `F_extra = formula(x, v, a, i, t; parameters)`. Features:
+//!
+//! | feature | meaning | unit |
+//! |---|---|---|
+//! | `x` | piston displacement from mid-stroke | m |
+//! | `v` | piston velocity | m/s |
+//! | `a` | piston acceleration | m/s² |
+//! | `i` | effective excitation after the driver saturation and both lags (Eq. 3, 4) | A |
+//! | `t` | time since the test's start | s |
+//!
+//! Operators `+ - * / ^`, functions `abs sign tanh exp ln sqrt sin cos min max`, and the low-pass state
+//! `lp(expr, tau_s)`: `expr` through a first-order lag of time constant `tau_s` (a positive number, s),
+//! starting at `expr`'s first value. The formula is parsed by `evalexpr` and compiled into a small tree
+//! evaluated at every sample. File format: `docs/spec/model-discovery.md`.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use evalexpr::{DefaultNumericTypes, Node, Operator, Value};
+use serde::Deserialize;
+
+use super::effect::{Effect, EffectStage, Inputs, Stage, Step};
+use super::model::Registry;
+use super::params::{DataStats, ParamSpec};
+use super::DeviceError;
+use crate::text_lines::line_of;
+
+/// A signal a formula may read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Feature {
+    X,
+    V,
+    A,
+    I,
+    T,
+}
+
+impl Feature {
+    /// Every feature with its name, meaning and unit, as the file format documents them.
+    pub const ALL: [(Feature, &'static str, &'static str); 5] = [
+        (Feature::X, "x", "m"),
+        (Feature::V, "v", "m/s"),
+        (Feature::A, "a", "m/s^2"),
+        (Feature::I, "i", "A"),
+        (Feature::T, "t", "s"),
+    ];
+
+    fn of(name: &str) -> Option<Self> {
+        Self::ALL.iter().find(|f| f.1 == name).map(|f| f.0)
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Fn1 {
+    Abs,
+    Sign,
+    Tanh,
+    Exp,
+    Ln,
+    Sqrt,
+    Sin,
+    Cos,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Op2 {
+    Add,
+    Sub,
+    Mul,
+    Div,
+    Pow,
+    Min,
+    Max,
+}
+
+/// A compiled formula.
+#[derive(Debug, Clone, PartialEq)]
+enum Expr {
+    Const(f64),
+    Feature(Feature),
+    Param(usize),
+    /// The low-pass state of this index.
+    State(usize),
+    Neg(Box<Expr>),
+    Fn1(Fn1, Box<Expr>),
+    Op2(Op2, Box<Expr>, Box<Expr>),
+}
+
+/// The signals at one sample.
+#[derive(Debug, Clone, Copy)]
+struct Signals {
+    x: f64,
+    v: f64,
+    a: f64,
+    i: f64,
+    t: f64,
+}
+
+impl Signals {
+    fn of(inp: &Inputs, stage: &Stage) -> Self {
+        Self {
+            x: inp.x_m,
+            v: inp.v_m_s,
+            a: inp.a_m_s2,
+            i: stage.current_a,
+            t: inp.t_s,
+        }
+    }
+}
+
+impl Expr {
+    fn eval(&self, p: &[f64], s: &[f64], sig: &Signals) -> f64 {
+        match self {
+            Expr::Const(c) => *c,
+            Expr::Feature(f) => match f {
+                Feature::X => sig.x,
+                Feature::V => sig.v,
+                Feature::A => sig.a,
+                Feature::I => sig.i,
+                Feature::T => sig.t,
+            },
+            Expr::Param(k) => p[*k],
+            Expr::State(k) => s[*k],
+            Expr::Neg(e) => -e.eval(p, s, sig),
+            Expr::Fn1(f, e) => {
+                let u = e.eval(p, s, sig);
+                match f {
+                    Fn1::Abs => u.abs(),
+                    Fn1::Sign => {
+                        if u > 0.0 {
+                            1.0
+                        } else if u < 0.0 {
+                            -1.0
+                        } else {
+                            0.0
+                        }
+                    }
+                    Fn1::Tanh => u.tanh(),
+                    Fn1::Exp => u.exp(),
+                    Fn1::Ln => u.ln(),
+                    Fn1::Sqrt => u.sqrt(),
+                    Fn1::Sin => u.sin(),
+                    Fn1::Cos => u.cos(),
+                }
+            }
+            Expr::Op2(op, a, b) => {
+                let (a, b) = (a.eval(p, s, sig), b.eval(p, s, sig));
+                match op {
+                    Op2::Add => a + b,
+                    Op2::Sub => a - b,
+                    Op2::Mul => a * b,
+                    Op2::Div => a / b,
+                    Op2::Pow => a.powf(b),
+                    Op2::Min => a.min(b),
+                    Op2::Max => a.max(b),
+                }
+            }
+        }
+    }
+
+    fn reads(&self, what: &dyn Fn(&Expr) -> bool) -> bool {
+        what(self)
+            || match self {
+                Expr::Neg(e) | Expr::Fn1(_, e) => e.reads(what),
+                Expr::Op2(_, a, b) => a.reads(what) || b.reads(what),
+                _ => false,
+            }
+    }
+}
+
+/// A formula compiled against its parameter names, with its low-pass states.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Formula {
+    text: String,
+    expr: Expr,
+    /// Input and time constant of each low-pass state, in the order their indices were given (inner first).
+    lowpass: Vec<(Expr, f64)>,
+}
+
+impl Formula {
+    /// Parse `text` over the features and the parameters `params` (index = position). The error says what
+    /// is wrong in words (an unknown name lists the features and parameters).
+    pub fn parse(text: &str, params: &[&str]) -> Result<Self, String> {
+        let tree: Node<DefaultNumericTypes> =
+            evalexpr::build_operator_tree(text).map_err(|e| format!("formula does not parse: {e}"))?;
+        let mut c = Compiler {
+            params,
+            lowpass: Vec::new(),
+        };
+        let expr = c.compile(&tree)?;
+        Ok(Self {
+            text: text.trim().to_string(),
+            expr,
+            lowpass: c.lowpass,
+        })
+    }
+
+    pub fn text(&self) -> &str {
+        &self.text
+    }
+
+    /// Number of low-pass states.
+    pub fn n_states(&self) -> usize {
+        self.lowpass.len()
+    }
+
+    /// Does any low-pass state read the lagged current (whose lags are the base model's parameters)?
+    fn states_read_the_current(&self) -> bool {
+        self.lowpass
+            .iter()
+            .any(|(e, _)| e.reads(&|x| *x == Expr::Feature(Feature::I)))
+    }
+
+    fn eval(&self, p: &[f64], s: &[f64], sig: &Signals) -> f64 {
+        self.expr.eval(p, s, sig)
+    }
+    /// The formula (over features only, no parameters) at every sample of one test, its low-pass states
+    /// run exactly as the effect runs them; `current_a` is the lagged current at each sample.
+    pub fn series(&self, inputs: &[Inputs], current_a: &[f64]) -> Vec<f64> {
+        let mut s = vec![0.0; self.lowpass.len()];
+        let mut out = Vec::with_capacity(inputs.len());
+        for (k, inp) in inputs.iter().enumerate() {
+            let sig = Signals {
+                x: inp.x_m,
+                v: inp.v_m_s,
+                a: inp.a_m_s2,
+                i: current_a[k],
+                t: inp.t_s,
+            };
+            if k == 0 {
+                for j in 0..s.len() {
+                    s[j] = self.lowpass[j].0.eval(&[], &s, &sig);
+                }
+            }
+            out.push(self.expr.eval(&[], &s, &sig));
+            if let Some(next) = inputs.get(k + 1) {
+                let dt = (next.t_s - inp.t_s).max(0.0);
+                for j in 0..s.len() {
+                    let (input, tau) = &self.lowpass[j];
+                    let u = input.eval(&[], &s, &sig);
+                    s[j] += (1.0 - (-dt / tau).exp()) * (u - s[j]);
+                }
+            }
+        }
+        out
+    }
+}
+
+struct Compiler<'a> {
+    params: &'a [&'a str],
+    lowpass: Vec<(Expr, f64)>,
+}
+
+impl Compiler<'_> {
+    fn compile(&mut self, node: &Node<DefaultNumericTypes>) -> Result<Expr, String> {
+        let ch = node.children();
+        let two = |c: &mut Self, op: Op2| -> Result<Expr, String> {
+            match ch {
+                [a, b] => Ok(Expr::Op2(op, Box::new(c.compile(a)?), Box::new(c.compile(b)?))),
+                _ => Err(format!("`{}` needs two operands", node.operator())),
+            }
+        };
+        match node.operator() {
+            Operator::RootNode => match ch {
+                [one] => self.compile(one),
+                [] => Err("empty formula (or empty brackets)".into()),
+                _ => Err("several expressions where one is expected".into()),
+            },
+            Operator::Add => two(self, Op2::Add),
+            Operator::Sub => two(self, Op2::Sub),
+            Operator::Mul => two(self, Op2::Mul),
+            Operator::Div => two(self, Op2::Div),
+            Operator::Exp => two(self, Op2::Pow),
+            Operator::Neg => match ch {
+                [a] => Ok(Expr::Neg(Box::new(self.compile(a)?))),
+                _ => Err("`-` needs one operand".into()),
+            },
+            Operator::Const { value } => match value {
+                Value::Float(f) => Ok(Expr::Const(*f)),
+                Value::Int(i) => Ok(Expr::Const(*i as f64)),
+                other => Err(format!("`{other}` is not a number")),
+            },
+            Operator::VariableIdentifierRead { identifier } => {
+                if let Some(f) = Feature::of(identifier) {
+                    Ok(Expr::Feature(f))
+                } else if let Some(k) = self.params.iter().position(|p| p == identifier) {
+                    Ok(Expr::Param(k))
+                } else {
+                    Err(format!(
+                        "unknown feature `{identifier}` (features: {}; parameters: {})",
+                        Feature::ALL
+                            .iter()
+                            .map(|f| format!("{} [{}]", f.1, f.2))
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                        if self.params.is_empty() {
+                            "none declared".to_string()
+                        } else {
+                            self.params.join(", ")
+                        }
+                    ))
+                }
+            }
+            Operator::FunctionIdentifier { identifier } => {
+                let args = arguments(ch);
+                let name = identifier.as_str();
+                let one = |c: &mut Self, f: Fn1| -> Result<Expr, String> {
+                    match args.as_slice() {
+                        [a] => Ok(Expr::Fn1(f, Box::new(c.compile(a)?))),
+                        _ => Err(format!("`{name}` takes one argument, not {}", args.len())),
+                    }
+                };
+                match name {
+                    "abs" => one(self, Fn1::Abs),
+                    "sign" | "sgn" => one(self, Fn1::Sign),
+                    "tanh" => one(self, Fn1::Tanh),
+                    "exp" => one(self, Fn1::Exp),
+                    "ln" => one(self, Fn1::Ln),
+                    "sqrt" => one(self, Fn1::Sqrt),
+                    "sin" => one(self, Fn1::Sin),
+                    "cos" => one(self, Fn1::Cos),
+                    "min" | "max" => match args.as_slice() {
+                        [a, b] => Ok(Expr::Op2(
+                            if name == "min" { Op2::Min } else { Op2::Max },
+                            Box::new(self.compile(a)?),
+                            Box::new(self.compile(b)?),
+                        )),
+                        _ => Err(format!("`{name}` takes two arguments, not {}", args.len())),
+                    },
+                    "lp" => match args.as_slice() {
+                        [a, tau] => {
+                            let input = self.compile(a)?;
+                            let tau = match self.compile(tau)? {
+                                Expr::Const(c) if c.is_finite() && c > 0.0 => c,
+                                _ => return Err(
+                                    "`lp(expr, tau_s)`: the time constant is a positive number of seconds"
+                                        .into(),
+                                ),
+                            };
+                            self.lowpass.push((input, tau));
+                            Ok(Expr::State(self.lowpass.len() - 1))
+                        }
+                        _ => Err(format!(
+                            "`lp` takes two arguments (expr, tau_s), not {}",
+                            args.len()
+                        )),
+                    },
+                    other => Err(format!(
+                        "unknown function `{other}` (functions: abs, sign, tanh, exp, ln, sqrt, sin, cos, \
+                         min, max, lp)"
+                    )),
+                }
+            }
+            other => Err(format!(
+                "`{other}` is not allowed in a force formula (numbers, features, parameters, + - * / ^ and \
+                 functions)"
+            )),
+        }
+    }
+}
+
+/// The arguments of a function call: its one child, unwrapped of brackets, split at the commas.
+fn arguments(ch: &[Node<DefaultNumericTypes>]) -> Vec<&Node<DefaultNumericTypes>> {
+    let mut node = match ch {
+        [one] => one,
+        _ => return ch.iter().collect(),
+    };
+    while matches!(node.operator(), Operator::RootNode) && node.children().len() == 1 {
+        node = &node.children()[0];
+    }
+    match node.operator() {
+        Operator::Tuple => node.children().iter().collect(),
+        Operator::RootNode if node.children().is_empty() => Vec::new(),
+        _ => vec![node],
+    }
+}
+
+/// One parameter of a data-defined effect.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FormulaParam {
+    pub name: String,
+    pub unit: String,
+    pub lower: f64,
+    pub upper: f64,
+    /// Starting value of a fit.
+    pub guess: f64,
+    pub doc: String,
+}
+
+/// A data-defined additive force term: see the module documentation.
+#[derive(Debug, Clone)]
+pub struct FormulaEffect {
+    name: &'static str,
+    describe: &'static str,
+    resembles: String,
+    formula: Formula,
+    params: &'static [ParamSpec],
+    guesses: Vec<f64>,
+    declared: Vec<FormulaParam>,
+}
+
+/// A `'static` copy of a string: the registry's effects name themselves and their parameters for the
+/// program's run, and a data-defined effect is loaded once.
+fn leak(s: &str) -> &'static str {
+    Box::leak(s.to_string().into_boxed_str())
+}
+
+impl FormulaEffect {
+    /// An effect named `name` whose force is `formula` over the features and `params`.
+    pub fn new(
+        name: &str,
+        describe: &str,
+        resembles: &str,
+        formula: &str,
+        params: Vec<FormulaParam>,
+    ) -> Result<Self, String> {
+        if !valid_name(name) {
+            return Err(format!(
+                "effect name `{name}`: letters, digits and `_`, starting with a letter (it is written in model \
+                 specs as bingham+{name})"
+            ));
+        }
+        let names: Vec<&str> = params.iter().map(|p| p.name.as_str()).collect();
+        for p in &params {
+            if Feature::of(&p.name).is_some() {
+                return Err(format!("parameter `{}` has the name of a feature", p.name));
+            }
+            if !(p.lower <= p.upper) || p.lower.is_nan() {
+                return Err(format!(
+                    "parameter `{}`: lower bound {} above upper bound {}",
+                    p.name, p.lower, p.upper
+                ));
+            }
+            if !(p.lower <= p.guess && p.guess <= p.upper) {
+                return Err(format!(
+                    "parameter `{}`: guess {} outside its bounds [{}, {}]",
+                    p.name, p.guess, p.lower, p.upper
+                ));
+            }
+        }
+        let formula = Formula::parse(formula, &names)?;
+        let specs: Vec<ParamSpec> = params
+            .iter()
+            .map(|p| ParamSpec::new(leak(&p.name), leak(&p.unit), p.lower, p.upper, leak(&p.doc)))
+            .collect();
+        Ok(Self {
+            name: leak(name),
+            describe: leak(describe),
+            resembles: resembles.to_string(),
+            guesses: params.iter().map(|p| p.guess).collect(),
+            formula,
+            params: Box::leak(specs.into_boxed_slice()),
+            declared: params,
+        })
+    }
+
+    pub fn formula(&self) -> &str {
+        self.formula.text()
+    }
+
+    /// The same effect with these parameter values as its starting values (clamped into the bounds).
+    pub fn with_values(&self, values: &[f64]) -> Self {
+        let mut e = self.clone();
+        for (k, v) in values.iter().enumerate().take(e.declared.len()) {
+            if v.is_finite() {
+                let p = &mut e.declared[k];
+                p.guess = v.max(p.lower).min(p.upper);
+                e.guesses[k] = p.guess;
+            }
+        }
+        e
+    }
+
+    pub fn resembles(&self) -> &str {
+        &self.resembles
+    }
+
+    pub fn declared_params(&self) -> &[FormulaParam] {
+        &self.declared
+    }
+
+    /// Load an effect file; errors name the file, the line and the field.
+    pub fn load(path: &Path) -> Result<Self, DeviceError> {
+        let text = crate::text_lines::read_text(path).map_err(|msg| DeviceError::Io {
+            path: path.to_path_buf(),
+            msg,
+        })?;
+        Self::from_toml(&text, path)
+    }
+
+    /// Parse an effect file's text (`path` for messages).
+    pub fn from_toml(text: &str, path: &Path) -> Result<Self, DeviceError> {
+        let file: EffectFile = crate::text_lines::parse_toml(text).map_err(|e| match e.field {
+            Some(field) => DeviceError::Field {
+                path: path.to_path_buf(),
+                line: e.line,
+                field,
+                msg: e.msg,
+            },
+            None => DeviceError::Parse {
+                path: path.to_path_buf(),
+                line: e.line,
+                msg: e.msg,
+            },
+        })?;
+        let field = |span: std::ops::Range<usize>, field: &str, msg: String| DeviceError::Field {
+            path: path.to_path_buf(),
+            line: line_of(text, span.start),
+            field: field.to_string(),
+            msg,
+        };
+        let mut params = Vec::new();
+        for (name, p) in &file.params {
+            let span = p.span();
+            let p = p.get_ref();
+            let (lower, upper) = (*p.lower.get_ref(), *p.upper.get_ref());
+            let guess = match &p.guess {
+                Some(g) => *g.get_ref(),
+                None => 0f64.max(lower).min(upper),
+            };
+            if !(lower.is_finite() && upper.is_finite() && lower < upper) {
+                return Err(field(
+                    p.lower.span(),
+                    &format!("params.{name}.lower"),
+                    format!("bounds [{lower}, {upper}]: two finite numbers, lower below upper"),
+                ));
+            }
+            if !(lower <= guess && guess <= upper) {
+                let at = p.guess.as_ref().map_or(span.clone(), |g| g.span());
+                return Err(field(
+                    at,
+                    &format!("params.{name}.guess"),
+                    format!("{guess} is outside the bounds [{lower}, {upper}]"),
+                ));
+            }
+            params.push(FormulaParam {
+                name: name.clone(),
+                unit: p.unit.clone(),
+                lower,
+                upper,
+                guess,
+                doc: p.doc.clone().unwrap_or_default(),
+            });
+        }
+        let name_span = file.name.span();
+        let formula_span = file.formula.span();
+        let e = Self::new(
+            file.name.get_ref(),
+            file.describe.as_deref().unwrap_or("data-defined force term"),
+            file.resembles.as_deref().unwrap_or(""),
+            file.formula.get_ref(),
+            params,
+        );
+        e.map_err(|msg| {
+            if msg.starts_with("effect name") {
+                field(name_span, "name", msg)
+            } else if msg.starts_with("parameter") {
+                field(formula_span.clone(), "params", msg)
+            } else {
+                field(formula_span.clone(), "formula", msg)
+            }
+        })
+    }
+
+    /// The effect as an effect file (loads back to the same effect), values as given.
+    pub fn to_toml(&self) -> String {
+        let q = |s: &str| toml::Value::String(s.to_string()).to_string();
+        let mut out = format!(
+            "# A data-defined effect for mrfeel (docs/spec/model-discovery.md): use it as bingham+{name}\n\
+             # with --effects FILE, or name the file in the spec (bingham+FILE.toml).\n\
+             name = {}\ndescribe = {}\nresembles = {}\nformula = {}\n",
+            q(self.name),
+            q(self.describe),
+            q(&self.resembles),
+            q(self.formula.text()),
+            name = self.name
+        );
+        for p in &self.declared {
+            out.push_str(&format!(
+                "\n[params.{}]\nunit = {}\nlower = {:e}\nupper = {:e}\nguess = {:e}\ndoc = {}\n",
+                p.name,
+                q(&p.unit),
+                p.lower,
+                p.upper,
+                p.guess,
+                q(&p.doc)
+            ));
+        }
+        out
+    }
+}
+
+fn valid_name(name: &str) -> bool {
+    let mut c = name.chars();
+    c.next().is_some_and(|f| f.is_ascii_alphabetic()) && c.all(|ch| ch.is_ascii_alphanumeric() || ch == '_')
+}
+
+/// The TOML schema of an effect file.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct EffectFile {
+    name: toml::Spanned<String>,
+    #[serde(default)]
+    describe: Option<String>,
+    #[serde(default)]
+    resembles: Option<String>,
+    formula: toml::Spanned<String>,
+    #[serde(default)]
+    params: BTreeMap<String, toml::Spanned<ParamFile>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ParamFile {
+    unit: String,
+    lower: toml::Spanned<f64>,
+    upper: toml::Spanned<f64>,
+    #[serde(default)]
+    guess: Option<toml::Spanned<f64>>,
+    #[serde(default)]
+    doc: Option<String>,
+}
+
+impl Effect for FormulaEffect {
+    fn name(&self) -> &'static str {
+        self.name
+    }
+
+    fn describe(&self) -> &'static str {
+        self.describe
+    }
+
+    fn stage(&self) -> EffectStage {
+        EffectStage::Additive
+    }
+
+    fn params(&self) -> &'static [ParamSpec] {
+        self.params
+    }
+
+    fn initial_guess(&self, _stats: &DataStats) -> Vec<f64> {
+        self.guesses.clone()
+    }
+
+    fn n_states(&self) -> usize {
+        self.formula.n_states()
+    }
+
+    fn states_read_the_force(&self) -> bool {
+        self.formula.states_read_the_current()
+    }
+
+    fn init_states(&self, p: &[f64], s: &mut [f64], inp: &Inputs, stage: &Stage) {
+        let sig = Signals::of(inp, stage);
+        for k in 0..self.formula.lowpass.len() {
+            s[k] = self.formula.lowpass[k].0.eval(p, s, &sig);
+        }
+    }
+
+    fn apply(&self, p: &[f64], s: &[f64], inp: &Inputs, stage: &mut Stage) {
+        let sig = Signals::of(inp, stage);
+        stage.extra_n += self.formula.eval(p, s, &sig);
+    }
+
+    fn advance(&self, p: &[f64], s: &mut [f64], inp: &Inputs, stage: &Stage, _force_n: f64, step: Step) {
+        let sig = Signals::of(inp, stage);
+        for k in 0..self.formula.lowpass.len() {
+            let (input, tau) = &self.formula.lowpass[k];
+            let u = input.eval(p, s, &sig);
+            s[k] += (1.0 - (-step.dt_s.max(0.0) / tau).exp()) * (u - s[k]);
+        }
+    }
+
+    fn residual_signature(&self) -> &'static str {
+        "the residual follows the formula's features"
+    }
+}
+
+/// Does this model-spec part name an effect file rather than an effect?
+pub fn is_effect_file(part: &str) -> bool {
+    part.trim().ends_with(".toml")
+}
+
+/// Load the effect file `path` into `registry` (replacing an effect of the same name); returns its name.
+pub fn register_file(registry: &mut Registry, path: &Path) -> Result<&'static str, DeviceError> {
+    let e = FormulaEffect::load(path)?;
+    let name = e.name;
+    registry.register(e);
+    Ok(name)
+}
+
+/// A model spec whose parts may name effect files (`bingham+drag.toml`, relative to `dir`): each file is
+/// loaded into `registry` and the spec returned with the effects' names in its place (`bingham+drag`).
+pub fn resolve_spec(spec: &str, registry: &mut Registry, dir: Option<&Path>) -> Result<String, DeviceError> {
+    let mut parts = Vec::new();
+    for part in spec.split('+') {
+        let part = part.trim();
+        if is_effect_file(part) {
+            let p = PathBuf::from(part);
+            let p = match dir {
+                Some(d) if p.is_relative() => d.join(p),
+                _ => p,
+            };
+            parts.push(register_file(registry, &p)?.to_string());
+        } else {
+            parts.push(part.to_string());
+        }
+    }
+    Ok(parts.join("+"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::device::Model;
+
+    fn param(name: &str, guess: f64) -> FormulaParam {
+        FormulaParam {
+            name: name.into(),
+            unit: "N s^2/m^2".into(),
+            lower: -1e6,
+            upper: 1e6,
+            guess,
+            doc: String::new(),
+        }
+    }
+
+    fn at(x: f64, v: f64) -> (Inputs, Stage) {
+        (
+            Inputs {
+                t_s: 0.5,
+                x_m: x,
+                v_m_s: v,
+                a_m_s2: 2.0,
+                current_cmd_a: 3.0,
+            },
+            Stage {
+                current_a: 1.5,
+                ..Stage::default()
+            },
+        )
+    }
+
+    /// Precedence, functions, features and parameters evaluate as ordinary algebra says.
+    #[test]
+    fn a_formula_evaluates_as_written() {
+        let e = FormulaEffect::new(
+            "drag",
+            "",
+            "",
+            "c * v*abs(v) + 2^3 * x - max(a, 1) / i + tanh(0) + sign(-v) * t",
+            vec![param("c", 0.0)],
+        )
+        .expect("parses");
+        let (inp, mut st) = at(0.25, -0.5);
+        e.apply(&[4.0], &[], &inp, &mut st);
+        let want = 4.0 * -0.5 * 0.5 + 8.0 * 0.25 - 2.0 / 1.5 + 0.0 + 1.0 * 0.5;
+        assert!((st.extra_n - want).abs() < 1e-12, "{} vs {want}", st.extra_n);
+    }
+
+    /// `lp(v, tau)` follows a step of velocity as `1 − exp(−t/τ)`, exactly at the sample times.
+    #[test]
+    fn a_low_pass_state_follows_a_step_with_its_time_constant() {
+        let e = FormulaEffect::new("lag", "", "", "lp(v, 0.1)", vec![]).expect("parses");
+        let mut r = Registry::builtin();
+        r.register(e);
+        let m = Model::from_spec("bingham+lag", &r, 14.0).expect("model");
+        let dt = 1e-3;
+        let inputs: Vec<Inputs> = (0..400)
+            .map(|k| Inputs {
+                t_s: k as f64 * dt,
+                v_m_s: if k == 0 { 0.0 } else { 1.0 },
+                ..Inputs::default()
+            })
+            .collect();
+        // Base parameters that give no force of their own (no yield, no damping).
+        let p = vec![0.0, 0.0, 0.0, 0.015, 0.008];
+        let f = m.simulate(&p, &inputs);
+        for k in [1usize, 100, 300] {
+            let want = 1.0 - (-((k - 1) as f64) * dt / 0.1).exp();
+            assert!((f[k] - want).abs() < 1e-9, "sample {k}: {} vs {want}", f[k]);
+        }
+    }
+
+    /// A file with an unknown feature, a formula that does not parse, or a parameter without bounds is
+    /// refused at the line of the field that is wrong.
+    #[test]
+    fn bad_effect_files_are_refused_with_line_and_field() {
+        let good = "name = \"drag\"\nformula = \"c * v * abs(v)\"\n\n[params.c]\nunit = \"N s^2/m^2\"\nlower = 0\nupper = 1e6\n";
+        let path = Path::new("drag.toml");
+        let e = FormulaEffect::from_toml(good, path).expect("good file");
+        assert_eq!(e.name(), "drag");
+        let cases = [
+            (
+                good.replace("abs(v)", "abs(q)"),
+                2,
+                "formula",
+                "unknown feature `q`",
+            ),
+            (good.replace("abs(v)", "abs(v"), 2, "formula", "does not parse"),
+            (
+                good.replace("lower = 0\n", ""),
+                4,
+                "lower",
+                "missing field `lower`",
+            ),
+        ];
+        for (text, line, fld, msg) in cases {
+            match FormulaEffect::from_toml(&text, path) {
+                Err(DeviceError::Field {
+                    line: l,
+                    field,
+                    msg: m,
+                    ..
+                }) => {
+                    assert_eq!(l, line, "{text}: {m}");
+                    assert!(field.contains(fld) || m.contains(fld), "{field}: {m}");
+                    assert!(m.contains(msg), "{m}");
+                }
+                Err(DeviceError::Parse { line: l, msg: m, .. }) => {
+                    assert_eq!(l, line, "{m}");
+                    assert!(m.contains(msg) && m.contains(fld), "{m}");
+                }
+                other => panic!("{text}: {other:?}"),
+            }
+        }
+    }
+
+    /// What `to_toml` writes loads back to the same formula and parameters.
+    #[test]
+    fn a_written_effect_loads_back_the_same() {
+        let e = FormulaEffect::new(
+            "term1",
+            "found",
+            "quadratic damping",
+            "term1_c1 * v*abs(v) + term1_c2 * lp(x, 0.05)",
+            vec![param("term1_c1", 310.5), param("term1_c2", -2.25e-3)],
+        )
+        .expect("builds");
+        let back = FormulaEffect::from_toml(&e.to_toml(), Path::new("t.toml")).expect("loads back");
+        assert_eq!(back.formula(), e.formula());
+        assert_eq!(back.declared_params(), e.declared_params());
+        assert_eq!(back.resembles(), "quadratic damping");
+    }
+}

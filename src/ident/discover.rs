@@ -1,0 +1,774 @@
+//! Beyond the vocabulary: a force term found in a library of candidates, and an honest verdict on what the
+//! final model leaves.
+//!
+//! **Term search.** A library of candidate force terms built from the measured and derived signals (odd and
+//! even functions of velocity at several scales, powers and saturations of displacement, products with the
+//! lagged current, low-pass states; [`library`]) is searched by forward-regression orthogonal least squares
+//! (FROLS, Billings' error-reduction ratio) on the current model's held-out residual. FROLS rather than
+//! sequential thresholded least squares or a Lasso path: the candidates have unrelated units and scales
+//! (`v³` in m³/s³ beside `tanh(v/0.01)`), and FROLS's criterion, the share of the residual's energy each
+//! term explains once orthogonalised against the terms already chosen, does not depend on them, where a
+//! threshold on coefficients or an L1 penalty does; and it names terms in the order of what they explain,
+//! which is the order a person reads. The few terms it keeps become one data-defined effect
+//! ([`crate::device::formula::FormulaEffect`]) that the diagnosis then cross-validates and judges exactly as
+//! it judges a named effect (same folds, same significance rules).
+//!
+//! **Verdict.** After the last stage, a flexible regressor (ridge regression on smooth functions of x, v,
+//! a, the lagged current i and t, time-shifted copies, low-pass states and piecewise-constant bins of each
+//! signal and of pairs of them) is fitted to the final model's held-out residual on the training folds and
+//! scored on the held-out fold: the share of the residual's mean square it predicts out of sample is
+//! structure the model lacks; noise is not predictable. [`verdict`].
+
+use nalgebra::{DMatrix, DVector};
+
+use super::diagnose::Fold;
+use super::residual::{direction_weights, quantile};
+use super::Test;
+use crate::device::formula::{Formula, FormulaEffect, FormulaParam};
+use crate::device::{Inputs, Model};
+
+/// One candidate force term of the library.
+#[derive(Debug, Clone)]
+pub struct LibraryTerm {
+    /// The term as a formula over the features (no parameters), e.g. `v*abs(v)`.
+    pub feature: String,
+    /// Unit of the coefficient that multiplies it into newtons.
+    pub coef_unit: String,
+    /// The physical family it most resembles.
+    pub family: &'static str,
+}
+
+/// A positive number to two significant digits in plain decimal notation (the formula parser reads no
+/// exponents).
+fn num(x: f64) -> String {
+    let x = if x.is_finite() && x > 0.0 { x } else { 1.0 };
+    let decimals = (1.0 - x.log10().floor()).max(0.0) as usize;
+    format!("{x:.decimals$}")
+}
+
+/// Data scales the library's terms are written at.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Scales {
+    /// 99th percentile of |v|, m/s.
+    v: f64,
+    /// 99th percentile of |x|, m.
+    x: f64,
+    /// Characteristic time of the motion, `x_rms / v_rms`, s (`1/ω` on a sine).
+    tau: f64,
+    /// Median sample interval, s.
+    dt: f64,
+}
+
+impl Scales {
+    pub(crate) fn of(tests: &[Test]) -> Self {
+        let every = || tests.iter().flat_map(|t| &t.inputs);
+        let v = quantile(every().map(|i| i.v_m_s.abs()).collect(), 0.99).max(1e-9);
+        let x = quantile(every().map(|i| i.x_m.abs()).collect(), 0.99).max(1e-9);
+        let n = every().count().max(1) as f64;
+        let rms = |f: &dyn Fn(&Inputs) -> f64| (every().map(|i| f(i).powi(2)).sum::<f64>() / n).sqrt();
+        let tau = (rms(&|i| i.x_m) / rms(&|i| i.v_m_s).max(1e-12)).clamp(1e-4, 1e3);
+        let dts: Vec<f64> = tests
+            .iter()
+            .flat_map(|t| t.inputs.windows(2).map(|w| w[1].t_s - w[0].t_s))
+            .filter(|d| *d > 0.0)
+            .collect();
+        let dt = if dts.is_empty() { 1e-3 } else { quantile(dts, 0.5) };
+        Self { v, x, tau, dt }
+    }
+}
+
+/// The candidate force terms, written at the data's scales. The named effects' own forms (a linear spring,
+/// a mass, a current-proportional damping) are not repeated here: the vocabulary covers them.
+pub(crate) fn library(s: Scales) -> Vec<LibraryTerm> {
+    let t = |feature: String, coef_unit: &str, family: &'static str| LibraryTerm {
+        feature,
+        coef_unit: coef_unit.to_string(),
+        family,
+    };
+    let (v, x) = (s.v, s.x);
+    let mut l = vec![
+        t(
+            "v*abs(v)".into(),
+            "N s^2/m^2",
+            "quadratic (turbulent orifice) damping",
+        ),
+        t("v^3".into(), "N s^3/m^3", "cubic (hardening) damping"),
+        t(
+            "sign(v)*sqrt(abs(v))".into(),
+            "N s^0.5/m^0.5",
+            "shear-thinning (square-root) damping",
+        ),
+        t(
+            "abs(v)".into(),
+            "N s/m",
+            "direction-independent velocity force (asymmetric orifice or valve)",
+        ),
+        t(
+            "v^2".into(),
+            "N s^2/m^2",
+            "even quadratic velocity force (asymmetric orifice or valve)",
+        ),
+        t("x*abs(x)".into(), "N/m^2", "progressive spring"),
+        t("x^3".into(), "N/m^3", "hardening spring (gas spring, bump stop)"),
+        t(
+            "x^2".into(),
+            "N/m^2",
+            "even position force (gas spring's compression asymmetry)",
+        ),
+        t(
+            "i*v*abs(v)".into(),
+            "N s^2/(m^2 A)",
+            "field-dependent quadratic damping",
+        ),
+        t(
+            "i*x".into(),
+            "N/(m A)",
+            "field-dependent stiffness (pre-yield elasticity)",
+        ),
+        t(
+            format!("sign(x)*max(abs(x)-{},0)", num(0.6 * x)),
+            "N/m",
+            "end stop / dead-zone spring (backlash)",
+        ),
+        t(
+            format!("tanh(x/{})", num(0.3 * x)),
+            "N",
+            "saturating centring force (detent)",
+        ),
+    ];
+    for k in [0.03, 0.15, 0.5] {
+        l.push(t(
+            format!("tanh(v/{})", num(k * v)),
+            "N",
+            "smooth friction (seal friction, smooth pre-yield transition)",
+        ));
+        l.push(t(
+            format!("abs(i)*tanh(v/{})", num(k * v)),
+            "N/A",
+            "smooth pre-yield transition of the field's yield force",
+        ));
+    }
+    for k in [0.1, 0.3, 1.0, 3.0] {
+        let tau = num((k * s.tau).max(2.0 * s.dt));
+        l.push(t(
+            format!("abs(i)*lp(tanh(v/{}),{tau})", num(0.15 * v)),
+            "N/A",
+            "lagged field yield (the field's yield force builds up after a reversal)",
+        ));
+        l.push(t(
+            format!("lp(v,{tau})"),
+            "N s/m",
+            "frequency-dependent (viscoelastic, Maxwell) damping",
+        ));
+        l.push(t(
+            format!("lp(tanh(v/{}),{tau})", num(0.15 * v)),
+            "N",
+            "lagged friction (a yield force that builds up with a time constant)",
+        ));
+    }
+    l.push(t(
+        format!("x-lp(x,{})", num(s.tau.max(2.0 * s.dt))),
+        "N/m",
+        "frequency-dependent stiffness (viscoelastic, Maxwell spring)",
+    ));
+    l
+}
+
+/// The lagged current (the model's own excitation state) at every sample of every test.
+pub(crate) fn lagged_current(model: &Model, p: &[f64], tests: &[Test]) -> Vec<Vec<f64>> {
+    tests
+        .iter()
+        .map(|t| {
+            let mut out = vec![0.0; t.len()];
+            let mut states = Vec::new();
+            model.simulate_recording(p, &t.inputs, &mut out, &mut states);
+            let ns = model.n_states();
+            t.inputs
+                .iter()
+                .enumerate()
+                .map(|(k, inp)| model.eval(p, &states[k * ns..(k + 1) * ns], inp).current_a)
+                .collect()
+        })
+        .collect()
+}
+
+/// A library term's value at every sample of every test, concatenated test after test.
+fn column(term: &str, tests: &[Test], current: &[Vec<f64>]) -> Option<Vec<f64>> {
+    let f = Formula::parse(term, &[]).ok()?;
+    let mut out = Vec::new();
+    for (t, i) in tests.iter().zip(current) {
+        out.extend(f.series(&t.inputs, i));
+    }
+    out.iter().all(|v| v.is_finite()).then_some(out)
+}
+
+/// Smallest share of the residual's energy a term must explain to be kept by the forward regression.
+const MIN_ERR: f64 = 0.02;
+/// Most terms a discovered effect has.
+const MAX_TERMS: usize = 3;
+
+/// The term a forward regression (FROLS) finds in the held-out residual `oof − f` of the current model:
+/// a data-defined effect named `name` with a coefficient per kept library term (initial guesses their
+/// least-squares values), or `None` when no term explains [`MIN_ERR`] of it.
+pub(crate) fn propose_term(
+    name: &str,
+    tests: &[Test],
+    oof: &[Vec<f64>],
+    current: &[Vec<f64>],
+    lib: &[LibraryTerm],
+) -> Option<FormulaEffect> {
+    // The force the term must add: measured − predicted, on the samples that count.
+    let mut target = Vec::new();
+    let mut w = Vec::new();
+    for (t, p) in tests.iter().zip(oof) {
+        let dw = direction_weights(t);
+        for k in 0..t.len() {
+            let r = t.f_n[k] - p[k];
+            let ok = dw[k] != 0.0 && r.is_finite();
+            target.push(if ok { r } else { 0.0 });
+            w.push(if ok { 1.0 } else { 0.0 });
+        }
+    }
+    let cols: Vec<(usize, Vec<f64>)> = lib
+        .iter()
+        .enumerate()
+        .filter_map(|(j, l)| column(&l.feature, tests, current).map(|c| (j, c)))
+        .map(|(j, c)| (j, c.iter().zip(&w).map(|(a, b)| a * b).collect()))
+        .collect();
+    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+    let rr = dot(&target, &target);
+    if rr <= 0.0 {
+        return None;
+    }
+    let mut chosen: Vec<usize> = Vec::new();
+    let mut basis: Vec<Vec<f64>> = Vec::new();
+    while chosen.len() < MAX_TERMS {
+        let mut best: Option<(f64, usize, Vec<f64>)> = None;
+        for (ci, (_, c)) in cols.iter().enumerate() {
+            if chosen.contains(&ci) {
+                continue;
+            }
+            let mut q = c.clone();
+            for b in &basis {
+                let k = dot(&q, b) / dot(b, b);
+                q.iter_mut().zip(b).for_each(|(q, b)| *q -= k * b);
+            }
+            let qq = dot(&q, &q);
+            // A candidate the chosen terms already span adds nothing.
+            if qq <= 1e-10 * dot(c, c) || qq <= 0.0 {
+                continue;
+            }
+            let err = dot(&q, &target).powi(2) / (qq * rr);
+            if best.as_ref().is_none_or(|b| err > b.0) {
+                best = Some((err, ci, q));
+            }
+        }
+        match best {
+            Some((err, ci, q)) if err >= MIN_ERR => {
+                chosen.push(ci);
+                basis.push(q);
+            }
+            _ => break,
+        }
+    }
+    if chosen.is_empty() {
+        return None;
+    }
+    // Least-squares coefficients of the chosen (not orthogonalised) columns.
+    let m = chosen.len();
+    let mut ata = DMatrix::<f64>::zeros(m, m);
+    let mut atb = DVector::<f64>::zeros(m);
+    for a in 0..m {
+        atb[a] = dot(&cols[chosen[a]].1, &target);
+        for b in 0..m {
+            ata[(a, b)] = dot(&cols[chosen[a]].1, &cols[chosen[b]].1);
+        }
+    }
+    let coef = ata.lu().solve(&atb)?;
+    let mut params = Vec::new();
+    let mut formula = Vec::new();
+    let mut families = Vec::new();
+    for (a, &ci) in chosen.iter().enumerate() {
+        let term = &lib[cols[ci].0];
+        let c = coef[a];
+        if !c.is_finite() {
+            return None;
+        }
+        let pname = format!("{name}_c{}", a + 1);
+        let bound = (1e3 * c.abs()).max(f64::MIN_POSITIVE);
+        formula.push(format!("{pname} * {}", term.feature));
+        families.push(term.family);
+        params.push(FormulaParam {
+            name: pname,
+            unit: term.coef_unit.clone(),
+            lower: -bound,
+            upper: bound,
+            guess: c,
+            doc: format!("coefficient of {} ({})", term.feature, term.family),
+        });
+    }
+    FormulaEffect::new(
+        name,
+        "force term found by the diagnosis's open search (FROLS over the candidate library)",
+        families[0],
+        &formula.join(" + "),
+        params,
+    )
+    .ok()
+}
+
+/// The formula of a discovered effect with its fitted values and their units, e.g.
+/// `310 N s^2/m^2 * v*abs(v)`.
+pub fn readable(effect: &FormulaEffect, values: &[f64]) -> String {
+    let mut text = effect.formula().to_string();
+    for (p, v) in effect.declared_params().iter().zip(values) {
+        text = text.replace(&p.name, &format!("{} {}", sig4(*v), p.unit));
+    }
+    text
+}
+
+/// The discovered effects as one effect named `name` (its parameters `NAME_c1`, `NAME_c2`, …, starting at
+/// the values the effects carry), or `None` when there are none.
+pub fn merged(name: &str, effects: &[FormulaEffect]) -> Option<FormulaEffect> {
+    let mut parts = Vec::new();
+    let mut params = Vec::new();
+    for e in effects {
+        for (p, feature) in e.declared_params().iter().zip(features_of(e)) {
+            let mut p = p.clone();
+            p.name = format!("{name}_c{}", params.len() + 1);
+            parts.push(format!("{} * {feature}", p.name));
+            params.push(p);
+        }
+    }
+    if parts.is_empty() {
+        return None;
+    }
+    let resembles: Vec<&str> = effects.iter().map(FormulaEffect::resembles).collect();
+    FormulaEffect::new(
+        name,
+        "force term found by mrfeel diagnose's open search",
+        &resembles.join("; "),
+        &parts.join(" + "),
+        params,
+    )
+    .ok()
+}
+
+/// The library terms of a discovered effect (its formula is `c1 * term1 + c2 * term2 …`).
+pub fn features_of(effect: &FormulaEffect) -> Vec<String> {
+    effect
+        .formula()
+        .split(" + ")
+        .zip(effect.declared_params())
+        .map(|(part, p)| {
+            part.strip_prefix(&format!("{} * ", p.name))
+                .unwrap_or(part)
+                .to_string()
+        })
+        .collect()
+}
+
+fn sig4(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let e = v.abs().log10().floor();
+    if (-3.0..5.0).contains(&e) {
+        let d = (3.0 - e).max(0.0) as usize;
+        format!("{v:.d$}")
+    } else {
+        format!("{v:.3e}")
+    }
+}
+
+/// What the final model's held-out residual is: structure a regressor predicts, or noise.
+#[derive(Debug, Clone)]
+pub struct Verdict {
+    /// Held-out NRMSE of the final model.
+    pub heldout_nrmse: f64,
+    /// Noise floor as an NRMSE.
+    pub floor_nrmse: f64,
+    /// Share of the held-out residual's mean square the regressor predicts out of sample (pooled over folds).
+    pub predictable_share: f64,
+    /// The same in each fold.
+    pub fold_shares: Vec<f64>,
+    /// Signals whose features alone predict part of it, strongest first, with their shares.
+    pub correlates_with: Vec<(String, f64)>,
+    /// Structure is left (the residual is not noise).
+    pub structure: bool,
+    /// Where the held-out residual lives (regions, as for the base model).
+    pub where_: Vec<super::residual::Region>,
+}
+
+/// Smallest share of the held-out residual's mean square that must be predictable out of sample, in every
+/// fold, for it to be called structure: below it, what a regressor with ~150 inputs finds in noise.
+pub const MIN_PREDICTABLE_SHARE: f64 = 0.05;
+
+/// Most samples the verdict's regressor uses (every k-th sample beyond): its figures are shares, which a
+/// regular subsample of 20 000 measures to about a percent.
+const VERDICT_SAMPLES: usize = 20_000;
+
+/// Folds the verdict's regressor is cross-validated over.
+const VERDICT_BLOCKS: usize = 4;
+
+/// A signal of the verdict's regressor, with the columns made from it.
+struct Group {
+    name: String,
+    cols: Vec<usize>,
+}
+
+/// The verdict on the held-out residual `f − oof` of the final model (see the module documentation).
+pub(crate) fn verdict(
+    tests: &[Test],
+    folds: &[Fold],
+    oof: &[Vec<f64>],
+    current: &[Vec<f64>],
+    heldout_nrmse: f64,
+    floor_nrmse: f64,
+    at_floor: bool,
+) -> Verdict {
+    let s = Scales::of(tests);
+    // The residual is the diagnosis's held-out one (each sample predicted by the fold that held it out);
+    // samples held out nowhere are left out. The regressor itself is judged on interleaved stretches of
+    // every test, each the motion's characteristic time long, dealt to the folds in turn: whether the
+    // residual is predictable from the signals where they take values seen in training (a current step, a
+    // reversal, a stroke end of the same test), not whether a regressor extrapolates to a motion it never
+    // saw (the diagnosis's leave-one-group-out folds) or to a stretch of time unlike the others.
+    let chunk = ((s.tau / s.dt).round() as usize).max(1);
+    let mut fold_of: Vec<Vec<usize>> = tests.iter().map(|t| vec![usize::MAX; t.len()]).collect();
+    for fold in folds {
+        for sp in &fold.test {
+            for k in sp.start..sp.end {
+                fold_of[sp.test][k] = (k / chunk) % VERDICT_BLOCKS;
+            }
+        }
+    }
+    let total: usize = tests.iter().map(Test::len).sum();
+    let stride = total.div_ceil(VERDICT_SAMPLES).max(1);
+    let shift = ((0.05 * s.tau / s.dt).round() as usize).clamp(1, 50);
+    // Raw signals per sample: x, v, a, i, t, and copies shifted by ±shift samples.
+    struct Row {
+        fold: usize,
+        r: f64,
+        sig: [f64; 11],
+        lp: [f64; 5],
+    }
+    let mut rows: Vec<Row> = Vec::new();
+    let lp_v = Formula::parse(&format!("lp(v,{})", num(s.tau.max(2.0 * s.dt))), &[]).ok();
+    let lp_x = Formula::parse(&format!("lp(x,{})", num(s.tau.max(2.0 * s.dt))), &[]).ok();
+    // The direction function through lags of three time constants (a yield force that builds up).
+    let lp_d: Vec<Option<Formula>> = [0.1, 0.3, 1.0]
+        .iter()
+        .map(|k| {
+            let tau = num((k * s.tau).max(2.0 * s.dt));
+            Formula::parse(&format!("lp(tanh(v/{}),{tau})", num(0.15 * s.v)), &[]).ok()
+        })
+        .collect();
+    let mut k_all = 0usize;
+    for (j, t) in tests.iter().enumerate() {
+        let dw = direction_weights(t);
+        let lv = lp_v.as_ref().map(|f| f.series(&t.inputs, &current[j]));
+        let lx = lp_x.as_ref().map(|f| f.series(&t.inputs, &current[j]));
+        let ld: Vec<Option<Vec<f64>>> = lp_d
+            .iter()
+            .map(|f| f.as_ref().map(|f| f.series(&t.inputs, &current[j])))
+            .collect();
+        let n = t.len();
+        for k in 0..n {
+            k_all += 1;
+            if (k_all - 1) % stride != 0 || fold_of[j][k] == usize::MAX || dw[k] == 0.0 {
+                continue;
+            }
+            let r = t.f_n[k] - oof[j][k];
+            if !r.is_finite() {
+                continue;
+            }
+            let inp = &t.inputs[k];
+            let back = &t.inputs[k.saturating_sub(shift)];
+            let ahead = &t.inputs[(k + shift).min(n - 1)];
+            rows.push(Row {
+                fold: fold_of[j][k],
+                r,
+                sig: [
+                    inp.x_m,
+                    inp.v_m_s,
+                    inp.a_m_s2,
+                    current[j][k],
+                    inp.t_s,
+                    back.v_m_s,
+                    ahead.v_m_s,
+                    back.x_m,
+                    ahead.x_m,
+                    inp.current_cmd_a,
+                    inp.current_cmd_a.abs() - current[j][k].abs(),
+                ],
+                lp: [
+                    lv.as_ref().map_or(0.0, |l| l[k]),
+                    lx.as_ref().map_or(0.0, |l| l[k]),
+                    ld[0].as_ref().map_or(0.0, |l| l[k]),
+                    ld[1].as_ref().map_or(0.0, |l| l[k]),
+                    ld[2].as_ref().map_or(0.0, |l| l[k]),
+                ],
+            });
+        }
+    }
+    let mut groups: Vec<Group> = Vec::new();
+    let mut feats: Vec<Box<dyn Fn(&Row) -> f64>> = Vec::new();
+    let mut add = |g: &str, f: Box<dyn Fn(&Row) -> f64>, groups: &mut Vec<Group>| {
+        let c = feats.len();
+        feats.push(f);
+        match groups.iter_mut().find(|x| x.name == g) {
+            Some(x) => x.cols.push(c),
+            None => groups.push(Group {
+                name: g.to_string(),
+                cols: vec![c],
+            }),
+        }
+    };
+    let names = ["x", "v", "a", "i", "t"];
+    let (vs, xs) = (s.v, s.x);
+    // Smooth functions of each signal.
+    for (k, g) in names.iter().enumerate() {
+        add(g, Box::new(move |r: &Row| r.sig[k]), &mut groups);
+        add(g, Box::new(move |r: &Row| r.sig[k].abs()), &mut groups);
+        add(g, Box::new(move |r: &Row| r.sig[k] * r.sig[k].abs()), &mut groups);
+        add(g, Box::new(move |r: &Row| r.sig[k].powi(3)), &mut groups);
+    }
+    for sc in [0.03, 0.15, 0.5] {
+        add(
+            "v",
+            Box::new(move |r: &Row| (r.sig[1] / (sc * vs)).tanh()),
+            &mut groups,
+        );
+        add(
+            "v",
+            Box::new(move |r: &Row| r.sig[3].abs() * (r.sig[1] / (sc * vs)).tanh()),
+            &mut groups,
+        );
+    }
+    add(
+        "x",
+        Box::new(move |r: &Row| (r.sig[0] / (0.3 * xs)).tanh()),
+        &mut groups,
+    );
+    add("i", Box::new(|r: &Row| r.sig[3] * r.sig[1]), &mut groups);
+    add("i", Box::new(|r: &Row| r.sig[3] * r.sig[0]), &mut groups);
+    // The command and its lead over the lagged current (the lags' error at a current step).
+    add("i (command)", Box::new(|r: &Row| r.sig[9]), &mut groups);
+    add("i (command)", Box::new(|r: &Row| r.sig[10]), &mut groups);
+    add(
+        "i (command)",
+        Box::new(|r: &Row| r.sig[10] * r.sig[1].signum()),
+        &mut groups,
+    );
+    add("i (command)", Box::new(|r: &Row| r.sig[10].abs()), &mut groups);
+    // Time-shifted copies and low-pass states: the force lagging or leading the motion.
+    add("v (shifted)", Box::new(|r: &Row| r.sig[5]), &mut groups);
+    add("v (shifted)", Box::new(|r: &Row| r.sig[6]), &mut groups);
+    add("x (shifted)", Box::new(|r: &Row| r.sig[7]), &mut groups);
+    add("x (shifted)", Box::new(|r: &Row| r.sig[8]), &mut groups);
+    add("v (low-pass)", Box::new(|r: &Row| r.lp[0]), &mut groups);
+    add("x (low-pass)", Box::new(|r: &Row| r.lp[1]), &mut groups);
+    for q in 2..5 {
+        add("v (low-pass)", Box::new(move |r: &Row| r.lp[q]), &mut groups);
+        add(
+            "v (low-pass)",
+            Box::new(move |r: &Row| r.sig[3].abs() * r.lp[q]),
+            &mut groups,
+        );
+    }
+    // Piecewise-constant bins of each signal and of pairs of them.
+    const B1: usize = 10;
+    const B2: usize = 5;
+    let edges = |k: usize, nb: usize| -> Vec<f64> {
+        let all: Vec<f64> = rows.iter().map(|r| r.sig[k]).collect();
+        if all.is_empty() {
+            return Vec::new();
+        }
+        (1..nb)
+            .map(|b| quantile(all.clone(), b as f64 / nb as f64))
+            .collect()
+    };
+    let bin = |e: &[f64], v: f64| e.iter().filter(|&&x| v > x).count();
+    for (k, g) in names.iter().enumerate() {
+        let e = edges(k, B1);
+        for b in 0..B1 {
+            let e = e.clone();
+            add(
+                g,
+                Box::new(move |r: &Row| f64::from(u8::from(bin(&e, r.sig[k]) == b))),
+                &mut groups,
+            );
+        }
+    }
+    for (k1, k2) in [(1usize, 0usize), (1, 3), (1, 2), (0, 4)] {
+        let (e1, e2) = (edges(k1, B2), edges(k2, B2));
+        let g = format!("{}×{}", names[k1], names[k2]);
+        for b1 in 0..B2 {
+            for b2 in 0..B2 {
+                let (e1, e2) = (e1.clone(), e2.clone());
+                add(
+                    &g,
+                    Box::new(move |r: &Row| {
+                        f64::from(u8::from(bin(&e1, r.sig[k1]) == b1 && bin(&e2, r.sig[k2]) == b2))
+                    }),
+                    &mut groups,
+                );
+            }
+        }
+    }
+    let p = feats.len();
+    let nf = VERDICT_BLOCKS;
+    // Column scales (RMS), so one ridge penalty suits every column.
+    let mut scale = vec![0.0; p];
+    let mut x = vec![0.0; p];
+    for r in &rows {
+        for (c, f) in feats.iter().enumerate() {
+            let v = f(r);
+            scale[c] += v * v;
+        }
+    }
+    let n = rows.len().max(1) as f64;
+    scale.iter_mut().for_each(|s| *s = (*s / n).sqrt());
+    // Gram matrix and right-hand side of each fold's held-out samples (the training ones: total − own).
+    let mut gram = vec![DMatrix::<f64>::zeros(p + 1, p + 1); nf];
+    let mut rhs = vec![DVector::<f64>::zeros(p + 1); nf];
+    let mut rr = vec![0.0; nf];
+    let mut count = vec![0usize; nf];
+    for r in &rows {
+        for (c, f) in feats.iter().enumerate() {
+            x[c] = if scale[c] > 0.0 { f(r) / scale[c] } else { 0.0 };
+        }
+        let fi = r.fold.min(nf - 1);
+        let g = &mut gram[fi];
+        for a in 0..p {
+            if x[a] == 0.0 {
+                continue;
+            }
+            for b in a..p {
+                g[(a, b)] += x[a] * x[b];
+            }
+            g[(a, p)] += x[a];
+            rhs[fi][a] += x[a] * r.r;
+        }
+        g[(p, p)] += 1.0;
+        rhs[fi][p] += r.r;
+        rr[fi] += r.r * r.r;
+        count[fi] += 1;
+    }
+    for g in &mut gram {
+        for a in 0..=p {
+            for b in 0..a {
+                g[(a, b)] = g[(b, a)];
+            }
+        }
+    }
+    // Held-out sum of squared prediction errors of a ridge on the columns `cols` (+ intercept), per fold.
+    let sse_with = |cols: &[usize]| -> Vec<f64> {
+        let mut idx: Vec<usize> = cols.to_vec();
+        idx.push(p);
+        let m = idx.len();
+        (0..nf)
+            .map(|f| {
+                let ntrain: usize = (0..nf).filter(|&o| o != f).map(|o| count[o]).sum();
+                let lambda = 1e-2 * ntrain.max(1) as f64;
+                let mut a = DMatrix::<f64>::zeros(m, m);
+                let mut b = DVector::<f64>::zeros(m);
+                for o in (0..nf).filter(|&o| o != f) {
+                    for (ia, &ca) in idx.iter().enumerate() {
+                        b[ia] += rhs[o][ca];
+                        for (ib, &cb) in idx.iter().enumerate() {
+                            a[(ia, ib)] += gram[o][(ca, cb)];
+                        }
+                    }
+                }
+                for d in 0..m - 1 {
+                    a[(d, d)] += lambda;
+                }
+                let Some(beta) = a.cholesky().map(|c| c.solve(&b)) else {
+                    return rr[f];
+                };
+                // Σ (r − x·β)² on the held-out fold = rr − 2 β·(Xᵀr) + βᵀ (XᵀX) β.
+                let mut bt = 0.0;
+                let mut quad = 0.0;
+                for (ia, &ca) in idx.iter().enumerate() {
+                    bt += beta[ia] * rhs[f][ca];
+                    for (ib, &cb) in idx.iter().enumerate() {
+                        quad += beta[ia] * gram[f][(ca, cb)] * beta[ib];
+                    }
+                }
+                (rr[f] - 2.0 * bt + quad).max(0.0)
+            })
+            .collect()
+    };
+    let share = |sse: &[f64]| 1.0 - sse.iter().sum::<f64>() / rr.iter().sum::<f64>().max(f64::MIN_POSITIVE);
+    let all_cols: Vec<usize> = (0..p).collect();
+    let sse = sse_with(&all_cols);
+    let predictable_share = share(&sse);
+    let fold_shares: Vec<f64> = (0..nf)
+        .map(|f| 1.0 - sse[f] / rr[f].max(f64::MIN_POSITIVE))
+        .collect();
+    let mut correlates_with: Vec<(String, f64)> = groups
+        .iter()
+        .map(|g| (g.name.clone(), share(&sse_with(&g.cols))))
+        .filter(|(_, sh)| *sh >= 0.2 * predictable_share && *sh > 0.01)
+        .collect();
+    correlates_with.sort_by(|a, b| b.1.total_cmp(&a.1));
+    let structure = !at_floor && rows.len() > 10 * p && predictable_share >= MIN_PREDICTABLE_SHARE;
+    Verdict {
+        heldout_nrmse,
+        floor_nrmse,
+        predictable_share,
+        fold_shares,
+        correlates_with,
+        structure,
+        where_: Vec::new(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every library term parses as an effect formula, so a kept term can always be saved and loaded.
+    #[test]
+    fn every_library_term_is_a_valid_formula() {
+        let s = Scales {
+            v: 0.08,
+            x: 0.01,
+            tau: 0.12,
+            dt: 1e-3,
+        };
+        for t in library(s) {
+            Formula::parse(&t.feature, &[]).unwrap_or_else(|e| panic!("{}: {e}", t.feature));
+        }
+    }
+
+    #[test]
+    fn numbers_are_written_to_two_digits_without_exponents() {
+        assert_eq!(num(6.000000000000001e-5), "0.000060");
+        assert_eq!(num(0.1234), "0.12");
+        assert_eq!(num(37.6), "38");
+        assert_eq!(num(1234.0), "1234");
+    }
+
+    #[test]
+    fn readable_formulas_carry_values_and_units() {
+        let e = FormulaEffect::new(
+            "term1",
+            "",
+            "",
+            "term1_c1 * v*abs(v)",
+            vec![FormulaParam {
+                name: "term1_c1".into(),
+                unit: "N s^2/m^2".into(),
+                lower: -1e9,
+                upper: 1e9,
+                guess: 1.0,
+                doc: String::new(),
+            }],
+        )
+        .expect("builds");
+        assert_eq!(readable(&e, &[310.4]), "310.4 N s^2/m^2 * v*abs(v)");
+    }
+}
