@@ -13,6 +13,11 @@ use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Folder of model, rig, pilot, spring and aircraft files that a scenario names but that are not
+    /// beside it (laid out as the repository: `models/…`, `models/aircraft/<name>.toml`, or flat); default
+    /// the environment variable MRFEEL_DATA. Files still not found are the built-in ones of that name.
+    #[arg(long, global = true, value_name = "DIR")]
+    data_dir: Option<PathBuf>,
 }
 
 #[derive(Subcommand)]
@@ -167,6 +172,9 @@ fn main() -> std::process::ExitCode {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     let cli = parse_cli();
+    if cli.data_dir.is_some() {
+        mrfeel::builtin::set_data_dir(cli.data_dir);
+    }
     let result = Job::load(cli.command).and_then(|job| {
         let read = job.inputs();
         let read: Vec<(&'static str, &std::path::Path)> =
