@@ -17,13 +17,13 @@ pub const ROOT: &str = "<built-in>";
 /// The environment variable naming the data directory (the `--data-dir` flag sets the same).
 pub const DATA_ENV: &str = "MRFEEL_DATA";
 
+/// The paper's device (`models/paper-device.toml`).
+pub const PAPER_DEVICE: &str = include_str!("../models/paper-device.toml");
+
 /// Each built-in file: its path in the repository and its text.
 const FILES: &[(&str, &str)] = &[
     ("models/stick-rig.urdf", include_str!("../models/stick-rig.urdf")),
-    (
-        "models/paper-device.toml",
-        include_str!("../models/paper-device.toml"),
-    ),
+    ("models/paper-device.toml", PAPER_DEVICE),
     (
         "models/pilot-hand.toml",
         include_str!("../models/pilot-hand.toml"),

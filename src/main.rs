@@ -157,7 +157,31 @@ impl Job {
 /// The command line, parsed. Every subcommand takes `--option -0.01` as the option's value (refused, where
 /// it must be positive, by the check that names the field), not as an unknown flag `-0`.
 fn parse_cli() -> Cli {
-    let cmd = Cli::command().mut_subcommands(|c| c.allow_negative_numbers(true));
+    let effects = mrfeel::device::Registry::builtin().names().join(", ");
+    let cmd = Cli::command()
+        .mut_subcommands(|c| c.allow_negative_numbers(true))
+        .mut_subcommand("mts", |c| {
+            c.mut_arg("effects", |a| {
+                a.help(format!(
+                    "Hidden effects added to the device for synthetic data, comma-separated; one or more of: \
+                     {effects}"
+                ))
+            })
+        })
+        .mut_subcommand("fit", |c| {
+            c.mut_arg("model", |a| {
+                a.help(format!(
+                    "Model spec: `bingham` plus effects joined by `+` (effects: {effects})"
+                ))
+            })
+        })
+        .mut_subcommand("diagnose", |c| {
+            c.mut_arg("model", |a| {
+                a.help(format!(
+                    "The model to start from: `bingham` plus effects joined by `+` (effects: {effects})"
+                ))
+            })
+        });
     Cli::from_arg_matches(&cmd.get_matches())
         .map_err(|e| e.format(&mut Cli::command()))
         .unwrap_or_else(|e| e.exit())

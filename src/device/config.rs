@@ -180,7 +180,7 @@ impl DeviceConfig {
     /// Read a `PARAMS.json` (the model-discovery contract's parameter file): the keys `model` and `params`
     /// (each parameter an object with `value`, and optionally `std_err` and `unit`), and the optional
     /// `current_limit_a` (default: the paper's 14 A), `command_timing` (default: `after-sample`, what files
-    /// saved before session 11 meant) and `acquisition_window_periods` (default: none). Any other key, a key given twice, a unit other than the parameter's
+    /// saved without the key meant) and `acquisition_window_periods` (default: none). Any other key, a key given twice, a unit other than the parameter's
     /// and a value of the wrong type are errors that name the line and the key. A leading UTF-8 byte-order
     /// mark is skipped, as the CSV and TOML readers do.
     pub fn from_json(text: &str, path: &Path, registry: &Registry) -> Result<Self, DeviceError> {
@@ -865,7 +865,7 @@ pub struct ParamsFile {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub current_limit_a: Option<f64>,
     /// When the fitted data's logged current commands took effect, `after-sample` or `at-sample`
-    /// ([`CommandTiming`]); absent in files saved before session 11, which were all read after their sample.
+    /// ([`CommandTiming`]); absent in older files, which were all read after their sample.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub command_timing: Option<String>,
     /// The share of the drive period that the fitted data's acquisition filter (a moving average) spanned
@@ -874,7 +874,7 @@ pub struct ParamsFile {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub acquisition_window_periods: Option<f64>,
     /// How the fit's tests shared its loss, `tests` (each once) or `samples` (each sample once); absent in
-    /// files saved before session 20, whose fits counted samples. A record only: `validate` runs the model
+    /// older files, whose fits counted samples. A record only: `validate` runs the model
     /// the same either way.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub weighting: Option<String>,
@@ -1076,7 +1076,7 @@ mod tests {
         assert_eq!(num(2.5e-7), "2.5e-7");
     }
 
-    /// A parameter file saved before `hysteresis` had its shape parameters (`fit --save` until session 8)
+    /// A parameter file saved before `hysteresis` had its shape parameters (an older `fit --save`)
     /// describes the Dahl element; it still loads, as that model. A parameter without such a meaning is
     /// still required, by name.
     #[test]

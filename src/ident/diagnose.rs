@@ -42,13 +42,13 @@ pub struct DiagnoseOptions {
     pub min_gain: f64,
     /// Smallest fraction of the held-out mean-square error above the noise floor an effect must remove.
     /// A tenth: where the model's own form of an effect differs from the device's (mrfeel's Dahl hysteresis
-    /// against a Bouc–Wen one, before session 8 fitted its shape), that difference is most of what is left,
+    /// against a Bouc–Wen one, when the hysteresis shape is not fitted), that difference is most of what is left,
     /// 10–15 times the noise, and a true second effect removes only 15 % of it (though in every fold): a fifth missed heating beside such a
     /// hysteresis (`tests/independent_truth.rs`). The [`DiagnoseOptions::min_gain`] and every-fold rules
     /// still keep out effects that merely reshape that difference.
     pub min_excess_removed: f64,
-    /// Stop adding once held-out RMSE ≤ this × the noise floor. 1.05 (1.1 until session 10, which left a
-    /// real-scale 15 kg mass under a 20 N noise unnamed at 1.09×: test
+    /// Stop adding once held-out RMSE ≤ this × the noise floor. 1.05 (at 1.1 a
+    /// real-scale 15 kg mass under a 20 N noise is left unnamed at 1.09×: test
     /// `independent_moving_mass_near_the_noise_at_the_real_scale_is_named_inertia`); below it the
     /// significance rules alone keep a right model from being "improved".
     pub floor_ratio: f64,

@@ -210,9 +210,9 @@ pub fn inputs_of(m: &Measurement) -> Vec<Inputs> {
 /// - the window of the local quintic fit that differentiates ([`widest_unbiased_derivative`]): widened
 ///   until a widening changes the result significantly more than the noise it removes would (bias).
 ///
-/// All of it on the file's own time grid, even or not (the format does not require a constant rate). Until
-/// session 12 an uneven grid kept the measurement module's 7-sample derivatives: on a clock jittered by
-/// ±¼ sample, with the velocity derived from the displacement, a hidden 3 kg mass was not found at all
+/// All of it on the file's own time grid, even or not (the format does not require a constant rate). With
+/// the measurement module's 7-sample derivatives on an uneven grid instead: on a clock jittered by
+/// ±¼ sample, with the velocity derived from the displacement, a hidden 3 kg mass is not found at all
 /// (held out 11.6× the noise floor; `python/independent_truth.py` output resampled unevenly).
 pub fn inputs_and_velocity_noise(m: &Measurement) -> (Vec<Inputs>, Option<Vec<f64>>) {
     let mut inputs = m.inputs();
@@ -433,7 +433,7 @@ fn derivative_of_one_piece(
     // was 0.65 mm/s off over the first 30 samples, 20x its noise, and a reversal there took the wrong
     // sign). Widening the end window stops where the change at any of the wider fit's end samples of either
     // end exceeds END_SIGMAS of the noise it would have from noise alone (nested fits again: the change's
-    // variance is the noise removed). A sum of the changes was the test until session 12: its few
+    // variance is the noise removed). A sum of the changes, as a test, is not enough: its few
     // comparisons, dominated by the noisiest first samples, made it stop on pure noise in 0.2–0.7 % of the
     // widenings (numpy simulation), about once in every data set of 15 files, and where it stopped at the
     // narrowest window the acceleration at a test's first sample was 18 m/s² off (a hidden 3 kg mass, 54 N:
@@ -1078,8 +1078,8 @@ mod tests {
     }
 
     /// The same on a clock jittered by up to ¼ sample (the format asks only for increasing times), the
-    /// acceleration checked at every sample. Until session 12 an uneven grid kept the file reader's 7-sample
-    /// derivatives: the acceleration from the displacement twice was then 8 times the 0.4 Hz signal.
+    /// acceleration checked at every sample. With the file reader's 7-sample derivatives
+    /// on such a grid, the acceleration from the displacement twice is 8 times the 0.4 Hz signal.
     #[test]
     fn derivatives_on_a_jittered_clock_are_as_good_as_on_an_even_one() {
         for (seed, f_hz) in [(0u64, 0.4), (1, 1.0), (2, 2.5)] {

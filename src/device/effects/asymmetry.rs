@@ -21,7 +21,7 @@
 //! side) follows the yield state, `w = 0`, and keeps the force continuous; a seal that drags more one way
 //! follows the sliding direction, `w = 1`, and switches the scale the moment the velocity changes sign while
 //! the fluid is still on its old branch. The data choose. Both independent truths of the test suite scale the
-//! yield by `sgn v` beside Bouc–Wen hysteresis; with `s = d` fixed (before session 9) that left 12–13× the
+//! yield by `sgn v` beside Bouc–Wen hysteresis; with `s = d` fixed, that left 12–13× the
 //! noise floor after every hidden effect was named (multisine tests, `python/independent_truth.py`). A
 //! parameter file without `asym_motion_share` is the model it was saved with, `w = 0`.
 

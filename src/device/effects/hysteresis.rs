@@ -33,7 +33,7 @@
 //! - `g` = `hyst_gamma_share`: how the force leaves the old branch after a reversal (faster for smaller `g`).
 //!
 //! Limits: `x_y → 0` gives the bi-viscous Bingham model; `v_y = 0` the (normalised) Bouc–Wen model; both,
-//! Eq. (2). `κ = g = 0` is the Dahl element that `hysteresis` was before its shape was fitted (session 8):
+//! Eq. (2). `κ = g = 0` is the Dahl element, `hysteresis` without its fitted shape:
 //! a parameter file without `hyst_knee` or `hyst_gamma_share` describes that model and is read so.
 //!
 //! Why a shape: with the shape fixed at Dahl's, the model left 7–10× the noise floor on data from a
