@@ -102,6 +102,7 @@ impl Job {
             Job::Run(a, _) => vec![
                 ("--out", a.out.as_ref(), File),
                 ("--rerun", a.rerun.as_ref(), File),
+                ("--plot", a.plot.as_ref(), Dir),
             ],
             Job::DaqSweep(a, _) => vec![("--plot", a.plot.as_ref(), Dir)],
             Job::Compare(a, _) => vec![

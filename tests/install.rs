@@ -240,3 +240,33 @@ fn the_binary_names_no_file_of_the_source_tree() {
         );
     }
 }
+
+/// `run --plot DIR` draws the run, and shades the windows where a fault was active (named `fault` in the
+/// legend) only when the scenario has one.
+#[test]
+fn run_plot_draws_the_run_with_its_fault_windows() {
+    let tmp = tempfile::tempdir().unwrap();
+    let original = std::fs::read_to_string(root().join("scenarios/paper-feel-loop.toml")).unwrap();
+    let short = original
+        .replace("duration_s = 12.0", "duration_s = 1.0")
+        .replace("../models", root().join("models").to_str().unwrap());
+    let faulty = format!("{short}\n[[fault]]\nkind = \"coil_open\"\nstart_s = 0.3\nend_s = 0.6\n");
+    std::fs::write(tmp.path().join("clean.toml"), &short).unwrap();
+    std::fs::write(tmp.path().join("faulty.toml"), &faulty).unwrap();
+    let bin = Path::new(env!("CARGO_BIN_EXE_mrfeel"));
+    for (scn, dir, fault) in [("clean.toml", "clean", false), ("faulty.toml", "faulty", true)] {
+        let o = run_in(bin, tmp.path(), &["run", scn, "--plot", dir]);
+        assert!(o.status.success(), "{}", text(&o));
+        let png = std::fs::read(tmp.path().join(dir).join("run.png")).unwrap();
+        assert!(
+            png.starts_with(b"\x89PNG") && png.len() > 10_000,
+            "{dir}: {} bytes",
+            png.len()
+        );
+        let svg = std::fs::read_to_string(tmp.path().join(dir).join("run.svg")).unwrap();
+        for label in ["desired", "load cell", "damper", "command"] {
+            assert!(svg.contains(label), "{dir}: no `{label}` in the plot");
+        }
+        assert_eq!(svg.contains(">fault<"), fault, "{dir}: fault legend");
+    }
+}
