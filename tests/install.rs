@@ -50,7 +50,7 @@ fn peak_force_at(csv: &Path, current_a: f64) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// A clone of the repository's committed tree into an empty folder (no `../shared` or anything else beside
+/// A clone of the repository's committed tree into an empty folder (no data folder or anything else beside
 /// it) runs the main job's quickest steps with the built binary: the paper's MTS test and feel loop, and a
 /// fit of the real damper tests it carries.
 #[test]
