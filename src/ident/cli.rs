@@ -11,7 +11,7 @@ use super::fit::{all_spans, fit, FitOptions, Weighting};
 use super::report::{diagnose_table, DiagnoseJson, FitJson};
 use super::residual::where_regions;
 use super::timing::{decide, retimed, CommandTiming, TimingChoice, TimingDecision};
-use super::validate::{evaluate, figures};
+use super::validate::{check_finite, evaluate, figures};
 use super::{default_current_limit_a, load_tests_predicting, AcquisitionChoice, Test};
 use crate::device::{DeviceConfig, Model, ModelSpec, ParamsFile, Registry};
 
@@ -130,6 +130,16 @@ pub struct DiagnoseArgs {
     /// some test's command changes, the starting model is fitted both ways and the smaller error kept.
     #[arg(long, value_enum, default_value_t = TimingChoice::Auto)]
     pub command_timing: TimingChoice,
+}
+
+/// The parameters by name, for [`check_finite`].
+fn named_params(model: &Model, params: &[f64]) -> Vec<(String, f64)> {
+    model
+        .param_specs()
+        .iter()
+        .zip(params)
+        .map(|(s, v)| (s.name.to_string(), *v))
+        .collect()
 }
 
 fn build_model(spec: &str, registry: &Registry, limit: f64) -> anyhow::Result<Model> {
@@ -284,6 +294,12 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
     );
     let pred = evaluate(&model, &fr.params, &tests);
     let (per, total) = figures(&pred, &tests);
+    let mut numbers = named_params(&model, &fr.params);
+    for (spec, se) in model.param_specs().iter().zip(&fr.std_err) {
+        numbers.extend(se.map(|se| (format!("std_err of {}", spec.name), se)));
+    }
+    numbers.extend([("rmse_n".into(), total.rmse_n()), ("nrmse".into(), total.nrmse())]);
+    check_finite("fit", &numbers, &tests, &pred).map_err(anyhow::Error::msg)?;
     let out = FitJson::new(
         &model,
         &fr.params,
@@ -374,6 +390,13 @@ pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
     let tests = retimed(tests, timing.timing);
     let pred = evaluate(&cfg.model, &cfg.params, &tests);
     let (per, total) = figures(&pred, &tests);
+    check_finite(
+        "validate",
+        &[("rmse_n".into(), total.rmse_n()), ("nrmse".into(), total.nrmse())],
+        &tests,
+        &pred,
+    )
+    .map_err(anyhow::Error::msg)?;
     let mut out = FitJson::new(
         &cfg.model,
         &cfg.params,
@@ -430,6 +453,19 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
     let (tests, timing) = decide(&base, tests, a.command_timing, &quick);
     note_timing(&timing);
     let d = diagnose(&tests, base.spec(), &registry, &opts)?;
+    let mut numbers = vec![
+        ("base fit nrmse".to_string(), d.base_fit_nrmse),
+        ("base held-out nrmse".into(), d.base_heldout_nrmse),
+        ("final fit nrmse".into(), d.final_fit_nrmse),
+        ("final held-out nrmse".into(), d.final_heldout_nrmse),
+    ];
+    numbers.extend(
+        d.final_params
+            .iter()
+            .enumerate()
+            .map(|(k, v)| (format!("final parameter {}", k + 1), *v)),
+    );
+    check_finite("diagnose", &numbers, &tests, &d.final_pred).map_err(anyhow::Error::msg)?;
     crate::noteln!("diagnosed in {:.1} s", t0.elapsed().as_secs_f64());
     // The files first, stdout last: a run that fails to write prints no result.
     if let Some(dir) = &a.plot {
