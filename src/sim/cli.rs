@@ -8,7 +8,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 
 use super::response::{self, SweepPoint};
-use super::{run, Results, RunOptions};
+use super::{run, Plant, Results, RunOptions};
 use crate::device::{DeviceConfig, Registry};
 use crate::scenario::Scenario;
 
@@ -75,7 +75,7 @@ pub fn load(path: &Path) -> anyhow::Result<(Scenario, DeviceConfig, crate::rig::
 }
 
 /// The device of a loaded scenario (read from `path`) and its rig.
-fn device_and_rig(scn: &Scenario, path: &Path) -> anyhow::Result<(DeviceConfig, crate::rig::Rig)> {
+pub(crate) fn device_and_rig(scn: &Scenario, path: &Path) -> anyhow::Result<(DeviceConfig, crate::rig::Rig)> {
     let device = device_of(scn, path)?;
     let rig = build_rig(scn, &device)?;
     Ok((device, rig))
@@ -140,6 +140,19 @@ fn progress_bar(len: u64, msg: &str) -> ProgressBar {
     pb
 }
 
+/// Run a loaded scenario with a progress bar.
+pub fn run_with_progress<P: Plant>(
+    scn: &Scenario,
+    device: &DeviceConfig,
+    plant: P,
+    opts: RunOptions,
+) -> Result<Results, super::SimError> {
+    let pb = progress_bar(1000, &scn.name);
+    let res = run(scn, device, plant, opts, |f| pb.set_position((f * 1000.0) as u64));
+    pb.finish_and_clear();
+    res
+}
+
 /// `mrfeel run` of the scenario loaded from `args.scenario`.
 pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
     let (device, rig) = device_and_rig(&scn, &args.scenario)?;
@@ -154,6 +167,7 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
     let want_viz = args.rerun.is_some() || args.spawn;
     // A viewer is spawned before the run (it shows the run as it comes); a recording file is made after it,
     // so that a run that fails leaves no file behind.
+    #[cfg(feature = "rerun")]
     let rec = if args.spawn {
         Some(crate::viz::rerun_rig::spawn_on_port(args.spawn_port)?)
     } else {
@@ -162,80 +176,39 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
     let opts = RunOptions {
         frames_hz: want_viz.then_some(60.0),
     };
-    // The rows go to the CSV and the recording as they are made, so that memory does not grow with the
-    // run; a flight's metrics need them all, and a flight keeps them.
-    let keep_rows = scn.aircraft.is_some();
-    let rerun_file = args.rerun.as_deref().filter(|_| rec.is_none());
-    let pb = progress_bar(1000, &scn.name);
-    let (res, summary) = with_output(args.out.as_deref(), "writing", |csv_tmp| {
-        with_output(rerun_file, "--rerun", |rrd_tmp| {
-            let mut csv = csv_tmp
-                .map(|p| {
-                    std::fs::File::create(p)
-                        .map(std::io::BufWriter::new)
-                        .with_context(|| format!("creating {}", p.display()))
-                })
-                .transpose()?;
-            let file_rec = rrd_tmp.map(crate::viz::rerun_rig::to_file).transpose()?;
-            let rec = rec.as_ref().or(file_rec.as_ref());
-            let mut logger = None;
-            let mut head: Option<Results> = None;
-            let mut rows = Vec::new();
-            let (res, summary) = super::run_streaming(
-                &scn,
-                &device,
-                rig,
-                opts,
-                |f| pb.set_position((f * 1000.0) as u64),
-                |e| -> anyhow::Result<()> {
-                    match e {
-                        super::Event::Start(h) => {
-                            if let Some(w) = csv.as_mut() {
-                                h.write_csv_head(w)?;
-                            }
-                            if let Some(rec) = rec {
-                                logger = Some(crate::viz::rerun_rig::RunLogger::new(rec, h)?);
-                            }
-                            head = Some(h.clone());
-                        }
-                        super::Event::Frame(t, poses) => {
-                            if let Some(l) = logger.as_mut() {
-                                l.frame(t, poses);
-                            }
-                        }
-                        super::Event::Row(r) => {
-                            if let (Some(w), Some(h)) = (csv.as_mut(), head.as_ref()) {
-                                h.write_csv_row(w, r)?;
-                            }
-                            if let Some(l) = logger.as_mut() {
-                                l.row(r)?;
-                            }
-                            if keep_rows {
-                                rows.push(*r);
-                            }
-                        }
-                    }
-                    Ok(())
-                },
-            )?;
-            pb.finish_and_clear();
-            if let Some(mut w) = csv {
+    let res = run_with_progress(&scn, &device, rig, opts)?;
+    if let Some(path) = &args.out {
+        let writing = || format!("writing {}", path.display());
+        crate::outputs::write_whole(
+            path,
+            |tmp| -> anyhow::Result<()> {
+                let f = std::fs::File::create(tmp).with_context(|| format!("creating {}", path.display()))?;
+                let mut w = std::io::BufWriter::new(f);
+                res.write_csv(&mut w).with_context(writing)?;
                 // A buffered writer drops its last failure: flush it here, where the error can be reported.
-                w.flush().context("writing the results")?;
-            }
-            if let Some(l) = logger {
-                l.finish()?;
-            }
-            drop(file_rec);
-            Ok((Results { rows, ..res }, summary))
-        })
-    })?;
+                w.flush().with_context(writing)
+            },
+            |e| anyhow::Error::new(e).context(writing()),
+        )?;
+    }
+    #[cfg(feature = "rerun")]
+    match (&rec, &args.rerun) {
+        (Some(rec), _) => crate::viz::rerun_rig::log_run(rec, &res)?,
+        (None, Some(p)) => crate::outputs::write_whole(
+            p,
+            |tmp| -> anyhow::Result<()> {
+                let rec = crate::viz::rerun_rig::to_file(tmp)?;
+                crate::viz::rerun_rig::log_run(&rec, &res)?;
+                Ok(())
+            },
+            |e| anyhow::Error::new(e).context(format!("--rerun {}", p.display())),
+        )?,
+        (None, None) => {}
+    }
+    let summary = res.summary();
     let flight = super::metrics::FlightMetrics::of(&res, &scn);
     if args.json {
-        let mut v = serde_json::to_value(&summary)?;
-        if let (Some(m), Some(obj)) = (&flight, v.as_object_mut()) {
-            obj.insert("flight".into(), serde_json::to_value(m)?);
-        }
+        let v = crate::prelude::run_summary(&res, &scn)?;
         crate::outln!("{}", serde_json::to_string_pretty(&v)?)?;
     } else {
         crate::outln!("{summary}")?;
@@ -250,23 +223,6 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
         }
     }
     Ok(())
-}
-
-/// Run `write` on the temporary file of the output `path` ([`crate::outputs::write_whole`]), or on
-/// nothing where no output is asked for; `what` begins the error of a failed write.
-fn with_output<T>(
-    path: Option<&Path>,
-    what: &str,
-    write: impl FnOnce(Option<&Path>) -> anyhow::Result<T>,
-) -> anyhow::Result<T> {
-    match path {
-        Some(p) => crate::outputs::write_whole(
-            p,
-            |tmp| write(Some(tmp)),
-            |e| anyhow::Error::new(e).context(format!("{what} {}", p.display())),
-        ),
-        None => write(None),
-    }
 }
 
 /// Run the scenario at each DAQ rate (in parallel, results in order) and measure the step responses.

@@ -79,6 +79,9 @@ pub enum SimError {
         t_s: f64,
         advice: String,
     },
+    /// Stopped on request ([`crate::interrupt`]).
+    #[error("interrupted")]
+    Interrupted,
 }
 
 /// Why a step's row shows that the integration has blown up, if it does: a state that is not a number,
@@ -438,6 +441,9 @@ pub fn run_streaming<P: Plant, E: From<SimError>>(
         summary.push(&row);
         sink(Event::Row(&row))?;
         if k % report_every == 0 {
+            if crate::interrupt::requested() {
+                return Err(SimError::Interrupted.into());
+            }
             progress(k as f64 / n as f64);
         }
     }
