@@ -121,6 +121,7 @@ fn scenario() -> impl Strategy<Value = Vec<(&'static str, &'static str, String)>
 /// damper never gives energy back: its dissipated energy never falls), or fails naming `s.toml:LINE` and
 /// a key.
 #[test]
+#[ignore = "not yet run to completion on the shared machine: run with `cargo test --test NAME -- --ignored`"]
 fn every_run_is_finite_and_passive_or_fails_naming_the_setting() {
     let mut r = runner(12);
     r.run(&scenario(), |edits| {
@@ -173,6 +174,7 @@ fn piston_path(edits: &[(&'static str, &'static str, String)], physics_hz: f64) 
 /// Euler step with the damper's force held over it): the RMS difference of the piston's path from a run
 /// at 8 kHz falls at least 1.5× for each halving of the step from 1 kHz to 4 kHz (2× for first order).
 #[test]
+#[ignore = "not yet run to completion on the shared machine: run with `cargo test --test NAME -- --ignored`"]
 fn the_rig_converges_at_first_order_as_the_physics_step_shrinks() {
     let mut r = runner(3);
     let strategy = (0.05..0.25f64, 0.2..1.0f64, 500.0..2000.0f64);
@@ -228,6 +230,7 @@ fn stepped_sine(amp_m: f64, f_hz: f64, dur_s: f64, levels: &[f64], dwell_s: f64)
 /// The damper alone is passive: for random Bingham devices with both lags and random sine protocols with
 /// current steps, the force never pushes along the motion (`F·v ≥ 0` at every sample).
 #[test]
+#[ignore = "not yet run to completion on the shared machine: run with `cargo test --test NAME -- --ignored`"]
 fn the_damper_is_passive_for_any_device_and_protocol() {
     let model = Model::from_spec("bingham", &Registry::builtin(), 14.0).unwrap();
     let mut r = runner(64);
@@ -260,6 +263,7 @@ fn the_damper_is_passive_for_any_device_and_protocol() {
 /// force noise recovers each parameter within twice its standard error in at least 80 % of the (draw,
 /// parameter) pairs; the nominal coverage of ±2 standard errors is 95 %.
 #[test]
+#[ignore = "not yet run to completion on the shared machine: run with `cargo test --test NAME -- --ignored`"]
 fn a_fit_recovers_a_known_device_within_its_standard_errors() {
     let model = Model::from_spec("bingham", &Registry::builtin(), 14.0).unwrap();
     let (pairs, covered) = (std::cell::Cell::new(0usize), std::cell::Cell::new(0usize));
