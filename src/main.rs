@@ -32,6 +32,8 @@ enum Command {
     Validate(mrfeel::ident::cli::ValidateArgs),
     /// Find where a model fails and name the missing effects by the held-out error they remove.
     Diagnose(mrfeel::ident::cli::DiagnoseArgs),
+    /// The force of a saved model (or a device file) on your own motion and current (measurement CSV).
+    Simulate(mrfeel::ident::cli::SimulateArgs),
 }
 
 /// A command with the scenario it runs read, once, before anything else: a scenario given as a pipe
@@ -47,6 +49,7 @@ enum Job {
     Fit(mrfeel::ident::cli::FitArgs),
     Validate(mrfeel::ident::cli::ValidateArgs),
     Diagnose(mrfeel::ident::cli::DiagnoseArgs),
+    Simulate(mrfeel::ident::cli::SimulateArgs),
 }
 
 impl Job {
@@ -69,6 +72,7 @@ impl Job {
             Command::Fit(a) => Job::Fit(a),
             Command::Validate(a) => Job::Validate(a),
             Command::Diagnose(a) => Job::Diagnose(a),
+            Command::Simulate(a) => Job::Simulate(a),
         })
     }
 
@@ -81,6 +85,7 @@ impl Job {
             Job::Fit(a) => mrfeel::ident::cli::run_fit(&a),
             Job::Validate(a) => mrfeel::ident::cli::run_validate(&a),
             Job::Diagnose(a) => mrfeel::ident::cli::run_diagnose(&a),
+            Job::Simulate(a) => mrfeel::ident::cli::run_simulate(&a),
         }
     }
 
@@ -108,14 +113,20 @@ impl Job {
                 ("--plot", a.plot.as_ref(), Dir),
                 ("--rerun", a.rerun.as_ref(), File),
             ],
-            Job::Validate(a) => vec![
-                ("--plot", a.plot.as_ref(), Dir),
-                ("--rerun", a.rerun.as_ref(), File),
-            ],
+            Job::Validate(a) => {
+                // One test: `--out` is its file; several: a directory of them.
+                let one = mrfeel::measurement::measurement_files(&a.data).is_ok_and(|f| f.len() == 1);
+                vec![
+                    ("--plot", a.plot.as_ref(), Dir),
+                    ("--rerun", a.rerun.as_ref(), File),
+                    ("--out", a.out.as_ref(), if one { File } else { Dir }),
+                ]
+            }
             Job::Diagnose(a) => vec![
                 ("--plot", a.plot.as_ref(), Dir),
                 ("--rerun", a.rerun.as_ref(), File),
             ],
+            Job::Simulate(a) => vec![("--out", Some(&a.out), File)],
         };
         list.into_iter()
             .filter_map(|(opt, p, kind)| p.map(|p| (opt, p.as_path(), kind)))
@@ -145,6 +156,10 @@ impl Job {
                 v
             }
             Job::Diagnose(a) => data(&a.data),
+            Job::Simulate(a) => vec![
+                ("motion file", a.input.clone()),
+                ("params file", a.params.clone()),
+            ],
         }
     }
 }

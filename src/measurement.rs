@@ -223,8 +223,25 @@ impl Measurement {
         Self::parse(&bytes, path)
     }
 
+    /// Read a record of motion and current to predict the force of (`mrfeel simulate`): the format
+    /// with the force column optional (read into [`Measurement::f_n`] where present, empty where not).
+    pub fn read_motion(path: &Path) -> Result<Self, MeasurementError> {
+        let bytes = crate::text_lines::read_bytes(path, MEASUREMENT_LIMIT_BYTES).map_err(|msg| {
+            MeasurementError::Io {
+                path: path.into(),
+                msg,
+            }
+        })?;
+        Self::parse_with(&bytes, path, false)
+    }
+
     /// Parse a measurement from bytes; `path` is used in messages.
     pub fn parse(bytes: &[u8], path: &Path) -> Result<Self, MeasurementError> {
+        Self::parse_with(bytes, path, true)
+    }
+
+    /// [`Measurement::parse`], the force column required or not.
+    fn parse_with(bytes: &[u8], path: &Path, force_required: bool) -> Result<Self, MeasurementError> {
         let p = || path.to_path_buf();
         if bytes.is_empty() {
             return Err(MeasurementError::Empty { path: p() });
@@ -322,7 +339,7 @@ impl Measurement {
         }
         let col = |name: &str| header.iter().position(|h| h == name);
         for req in REQUIRED {
-            if col(req).is_none() {
+            if col(req).is_none() && (force_required || req != "f_n") {
                 return Err(MeasurementError::MissingColumn {
                     path: p(),
                     line: header_line,

@@ -45,11 +45,20 @@ pub fn read(paths: &[PathBuf]) -> Result<Vec<Measurement>, IdentError> {
 /// Read the files and prepare them ([`prepare`]); a file read twice (named twice, or named and found in a
 /// named directory) is refused.
 pub fn load(paths: &[PathBuf], acquisition: AcquisitionChoice, share: Option<f64>) -> anyhow::Result<Data> {
+    Ok(load_keeping(paths, acquisition, share)?.1)
+}
+
+/// [`load`], keeping the measurements as read (for writing them out again beside a model's force).
+pub fn load_keeping(
+    paths: &[PathBuf],
+    acquisition: AcquisitionChoice,
+    share: Option<f64>,
+) -> anyhow::Result<(Vec<Measurement>, Data)> {
     let ms = read(paths)?;
     let data = prepare_unchecked(&ms, acquisition, share)?;
     no_file_twice(&data.tests)?;
     no_test_twice(&data.tests)?;
-    Ok(data)
+    Ok((ms, data))
 }
 
 /// Tests of measurements read together, their acquisition chain taken as `acquisition` says (under `auto`,
@@ -87,7 +96,8 @@ fn prepare_unchecked(
         AcquisitionChoice::Auto => crate::ident::tests_predicting(ms, share),
         _ => (crate::ident::tests_with(ms, acquisition)?, None),
     };
-    let notes = match acquisition {
+    let mut notes = crate::ident::clipping::notes(&tests);
+    notes.extend(match acquisition {
         AcquisitionChoice::Auto => crate::ident::acquisition_note(&tests),
         AcquisitionChoice::AsLogged => {
             vec!["acquisition: the files are compared as they are (--acquisition as-logged)".into()]
@@ -96,7 +106,7 @@ fn prepare_unchecked(
             "acquisition: every file was logged through a moving average of {n} samples (--acquisition {n}); \
              the model is driven by the motion before it and its force goes through the same average"
         )],
-    };
+    });
     Ok(Data {
         tests,
         window_periods,
@@ -296,7 +306,7 @@ pub fn validate(cfg: &DeviceConfig, data: Data) -> anyhow::Result<(Vec<Test>, Ve
 pub fn predict(cfg: &DeviceConfig, m: &Measurement) -> Vec<f64> {
     let test = Test::with_filter(m, None);
     let test = retimed(vec![test], cfg.command_timing).remove(0);
-    test.predict(&cfg.model, &cfg.params, test.len())
+    test.predict(&cfg.model, &cfg.params, test.inputs.len())
 }
 
 /// What a diagnosis is asked to do (`mrfeel diagnose`'s options).

@@ -6,7 +6,7 @@ Run from a checkout after `pip install .` (or the test command's .venv):
 
     python examples/python/quickstart.py [--plot quickstart.png] [--quick]
 
-`--quick` diagnoses one test per protocol (a few seconds) instead of all fifteen.
+`--quick` diagnoses one protocol at its five currents (a few seconds) instead of all fifteen tests.
 """
 
 import argparse
@@ -21,13 +21,13 @@ DATA = ROOT / "data" / "utfsm-mr-damper"
 
 parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 parser.add_argument("--plot", type=pathlib.Path, help="write measured vs model force here (needs matplotlib)")
-parser.add_argument("--quick", action="store_true", help="one test per protocol")
+parser.add_argument("--quick", action="store_true", help="one protocol at its five currents")
 args = parser.parse_args()
 
 # 1. The measured tests: three displacement protocols at five coil currents each (CSV files).
 files = sorted(DATA.glob("*.csv"))
 if args.quick:
-    files = [f for f in files if f.stem.endswith("_1p00A")]
+    files = [f for f in files if f.stem.startswith("10mm1Hz_")]
 tests = [mrfeel.Measurement.from_csv(f) for f in files]
 print(f"{len(tests)} tests, {sum(len(m) for m in tests)} samples; first: {tests[0]!r}")
 

@@ -79,3 +79,31 @@ def test_run_scenario_errors_name_the_file_and_line(tmp_path):
         mrfeel.run_scenario(scn)
     assert str(e.value) == want
     assert f"{scn}:" in str(e.value)
+
+
+def test_ctrl_c_stops_a_diagnosis_under_way(hidden_inertia):
+    """SIGINT during a diagnosis (the GIL released, the work on another thread) raises KeyboardInterrupt
+    promptly: the library's fits stop at their next evaluation instead of running the search to its end."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    code = (
+        "import sys, time, mrfeel\n"
+        "ms = [mrfeel.Measurement.from_csv(p) for p in sys.argv[1:]]\n"
+        "print('ready', flush=True)\n"
+        "try:\n"
+        "    mrfeel.diagnose(ms)\n"
+        "    print('finished')\n"
+        "except KeyboardInterrupt:\n"
+        "    print('interrupted', time.monotonic(), flush=True)\n"
+    )
+    p = subprocess.Popen([sys.executable, "-c", code, *map(str, hidden_inertia)], stdout=subprocess.PIPE, text=True)
+    assert p.stdout.readline().strip() == "ready"
+    time.sleep(1.0)  # well into the search: the diagnosis takes about ten times this
+    sent = time.monotonic()
+    p.send_signal(signal.SIGINT)
+    out, _ = p.communicate(timeout=60)
+    assert out.startswith("interrupted"), out
+    assert float(out.split()[1]) - sent < 3.0, "stopped within a few evaluations"

@@ -1,4 +1,5 @@
-//! MR damper physics: the seed paper's base model (Eq. 2–6) and the effect library.
+//! MR damper physics: the seed paper's base model (Eq. 2–6), the modified Bouc–Wen model of Spencer et al.
+//! (1997) as a second base, and the effect library.
 //!
 //! One home for the damper force: the virtual MTS machine, the stick rig and the fitter all call
 //! [`Model::eval`] / [`Damper`].
@@ -10,18 +11,19 @@ pub mod effects;
 pub mod lag;
 pub mod model;
 pub mod params;
+pub mod spencer;
 
 use std::path::PathBuf;
 
 pub use config::{DeviceConfig, Geometry, ParamsFile};
 pub use effect::{Effect, EffectStage, Inputs, Stage, Step};
-pub use model::{Damper, Model, ModelSpec, Registry, PAPER_CURRENT_LIMIT_A};
+pub use model::{Base, Damper, Model, ModelSpec, Registry, PAPER_CURRENT_LIMIT_A};
 pub use params::{DataStats, ParamSpec, ParamValue};
 
 /// Errors from building or loading a device model.
 #[derive(Debug, thiserror::Error)]
 pub enum DeviceError {
-    #[error("model `{spec}`: unknown base model `{base}` (the base model is `bingham`)")]
+    #[error("model `{spec}`: unknown base model `{base}` (base models: `bingham`, `spencer`)")]
     UnknownBase { spec: String, base: String },
     #[error("unknown effect `{name}` (known effects: {known})")]
     UnknownEffect { name: String, known: String },

@@ -3,13 +3,110 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use super::bingham;
-use super::effect::{Effect, Inputs, Stage, Step};
+use super::effect::{Effect, EffectStage, Inputs, Stage, Step};
 use super::params::{DataStats, ParamSpec};
 use super::DeviceError;
+use super::{bingham, spencer};
 
-/// The only base model: the seed paper's.
+/// The seed paper's base model, the default.
 pub const BASE: &str = "bingham";
+
+/// The base model a spec starts from: the seed paper's Bingham model with its two lags, or the modified
+/// Bouc–Wen model of Spencer et al. (1997), the field's standard ([`spencer`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Base {
+    #[default]
+    Bingham,
+    Spencer,
+}
+
+impl Base {
+    pub const ALL: [Base; 2] = [Base::Bingham, Base::Spencer];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Base::Bingham => BASE,
+            Base::Spencer => "spencer",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|b| b.name() == name)
+    }
+
+    /// Parameter declarations, in vector order (the first parameters of every model of this base).
+    pub fn params(self) -> &'static [ParamSpec] {
+        match self {
+            Base::Bingham => &bingham::PARAMS,
+            Base::Spencer => &spencer::PARAMS,
+        }
+    }
+
+    pub fn n_states(self) -> usize {
+        match self {
+            Base::Bingham => bingham::N_STATES,
+            Base::Spencer => spencer::N_STATES,
+        }
+    }
+
+    /// Parameters the base's states depend on.
+    pub fn state_params(self) -> &'static [usize] {
+        match self {
+            Base::Bingham => &bingham::STATE_PARAMS,
+            Base::Spencer => &spencer::STATE_PARAMS,
+        }
+    }
+
+    /// Parameters that act only where the current command changes (the lags' time constants).
+    pub fn lag_params(self) -> &'static [usize] {
+        match self {
+            Base::Bingham => &bingham::STATE_PARAMS,
+            Base::Spencer => &spencer::LAG_PARAMS,
+        }
+    }
+
+    /// Parameters the force is linear in (a fit's warm start solves for them first).
+    pub fn linear_gains(self) -> &'static [usize] {
+        match self {
+            Base::Bingham => &bingham::LINEAR_GAINS,
+            Base::Spencer => &spencer::LINEAR_GAINS,
+        }
+    }
+
+    /// Whether an effect acting at `stage` composes with this base: the Spencer model has its own
+    /// pre-yield (Bouc–Wen) state, so an effect that replaces the direction function does not.
+    pub fn admits(self, stage: EffectStage) -> bool {
+        !(self == Base::Spencer && stage == EffectStage::Direction)
+    }
+
+    fn init_states(self, p: &[f64], s: &mut [f64], first: &Inputs, limit_a: f64) {
+        match self {
+            Base::Bingham => bingham::init_states(s, first.current_cmd_a, limit_a),
+            Base::Spencer => spencer::init_states(p, s, first, limit_a),
+        }
+    }
+
+    fn stage(self, p: &[f64], s: &[f64], inp: &Inputs) -> Stage {
+        match self {
+            Base::Bingham => bingham::stage(p, s, inp),
+            Base::Spencer => spencer::stage(p, s, inp),
+        }
+    }
+
+    fn advance(self, p: &[f64], s: &mut [f64], inp: &Inputs, limit_a: f64, step: Step) {
+        match self {
+            Base::Bingham => bingham::advance(p, s, inp.current_cmd_a, limit_a, step.dt_s),
+            Base::Spencer => spencer::advance(p, s, inp, limit_a, step),
+        }
+    }
+
+    fn initial_guess(self, stats: &DataStats) -> Vec<f64> {
+        match self {
+            Base::Bingham => bingham::initial_guess(stats),
+            Base::Spencer => spencer::initial_guess(stats),
+        }
+    }
+}
 
 /// The driver saturation the paper set (Section 4): 14 A.
 pub const PAPER_CURRENT_LIMIT_A: f64 = 14.0;
@@ -67,9 +164,10 @@ impl std::fmt::Debug for Registry {
     }
 }
 
-/// A parsed model spec: `bingham` or `bingham+effect+effect`.
-#[derive(Debug, Clone, PartialEq, Eq)]
+/// A parsed model spec: a base (`bingham`, `spencer`) and effects, `bingham+effect+effect`.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct ModelSpec {
+    pub base: Base,
     pub effects: Vec<String>,
 }
 
@@ -77,13 +175,11 @@ impl ModelSpec {
     /// Parse `bingham+hysteresis+asymmetry`. Names are checked against the registry when a [`Model`] is built.
     pub fn parse(spec: &str) -> Result<Self, DeviceError> {
         let mut parts = spec.split('+').map(str::trim);
-        let base = parts.next().unwrap_or_default();
-        if base != BASE {
-            return Err(DeviceError::UnknownBase {
-                spec: spec.to_string(),
-                base: base.to_string(),
-            });
-        }
+        let base_name = parts.next().unwrap_or_default();
+        let base = Base::from_name(base_name).ok_or_else(|| DeviceError::UnknownBase {
+            spec: spec.to_string(),
+            base: base_name.to_string(),
+        })?;
         let mut effects: Vec<String> = Vec::new();
         for p in parts {
             if p.is_empty() {
@@ -100,14 +196,17 @@ impl ModelSpec {
             }
             effects.push(p.to_string());
         }
-        Ok(Self { effects })
+        Ok(Self { base, effects })
     }
 
     /// The spec with one more effect.
     pub fn with(&self, effect: &str) -> Self {
         let mut e = self.effects.clone();
         e.push(effect.to_string());
-        Self { effects: e }
+        Self {
+            base: self.base,
+            effects: e,
+        }
     }
 
     pub fn has(&self, effect: &str) -> bool {
@@ -117,7 +216,7 @@ impl ModelSpec {
 
 impl std::fmt::Display for ModelSpec {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(BASE)?;
+        f.write_str(self.base.name())?;
         for e in &self.effects {
             write!(f, "+{e}")?;
         }
@@ -164,14 +263,25 @@ impl Model {
                 ),
             });
         }
-        let mut param_specs: Vec<ParamSpec> = bingham::PARAMS.to_vec();
-        let mut n_states = bingham::N_STATES;
+        let base = spec.base;
+        let mut param_specs: Vec<ParamSpec> = base.params().to_vec();
+        let mut n_states = base.n_states();
         let mut slots = Vec::new();
         for name in &spec.effects {
             let effect = registry.get(name).ok_or_else(|| DeviceError::UnknownEffect {
                 name: name.clone(),
                 known: registry.names().join(", "),
             })?;
+            if !base.admits(effect.stage()) {
+                return Err(DeviceError::BadSpec {
+                    spec: spec.to_string(),
+                    why: format!(
+                        "`{name}` replaces the direction of the yield force, which the `{}` base takes from its \
+                         own Bouc–Wen state: the two do not compose",
+                        base.name()
+                    ),
+                });
+            }
             let p0 = param_specs.len();
             for ps in effect.params() {
                 if param_specs.iter().any(|q| q.name == ps.name) {
@@ -214,6 +324,21 @@ impl Model {
         &self.spec
     }
 
+    /// The base model.
+    pub fn base(&self) -> Base {
+        self.spec.base
+    }
+
+    /// Indices of the base's parameters that act only where the current command changes.
+    pub fn lag_params(&self) -> &'static [usize] {
+        self.spec.base.lag_params()
+    }
+
+    /// Indices of the base's parameters the force is linear in.
+    pub fn linear_gains(&self) -> &'static [usize] {
+        self.spec.base.linear_gains()
+    }
+
     pub fn name(&self) -> String {
         self.spec.to_string()
     }
@@ -242,7 +367,7 @@ impl Model {
 
     /// Data-derived starting values for every parameter, clamped into the bounds.
     pub fn initial_guess(&self, stats: &DataStats) -> Vec<f64> {
-        let mut p = bingham::initial_guess(stats);
+        let mut p = self.spec.base.initial_guess(stats);
         for slot in &self.slots {
             let g = slot.effect.initial_guess(stats);
             debug_assert_eq!(
@@ -260,15 +385,15 @@ impl Model {
     }
 
     /// Base parameters followed by each effect's [`Effect::typical_params`], clamped into the bounds: the hidden
-    /// truth of a synthetic test of this model. `base` holds the five base parameters.
+    /// truth of a synthetic test of this model. `base` holds the base model's parameters.
     pub fn typical_params(&self, base: &[f64], stats: &DataStats) -> Result<Vec<f64>, DeviceError> {
-        if base.len() != bingham::PARAMS.len() {
+        let n_base = self.spec.base.params().len();
+        if base.len() != n_base {
             return Err(DeviceError::BadSpec {
                 spec: self.name(),
                 why: format!(
-                    "{} base parameter values for {} base parameters",
-                    base.len(),
-                    bingham::PARAMS.len()
+                    "{} base parameter values for {n_base} base parameters",
+                    base.len()
                 ),
             });
         }
@@ -329,8 +454,9 @@ impl Model {
     /// States at the first sample of a test: lags at rest for the first command, effects initialised.
     pub fn init_state(&self, p: &[f64], first: &Inputs) -> Vec<f64> {
         let mut s = vec![0.0; self.n_states];
-        bingham::init_states(&mut s, first.current_cmd_a, self.current_limit_a);
-        let stage = bingham::stage(p, &s, first);
+        let base = self.spec.base;
+        base.init_states(p, &mut s, first, self.current_limit_a);
+        let stage = base.stage(p, &s, first);
         for slot in &self.slots {
             let (head, tail) = s.split_at_mut(slot.states.start);
             let _ = head;
@@ -346,7 +472,7 @@ impl Model {
 
     /// The force assembly at one sample (base, then each effect in stage order).
     pub fn eval(&self, p: &[f64], s: &[f64], inp: &Inputs) -> Stage {
-        let mut stage = bingham::stage(p, s, inp);
+        let mut stage = self.spec.base.stage(p, s, inp);
         for &k in &self.apply_order {
             let slot = &self.slots[k];
             slot.effect
@@ -368,7 +494,7 @@ impl Model {
                 step,
             );
         }
-        bingham::advance(p, s, inp.current_cmd_a, self.current_limit_a, step.dt_s);
+        self.spec.base.advance(p, s, inp, self.current_limit_a, step);
     }
 
     /// Integrate one test from its own start and write the force at every sample into `out`.
@@ -394,7 +520,7 @@ impl Model {
             return vec![true; self.n_params()];
         }
         let mut out = vec![false; self.n_params()];
-        for k in bingham::STATE_PARAMS {
+        for &k in self.spec.base.state_params() {
             out[k] = true;
         }
         for slot in stateful() {
@@ -510,14 +636,17 @@ impl Damper {
             .advance(&self.params, &mut self.state, inp, stage, f, step);
     }
 
-    /// Coil current (Eq. 3 state), A.
+    /// Coil current (Eq. 3 state; the filtered command of the Spencer base), A.
     pub fn coil_current_a(&self) -> f64 {
         self.state.first().copied().unwrap_or(0.0)
     }
 
-    /// Fluid excitation (Eq. 4 state), A.
+    /// Fluid excitation (Eq. 4 state; the filtered command of the Spencer base), A.
     pub fn fluid_excitation_a(&self) -> f64 {
-        self.state.get(1).copied().unwrap_or(0.0)
+        match self.model.base() {
+            Base::Bingham => self.state.get(1).copied().unwrap_or(0.0),
+            Base::Spencer => self.coil_current_a(),
+        }
     }
 }
 

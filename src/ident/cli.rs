@@ -12,6 +12,7 @@ use super::report::{diagnose_table, DiagnoseJson, FitJson};
 use super::timing::{CommandTiming, TimingChoice, TimingDecision};
 use super::{AcquisitionChoice, Test};
 use crate::device::{DeviceConfig, ParamsFile, Registry};
+use crate::measurement::Measurement;
 use crate::prelude;
 
 /// `--acquisition`, shared by `fit`, `validate` and `diagnose`.
@@ -91,8 +92,27 @@ pub struct ValidateArgs {
     pub plot: Option<PathBuf>,
     #[arg(long)]
     pub rerun: Option<PathBuf>,
+    /// Write each test as read with the model's force beside the measured one (column `f_model_n`, the
+    /// force as scored: through the acquisition filter where one was found): this file for one test, a
+    /// directory of files named as the tests for several.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
     #[command(flatten)]
     pub acquisition: AcquisitionArg,
+}
+
+#[derive(clap::Args, Debug, Clone)]
+pub struct SimulateArgs {
+    /// Parameters written by `mrfeel fit --save`, or a device file (`models/*.toml`).
+    #[arg(long)]
+    pub params: PathBuf,
+    /// Motion and current in the measurement format: `t_s`, `x_m`, `i_a`, optionally `v_m_s` (derived from
+    /// `x_m` as the fit derives it where absent); a measured `f_n`, if any, is kept as `f_measured_n`.
+    #[arg(long)]
+    pub input: PathBuf,
+    /// Output CSV in the measurement format, `f_n` the model's force.
+    #[arg(long)]
+    pub out: PathBuf,
 }
 
 #[derive(clap::Args, Debug, Clone)]
@@ -278,7 +298,11 @@ fn outputs(
 pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
     let registry = Registry::builtin();
     let cfg = DeviceConfig::load(&a.params, &registry)?;
-    let data = load_and_tell(&a.data, a.acquisition.acquisition, cfg.acquisition_window_periods)?;
+    let (ms, data) =
+        prelude::load_keeping(&a.data, a.acquisition.acquisition, cfg.acquisition_window_periods)?;
+    for line in &data.notes {
+        crate::noteln!("{line}");
+    }
     prelude::require(&data.tests, cfg.model.n_params())?;
     note_timing(&TimingDecision {
         timing: cfg.command_timing,
@@ -293,6 +317,9 @@ pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
         &pred,
     )
     .map_err(anyhow::Error::msg)?;
+    if let Some(path) = &a.out {
+        write_beside(path, &ms, &pred)?;
+    }
     outputs(
         &out,
         "validate",
@@ -352,5 +379,63 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
     } else {
         crate::out!("{}", diagnose_table(&d))?;
     }
+    Ok(())
+}
+
+/// `validate --out`: each test as read with the model's force beside the measured one; `path` is the file
+/// for one test, a directory (made if missing) of files named as the tests for several.
+fn write_beside(path: &std::path::Path, ms: &[Measurement], pred: &[Vec<f64>]) -> anyhow::Result<()> {
+    let files: Vec<(PathBuf, Measurement)> = ms
+        .iter()
+        .zip(pred)
+        .map(|(m, p)| {
+            let target = if ms.len() == 1 {
+                path.to_path_buf()
+            } else {
+                path.join(m.path.file_name().unwrap_or_default())
+            };
+            Ok((target, super::simulate::beside(m, p).map_err(anyhow::Error::msg)?))
+        })
+        .collect::<anyhow::Result<_>>()?;
+    if ms.len() > 1 {
+        std::fs::create_dir_all(path).with_context(|| format!("--out: creating {}", path.display()))?;
+    }
+    for (target, m) in &files {
+        m.write(target)?;
+    }
+    crate::noteln!(
+        "wrote the model's force beside the measured one (column `{}`) into {}",
+        super::simulate::MODEL_COLUMN,
+        path.display()
+    );
+    Ok(())
+}
+
+/// `mrfeel simulate`: the force of a saved model (or a device file) on the motion and current of a file.
+pub fn run_simulate(a: &SimulateArgs) -> anyhow::Result<()> {
+    let registry = Registry::builtin();
+    let cfg = DeviceConfig::load(&a.params, &registry)?;
+    let m = Measurement::read_motion(&a.input)?;
+    let force = prelude::predict(&cfg, &m);
+    if let Some(k) = force.iter().position(|f| !f.is_finite()) {
+        anyhow::bail!(
+            "{}:{}: the model of {} gives a force that is not a number at t = {} s: its parameters are outside \
+             where it can be integrated (nothing was written)",
+            a.input.display(),
+            m.lines.get(k).copied().unwrap_or(0),
+            a.params.display(),
+            m.t_s[k]
+        );
+    }
+    let out = super::simulate::prediction(&m, force, &cfg).map_err(anyhow::Error::msg)?;
+    out.write(&a.out)?;
+    crate::noteln!(
+        "wrote the force of {} ({}) on the {} samples of {} into {}",
+        cfg.model.name(),
+        a.params.display(),
+        m.len(),
+        a.input.display(),
+        a.out.display()
+    );
     Ok(())
 }

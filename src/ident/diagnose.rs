@@ -31,7 +31,7 @@ use super::fit::{fit, span_stats, FitOptions, Span};
 use super::residual::{direction_weights, noise_floor_n, quantile, where_regions, Region, Signatures};
 use super::validate::{evaluate, Figures};
 use super::{IdentError, Test};
-use crate::device::{bingham, Model, ModelSpec, Registry};
+use crate::device::{Model, ModelSpec, Registry};
 
 /// Settings of a diagnosis.
 #[derive(Debug, Clone)]
@@ -364,7 +364,7 @@ pub fn cross_validate(
                     .param_specs()
                     .iter()
                     .enumerate()
-                    .filter(|(k, s)| pm.param_index(s.name).is_some() && !bingham::LINEAR_GAINS.contains(k))
+                    .filter(|(k, s)| pm.param_index(s.name).is_some() && !model.linear_gains().contains(k))
                     .map(|(k, _)| k)
                     .collect(),
                 None => Vec::new(),
@@ -384,7 +384,7 @@ pub fn cross_validate(
             let fr = match start {
                 Some(p0)
                     if !inherited.is_empty()
-                        && inherited.len() + bingham::LINEAR_GAINS.len() < model.n_params() =>
+                        && inherited.len() + model.linear_gains().len() < model.n_params() =>
                 {
                     let first = fit(
                         model,
@@ -577,7 +577,7 @@ pub fn diagnose(
         let names: Vec<&'static str> = registry
             .names()
             .into_iter()
-            .filter(|n| !cur.spec.has(n))
+            .filter(|n| !cur.spec.has(n) && registry.get(n).is_some_and(|e| cur.spec.base.admits(e.stage())))
             .collect();
         if names.is_empty() {
             break;
@@ -708,6 +708,7 @@ pub fn diagnose(
             .enumerate()
             .map(|(gi, group)| {
                 let spec = ModelSpec {
+                    base: cur.spec.base,
                     effects: cur
                         .spec
                         .effects

@@ -24,7 +24,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use super::residual::direction_weights;
 use super::timing::command_never_changes;
 use super::{data_stats, Test};
-use crate::device::{bingham, DataStats, Model, ParamSpec};
+use crate::device::{DataStats, Model, ParamSpec};
 
 /// A contiguous run of samples of one test that counts in the loss (`start..end`). The test is still
 /// integrated from its own first sample, so states carry over from samples that do not count.
@@ -457,7 +457,8 @@ impl<'a> Problem<'a> {
     /// `a_lag_constant_where_the_current_never_changes_costs_no_simulation`).
     fn jacobian_cols(&self, cols: &[usize]) -> DMatrix<f64> {
         let used: Vec<usize> = (0..self.tests.len()).filter(|&j| self.sim_len[j] > 0).collect();
-        let unmoved = |k: usize, j: usize| bingham::STATE_PARAMS.contains(&k) && self.steady_current[j];
+        let lags = self.model.lag_params();
+        let unmoved = |k: usize, j: usize| lags.contains(&k) && self.steady_current[j];
         // A new integration, or the force assembled on the states kept for test `j`.
         let integrates = |k: usize, j: usize| self.state_params[k] || self.states[j].is_empty();
         for &k in cols {
@@ -721,7 +722,7 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
         // an asymmetry whose strength started at 0): asked once, after the first round, and freed if so. Not
         // the lags' time constants: they act through a change of the current, whatever the other parameters.
         let unasked: Vec<usize> = (0..n)
-            .filter(|&k| zero_held[k] && !bingham::STATE_PARAMS.contains(&k))
+            .filter(|&k| zero_held[k] && !model.lag_params().contains(&k))
             .collect();
         if round == 0 && !unasked.is_empty() && !free.is_empty() {
             let jz = prob.jacobian_cols(&unasked);
@@ -1037,7 +1038,11 @@ pub fn span_stats(tests: &[Test], spans: &[Span]) -> DataStats {
 /// parameters: up to two projected Gauss–Newton steps, with the lower bounds kept (the first is exact when the
 /// force is linear in the gains, and the second is then skipped).
 fn linear_warm_start(model: &Model, tests: &[Test], spans: &[Span], weights: &[Vec<f64>], p: &mut [f64]) {
-    let idx = bingham::LINEAR_GAINS;
+    let idx = model.linear_gains();
+    // Solved for the Bingham base's three gains; a base with other linear gains starts where it is.
+    if idx.len() != 3 {
+        return;
+    }
     let specs = model.param_specs();
     // The sum of squares the first step's linear model predicts: when the second step starts there, the
     // force is linear in the three gains (no effect's state depends on them) and the first step was exact.
@@ -1101,7 +1106,7 @@ fn linear_warm_start(model: &Model, tests: &[Test], spans: &[Span], weights: &[V
         }
         let mut cols = Vec::new();
         let mut steps = Vec::new();
-        for &k in &idx {
+        for &k in idx {
             let h = 1e-3 * p[k].abs().max(1.0);
             let mut q = p.to_vec();
             q[k] += h;
@@ -1216,7 +1221,7 @@ fn bounded_lstsq3(ata: [[f64; 3]; 3], atb: [f64; 3], lo: &[f64], hi: &[f64]) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::device::Registry;
+    use crate::device::{bingham, Registry};
     use crate::ident::validate::Figures;
 
     #[test]

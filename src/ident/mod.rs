@@ -8,6 +8,7 @@
 
 pub mod acquisition;
 pub mod cli;
+pub mod clipping;
 pub mod diagnose;
 pub mod fit;
 pub mod plots;
@@ -15,6 +16,7 @@ pub mod report;
 #[cfg(feature = "rerun")]
 pub mod rerun_log;
 pub mod residual;
+pub mod simulate;
 pub mod timing;
 pub mod validate;
 

@@ -544,7 +544,18 @@ pub const DIRECTION_SIGMAS: f64 = 4.0;
 /// by displacement, inertia) removes part of them consistently and looks significant. Taken out, the
 /// residual of a correct model is the load-cell noise again. The noise of the velocity is estimated from
 /// the data ([`velocity_noise_std`]), so noise-free velocity loses almost no samples.
+///
+/// Samples where the force channel is stuck at a rail ([`super::clipping`]) weigh 0 too.
 pub fn direction_weights(t: &Test) -> Vec<f64> {
+    let mut w = sign_weights(t);
+    for (w, c) in w.iter_mut().zip(super::clipping::unclipped(&t.f_n)) {
+        *w *= c;
+    }
+    w
+}
+
+/// [`direction_weights`] from the velocity alone.
+fn sign_weights(t: &Test) -> Vec<f64> {
     let weight = |v: f64, sd: f64| if v.abs() < DIRECTION_SIGMAS * sd { 0.0 } else { 1.0 };
     match &t.velocity_noise_m_s {
         // A velocity derived here: its noise at each sample (larger at the ends of the test).

@@ -73,12 +73,13 @@ impl Figures {
     }
 }
 
-/// Per-test figures and their total.
+/// Per-test figures and their total, over the samples where the force channel is not stuck at a rail
+/// ([`super::clipping`]).
 pub fn figures(pred: &[Vec<f64>], tests: &[Test]) -> (Vec<Figures>, Figures) {
     let per: Vec<Figures> = pred
         .iter()
         .zip(tests)
-        .map(|(p, t)| Figures::of(p, &t.f_n))
+        .map(|(p, t)| Figures::of_weighted(p, &t.f_n, &super::clipping::unclipped(&t.f_n)))
         .collect();
     let mut tot = Figures::default();
     for f in &per {
