@@ -32,6 +32,9 @@ enum Command {
     Validate(mrfeel::ident::cli::ValidateArgs),
     /// Find where a model fails and name the missing effects by the held-out error they remove.
     Diagnose(mrfeel::ident::cli::DiagnoseArgs),
+    /// Discovery to feel: diagnose rig data, fit each stage, and run a scenario with each as the feel
+    /// controller's model against the same plant.
+    LoopStudy(mrfeel::sim::cli::LoopStudyArgs),
 }
 
 /// A command with the scenario it runs read, once, before anything else: a scenario given as a pipe
@@ -47,6 +50,7 @@ enum Job {
     Fit(mrfeel::ident::cli::FitArgs),
     Validate(mrfeel::ident::cli::ValidateArgs),
     Diagnose(mrfeel::ident::cli::DiagnoseArgs),
+    LoopStudy(mrfeel::sim::cli::LoopStudyArgs, Box<mrfeel::scenario::Scenario>),
 }
 
 impl Job {
@@ -69,6 +73,10 @@ impl Job {
             Command::Fit(a) => Job::Fit(a),
             Command::Validate(a) => Job::Validate(a),
             Command::Diagnose(a) => Job::Diagnose(a),
+            Command::LoopStudy(a) => {
+                let scn = Scenario::load(&a.scenario)?;
+                Job::LoopStudy(a, Box::new(scn))
+            }
         })
     }
 
@@ -81,6 +89,7 @@ impl Job {
             Job::Fit(a) => mrfeel::ident::cli::run_fit(&a),
             Job::Validate(a) => mrfeel::ident::cli::run_validate(&a),
             Job::Diagnose(a) => mrfeel::ident::cli::run_diagnose(&a),
+            Job::LoopStudy(a, scn) => mrfeel::sim::cli::loop_study_cmd(&a, *scn),
         }
     }
 
@@ -116,6 +125,7 @@ impl Job {
                 ("--plot", a.plot.as_ref(), Dir),
                 ("--rerun", a.rerun.as_ref(), File),
             ],
+            Job::LoopStudy(a, _) => vec![("--plot", a.plot.as_ref(), Dir)],
         };
         list.into_iter()
             .filter_map(|(opt, p, kind)| p.map(|p| (opt, p.as_path(), kind)))
@@ -135,7 +145,12 @@ impl Job {
         };
         match self {
             Job::Mts(a) => a.device.iter().map(|p| ("device file", p.clone())).collect(),
-            Job::Run(a, scn) => mrfeel::sim::cli::input_files(&a.scenario, scn, a.aircraft.as_deref()),
+            Job::Run(a, scn) => {
+                let mut v = mrfeel::sim::cli::input_files(&a.scenario, scn, a.aircraft.as_deref());
+                v.extend(a.device.iter().map(|p| ("device file", p.clone())));
+                v.extend(a.controller_model.iter().map(|p| ("controller model", p.clone())));
+                v
+            }
             Job::DaqSweep(a, scn) => mrfeel::sim::cli::input_files(&a.scenario, scn, None),
             Job::Compare(a, scn) => mrfeel::compare::cli::input_files(&a.scenario, scn),
             Job::Fit(a) => data(&a.data),
@@ -145,6 +160,12 @@ impl Job {
                 v
             }
             Job::Diagnose(a) => data(&a.data),
+            Job::LoopStudy(a, scn) => {
+                let mut v = mrfeel::sim::cli::input_files(&a.scenario, scn, None);
+                v.extend(data(&a.data));
+                v.extend(a.device.iter().map(|p| ("device file", p.clone())));
+                v
+            }
         }
     }
 }

@@ -21,18 +21,18 @@ fn scenario_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios").join(name)
 }
 
-fn load(name: &str) -> (Scenario, DeviceConfig) {
+fn load(name: &str) -> (Scenario, sim::Devices) {
     let (scn, device, _) = cli::load(&scenario_path(name)).unwrap_or_else(|e| panic!("{name}: {e:#}"));
     (scn, device)
 }
 
-fn fly(scn: &Scenario, device: &DeviceConfig) -> Results {
-    let rig = cli::build_rig(scn, device).unwrap_or_else(|e| panic!("{e:#}"));
+fn fly(scn: &Scenario, device: &sim::Devices) -> Results {
+    let rig = cli::build_rig(scn, &device.plant).unwrap_or_else(|e| panic!("{e:#}"));
     sim::run(scn, device, rig, RunOptions::default(), |_| {}).unwrap_or_else(|e| panic!("{e}"))
 }
 
-fn pitch_tracking() -> &'static (Scenario, DeviceConfig, Results) {
-    static R: OnceLock<(Scenario, DeviceConfig, Results)> = OnceLock::new();
+fn pitch_tracking() -> &'static (Scenario, sim::Devices, Results) {
+    static R: OnceLock<(Scenario, sim::Devices, Results)> = OnceLock::new();
     R.get_or_init(|| {
         let (s, d) = load("c172p-pitch-tracking.toml");
         let r = fly(&s, &d);

@@ -7,6 +7,7 @@ pub mod bingham;
 pub mod config;
 pub mod effect;
 pub mod effects;
+pub mod inverse;
 pub mod lag;
 pub mod model;
 pub mod params;
@@ -15,6 +16,7 @@ use std::path::PathBuf;
 
 pub use config::{DeviceConfig, Geometry, ParamsFile};
 pub use effect::{Effect, EffectStage, Inputs, Stage, Step};
+pub use inverse::ForceInverse;
 pub use model::{Damper, Model, ModelSpec, Registry, PAPER_CURRENT_LIMIT_A};
 pub use params::{DataStats, ParamSpec, ParamValue};
 
