@@ -254,7 +254,9 @@ fn a_pilot_adapted_to_the_aircraft_flies_the_pitch_task_without_given_gains() {
         .replace("lag_s = 0.1 ", "#")
         .replace("integral_per_s = 0.1", "");
     let s = Scenario::parse(&text, &p).unwrap_or_else(|e| panic!("{e}"));
-    let d = DeviceConfig::load(&s.device_path, &mrfeel::device::Registry::builtin()).unwrap();
+    let d = sim::Devices::same(
+        DeviceConfig::load(&s.device_path, &mrfeel::device::Registry::builtin()).unwrap(),
+    );
     let r = fly(&s, &d);
     let m = FlightMetrics::of(&r, &s).unwrap();
     let peak = peak_pitch_above_trim(&r);
@@ -450,7 +452,7 @@ fn flight_scenario_errors_name_file_line_and_field() {
     // An unknown aircraft fails when the run opens it, naming the scenario and the model files it knows.
     let (mut s, d) = load("c172p-pitch-tracking.toml");
     s.aircraft.as_mut().unwrap().model = "no-such-plane".into();
-    let rig = cli::build_rig(&s, &d).unwrap();
+    let rig = cli::build_rig(&s, &d.plant).unwrap();
     let e = sim::run(&s, &d, rig, RunOptions::default(), |_| {})
         .err()
         .map(|e| e.to_string())
@@ -468,7 +470,7 @@ fn flight_recording_reads_back_with_the_aircraft_beside_the_stick() {
     common::venv_python(); // before the flight: the read-back needs it
     let (mut s, d) = load("c172p-pitch-tracking.toml");
     s.duration_s = 4.0;
-    let rig = cli::build_rig(&s, &d).unwrap();
+    let rig = cli::build_rig(&s, &d.plant).unwrap();
     let res = sim::run(
         &s,
         &d,
