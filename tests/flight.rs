@@ -196,7 +196,7 @@ fn pull_up_reaches_the_load_factor_with_the_feel_capped_at_the_device_force() {
         .filter(|x| x.current_a >= s.controller.gains.out_max - 1e-9)
         .count() as f64
         / capped.len().max(1) as f64;
-    let yield_14 = d.param("fc0_n").unwrap() + d.param("fc_gain_n_per_a").unwrap() * 14.0;
+    let yield_14 = d.plant.param("fc0_n").unwrap() + d.plant.param("fc_gain_n_per_a").unwrap() * 14.0;
     println!(
         "pull-up: mean load factor over the last 2 s of the hold (5-7 s) {nz_hold:.3} g (command 1.3 g; over the whole \
          hold, 3-7 s, {nz_whole:.3} g); tracking RMS {:.3} g \
@@ -254,9 +254,8 @@ fn a_pilot_adapted_to_the_aircraft_flies_the_pitch_task_without_given_gains() {
         .replace("lag_s = 0.1 ", "#")
         .replace("integral_per_s = 0.1", "");
     let s = Scenario::parse(&text, &p).unwrap_or_else(|e| panic!("{e}"));
-    let d = sim::Devices::same(
-        DeviceConfig::load(&s.device_path, &mrfeel::device::Registry::builtin()).unwrap(),
-    );
+    let d =
+        sim::Devices::same(DeviceConfig::load(&s.device_path, &mrfeel::device::Registry::builtin()).unwrap());
     let r = fly(&s, &d);
     let m = FlightMetrics::of(&r, &s).unwrap();
     let peak = peak_pitch_above_trim(&r);
