@@ -32,6 +32,9 @@ enum Command {
     Validate(mrfeel::ident::cli::ValidateArgs),
     /// Find where a model fails and name the missing effects by the held-out error they remove.
     Diagnose(mrfeel::ident::cli::DiagnoseArgs),
+    /// Sweep a scenario over a plan's axes (in parallel, in shards, resumable) with handling-qualities
+    /// verdicts per run; `sweep merge` joins shards.
+    Sweep(mrfeel::sweep::cli::SweepArgs),
 }
 
 /// A command with the scenario it runs read, once, before anything else: a scenario given as a pipe
@@ -47,6 +50,7 @@ enum Job {
     Fit(mrfeel::ident::cli::FitArgs),
     Validate(mrfeel::ident::cli::ValidateArgs),
     Diagnose(mrfeel::ident::cli::DiagnoseArgs),
+    Sweep(mrfeel::sweep::cli::SweepArgs),
 }
 
 impl Job {
@@ -55,7 +59,7 @@ impl Job {
         Ok(match command {
             Command::Mts(a) => Job::Mts(a),
             Command::Run(a) => {
-                let scn = Scenario::load(&a.scenario)?;
+                let scn = a.load_scenario()?;
                 Job::Run(a, Box::new(scn))
             }
             Command::DaqSweep(a) => {
@@ -69,6 +73,7 @@ impl Job {
             Command::Fit(a) => Job::Fit(a),
             Command::Validate(a) => Job::Validate(a),
             Command::Diagnose(a) => Job::Diagnose(a),
+            Command::Sweep(a) => Job::Sweep(a),
         })
     }
 
@@ -81,6 +86,7 @@ impl Job {
             Job::Fit(a) => mrfeel::ident::cli::run_fit(&a),
             Job::Validate(a) => mrfeel::ident::cli::run_validate(&a),
             Job::Diagnose(a) => mrfeel::ident::cli::run_diagnose(&a),
+            Job::Sweep(a) => mrfeel::sweep::cli::run_cmd(&a),
         }
     }
 
@@ -116,6 +122,7 @@ impl Job {
                 ("--plot", a.plot.as_ref(), Dir),
                 ("--rerun", a.rerun.as_ref(), File),
             ],
+            Job::Sweep(a) => vec![("--out", a.out_dir(), Dir)],
         };
         list.into_iter()
             .filter_map(|(opt, p, kind)| p.map(|p| (opt, p.as_path(), kind)))
@@ -145,6 +152,7 @@ impl Job {
                 v
             }
             Job::Diagnose(a) => data(&a.data),
+            Job::Sweep(a) => a.plan.iter().map(|p| ("sweep plan", p.clone())).collect(),
         }
     }
 }
