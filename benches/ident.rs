@@ -28,7 +28,10 @@ use mrfeel::ident::{
 use mrfeel::measurement::Measurement;
 
 fn real_tests() -> Vec<Test> {
-    let dir = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/data/utfsm-mr-damper"));
+    let dir = PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/data/utfsm-mr-damper"
+    ));
     load_tests(&[dir]).expect("real data in data/utfsm-mr-damper")
 }
 
@@ -70,7 +73,10 @@ fn bench_fit(c: &mut Criterion) {
 /// Reading the 15 real files into tests: through the acquisition chain (its detection in the pooled spectra
 /// and the deconvolution of the motion) against as logged (baseline), from the same parsed files.
 fn bench_acquisition(c: &mut Criterion) {
-    let dir = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/data/utfsm-mr-damper"));
+    let dir = PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/data/utfsm-mr-damper"
+    ));
     let ms = mrfeel::measurement::read_all(&[dir]).expect("real data");
     let mut g = c.benchmark_group("acquisition/real_15_files_82638_samples");
     g.sample_size(10).measurement_time(Duration::from_secs(10));

@@ -399,7 +399,8 @@ fn validate_checks_a_single_short_test_for_the_window_the_fitted_tests_predict()
 /// now told, naming the file; the whole file is still found filtered.
 #[test]
 fn a_file_on_an_uneven_clock_is_said_to_be_compared_as_logged() {
-    let real = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data/utfsm-mr-damper/10mm1Hz_0p50A.csv");
+    let real =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data/utfsm-mr-damper/10mm1Hz_0p50A.csv");
     let text = std::fs::read_to_string(&real).unwrap();
     let lines: Vec<&str> = text.lines().collect();
     // 100 samples lost in the middle of the record: a hole of 0.1 s in a 1 kHz clock.

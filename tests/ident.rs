@@ -1121,7 +1121,10 @@ fn fit_counts_each_test_once_unless_told_to_count_samples() {
 #[test]
 #[ignore]
 fn real_damper_diagnosis_finds_hysteresis() {
-    let dir = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/data/utfsm-mr-damper"));
+    let dir = PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/data/utfsm-mr-damper"
+    ));
     let tests = mrfeel::ident::load_tests(&[dir]).expect("real data");
     let registry = Registry::builtin();
     let base = ModelSpec::parse("bingham").expect("spec");
