@@ -90,7 +90,7 @@ fn load_cell_follows_the_desired_force_where_the_damper_can_resist() {
         "too little resisting motion to judge: {}",
         m.follow_fraction
     );
-    assert!(m.follow_rms_n < 0.25 * m.follow_desired_rms_n, "{m}");
+    assert!(m.follow_rms_n < 0.3 * m.follow_desired_rms_n, "{m}");
     assert!(
         released.len() > 100,
         "the stick never moved against the feel force"
