@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Every test of mrfeel, on a fresh machine. Installs what it needs: a Python virtual environment in .venv
-# with the pinned JSBSim and rerun-sdk (python/requirements.txt), then runs:
+# with the pinned JSBSim, rerun-sdk, maturin, NumPy and pytest (python/requirements.txt), then runs:
 #   1. the JSBSim reference check: the committed tables in scenarios/jsbsim/ regenerate bit for bit;
-#   2. cargo test: unit, integration (CLI) and doc tests, including the Rerun read-back through rerun-sdk.
+#   2. cargo test: unit, integration (CLI) and doc tests, including the Rerun read-back through rerun-sdk;
+#   3. the Python package: its wheel built by maturin (dev profile, in the target directory cargo test
+#      filled, so no dependency is built twice), installed in .venv, and pytest on python/tests/.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 echo "== Python environment (.venv: jsbsim, rerun-sdk)"
@@ -11,3 +13,9 @@ echo "== JSBSim reference tables regenerate bit for bit"
 "$py" python/jsbsim_reference.py --check
 echo "== cargo test"
 cargo test --locked --no-fail-fast
+echo "== Python package: build the wheel, install it, pytest python/tests/"
+"$py" -m maturin build --quiet --locked --profile dev --features cargo-test-features --out target/wheels-test
+"$py" -m pip install --quiet --disable-pip-version-check --force-reinstall --no-deps \
+    "$(ls -t target/wheels-test/mrfeel-*.whl | head -1)"
+# pytest exits 5 when it collects no test: under `set -e` that fails the run, as any non-zero exit does.
+MRFEEL_BIN="$PWD/target/debug/mrfeel" "$py" -m pytest -q python/tests/

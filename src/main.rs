@@ -172,6 +172,12 @@ fn main() -> std::process::ExitCode {
         let read: Vec<(&'static str, &std::path::Path)> =
             read.iter().map(|(w, p)| (*w, p.as_path())).collect();
         check_outputs(&job.outputs(), &read).map_err(anyhow::Error::msg)?;
+        #[cfg(not(feature = "rerun"))]
+        if job.outputs().iter().any(|(opt, ..)| *opt == "--rerun")
+            || matches!(&job, Job::Run(a, _) if a.spawn)
+        {
+            anyhow::bail!(mrfeel::viz::NO_RERUN);
+        }
         job.run()
     });
     match result {

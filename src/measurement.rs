@@ -75,6 +75,9 @@ pub enum MeasurementError {
         value: String,
         why: String,
     },
+    /// Columns given in memory ([`Measurement::from_columns`]) that a file could not hold.
+    #[error("{}: {why}", path.display())]
+    Columns { path: PathBuf, why: String },
     #[error("{}: {found} samples, fewer than the {need} that {what} needs", path.display())]
     TooFewSamples {
         path: PathBuf,
@@ -372,22 +375,13 @@ impl Measurement {
                         "not a number".into()
                     },
                 })?;
-                if !v.is_finite() || v.abs() > MAGNITUDE_LIMIT {
+                if let Some(why) = unmeasurable(v) {
                     return Err(MeasurementError::BadValue {
                         path: p(),
                         line: lineno,
                         column: header[c].clone(),
                         value: s.to_string(),
-                        why: if v.is_nan() {
-                            "NaN is not a measurement".into()
-                        } else if v.is_infinite() {
-                            "infinite value".into()
-                        } else {
-                            format!(
-                                "beyond ±{MAGNITUDE_LIMIT:e}, where squares and the error figures stop being \
-                                 numbers (no instrument reads this)"
-                            )
-                        },
+                        why,
                     });
                 }
                 cols[c].push(v);
@@ -446,6 +440,77 @@ impl Measurement {
             }
         }
         Ok(m)
+    }
+
+    /// A measurement from columns in memory (SI units, one value per sample), checked as a file's columns
+    /// are: each as long as `t_s`, every value a finite number within [`MAGNITUDE_LIMIT`], the time strictly
+    /// increasing. `name` stands for the file name (in messages, tables and the cross-validation group,
+    /// [`crate::ident::group_of`]); `v_m_s` is derived from `x_m` when not given; errors name the column
+    /// and the sample by its 0-based index, and [`Measurement::lines`] holds 1-based sample numbers.
+    pub fn from_columns(
+        name: &str,
+        t_s: Vec<f64>,
+        x_m: Vec<f64>,
+        i_a: Vec<f64>,
+        f_n: Vec<f64>,
+        v_m_s: Option<Vec<f64>>,
+    ) -> Result<Self, MeasurementError> {
+        let path = PathBuf::from(name);
+        let fail = |why: String| MeasurementError::Columns {
+            path: path.clone(),
+            why,
+        };
+        let n = t_s.len();
+        if n == 0 {
+            return Err(fail("no samples: `t_s` is empty".into()));
+        }
+        let cols: [(&str, Option<&Vec<f64>>); 5] = [
+            ("t_s", Some(&t_s)),
+            ("x_m", Some(&x_m)),
+            ("i_a", Some(&i_a)),
+            ("f_n", Some(&f_n)),
+            ("v_m_s", v_m_s.as_ref()),
+        ];
+        for (column, c) in cols {
+            let Some(c) = c else { continue };
+            if c.len() != n {
+                return Err(fail(format!(
+                    "column `{column}` has {} samples, `t_s` has {n}: every column needs one value per sample",
+                    c.len()
+                )));
+            }
+            if let Some((k, why)) = c
+                .iter()
+                .enumerate()
+                .find_map(|(k, &v)| Some((k, unmeasurable(v)?)))
+            {
+                return Err(fail(format!(
+                    "column `{column}`, sample {k}: {why} (value {})",
+                    c[k]
+                )));
+            }
+        }
+        if let Some(k) = (1..n).find(|&k| t_s[k] <= t_s[k - 1]) {
+            return Err(fail(format!(
+                "column `t_s`, sample {k}: time {} s is not after the previous sample's {} s (time must increase \
+                 strictly)",
+                t_s[k],
+                t_s[k - 1]
+            )));
+        }
+        let velocity_measured = v_m_s.is_some();
+        let v_m_s = v_m_s.unwrap_or_else(|| smooth_derivative(&t_s, &x_m));
+        Ok(Measurement {
+            path,
+            lines: (1..=n).collect(),
+            t_s,
+            x_m,
+            v_m_s,
+            velocity_measured,
+            i_a,
+            f_n,
+            ..Default::default()
+        })
     }
 
     /// Write in the measurement format. Numbers are written in their shortest exact form, so a file
@@ -508,6 +573,22 @@ impl Measurement {
             |tmp| std::fs::write(tmp, self.to_csv_string()).map_err(io),
             io,
         )
+    }
+}
+
+/// Why `v` is no measured value (NaN, infinite, or beyond [`MAGNITUDE_LIMIT`]), if it is not.
+fn unmeasurable(v: f64) -> Option<String> {
+    if v.is_nan() {
+        Some("NaN is not a measurement".into())
+    } else if v.is_infinite() {
+        Some("infinite value".into())
+    } else if v.abs() > MAGNITUDE_LIMIT {
+        Some(format!(
+            "beyond ±{MAGNITUDE_LIMIT:e}, where squares and the error figures stop being numbers (no \
+             instrument reads this)"
+        ))
+    } else {
+        None
     }
 }
 

@@ -297,12 +297,14 @@ fn plots(c: &Comparison, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
 }
 
 /// Write the recording `path` whole or not at all ([`crate::outputs::write_whole`]).
+#[cfg(feature = "rerun")]
 fn rerun_log(c: &Comparison, path: &Path) -> anyhow::Result<()> {
     // Rerun's errors repeat their sources in their own text: report the text once, not its chain.
     let once = |e: &dyn std::fmt::Display| anyhow::anyhow!("--rerun {}: {e}", path.display());
     crate::outputs::write_whole(path, |tmp| rerun_log_into(c, tmp, once), |e| once(&e))
 }
 
+#[cfg(feature = "rerun")]
 fn rerun_log_into(
     c: &Comparison,
     tmp: &Path,
@@ -402,6 +404,7 @@ pub fn run_cmd(a: CompareArgs, scn: CompareScenario) -> anyhow::Result<()> {
             crate::noteln!("wrote {}", f.display());
         }
     }
+    #[cfg(feature = "rerun")]
     if let Some(p) = &a.rerun {
         rerun_log(&c, p)?;
         crate::noteln!("wrote {}", p.display());

@@ -2,18 +2,17 @@
 //! `--json`) or a table on stdout, nothing else; progress and notes on stderr.
 
 use std::io::IsTerminal;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::Context;
 
-use super::diagnose::{diagnose, DiagnoseOptions};
-use super::fit::{all_spans, fit, FitOptions, Weighting};
+use super::diagnose::DiagnoseOptions;
+use super::fit::Weighting;
 use super::report::{diagnose_table, DiagnoseJson, FitJson};
-use super::residual::where_regions;
-use super::timing::{decide, retimed, CommandTiming, TimingChoice, TimingDecision};
-use super::validate::{evaluate, figures};
-use super::{default_current_limit_a, load_tests_predicting, AcquisitionChoice, Test};
-use crate::device::{DeviceConfig, Model, ModelSpec, ParamsFile, Registry};
+use super::timing::{CommandTiming, TimingChoice, TimingDecision};
+use super::{AcquisitionChoice, Test};
+use crate::device::{DeviceConfig, ParamsFile, Registry};
+use crate::prelude;
 
 /// `--acquisition`, shared by `fit`, `validate` and `diagnose`.
 #[derive(clap::Args, Debug, Clone)]
@@ -38,15 +37,6 @@ pub struct WeightingArg {
     /// reported figures are over samples either way.
     #[arg(long, value_enum, default_value_t = Weighting::Tests)]
     pub weighting: Weighting,
-}
-
-impl WeightingArg {
-    fn fit_options(&self) -> FitOptions {
-        FitOptions {
-            weighting: self.weighting,
-            ..FitOptions::default()
-        }
-    }
 }
 
 #[derive(clap::Args, Debug, Clone)]
@@ -132,96 +122,18 @@ pub struct DiagnoseArgs {
     pub command_timing: TimingChoice,
 }
 
-fn build_model(spec: &str, registry: &Registry, limit: f64) -> anyhow::Result<Model> {
-    let spec = ModelSpec::parse(spec)?;
-    Ok(Model::new(&spec, registry, limit)?)
-}
-
-/// Every file must have enough samples for a fit of `n` parameters.
-fn require(tests_m: &[Test], n: usize) -> anyhow::Result<()> {
-    for t in tests_m {
-        if t.len() < 2 * n {
-            return Err(crate::measurement::MeasurementError::TooFewSamples {
-                path: t.path.clone(),
-                found: t.len(),
-                need: 2 * n,
-                what: format!("a fit or validation of a model of {n} parameters"),
-            }
-            .into());
-        }
-    }
-    Ok(())
-}
-
-fn limit_of(arg: Option<f64>, tests: &[Test]) -> anyhow::Result<f64> {
-    match arg {
-        Some(l) if !(l.is_finite() && l > 0.0) => {
-            anyhow::bail!("--current-limit-a {l}: must be a positive number of amperes")
-        }
-        Some(l) => Ok(l),
-        None => Ok(default_current_limit_a(tests)),
-    }
-}
-
-/// Refuse a file read twice (named twice, or named and also inside a named directory), or one test under two
-/// names (a copy: every sample the same): its test would count twice in every fit and figure.
-fn no_file_twice(tests: &[Test]) -> anyhow::Result<()> {
-    let mut seen: Vec<(crate::outputs::FileId, &Path)> = Vec::with_capacity(tests.len());
-    for t in tests {
-        // One file however it is reached: symlinks, `..`, hard links.
-        let key = crate::outputs::file_id(&t.path);
-        if let Some((_, first)) = seen.iter().find(|(k, _)| *k == key) {
-            let also = if *first == t.path.as_path() {
-                String::new()
-            } else {
-                format!(" (also as `{}`)", first.display())
-            };
-            anyhow::bail!(
-                "DATA: `{}`{also} is read twice: named twice, or named and also found in a named directory; \
-                 its test would count twice: name every file once (nothing was run)",
-                t.path.display()
-            );
-        }
-        seen.push((key, &t.path));
-    }
-    for (k, t) in tests.iter().enumerate() {
-        // Equal forces first: a cheap test that almost always fails for two different measurements.
-        if let Some(first) = tests[..k].iter().find(|u| u.f_n == t.f_n && u.inputs == t.inputs) {
-            anyhow::bail!(
-                "DATA: `{}` holds the same samples as `{}` (every time, motion, current and force equal): one \
-                 test under two names would count twice: give it once (nothing was run)",
-                t.path.display(),
-                first.path.display()
-            );
-        }
-    }
-    Ok(())
-}
-
 /// The tests of the files, their acquisition chain taken as `choice` says, telling the person on stderr
 /// what was done about it.
 fn load_and_tell(
     paths: &[std::path::PathBuf],
     choice: AcquisitionChoice,
     share: Option<f64>,
-) -> anyhow::Result<(Vec<Test>, Option<f64>)> {
-    let (tests, found) = load_tests_predicting(paths, choice, share)?;
-    no_file_twice(&tests)?;
-    match choice {
-        AcquisitionChoice::Auto => {
-            for line in super::acquisition_note(&tests) {
-                crate::noteln!("{line}");
-            }
-        }
-        AcquisitionChoice::AsLogged => {
-            crate::noteln!("acquisition: the files are compared as they are (--acquisition as-logged)")
-        }
-        AcquisitionChoice::MovingAverage(n) => crate::noteln!(
-            "acquisition: every file was logged through a moving average of {n} samples (--acquisition {n}); \
-             the model is driven by the motion before it and its force goes through the same average"
-        ),
+) -> anyhow::Result<prelude::Data> {
+    let data = prelude::load(paths, choice, share)?;
+    for line in &data.notes {
+        crate::noteln!("{line}");
     }
-    Ok((tests, found))
+    Ok(data)
 }
 
 /// How the tests share the loss, said wherever there are several.
@@ -246,27 +158,28 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
     if let Some(path) = &a.save {
         ParamsFile::check_path("--save", path).map_err(anyhow::Error::msg)?;
     }
-    let registry = Registry::builtin();
-    let (tests, window_periods) = load_and_tell(&a.data, a.acquisition.acquisition, None)?;
-    let limit = limit_of(a.current_limit_a, &tests)?;
-    let model = build_model(&a.model, &registry, limit)?;
-    require(&tests, model.n_params())?;
+    let data = load_and_tell(&a.data, a.acquisition.acquisition, None)?;
+    let setup = prelude::FitSetup {
+        model: a.model.clone(),
+        current_limit_a: a.current_limit_a,
+        weighting: a.weighting.weighting,
+        command_timing: a.command_timing,
+    };
+    let model = prelude::fit_model(&data.tests, &setup)?;
+    let tests = &data.tests;
     let n: usize = tests.iter().map(Test::len).sum();
-    let opts = a.weighting.fit_options();
+    let opts = setup.options();
     crate::noteln!(
         "fitting {} ({} parameters) to {} tests, {n} samples{}",
         model.name(),
         model.n_params(),
         tests.len(),
-        weighting_note(&tests, opts.weighting).map_or(String::new(), |w| format!("; {w}"))
+        weighting_note(tests, opts.weighting).map_or(String::new(), |w| format!("; {w}"))
     );
     let t0 = std::time::Instant::now();
-    let (tests, timing) = decide(&model, tests, a.command_timing, &opts);
-    note_timing(&timing);
-    let fr = match timing.kept_fit() {
-        Some(fr) => fr.clone(),
-        None => fit(&model, &tests, &all_spans(&tests), &opts),
-    };
+    let fitted = prelude::fit(model, data, &setup);
+    let (fr, timing) = (&fitted.result, &fitted.timing);
+    note_timing(timing);
     crate::noteln!(
         "fitted in {:.2} s ({}{} simulations of the data: {} evaluations and {} Jacobian columns; {} more \
          columns assembled on kept states; {})",
@@ -282,31 +195,21 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
         fr.jacobian_columns.1,
         fr.termination
     );
-    let pred = evaluate(&model, &fr.params, &tests);
-    let (per, total) = figures(&pred, &tests);
-    let out = FitJson::new(
-        &model,
-        &fr.params,
-        Some(&fr),
-        &tests,
-        &per,
-        &total,
-        where_regions(&tests, &pred),
-    );
+    let pred = fitted.predictions();
+    let out = fitted.report(&pred);
     if let Some(path) = &a.save {
-        let mut file = ParamsFile::new(&model, &fr.params, Some(&fr.std_err));
-        file.command_timing = Some(timing.timing.as_str().to_string());
-        file.weighting = Some(opts.weighting.as_str().to_string());
-        file.acquisition_window_periods = window_periods;
-        file.write(path)
+        fitted
+            .params_file()
+            .write(path)
             .with_context(|| format!("writing {}", path.display()))?;
         crate::noteln!("saved {}", path.display());
     }
+    let (model, tests) = (&fitted.model, &fitted.tests);
     if a.heldout {
         // The diagnosis's folds; each fold fitted as `fit` fits (tolerance, standard errors).
-        let (folds, how) = DiagnoseOptions::default().folds(&tests);
+        let (folds, how) = DiagnoseOptions::default().folds(tests);
         let bar = indicatif::ProgressBar::hidden();
-        let cv = super::diagnose::cross_validate(&model, &tests, &folds, None, &opts, &bar);
+        let cv = super::diagnose::cross_validate(model, tests, &folds, None, &opts, &bar);
         crate::noteln!(
             "held-out NRMSE {:.4} (RMSE {:.3} N), {how}",
             cv.heldout_nrmse(),
@@ -322,7 +225,7 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
         a.json,
         a.plot.as_ref(),
         a.rerun.as_ref(),
-        &tests,
+        tests,
         &pred,
     )
 }
@@ -349,6 +252,9 @@ fn outputs(
         let files = super::plots::plot_model(dir, tests, pred, &out.model, "")?;
         crate::noteln!("wrote {} plot files into {}", files.len(), dir.display());
     }
+    #[cfg(not(feature = "rerun"))]
+    let _ = rerun; // refused before the command runs (main.rs)
+    #[cfg(feature = "rerun")]
     if let Some(path) = rerun {
         super::rerun_log::record(path, tests, &[(&out.model, pred)])?;
         crate::noteln!("wrote Rerun recording {}", path.display());
@@ -364,29 +270,13 @@ fn outputs(
 pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
     let registry = Registry::builtin();
     let cfg = DeviceConfig::load(&a.params, &registry)?;
-    let (tests, _) = load_and_tell(&a.data, a.acquisition.acquisition, cfg.acquisition_window_periods)?;
-    require(&tests, cfg.model.n_params())?;
-    let timing = TimingDecision {
+    let data = load_and_tell(&a.data, a.acquisition.acquisition, cfg.acquisition_window_periods)?;
+    prelude::require(&data.tests, cfg.model.n_params())?;
+    note_timing(&TimingDecision {
         timing: cfg.command_timing,
         fits: None,
-    };
-    note_timing(&timing);
-    let tests = retimed(tests, timing.timing);
-    let pred = evaluate(&cfg.model, &cfg.params, &tests);
-    let (per, total) = figures(&pred, &tests);
-    let mut out = FitJson::new(
-        &cfg.model,
-        &cfg.params,
-        None,
-        &tests,
-        &per,
-        &total,
-        where_regions(&tests, &pred),
-    );
-    // Standard errors as the PARAMS.json saved them.
-    for (name, p) in out.params.iter_mut() {
-        p.std_err = cfg.model.param_index(name).and_then(|k| cfg.std_errs[k]);
-    }
+    });
+    let (tests, pred, out) = prelude::validate(&cfg, data)?;
     outputs(
         &out,
         "validate",
@@ -399,43 +289,32 @@ pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
 }
 
 pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
-    let registry = Registry::builtin();
-    let (tests, _) = load_and_tell(&a.data, a.acquisition.acquisition, None)?;
-    let limit = limit_of(a.current_limit_a, &tests)?;
-    let base = build_model(&a.model, &registry, limit)?;
-    // The largest model the search can reach needs the most samples.
-    let most = registry
-        .names()
-        .iter()
-        .filter(|n| !base.spec().has(n))
-        .filter_map(|n| registry.get(n))
-        .map(|e| e.params().len())
-        .sum::<usize>()
-        + base.n_params();
-    require(&tests, most)?;
-    let opts = DiagnoseOptions {
-        current_limit_a: limit,
+    let data = load_and_tell(&a.data, a.acquisition.acquisition, None)?;
+    let setup = prelude::DiagnoseSetup {
+        model: a.model.clone(),
+        current_limit_a: a.current_limit_a,
+        weighting: a.weighting.weighting,
+        command_timing: a.command_timing,
         progress: std::io::stderr().is_terminal(),
-        fit: a.weighting.fit_options(),
-        ..Default::default()
     };
-    if let Some(w) = weighting_note(&tests, opts.fit.weighting) {
+    if let Some(w) = weighting_note(&data.tests, setup.weighting) {
         crate::noteln!("diagnose: in every fit {w}");
     }
     let t0 = std::time::Instant::now();
-    let quick = FitOptions {
-        std_errors: false,
-        ..opts.fit.clone()
-    };
-    let (tests, timing) = decide(&base, tests, a.command_timing, &quick);
+    let prelude::Diagnosed {
+        tests,
+        diagnosis: d,
+        timing,
+        ..
+    } = prelude::diagnose(data, &setup)?;
     note_timing(&timing);
-    let d = diagnose(&tests, base.spec(), &registry, &opts)?;
     crate::noteln!("diagnosed in {:.1} s", t0.elapsed().as_secs_f64());
     // The files first, stdout last: a run that fails to write prints no result.
     if let Some(dir) = &a.plot {
         let files = super::plots::plot_diagnosis(dir, &tests, &d)?;
         crate::noteln!("wrote {} plot files into {}", files.len(), dir.display());
     }
+    #[cfg(feature = "rerun")]
     if let Some(path) = &a.rerun {
         let mut models: Vec<(&str, &[Vec<f64>])> = vec![(&d.base_model, &d.base_pred)];
         if d.final_model != d.base_model {

@@ -531,6 +531,10 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     /// The search sees the problem compressed to `n + 1` rows (see [`compress`]): the residual as its norm
     /// on the first row.
     fn residuals(&self) -> Option<DVector<f64>> {
+        // A stop request ends the search here (`None` is the search's own way out).
+        if crate::interrupt::requested() {
+            return None;
+        }
         let mut r = DVector::zeros(self.free.len() + 1);
         r[0] = self.resid.norm();
         Some(r)

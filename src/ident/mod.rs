@@ -12,6 +12,7 @@ pub mod diagnose;
 pub mod fit;
 pub mod plots;
 pub mod report;
+#[cfg(feature = "rerun")]
 pub mod rerun_log;
 pub mod residual;
 pub mod timing;

@@ -75,7 +75,7 @@ pub fn load(path: &Path) -> anyhow::Result<(Scenario, DeviceConfig, crate::rig::
 }
 
 /// The device of a loaded scenario (read from `path`) and its rig.
-fn device_and_rig(scn: &Scenario, path: &Path) -> anyhow::Result<(DeviceConfig, crate::rig::Rig)> {
+pub(crate) fn device_and_rig(scn: &Scenario, path: &Path) -> anyhow::Result<(DeviceConfig, crate::rig::Rig)> {
     let device = device_of(scn, path)?;
     let rig = build_rig(scn, &device)?;
     Ok((device, rig))
@@ -167,6 +167,7 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
     let want_viz = args.rerun.is_some() || args.spawn;
     // A viewer is spawned before the run (it shows the run as it comes); a recording file is made after it,
     // so that a run that fails leaves no file behind.
+    #[cfg(feature = "rerun")]
     let rec = if args.spawn {
         Some(crate::viz::rerun_rig::spawn_on_port(args.spawn_port)?)
     } else {
@@ -190,6 +191,7 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
             |e| anyhow::Error::new(e).context(writing()),
         )?;
     }
+    #[cfg(feature = "rerun")]
     match (&rec, &args.rerun) {
         (Some(rec), _) => crate::viz::rerun_rig::log_run(rec, &res)?,
         (None, Some(p)) => crate::outputs::write_whole(
@@ -206,10 +208,7 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
     let summary = res.summary();
     let flight = super::metrics::FlightMetrics::of(&res, &scn);
     if args.json {
-        let mut v = serde_json::to_value(&summary)?;
-        if let (Some(m), Some(obj)) = (&flight, v.as_object_mut()) {
-            obj.insert("flight".into(), serde_json::to_value(m)?);
-        }
+        let v = crate::prelude::run_summary(&res, &scn)?;
         crate::outln!("{}", serde_json::to_string_pretty(&v)?)?;
     } else {
         crate::outln!("{summary}")?;

@@ -63,6 +63,9 @@ pub enum SimError {
         what: String,
         physics_hz: f64,
     },
+    /// Stopped on request ([`crate::interrupt`]).
+    #[error("interrupted")]
+    Interrupted,
 }
 
 /// Why a step's row shows that the integration has blown up, if it does: a state that is not a number,
@@ -377,6 +380,9 @@ pub fn run<P: Plant>(
         }
         rows.push(lp.step()?);
         if k % report_every == 0 {
+            if crate::interrupt::requested() {
+                return Err(SimError::Interrupted);
+            }
             progress(k as f64 / n as f64);
         }
     }

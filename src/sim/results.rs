@@ -252,53 +252,16 @@ impl Results {
         }
         writeln!(w, "{header}")?;
         for r in &self.rows {
-            write!(
-                w,
-                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-                r.t_s,
-                r.stick_angle_rad,
-                r.stick_rate_rad_s,
-                r.piston_x_m,
-                r.piston_v_m_s,
-                r.load_cell_n,
-                r.load_cell_true_n,
-                r.desired_force_n,
-                r.current_a,
-                r.pilot_force_n,
-                r.pilot_cmd,
-                r.damper_force_n,
-                r.yield_force_n,
-                mode_code(r.mode),
-                r.kinetic_energy_j,
-                r.potential_energy_j,
-                r.dissipated_j,
-                r.pilot_work_j,
-                r.faults,
-                r.current_applied_a,
-                r.coil_current_a,
-                r.spring_energy_j,
-                r.actuator_force_n,
-                r.actuator_work_j
-            )?;
+            for (k, v) in r.values().iter().enumerate() {
+                if k > 0 {
+                    w.write_all(b",")?;
+                }
+                write!(w, "{v}")?;
+            }
             if aero {
-                let a = r.aero.unwrap_or_default();
-                write!(
-                    w,
-                    ",{},{},{},{},{},{},{},{},{},{},{},{},{}",
-                    a.qbar_pa,
-                    a.elevator_rad,
-                    a.hinge_moment_nm,
-                    a.pitch_rad,
-                    a.pitch_cmd_rad,
-                    a.nz_g,
-                    a.nz_cmd_g,
-                    a.q_rad_s,
-                    a.alpha_rad,
-                    a.airspeed_m_s,
-                    a.altitude_m,
-                    a.stick_force_n,
-                    a.stick_cmd_rad
-                )?;
+                for v in r.aero.unwrap_or_default().values() {
+                    write!(w, ",{v}")?;
+                }
             }
             writeln!(w)?;
         }
@@ -306,7 +269,85 @@ impl Results {
     }
 }
 
+impl Results {
+    /// The CSV's columns ([`Results::write_csv`]), by name: [`CSV_COLUMNS`], then [`AERO_COLUMNS`] when the
+    /// scenario flies an aircraft. The same values the CSV holds (it prints these numbers).
+    pub fn columns(&self) -> Vec<(&'static str, Vec<f64>)> {
+        let mut cols: Vec<(&'static str, Vec<f64>)> = CSV_COLUMNS
+            .iter()
+            .map(|&name| (name, Vec::with_capacity(self.rows.len())))
+            .collect();
+        if self.flight.is_some() {
+            cols.extend(
+                AERO_COLUMNS
+                    .iter()
+                    .map(|&name| (name, Vec::with_capacity(self.rows.len()))),
+            );
+        }
+        for r in &self.rows {
+            let aero = self.flight.is_some().then(|| r.aero.unwrap_or_default().values());
+            let values = r.values().into_iter().chain(aero.into_iter().flatten());
+            for ((_, col), v) in cols.iter_mut().zip(values) {
+                col.push(v);
+            }
+        }
+        cols
+    }
+}
+
+impl AeroRow {
+    /// The row's values in the order of [`AERO_COLUMNS`].
+    fn values(&self) -> [f64; AERO_COLUMNS.len()] {
+        [
+            self.qbar_pa,
+            self.elevator_rad,
+            self.hinge_moment_nm,
+            self.pitch_rad,
+            self.pitch_cmd_rad,
+            self.nz_g,
+            self.nz_cmd_g,
+            self.q_rad_s,
+            self.alpha_rad,
+            self.airspeed_m_s,
+            self.altitude_m,
+            self.stick_force_n,
+            self.stick_cmd_rad,
+        ]
+    }
+}
+
 impl Row {
+    /// The row's values in the order of [`CSV_COLUMNS`] (the loop mode and the fault mask as the integers
+    /// they are, which print alike as `f64`).
+    fn values(&self) -> [f64; CSV_COLUMNS.len()] {
+        [
+            self.t_s,
+            self.stick_angle_rad,
+            self.stick_rate_rad_s,
+            self.piston_x_m,
+            self.piston_v_m_s,
+            self.load_cell_n,
+            self.load_cell_true_n,
+            self.desired_force_n,
+            self.current_a,
+            self.pilot_force_n,
+            self.pilot_cmd,
+            self.damper_force_n,
+            self.yield_force_n,
+            f64::from(mode_code(self.mode)),
+            self.kinetic_energy_j,
+            self.potential_energy_j,
+            self.dissipated_j,
+            self.pilot_work_j,
+            f64::from(self.faults),
+            self.current_applied_a,
+            self.coil_current_a,
+            self.spring_energy_j,
+            self.actuator_force_n,
+            self.actuator_work_j,
+        ]
+    }
+
     fn zero() -> Self {
         Row {
             t_s: 0.0,
