@@ -330,25 +330,11 @@ fn draw_chart<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, chart: &Chart) 
     Ok(())
 }
 
-/// Viridis-like colour scale for v in [0, 1].
+/// The perceptual colour scale of every heat map (viridis: lightness rises steadily, readable in grey and
+/// by colour-blind readers), for `v` in [0, 1].
 pub fn colormap(v: f64) -> RGBColor {
-    let v = v.clamp(0.0, 1.0);
-    const STOPS: [(f64, f64, f64); 5] = [
-        (68.0, 1.0, 84.0),
-        (59.0, 82.0, 139.0),
-        (33.0, 145.0, 140.0),
-        (94.0, 201.0, 98.0),
-        (253.0, 231.0, 37.0),
-    ];
-    let x = v * (STOPS.len() - 1) as f64;
-    let k = (x.floor() as usize).min(STOPS.len() - 2);
-    let f = x - k as f64;
-    let (a, b) = (STOPS[k], STOPS[k + 1]);
-    RGBColor(
-        (a.0 + f * (b.0 - a.0)) as u8,
-        (a.1 + f * (b.1 - a.1)) as u8,
-        (a.2 + f * (b.2 - a.2)) as u8,
-    )
+    use plotters::style::colors::colormaps::{ColorMap, ViridisRGB};
+    ViridisRGB.get_color(v.clamp(0.0, 1.0))
 }
 
 fn draw_heatmap<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, map: &Heatmap) -> Result<(), String> {
