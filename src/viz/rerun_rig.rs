@@ -120,9 +120,8 @@ pub fn blueprint(flight: bool) -> Blueprint {
     let rig = Spatial3DView::new("rig")
         .with_origin("/")
         .with_contents(["+ /rig/**", "+ /forces/**", "+ /aircraft/**"]);
-    Blueprint::new(
-        Horizontal::new([rig.into(), Vertical::new(plots).into()]).with_column_shares([0.45, 0.55]),
-    )
+    let columns: [ContainerLike; 2] = [rig.into(), Vertical::new(plots).into()];
+    Blueprint::new(Horizontal::new(columns).with_column_shares([0.45, 0.55]))
     .with_time_panel(TimePanel::new().with_timeline("time"))
 }
 
