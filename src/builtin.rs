@@ -296,7 +296,7 @@ mod tests {
         let p = resolve(&nowhere, Path::new("my-device.toml"));
         assert_eq!(p, nowhere.join("my-device.toml"));
         let here = Path::new("scenarios");
-        let p = resolve(&here, Path::new("../models/stick-rig.urdf"));
+        let p = resolve(here, Path::new("../models/stick-rig.urdf"));
         assert_eq!(p, here.join("../models/stick-rig.urdf"));
         // An absolute path is never replaced.
         let abs = nowhere.join("paper-device.toml");

@@ -460,8 +460,13 @@ pub(crate) fn verdict(
     let mut fold_of: Vec<Vec<usize>> = tests.iter().map(|t| vec![usize::MAX; t.len()]).collect();
     for fold in folds {
         for sp in &fold.test {
-            for k in sp.start..sp.end {
-                fold_of[sp.test][k] = (k / chunk) % VERDICT_BLOCKS;
+            for (k, f) in fold_of[sp.test]
+                .iter_mut()
+                .enumerate()
+                .take(sp.end)
+                .skip(sp.start)
+            {
+                *f = (k / chunk) % VERDICT_BLOCKS;
             }
         }
     }
@@ -475,6 +480,8 @@ pub(crate) fn verdict(
         sig: [f64; 11],
         lp: [f64; 5],
     }
+    /// A regressor column: a function of one sample's signals.
+    type RowFeature = Box<dyn Fn(&Row) -> f64>;
     let mut rows: Vec<Row> = Vec::new();
     let lp_v = Formula::parse(&format!("lp(v,{})", num(s.tau.max(2.0 * s.dt))), &[]).ok();
     let lp_x = Formula::parse(&format!("lp(x,{})", num(s.tau.max(2.0 * s.dt))), &[]).ok();
@@ -498,7 +505,7 @@ pub(crate) fn verdict(
         let n = t.len();
         for k in 0..n {
             k_all += 1;
-            if (k_all - 1) % stride != 0 || fold_of[j][k] == usize::MAX || dw[k] == 0.0 {
+            if !(k_all - 1).is_multiple_of(stride) || fold_of[j][k] == usize::MAX || dw[k] == 0.0 {
                 continue;
             }
             let r = t.f_n[k] - oof[j][k];
@@ -535,7 +542,7 @@ pub(crate) fn verdict(
         }
     }
     let mut groups: Vec<Group> = Vec::new();
-    let mut feats: Vec<Box<dyn Fn(&Row) -> f64>> = Vec::new();
+    let mut feats: Vec<RowFeature> = Vec::new();
     let mut add = |g: &str, f: Box<dyn Fn(&Row) -> f64>, groups: &mut Vec<Group>| {
         let c = feats.len();
         feats.push(f);

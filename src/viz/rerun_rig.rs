@@ -117,12 +117,14 @@ pub fn blueprint(flight: bool) -> Blueprint {
                 .into(),
         );
     }
-    let rig = Spatial3DView::new("rig")
-        .with_origin("/")
-        .with_contents(["+ /rig/**", "+ /forces/**", "+ /aircraft/**"]);
+    let rig = Spatial3DView::new("rig").with_origin("/").with_contents([
+        "+ /rig/**",
+        "+ /forces/**",
+        "+ /aircraft/**",
+    ]);
     let columns: [ContainerLike; 2] = [rig.into(), Vertical::new(plots).into()];
     Blueprint::new(Horizontal::new(columns).with_column_shares([0.45, 0.55]))
-    .with_time_panel(TimePanel::new().with_timeline("time"))
+        .with_time_panel(TimePanel::new().with_timeline("time"))
 }
 
 fn log_series(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
@@ -281,7 +283,11 @@ fn log_bodies(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
         if let Some((link, offset)) = &grip {
             if let Some(pose) = poses.iter().find(|p| &p.name == link) {
                 // The grip path is the link's local +x at the grip (a pull moves the grip aft).
-                let (origin, dir) = in_world(pose, *offset, [row.pilot_force_n * f64::from(ARROW_M_PER_N), 0.0, 0.0]);
+                let (origin, dir) = in_world(
+                    pose,
+                    *offset,
+                    [row.pilot_force_n * f64::from(ARROW_M_PER_N), 0.0, 0.0],
+                );
                 rec.log(
                     "forces/hand",
                     &rerun::Arrows3D::from_vectors([f32x3(dir)]).with_origins([f32x3(origin)]),
