@@ -196,10 +196,15 @@ fn load_and_tell(
     share: Option<f64>,
 ) -> anyhow::Result<prelude::Data> {
     let data = prelude::load(paths, choice, share)?;
+    tell(&data);
+    Ok(data)
+}
+
+/// What reading the data noticed (clipped channels, acquisition filters, …), on stderr.
+fn tell(data: &prelude::Data) {
     for line in &data.notes {
         crate::noteln!("{line}");
     }
-    Ok(data)
 }
 
 /// How the tests share the loss, said wherever there are several.
@@ -339,9 +344,7 @@ pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
     let cfg = DeviceConfig::load(&a.params, &registry)?;
     let (ms, data) =
         prelude::load_keeping(&a.data, a.acquisition.acquisition, cfg.acquisition_window_periods)?;
-    for line in &data.notes {
-        crate::noteln!("{line}");
-    }
+    tell(&data);
     prelude::require(&data.tests, cfg.model.n_params())?;
     note_timing(&TimingDecision {
         timing: cfg.command_timing,
