@@ -97,16 +97,22 @@ def elevator_scale(xml_path: Path) -> tuple[float, float]:
 
 class Live:
     def __init__(self, jsbsim, ref, aircraft: str, airspeed_m_s: float, altitude_m: float, dt_s: float):
-        if aircraft not in ref.AIRCRAFT:
-            raise ValueError(f"aircraft {aircraft!r} not supported (one of {sorted(ref.AIRCRAFT)})")
+        """`aircraft`: a name of the JSBSim package's aircraft, or the path of an aircraft folder holding
+        `<folder name>.xml` (engines and systems from the package's folders, as JSBSim finds them)."""
+        if "/" in aircraft or os.sep in aircraft:
+            folder = Path(aircraft)
+            adir, name = folder.parent, folder.name
+        elif aircraft in ref.AIRCRAFT:
+            adir, name = ref.offline_aircraft_dir(jsbsim, aircraft), aircraft
+        else:
+            raise ValueError(f"aircraft {aircraft!r} not supported (one of {sorted(ref.AIRCRAFT)}, or a folder path)")
         self.fdm = jsbsim.FGFDMExec(root_dir=jsbsim.get_default_root_dir())
         f = self.fdm
         f.set_debug_level(0)
-        adir = ref.offline_aircraft_dir(jsbsim, aircraft)
         f.set_aircraft_path(str(adir))
-        f.load_model(aircraft)
+        f.load_model(name)
         f.set_dt(dt_s)
-        self.lo, self.hi = elevator_scale(adir / aircraft / f"{aircraft}.xml")
+        self.lo, self.hi = elevator_scale(adir / name / f"{name}.xml")
         f["ic/lat-geod-deg"] = ref.LATITUDE_DEG
         f["ic/long-gc-deg"] = 0.0
         f["ic/h-sl-ft"] = altitude_m / ref.FT_TO_M
@@ -120,10 +126,11 @@ class Live:
         f["propulsion/set-running"] = -1
         f.do_trim(1)
         self.t0 = f["simulation/sim-time-sec"]
-        self.engines = 2 if aircraft == "737" else 1
+        self.engines = f.get_propulsion().get_num_engines()
         self.trim_throttle = [f[f"fcs/throttle-cmd-norm[{k}]"] for k in range(self.engines)]
         self.pitch_trim = f["fcs/pitch-trim-cmd-norm"]
-        self.has_induced = aircraft == "c172p"  # the c172p's elevator sees the slipstream (qbar-induced-psf)
+        # An aircraft whose elevator sees the propeller's slipstream (the c172p) has qbar-induced-psf.
+        self.has_induced = f.get_property_manager().hasNode("aero/function/qbar-induced-psf")
         self.ref = ref
 
     def step(self, elevator_rad: float, throttle_ratio: float):

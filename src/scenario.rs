@@ -177,8 +177,11 @@ impl Scenario {
         }
         if let Some(a) = &self.aircraft {
             // As the flight reads the spec (`sim::flight`): `jsbsim:<name>` flies the model `<name>` live.
-            let live = a.model.strip_prefix("jsbsim:");
-            if let Ok(p) = crate::aero::AircraftModel::builtin(live.unwrap_or(&a.model)) {
+            let file = match a.model.strip_prefix("jsbsim:") {
+                Some(live) => crate::aero::backend::model_file(live),
+                None => crate::aero::AircraftModel::builtin(&a.model),
+            };
+            if let Ok(p) = file {
                 files.push(("aircraft model", p));
             }
         }
@@ -628,9 +631,19 @@ fn parse_aircraft(
         },
         Some(pts) => c.schedule(pts, "aircraft.throttle", 0.0, 3.0, "(ratio of the trim throttle)")?,
     };
-    let model = a.model.get_ref();
-    let name = match model.split_once(':') {
-        Some(("jsbsim", name)) => name,
+    let model = match a.model.get_ref().split_once(':') {
+        // A JSBSim aircraft folder is found as the scenario's other files are (beside it first).
+        Some(("jsbsim", name)) if crate::aero::backend::jsbsim_folder(name).is_some() => {
+            let dir = c.path.parent().unwrap_or(Path::new("."));
+            format!(
+                "jsbsim:{}",
+                crate::builtin::resolve(dir, Path::new(name)).display()
+            )
+        }
+        _ => a.model.get_ref().clone(),
+    };
+    let file = match model.split_once(':') {
+        Some(("jsbsim", name)) => crate::aero::backend::model_file(name),
         Some((other, _)) => {
             return Err(c.err(
                 &a.model,
@@ -638,10 +651,9 @@ fn parse_aircraft(
                 &format!("unknown backend `{other}` (use `<name>` or `jsbsim:<name>`)"),
             ))
         }
-        None => model.as_str(),
+        None => crate::aero::AircraftModel::builtin(&model),
     };
-    crate::aero::AircraftModel::builtin(name)
-        .map_err(|e| c.err(&a.model, "aircraft.model", &e.to_string()))?;
+    file.map_err(|e| c.err(&a.model, "aircraft.model", &e.to_string()))?;
     Ok(AircraftConfig {
         model: model.clone(),
         airspeed_m_s: c.num(&a.airspeed_m_s, "aircraft.airspeed_m_s", 10.0, 300.0, "m/s")?,

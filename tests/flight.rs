@@ -487,3 +487,71 @@ fn flight_recording_reads_back_with_the_aircraft_beside_the_stick() {
     );
     assert!(text.contains("ok aircraft attitude over time"), "{text}");
 }
+
+/// A JSBSim aircraft given by its folder (`jsbsim:aircraft/mycessna`, holding `mycessna.xml` and the mrfeel
+/// model `mrfeel.toml` beside it) flies exactly as the same aircraft named from JSBSim's package; a folder
+/// without the mrfeel model is refused at the scenario's line, naming the file it needs.
+#[test]
+fn a_jsbsim_aircraft_folder_flies_as_the_named_aircraft() {
+    let py = mrfeel::aero::jsbsim_bridge::python_path();
+    let out = std::process::Command::new(&py)
+        .args(["-c", "import jsbsim; print(jsbsim.get_default_root_dir())"])
+        .output()
+        .unwrap_or_else(|e| panic!("{}: {e} (run the test command, which makes .venv)", py.display()));
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let root = PathBuf::from(String::from_utf8_lossy(&out.stdout).trim());
+    let tmp = tempfile::tempdir().unwrap();
+    let folder = tmp.path().join("aircraft").join("mycessna");
+    std::fs::create_dir_all(&folder).unwrap();
+    std::fs::copy(root.join("aircraft/c172p/c172p.xml"), folder.join("mycessna.xml")).unwrap();
+    let text = std::fs::read_to_string(scenario_path("c172p-pitch-tracking.toml"))
+        .unwrap()
+        .replace("duration_s = 26.0", "duration_s = 4.0");
+    let write = |name: &str, model: &str| {
+        let p = tmp.path().join(name);
+        std::fs::write(
+            &p,
+            text.replace("model = \"c172p\"", &format!("model = \"{model}\"")),
+        )
+        .unwrap();
+        p
+    };
+    let folder_scn = write("folder.toml", "jsbsim:aircraft/mycessna");
+    let e = format!(
+        "{:#}",
+        cli::load(&folder_scn).err().expect("no mrfeel.toml: refused")
+    );
+    let line = text.lines().position(|l| l.starts_with("model = ")).unwrap() + 1;
+    assert!(
+        e.contains(&format!("folder.toml:{line}:"))
+            && e.contains("aircraft.model")
+            && e.contains("mrfeel.toml"),
+        "{e}"
+    );
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("models/aircraft/c172p.toml"),
+        folder.join("mrfeel.toml"),
+    )
+    .unwrap();
+    let (s_folder, d_folder, _) = cli::load(&folder_scn).unwrap_or_else(|e| panic!("{e:#}"));
+    let (s_named, d_named, _) =
+        cli::load(&write("named.toml", "jsbsim:c172p")).unwrap_or_else(|e| panic!("{e:#}"));
+    let (a, b) = (fly(&s_folder, &d_folder), fly(&s_named, &d_named));
+    assert_eq!(a.rows.len(), b.rows.len());
+    assert!(a.rows.len() > 3000, "{} rows", a.rows.len());
+    for (x, y) in a.rows.iter().zip(&b.rows) {
+        let (x, y) = (x.aero.unwrap(), y.aero.unwrap());
+        assert_eq!(
+            (x.pitch_rad, x.nz_g, x.stick_force_n),
+            (y.pitch_rad, y.nz_g, y.stick_force_n),
+            "the folder's flight differs from the named aircraft's"
+        );
+    }
+    // The flight moved: the pilot's pitch command loads the stick.
+    let peak = a
+        .rows
+        .iter()
+        .map(|r| r.aero.unwrap().stick_force_n.abs())
+        .fold(0.0, f64::max);
+    assert!(peak > 1.0, "peak stick force {peak} N");
+}

@@ -6,6 +6,7 @@
 //! stick force come from the same [`HingeModel`] in both cases (JSBSim has no hinge moments), with the
 //! trim tab set at trim so the stick force is zero there.
 
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use super::jsbsim_bridge::JsbsimBridge;
@@ -28,13 +29,60 @@ pub trait AircraftBackend {
     }
 }
 
-/// Open the backend a scenario names: `"<name>"` (embedded model `models/aircraft/<name>.toml`) or
-/// `"jsbsim:<name>"` (live JSBSim through `python/jsbsim_bridge.py`). `<name>` is a model name, never a
-/// path ([`AircraftModel::builtin`]).
+/// The mrfeel model beside a JSBSim aircraft folder: the elevator's hinge moments, the tail and the stick
+/// gearing, which JSBSim's XML does not have, with the flight-dynamics sections the adapted pilot is
+/// designed on, in the format of `models/aircraft/*.toml`.
+pub const FOLDER_MODEL: &str = "mrfeel.toml";
+
+/// The JSBSim aircraft folder a live backend's name gives, if it is a path (it has a path separator):
+/// `jsbsim:path/to/f16` flies `path/to/f16/f16.xml`.
+pub fn jsbsim_folder(name: &str) -> Option<&Path> {
+    (name.contains('/') || name.contains(std::path::MAIN_SEPARATOR)).then(|| Path::new(name))
+}
+
+/// The mrfeel aircraft model file for the aircraft `name` of a spec: `<folder>/mrfeel.toml` for a JSBSim
+/// aircraft folder ([`jsbsim_folder`]), checked to hold the JSBSim model too; else the model of that name
+/// ([`AircraftModel::builtin`]).
+pub fn model_file(name: &str) -> Result<PathBuf, AeroError> {
+    let Some(dir) = jsbsim_folder(name) else {
+        return AircraftModel::builtin(name);
+    };
+    let fail = |why: String| AeroError::Input {
+        what: format!("JSBSim aircraft folder `{}`", dir.display()),
+        why,
+    };
+    if name.chars().any(char::is_whitespace) {
+        return Err(fail(
+            "a folder path without spaces, please (the bridge's requests are space separated)".into(),
+        ));
+    }
+    let stem = dir
+        .file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    if !dir.join(format!("{stem}.xml")).is_file() {
+        return Err(fail(format!(
+            "no `{stem}.xml` in it (a JSBSim aircraft folder holds the model named as the folder)"
+        )));
+    }
+    let model = dir.join(FOLDER_MODEL);
+    if !model.is_file() {
+        return Err(fail(format!(
+            "no `{FOLDER_MODEL}` beside `{stem}.xml`: JSBSim's XML has no hinge moments or stick gearing; write \
+             them there in the format of the built-in models (`mrfeel` docs: docs/howto/fly-an-aircraft.md)"
+        )));
+    }
+    Ok(model)
+}
+
+/// Open the backend a scenario names: `"<name>"` (embedded model `models/aircraft/<name>.toml`),
+/// `"jsbsim:<name>"` (live JSBSim through `python/jsbsim_bridge.py`) or `"jsbsim:<folder>"` (a JSBSim
+/// aircraft folder with its [`FOLDER_MODEL`]). An embedded `<name>` is a model name, never a path
+/// ([`AircraftModel::builtin`]).
 pub fn open(spec: &str) -> Result<Box<dyn AircraftBackend>, AeroError> {
     match spec.split_once(':') {
         Some(("jsbsim", name)) => {
-            let model = Arc::new(AircraftModel::load_builtin(name)?);
+            let model = Arc::new(AircraftModel::load(&model_file(name)?)?);
             Ok(Box::new(JsbsimBridge::spawn(name, model)?))
         }
         Some((other, _)) => Err(AeroError::Input {

@@ -522,7 +522,8 @@ impl AircraftModel {
             return Err(AeroError::Input {
                 what: format!("aircraft `{name}`"),
                 why: format!(
-                    "not a model name: give the name of a model ({}), not a path",
+                    "not a model name: give the name of a model ({}), not a path (a JSBSim aircraft folder is \
+                     flown live as `jsbsim:PATH`)",
                     available()
                 ),
             });

@@ -47,7 +47,7 @@ fn adapted(
     stick_lag_s: f64,
 ) -> Result<CrossoverPilotConfig, AeroError> {
     let name = cfg.model.strip_prefix("jsbsim:").unwrap_or(&cfg.model);
-    let mut ac = crate::aero::Aircraft::load(&crate::aero::AircraftModel::builtin_path(name))?;
+    let mut ac = crate::aero::Aircraft::load(&crate::aero::backend::model_file(name)?)?;
     ac.trim(cfg.airspeed_m_s, cfg.altitude_m)?;
     crate::aero::linear::adapted_pilot(
         &ac,
