@@ -58,7 +58,7 @@ impl Job {
         Ok(match command {
             Command::Mts(a) => Job::Mts(a),
             Command::Run(a) => {
-                let scn = Scenario::load(&a.scenario)?;
+                let scn = a.load_scenario()?;
                 Job::Run(a, Box::new(scn))
             }
             Command::DaqSweep(a) => {
