@@ -34,6 +34,9 @@ enum Command {
     Diagnose(mrfeel::ident::cli::DiagnoseArgs),
     /// The force of a saved model (or a device file) on your own motion and current (measurement CSV).
     Simulate(mrfeel::ident::cli::SimulateArgs),
+    /// Sweep a scenario over a plan's axes (in parallel, in shards, resumable) with handling-qualities
+    /// verdicts per run; `sweep merge` joins shards.
+    Sweep(mrfeel::sweep::cli::SweepArgs),
 }
 
 /// A command with the scenario it runs read, once, before anything else: a scenario given as a pipe
@@ -50,6 +53,7 @@ enum Job {
     Validate(mrfeel::ident::cli::ValidateArgs),
     Diagnose(mrfeel::ident::cli::DiagnoseArgs),
     Simulate(mrfeel::ident::cli::SimulateArgs),
+    Sweep(mrfeel::sweep::cli::SweepArgs),
 }
 
 impl Job {
@@ -73,6 +77,7 @@ impl Job {
             Command::Validate(a) => Job::Validate(a),
             Command::Diagnose(a) => Job::Diagnose(a),
             Command::Simulate(a) => Job::Simulate(a),
+            Command::Sweep(a) => Job::Sweep(a),
         })
     }
 
@@ -86,6 +91,7 @@ impl Job {
             Job::Validate(a) => mrfeel::ident::cli::run_validate(&a),
             Job::Diagnose(a) => mrfeel::ident::cli::run_diagnose(&a),
             Job::Simulate(a) => mrfeel::ident::cli::run_simulate(&a),
+            Job::Sweep(a) => mrfeel::sweep::cli::run_cmd(&a),
         }
     }
 
@@ -127,6 +133,7 @@ impl Job {
                 ("--rerun", a.rerun.as_ref(), File),
             ],
             Job::Simulate(a) => vec![("--out", Some(&a.out), File)],
+            Job::Sweep(a) => vec![("--out", a.out_dir(), Dir)],
         };
         list.into_iter()
             .filter_map(|(opt, p, kind)| p.map(|p| (opt, p.as_path(), kind)))
@@ -160,6 +167,7 @@ impl Job {
                 ("motion file", a.input.clone()),
                 ("params file", a.params.clone()),
             ],
+            Job::Sweep(a) => a.plan.iter().map(|p| ("sweep plan", p.clone())).collect(),
         }
     }
 }
