@@ -13,11 +13,12 @@ SHORT = {"duration_s": 4.0}
 
 
 def stick_gradient(cols):
-    """The force gradient the stick renders, N/m: the slope of the true load-cell force over the piston
-    position where the feel resists the motion (force and velocity of one sign), between 5 and 20 mm out,
-    below the feel's 70 N limit at either gradient below."""
+    """The force gradient the stick renders, N/m: the slope of |true load-cell force| over |piston
+    position| where the feel resists the motion (the desired force along the velocity: the stick pushed
+    out, where a damper can render a spring), between 5 and 20 mm out, below the feel's 70 N limit at
+    either gradient below."""
     x, v, f = cols["piston_x_m"], cols["piston_v_m_s"], cols["load_cell_true_n"]
-    m = (np.abs(x) > 0.005) & (np.abs(x) < 0.020) & (f * v > 0) & (np.sign(f) == np.sign(x))
+    m = (np.abs(x) > 0.005) & (np.abs(x) < 0.020) & (cols["desired_force_n"] * v > 0)
     assert m.sum() > 200, m.sum()
     slope, _ = np.polyfit(np.abs(x[m]), np.abs(f[m]), 1)
     return slope
