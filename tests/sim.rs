@@ -604,7 +604,10 @@ fn run_set_changes_the_physics_its_key_names() {
     // of its own at 0 A), uncapped it must go well past it.
     let free = run_json(&[]);
     let capped = run_json(&["--set", "feel.max_force_n=20"]);
-    assert!((free["duration_s"].as_f64().unwrap() - 2.0).abs() < 0.01, "{free}");
+    assert!(
+        (free["duration_s"].as_f64().unwrap() - 2.0).abs() < 0.01,
+        "{free}"
+    );
     let peak = |v: &serde_json::Value| v["max_abs_load_cell_n"].as_f64().unwrap();
     assert!(peak(&free) > 30.0, "{free}");
     assert!(peak(&capped) < 26.0, "{capped}");
