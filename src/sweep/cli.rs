@@ -86,6 +86,10 @@ pub fn run_cmd(args: &SweepArgs) -> anyhow::Result<()> {
     };
     let plan = Plan::load(plan_path)?;
     let shard = args.shard.unwrap_or(Shard::ALL);
+    // Every run's scenario checked before the output directory is made: a refused plan writes nothing.
+    for i in (0..plan.run_count()).filter(|&i| shard.contains(i)) {
+        plan.scenario(&plan.run(i))?;
+    }
     let store = Store::open(out, &plan, shard)?;
     let total = (0..plan.run_count()).filter(|&i| shard.contains(i)).count() as u64;
     let already = store.done.len() as u64;
