@@ -1,7 +1,8 @@
 """A sweep's results file (Arrow IPC, Feather v2) is read by pandas as written: the CSV's rows and columns,
 typed, with the physics of each run in its row."""
 
-import pytest
+import pandas as pd
+import pyarrow  # noqa: F401  (pandas reads Feather through it)
 
 from conftest import ROOT, cli
 
@@ -20,8 +21,6 @@ values = [800.0, 1600.0]
 
 
 def test_pandas_reads_the_sweep_results_as_the_csv(tmp_path):
-    pd = pytest.importorskip("pandas")
-    pytest.importorskip("pyarrow")
     plan = tmp_path / "plan.toml"
     plan.write_text(PLAN.format(scenario=ROOT / "scenarios" / "paper-feel-loop.toml"))
     out = tmp_path / "out"

@@ -217,7 +217,8 @@ impl Edited {
 }
 
 /// A path value made absolute against the directory of the file it was written in (or the working
-/// directory), so that the scenario, which reads paths relative to itself, reads the one meant.
+/// directory), so that the scenario, which reads paths relative to itself, reads the one meant. A path
+/// with no file there is left as written, for the scenario's own search (data directory, built-in files).
 fn resolve_path(o: &Override, v: &toml::Value) -> Result<toml::Value, ScenarioError> {
     if !PATH_KEYS.contains(&o.key.as_str()) {
         return Ok(v.clone());
@@ -229,6 +230,9 @@ fn resolve_path(o: &Override, v: &toml::Value) -> Result<toml::Value, ScenarioEr
         Origin::File { path, .. } => path.parent().unwrap_or(Path::new("")).join(s),
         Origin::Argument(_) => PathBuf::from(s),
     };
+    if !base.exists() {
+        return Ok(v.clone());
+    }
     let abs = std::path::absolute(&base).map_err(|e| field_err(o, format!("{}: {e}", base.display())))?;
     Ok(toml::Value::String(abs.to_string_lossy().into_owned()))
 }
@@ -516,6 +520,32 @@ mod tests {
             e.starts_with("--set feel.law=springy: `feel.law`: `springy` is not one of"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn a_path_is_read_beside_the_override_or_else_as_the_scenario_reads_its_own() {
+        let dev = |origin: Origin| {
+            let o = Override::set("device.file", "paper-device.toml".into(), origin);
+            Scenario::load_with(&base(), &[o]).map(|s| s.device_path)
+        };
+        // Beside the plan: that file, whatever the built-ins hold.
+        let models = Path::new(env!("CARGO_MANIFEST_DIR")).join("models");
+        let beside = dev(Origin::File {
+            path: models.join("plan.toml"),
+            line: 3,
+        })
+        .unwrap();
+        assert_eq!(
+            beside,
+            std::path::absolute(models.join("paper-device.toml")).unwrap()
+        );
+        // No such file beside the plan: the built-in of that name, as the scenario would find it.
+        let elsewhere = dev(Origin::File {
+            path: models.join("no-such-folder/plan.toml"),
+            line: 3,
+        })
+        .unwrap();
+        assert!(crate::builtin::is_builtin(&elsewhere), "{}", elsewhere.display());
     }
 
     #[test]
