@@ -19,9 +19,8 @@ pub use crate::scenario::{Origin, Override, Scenario};
 pub use crate::sim::Results;
 
 use crate::ident::fit::all_spans;
-use crate::ident::residual::where_regions;
 use crate::ident::timing::{decide, retimed};
-use crate::ident::validate::{evaluate, figures};
+use crate::ident::validate::evaluate;
 
 /// Measurements prepared for the models, and what was found about their acquisition chain.
 #[derive(Debug, Clone)]
@@ -274,15 +273,12 @@ impl Fitted {
 
     /// `fit --json` for the predictions `pred` ([`Fitted::predictions`]).
     pub fn report(&self, pred: &[Vec<f64>]) -> FitJson {
-        let (per, total) = figures(pred, &self.tests);
         FitJson::new(
             &self.model,
             &self.result.params,
             Some(&self.result),
             &self.tests,
-            &per,
-            &total,
-            where_regions(&self.tests, pred),
+            pred,
         )
     }
 }
@@ -293,16 +289,7 @@ pub fn validate(cfg: &DeviceConfig, data: Data) -> anyhow::Result<(Vec<Test>, Ve
     require(&data.tests, cfg.model.n_params())?;
     let tests = retimed(data.tests, cfg.command_timing);
     let pred = evaluate(&cfg.model, &cfg.params, &tests);
-    let (per, total) = figures(&pred, &tests);
-    let mut out = FitJson::new(
-        &cfg.model,
-        &cfg.params,
-        None,
-        &tests,
-        &per,
-        &total,
-        where_regions(&tests, &pred),
-    );
+    let mut out = FitJson::new(&cfg.model, &cfg.params, None, &tests, &pred);
     // Standard errors as the PARAMS.json saved them.
     for (name, p) in out.params.iter_mut() {
         p.std_err = cfg.model.param_index(name).and_then(|k| cfg.std_errs[k]);
