@@ -15,7 +15,7 @@ pub use crate::ident::timing::{TimingChoice, TimingDecision};
 pub use crate::ident::validate::Figures;
 pub use crate::ident::{AcquisitionChoice, IdentError, Test};
 pub use crate::measurement::{Measurement, MeasurementError};
-pub use crate::scenario::Scenario;
+pub use crate::scenario::{Origin, Override, Scenario};
 pub use crate::sim::Results;
 
 use crate::ident::fit::all_spans;
@@ -383,6 +383,25 @@ pub fn diagnose_in(
         timing,
         final_model,
     })
+}
+
+/// The scenario at `path` with values replaced by dotted key (`feel.gradient_n_per_m` → 900), checked as the
+/// file's own; `what` names where the overrides were given, for errors (`overrides["feel.x"]`).
+pub fn load_scenario_with(
+    path: &Path,
+    overrides: &[(String, serde_json::Value)],
+    what: &str,
+) -> anyhow::Result<Scenario> {
+    let overrides = overrides
+        .iter()
+        .map(|(key, v)| {
+            let origin = Origin::Argument(format!("{what}[{key:?}]"));
+            let value = toml::Value::try_from(v)
+                .map_err(|e| anyhow::anyhow!("{origin}: `{key}`: not a scenario value: {e}"))?;
+            Ok(Override::set(key, value, origin))
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    Ok(Scenario::load_with(path, &overrides)?)
 }
 
 /// Run a loaded scenario (read from `path`) headless to its end, as `mrfeel run` without a recording.

@@ -40,6 +40,24 @@ pub struct RunArgs {
     /// `models/aircraft/` (`c172p`, `737`) or `jsbsim:<name>`; a name, never a path (`/`, `\`, `..` are refused).
     #[arg(long)]
     pub aircraft: Option<String>,
+    /// Replace a scenario value by its dotted key, checked as the file's own (repeatable):
+    /// `--set feel.gradient_n_per_m=900 --set aircraft.airspeed_m_s=60`. Paths are relative to the
+    /// working directory.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+}
+
+impl RunArgs {
+    /// The scenario with its `--set` overrides.
+    pub fn load_scenario(&self) -> anyhow::Result<Scenario> {
+        let overrides = self
+            .set
+            .iter()
+            .map(|a| crate::scenario::Override::parse_argument(a))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(anyhow::Error::msg)?;
+        Ok(Scenario::load_with(&self.scenario, &overrides)?)
+    }
 }
 
 /// `mrfeel daq-sweep SCENARIO`: force response time against the DAQ rate.
