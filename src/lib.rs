@@ -15,6 +15,7 @@ pub mod rig;
 pub mod scenario;
 pub mod sensors;
 pub mod sim;
+pub(crate) mod spikes;
 pub mod text_lines;
 pub mod units;
 pub mod viz;

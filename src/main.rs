@@ -198,7 +198,11 @@ fn main() -> std::process::ExitCode {
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
-            mrfeel::noteln!("error: {e:#}");
+            // Errors quote input (a field, a name): bounded and with control characters escaped.
+            mrfeel::noteln!(
+                "{}",
+                mrfeel::text_lines::printable(&format!("error: {e:#}"), 2000)
+            );
             std::process::ExitCode::FAILURE
         }
     }

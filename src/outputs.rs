@@ -28,14 +28,13 @@ fn or_here(dir: &Path) -> &Path {
     }
 }
 
-/// Whether a file can be made in the existing directory `dir`: make one and remove it again.
+/// Whether a file can be made in the existing directory `dir`: make one, with a new name no other run
+/// uses, and remove it again.
 fn probe_dir(dir: &Path) -> std::io::Result<()> {
-    let probe = dir.join(format!(".mrfeel-write-check-{}", std::process::id()));
-    std::fs::OpenOptions::new()
-        .write(true)
-        .create_new(true)
-        .open(&probe)?;
-    std::fs::remove_file(&probe)
+    tempfile::Builder::new()
+        .prefix(".mrfeel-write-check-")
+        .tempfile_in(dir)?
+        .close()
 }
 
 /// The kinds of file an output directory receives: every plot is written as PNG and SVG.
@@ -75,11 +74,8 @@ fn check_output(option: &str, path: &Path, kind: Kind) -> Result<(), String> {
                     .map(drop)
                     .and_then(|()| probe_dir(or_here(&dir_of_target)))
             } else {
-                std::fs::OpenOptions::new()
-                    .write(true)
-                    .create_new(true)
-                    .open(path)
-                    .and_then(|_| std::fs::remove_file(path))
+                // Not the file itself: another run writing the same output may make it meanwhile.
+                probe_dir(dir)
             };
             probe.or_else(|e| fail(format!("cannot write the file: {e}")))
         }
@@ -145,49 +141,118 @@ fn is_stream(target: &Path) -> bool {
     std::fs::metadata(target).is_ok_and(|m| !m.is_file())
 }
 
-/// The temporary file beside `target` that [`write_whole`] writes first: hidden, named after the process,
-/// with `target`'s extension (plot backends choose the image format by it).
-fn partial_path(target: &Path) -> PathBuf {
+/// What the name of every temporary file beside an output holds, after a dot and the output's stem.
+const PARTIAL_MARK: &str = ".mrfeel-partial-";
+
+/// A temporary file beside `target` for [`write_whole`]: hidden, created exclusively under a name no one
+/// can predict (`.out.mrfeel-partial-XXXXXXXX.csv`: a planted file or link there is never written through),
+/// with `target`'s extension (plot backends choose the image format by it), and locked while its run
+/// lives, which tells the next run that it is not a stale one ([`remove_stale_partials`]).
+fn new_partial(target: &Path) -> std::io::Result<tempfile::NamedTempFile> {
     let name = target
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let pid = std::process::id();
-    let tmp = match name.rsplit_once('.') {
-        Some((stem, ext)) if !stem.is_empty() => format!(".{stem}.partial-{pid}.{ext}"),
-        _ => format!(".{name}.partial-{pid}"),
+    let (stem, ext) = match name.rsplit_once('.') {
+        Some((stem, ext)) if !stem.is_empty() => (stem.to_string(), format!(".{ext}")),
+        _ => (name, String::new()),
     };
-    target.with_file_name(tmp)
+    let dir = or_here(target.parent().unwrap_or(Path::new("")));
+    let tmp = tempfile::Builder::new()
+        .prefix(&format!(".{stem}{PARTIAL_MARK}"))
+        .suffix(&ext)
+        .rand_bytes(10)
+        .tempfile_in(dir)?;
+    tmp.as_file().lock()?;
+    Ok(tmp)
 }
 
-/// Write the file `path` whole or not at all. `write` writes a temporary file beside it (the path it is
-/// given), which is renamed over `path` only once `write` has succeeded; a failure (a full disk, a plot or a
-/// recording that cannot be made) leaves an existing file as it was and no partial file behind. A replaced
-/// file keeps its permissions; a symbolic link is followed and the file it points to replaced. An output
-/// that exists and is not a regular file (`/dev/null`, a named pipe) is written directly: it is a stream,
-/// not a file to replace. `io_error` turns a failed rename into the caller's error.
+/// Least age of an empty, unlocked temporary file before it counts as stale: a run locks its file as soon
+/// as it has made it, before writing a byte, so only in that instant is a live run's file empty and
+/// unlocked.
+const EMPTY_PARTIAL_AGE: std::time::Duration = std::time::Duration::from_secs(60);
+
+/// Remove the temporary files ([`new_partial`]) in `dir` that runs killed while writing left behind:
+/// those no live run holds locked. Best effort: one that cannot be removed stays.
+fn remove_stale_partials(dir: &Path) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let name = e.file_name();
+        let name = name.to_string_lossy();
+        if !(name.starts_with('.') && name.contains(PARTIAL_MARK)) {
+            continue;
+        }
+        let Ok(meta) = e.path().symlink_metadata() else {
+            continue;
+        };
+        if !meta.is_file() {
+            continue;
+        }
+        let young = meta
+            .modified()
+            .ok()
+            .and_then(|m| m.elapsed().ok())
+            .is_none_or(|age| age < EMPTY_PARTIAL_AGE);
+        if meta.len() == 0 && young {
+            continue;
+        }
+        let Ok(f) = std::fs::File::open(e.path()) else {
+            continue;
+        };
+        if f.try_lock().is_ok() {
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
+}
+
+/// Write the file `path` whole or not at all. `write` writes a temporary file beside it ([`new_partial`],
+/// the path it is given), which is flushed to the disk and renamed over `path` only once `write` has
+/// succeeded, and the directory then flushed too: a failure (a full disk, a plot or a recording that cannot
+/// be made) or a crash leaves an existing file as it was, and a run killed half way leaves a temporary
+/// file that the next run writing into that directory removes. Several runs writing one path at once each
+/// rename their own complete file, the last one staying. A replaced file keeps its permissions; a symbolic
+/// link is followed and the file it points to replaced. An output that exists and is not a regular file
+/// (`/dev/null`, a named pipe) is written directly: it is a stream, not a file to replace. `io_error` turns
+/// a failure to make, flush or rename the temporary file into the caller's error.
 pub fn write_whole<T, E>(
     path: &Path,
     write: impl FnOnce(&Path) -> Result<T, E>,
-    io_error: impl FnOnce(std::io::Error) -> E,
+    io_error: impl Fn(std::io::Error) -> E,
 ) -> Result<T, E> {
     let target = resolved(path);
     if is_stream(&target) {
         return write(&target);
     }
-    let tmp = partial_path(&target);
-    let done = write(&tmp).and_then(|v| {
-        if let Ok(m) = std::fs::metadata(&target) {
-            // Best effort: a file that cannot take the old permissions still replaces the old one whole.
-            let _ = std::fs::set_permissions(&tmp, m.permissions());
-        }
-        std::fs::rename(&tmp, &target).map(|()| v).map_err(io_error)
-    });
-    if done.is_err() {
-        // Nothing to remove if `write` failed before making the file.
-        let _ = std::fs::remove_file(&tmp);
+    let dir = or_here(target.parent().unwrap_or(Path::new(""))).to_path_buf();
+    remove_stale_partials(&dir);
+    let tmp = new_partial(&target).map_err(&io_error)?;
+    // On failure the temporary file is removed when `tmp` drops.
+    let v = write(tmp.path())?;
+    if let Ok(m) = std::fs::metadata(&target) {
+        // Best effort: a file that cannot take the old permissions still replaces the old one whole.
+        let _ = std::fs::set_permissions(tmp.path(), m.permissions());
     }
-    done
+    // The writer may have written through a handle of its own: flush the file by its name.
+    std::fs::File::open(tmp.path())
+        .and_then(|f| f.sync_all())
+        .map_err(&io_error)?;
+    tmp.persist(&target).map_err(|e| io_error(e.error))?;
+    sync_dir(&dir).map_err(&io_error)?;
+    Ok(v)
+}
+
+/// Flush a directory's entries (a rename into it) to the disk.
+#[cfg(unix)]
+fn sync_dir(dir: &Path) -> std::io::Result<()> {
+    std::fs::File::open(dir)?.sync_all()
+}
+
+/// Directories cannot be opened as files here; the rename is as durable as the system makes it.
+#[cfg(not(unix))]
+fn sync_dir(_dir: &Path) -> std::io::Result<()> {
+    Ok(())
 }
 
 /// What a path names on disk, to tell whether two paths are one file: an existing file by its device and

@@ -114,6 +114,9 @@ pub struct KeyLines {
     pub aircraft_model: usize,
     /// `feel.law` (a DAQ sweep needs a step test).
     pub feel_law: usize,
+    /// `pilot.frequency_hz` (the `[pilot]` header where it is not written), a likely cause of a run that
+    /// breaks an invariant ([`crate::sim::invariants`]).
+    pub pilot_frequency: usize,
 }
 
 /// A validated scenario.
@@ -464,6 +467,7 @@ impl Scenario {
                 airspeed: crate::text_lines::toml_key_line(text, "aircraft", "airspeed_m_s"),
                 aircraft_model: crate::text_lines::toml_key_line(text, "aircraft", "model"),
                 feel_law: crate::text_lines::toml_key_line(text, "feel", "law"),
+                pilot_frequency: crate::text_lines::toml_key_line(text, "pilot", "frequency_hz"),
             },
             name: f.name,
             duration_s,
