@@ -193,7 +193,11 @@ fn main() -> std::process::ExitCode {
         {
             anyhow::bail!(mrfeel::viz::NO_RERUN);
         }
-        job.run()
+        // Every output of the command as one set: renamed into place together, or not at all.
+        let set = mrfeel::outputs::OutputSet::open();
+        job.run()?;
+        set.commit()
+            .map_err(|e| anyhow::Error::new(e).context("putting the outputs in place"))
     });
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

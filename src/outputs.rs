@@ -172,37 +172,57 @@ fn new_partial(target: &Path) -> std::io::Result<tempfile::NamedTempFile> {
 /// unlocked.
 const EMPTY_PARTIAL_AGE: std::time::Duration = std::time::Duration::from_secs(60);
 
-/// Remove the temporary files ([`new_partial`]) in `dir` that runs killed while writing left behind:
-/// those no live run holds locked. Best effort: one that cannot be removed stays.
-fn remove_stale_partials(dir: &Path) {
+/// Whether a temporary file ([`new_partial`], a set's journal) that no run holds locked may be one a live
+/// run has just made and not yet locked: empty and younger than [`EMPTY_PARTIAL_AGE`].
+fn maybe_unlocked_yet(meta: &std::fs::Metadata) -> bool {
+    let young = meta
+        .modified()
+        .ok()
+        .and_then(|m| m.elapsed().ok())
+        .is_none_or(|age| age < EMPTY_PARTIAL_AGE);
+    meta.len() == 0 && young
+}
+
+/// The regular files in `dir` whose names start with a dot and hold `mark`, with their metadata.
+fn marked_files(dir: &Path, mark: &str) -> Vec<(PathBuf, std::fs::Metadata)> {
     let Ok(entries) = std::fs::read_dir(dir) else {
-        return;
+        return Vec::new();
     };
-    for e in entries.flatten() {
-        let name = e.file_name();
-        let name = name.to_string_lossy();
-        if !(name.starts_with('.') && name.contains(PARTIAL_MARK)) {
+    let mut found: Vec<(PathBuf, std::fs::Metadata)> = entries
+        .flatten()
+        .filter(|e| {
+            let name = e.file_name();
+            let name = name.to_string_lossy();
+            name.starts_with('.') && name.contains(mark)
+        })
+        .filter_map(|e| {
+            let meta = e.path().symlink_metadata().ok()?;
+            meta.is_file().then(|| (e.path(), meta))
+        })
+        .collect();
+    found.sort_by(|a, b| a.0.cmp(&b.0));
+    found
+}
+
+/// Remove the temporary files ([`new_partial`]) in `dir` that runs killed while writing left behind:
+/// those no live run holds locked. First, finish the output sets ([`OutputSet`]) such a run had begun to
+/// rename into `dir`, so that their files are not taken for leftovers. Best effort: one that cannot be
+/// removed stays.
+fn remove_stale_partials(dir: &Path) {
+    for (journal, meta) in marked_files(dir, SET_MARK) {
+        if !maybe_unlocked_yet(&meta) {
+            finish_killed_set(&journal);
+        }
+    }
+    for (path, meta) in marked_files(dir, PARTIAL_MARK) {
+        if maybe_unlocked_yet(&meta) {
             continue;
         }
-        let Ok(meta) = e.path().symlink_metadata() else {
-            continue;
-        };
-        if !meta.is_file() {
-            continue;
-        }
-        let young = meta
-            .modified()
-            .ok()
-            .and_then(|m| m.elapsed().ok())
-            .is_none_or(|age| age < EMPTY_PARTIAL_AGE);
-        if meta.len() == 0 && young {
-            continue;
-        }
-        let Ok(f) = std::fs::File::open(e.path()) else {
+        let Ok(f) = std::fs::File::open(&path) else {
             continue;
         };
         if f.try_lock().is_ok() {
-            let _ = std::fs::remove_file(e.path());
+            let _ = std::fs::remove_file(&path);
         }
     }
 }
@@ -214,8 +234,9 @@ fn remove_stale_partials(dir: &Path) {
 /// file that the next run writing into that directory removes. Several runs writing one path at once each
 /// rename their own complete file, the last one staying. A replaced file keeps its permissions; a symbolic
 /// link is followed and the file it points to replaced. An output that exists and is not a regular file
-/// (`/dev/null`, a named pipe) is written directly: it is a stream, not a file to replace. `io_error` turns
-/// a failure to make, flush or rename the temporary file into the caller's error.
+/// (`/dev/null`, a named pipe) is written directly: it is a stream, not a file to replace. Within an
+/// [`OutputSet`] the rename waits for the set's commit. `io_error` turns a failure to make, flush or rename
+/// the temporary file into the caller's error.
 pub fn write_whole<T, E>(
     path: &Path,
     write: impl FnOnce(&Path) -> Result<T, E>,
@@ -238,8 +259,10 @@ pub fn write_whole<T, E>(
     std::fs::File::open(tmp.path())
         .and_then(|f| f.sync_all())
         .map_err(&io_error)?;
-    tmp.persist(&target).map_err(|e| io_error(e.error))?;
-    sync_dir(&dir).map_err(&io_error)?;
+    let staged = Staged { tmp, target, dir };
+    if let Some(staged) = OutputSet::stage(staged) {
+        staged.rename().map_err(&io_error)?;
+    }
     Ok(v)
 }
 
@@ -253,6 +276,165 @@ fn sync_dir(dir: &Path) -> std::io::Result<()> {
 #[cfg(not(unix))]
 fn sync_dir(_dir: &Path) -> std::io::Result<()> {
     Ok(())
+}
+
+/// One output written whole and flushed beside its target, waiting to be renamed over it.
+struct Staged {
+    tmp: tempfile::NamedTempFile,
+    target: PathBuf,
+    /// The directory of `target` (and of `tmp`).
+    dir: PathBuf,
+}
+
+impl Staged {
+    fn rename(self) -> std::io::Result<()> {
+        self.tmp.persist(&self.target).map_err(|e| e.error)?;
+        sync_dir(&self.dir)
+    }
+}
+
+/// What the name of an output set's journal holds, after a dot ([`OutputSet`]).
+const SET_MARK: &str = "mrfeel-set-";
+
+thread_local! {
+    /// The outputs staged by this thread's open [`OutputSet`], `None` where no set is open.
+    static SET: std::cell::RefCell<Option<Vec<Staged>>> = const { std::cell::RefCell::new(None) };
+}
+
+/// A command's several outputs written as one set: while a set is open on a thread, each
+/// [`write_whole`] there writes and flushes its temporary file but does not rename it; [`OutputSet::commit`]
+/// then renames them all, and dropping the set uncommitted removes them (a command that fails writes
+/// nothing). A commit of several files first writes a journal (`.mrfeel-set-XXXXXXXXXX.json`, the pairs of
+/// temporary file and target) into each target's directory, flushed and locked while the run lives, then
+/// renames, then removes the journals: a run killed between two renames leaves its journal, and the next
+/// run writing into one of those directories finishes the renames before anything else, so that the set is
+/// never left part new, part old.
+pub struct OutputSet(());
+
+impl OutputSet {
+    /// Open a set on this thread. Panics if one is open already.
+    pub fn open() -> Self {
+        SET.with_borrow_mut(|s| {
+            assert!(s.is_none(), "an output set is open already on this thread");
+            *s = Some(Vec::new());
+        });
+        OutputSet(())
+    }
+
+    /// Hold `staged` for the commit of the open set; hand it back where no set is open.
+    fn stage(staged: Staged) -> Option<Staged> {
+        SET.with_borrow_mut(|s| match s {
+            Some(v) => {
+                v.push(staged);
+                None
+            }
+            None => Some(staged),
+        })
+    }
+
+    /// Rename every output staged so far into place, as one set; the set stays open for further outputs.
+    /// The error names the output that could not be put in place.
+    pub fn commit(&self) -> std::io::Result<()> {
+        commit_open_set()
+    }
+}
+
+/// Commit the outputs staged so far by this thread's open [`OutputSet`], if one is open: what a command
+/// prints on stdout ([`crate::outln`]) comes after the files it reports.
+pub fn commit_open_set() -> std::io::Result<()> {
+    let staged = SET.with_borrow_mut(|s| s.as_mut().map(std::mem::take).unwrap_or_default());
+    commit(staged)
+}
+
+impl Drop for OutputSet {
+    fn drop(&mut self) {
+        // Whatever is still staged is removed with its temporary files.
+        SET.with_borrow_mut(|s| *s = None);
+    }
+}
+
+/// Rename `staged` into place: one file directly, several through journals ([`OutputSet`]).
+fn commit(staged: Vec<Staged>) -> std::io::Result<()> {
+    fn named(target: &Path, e: std::io::Error) -> std::io::Error {
+        std::io::Error::new(e.kind(), format!("writing {}: {e}", target.display()))
+    }
+    if staged.len() < 2 {
+        for s in staged {
+            let target = s.target.clone();
+            s.rename().map_err(|e| named(&target, e))?;
+        }
+        return Ok(());
+    }
+    // Absolute, so that a run started elsewhere finds them.
+    let pairs = staged
+        .iter()
+        .map(|s| -> std::io::Result<(PathBuf, PathBuf)> {
+            Ok((
+                std::path::absolute(s.tmp.path())?,
+                std::path::absolute(&s.target)?,
+            ))
+        })
+        .collect::<std::io::Result<Vec<(PathBuf, PathBuf)>>>()?;
+    let text = serde_json::to_string(&pairs).map_err(|e| {
+        std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("an output's name: {e}"))
+    })?;
+    let mut dirs: Vec<&Path> = staged.iter().map(|s| s.dir.as_path()).collect();
+    dirs.sort();
+    dirs.dedup();
+    let mut journals = Vec::with_capacity(dirs.len());
+    for dir in &dirs {
+        journals.push(write_journal(dir, &text).map_err(|e| named(dir, e))?);
+    }
+    let synced: Vec<PathBuf> = dirs.iter().map(|d| d.to_path_buf()).collect();
+    for s in staged {
+        let target = s.target.clone();
+        s.tmp.persist(&target).map_err(|e| named(&target, e.error))?;
+    }
+    for dir in &synced {
+        sync_dir(dir).map_err(|e| named(dir, e))?;
+    }
+    for j in journals {
+        let _ = j.close();
+    }
+    Ok(())
+}
+
+/// A set's journal in `dir`: made, locked, written and flushed; removed when the returned file drops.
+fn write_journal(dir: &Path, text: &str) -> std::io::Result<tempfile::NamedTempFile> {
+    use std::io::Write as _;
+    let mut j = tempfile::Builder::new()
+        .prefix(&format!(".{SET_MARK}"))
+        .suffix(".json")
+        .rand_bytes(10)
+        .tempfile_in(dir)?;
+    j.as_file().lock()?;
+    j.write_all(text.as_bytes())?;
+    j.as_file().sync_all()?;
+    sync_dir(dir)?;
+    Ok(j)
+}
+
+/// Finish the set whose journal a killed run left at `journal` (no live run holds it locked): rename each
+/// temporary file it lists that is still there over its target, then remove the journal. A journal that
+/// does not parse was being written when its run died, before any rename: it is removed with nothing
+/// renamed, and its temporary files are left for [`remove_stale_partials`].
+fn finish_killed_set(journal: &Path) {
+    let Ok(f) = std::fs::File::open(journal) else {
+        return;
+    };
+    if f.try_lock().is_err() {
+        return;
+    }
+    let pairs: Vec<(PathBuf, PathBuf)> = std::fs::read_to_string(journal)
+        .ok()
+        .and_then(|t| serde_json::from_str(&t).ok())
+        .unwrap_or_default();
+    for (tmp, target) in pairs {
+        if tmp.is_file() {
+            let _ = std::fs::rename(&tmp, &target);
+        }
+    }
+    let _ = std::fs::remove_file(journal);
 }
 
 /// What a path names on disk, to tell whether two paths are one file: an existing file by its device and
@@ -449,5 +631,99 @@ mod tests {
         assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
         assert_eq!(std::fs::read_to_string(&real).unwrap(), "new");
         assert_eq!(names(d.path()), ["link.json", "real.json"]);
+    }
+
+    fn put(path: &Path, text: &str) -> std::io::Result<()> {
+        write_whole(path, |tmp| std::fs::write(tmp, text), |e| e)
+    }
+
+    /// Within an open set, outputs in two directories keep their old contents until the commit, which puts
+    /// both in place and leaves no temporary file or journal; a set dropped uncommitted (a command that
+    /// failed) changes nothing and leaves nothing behind.
+    #[test]
+    fn an_output_set_is_put_in_place_whole_at_its_commit_or_not_at_all() {
+        let d = tempfile::tempdir().unwrap();
+        let (a, b) = (d.path().join("a"), d.path().join("b"));
+        std::fs::create_dir(&a).unwrap();
+        std::fs::create_dir(&b).unwrap();
+        let (fa, fb) = (a.join("out.csv"), b.join("device.json"));
+        std::fs::write(&fa, "old a").unwrap();
+        std::fs::write(&fb, "old b").unwrap();
+        {
+            let _set = OutputSet::open();
+            put(&fa, "new a").unwrap();
+            put(&fb, "new b").unwrap();
+            assert_eq!(std::fs::read_to_string(&fa).unwrap(), "old a");
+        }
+        assert_eq!(std::fs::read_to_string(&fa).unwrap(), "old a");
+        assert_eq!(std::fs::read_to_string(&fb).unwrap(), "old b");
+        assert_eq!(
+            (names(&a), names(&b)),
+            (vec!["out.csv".to_string()], vec!["device.json".to_string()])
+        );
+
+        let set = OutputSet::open();
+        put(&fa, "new a").unwrap();
+        put(&fb, "new b").unwrap();
+        assert_eq!(std::fs::read_to_string(&fb).unwrap(), "old b");
+        set.commit().unwrap();
+        drop(set);
+        assert_eq!(std::fs::read_to_string(&fa).unwrap(), "new a");
+        assert_eq!(std::fs::read_to_string(&fb).unwrap(), "new b");
+        assert_eq!(
+            (names(&a), names(&b)),
+            (vec!["out.csv".to_string()], vec!["device.json".to_string()])
+        );
+    }
+
+    /// A run killed between the renames of a set: its first output is new, the second still old, with the
+    /// second's temporary file and a journal in each directory left behind. The next run writing into
+    /// either directory finishes the set (the second output new) and removes the journal and temporary
+    /// files; the other directory's journal goes with the next run there.
+    #[test]
+    fn a_set_a_killed_run_left_half_renamed_is_finished_by_the_next_run() {
+        let d = tempfile::tempdir().unwrap();
+        let (a, b) = (d.path().join("a"), d.path().join("b"));
+        std::fs::create_dir(&a).unwrap();
+        std::fs::create_dir(&b).unwrap();
+        let (fa, fb) = (a.join("out.csv"), b.join("device.json"));
+        let (ta, tb) = (
+            a.join(".out.mrfeel-partial-AbCdEfGhIj.csv"),
+            b.join(".device.mrfeel-partial-KlMnOpQrSt.json"),
+        );
+        // The state the killed run left: `out.csv` renamed, `device.json` not yet.
+        std::fs::write(&fa, "new a").unwrap();
+        std::fs::write(&fb, "old b").unwrap();
+        std::fs::write(&tb, "new b").unwrap();
+        let journal = serde_json::to_string(&[(&ta, &fa), (&tb, &fb)]).unwrap();
+        std::fs::write(a.join(".mrfeel-set-0123456789.json"), &journal).unwrap();
+        std::fs::write(b.join(".mrfeel-set-9876543210.json"), &journal).unwrap();
+
+        put(&b.join("other.csv"), "x").unwrap();
+        assert_eq!(std::fs::read_to_string(&fb).unwrap(), "new b");
+        assert_eq!(std::fs::read_to_string(&fa).unwrap(), "new a");
+        assert_eq!(names(&b), ["device.json", "other.csv"]);
+        put(&a.join("other.csv"), "y").unwrap();
+        assert_eq!(names(&a), ["other.csv", "out.csv"]);
+        assert_eq!(std::fs::read_to_string(&fa).unwrap(), "new a");
+    }
+
+    /// A journal a live run holds locked is left alone, and so are the temporary files it names.
+    #[test]
+    fn a_live_runs_journal_is_left_alone() {
+        let d = tempfile::tempdir().unwrap();
+        let target = d.path().join("out.csv");
+        let tmp = d.path().join(".out.mrfeel-partial-AbCdEfGhIj.csv");
+        std::fs::write(&target, "old").unwrap();
+        std::fs::write(&tmp, "new").unwrap();
+        let held_tmp = std::fs::File::open(&tmp).unwrap();
+        held_tmp.lock().unwrap();
+        let journal = d.path().join(".mrfeel-set-0123456789.json");
+        std::fs::write(&journal, serde_json::to_string(&[(&tmp, &target)]).unwrap()).unwrap();
+        let held = std::fs::File::open(&journal).unwrap();
+        held.lock().unwrap();
+        put(&d.path().join("other.csv"), "x").unwrap();
+        assert_eq!(std::fs::read_to_string(&target).unwrap(), "old");
+        assert!(journal.exists() && tmp.exists());
     }
 }
