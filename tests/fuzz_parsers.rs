@@ -285,6 +285,33 @@ fn params_json() {
 
 #[test]
 #[ignore = "not yet run to completion on the shared machine: run with `cargo test --test NAME -- --ignored`"]
+fn effect_toml() {
+    // The effect file of docs/spec/model-discovery.md: a formula with a low-pass state and two parameters.
+    let d = tempfile::tempdir().unwrap();
+    let effect = d.path().join("drag.toml");
+    std::fs::write(
+        &effect,
+        "name = \"drag\"\ndescribe = \"turbulent orifice flow\"\nresembles = \"quadratic damping\"\n\
+         formula = \"drag_c1 * v*abs(v) + drag_c2 * lp(v, 0.02)\"\n\n\
+         [params.drag_c1]\nunit = \"N s^2/m^2\"\nlower = -1e6\nupper = 1e6\nguess = 310.0\n\
+         doc = \"coefficient of v*abs(v)\"\n\n\
+         [params.drag_c2]\nunit = \"N s/m\"\nlower = -1e4\nupper = 1e4\n",
+    )
+    .unwrap();
+    fuzz(
+        effect.to_str().unwrap(),
+        "e.toml",
+        |p| {
+            mrfeel::device::formula::FormulaEffect::load(p)
+                .map(drop)
+                .map_err(|e| format!("{e:#}"))
+        },
+        &[],
+    );
+}
+
+#[test]
+#[ignore = "not yet run to completion on the shared machine: run with `cargo test --test NAME -- --ignored`"]
 fn pilot_hand_toml() {
     fuzz(
         "models/pilot-hand.toml",

@@ -400,7 +400,12 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
         ("final fit nrmse".into(), d.final_fit_nrmse),
         ("final held-out nrmse".into(), d.final_heldout_nrmse),
     ];
-    numbers.extend(d.final_params.iter().enumerate().map(|(k, v)| (format!("final parameter {}", k + 1), *v)));
+    numbers.extend(
+        d.final_params
+            .iter()
+            .enumerate()
+            .map(|(k, v)| (format!("final parameter {}", k + 1), *v)),
+    );
     super::validate::check_finite("diagnose", &numbers, &tests, &d.final_pred).map_err(anyhow::Error::msg)?;
     crate::noteln!("diagnosed in {:.1} s", t0.elapsed().as_secs_f64());
     // The files first, stdout last: a run that fails to write prints no result.
