@@ -5,17 +5,13 @@
 //! key left out) load and give the same figures.
 
 mod common;
-use common::mrfeel;
+use common::{mrfeel, s};
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Output;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn s(p: &Path) -> String {
-    p.to_str().expect("utf-8 path").to_string()
 }
 
 /// A small real test (448 samples) from the damper data beside the repository.
@@ -451,7 +447,7 @@ fn a_key_given_twice_is_refused_at_its_second_line() {
 
 /// The model-discovery contract (model-discovery.md) has `fit --save` write "the model name and fitted
 /// parameters": `current_limit_a` and `command_timing` are optional, and their absence means the paper's
-/// 14 A and `after-sample` (files saved before session 11).
+/// 14 A and `after-sample` (as in files written before those keys existed).
 #[test]
 fn the_optional_keys_left_out_mean_their_defaults() {
     let full = validate_nrmse(PARAMS_JSON.as_bytes());
