@@ -17,6 +17,7 @@ pub mod scenario;
 pub mod sensors;
 pub mod sim;
 pub(crate) mod spikes;
+pub mod sweep;
 pub mod text_lines;
 pub mod units;
 pub mod viz;

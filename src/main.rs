@@ -39,6 +39,9 @@ enum Command {
     Diagnose(mrfeel::ident::cli::DiagnoseArgs),
     /// The force of a saved model (or a device file) on your own motion and current (measurement CSV).
     Simulate(mrfeel::ident::cli::SimulateArgs),
+    /// Sweep a scenario over a plan's axes (in parallel, in shards, resumable) with handling-qualities
+    /// verdicts per run; `sweep merge` joins shards.
+    Sweep(mrfeel::sweep::cli::SweepArgs),
 }
 
 /// A command with the scenario it runs read, once, before anything else: a scenario given as a pipe
@@ -55,6 +58,7 @@ enum Job {
     Validate(mrfeel::ident::cli::ValidateArgs),
     Diagnose(mrfeel::ident::cli::DiagnoseArgs),
     Simulate(mrfeel::ident::cli::SimulateArgs),
+    Sweep(mrfeel::sweep::cli::SweepArgs),
 }
 
 impl Job {
@@ -63,7 +67,7 @@ impl Job {
         Ok(match command {
             Command::Mts(a) => Job::Mts(a),
             Command::Run(a) => {
-                let scn = Scenario::load(&a.scenario)?;
+                let scn = a.load_scenario()?;
                 Job::Run(a, Box::new(scn))
             }
             Command::DaqSweep(a) => {
@@ -78,6 +82,7 @@ impl Job {
             Command::Validate(a) => Job::Validate(a),
             Command::Diagnose(a) => Job::Diagnose(a),
             Command::Simulate(a) => Job::Simulate(a),
+            Command::Sweep(a) => Job::Sweep(a),
         })
     }
 
@@ -91,6 +96,7 @@ impl Job {
             Job::Validate(a) => mrfeel::ident::cli::run_validate(&a),
             Job::Diagnose(a) => mrfeel::ident::cli::run_diagnose(&a),
             Job::Simulate(a) => mrfeel::ident::cli::run_simulate(&a),
+            Job::Sweep(a) => mrfeel::sweep::cli::run_cmd(&a),
         }
     }
 
@@ -133,6 +139,7 @@ impl Job {
                 ("--rerun", a.rerun.as_ref(), File),
             ],
             Job::Simulate(a) => vec![("--out", Some(&a.out), File)],
+            Job::Sweep(a) => vec![("--out", a.out_dir(), Dir)],
         };
         list.into_iter()
             .filter_map(|(opt, p, kind)| p.map(|p| (opt, p.as_path(), kind)))
@@ -166,6 +173,7 @@ impl Job {
                 ("motion file", a.input.clone()),
                 ("params file", a.params.clone()),
             ],
+            Job::Sweep(a) => a.plan.iter().map(|p| ("sweep plan", p.clone())).collect(),
         }
     }
 }
