@@ -9,6 +9,7 @@ pub mod config;
 pub mod effect;
 pub mod effects;
 pub mod formula;
+pub mod inverse;
 pub mod lag;
 pub mod model;
 pub mod params;
@@ -19,6 +20,7 @@ use std::path::PathBuf;
 pub use config::{DeviceConfig, Geometry, ParamsFile};
 pub use effect::{Effect, EffectStage, Inputs, Stage, Step};
 pub use model::{Base, Damper, Model, ModelSpec, Registry, PAPER_CURRENT_LIMIT_A};
+pub use inverse::ForceInverse;
 pub use params::{DataStats, ParamSpec, ParamValue};
 
 /// Errors from building or loading a device model.
