@@ -19,8 +19,8 @@ use std::path::PathBuf;
 
 pub use config::{DeviceConfig, Geometry, ParamsFile};
 pub use effect::{Effect, EffectStage, Inputs, Stage, Step};
-pub use model::{Base, Damper, Model, ModelSpec, Registry, PAPER_CURRENT_LIMIT_A};
 pub use inverse::ForceInverse;
+pub use model::{Base, Damper, Model, ModelSpec, Registry, PAPER_CURRENT_LIMIT_A};
 pub use params::{DataStats, ParamSpec, ParamValue};
 
 /// Errors from building or loading a device model.
