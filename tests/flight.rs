@@ -483,7 +483,7 @@ fn flight_recording_reads_back_with_the_aircraft_beside_the_stick() {
     let (ok, text) = common::record_and_read_back(&res);
     assert!(ok, "read-back failed:\n{text}");
     assert!(
-        text.contains("ok /series/aircraft/pitch == CSV pitch_rad"),
+        text.contains("ok /signals/aircraft/pitch == CSV pitch_rad"),
         "{text}"
     );
     assert!(text.contains("ok aircraft attitude over time"), "{text}");
