@@ -218,11 +218,11 @@ impl Scenario {
             Path::new(f.device.file.get_ref()),
         )?;
         let controller_model_path = match &f.controller.model {
-            Some(m) => {
-                let p = dir.join(m.get_ref());
-                c.readable(line_of(text, m.span().start), "controller.model", &p)?;
-                Some(p)
-            }
+            Some(m) => Some(c.named_file(
+                line_of(text, m.span().start),
+                "controller.model",
+                Path::new(m.get_ref()),
+            )?),
             None => None,
         };
         let physics_rate_hz = rig.physics_hz;

@@ -207,7 +207,7 @@ mod tests {
             &crate::device::Registry::builtin(),
         )
         .unwrap();
-        let ff = ForceInverse::new(&device);
+        let ff = ForceInverse::new(&device).unwrap();
         FeelController::new(law, pid, Some(ff), 0.002, 1.0)
     }
 

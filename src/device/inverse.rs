@@ -17,7 +17,8 @@ use std::sync::Arc;
 use super::bingham;
 use super::config::DeviceConfig;
 use super::effect::{Inputs, Step};
-use super::model::Model;
+use super::model::{Base, Model};
+use super::DeviceError;
 
 /// A controller's model of the damper, with its observer; see the module documentation.
 #[derive(Debug, Clone)]
@@ -37,15 +38,28 @@ pub struct ForceInverse {
 const MAX_ITERATIONS: usize = 40;
 
 impl ForceInverse {
-    /// The inverse of a loaded device (its model and parameters), observer at rest.
-    pub fn new(device: &DeviceConfig) -> Self {
-        Self {
+    /// The inverse of a loaded device (its model and parameters), observer at rest. The inverse settles
+    /// the Bingham base's two lags at a candidate current; a model on another base (`spencer`, whose force
+    /// follows its own filtered-command and Bouc–Wen states) is refused.
+    pub fn new(device: &DeviceConfig) -> Result<Self, DeviceError> {
+        if device.model.base() != Base::Bingham {
+            return Err(DeviceError::BadSpec {
+                spec: device.model.name(),
+                why: format!(
+                    "the feel controller's inverse needs a `{}` base model ({}); give the controller a \
+                     bingham-based model or set `controller.feedforward = false`",
+                    Base::Bingham.name(),
+                    device.path.display()
+                ),
+            });
+        }
+        Ok(Self {
             model: device.model.clone(),
             params: device.params.clone(),
             state: Vec::new(),
             last: None,
             last_cmd_a: 0.0,
-        }
+        })
     }
 
     /// The model's spec (`bingham+hysteresis`).
@@ -178,9 +192,11 @@ impl ForceInverse {
 
 impl DeviceConfig {
     /// The largest force the damper gives fully yielded at rest with `current_a` settled in the coil, N:
-    /// the ceiling of the feel it can render at that current.
-    pub fn yield_force_n(&self, current_a: f64) -> f64 {
-        ForceInverse::new(self).force_n(current_a, 1.0, 0.0, 0.0, true)
+    /// the ceiling of the feel it can render at that current (none for a model the inverse refuses).
+    pub fn yield_force_n(&self, current_a: f64) -> Option<f64> {
+        ForceInverse::new(self)
+            .ok()
+            .map(|inv| inv.force_n(current_a, 1.0, 0.0, 0.0, true))
     }
 }
 
@@ -200,7 +216,7 @@ mod tests {
     /// Eq. (2) at steady state, solved by hand: F = fc0 + gain·i + C0·v.
     #[test]
     fn bingham_inverse_is_the_static_eq_2_solved_for_the_current() {
-        let inv = ForceInverse::new(&device("bingham", ""));
+        let inv = ForceInverse::new(&device("bingham", "")).unwrap();
         // 40 N at 0.05 m/s: (40 − 2 − 5)/5 = 6.6 A.
         let i = inv.current_a(40.0, 1.0, 0.05, 0.0, false);
         assert!((i - 6.6).abs() < 1e-9, "{i}");
@@ -211,11 +227,15 @@ mod tests {
         assert!((inv.current_a(100.0, 1.0, 0.0, 0.0, true) - 19.6).abs() < 1e-9);
     }
 
-    /// A saturating yield map is inverted to where the forward model gives the force back.
+    /// A saturating yield map is inverted to where the forward model gives the force back, inside the
+    /// force it reaches at 14 A (2 + 5·4·tanh(3.5) + 100·0.02 = 23.96 N).
     #[test]
     fn saturating_inverse_gives_the_force_back_through_the_forward_model() {
-        let inv = ForceInverse::new(&device("bingham+magnetic_saturation", "sat_current_a = 4.0\n"));
-        for f in [5.0, 20.0, 35.0] {
+        let inv = ForceInverse::new(&device("bingham+magnetic_saturation", "sat_current_a = 4.0\n")).unwrap();
+        // 12 N at 0.02 m/s, solved by hand: 12 − 2 − 2 = 20 tanh(i/4), i = 4 atanh(0.4).
+        let i = inv.current_a(12.0, 1.0, 0.02, 0.0, false);
+        assert!((i - 4.0 * 0.4f64.atanh()).abs() < 1e-9, "{i}");
+        for f in [5.0, 12.0, 20.0, 23.5] {
             let i = inv.current_a(f, 1.0, 0.02, 0.0, false);
             assert!(i > 0.0 && i < 14.0, "{f} N: {i} A");
             let back = inv.force_n(i, 1.0, 0.02, 0.0, false);
@@ -231,7 +251,7 @@ mod tests {
             "bingham+hysteresis",
             "hyst_x_yield_m = 1e-4\nhyst_v_yield_m_s = 0.01\n",
         );
-        let mut inv = ForceInverse::new(&d);
+        let mut inv = ForceInverse::new(&d).unwrap();
         let v = 0.005; // half of v_y: z → 0.5
         for k in 0..400 {
             let t = k as f64 * 1e-3;
@@ -242,7 +262,21 @@ mod tests {
         let i = inv.current_a(20.0, 1.0, v, 0.0, false);
         assert!((i - 7.4).abs() < 1e-3, "{i}");
         // Bingham alone would ask (19.5 − 2)/5 = 3.5 A.
-        let bingham = ForceInverse::new(&device("bingham", ""));
+        let bingham = ForceInverse::new(&device("bingham", "")).unwrap();
         assert!((bingham.current_a(20.0, 1.0, v, 0.0, false) - 3.5).abs() < 1e-9);
+    }
+
+    /// The inverse settles the Bingham lags: a Spencer model is refused with what to do instead, not
+    /// inverted on parameters of another layout.
+    #[test]
+    fn a_spencer_model_is_refused_by_the_inverse() {
+        let m = Model::from_spec("spencer", &Registry::builtin(), 14.0).unwrap();
+        let d = DeviceConfig::from_model(m, super::super::spencer::SPENCER_1997.to_vec(), "s.json".into());
+        let e = ForceInverse::new(&d).unwrap_err().to_string();
+        assert!(
+            e.contains("spencer") && e.contains("s.json") && e.contains("feedforward = false"),
+            "{e}"
+        );
+        assert_eq!(d.yield_force_n(14.0), None);
     }
 }

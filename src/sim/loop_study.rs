@@ -19,7 +19,7 @@ use serde::Serialize;
 
 use super::{build_rig, run, Devices, Results, RunOptions, SimError};
 use crate::control::{FeelLaw, LoopMode};
-use crate::device::{DeviceConfig, ForceInverse, Model, ModelSpec, Registry};
+use crate::device::{DeviceConfig, DeviceError, ForceInverse, Model, ModelSpec, Registry};
 use crate::ident::diagnose::{diagnose, DiagnoseOptions};
 use crate::ident::fit::{all_spans, fit};
 use crate::ident::{IdentError, Test};
@@ -66,12 +66,12 @@ pub struct Renderable {
 }
 
 impl Renderable {
-    /// The band of `plant` with the driver limited to `limit_a`.
-    pub fn new(plant: &DeviceConfig, limit_a: f64) -> Self {
-        Self {
-            plant: ForceInverse::new(plant),
+    /// The band of `plant` with the driver limited to `limit_a` (a plant the inverse refuses has none).
+    pub fn new(plant: &DeviceConfig, limit_a: f64) -> Result<Self, DeviceError> {
+        Ok(Self {
+            plant: ForceInverse::new(plant)?,
             limit_a: limit_a.min(plant.model.current_limit_a),
-        }
+        })
     }
 
     /// Whether the plant can render `desired_n` against a piston moving at `v_m_s` at `x_m`.
@@ -159,16 +159,21 @@ pub fn run_stages(
             let rig = build_rig(scn, plant)?;
             let res = run(scn, &devices, rig, RunOptions::default(), |_| {})
                 .map_err(|e: SimError| anyhow::anyhow!(e))?;
-            Ok((figures(&st.spec, scn, plant, &res), res))
+            Ok((figures(&st.spec, scn, plant, &res)?, res))
         })
         .collect()
 }
 
 /// The feel figures of a run (see the module documentation).
-pub fn figures(model: &str, scn: &Scenario, plant: &DeviceConfig, res: &Results) -> StageFigures {
+pub fn figures(
+    model: &str,
+    scn: &Scenario,
+    plant: &DeviceConfig,
+    res: &Results,
+) -> Result<StageFigures, DeviceError> {
     let s = res.summary();
     let (renderable_samples, renderable_rmse_n, renderable_nrmse) =
-        Renderable::new(plant, scn.controller.gains.out_max).error(res);
+        Renderable::new(plant, scn.controller.gains.out_max)?.error(res);
     let resisting =
         |r: &&super::Row| r.mode == LoopMode::Tracking && r.desired_force_n * r.piston_v_m_s > 0.0;
     let band = BREAKOUT_BAND * res.stroke_half_m;
@@ -196,7 +201,7 @@ pub fn figures(model: &str, scn: &Scenario, plant: &DeviceConfig, res: &Results)
         within += usize::from((r.load_cell_true_n - r.desired_force_n).abs() <= tol);
         total += 1;
     }
-    StageFigures {
+    Ok(StageFigures {
         model: model.to_string(),
         resisting_samples: s.resisting_samples,
         force_rmse_n: s.tracking_rmse_n,
@@ -210,7 +215,7 @@ pub fn figures(model: &str, scn: &Scenario, plant: &DeviceConfig, res: &Results)
         renderable_samples,
         renderable_rmse_n,
         renderable_nrmse,
-    }
+    })
 }
 
 /// The stages as a Markdown table, each with its change of the force RMS error against the first.

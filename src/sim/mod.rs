@@ -201,10 +201,23 @@ pub struct Loop<P: Plant> {
 impl<P: Plant> Loop<P> {
     /// Wire a scenario onto a plant; fails only when the aircraft cannot be opened or trimmed.
     pub fn new(scn: &Scenario, devices: &Devices, plant: P) -> Result<Self, SimError> {
-        let feedforward = scn
-            .controller
-            .feedforward
-            .then(|| ForceInverse::new(&devices.controller));
+        let feedforward = if scn.controller.feedforward {
+            let (line, key) = if devices.controller_is_plant {
+                (scn.lines.device_file, "device.file")
+            } else {
+                (scn.lines.controller_model, "controller.model")
+            };
+            Some(
+                ForceInverse::new(&devices.controller).map_err(|error| SimError::Device {
+                    scenario: scn.path.clone(),
+                    line,
+                    key,
+                    error,
+                })?,
+            )
+        } else {
+            None
+        };
         let mut controller = FeelController::new(
             scn.feel.clone(),
             Pid::new(scn.controller.gains),
@@ -495,7 +508,11 @@ pub fn run<P: Plant>(
             Vec::new()
         },
         frames,
-        feel_ceiling_n: devices.plant.yield_force_n(scn.controller.gains.out_max),
+        // A plant the inverse refuses (`spencer`) has no Bingham yield force to name: no ceiling.
+        feel_ceiling_n: devices
+            .plant
+            .yield_force_n(scn.controller.gains.out_max)
+            .unwrap_or(0.0),
         controller_model: devices.controller_label(),
         grip_arm_m: lp.plant.grip_arm_m(),
         gearing_at_centre_m_per_rad: lp.plant.gearing_m_per_rad(0.0),
