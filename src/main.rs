@@ -42,6 +42,9 @@ enum Command {
     /// Discovery to feel: diagnose rig data, fit each stage, and run a scenario with each as the feel
     /// controller's model against the same plant.
     LoopStudy(mrfeel::sim::cli::LoopStudyArgs),
+    /// Sweep a scenario over a plan's axes (in parallel, in shards, resumable) with handling-qualities
+    /// verdicts per run; `sweep merge` joins shards.
+    Sweep(mrfeel::sweep::cli::SweepArgs),
 }
 
 /// A command with the scenario it runs read, once, before anything else: a scenario given as a pipe
@@ -59,6 +62,7 @@ enum Job {
     Diagnose(mrfeel::ident::cli::DiagnoseArgs),
     Simulate(mrfeel::ident::cli::SimulateArgs),
     LoopStudy(mrfeel::sim::cli::LoopStudyArgs, Box<mrfeel::scenario::Scenario>),
+    Sweep(mrfeel::sweep::cli::SweepArgs),
 }
 
 impl Job {
@@ -67,7 +71,7 @@ impl Job {
         Ok(match command {
             Command::Mts(a) => Job::Mts(a),
             Command::Run(a) => {
-                let scn = Scenario::load(&a.scenario)?;
+                let scn = a.load_scenario()?;
                 Job::Run(a, Box::new(scn))
             }
             Command::DaqSweep(a) => {
@@ -86,6 +90,7 @@ impl Job {
                 let scn = Scenario::load(&a.scenario)?;
                 Job::LoopStudy(a, Box::new(scn))
             }
+            Command::Sweep(a) => Job::Sweep(a),
         })
     }
 
@@ -100,6 +105,7 @@ impl Job {
             Job::Diagnose(a) => mrfeel::ident::cli::run_diagnose(&a),
             Job::Simulate(a) => mrfeel::ident::cli::run_simulate(&a),
             Job::LoopStudy(a, scn) => mrfeel::sim::cli::loop_study_cmd(&a, *scn),
+            Job::Sweep(a) => mrfeel::sweep::cli::run_cmd(&a),
         }
     }
 
@@ -143,6 +149,7 @@ impl Job {
             ],
             Job::Simulate(a) => vec![("--out", Some(&a.out), File)],
             Job::LoopStudy(a, _) => vec![("--plot", a.plot.as_ref(), Dir)],
+            Job::Sweep(a) => vec![("--out", a.out_dir(), Dir)],
         };
         list.into_iter()
             .filter_map(|(opt, p, kind)| p.map(|p| (opt, p.as_path(), kind)))
@@ -187,6 +194,7 @@ impl Job {
                 v.extend(a.device.iter().map(|p| ("device file", p.clone())));
                 v
             }
+            Job::Sweep(a) => a.plan.iter().map(|p| ("sweep plan", p.clone())).collect(),
         }
     }
 }

@@ -19,6 +19,9 @@ use crate::rig::RigConfig;
 use crate::sensors::{DaqConfig, LaserConfig, LoadCellConfig, SensorsConfig};
 use crate::text_lines::line_of;
 
+mod overrides;
+pub use overrides::{Origin, Override};
+
 #[derive(Debug, thiserror::Error)]
 pub enum ScenarioError {
     #[error("{}: {msg}", path.display())]
@@ -34,6 +37,20 @@ pub enum ScenarioError {
         line: usize,
         key: String,
         msg: String,
+    },
+    /// An override ([`Override`]) refused at the place it was written.
+    #[error("{origin}: `{key}`: {msg}")]
+    Override {
+        origin: Origin,
+        key: String,
+        msg: String,
+    },
+    /// An error the overrides caused at another key of the scenario (a DAQ rate above a lowered physics
+    /// rate), at the scenario's line.
+    #[error("{error} (with the overrides {overrides})")]
+    Overridden {
+        error: Box<ScenarioError>,
+        overrides: String,
     },
 }
 

@@ -590,3 +590,43 @@ fn run_with_spawn_streams_the_recording_to_the_spawned_viewer() {
         "{text}"
     );
 }
+
+fn run_json(extra: &[&str]) -> serde_json::Value {
+    let scn = scenario_path("paper-feel-loop.toml");
+    let mut args = vec!["run", scn.to_str().unwrap(), "--json", "--set", "duration_s=2"];
+    args.extend_from_slice(extra);
+    let out = common::mrfeel(&args);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+#[test]
+fn run_set_changes_the_physics_its_key_names() {
+    // The spring feel tops out at `feel.max_force_n` (70 N in the file). In 2 s the pilot's 0.25 Hz
+    // triangle takes the stick to 16° and back (piston about 41 mm out), where the 1400 N/m gradient asks
+    // 5 + 1400 * 0.041 ≈ 62 N: capped at 20 N the load cell must stay near 20 N (the damper has no force
+    // of its own at 0 A), uncapped it must go well past it.
+    let free = run_json(&[]);
+    let capped = run_json(&["--set", "feel.max_force_n=20"]);
+    assert!(
+        (free["duration_s"].as_f64().unwrap() - 2.0).abs() < 0.01,
+        "{free}"
+    );
+    let peak = |v: &serde_json::Value| v["max_abs_load_cell_n"].as_f64().unwrap();
+    assert!(peak(&free) > 30.0, "{free}");
+    assert!(peak(&capped) < 26.0, "{capped}");
+    // A key the scenario does not have: refused with the argument and the key, nothing run.
+    let scn = scenario_path("paper-feel-loop.toml");
+    let out = common::mrfeel(&[
+        "run",
+        scn.to_str().unwrap(),
+        "--set",
+        "feel.gradient_n_per_mm=900",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("--set feel.gradient_n_per_mm=900: `feel.gradient_n_per_mm`: unknown field"),
+        "{err}"
+    );
+}

@@ -28,7 +28,7 @@ pub use params::{DataStats, ParamSpec, ParamValue};
 pub enum DeviceError {
     #[error("model `{spec}`: unknown base model `{base}` (base models: `bingham`, `spencer`)")]
     UnknownBase { spec: String, base: String },
-    #[error("unknown effect `{name}` (known effects: {known})")]
+    #[error("unknown effect `{name}` (known effects: {known}; an effect saved by `diagnose --save-effect` is given with `--effects FILE.toml`)")]
     UnknownEffect { name: String, known: String },
     #[error("model `{spec}`: {why}")]
     BadSpec { spec: String, why: String },

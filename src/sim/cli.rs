@@ -23,8 +23,8 @@ pub struct RunArgs {
     /// Write a Rerun recording (`.rrd`).
     #[arg(long)]
     pub rerun: Option<PathBuf>,
-    /// Write `run.png` and `run.svg` into this directory: forces, coil current and stick angle against
-    /// time, and the force against the stick angle, with fault windows shaded.
+    /// Write `run.png` and `run.svg` into this directory: forces, coil current, stick angle and the pilot's
+    /// hand force against time, and the force against the stick angle, with fault windows shaded.
     #[arg(long)]
     pub plot: Option<PathBuf>,
     /// Stream the recording to a newly spawned Rerun viewer.
@@ -47,6 +47,24 @@ pub struct RunArgs {
     /// from `fit`/`diagnose` or a device file).
     #[arg(long, value_name = "PATH")]
     pub controller_model: Option<PathBuf>,
+    /// Replace a scenario value by its dotted key, checked as the file's own (repeatable):
+    /// `--set feel.gradient_n_per_m=900 --set aircraft.airspeed_m_s=60`. Paths are relative to the
+    /// working directory.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+}
+
+impl RunArgs {
+    /// The scenario with its `--set` overrides.
+    pub fn load_scenario(&self) -> anyhow::Result<Scenario> {
+        let overrides = self
+            .set
+            .iter()
+            .map(|a| crate::scenario::Override::parse_argument(a))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(anyhow::Error::msg)?;
+        Ok(Scenario::load_with(&self.scenario, &overrides)?)
+    }
 }
 
 /// `mrfeel daq-sweep SCENARIO`: force response time against the DAQ rate.
@@ -253,8 +271,11 @@ pub fn run_plots(res: &Results, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
             .with(series("command", &|r| (r.t_s, r.current_a)))
             .with(series("coil", &|r| (r.t_s, r.coil_current_a)))
             .with_bands("fault", faults.clone()),
-        Chart::new("Stick and pilot", "time (s)", "stick angle (deg)")
+        Chart::new("Stick", "time (s)", "stick angle (deg)")
             .with(series("stick angle", &|r| (r.t_s, r.stick_angle_rad * deg)))
+            .with_bands("fault", faults.clone()),
+        Chart::new("Pilot", "time (s)", "hand force on the grip (N)")
+            .with(series("pilot", &|r| (r.t_s, r.pilot_force_n)))
             .with_bands("fault", faults),
         Chart::new(
             "Feel: load cell against stick angle",
