@@ -11,9 +11,9 @@
 //! Small by default (a few seconds each in the debug build); `MRFEEL_PROPTEST_CASES=N` runs N cases of
 //! each, with the seed `MRFEEL_PROPTEST_SEED` (default fixed).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use mrfeel::device::{DeviceConfig, Inputs, Model, Registry};
+use mrfeel::device::{Inputs, Model, Registry};
 use mrfeel::ident::Test;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
@@ -72,11 +72,11 @@ fn paper_loop_text(edits: &[(&str, &str, String)]) -> String {
 
 /// Load and run a scenario text (as `s.toml`), the error as text.
 fn run_text(text: &str) -> Result<mrfeel::sim::Results, String> {
-    let path = Path::new("s.toml");
-    let scn = mrfeel::scenario::Scenario::parse(text, path).map_err(|e| format!("{e:#}"))?;
-    let device = DeviceConfig::load(&scn.device_path, &Registry::builtin()).map_err(|e| format!("{e:#}"))?;
-    let rig = mrfeel::sim::cli::build_rig(&scn, &device).map_err(|e| format!("{e:#}"))?;
-    mrfeel::sim::run(&scn, &device, rig, Default::default(), |_| {}).map_err(|e| format!("{e:#}"))
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("s.toml");
+    std::fs::write(&path, text).unwrap();
+    let (scn, devices, rig) = mrfeel::sim::cli::load(&path).map_err(|e| format!("{e:#}"))?;
+    mrfeel::sim::run(&scn, &devices, rig, Default::default(), |_| {}).map_err(|e| format!("{e:#}"))
 }
 
 /// A random valid variant of the paper's loop: the physics and DAQ rates, the pilot's sweep, the feel law,

@@ -131,6 +131,8 @@ pub struct Results {
     /// The largest yield force the controller can ask for (`fc0 + fc_gain · current_max`), N on the
     /// piston: the ceiling of the feel the damper can render.
     pub feel_ceiling_n: f64,
+    /// The model the controller believed, with its file.
+    pub controller_model: String,
     /// The grip's arm about the pivot, m, and the linkage's gearing at centre stick, m/rad (to express
     /// piston forces at the grip).
     pub grip_arm_m: f64,
@@ -144,6 +146,8 @@ pub struct Results {
 pub struct Summary {
     pub scenario: String,
     pub duration_s: f64,
+    /// The model the controller believed (`bingham from models/paper-device.toml (the plant's file)`).
+    pub controller_model: String,
     /// Samples where the target resists the motion (loop tracking and `F*·v > 0`).
     pub resisting_samples: usize,
     /// RMS of (true load-cell force − desired) over the resisting samples, N, and relative to the RMS of
@@ -198,7 +202,8 @@ impl SummaryAcc {
         self.last = Some(*r);
     }
 
-    pub fn finish(&self, scenario: &str, stroke_half_m: f64) -> Summary {
+    /// The summary of the rows pushed, of the run whose facts `head` holds.
+    pub fn finish(&self, head: &Results) -> Summary {
         let (se, sd, n) = (self.se, self.sd, self.n);
         let rmse = (n > 0).then(|| (se / n as f64).sqrt());
         let nrmse = (n > 0 && sd > 0.0).then(|| (se / sd).sqrt());
@@ -211,13 +216,14 @@ impl SummaryAcc {
         let dspring = last.spring_energy_j - first.spring_energy_j;
         let wa = last.actuator_work_j - first.actuator_work_j;
         Summary {
-            scenario: scenario.to_string(),
+            scenario: head.scenario.clone(),
             duration_s: last.t_s - first.t_s,
+            controller_model: head.controller_model.clone(),
             resisting_samples: n,
             tracking_rmse_n: rmse,
             tracking_nrmse: nrmse,
             max_abs_piston_x_m: self.max_abs_x,
-            stroke_half_m,
+            stroke_half_m: head.stroke_half_m,
             current_min_a: self.current_min.unwrap_or(0.0),
             current_max_a: self.current_max.unwrap_or(0.0),
             max_abs_load_cell_n: self.max_abs_load_cell,
@@ -239,7 +245,7 @@ impl Results {
         for r in &self.rows {
             acc.push(r);
         }
-        acc.finish(&self.scenario, self.stroke_half_m)
+        acc.finish(self)
     }
 
     /// Write the CSV: a `# key: value` metadata block, the header, one row per physics step. Numbers are
@@ -419,6 +425,7 @@ impl Row {
 impl std::fmt::Display for Summary {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(f, "scenario {}: {:.3} s", self.scenario, self.duration_s)?;
+        writeln!(f, "  controller model: {}", self.controller_model)?;
         match (self.tracking_rmse_n, self.tracking_nrmse) {
             (Some(e), Some(n)) => writeln!(
                 f,
