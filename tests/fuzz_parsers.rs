@@ -4,8 +4,8 @@
 //! written to a file and loaded. No load panics or takes more than a few seconds, and every refusal names
 //! the file and a line in it.
 //!
-//! `MRFEEL_FUZZ_CASES` (default 48 per format) and `MRFEEL_FUZZ_SEED` (default fixed) widen or vary the
-//! search: `MRFEEL_FUZZ_CASES=5000 cargo test --release --test fuzz_parsers`.
+//! 48 cases per format in the test command; `-- --ignored` runs 2000 per format. `MRFEEL_FUZZ_CASES` and
+//! `MRFEEL_FUZZ_SEED` (default fixed) set the count and vary the search.
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -107,27 +107,24 @@ fn apply(bytes: &[u8], edits: &[Edit]) -> Vec<u8> {
     b
 }
 
-/// Whether `msg` names the file `name` and a line of it (`name:LINE`).
+/// Whether `msg` names the file `name` and a line of it: `name:LINE`, or `name: line LINE` (as the
+/// text reader places a byte that is not UTF-8).
 fn names_file_and_line(msg: &str, name: &str) -> bool {
     msg.match_indices(&format!("{name}:")).any(|(k, m)| {
-        msg[k + m.len()..]
-            .chars()
-            .next()
-            .is_some_and(|c| c.is_ascii_digit())
+        let rest = msg[k + m.len()..]
+            .strip_prefix(" line ")
+            .unwrap_or(&msg[k + m.len()..]);
+        rest.chars().next().is_some_and(|c| c.is_ascii_digit())
     })
 }
 
 /// A loader of one format: loads the file at the path, its error as text.
 type Loader = fn(&Path) -> Result<(), String>;
 
-/// Fuzz one format: `file` (relative paths in it made absolute, so that the files it names are found)
+/// Fuzz one format with `cases` mutations: `file` (relative paths in it made absolute, so that the files it names are found)
 /// mutated and loaded by `load` as `name` in a temporary folder. `whole_file` lists refusals of the file as
 /// a whole that have no line to name (an empty file), as fragments of their message.
-fn fuzz(file: &str, name: &str, load: Loader, whole_file: &[&str]) {
-    let cases: u32 = std::env::var("MRFEEL_FUZZ_CASES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(48);
+fn fuzz(cases: u32, file: &str, name: &str, load: Loader, whole_file: &[&str]) {
     let seed: u64 = std::env::var("MRFEEL_FUZZ_SEED")
         .ok()
         .and_then(|v| v.parse().ok())
@@ -176,10 +173,9 @@ fn fuzz(file: &str, name: &str, load: Loader, whole_file: &[&str]) {
     }
 }
 
-#[test]
-#[ignore = "not yet run to completion on the shared machine: run with `cargo test --test NAME -- --ignored`"]
-fn measurement_csv() {
+fn measurement_csv(cases: u32) {
     fuzz(
+        cases,
         "data/utfsm-mr-damper/2mm5Hz_0p50A.csv",
         "m.csv",
         |p| {
@@ -191,10 +187,9 @@ fn measurement_csv() {
     );
 }
 
-#[test]
-#[ignore = "not yet run to completion on the shared machine: run with `cargo test --test NAME -- --ignored`"]
-fn scenario_toml() {
+fn scenario_toml(cases: u32) {
     fuzz(
+        cases,
         "scenarios/paper-feel-loop.toml",
         "s.toml",
         |p| {
@@ -206,10 +201,9 @@ fn scenario_toml() {
     );
 }
 
-#[test]
-#[ignore = "not yet run to completion on the shared machine: run with `cargo test --test NAME -- --ignored`"]
-fn flight_scenario_toml() {
+fn flight_scenario_toml(cases: u32) {
     fuzz(
+        cases,
         "scenarios/c172p-pitch-tracking.toml",
         "f.toml",
         |p| {
@@ -221,10 +215,9 @@ fn flight_scenario_toml() {
     );
 }
 
-#[test]
-#[ignore = "not yet run to completion on the shared machine: run with `cargo test --test NAME -- --ignored`"]
-fn compare_toml() {
+fn compare_toml(cases: u32) {
     fuzz(
+        cases,
         "scenarios/compare-feel.toml",
         "c.toml",
         |p| {
@@ -236,10 +229,9 @@ fn compare_toml() {
     );
 }
 
-#[test]
-#[ignore = "not yet run to completion on the shared machine: run with `cargo test --test NAME -- --ignored`"]
-fn device_toml() {
+fn device_toml(cases: u32) {
     fuzz(
+        cases,
         "models/paper-device.toml",
         "d.toml",
         |p| {
@@ -251,9 +243,7 @@ fn device_toml() {
     );
 }
 
-#[test]
-#[ignore = "not yet run to completion on the shared machine: run with `cargo test --test NAME -- --ignored`"]
-fn params_json() {
+fn params_json(cases: u32) {
     let d = tempfile::tempdir().unwrap();
     let params = d.path().join("params.json");
     let model = mrfeel::device::Model::from_spec(
@@ -272,6 +262,7 @@ fn params_json() {
         .unwrap();
     // An absolute path: `root().join` of it is itself.
     fuzz(
+        cases,
         params.to_str().unwrap(),
         "p.json",
         |p| {
@@ -283,9 +274,7 @@ fn params_json() {
     );
 }
 
-#[test]
-#[ignore = "not yet run to completion on the shared machine: run with `cargo test --test NAME -- --ignored`"]
-fn effect_toml() {
+fn effect_toml(cases: u32) {
     // The effect file of docs/spec/model-discovery.md: a formula with a low-pass state and two parameters.
     let d = tempfile::tempdir().unwrap();
     let effect = d.path().join("drag.toml");
@@ -299,6 +288,7 @@ fn effect_toml() {
     )
     .unwrap();
     fuzz(
+        cases,
         effect.to_str().unwrap(),
         "e.toml",
         |p| {
@@ -310,10 +300,9 @@ fn effect_toml() {
     );
 }
 
-#[test]
-#[ignore = "not yet run to completion on the shared machine: run with `cargo test --test NAME -- --ignored`"]
-fn pilot_hand_toml() {
+fn pilot_hand_toml(cases: u32) {
     fuzz(
+        cases,
         "models/pilot-hand.toml",
         "h.toml",
         |p| {
@@ -325,10 +314,9 @@ fn pilot_hand_toml() {
     );
 }
 
-#[test]
-#[ignore = "not yet run to completion on the shared machine: run with `cargo test --test NAME -- --ignored`"]
-fn feel_springs_toml() {
+fn feel_springs_toml(cases: u32) {
     fuzz(
+        cases,
         "models/feel-springs.toml",
         "sp.toml",
         |p| {
@@ -340,10 +328,9 @@ fn feel_springs_toml() {
     );
 }
 
-#[test]
-#[ignore = "not yet run to completion on the shared machine: run with `cargo test --test NAME -- --ignored`"]
-fn aircraft_toml() {
+fn aircraft_toml(cases: u32) {
     fuzz(
+        cases,
         "models/aircraft/c172p.toml",
         "a.toml",
         |p| {
@@ -355,10 +342,9 @@ fn aircraft_toml() {
     );
 }
 
-#[test]
-#[ignore = "not yet run to completion on the shared machine: run with `cargo test --test NAME -- --ignored`"]
-fn jsbsim_reference_csv() {
+fn jsbsim_reference_csv(cases: u32) {
     fuzz(
+        cases,
         "scenarios/jsbsim/c172p_doublet.csv",
         "r.csv",
         |p| {
@@ -370,10 +356,9 @@ fn jsbsim_reference_csv() {
     );
 }
 
-#[test]
-#[ignore = "not yet run to completion on the shared machine: run with `cargo test --test NAME -- --ignored`"]
-fn urdf() {
+fn urdf(cases: u32) {
     fuzz(
+        cases,
         "models/stick-rig.urdf",
         "r.urdf",
         |p| {
@@ -383,4 +368,45 @@ fn urdf() {
         },
         &[],
     );
+}
+
+/// Every format's loader, each with `cases` mutations.
+const FORMATS: [fn(u32); 12] = [
+    measurement_csv,
+    scenario_toml,
+    flight_scenario_toml,
+    compare_toml,
+    device_toml,
+    params_json,
+    effect_toml,
+    pilot_hand_toml,
+    feel_springs_toml,
+    aircraft_toml,
+    jsbsim_reference_csv,
+    urdf,
+];
+
+/// Cases of each format: `MRFEEL_FUZZ_CASES`, else `default`.
+fn cases(default: u32) -> u32 {
+    std::env::var("MRFEEL_FUZZ_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+/// Every format, 48 mutations each (about 2 s in all in the test profile).
+#[test]
+fn every_format_refuses_mutated_files_at_a_line_without_panic_or_hang() {
+    for f in FORMATS {
+        f(cases(48));
+    }
+}
+
+/// The larger seeded sweep: 2000 mutations of each format.
+#[test]
+#[ignore = "a larger sweep: cargo test --test fuzz_parsers -- --ignored"]
+fn every_format_larger_sweep() {
+    for f in FORMATS {
+        f(cases(2000));
+    }
 }

@@ -3,13 +3,13 @@
 //!
 //! - every run either succeeds with finite results that keep the invariants, the feel system passive, or
 //!   fails with an error that names the scenario's file, line and key;
-//! - the rig's results converge as the physics step shrinks, at first order;
+//! - the rig's results converge as the physics step shrinks, at first order (ignored: a draw breaks it);
 //! - the damper alone is passive (`F·v ≥ 0`) for any device and protocol;
 //! - a fit of data made by a known model recovers its parameters within twice their standard errors in
 //!   most draws (nominal coverage 95 %; tested at least 80 %).
 //!
-//! Small by default (a few seconds each in the debug build); `MRFEEL_PROPTEST_CASES=N` runs N cases of
-//! each, with the seed `MRFEEL_PROPTEST_SEED` (default fixed).
+//! Small counts in the test command; `-- --ignored` runs the larger seeded sweep. `MRFEEL_PROPTEST_CASES=N`
+//! sets the count of each, `MRFEEL_PROPTEST_SEED` the seed (default fixed).
 
 use std::path::PathBuf;
 
@@ -32,7 +32,7 @@ fn cases(default: u32) -> u32 {
         .unwrap_or(default)
 }
 
-fn runner(default_cases: u32) -> TestRunner {
+fn runner(n: u32) -> TestRunner {
     let seed: u64 = std::env::var("MRFEEL_PROPTEST_SEED")
         .ok()
         .and_then(|v| v.parse().ok())
@@ -41,7 +41,7 @@ fn runner(default_cases: u32) -> TestRunner {
     bytes[..8].copy_from_slice(&seed.to_le_bytes());
     TestRunner::new_with_rng(
         Config {
-            cases: cases(default_cases),
+            cases: n,
             failure_persistence: None,
             ..Config::default()
         },
@@ -120,10 +120,13 @@ fn scenario() -> impl Strategy<Value = Vec<(&'static str, &'static str, String)>
 /// Every random valid run either keeps the invariants with finite figures and a passive feel system (the
 /// damper never gives energy back: its dissipated energy never falls), or fails naming `s.toml:LINE` and
 /// a key.
-#[test]
-#[ignore = "not yet run to completion on the shared machine: run with `cargo test --test NAME -- --ignored`"]
-fn every_run_is_finite_and_passive_or_fails_naming_the_setting() {
-    let mut r = runner(12);
+/// Largest fall of the damper's dissipated energy over a step, J: the rounding of the fluid's force, which
+/// the rig infers from the piston's momentum balance (differences of forces of tens of newtons), a
+/// millionth of the energy balance's 1 mJ floor. A damper giving energy back does so by far more.
+const DIP_J: f64 = 1e-9;
+
+fn every_run_is_finite_and_passive_or_fails_naming_the_setting(cases: u32) {
+    let mut r = runner(cases);
     r.run(&scenario(), |edits| {
         match run_text(&paper_loop_text(&edits)) {
             Ok(res) => {
@@ -136,15 +139,27 @@ fn every_run_is_finite_and_passive_or_fails_naming_the_setting() {
                 ];
                 prop_assert!(figures.iter().all(|v| v.is_finite()), "{s}");
                 prop_assert!(s.tracking_nrmse.is_none_or(f64::is_finite), "{s}");
-                prop_assert!(s.energy_residual.is_none_or(|e| e.abs() <= 0.05), "{s}");
+                // The documented tolerance: 5 % of the work done, and at least 1 mJ.
+                let work = s.pilot_work_j.abs() + s.actuator_work_j.abs();
+                prop_assert!(
+                    s.energy_residual
+                        .is_none_or(|e| e.abs() <= 0.05 || e.abs() * work <= 1e-3),
+                    "{s}"
+                );
                 prop_assert!(s.max_abs_load_cell_n <= 250.0, "{s}");
+                // The damper's dissipated energy never falls by more than DIP_J.
+                let (mut worst, mut at) = (0.0f64, 0.0);
                 for w in res.rows.windows(2) {
-                    prop_assert!(
-                        w[1].dissipated_j >= w[0].dissipated_j - 1e-12,
-                        "the damper gave energy back at t = {} s",
-                        w[1].t_s
-                    );
+                    let dip = w[0].dissipated_j - w[1].dissipated_j;
+                    if dip > worst {
+                        (worst, at) = (dip, w[1].t_s);
+                    }
                 }
+                prop_assert!(
+                    worst <= DIP_J,
+                    "the damper gave {worst:e} J back at t = {at} s of {} J dissipated",
+                    s.dissipated_j
+                );
             }
             Err(e) => {
                 let placed = e
@@ -174,7 +189,7 @@ fn piston_path(edits: &[(&'static str, &'static str, String)], physics_hz: f64) 
 /// Euler step with the damper's force held over it): the RMS difference of the piston's path from a run
 /// at 8 kHz falls at least 1.5× for each halving of the step from 1 kHz to 4 kHz (2× for first order).
 #[test]
-#[ignore = "not yet run to completion on the shared machine: run with `cargo test --test NAME -- --ignored`"]
+#[ignore = "fails: in one draw (0.0586 rad, 0.707 Hz, 632 N/m) the piston path differs from the 8 kHz run by 15, 11 and 15 µm at 1, 2 and 4 kHz: no order of convergence holds there yet"]
 fn the_rig_converges_at_first_order_as_the_physics_step_shrinks() {
     let mut r = runner(3);
     let strategy = (0.05..0.25f64, 0.2..1.0f64, 500.0..2000.0f64);
@@ -229,11 +244,9 @@ fn stepped_sine(amp_m: f64, f_hz: f64, dur_s: f64, levels: &[f64], dwell_s: f64)
 
 /// The damper alone is passive: for random Bingham devices with both lags and random sine protocols with
 /// current steps, the force never pushes along the motion (`F·v ≥ 0` at every sample).
-#[test]
-#[ignore = "not yet run to completion on the shared machine: run with `cargo test --test NAME -- --ignored`"]
-fn the_damper_is_passive_for_any_device_and_protocol() {
+fn the_damper_is_passive_for_any_device_and_protocol(cases: u32) {
     let model = Model::from_spec("bingham", &Registry::builtin(), 14.0).unwrap();
-    let mut r = runner(64);
+    let mut r = runner(cases);
     let strategy = (
         (
             0.0..50.0f64,
@@ -262,12 +275,10 @@ fn the_damper_is_passive_for_any_device_and_protocol() {
 /// A fit of data made by a known Bingham device (both lags; current steps so that they show) with white
 /// force noise recovers each parameter within twice its standard error in at least 80 % of the (draw,
 /// parameter) pairs; the nominal coverage of ±2 standard errors is 95 %.
-#[test]
-#[ignore = "not yet run to completion on the shared machine: run with `cargo test --test NAME -- --ignored`"]
-fn a_fit_recovers_a_known_device_within_its_standard_errors() {
+fn a_fit_recovers_a_known_device_within_its_standard_errors(cases: u32) {
     let model = Model::from_spec("bingham", &Registry::builtin(), 14.0).unwrap();
     let (pairs, covered) = (std::cell::Cell::new(0usize), std::cell::Cell::new(0usize));
-    let mut r = runner(8);
+    let mut r = runner(cases);
     let strategy = (
         (
             5.0..40.0f64,
@@ -313,8 +324,33 @@ fn a_fit_recovers_a_known_device_within_its_standard_errors() {
     let coverage = covered as f64 / pairs as f64;
     eprintln!("±2 standard errors covered the truth in {covered} of {pairs} (draw, parameter) pairs");
     assert!(
-        pairs >= 5 * cases(8) as usize / 2,
+        pairs >= 5 * cases as usize / 2,
         "too few standard errors: {pairs}"
     );
     assert!(coverage >= 0.8, "coverage {coverage:.3} ({covered} of {pairs})");
+}
+
+/// Each property at its small count in the test command (a few seconds in all).
+#[test]
+fn every_random_run_keeps_the_invariants_or_names_the_setting() {
+    every_run_is_finite_and_passive_or_fails_naming_the_setting(cases(12));
+}
+
+#[test]
+fn the_damper_alone_is_passive() {
+    the_damper_is_passive_for_any_device_and_protocol(cases(64));
+}
+
+#[test]
+fn a_fit_of_a_known_device_covers_the_truth() {
+    a_fit_recovers_a_known_device_within_its_standard_errors(cases(8));
+}
+
+/// The larger seeded sweep of every property.
+#[test]
+#[ignore = "a larger sweep: cargo test --test properties -- --ignored"]
+fn larger_sweep_of_every_property() {
+    every_run_is_finite_and_passive_or_fails_naming_the_setting(cases(200));
+    the_damper_is_passive_for_any_device_and_protocol(cases(1000));
+    a_fit_recovers_a_known_device_within_its_standard_errors(cases(64));
 }
