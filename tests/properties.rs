@@ -6,7 +6,7 @@
 //! - the rig's results converge as the physics step shrinks, at first order (ignored: a draw breaks it);
 //! - the damper alone is passive (`F·v ≥ 0`) for any device and protocol;
 //! - a fit of data made by a known model recovers its parameters within twice their standard errors in
-//!   most draws (nominal coverage 95 %; tested at least 80 %).
+//!   most draws (nominal coverage 95 %; tested at least 85 %; the two lags as a pair).
 //!
 //! Small counts in the test command; `-- --ignored` runs the larger seeded sweep. `MRFEEL_PROPTEST_CASES=N`
 //! sets the count of each, `MRFEEL_PROPTEST_SEED` the seed (default fixed).
@@ -273,11 +273,13 @@ fn the_damper_is_passive_for_any_device_and_protocol(cases: u32) {
 }
 
 /// A fit of data made by a known Bingham device (both lags; current steps so that they show) with white
-/// force noise recovers each parameter within twice its standard error in at least 80 % of the (draw,
-/// parameter) pairs; the nominal coverage of ±2 standard errors is 95 %.
+/// force noise recovers each parameter (the two lags as a pair) within twice its standard error in at least
+/// 85 % of the (draw, parameter) pairs; the nominal coverage of ±2 standard errors is 95 % (measured: 302
+/// of 320 pairs over 64 draws, `-- --ignored`).
 fn a_fit_recovers_a_known_device_within_its_standard_errors(cases: u32) {
     let model = Model::from_spec("bingham", &Registry::builtin(), 14.0).unwrap();
     let (pairs, covered) = (std::cell::Cell::new(0usize), std::cell::Cell::new(0usize));
+    let per_param = std::cell::RefCell::new([(0usize, 0usize); 5]);
     let mut r = runner(cases);
     let strategy = (
         (
@@ -311,10 +313,21 @@ fn a_fit_recovers_a_known_device_within_its_standard_errors(cases: u32) {
         }];
         let spans = mrfeel::ident::fit::all_spans(&tests);
         let fr = mrfeel::ident::fit::fit(&model, &tests, &spans, &Default::default());
-        for ((p, t), se) in fr.params.iter().zip(&truth).zip(&fr.std_err) {
+        // The coil's and the fluid's lags are in series with the current's effect linear between them, so
+        // they commute: the data tell the two lags as a pair, not which is which. Each fitted lag is
+        // compared with the true lag of its rank.
+        let mut truth_ranked = truth;
+        if (fr.params[3] - fr.params[4]) * (truth[3] - truth[4]) < 0.0 {
+            truth_ranked.swap(3, 4);
+        }
+        for (k, ((p, t), se)) in fr.params.iter().zip(&truth_ranked).zip(&fr.std_err).enumerate() {
             if let Some(se) = se {
+                let hit = usize::from((p - t).abs() <= 2.0 * se);
                 pairs.set(pairs.get() + 1);
-                covered.set(covered.get() + usize::from((p - t).abs() <= 2.0 * se));
+                covered.set(covered.get() + hit);
+                let mut pp = per_param.borrow_mut();
+                pp[k].0 += hit;
+                pp[k].1 += 1;
             }
         }
         Ok(())
@@ -322,12 +335,16 @@ fn a_fit_recovers_a_known_device_within_its_standard_errors(cases: u32) {
     .unwrap();
     let (pairs, covered) = (pairs.get(), covered.get());
     let coverage = covered as f64 / pairs as f64;
-    eprintln!("±2 standard errors covered the truth in {covered} of {pairs} (draw, parameter) pairs");
+    eprintln!(
+        "±2 standard errors covered the truth in {covered} of {pairs} (draw, parameter) pairs; per parameter \
+         (fc0, gain, c0, tau_e, tau_m): {:?}",
+        per_param.borrow()
+    );
     assert!(
         pairs >= 5 * cases as usize / 2,
         "too few standard errors: {pairs}"
     );
-    assert!(coverage >= 0.8, "coverage {coverage:.3} ({covered} of {pairs})");
+    assert!(coverage >= 0.85, "coverage {coverage:.3} ({covered} of {pairs})");
 }
 
 /// Each property at its small count in the test command (a few seconds in all).
