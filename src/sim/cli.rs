@@ -215,6 +215,14 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
         if let Some(m) = &flight {
             crate::outln!("{m}")?;
         }
+        if let Some(f) = &res.flight {
+            crate::outln!(
+                "  aircraft {}: {} parameters are estimates ([EST] in its model file, no source): {}",
+                f.aircraft,
+                f.estimates.len(),
+                f.estimates.join(", ")
+            )?;
+        }
         if let Some(p) = &args.out {
             crate::outln!("  results: {}", p.display())?;
         }

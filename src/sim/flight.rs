@@ -141,6 +141,11 @@ impl Flight {
         self.backend.label()
     }
 
+    /// The aircraft model's parameters marked `[EST]` (estimates without a source).
+    pub fn estimates(&self) -> &[String] {
+        self.backend.estimates()
+    }
+
     /// Whether the pilot's outer loop sets the stick command.
     pub fn has_outer_loop(&self) -> bool {
         self.outer.is_some()

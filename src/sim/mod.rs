@@ -392,6 +392,7 @@ pub fn run<P: Plant>(
         trim: f.trim,
         trim_stick_rad: f.trim_stick_rad,
         round_trip_us: f.round_trip_us(),
+        estimates: f.estimates().to_vec(),
     });
     Ok(Results {
         scenario: scn.name.clone(),
