@@ -98,17 +98,25 @@ impl ControlGeometry {
         if !(self.chord_ratio > 0.0 && self.chord_ratio <= 1.0) {
             return bad("chord_ratio", self.chord_ratio, "0", "1");
         }
-        if !(0.0..=0.6).contains(&self.balance_ratio) || self.balance_ratio * self.chord_ratio > 1.0 - self.chord_ratio {
+        if !(0.0..=0.6).contains(&self.balance_ratio)
+            || self.balance_ratio * self.chord_ratio > 1.0 - self.chord_ratio
+        {
             return Err(format!(
                 "balance_ratio = {} must lie in [0, 0.6] and end behind the tail's leading edge",
                 self.balance_ratio
             ));
         }
         if !(0.0..=0.6).contains(&self.tab_chord_ratio) {
-            return Err(format!("tab_chord_ratio = {} is outside [0, 0.6]", self.tab_chord_ratio));
+            return Err(format!(
+                "tab_chord_ratio = {} is outside [0, 0.6]",
+                self.tab_chord_ratio
+            ));
         }
         if !(0.0..=1.0).contains(&self.tab_span_ratio) {
-            return Err(format!("tab_span_ratio = {} is outside [0, 1]", self.tab_span_ratio));
+            return Err(format!(
+                "tab_span_ratio = {} is outside [0, 1]",
+                self.tab_span_ratio
+            ));
         }
         if !(self.tail_aspect_ratio > 0.5 && self.tail_aspect_ratio <= 20.0) {
             return bad("tail_aspect_ratio", self.tail_aspect_ratio, "0.5", "20");
@@ -259,7 +267,12 @@ mod tests {
     fn thin_aerofoil_hinge_derivatives_agree_with_a_discrete_vortex_solution() {
         let n = 400;
         // edges of the flap, balance and tab on panel boundaries (multiples of 1/400)
-        for (e, bal, tab) in [(0.3, 0.0, 0.0), (0.3, 0.2, 0.2), (0.45, 0.1, 0.2), (0.25, 0.3, 0.3)] {
+        for (e, bal, tab) in [
+            (0.3, 0.0, 0.0),
+            (0.3, 0.2, 0.2),
+            (0.45, 0.1, 0.2),
+            (0.25, 0.3, 0.3),
+        ] {
             let g = geometry(e, bal, tab);
             let s = g.section();
             let x_h = 1.0 - e;
@@ -272,13 +285,33 @@ mod tests {
                 "c_e/c {e}, balance {bal}, tab {tab}: b1 {:.4} (vortices {b1:.4}), b2 {:.4} ({b2:.4}), b3 {:.4} ({b3:.4}), tau {:.4} ({:.4})",
                 s.b1, s.b2, s.b3, s.tau, cl_d / cl_a
             );
-            assert!((cl_a / (2.0 * PI) - 1.0).abs() < 1e-3, "flat plate lift slope {cl_a}");
-            assert!((s.tau - cl_d / cl_a).abs() < 0.01, "tau {} vs {}", s.tau, cl_d / cl_a);
+            assert!(
+                (cl_a / (2.0 * PI) - 1.0).abs() < 1e-3,
+                "flat plate lift slope {cl_a}"
+            );
+            assert!(
+                (s.tau - cl_d / cl_a).abs() < 0.01,
+                "tau {} vs {}",
+                s.tau,
+                cl_d / cl_a
+            );
             assert!((s.tau_tab - cl_t / cl_a).abs() < 0.01 || tab == 0.0);
-            assert!((s.b1 - b1).abs() < 0.02 * b1.abs().max(0.1), "b1 {} vs {b1}", s.b1);
-            assert!((s.b2 - b2).abs() < 0.03 * b2.abs().max(0.1), "b2 {} vs {b2}", s.b2);
+            assert!(
+                (s.b1 - b1).abs() < 0.02 * b1.abs().max(0.1),
+                "b1 {} vs {b1}",
+                s.b1
+            );
+            assert!(
+                (s.b2 - b2).abs() < 0.03 * b2.abs().max(0.1),
+                "b2 {} vs {b2}",
+                s.b2
+            );
             if tab > 0.0 {
-                assert!((s.b3 - b3).abs() < 0.02 * b3.abs().max(0.1), "b3 {} vs {b3}", s.b3);
+                assert!(
+                    (s.b3 - b3).abs() < 0.02 * b3.abs().max(0.1),
+                    "b3 {} vs {b3}",
+                    s.b3
+                );
             }
         }
     }
@@ -292,7 +325,10 @@ mod tests {
         assert!((s.tau - 0.6090).abs() < 1e-4, "{}", s.tau);
         assert!(s.b1 < 0.0 && s.b2 < 0.0 && s.b2 < s.b1, "{s:?}");
         let bal = geometry(0.25, 0.25, 0.0).section();
-        assert!(bal.b1.abs() < 0.95 * s.b1.abs() && bal.b2.abs() < 0.95 * s.b2.abs(), "{bal:?}");
+        assert!(
+            bal.b1.abs() < 0.95 * s.b1.abs() && bal.b2.abs() < 0.95 * s.b2.abs(),
+            "{bal:?}"
+        );
         let tab = geometry(0.25, 0.0, 0.2).section();
         assert!(tab.b3 < 0.0 && tab.b3.abs() > 0.3 * s.b2.abs(), "{tab:?}");
     }

@@ -227,7 +227,12 @@ impl Aircraft {
     /// (`do_trim(1)`, `do_trim(3)`) solve it. The throttle is whatever balances the drag, even beyond the
     /// stand-in engine's maximum (JSBSim's engines give more thrust at speed and altitude than the
     /// constant-power or constant-thrust law here). Tab and feel trim are left as they are.
-    pub fn steady_state(&self, airspeed_m_s: f64, altitude_m: f64, nz_g: f64) -> Result<AircraftState, AeroError> {
+    pub fn steady_state(
+        &self,
+        airspeed_m_s: f64,
+        altitude_m: f64,
+        nz_g: f64,
+    ) -> Result<AircraftState, AeroError> {
         let mut a = self.clone();
         let (x, c) = a.solve_trim(airspeed_m_s, altitude_m, nz_g, Throttle::Unbounded)?;
         a.x = x;

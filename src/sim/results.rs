@@ -242,7 +242,11 @@ impl Results {
                 "# aircraft: {}, trim {} m/s at {} m, trim stick {} rad; stick_force_n at the grip (pull +)",
                 f.aircraft, f.trim.airspeed_m_s, f.trim.altitude_m, f.trim_stick_rad
             )?;
-            writeln!(w, "# aircraft estimates ([EST], no source): {}", f.estimates.join(", "))?;
+            writeln!(
+                w,
+                "# aircraft estimates ([EST], no source): {}",
+                f.estimates.join(", ")
+            )?;
         }
         let aero = self.flight.is_some();
         let mut header = CSV_COLUMNS.join(",");
