@@ -11,12 +11,13 @@
 //! touching the fit or the diagnosis, and judged as `diagnose` judges candidates: leave one
 //! amplitude/frequency group out.
 //!
-//! Session 19 (`cargo run --release --example probe_field_onset -- --weighting samples` since session 20): `bingham+hysteresis` 0.0867 held out;
-//! with `field_onset` 0.0959 (0.0933 / 0.1023 / 0.1094), with `field_onset+magnetic_saturation` 0.0996.
-//! The onset fitted on two groups (0.14 A where 10mm1Hz is left out) does not carry over to the third: the
-//! 0.25 A over-prediction is not a law of the current the other groups teach. Not added to the vocabulary.
-//! Session 20, with each test counted once in the fit (the default since): `bingham+hysteresis` 0.0822,
-//! with `field_onset` 0.0860 (0.0805 / 0.0987 / 0.1154), with `field_onset+magnetic_saturation` 0.0846.
+//! `cargo run --release --example probe_field_onset -- --weighting samples` (every sample counted):
+//! `bingham+hysteresis` 0.0867 held out; with `field_onset` 0.0959 (0.0933 / 0.1023 / 0.1094), with
+//! `field_onset+magnetic_saturation` 0.0996. The onset fitted on two groups (0.14 A where 10mm1Hz is left
+//! out) does not carry over to the third: the 0.25 A over-prediction is not a law of the current the other
+//! groups teach, so it is not in the vocabulary. With each test counted once (the default):
+//! `bingham+hysteresis` 0.0822, with `field_onset` 0.0860 (0.0805 / 0.0987 / 0.1154), with
+//! `field_onset+magnetic_saturation` 0.0846.
 
 use mrfeel::device::{DataStats, Effect, EffectStage, Inputs, ParamSpec, Registry, Stage};
 

@@ -4,9 +4,8 @@
 The effects written from the physics in other forms than mrfeel's effect library (Bouc-Wen n = 2, tanh
 saturation, +15 %/-10 % yield, damping quadratic in current, preload + linear + cubic spring, 3 kg, heating of
 yield and viscosity), on the paper's device: 3 sine groups x 5 constant currents, 4 cycles at 1 kHz, noise.
-Used in session 3 to probe the diagnosis before the Rust tests were written; the figures quoted in the
-closing note come from it. Session 6 added the protocol options below, to probe data like an outside
-checker's (other rates, waveforms, no velocity channel).
+The protocol options below make data like an outside checker's (other rates, waveforms, no velocity
+channel).
 
 Effects outside mrfeel's vocabulary (no finite list of named effects covers them; `mrfeel diagnose` must
 find a term for them or say that structure is left, tests/discovery.rs):
@@ -44,10 +43,9 @@ Environment (all optional):
                    1000, for files that python/resample_uneven.py thins to an uneven 1 kHz clock)
   (bash keeps its own GROUPS array: pass it as `env GROUPS=0.015:1.5,0.008:3 python3 ...`)
 The force at t[k] is formed from the states (Bouc-Wen z, heat) at t[k], and they are then integrated over the
-sample. Until session 7 the states were integrated first, so the force used z(t[k] + 1/FS), one sample ahead:
-on triangle tests at 500 Hz without a velocity channel that drew a false `inertia` beside hysteresis and
-stiffness (mrfeel's acceleration term took up the offset); with the order mended, both seeds name exactly
-hysteresis and stiffness (held out 0.288 -> 0.017). Every data set differs from before in its last digits.
+sample. Integrating first would make the force use z(t[k] + 1/FS), one sample ahead, which on triangle tests at
+500 Hz without a velocity channel draws a false `inertia` beside hysteresis and stiffness (mrfeel's
+acceleration term takes up the offset).
 """
 import os
 import shutil

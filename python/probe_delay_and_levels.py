@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Two hypotheses for the UTFSM damper's held-out gap (dev tool; session 4, 2026-11-22).
+"""Two hypotheses for the UTFSM damper's held-out gap (dev tool).
 
 1. Channel delay: does the measured force lead or lag the motion channels? Force compared at t + tau with the
    model at t; tau chosen on the two training groups of each leave-one-group-out fold (grid -10..0 ms, 0.5 ms),

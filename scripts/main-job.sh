@@ -5,7 +5,7 @@ set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 out="${1:-out}"
 data="data/utfsm-mr-damper"
-mkdir -p "$out"/{mts,diagnose,fit,daq-sweep,compare}
+mkdir -p "$out"/{mts,diagnose,fit,daq-sweep,compare,flight}
 cargo build --locked --quiet
 mrfeel=target/debug/mrfeel
 
@@ -28,6 +28,11 @@ step "4. Model discovery on the real MR damper: where Bingham fails, the missing
 
 step "5. Pilot-in-the-loop flight: c172p pitch tracking, the hinge moment chooses the feel force"
 "$mrfeel" run scenarios/c172p-pitch-tracking.toml --out "$out/c172p-pitch-tracking.csv" --rerun "$out/c172p-pitch-tracking.rrd"
+
+step "5b. A pull-up in each aircraft: stick force against load factor, flown and steady, against its basis's band"
+for scn in c172p-pullup T37-pullup 737-approach; do
+    "$mrfeel" run "scenarios/$scn.toml" --out "$out/flight/$scn.csv" --plot "$out/flight"
+done
 
 step "6. Feel systems compared (springs, MR, hybrid) and under faults"
 "$mrfeel" compare scenarios/compare-feel.toml --plot "$out/compare" --rerun "$out/compare.rrd" --faults

@@ -395,8 +395,8 @@ fn validate_checks_a_single_short_test_for_the_window_the_fitted_tests_predict()
 }
 
 /// A file whose clock has a gap cannot show the comb of a moving average, and `auto` compared it as logged
-/// without a word (NRMSE 0.20 against 0.11 for the file whole, in the probe of session 19). The person is
-/// now told, naming the file; the whole file is still found filtered.
+/// without a word (NRMSE 0.20 against 0.11 for the file whole). The person is told, naming the file; the
+/// whole file is still found filtered.
 #[test]
 fn a_file_on_an_uneven_clock_is_said_to_be_compared_as_logged() {
     let real = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data/utfsm-mr-damper/10mm1Hz_0p50A.csv");

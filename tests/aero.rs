@@ -112,6 +112,11 @@ fn b737_doublet_pitch_rate_and_load_factor_follow_jsbsim() {
     check_replay("737", 0.05, 0.05);
 }
 
+#[test]
+fn t37_doublet_pitch_rate_and_load_factor_follow_jsbsim() {
+    check_replay("T37", 0.08, 0.08);
+}
+
 /// Trim alpha and elevator over the JSBSim speed sweep.
 fn check_trims(name: &str, alpha_tol: f64, de_tol: f64) {
     let r = run(name, "trim");
@@ -293,7 +298,12 @@ fn check_elevator_per_g(name: &str, tol: f64) {
     let r = run(name, "per_g");
     let col = |c: &str| r.column(c).unwrap();
     let (v, h) = (col("airspeed_m_s"), col("altitude_m"));
-    let (nz1, de1, nzn, den) = (col("nz1_g"), col("elevator1_rad"), col("nz_g"), col("elevator_rad"));
+    let (nz1, de1, nzn, den) = (
+        col("nz1_g"),
+        col("elevator1_rad"),
+        col("nz_g"),
+        col("elevator_rad"),
+    );
     let a = aircraft(name);
     let (mut worst, mut sum_rel) = (0.0_f64, 0.0);
     for k in 0..v.len() {
@@ -304,7 +314,10 @@ fn check_elevator_per_g(name: &str, tol: f64) {
         let rel = (ours / jsb - 1.0).abs();
         worst = worst.max(rel);
         sum_rel += rel;
-        assert!(jsb < 0.0, "{name}: JSBSim's elevator per g must be trailing edge up: {jsb}");
+        assert!(
+            jsb < 0.0,
+            "{name}: JSBSim's elevator per g must be trailing edge up: {jsb}"
+        );
         assert!(
             rel <= tol,
             "{name} at {:.1} m/s, {} m: elevator per g {ours:.5} rad/g vs JSBSim {jsb:.5} rad/g",

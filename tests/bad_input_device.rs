@@ -451,7 +451,7 @@ fn a_key_given_twice_is_refused_at_its_second_line() {
 
 /// The model-discovery contract (model-discovery.md) has `fit --save` write "the model name and fitted
 /// parameters": `current_limit_a` and `command_timing` are optional, and their absence means the paper's
-/// 14 A and `after-sample` (files saved before session 11).
+/// 14 A and `after-sample` (as in files written before those keys existed).
 #[test]
 fn the_optional_keys_left_out_mean_their_defaults() {
     let full = validate_nrmse(PARAMS_JSON.as_bytes());

@@ -200,6 +200,54 @@ fn pull_up_reaches_the_load_factor_with_the_feel_capped_at_the_device_force() {
     );
 }
 
+/// The T-37 pull-up (`scenarios/T37-pullup.toml`, 1 -> 1.5 g, a pilot adapted to the aircraft with no
+/// gains typed in): the pilot holds the load factor through the MR feel, and the stick force per g felt
+/// in flight (the aircraft's stick force over the hold, from a trimmed zero, over the load factor gained)
+/// agrees with the steady pull-up solution of the certification check (`FeelAssessment`, a separate
+/// solver with no time stepping). The speed bleeds off during the pull at fixed throttle, so the two
+/// agree within 25 %, not exactly. MIL-F-8785C Level 1 is printed, not asserted: with the estimated
+/// elevator geometry and gearing the T-37's stick is heavier than Level 1 (docs/aero.md).
+#[test]
+fn t37_pull_up_holds_the_load_factor_and_its_stick_force_per_g_matches_the_steady_pull_up() {
+    use mrfeel::aero::{Aircraft, AircraftModel, FeelAssessment};
+    let (s, d) = load("T37-pullup.toml");
+    let r = fly(&s, &d);
+    let f = r.flight.as_ref().unwrap();
+    assert_eq!(f.aircraft, "T37");
+    let hold: Vec<_> = r
+        .rows
+        .iter()
+        .filter(|x| x.t_s >= 5.0 && x.t_s < 7.0)
+        .filter_map(|x| x.aero)
+        .collect();
+    let mean =
+        |g: fn(&mrfeel::sim::flight::AeroRow) -> f64| hold.iter().map(g).sum::<f64>() / hold.len() as f64;
+    let (nz, force, v) = (
+        mean(|a| a.nz_g),
+        mean(|a| a.stick_force_n),
+        mean(|a| a.airspeed_m_s),
+    );
+    let flown_per_g = force / (nz - 1.0);
+    let m = AircraftModel::load(&AircraftModel::builtin_path("T37")).unwrap();
+    let a = Aircraft::new(std::sync::Arc::new(m));
+    let steady = FeelAssessment::assess(&a, v, 3000.0).unwrap();
+    let (lo, hi) = steady.allowed_per_g_n;
+    println!(
+        "T-37 pull-up: load factor over the hold {nz:.3} g (command 1.5 g) at {v:.1} m/s; stick force {force:.1} N, \
+         {flown_per_g:.1} N/g flown vs {:.1} N/g from the steady pull-up at that speed; MIL-F-8785C Level 1 [{lo:.1}, {hi:.1}] N/g",
+        steady.stick_force_per_g_n
+    );
+    assert!(
+        (nz - 1.5).abs() < 0.08,
+        "the pilot did not hold the pull-up: {nz} g"
+    );
+    assert!(
+        (flown_per_g / steady.stick_force_per_g_n - 1.0).abs() < 0.25,
+        "flown {flown_per_g} N/g vs steady {} N/g",
+        steady.stick_force_per_g_n
+    );
+}
+
 /// The same task flown by a pilot adapted to the aircraft (McRuer's crossover model designed on the
 /// linearised c172p at its trim, ω_c 1.5 rad/s, with the ~1 s stick lag through hand and MR feel in the
 /// controlled element) instead of the file's gains: the pilot still completes it, no gain typed in.

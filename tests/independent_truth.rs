@@ -381,8 +381,8 @@ fn independent_bouc_wen_hysteresis_is_named_hysteresis() {
 
 /// Both truths' Bouc–Wen shapes (n = 2; γ = 0, and Spencer et al.'s γ = β) are inside the family of
 /// `hysteresis`: fitted on all the data, `bingham+hysteresis` leaves the load cell's noise and finds the
-/// truth's shape and yield displacement. With the shape held at Dahl's (before session 8) the error was
-/// 7-10 times the noise, and a second, weaker effect beside hysteresis could hide in it.
+/// truth's shape and yield displacement. With the shape held at Dahl's the error is 7-10 times the noise,
+/// and a second, weaker effect beside hysteresis could hide in it.
 #[test]
 fn independent_bouc_wen_shapes_are_fitted_to_the_noise() {
     let registry = Registry::builtin();
@@ -419,7 +419,7 @@ fn independent_bouc_wen_shapes_are_fitted_to_the_noise() {
 /// Both truths scale the yield force by the sign of the velocity (`Fy (1 ± a)`, a seal's drag) while their
 /// Bouc-Wen state still sits on the old branch after a reversal. `asymmetry`'s share that follows the motion
 /// takes that form: fitted on all the data, the truth's model leaves the load cell's noise with the share
-/// near 1; held at 0 (the asymmetry following the yield state alone, as before session 9) it does not.
+/// near 1; held at 0 (the asymmetry following the yield state alone) it does not.
 #[test]
 fn independent_seal_asymmetry_beside_hysteresis_is_fitted_to_the_noise() {
     let registry = Registry::builtin();
@@ -497,8 +497,8 @@ fn independent_moving_mass_is_named_inertia() {
 }
 
 /// The real damper's scale with a load cell four times as noisy (20 N): the 15 kg mass leaves `bingham` held
-/// out at only 1.09× the noise floor. `diagnose` stopped within 1.1× of the floor until session 10 and named
-/// nothing; it now stops within 1.05×, and the mass removes the rest in every fold (0.0328 → 0.0296, floor
+/// out at only 1.09× the noise floor. `diagnose` stops within 1.05× of the floor (not 1.1×, where it would
+/// name nothing), and the mass removes the rest in every fold (0.0328 → 0.0296, floor
 /// 0.0302). Nearer the floor still (25 N: 1.06–1.07×) it is named on two seeds of three.
 #[test]
 fn independent_moving_mass_near_the_noise_at_the_real_scale_is_named_inertia() {
@@ -585,10 +585,10 @@ fn independent_effects_in_files_whose_names_group_nothing() {
 
 /// One file (blocked cross-validation in time), the current stepping through six levels over 15 s of a
 /// 1.3 Hz sine: the current-dependent effects are still named, and the error at least halves. With
-/// hysteresis alone, a second effect must not be named for the sake of a better fit of the first: before
-/// `diagnose` refitted the current model from the best candidate's fit, a candidate that merely led a fold's
-/// fit out of a local minimum was named (`inertia` with this seed; `inertia` or `stiffness` on seeds 44 and
-/// 45; `thermal_drift` on a file of session 3's numpy generator). With the refit, seeds 33–45 pass.
+/// hysteresis alone, a second effect must not be named for the sake of a better fit of the first: without
+/// the refit of the current model from the best candidate's fit, a candidate that merely leads a fold's fit
+/// out of a local minimum is named (`inertia` with this seed; `inertia` or `stiffness` on seeds 44 and 45).
+/// With the refit, seeds 33–45 pass.
 #[test]
 fn independent_effects_in_one_file_with_current_steps() {
     for (hidden, seed) in [
@@ -651,12 +651,11 @@ fn jittered(m: &Measurement, rng: &mut ChaCha8Rng) -> Measurement {
     j
 }
 
-/// Data on a jittered clock ([`jittered`]). Until session 12 the derivatives on an uneven grid were the
-/// measurement module's 7-sample ones and the noise estimates took the samples as evenly spaced: without a
-/// velocity channel a hidden mass was not named at all (held out 11.6× the noise floor on data of this
-/// kind from `python/independent_truth.py`), and hysteresis was named but left 3.7× the floor (a pass only
-/// by halving the base error; the displacement's noise, overestimated from its jitter, was not smoothed
-/// out of the hysteresis law's path). Both now reach the floor, as on an even clock, which this asserts.
+/// Data on a jittered clock ([`jittered`]). With derivatives that ignore the uneven grid and noise estimates
+/// that take the samples as evenly spaced, a hidden mass is not named without a velocity channel (held out
+/// 11.6× the noise floor on data of this kind from `python/independent_truth.py`), and hysteresis is named
+/// but leaves 3.7× the floor (the displacement's noise, overestimated from its jitter, is not smoothed out
+/// of the hysteresis law's path). Both reach the floor, as on an even clock, which this asserts.
 #[test]
 fn independent_effects_on_a_jittered_clock_are_fitted_to_the_noise() {
     for (hidden, velocity_channel, seed) in [("inertia", false, 51u64), ("hysteresis", true, 52)] {

@@ -152,8 +152,8 @@ impl FeelAssessment {
             CertificationPart::MilF8785C => {
                 // n/α at the trim: the lift slope there times the dynamic pressure over the weight
                 let trim = aircraft.steady_state(airspeed_m_s, altitude_m, 1.0)?;
-                let n_alpha = trim.qbar_pa * m.wing_area_m2 * m.cl_alpha.slope(trim.alpha_rad)
-                    / (m.mass_kg * G0_M_S2);
+                let n_alpha =
+                    trim.qbar_pa * m.wing_area_m2 * m.cl_alpha.slope(trim.alpha_rad) / (m.mass_kg * G0_M_S2);
                 mil_f_8785c_stick_level1_per_g_n(n_alpha, n_lim)
             }
             _ => (
@@ -207,11 +207,7 @@ impl FeelAssessment {
     pub fn report(&self) -> String {
         let lbf = |n: f64| n / LBF_TO_N;
         let (lo, hi) = self.allowed_per_g_n;
-        let part = match self.basis.part {
-            CertificationPart::Part23 => "14 CFR 23",
-            CertificationPart::Part25 => "14 CFR 25",
-            CertificationPart::MilF8785C => "MIL-F-8785C Level 1",
-        };
+        let part = self.basis.part.label();
         format!(
             "{:.1} m/s at {:.0} m ({part}): stick force per g {:.1} N/g ({:.1} lbf/g, 1 to {:.2} g), allowed [{:.1}, {:.1}] N/g \
              ([{:.1}, {:.1}] lbf/g), band position {:.2}; pull to n = {:.1}: {:.0} N ({:.1} lbf{}); \
@@ -255,7 +251,10 @@ mod tests {
     fn mil_f_8785c_level_1_stick_band_follows_table_v() {
         let lbf = |(lo, hi): (f64, f64)| (lo / LBF_TO_N, hi / LBF_TO_N);
         let (lo, hi) = lbf(mil_f_8785c_stick_level1_per_g_n(20.0, 7.33));
-        assert!((lo - 21.0 / 6.33).abs() < 1e-9 && (hi - 12.0).abs() < 1e-9, "{lo} {hi}");
+        assert!(
+            (lo - 21.0 / 6.33).abs() < 1e-9 && (hi - 12.0).abs() < 1e-9,
+            "{lo} {hi}"
+        );
         let (_, hi) = lbf(mil_f_8785c_stick_level1_per_g_n(60.0, 7.33));
         assert!((hi - 56.0 / 6.33).abs() < 1e-9, "{hi}");
         let (lo, hi) = lbf(mil_f_8785c_stick_level1_per_g_n(5.0, 3.0));

@@ -29,6 +29,17 @@ pub enum CertificationPart {
     MilF8785C,
 }
 
+impl CertificationPart {
+    /// The basis as printed in reports and plots.
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::Part23 => "14 CFR 23",
+            Self::Part25 => "14 CFR 25",
+            Self::MilF8785C => "MIL-F-8785C Level 1",
+        }
+    }
+}
+
 /// The pilot's control.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "lowercase")]

@@ -36,6 +36,10 @@ pub struct RunArgs {
     /// `models/aircraft/` (`c172p`, `737`) or `jsbsim:<name>`; a name, never a path (`/`, `\`, `..` are refused).
     #[arg(long)]
     pub aircraft: Option<String>,
+    /// For a flight, write `<scenario name>-stick-force-per-g.png` and `.svg` into this directory: stick
+    /// force against load factor, flown and steady, against the allowed band of the aircraft's basis.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
 }
 
 /// `mrfeel daq-sweep SCENARIO`: force response time against the DAQ rate.
@@ -164,6 +168,11 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
             )
         })?;
     }
+    anyhow::ensure!(
+        args.plot.is_none() || scn.aircraft.is_some(),
+        "--plot: scenario {} flies no aircraft (no `[aircraft]` section); the plot is stick force against load factor",
+        args.scenario.display()
+    );
     let want_viz = args.rerun.is_some() || args.spawn;
     // A viewer is spawned before the run (it shows the run as it comes); a recording file is made after it,
     // so that a run that fails leaves no file behind.
@@ -205,6 +214,12 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
         )?,
         (None, None) => {}
     }
+    let mut plots = Vec::new();
+    if let Some(dir) = &args.plot {
+        let chart =
+            super::flight::stick_force_per_g_chart(&res)?.context("--plot: the run flew no aircraft")?;
+        plots = crate::viz::plot::save_charts(&[chart], 1, dir, &format!("{}-stick-force-per-g", scn.name))?;
+    }
     let summary = res.summary();
     let flight = super::metrics::FlightMetrics::of(&res, &scn);
     if args.json {
@@ -228,6 +243,9 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
         }
         if let Some(p) = &args.rerun {
             crate::outln!("  recording: {} (open with `rerun {}`)", p.display(), p.display())?;
+        }
+        for p in &plots {
+            crate::outln!("  plot: {}", p.display())?;
         }
     }
     Ok(())
