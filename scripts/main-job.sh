@@ -1,40 +1,58 @@
 #!/usr/bin/env bash
 # The main job of mrfeel: every result into OUT (default out/): CSV, PNG/SVG plots, Rerun recordings.
-# Needs no Python. Open a recording with the Rerun viewer: `rerun out/paper-feel-loop.rrd`.
+# Needs no Python and nothing beside the repository. Open a recording with the Rerun viewer:
+# `rerun out/paper-feel-loop.rrd`.
+#   MRFEEL_BIN=path/to/mrfeel   run that binary instead of building one (`cargo build`)
+#   MRFEEL_STEPS="1 4"          run only these steps (default: all, 1 to 7)
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 out="${1:-out}"
 data="data/utfsm-mr-damper"
 mkdir -p "$out"/{mts,diagnose,fit,daq-sweep,compare,flight}
-cargo build --locked --quiet
-mrfeel=target/debug/mrfeel
+mrfeel="${MRFEEL_BIN:-}"
+if [ -z "$mrfeel" ]; then
+    cargo build --locked --quiet
+    mrfeel=target/debug/mrfeel
+fi
+steps=" ${MRFEEL_STEPS:-1 2 3 4 5 6 7} "
 
-step() { printf '\n== %s\n' "$*"; }
+# step N TITLE: whether step N runs (printing its title if so).
+step() {
+    [[ "$steps" == *" $1 "* ]] || return 1
+    printf '\n== %s\n' "$*"
+}
 
-step "1. The paper's MTS test (Section 4): steady force at 2.2, 5 and 14 A, force-displacement and force-velocity plots"
-"$mrfeel" mts --current 2.2,5,14 --protocol sine --amplitude-m 0.0254 --frequency-hz 0.5 \
-    --out "$out/mts/paper-mts.csv" --plot "$out/mts"
+if step 1 "The paper's MTS test (Section 4): steady force at 2.2, 5 and 14 A, force-displacement and force-velocity plots"; then
+    "$mrfeel" mts --current 2.2,5,14 --protocol sine --amplitude-m 0.0254 --frequency-hz 0.5 \
+        --out "$out/mts/paper-mts.csv" --plot "$out/mts"
+fi
 
-step "2. The paper's feel loop (Section 6): pilot moves the stick, PID asks the MR damper for a force law up to 70 N"
-"$mrfeel" run scenarios/paper-feel-loop.toml --out "$out/paper-feel-loop.csv" --rerun "$out/paper-feel-loop.rrd"
+if step 2 "The paper's feel loop (Section 6): pilot moves the stick, PID asks the MR damper for a force law up to 70 N"; then
+    "$mrfeel" run scenarios/paper-feel-loop.toml --out "$out/paper-feel-loop.csv" --rerun "$out/paper-feel-loop.rrd"
+fi
 
-step "3. Force response time against the DAQ sample rate (100 Hz to 5 kHz)"
-"$mrfeel" daq-sweep scenarios/response-time.toml --plot "$out/daq-sweep"
+if step 3 "Force response time against the DAQ sample rate (100 Hz to 5 kHz)"; then
+    "$mrfeel" daq-sweep scenarios/response-time.toml --plot "$out/daq-sweep"
+fi
 
-step "4. Model discovery on the real MR damper: where Bingham fails, the missing effect, the error falling"
-"$mrfeel" diagnose "$data" --plot "$out/diagnose" --rerun "$out/diagnose.rrd"
-"$mrfeel" fit "$data" --model bingham+hysteresis+current_viscosity --heldout \
-    --save "$out/utfsm-bingham+hysteresis+current_viscosity.json" --plot "$out/fit"
+if step 4 "Model discovery on the real MR damper: where Bingham fails, the missing effect, the error falling"; then
+    "$mrfeel" diagnose "$data" --plot "$out/diagnose" --rerun "$out/diagnose.rrd"
+    "$mrfeel" fit "$data" --model bingham+hysteresis+current_viscosity --heldout \
+        --save "$out/utfsm-bingham+hysteresis+current_viscosity.json" --plot "$out/fit"
+fi
 
-step "5. Pilot-in-the-loop flight: c172p pitch tracking, the hinge moment chooses the feel force"
-"$mrfeel" run scenarios/c172p-pitch-tracking.toml --out "$out/c172p-pitch-tracking.csv" --rerun "$out/c172p-pitch-tracking.rrd"
+if step 5 "Pilot-in-the-loop flight: c172p pitch tracking, the hinge moment chooses the feel force"; then
+    "$mrfeel" run scenarios/c172p-pitch-tracking.toml --out "$out/c172p-pitch-tracking.csv" --rerun "$out/c172p-pitch-tracking.rrd"
+fi
 
-step "5b. A pull-up in each aircraft: stick force against load factor, flown and steady, against its basis's band"
-for scn in c172p-pullup T37-pullup 737-approach; do
-    "$mrfeel" run "scenarios/$scn.toml" --out "$out/flight/$scn.csv" --plot "$out/flight"
-done
+if step 6 "Feel systems compared (springs, MR, hybrid) and under faults"; then
+    "$mrfeel" compare scenarios/compare-feel.toml --plot "$out/compare" --rerun "$out/compare.rrd" --faults
+fi
 
-step "6. Feel systems compared (springs, MR, hybrid) and under faults"
-"$mrfeel" compare scenarios/compare-feel.toml --plot "$out/compare" --rerun "$out/compare.rrd" --faults
+if step 7 "A pull-up in each aircraft: stick force against load factor, flown and steady, against its basis's band"; then
+    for scn in c172p-pullup T37-pullup 737-approach; do
+        "$mrfeel" run "scenarios/$scn.toml" --out "$out/flight/$scn.csv" --plot "$out/flight/$scn"
+    done
+fi
 
 printf '\nAll results are in %s/\n' "$out"

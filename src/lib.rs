@@ -1,5 +1,6 @@
 //! mrfeel: simulation and model discovery for magneto-rheological artificial feel systems.
 pub mod aero;
+pub mod builtin;
 pub mod compare;
 pub mod control;
 pub mod device;

@@ -13,6 +13,11 @@ use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Folder of model, rig, pilot, spring and aircraft files that a scenario names but that are not
+    /// beside it (laid out as the repository: `models/…`, `models/aircraft/<name>.toml`, or flat); default
+    /// the environment variable MRFEEL_DATA. Files still not found are the built-in ones of that name.
+    #[arg(long, global = true, value_name = "DIR")]
+    data_dir: Option<PathBuf>,
 }
 
 #[derive(Subcommand)]
@@ -102,6 +107,7 @@ impl Job {
             Job::Run(a, _) => vec![
                 ("--out", a.out.as_ref(), File),
                 ("--rerun", a.rerun.as_ref(), File),
+                ("--plot", a.plot.as_ref(), Dir),
             ],
             Job::DaqSweep(a, _) => vec![("--plot", a.plot.as_ref(), Dir)],
             Job::Compare(a, _) => vec![
@@ -167,7 +173,31 @@ impl Job {
 /// The command line, parsed. Every subcommand takes `--option -0.01` as the option's value (refused, where
 /// it must be positive, by the check that names the field), not as an unknown flag `-0`.
 fn parse_cli() -> Cli {
-    let cmd = Cli::command().mut_subcommands(|c| c.allow_negative_numbers(true));
+    let effects = mrfeel::device::Registry::builtin().names().join(", ");
+    let cmd = Cli::command()
+        .mut_subcommands(|c| c.allow_negative_numbers(true))
+        .mut_subcommand("mts", |c| {
+            c.mut_arg("effects", |a| {
+                a.help(format!(
+                    "Hidden effects added to the device for synthetic data, comma-separated; one or more of: \
+                     {effects}"
+                ))
+            })
+        })
+        .mut_subcommand("fit", |c| {
+            c.mut_arg("model", |a| {
+                a.help(format!(
+                    "Model spec: `bingham` plus effects joined by `+` (effects: {effects})"
+                ))
+            })
+        })
+        .mut_subcommand("diagnose", |c| {
+            c.mut_arg("model", |a| {
+                a.help(format!(
+                    "The model to start from: `bingham` plus effects joined by `+` (effects: {effects})"
+                ))
+            })
+        });
     Cli::from_arg_matches(&cmd.get_matches())
         .map_err(|e| e.format(&mut Cli::command()))
         .unwrap_or_else(|e| e.exit())
@@ -182,6 +212,9 @@ fn main() -> std::process::ExitCode {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     let cli = parse_cli();
+    if cli.data_dir.is_some() {
+        mrfeel::builtin::set_data_dir(cli.data_dir);
+    }
     let result = Job::load(cli.command).and_then(|job| {
         let read = job.inputs();
         let read: Vec<(&'static str, &std::path::Path)> =

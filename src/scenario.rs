@@ -164,8 +164,8 @@ impl Scenario {
     }
 
     /// The files other than the scenario itself that a run of it reads, each with what it is (for errors):
-    /// the device file, the rig's URDF, the pilot model, the feel-spring file, and the aircraft model (and
-    /// for a JSBSim backend the bridge script) it flies. An output must not be one of them.
+    /// the device file, the rig's URDF, the pilot model, the feel-spring file, and the aircraft model it
+    /// flies, those on disk (not built in). An output must not be one of them.
     pub fn named_files(&self) -> Vec<(&'static str, PathBuf)> {
         let mut files = vec![
             ("device file", self.device_path.clone()),
@@ -181,10 +181,9 @@ impl Scenario {
             if let Ok(p) = crate::aero::AircraftModel::builtin(live.unwrap_or(&a.model)) {
                 files.push(("aircraft model", p));
             }
-            if live.is_some() {
-                files.push(("JSBSim bridge script", crate::aero::jsbsim_bridge::script_path()));
-            }
         }
+        // A built-in file is never an output's path.
+        files.retain(|(_, p)| !crate::builtin::is_builtin(p));
         files
     }
 
@@ -200,15 +199,13 @@ impl Scenario {
         let c = Ctx { path, text };
         let dir = path.parent().unwrap_or(Path::new("."));
         let mut rig = f.rig.clone();
-        rig.urdf = dir.join(&rig.urdf);
         let rig_line = |key: &str| crate::text_lines::toml_key_line(text, "rig", key);
         // The files the run reads later: named here, with the line that names them, when they are missing.
-        c.readable(rig_line("urdf"), "rig.urdf", &rig.urdf)?;
-        let device_path = dir.join(f.device.file.get_ref());
-        c.readable(
+        rig.urdf = c.named_file(rig_line("urdf"), "rig.urdf", &f.rig.urdf)?;
+        let device_path = c.named_file(
             line_of(text, f.device.file.span().start),
             "device.file",
-            &device_path,
+            Path::new(f.device.file.get_ref()),
         )?;
         let physics_rate_hz = rig.physics_hz;
         if !(physics_rate_hz.is_finite() && (100.0..=100_000.0).contains(&physics_rate_hz)) {
@@ -418,7 +415,7 @@ impl Scenario {
             .map(|o| parse_outer_loop(o, &c))
             .transpose()?;
         let feel_system = match &f.feel_system {
-            Some(fs) => parse_feel_system(fs, &c, dir, aircraft.is_some())?,
+            Some(fs) => parse_feel_system(fs, &c, aircraft.is_some())?,
             None => FeelSystemConfig::default(),
         };
         let wants_outer = f.pilot.signal.get_ref() == "outer-loop";
@@ -456,7 +453,7 @@ impl Scenario {
             }
         }
 
-        let pilot = parse_pilot(&f.pilot, &c, dir, duration_s, 1.0 / physics_rate_hz, seed)?;
+        let pilot = parse_pilot(&f.pilot, &c, duration_s, 1.0 / physics_rate_hz, seed)?;
         Ok(Scenario {
             path: path.to_path_buf(),
             lines: KeyLines {
@@ -483,7 +480,7 @@ impl Scenario {
                 .feel_system
                 .as_ref()
                 .and_then(|fs| fs.springs.as_ref())
-                .map(|p| dir.join(p.get_ref())),
+                .map(|p| crate::builtin::resolve(dir, Path::new(p.get_ref()))),
         })
     }
 
@@ -498,7 +495,6 @@ impl Scenario {
 fn parse_feel_system(
     fs: &FeelSystemSection,
     c: &Ctx,
-    dir: &Path,
     has_aircraft: bool,
 ) -> Result<FeelSystemConfig, ScenarioError> {
     let kind = FeelKind::from_name(fs.kind.get_ref()).ok_or_else(|| {
@@ -551,8 +547,12 @@ fn parse_feel_system(
             return Err(c.err(p, "feel_system.springs", "not used by `mr`"));
         }
         (Some(p), _) => Some(
-            FeelSprings::load(&dir.join(p.get_ref()))
-                .map_err(|e| c.err(p, "feel_system.springs", &e.to_string()))?,
+            FeelSprings::load(&c.named_file(
+                line_of(c.text, p.span().start),
+                "feel_system.springs",
+                Path::new(p.get_ref()),
+            )?)
+            .map_err(|e| c.err(p, "feel_system.springs", &e.to_string()))?,
         ),
         (None, _) => {
             return Err(c.err(
@@ -769,12 +769,15 @@ fn parse_outer_loop(o: &OuterLoopSection, c: &Ctx) -> Result<OuterLoopConfig, Sc
 fn parse_pilot(
     p: &PilotSection,
     c: &Ctx,
-    dir: &Path,
     duration_s: f64,
     dt_s: f64,
     seed: u64,
 ) -> Result<PilotConfig, ScenarioError> {
-    let hand_path = dir.join(p.model.get_ref());
+    let hand_path = c.named_file(
+        line_of(c.text, p.model.span().start),
+        "pilot.model",
+        Path::new(p.model.get_ref()),
+    )?;
     let hand = load_hand(&hand_path).map_err(|e| c.err(&p.model, "pilot.model", &e.to_string()))?;
     let task = match p.task.get_ref().as_str() {
         "position" => Task::Position,
@@ -967,19 +970,28 @@ impl Ctx<'_> {
         }
     }
 
-    /// A file the scenario names at `line` (`key`) exists and is a regular file.
-    fn readable(&self, line: usize, key: &str, file: &Path) -> Result<(), ScenarioError> {
+    /// The file the scenario names at `line` (`key`) as `named`, found as [`crate::builtin::resolve`] says:
+    /// a built-in file or a regular file that exists.
+    fn named_file(&self, line: usize, key: &str, named: &Path) -> Result<PathBuf, ScenarioError> {
+        let dir = self.path.parent().unwrap_or(Path::new("."));
+        let file = crate::builtin::resolve(dir, named);
+        if crate::builtin::is_builtin(&file) {
+            return Ok(file);
+        }
         // A regular file only: the rig's URDF and the device are read again for every run of a comparison
         // or a DAQ sweep, which a pipe cannot give twice.
         use crate::text_lines::NotAFile;
-        let msg = match std::fs::metadata(file).map(|m| NotAFile::of(&m)) {
-            Ok(None) => return Ok(()),
+        let msg = match std::fs::metadata(&file).map(|m| NotAFile::of(&m)) {
+            Ok(None) => return Ok(file),
             Ok(Some(NotAFile::Directory)) => format!("{}: a directory, not a file", file.display()),
             Ok(Some(kind)) => format!(
                 "{}: not a regular file ({}); this file is read once per run, so it must be one",
                 file.display(),
                 kind.noun()
             ),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                format!("{}: {e}; {}", file.display(), crate::builtin::not_found_hint())
+            }
             Err(e) => format!("{}: {e}", file.display()),
         };
         Err(ScenarioError::Field {

@@ -233,6 +233,22 @@ pub fn short_number(v: f64) -> String {
     }
 }
 
+/// A number for people, to `digits` significant digits: plain between 0.001 and a million (`62.6440`,
+/// `0.0108469`), in exponent form beyond (`1.00e-6`, `2.50e8`); 0 as `0`.
+pub fn significant(v: f64, digits: usize) -> String {
+    let digits = digits.max(1);
+    let a = v.abs();
+    if !v.is_finite() || a == 0.0 {
+        return if a == 0.0 { "0".into() } else { v.to_string() };
+    }
+    if (1e-3..1e6).contains(&a) {
+        let decimals = (digits as i32 - 1 - a.log10().floor() as i32).max(0) as usize;
+        format!("{v:.decimals$}")
+    } else {
+        format!("{v:.*e}", digits - 1)
+    }
+}
+
 /// What a path is when it is not a regular file (links followed), for messages that say so.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum NotAFile {
@@ -289,9 +305,13 @@ pub const TEXT_LIMIT_BYTES: u64 = 64 << 20;
 /// Read an input file whole, refusing what no input of this tool can be: a device (`/dev/zero`, a disk,
 /// a terminal), or more than `limit` bytes (a stream that never ends, such as `yes |`), so that a wrong
 /// path is an error and not a read until memory runs out. A pipe (`/dev/stdin`, `<(…)`) is read as a
-/// file. An error reading it is the system's message.
+/// file. An error reading it is the system's message. A built-in file's path ([`crate::builtin`]) reads
+/// as that file.
 pub fn read_bytes(path: &std::path::Path, limit: u64) -> Result<Vec<u8>, String> {
     use std::io::Read;
+    if let Some(text) = crate::builtin::text(path) {
+        return Ok(text.as_bytes().to_vec());
+    }
     let too_long = || {
         format!(
             "longer than {} MiB, more than any input of this kind can be (is this the file you meant?)",
@@ -331,6 +351,17 @@ pub fn read_text(path: &std::path::Path) -> Result<String, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn numbers_for_people_keep_their_significant_digits() {
+        assert_eq!(significant(62.644014, 6), "62.6440");
+        assert_eq!(significant(-4.143014, 4), "-4.143");
+        assert_eq!(significant(0.01084694, 4), "0.01085");
+        assert_eq!(significant(1e-6, 3), "1.00e-6");
+        assert_eq!(significant(2.5e8, 3), "2.50e8");
+        assert_eq!(significant(0.0, 3), "0");
+        assert_eq!(significant(999.96, 4), "1000.0");
+    }
 
     const TEXT: &str =
         "base = \"a.toml\"\n\n[springs]\nfile = \"s.toml\"\nfiles_extra = 1\n[[faults]]\nkind = \"x\"\n";

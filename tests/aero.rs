@@ -15,7 +15,12 @@ fn aircraft(name: &str) -> Aircraft {
 }
 
 fn run(name: &str, which: &str) -> ReferenceRun {
-    ReferenceRun::load(&ReferenceRun::builtin_path(name, which)).expect("shipped reference loads")
+    ReferenceRun::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("scenarios/jsbsim")
+            .join(format!("{name}_{which}.csv")),
+    )
+    .expect("shipped reference loads")
 }
 
 struct Replay {
@@ -410,7 +415,7 @@ fn c172p_stick_force_per_g_from_derived_hinge_moments_sits_in_its_certification_
 #[test]
 fn bad_model_file_names_file_line_and_field() {
     let path = AircraftModel::builtin_path("c172p");
-    let text = std::fs::read_to_string(&path).unwrap();
+    let text = mrfeel::text_lines::read_text(&path).unwrap();
     let bad = text.replace("mass_kg = 852.753644", "mass_kg = -5.0");
     let line = bad.lines().position(|l| l.starts_with("mass_kg = -5.0")).unwrap() + 1;
     match AircraftModel::from_toml(&bad, Path::new("c172p.toml")) {

@@ -3,7 +3,7 @@
 //! anything is run: nothing printed on stdout, no file written.
 
 mod common;
-use common::mrfeel;
+use common::{mrfeel, s};
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -19,10 +19,6 @@ fn small_test() -> String {
 
 fn scenario(name: &str) -> String {
     s(&root().join("scenarios").join(name))
-}
-
-fn s(p: &Path) -> String {
-    p.to_str().expect("utf-8 path").to_string()
 }
 
 /// A temporary folder with a regular file `afile` in it, so that `afile/x` cannot be written (the tests

@@ -5,17 +5,13 @@
 //! key left out) load and give the same figures.
 
 mod common;
-use common::mrfeel;
+use common::{mrfeel, s};
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Output;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn s(p: &Path) -> String {
-    p.to_str().expect("utf-8 path").to_string()
 }
 
 /// A small real test (448 samples) from the damper data beside the repository.

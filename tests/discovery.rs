@@ -132,7 +132,7 @@ fn velocity_squared_drag_is_found_as_quadratic_damping() {
     assert!(d.unexplained().is_none(), "{report}");
     // The saved effect, loaded back and refitted alone from bingham on the same folds, keeps the gain.
     let path = dir.path().join("drag.toml");
-    let merged = mrfeel::ident::discover::merged("drag", &[t.effect.clone()]).expect("one term");
+    let merged = mrfeel::ident::discover::merged("drag", std::slice::from_ref(&t.effect)).expect("one term");
     std::fs::write(&path, merged.to_toml()).expect("write");
     let loaded = FormulaEffect::load(&path).expect("loads");
     let mut reg = Registry::builtin();

@@ -200,32 +200,33 @@ fn pull_up_reaches_the_load_factor_with_the_feel_capped_at_the_device_force() {
     );
 }
 
-/// The T-37 pull-up (`scenarios/T37-pullup.toml`, 1 -> 1.5 g, a pilot adapted to the aircraft with no
-/// gains typed in): the pilot holds the load factor through the MR feel, and the stick force per g felt
-/// in flight (the aircraft's stick force over the hold, from a trimmed zero, over the load factor gained)
-/// agrees with the steady pull-up solution of the certification check (`FeelAssessment`, a separate
-/// solver with no time stepping). The speed bleeds off during the pull at fixed throttle, so the two
-/// agree within 25 %, not exactly. MIL-F-8785C Level 1 is printed, not asserted: with the estimated
-/// elevator geometry and gearing the T-37's stick is heavier than Level 1 (docs/aero.md).
+/// The T-37 pull-up (`scenarios/T37-pullup.toml`, 1 -> 1.2 g, a pilot adapted to the aircraft with no
+/// gains typed in), where the aircraft's stick force stays inside the damper's ceiling at the grip: the
+/// pilot holds the load factor; the force the pilot's hand puts on the grip is the aircraft's stick force
+/// (the MR damper renders it through the linkage and the load-cell loop); and the stick force per g felt
+/// in flight (the hold's stick force from a trimmed zero over the load factor gained) agrees with the
+/// steady pull-up solution of the certification check (`FeelAssessment`, a separate solver with no time
+/// stepping, at the speed flown; the speed bleeds at fixed throttle and the pull has pitch-rate terms, so
+/// within 15 %, not exactly). A linkage or gearing wrong by a factor of two breaks the grip-force check; a
+/// hinge path that differs between the flight and the steady solver breaks the per-g check. MIL-F-8785C
+/// Level 1 is printed, not asserted: no published T-37 stick force per g was found and the elevator
+/// geometry and gearing are `[EST]` (docs/aero.md).
 #[test]
-fn t37_pull_up_holds_the_load_factor_and_its_stick_force_per_g_matches_the_steady_pull_up() {
+fn t37_pull_up_is_held_with_the_aircrafts_stick_force_at_the_grip_and_its_steady_per_g() {
     use mrfeel::aero::{Aircraft, AircraftModel, FeelAssessment};
     let (s, d) = load("T37-pullup.toml");
     let r = fly(&s, &d);
     let f = r.flight.as_ref().unwrap();
     assert_eq!(f.aircraft, "T37");
-    let hold: Vec<_> = r
-        .rows
-        .iter()
-        .filter(|x| x.t_s >= 5.0 && x.t_s < 7.0)
-        .filter_map(|x| x.aero)
-        .collect();
+    let hold: Vec<_> = r.rows.iter().filter(|x| x.t_s >= 5.0 && x.t_s < 7.0).collect();
     let mean =
-        |g: fn(&mrfeel::sim::flight::AeroRow) -> f64| hold.iter().map(g).sum::<f64>() / hold.len() as f64;
-    let (nz, force, v) = (
-        mean(|a| a.nz_g),
-        mean(|a| a.stick_force_n),
-        mean(|a| a.airspeed_m_s),
+        |g: &dyn Fn(&mrfeel::sim::Row) -> f64| hold.iter().map(|x| g(x)).sum::<f64>() / hold.len() as f64;
+    let aero = |x: &mrfeel::sim::Row| x.aero.unwrap();
+    let (nz, force, v, hand) = (
+        mean(&|x| aero(x).nz_g),
+        mean(&|x| aero(x).stick_force_n),
+        mean(&|x| aero(x).airspeed_m_s),
+        mean(&|x| x.pilot_force_n),
     );
     let flown_per_g = force / (nz - 1.0);
     let m = AircraftModel::load(&AircraftModel::builtin_path("T37")).unwrap();
@@ -233,16 +234,22 @@ fn t37_pull_up_holds_the_load_factor_and_its_stick_force_per_g_matches_the_stead
     let steady = FeelAssessment::assess(&a, v, 3000.0).unwrap();
     let (lo, hi) = steady.allowed_per_g_n;
     println!(
-        "T-37 pull-up: load factor over the hold {nz:.3} g (command 1.5 g) at {v:.1} m/s; stick force {force:.1} N, \
-         {flown_per_g:.1} N/g flown vs {:.1} N/g from the steady pull-up at that speed; MIL-F-8785C Level 1 [{lo:.1}, {hi:.1}] N/g",
+        "T-37 pull-up: load factor over the hold {nz:.3} g (command 1.2 g) at {v:.1} m/s; stick force {force:.1} N, \
+         pilot's force at the grip {hand:.1} N (damper ceiling there {:.1} N); {flown_per_g:.1} N/g flown vs {:.1} N/g \
+         from the steady pull-up at that speed; MIL-F-8785C Level 1 [{lo:.1}, {hi:.1}] N/g",
+        FlightMetrics::of(&r, &s).unwrap().ceiling_at_grip_n,
         steady.stick_force_per_g_n
     );
     assert!(
-        (nz - 1.5).abs() < 0.08,
+        (nz - 1.2).abs() < 0.05,
         "the pilot did not hold the pull-up: {nz} g"
     );
     assert!(
-        (flown_per_g / steady.stick_force_per_g_n - 1.0).abs() < 0.25,
+        (hand / force - 1.0).abs() < 0.10,
+        "the hand holds {hand} N at the grip, the aircraft's stick force is {force} N"
+    );
+    assert!(
+        (flown_per_g / steady.stick_force_per_g_n - 1.0).abs() < 0.15,
         "flown {flown_per_g} N/g vs steady {} N/g",
         steady.stick_force_per_g_n
     );
@@ -489,7 +496,7 @@ fn flight_recording_reads_back_with_the_aircraft_beside_the_stick() {
     let (ok, text) = common::record_and_read_back(&res);
     assert!(ok, "read-back failed:\n{text}");
     assert!(
-        text.contains("ok /series/aircraft/pitch == CSV pitch_rad"),
+        text.contains("ok /signals/aircraft/pitch == CSV pitch_rad"),
         "{text}"
     );
     assert!(text.contains("ok aircraft attitude over time"), "{text}");

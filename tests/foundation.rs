@@ -222,3 +222,31 @@ fn load_cell_saturation_is_an_error_not_a_clipped_record() {
         assert!(!out.exists(), "{args:?} wrote the record");
     }
 }
+
+/// Synthetic data made with hidden effects can serve as a blind test: its CSV names none of them (nor the
+/// model); the `--save-device` file does.
+#[test]
+fn mts_hidden_effects_are_named_only_in_the_saved_device() {
+    let dir = tmp();
+    let (csv, dev) = (dir.path().join("blind.csv"), dir.path().join("truth.json"));
+    let o = mrfeel(&[
+        "mts",
+        "--current",
+        "3,9",
+        "--cycles",
+        "1",
+        "--effects",
+        "hysteresis,asymmetry",
+        "--out",
+        s(&csv),
+        "--save-device",
+        s(&dev),
+    ]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    let data = std::fs::read_to_string(&csv).unwrap();
+    for word in ["hysteresis", "asymmetry", "hyst_", "asym_", "bingham"] {
+        assert!(!data.contains(word), "the CSV reveals `{word}`");
+    }
+    let truth = std::fs::read_to_string(&dev).unwrap();
+    assert!(truth.contains("bingham+") && truth.contains("hysteresis") && truth.contains("asymmetry"));
+}

@@ -937,6 +937,12 @@ fn diagnose_json_follows_the_contract() {
     ] {
         assert!(plots.join(f).exists(), "{f} missing");
     }
+    // The residual over time names each test beside the plot (a legend per file).
+    let svg = std::fs::read_to_string(plots.join("base_residual_time.svg")).unwrap();
+    for f in &files {
+        let stem = Path::new(f).file_stem().unwrap().to_str().unwrap();
+        assert!(svg.contains(stem), "{stem} not in the residual-over-time legend");
+    }
 }
 
 /// A sine of displacement `x = amp sin(2π f t)` at a constant current, logged at `rate_hz` for `seconds`.

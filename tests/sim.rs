@@ -314,10 +314,15 @@ fn rerun_recording_reads_back_equal_to_the_csv() {
     );
     let (ok, text) = common::record_and_read_back(&res);
     assert!(ok, "read-back failed:\n{text}");
-    assert!(
-        text.contains("ok /series/force/load_cell == CSV load_cell_n"),
-        "{text}"
-    );
+    for line in [
+        "ok /signals/force/load_cell == CSV load_cell_n",
+        "ok /signals/current/command == CSV current_a",
+        "ok /forces/hand == CSV pilot_force_n",
+        "ok /forces/damper == CSV damper_force_n",
+        "ok view coordinates: right-handed, z up",
+    ] {
+        assert!(text.contains(line), "no `{line}` in:\n{text}");
+    }
 }
 
 #[test]
@@ -582,7 +587,7 @@ fn run_with_spawn_streams_the_recording_to_the_spawned_viewer() {
         "read-back of what the viewer received (up to 60 s after the run) failed:\n{text}"
     );
     assert!(
-        text.contains("ok /series/force/load_cell == CSV load_cell_n"),
+        text.contains("ok /signals/force/load_cell == CSV load_cell_n"),
         "{text}"
     );
 }

@@ -2,21 +2,11 @@
 //! --out` (the model's force beside the measured one), through the binary.
 
 mod common;
-use common::mrfeel;
+use common::{mrfeel, ok, s};
 
 use std::path::{Path, PathBuf};
 
 use mrfeel::measurement::Measurement;
-
-fn s(p: &Path) -> String {
-    p.to_str().expect("utf-8 path").to_string()
-}
-
-fn ok(o: &std::process::Output) -> String {
-    let err = String::from_utf8_lossy(&o.stderr).into_owned();
-    assert!(o.status.success(), "{err}");
-    err
-}
 
 /// A noiseless record of the virtual MTS machine (no sensor noise, no ADC rounding) of the paper's device
 /// with hidden `effects`: multisine displacement, the current switched between three levels; the device it

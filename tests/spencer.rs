@@ -3,22 +3,12 @@
 //! spencer`, and the fit predicts a second record of another protocol, as the device does.
 
 mod common;
-use common::mrfeel;
+use common::{mrfeel, ok, s};
 
 use std::path::{Path, PathBuf};
 
 use mrfeel::device::spencer::{PARAMS, SPENCER_1997};
 use mrfeel::measurement::Measurement;
-
-fn s(p: &Path) -> String {
-    p.to_str().expect("utf-8 path").to_string()
-}
-
-fn ok(o: &std::process::Output) -> String {
-    let err = String::from_utf8_lossy(&o.stderr).into_owned();
-    assert!(o.status.success(), "{err}");
-    err
-}
 
 /// The 1997 paper's device as a parameter file (its command in volts read as amperes).
 fn truth_file(dir: &Path) -> PathBuf {

@@ -74,7 +74,9 @@ def test_run_scenario_errors_name_the_file_and_line(tmp_path):
     scn = tmp_path / "bad.toml"
     text = (ROOT / "scenarios" / "paper-feel-loop.toml").read_text()
     scn.write_text(text.replace("duration_s = 12.0", "duration_s = -1.0", 1))
-    want = cli("run", scn, check=False).stderr.strip().removeprefix("error: ")
+    # The CLI may print notes (a model file taken from the built-in set) before its error line.
+    stderr = cli("run", scn, check=False).stderr.splitlines()
+    want = next(l for l in stderr if l.startswith("error: ")).removeprefix("error: ")
     with pytest.raises(mrfeel.Error) as e:
         mrfeel.run_scenario(scn)
     assert str(e.value) == want

@@ -3,10 +3,13 @@
 //! docstring). JSBSim runs at its own frame (the scenario's aircraft rate, 120 Hz by default) and the
 //! rig at its physics rate; the flight loop sends one `step` per aircraft frame.
 //!
-//! The Python interpreter is `$MRFEEL_PYTHON` if set, else the repository's `.venv/bin/python`
-//! (`bash scripts/python-env.sh` creates it with the pinned jsbsim). A missing interpreter, venv or
-//! jsbsim is an error that says so and how to install it; every read has a timeout (never a hang);
-//! the child is killed when the bridge is dropped. Each request's round trip is timed.
+//! The Python interpreter is the first of `$MRFEEL_PYTHON`, the `.venv/bin/python` of the mrfeel
+//! checkout the command runs in (the current directory or a folder above it; `bash scripts/python-env.sh`
+//! creates it with the pinned jsbsim), and `python3` on the `PATH`; the bridge says on stderr which it
+//! used. The bridge scripts are built into the binary ([`crate::builtin`]) and written to a temporary
+//! folder for the child. A missing interpreter or jsbsim is an error that says so and how to install it;
+//! every read has a timeout (never a hang); the child is killed when the bridge is dropped. Each request's
+//! round trip is timed.
 
 use std::io::{BufRead, BufReader, Write};
 use std::path::PathBuf;
@@ -19,8 +22,8 @@ use super::backend::{with_hinge, AircraftBackend};
 use super::{AeroError, AircraftModel, AircraftState, HingeModel};
 
 /// How to install the Python side, quoted in every error.
-pub const INSTALL_HINT: &str =
-    "create the Python environment with `bash scripts/python-env.sh` (installs the pinned jsbsim into .venv)";
+pub const INSTALL_HINT: &str = "in an mrfeel checkout, `bash scripts/python-env.sh` creates .venv with the \
+     pinned jsbsim; elsewhere, `python3 -m pip install jsbsim==1.3.3` into a Python named by MRFEEL_PYTHON";
 
 /// Start-up (interpreter + `import jsbsim`) and trim may take a while on a loaded machine.
 const START_TIMEOUT: Duration = Duration::from_secs(60);
@@ -30,16 +33,52 @@ const STEP_TIMEOUT: Duration = Duration::from_secs(20);
 /// The reply's fields, in the order of `STATE_FIELDS` in `python/jsbsim_bridge.py`.
 const N_FIELDS: usize = 16;
 
-/// The repository's Python for the bridge: `$MRFEEL_PYTHON`, else `<repo>/.venv/bin/python`.
-pub fn python_path() -> PathBuf {
-    std::env::var_os("MRFEEL_PYTHON")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/.venv/bin/python")))
+/// The environment variable naming the bridge's Python interpreter.
+pub const PYTHON_ENV: &str = "MRFEEL_PYTHON";
+
+/// The Python interpreter for the bridge and where it was found ([the module's order](self)).
+pub fn python() -> (PathBuf, String) {
+    if let Some(p) = std::env::var_os(PYTHON_ENV).filter(|p| !p.is_empty()) {
+        return (PathBuf::from(p), format!("from {PYTHON_ENV}"));
+    }
+    let here = std::env::current_dir().ok();
+    let checkout = here
+        .iter()
+        .flat_map(|d| d.ancestors())
+        .find(|d| d.join("python/requirements.txt").is_file() && d.join(".venv/bin/python").exists());
+    match checkout {
+        Some(d) => (
+            d.join(".venv/bin/python"),
+            format!("the checkout's .venv ({})", d.display()),
+        ),
+        None => (
+            PathBuf::from("python3"),
+            format!("python3 on the PATH ({PYTHON_ENV} not set, no mrfeel checkout's .venv here)"),
+        ),
+    }
 }
 
-/// The bridge script.
-pub fn script_path() -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/python/jsbsim_bridge.py"))
+/// The bridge's Python interpreter ([`python`]).
+pub fn python_path() -> PathBuf {
+    python().0
+}
+
+/// The bridge scripts, built into the binary.
+const SCRIPTS: [&str; 2] = ["python/jsbsim_bridge.py", "python/jsbsim_reference.py"];
+
+/// Write the bridge scripts into a new temporary folder (removed when it is dropped); the bridge's path.
+fn write_scripts() -> std::io::Result<(tempfile::TempDir, PathBuf)> {
+    let dir = tempfile::Builder::new()
+        .prefix("mrfeel-jsbsim-bridge-")
+        .tempdir()?;
+    for s in SCRIPTS {
+        let text = crate::builtin::text(&std::path::Path::new(crate::builtin::ROOT).join(s))
+            .ok_or_else(|| std::io::Error::other(format!("{s} is not built in")))?;
+        let name = std::path::Path::new(s).file_name().unwrap_or_default();
+        std::fs::write(dir.path().join(name), text)?;
+    }
+    let bridge = dir.path().join("jsbsim_bridge.py");
+    Ok((dir, bridge))
 }
 
 /// Round-trip statistics of the `step` requests (request written → reply parsed), µs.
@@ -64,24 +103,31 @@ pub struct JsbsimBridge {
     feel_trim_rad: f64,
     rt_sum_us: f64,
     rt: RoundTrip,
+    /// The folder the bridge scripts were written to, removed with the bridge.
+    _scripts: tempfile::TempDir,
 }
 
 impl JsbsimBridge {
     /// Start the bridge for aircraft `name` (JSBSim's folder name, `c172p`, `737`); the hinge and
     /// stick gearing come from the embedded model of the same name.
     pub fn spawn(name: &str, model: Arc<AircraftModel>) -> Result<Self, AeroError> {
-        let py = python_path();
-        let script = script_path();
+        let (py, found) = python();
         let fail = |why: String| AeroError::Input {
             what: format!("live JSBSim `jsbsim:{name}`"),
             why,
         };
-        if !py.exists() {
+        crate::noteln!("JSBSim bridge: Python {} ({found})", py.display());
+        if py.is_absolute() && !py.exists() {
             return Err(fail(format!(
-                "Python interpreter {} not found; {INSTALL_HINT}",
+                "Python interpreter {} ({found}) not found; {INSTALL_HINT}, or set {PYTHON_ENV}",
                 py.display()
             )));
         }
+        let (scripts, script) = write_scripts().map_err(|e| {
+            fail(format!(
+                "cannot write the bridge scripts to a temporary folder: {e}"
+            ))
+        })?;
         let mut child = Command::new(&py)
             .arg("-u")
             .arg(&script)
@@ -91,7 +137,7 @@ impl JsbsimBridge {
             .spawn()
             .map_err(|e| {
                 fail(format!(
-                    "cannot start {} {}: {e}; {INSTALL_HINT}",
+                    "cannot start {} ({found}) {}: {e}; {INSTALL_HINT}, or set {PYTHON_ENV}",
                     py.display(),
                     script.display()
                 ))
@@ -137,6 +183,7 @@ impl JsbsimBridge {
             feel_trim_rad: 0.0,
             rt_sum_us: 0.0,
             rt: RoundTrip::default(),
+            _scripts: scripts,
         };
         let hello = b.read_line(START_TIMEOUT)?;
         if let Some(msg) = hello.strip_prefix("error ") {

@@ -563,35 +563,21 @@ impl AircraftModel {
         Ok(model)
     }
 
-    /// The model shipped in `models/aircraft/<name>.toml` of this crate. The name is not checked: see
+    /// The file of the model `name` (`c172p`, `737`): the data directory's `models/aircraft/<name>.toml`
+    /// or the built-in one ([`crate::builtin::aircraft`]). The name is not checked: see
     /// [`AircraftModel::builtin`] for a name a user gave.
     pub fn builtin_path(name: &str) -> PathBuf {
-        Self::builtin_dir().join(format!("{name}.toml"))
+        crate::builtin::aircraft(name).unwrap_or_else(|| PathBuf::from(format!("{name}.toml")))
     }
 
-    fn builtin_dir() -> PathBuf {
-        Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("models")
-            .join("aircraft")
-    }
-
-    /// Names of the models in `models/aircraft/`, sorted.
+    /// Names of the aircraft models there are ([`crate::builtin::aircraft_names`]).
     pub fn builtin_names() -> Vec<String> {
-        let mut names: Vec<String> = std::fs::read_dir(Self::builtin_dir())
-            .map(|rd| {
-                rd.filter_map(|e| e.ok().map(|e| e.path()))
-                    .filter(|p| p.extension().and_then(|e| e.to_str()) == Some("toml"))
-                    .filter_map(|p| p.file_stem().and_then(|s| s.to_str()).map(str::to_string))
-                    .collect()
-            })
-            .unwrap_or_default();
-        names.sort();
-        names
+        crate::builtin::aircraft_names()
     }
 
-    /// The file of a model a user names (`c172p`, `737`): a name of a file in `models/aircraft/`, never a
-    /// path. A name with a path separator, `..`, a leading `.` or characters other than letters, digits,
-    /// `_`, `-` and `.` is refused (it would reach files outside the models), as is a name with no file.
+    /// The file of a model a user names (`c172p`, `737`), never a path. A name with a path separator,
+    /// `..`, a leading `.` or characters other than letters, digits, `_`, `-` and `.` is refused (it would
+    /// reach files outside the models), as is a name with no model.
     pub fn builtin(name: &str) -> Result<PathBuf, AeroError> {
         let available = || Self::builtin_names().join(", ");
         let plain = !name.is_empty()
@@ -604,19 +590,20 @@ impl AircraftModel {
             return Err(AeroError::Input {
                 what: format!("aircraft `{name}`"),
                 why: format!(
-                    "not a model name: give the name of a model in models/aircraft/ ({}), not a path",
+                    "not a model name: give the name of a model ({}), not a path",
                     available()
                 ),
             });
         }
-        let path = Self::builtin_path(name);
-        if !path.is_file() {
-            return Err(AeroError::Input {
-                what: format!("aircraft `{name}`"),
-                why: format!("no model {} (available: {})", path.display(), available()),
-            });
-        }
-        Ok(path)
+        crate::builtin::aircraft(name).ok_or_else(|| AeroError::Input {
+            what: format!("aircraft `{name}`"),
+            why: format!(
+                "no model `{name}` (available: {}; more from the data directory's models/aircraft/<name>.toml, \
+                 --data-dir or {})",
+                available(),
+                crate::builtin::DATA_ENV
+            ),
+        })
     }
 
     /// Load the model a user names ([`AircraftModel::builtin`]).
@@ -641,7 +628,7 @@ mod tests {
 
     fn c172p() -> (PathBuf, String) {
         let path = AircraftModel::builtin_path("c172p");
-        let text = std::fs::read_to_string(&path).unwrap();
+        let text = crate::text_lines::read_text(&path).unwrap();
         (path, text)
     }
 

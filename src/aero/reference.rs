@@ -84,12 +84,4 @@ impl ReferenceRun {
             })?;
         Ok(self.rows.iter().map(|r| r[k]).collect())
     }
-
-    /// The reference run shipped in this crate's `scenarios/jsbsim/<aircraft>_<run>.csv`.
-    pub fn builtin_path(aircraft: &str, run: &str) -> PathBuf {
-        Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("scenarios")
-            .join("jsbsim")
-            .join(format!("{aircraft}_{run}.csv"))
-    }
 }

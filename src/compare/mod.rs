@@ -308,11 +308,12 @@ impl CompareScenario {
         }
         let names: Vec<&str> = f.systems.iter().map(String::as_str).collect();
         let systems = feel_kinds(&names).map_err(systems_err)?;
-        let base = Scenario::load(&dir.join(&f.base)).map_err(|e| CompareError::Field {
+        let base_path = crate::builtin::resolve(dir, &f.base);
+        let base = Scenario::load(&base_path).map_err(|e| CompareError::Field {
             path: path.to_path_buf(),
             line: line_of_key(text, "", "base"),
             key: "base".into(),
-            msg: e.to_string(),
+            msg: crate::builtin::hint_if_missing(&base_path, e.to_string()),
         })?;
         let rig = base.rig.clone();
         let device = DeviceConfig::load(&base.device_path, &Registry::builtin())?;
@@ -324,12 +325,12 @@ impl CompareScenario {
             1000.0,
             "Ω",
         )?;
-        let springs_path = dir.join(&f.springs.file);
+        let springs_path = crate::builtin::resolve(dir, &f.springs.file);
         let springs = FeelSprings::load(&springs_path).map_err(|e| CompareError::Field {
             path: path.to_path_buf(),
             line: line_of_key(text, "springs", "file"),
             key: "springs.file".into(),
-            msg: e.to_string(),
+            msg: crate::builtin::hint_if_missing(&springs_path, e.to_string()),
         })?;
         let s = &f.springs;
         chk(

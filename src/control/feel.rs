@@ -428,13 +428,13 @@ mod tests {
 
     #[test]
     fn feel_file_loads_and_bad_values_name_the_field() {
-        let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/models/feel-springs.toml"));
-        let f = FeelSprings::load(path).unwrap();
+        let path = crate::builtin::by_file_name("feel-springs.toml").unwrap();
+        let f = FeelSprings::load(&path).unwrap();
         assert!(f.centring.k_n_per_m > 0.0);
         let dir = std::env::temp_dir().join(format!("mrfeel-feel-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let bad = dir.join("bad.toml");
-        let text = std::fs::read_to_string(path)
+        let text = crate::text_lines::read_text(&path)
             .unwrap()
             .replace("nonlinearity = ", "nonlinearity = -");
         std::fs::write(&bad, text).unwrap();

@@ -428,7 +428,7 @@ impl FormulaEffect {
             if Feature::of(&p.name).is_some() {
                 return Err(format!("parameter `{}` has the name of a feature", p.name));
             }
-            if !(p.lower <= p.upper) || p.lower.is_nan() {
+            if p.lower.partial_cmp(&p.upper).is_none_or(|o| o.is_gt()) {
                 return Err(format!(
                     "parameter `{}`: lower bound {} above upper bound {}",
                     p.name, p.lower, p.upper

@@ -113,10 +113,13 @@ pub struct ValidateArgs {
     /// Parameters written by `mrfeel fit --save` (or a device `.toml`); run unchanged, no refit.
     #[arg(long)]
     pub params: PathBuf,
+    /// Print the contract's JSON on stdout instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// Write PNG + SVG plots into this directory.
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    /// Write a Rerun recording (.rrd) of measured vs model force.
     #[arg(long)]
     pub rerun: Option<PathBuf>,
     /// Write each test as read with the model's force beside the measured one (column `f_model_n`, the
@@ -152,12 +155,17 @@ pub struct DiagnoseArgs {
     /// The model to start from.
     #[arg(long, default_value = "bingham")]
     pub model: String,
+    /// Print the contract's JSON on stdout instead of a report.
     #[arg(long)]
     pub json: bool,
+    /// Write PNG + SVG plots into this directory (where the model fails, the error falling).
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    /// Write a Rerun recording (.rrd) of measured vs model force, starting and final model.
     #[arg(long)]
     pub rerun: Option<PathBuf>,
+    /// Driver saturation of the current command, A (default: 14 A, the paper's driver, or the largest
+    /// command in the data if higher).
     #[arg(long)]
     pub current_limit_a: Option<f64>,
     /// Write the terms the open search found as one data-defined effect (TOML) named after the file, for
@@ -188,10 +196,15 @@ fn load_and_tell(
     share: Option<f64>,
 ) -> anyhow::Result<prelude::Data> {
     let data = prelude::load(paths, choice, share)?;
+    tell(&data);
+    Ok(data)
+}
+
+/// What reading the data noticed (clipped channels, acquisition filters, …), on stderr.
+fn tell(data: &prelude::Data) {
     for line in &data.notes {
         crate::noteln!("{line}");
     }
-    Ok(data)
 }
 
 /// How the tests share the loss, said wherever there are several.
@@ -331,9 +344,7 @@ pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
     let cfg = DeviceConfig::load(&a.params, &registry)?;
     let (ms, data) =
         prelude::load_keeping(&a.data, a.acquisition.acquisition, cfg.acquisition_window_periods)?;
-    for line in &data.notes {
-        crate::noteln!("{line}");
-    }
+    tell(&data);
     prelude::require(&data.tests, cfg.model.n_params())?;
     note_timing(&TimingDecision {
         timing: cfg.command_timing,

@@ -274,17 +274,39 @@ pub(crate) fn propose_term(
     if chosen.is_empty() {
         return None;
     }
-    // Least-squares coefficients of the chosen (not orthogonalised) columns.
-    let m = chosen.len();
-    let mut ata = DMatrix::<f64>::zeros(m, m);
-    let mut atb = DVector::<f64>::zeros(m);
-    for a in 0..m {
-        atb[a] = dot(&cols[chosen[a]].1, &target);
-        for b in 0..m {
-            ata[(a, b)] = dot(&cols[chosen[a]].1, &cols[chosen[b]].1);
+    // Least-squares coefficients of the chosen (not orthogonalised) columns. A term chosen early can end
+    // with a negligible share once the later terms are fitted beside it (they explain what it explained):
+    // such a term is dropped and the rest refitted, so the effect keeps only terms that carry force.
+    let solve = |chosen: &[usize]| -> Option<DVector<f64>> {
+        let m = chosen.len();
+        let mut ata = DMatrix::<f64>::zeros(m, m);
+        let mut atb = DVector::<f64>::zeros(m);
+        for a in 0..m {
+            atb[a] = dot(&cols[chosen[a]].1, &target);
+            for b in 0..m {
+                ata[(a, b)] = dot(&cols[chosen[a]].1, &cols[chosen[b]].1);
+            }
         }
+        ata.lu().solve(&atb)
+    };
+    let share = |chosen: &[usize], coef: &DVector<f64>, a: usize| {
+        coef[a].powi(2) * dot(&cols[chosen[a]].1, &cols[chosen[a]].1) / rr
+    };
+    let mut coef = solve(&chosen)?;
+    while chosen.len() > 1 {
+        let (weakest, s) = (0..chosen.len())
+            .map(|a| (a, share(&chosen, &coef, a)))
+            .min_by(|a, b| a.1.total_cmp(&b.1))?;
+        if s >= MIN_ERR {
+            break;
+        }
+        chosen.remove(weakest);
+        coef = solve(&chosen)?;
     }
-    let coef = ata.lu().solve(&atb)?;
+    // Strongest term first: it names the family the effect resembles.
+    let mut order: Vec<usize> = (0..chosen.len()).collect();
+    order.sort_by(|&a, &b| share(&chosen, &coef, b).total_cmp(&share(&chosen, &coef, a)));
+    let (chosen, coef): (Vec<usize>, Vec<f64>) = order.iter().map(|&a| (chosen[a], coef[a])).unzip();
     let mut params = Vec::new();
     let mut formula = Vec::new();
     let mut families = Vec::new();
@@ -438,8 +460,13 @@ pub(crate) fn verdict(
     let mut fold_of: Vec<Vec<usize>> = tests.iter().map(|t| vec![usize::MAX; t.len()]).collect();
     for fold in folds {
         for sp in &fold.test {
-            for k in sp.start..sp.end {
-                fold_of[sp.test][k] = (k / chunk) % VERDICT_BLOCKS;
+            for (k, f) in fold_of[sp.test]
+                .iter_mut()
+                .enumerate()
+                .take(sp.end)
+                .skip(sp.start)
+            {
+                *f = (k / chunk) % VERDICT_BLOCKS;
             }
         }
     }
@@ -453,6 +480,8 @@ pub(crate) fn verdict(
         sig: [f64; 11],
         lp: [f64; 5],
     }
+    /// A regressor column: a function of one sample's signals.
+    type RowFeature = Box<dyn Fn(&Row) -> f64>;
     let mut rows: Vec<Row> = Vec::new();
     let lp_v = Formula::parse(&format!("lp(v,{})", num(s.tau.max(2.0 * s.dt))), &[]).ok();
     let lp_x = Formula::parse(&format!("lp(x,{})", num(s.tau.max(2.0 * s.dt))), &[]).ok();
@@ -476,7 +505,7 @@ pub(crate) fn verdict(
         let n = t.len();
         for k in 0..n {
             k_all += 1;
-            if (k_all - 1) % stride != 0 || fold_of[j][k] == usize::MAX || dw[k] == 0.0 {
+            if !(k_all - 1).is_multiple_of(stride) || fold_of[j][k] == usize::MAX || dw[k] == 0.0 {
                 continue;
             }
             let r = t.f_n[k] - oof[j][k];
@@ -513,7 +542,7 @@ pub(crate) fn verdict(
         }
     }
     let mut groups: Vec<Group> = Vec::new();
-    let mut feats: Vec<Box<dyn Fn(&Row) -> f64>> = Vec::new();
+    let mut feats: Vec<RowFeature> = Vec::new();
     let mut add = |g: &str, f: Box<dyn Fn(&Row) -> f64>, groups: &mut Vec<Group>| {
         let c = feats.len();
         feats.push(f);

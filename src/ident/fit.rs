@@ -710,7 +710,7 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
                 .with_patience(opts.max_iterations.max(1));
             let (done, report) = lm.minimize(prob);
             prob = done;
-            termination = format!("{:?}", report.termination);
+            termination = termination_words(&report.termination);
             let best = prob.best.1.clone();
             if !best.is_empty() && best != prob.z {
                 prob.z = best;
@@ -1216,6 +1216,27 @@ fn bounded_lstsq3(ata: [[f64; 3]; 3], atb: [f64; 3], lo: &[f64], hi: &[f64]) -> 
         }
     }
     best
+}
+
+/// Why the search stopped, in words for the terminal.
+fn termination_words(t: &levenberg_marquardt::TerminationReason) -> String {
+    use levenberg_marquardt::TerminationReason as T;
+    match t {
+        T::Converged { ftol, xtol } => match (ftol, xtol) {
+            (true, true) => "converged: the loss and the parameters stopped changing".into(),
+            (true, false) => "converged: the loss stopped changing".into(),
+            _ => "converged: the parameters stopped changing".into(),
+        },
+        T::Orthogonal => "converged: the gradient vanished".into(),
+        T::ResidualsZero => "converged: the residuals are zero".into(),
+        T::LostPatience => "stopped at the iteration limit".into(),
+        T::NoImprovementPossible(what) => format!("stopped: no further improvement possible ({what})"),
+        T::Numerical(what) => format!("stopped: a non-finite number ({what})"),
+        T::User(what) => format!("stopped: {what}"),
+        T::NoParameters => "no free parameters".into(),
+        T::NoResiduals => "no residuals".into(),
+        T::WrongDimensions(what) => format!("stopped: wrong dimensions ({what})"),
+    }
 }
 
 #[cfg(test)]

@@ -279,12 +279,17 @@ fn draw_heatmap<DB: DrawingBackend>(
         .configure_mesh()
         .disable_mesh()
         .x_desc("|velocity|, m/s")
-        .y_labels(ni.max(1))
-        .y_label_formatter(&|y| labels.get(y.floor() as usize).cloned().unwrap_or_default())
+        // Ticks every half row, labelled at the rows' centres only: each current beside its own row.
+        .y_labels(2 * ni + 1)
+        .y_label_formatter(&|y| {
+            let k = y.floor() as usize;
+            let centre = (y - y.floor() - 0.5).abs() < 1e-9;
+            labels.get(k).filter(|_| centre).cloned().unwrap_or_default()
+        })
         .label_style(("sans-serif", 12))
         .draw()
         .map_err(e2s)?;
-    let color = |f: f64| HSLColor(0.66 * (1.0 - f.clamp(0.0, 1.0)), 0.85, 0.5);
+    let color = crate::viz::plot::colormap;
     for (i, row) in hm.rms_n.iter().enumerate() {
         for (v, val) in row.iter().enumerate() {
             if !val.is_finite() {
@@ -346,7 +351,24 @@ fn draw_residual_time<DB: DrawingBackend>(
         series.push((t.name.clone(), pts));
     }
     let (y0, y1) = range(series.iter().flat_map(|s| s.1.iter().map(|q| q.1)));
-    let mut chart = ChartBuilder::on(root)
+    // The legend (a colour and a file name per test) beside the plot, where it hides no data.
+    let (plot, legend) = root.split_horizontally(root.dim_in_pixel().0.saturating_sub(260));
+    let row_px = ((legend.dim_in_pixel().1 as i32 - 60) / series.len().max(1) as i32).clamp(8, 22);
+    for (k, (name, _)) in series.iter().enumerate() {
+        let y = 50 + k as i32 * row_px;
+        let c = Palette99::pick(k).to_rgba();
+        legend
+            .draw(&Rectangle::new([(6, y - 3), (26, y + 3)], c.filled()))
+            .map_err(e2s)?;
+        legend
+            .draw(&Text::new(
+                name.clone(),
+                (32, y - 6),
+                ("sans-serif", (row_px - 2).clamp(8, 13)),
+            ))
+            .map_err(e2s)?;
+    }
+    let mut chart = ChartBuilder::on(&plot)
         .caption(
             format!("{model}: residual (model − measured) over time, tests one after another"),
             ("sans-serif", 18),

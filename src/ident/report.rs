@@ -99,9 +99,10 @@ impl FitJson {
         for (name, p) in &self.params {
             let se = p
                 .std_err
-                .map(|e| format!("{e:.4e}"))
+                .map(|e| crate::text_lines::significant(e, 3))
                 .unwrap_or_else(|| "—".into());
-            let _ = writeln!(s, "{name:<28} {:>14.6e} {se:>12}  {}", p.value, p.unit);
+            let value = crate::text_lines::significant(p.value, 6);
+            let _ = writeln!(s, "{name:<28} {value:>14} {se:>12}  {}", p.unit);
             if !p.note.is_empty() {
                 let _ = writeln!(s, "{:<28} ({})", "", p.note);
             }

@@ -85,13 +85,13 @@ impl TimingDecision {
         match &self.fits {
             Some((a, b)) => format!(
                 "current command timing: {} ({}; fitted both ways: NRMSE {:.4} after its sample, {:.4} at it; \
-                 the fit's loss, which decides, {:.6e} and {:.6e} N²)",
+                 the fit's loss, which decides, {} and {} N²)",
                 self.timing.as_str(),
                 self.timing.describe(),
                 a.nrmse(),
                 b.nrmse(),
-                a.loss,
-                b.loss
+                crate::text_lines::significant(a.loss, 7),
+                crate::text_lines::significant(b.loss, 7)
             ),
             None => format!("current command timing: {} ({})", self.timing.as_str(), self.timing.describe()),
         }

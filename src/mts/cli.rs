@@ -10,8 +10,8 @@ use crate::device::{DeviceConfig, Registry};
 use crate::measurement::Measurement;
 use crate::viz::plot::{save_charts, Chart, Series};
 
-/// The paper's device, compiled in so that `mrfeel mts` works from any directory.
-pub const PAPER_DEVICE_TOML: &str = include_str!("../../models/paper-device.toml");
+/// The paper's device, built in ([`crate::builtin`]) so that `mrfeel mts` works from any directory.
+pub const PAPER_DEVICE_TOML: &str = crate::builtin::PAPER_DEVICE;
 
 /// The paper's Section 4 measurements: (current A, force N).
 pub const PAPER_POINTS: [(f64, f64); 3] = [(2.2, 10.0), (5.0, 25.0), (14.0, 70.0)];
@@ -92,7 +92,11 @@ pub struct MtsArgs {
 pub fn load_device(path: Option<&Path>, registry: &Registry) -> Result<DeviceConfig> {
     Ok(match path {
         Some(p) => DeviceConfig::load(p, registry)?,
-        None => DeviceConfig::from_toml(PAPER_DEVICE_TOML, Path::new("models/paper-device.toml"), registry)?,
+        None => DeviceConfig::from_toml(
+            PAPER_DEVICE_TOML,
+            Path::new("<built-in>/models/paper-device.toml"),
+            registry,
+        )?,
     })
 }
 

@@ -524,7 +524,7 @@ impl MtsTest {
             "source".to_string(),
             format!("mrfeel {} virtual MTS machine", env!("CARGO_PKG_VERSION")),
         );
-        meta.insert("model".to_string(), damper.model().name());
+        // No `model`: data made with hidden effects must not name them (the device file keeps the truth).
         meta.insert(
             "test".to_string(),
             format!(

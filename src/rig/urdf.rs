@@ -920,8 +920,8 @@ mod tests {
 
     #[test]
     fn the_shipped_rig_passes_the_checks() {
-        let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/models/stick-rig.urdf"));
-        let m = UrdfModel::load(path).unwrap();
+        let path = crate::builtin::by_file_name("stick-rig.urdf").unwrap();
+        let m = UrdfModel::load(&path).unwrap();
         assert_eq!(m.loops.len(), 1);
         // Lines come from elements, not from mentions in comments.
         assert_eq!(m.line_of("loop_joint", "rod_end_pin"), 207);

@@ -23,6 +23,12 @@ pub struct RunArgs {
     /// Write a Rerun recording (`.rrd`).
     #[arg(long)]
     pub rerun: Option<PathBuf>,
+    /// Write `run.png` and `run.svg` into this directory: forces, coil current and stick angle against
+    /// time, and the force against the stick angle, with fault windows shaded. A flight also writes
+    /// `<scenario name>-stick-force-per-g.png` and `.svg`: stick force against load factor, flown and
+    /// steady, against the allowed band of the aircraft's basis.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
     /// Stream the recording to a newly spawned Rerun viewer.
     #[arg(long)]
     pub spawn: bool,
@@ -33,13 +39,9 @@ pub struct RunArgs {
     #[arg(long)]
     pub json: bool,
     /// Fly another aircraft backend than the scenario's `[aircraft] model`: a model name from
-    /// `models/aircraft/` (`c172p`, `737`) or `jsbsim:<name>`; a name, never a path (`/`, `\`, `..` are refused).
+    /// `models/aircraft/` (`c172p`, `737`, `T37`) or `jsbsim:<name>`; a name, never a path (`/`, `\`, `..` are refused).
     #[arg(long)]
     pub aircraft: Option<String>,
-    /// For a flight, write `<scenario name>-stick-force-per-g.png` and `.svg` into this directory: stick
-    /// force against load factor, flown and steady, against the allowed band of the aircraft's basis.
-    #[arg(long)]
-    pub plot: Option<PathBuf>,
 }
 
 /// `mrfeel daq-sweep SCENARIO`: force response time against the DAQ rate.
@@ -168,11 +170,6 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
             )
         })?;
     }
-    anyhow::ensure!(
-        args.plot.is_none() || scn.aircraft.is_some(),
-        "--plot: scenario {} flies no aircraft (no `[aircraft]` section); the plot is stick force against load factor",
-        args.scenario.display()
-    );
     let want_viz = args.rerun.is_some() || args.spawn;
     // A viewer is spawned before the run (it shows the run as it comes); a recording file is made after it,
     // so that a run that fails leaves no file behind.
@@ -214,11 +211,16 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
         )?,
         (None, None) => {}
     }
-    let mut plots = Vec::new();
-    if let Some(dir) = &args.plot {
-        let chart =
-            super::flight::stick_force_per_g_chart(&res)?.context("--plot: the run flew no aircraft")?;
-        plots = crate::viz::plot::save_charts(&[chart], 1, dir, &format!("{}-stick-force-per-g", scn.name))?;
+    let mut plotted = match &args.plot {
+        Some(dir) => run_plots(&res, dir)?,
+        None => Vec::new(),
+    };
+    if let (Some(dir), Some(chart)) = (&args.plot, super::flight::stick_force_per_g_chart(&res)?) {
+        let name = format!("{}-stick-force-per-g", scn.name);
+        plotted.extend(
+            crate::viz::plot::save_charts(&[chart], 1, dir, &name)
+                .with_context(|| format!("--plot {}", dir.display()))?,
+        );
     }
     let summary = res.summary();
     let flight = super::metrics::FlightMetrics::of(&res, &scn);
@@ -244,11 +246,72 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
         if let Some(p) = &args.rerun {
             crate::outln!("  recording: {} (open with `rerun {}`)", p.display(), p.display())?;
         }
-        for p in &plots {
-            crate::outln!("  plot: {}", p.display())?;
+        for p in plotted
+            .iter()
+            .filter(|p| p.extension().is_some_and(|e| e == "png"))
+        {
+            crate::outln!("  plot: {} and its .svg", p.display())?;
         }
     }
     Ok(())
+}
+
+/// The run drawn for `run --plot DIR`: `DIR/run.png` and `DIR/run.svg`.
+pub fn run_plots(res: &Results, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
+    use crate::viz::plot::{save_charts, Chart, Series};
+    // At most about 4000 points a series: enough for the eye, small files.
+    let every = res.rows.len().div_ceil(4000).max(1);
+    let rows: Vec<_> = res.rows.iter().step_by(every).collect();
+    let series = |name: &str, f: &dyn Fn(&super::Row) -> (f64, f64)| {
+        Series::line(name, rows.iter().map(|r| f(r)).collect())
+    };
+    // Fault windows: spans of the rows where some fault is active.
+    let mut faults: Vec<(f64, f64)> = Vec::new();
+    let mut open: Option<f64> = None;
+    for r in &res.rows {
+        match (r.faults != 0, open) {
+            (true, None) => open = Some(r.t_s),
+            (false, Some(t0)) => {
+                faults.push((t0, r.t_s));
+                open = None;
+            }
+            _ => {}
+        }
+    }
+    if let (Some(t0), Some(last)) = (open, res.rows.last()) {
+        faults.push((t0, last.t_s));
+    }
+    let deg = 180.0 / std::f64::consts::PI;
+    let charts = [
+        Chart::new(
+            format!("{}: forces on the piston", res.scenario),
+            "time (s)",
+            "force (N)",
+        )
+        .with(series("desired", &|r| (r.t_s, r.desired_force_n)))
+        .with(series("load cell", &|r| (r.t_s, r.load_cell_true_n)))
+        .with(series("damper", &|r| (r.t_s, r.damper_force_n)))
+        .with_bands("fault", faults.clone()),
+        Chart::new("Coil current", "time (s)", "current (A)")
+            .with(series("command", &|r| (r.t_s, r.current_a)))
+            .with(series("coil", &|r| (r.t_s, r.coil_current_a)))
+            .with_bands("fault", faults.clone()),
+        Chart::new("Stick and pilot", "time (s)", "stick angle (deg)")
+            .with(series("stick angle", &|r| (r.t_s, r.stick_angle_rad * deg)))
+            .with_bands("fault", faults),
+        Chart::new(
+            "Feel: load cell against stick angle",
+            "stick angle (deg)",
+            "load cell (N)",
+        )
+        .with(Series::points(
+            "",
+            rows.iter()
+                .map(|r| (r.stick_angle_rad * deg, r.load_cell_true_n))
+                .collect(),
+        )),
+    ];
+    save_charts(&charts, 2, dir, "run").with_context(|| format!("--plot {}", dir.display()))
 }
 
 /// Run the scenario at each DAQ rate (in parallel, results in order) and measure the step responses.

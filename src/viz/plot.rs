@@ -66,6 +66,9 @@ pub struct Chart {
     pub x_label: String,
     pub y_label: String,
     pub series: Vec<Series>,
+    /// Shaded spans of x (fault windows), labelled `band_label` in the legend.
+    pub bands: Vec<(f64, f64)>,
+    pub band_label: String,
 }
 
 impl Chart {
@@ -74,12 +77,44 @@ impl Chart {
             title: title.into(),
             x_label: x_label.into(),
             y_label: y_label.into(),
-            series: Vec::new(),
+            ..Self::default()
         }
     }
     pub fn with(mut self, s: Series) -> Self {
         self.series.push(s);
         self
+    }
+    /// Shade the spans of x `bands` (each `(from, to)`), named `label` in the legend.
+    pub fn with_bands(mut self, label: impl Into<String>, bands: Vec<(f64, f64)>) -> Self {
+        self.band_label = label.into();
+        self.bands = bands;
+        self
+    }
+}
+
+/// The corner of a chart whose quarter-sized box (a legend's place) covers the fewest of the points, so the
+/// legend hides the least data.
+fn emptiest_corner(series: &[Series], xs: (f64, f64), ys: (f64, f64)) -> SeriesLabelPosition {
+    let mut count = [0usize; 4];
+    for p in series.iter().flat_map(|s| s.points.iter()) {
+        let u = (p.0 - xs.0) / (xs.1 - xs.0);
+        let v = (p.1 - ys.0) / (ys.1 - ys.0);
+        if !(u.is_finite() && v.is_finite()) {
+            continue;
+        }
+        let (left, right, top, bottom) = (u < 0.4, u > 0.6, v > 0.65, v < 0.35);
+        for (k, inside) in [left && top, right && top, left && bottom, right && bottom]
+            .into_iter()
+            .enumerate()
+        {
+            count[k] += usize::from(inside);
+        }
+    }
+    match (0..4).min_by_key(|&k| count[k]).unwrap_or(0) {
+        0 => SeriesLabelPosition::UpperLeft,
+        1 => SeriesLabelPosition::UpperRight,
+        2 => SeriesLabelPosition::LowerLeft,
+        _ => SeriesLabelPosition::LowerRight,
     }
 }
 
@@ -241,6 +276,20 @@ fn draw_chart<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, chart: &Chart) 
         .light_line_style(RGBColor(235, 235, 235))
         .draw()
         .map_err(e)?;
+    let shade = RGBColor(213, 94, 0).mix(0.15);
+    for (k, &(a, b)) in chart.bands.iter().enumerate() {
+        let drawn = c
+            .draw_series(std::iter::once(Rectangle::new(
+                [(a, ys.0), (b, ys.1)],
+                shade.filled(),
+            )))
+            .map_err(e)?;
+        if k == 0 && !chart.band_label.is_empty() {
+            drawn
+                .label(chart.band_label.clone())
+                .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 18, y + 5)], shade.filled()));
+        }
+    }
     for (k, s) in chart.series.iter().enumerate() {
         let color = if s.kind == Kind::Dashed {
             RGBColor(90, 90, 90)
@@ -271,35 +320,21 @@ fn draw_chart<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, chart: &Chart) 
     }
     if chart.series.iter().any(|s| !s.name.is_empty()) {
         c.configure_series_labels()
-            .background_style(WHITE.mix(0.85))
+            .background_style(WHITE.mix(0.6))
             .border_style(BLACK.mix(0.3))
             .label_font(("sans-serif", 12))
-            .position(SeriesLabelPosition::UpperLeft)
+            .position(emptiest_corner(&chart.series, xs, ys))
             .draw()
             .map_err(e)?;
     }
     Ok(())
 }
 
-/// Viridis-like colour scale for v in [0, 1].
+/// The perceptual colour scale of every heat map (viridis: lightness rises steadily, readable in grey and
+/// by colour-blind readers), for `v` in [0, 1].
 pub fn colormap(v: f64) -> RGBColor {
-    let v = v.clamp(0.0, 1.0);
-    const STOPS: [(f64, f64, f64); 5] = [
-        (68.0, 1.0, 84.0),
-        (59.0, 82.0, 139.0),
-        (33.0, 145.0, 140.0),
-        (94.0, 201.0, 98.0),
-        (253.0, 231.0, 37.0),
-    ];
-    let x = v * (STOPS.len() - 1) as f64;
-    let k = (x.floor() as usize).min(STOPS.len() - 2);
-    let f = x - k as f64;
-    let (a, b) = (STOPS[k], STOPS[k + 1]);
-    RGBColor(
-        (a.0 + f * (b.0 - a.0)) as u8,
-        (a.1 + f * (b.1 - a.1)) as u8,
-        (a.2 + f * (b.2 - a.2)) as u8,
-    )
+    use plotters::style::colors::colormaps::{ColorMap, ViridisRGB};
+    ViridisRGB.get_color(v.clamp(0.0, 1.0))
 }
 
 fn draw_heatmap<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, map: &Heatmap) -> Result<(), String> {

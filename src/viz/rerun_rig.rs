@@ -1,19 +1,28 @@
-//! Rerun recording of a stick-rig run: the rig's bodies moving in 3D, force arrows, and time series of the
-//! desired vs measured force, the current command and the stroke.
+//! Rerun recording of a stick-rig run: the rig's bodies moving in 3D with the forces on them as arrows,
+//! and time series of the desired vs measured force, the current command and the stroke, laid out by a
+//! default blueprint (the 3D rig beside the force and current plots).
 //!
-//! Entity layout (timeline `time`, duration in seconds):
+//! Entity layout (timeline `time`, duration in seconds; world frame of [`crate::rig`]: x aft, z up, set as
+//! the recording's view coordinates at `/`):
 //! - `rig/<link>`: the link's pose (`Transform3D` per frame, from the multibody);
 //!   `rig/<link>/visual_<k>`: its URDF visuals (static shapes posed in the link's frame);
-//! - `forces/load_cell`: arrow at the piston along the rig's x axis, 1 mm per newton;
-//! - `series/force/{desired,load_cell,load_cell_true,damper}` (N), `series/current/command` (A),
-//!   `series/stroke/piston_x` (m), `series/pilot/force` (N), `series/stick/angle` (rad),
-//!   `series/faults/mask`: one value per physics step, the same samples as the CSV's columns;
-//! - with an aircraft (issue 5): `aircraft` (a simple airframe of boxes beside the stick, rotated by the
-//!   pitch attitude at each frame) and `series/aircraft/{pitch,pitch_cmd,nz,nz_cmd,elevator,
-//!   hinge_moment,qbar,stick_force,stick_cmd}`, also one value per physics step.
+//! - `forces/hand`: the pilot's hand force at the grip, along the grip path (+ = pull, aft);
+//!   `forces/damper`: the fluid's force on the piston, `−Fd` along x (it opposes the piston's motion);
+//!   `forces/load_cell`: the push rod's force on the piston along x; all three 1 mm per newton;
+//! - `signals/force/{desired,load_cell,load_cell_true,damper}` (N), `signals/current/command` (A),
+//!   `signals/stroke/piston_x` (m), `signals/pilot/force` (N), `signals/stick/angle` (rad),
+//!   `signals/energy/dissipated` (J), `signals/faults/mask`: one value per physics step, the same samples as
+//!   the CSV's columns;
+//! - with an aircraft: `aircraft` (a simple airframe of boxes beside the stick, rotated by the pitch
+//!   attitude at each frame) and `signals/aircraft/{pitch,pitch_cmd,nz,nz_cmd,elevator,hinge_moment,qbar,
+//!   stick_force,stick_cmd}`, also one value per physics step.
 
 use std::path::Path;
 
+use rerun::blueprint::{
+    Blueprint, BlueprintActivation, ContainerLike, Horizontal, Spatial3DView, TimePanel, TimeSeriesView,
+    Vertical,
+};
 use rerun::{RecordingStream, RecordingStreamResult, TimeColumn};
 
 use crate::rig::{BodyPose, LinkVisuals, VisualShape};
@@ -69,40 +78,81 @@ pub fn spawn_on_port(port: u16) -> Result<RecordingStream, VizError> {
         .map_err(|e| VizError::Spawn(e.to_string()))
 }
 
-/// Log one run.
+/// Log one run, with its default blueprint ([`blueprint`]) and the world's up axis.
 pub fn log_run(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
+    blueprint(res.flight.is_some())
+        .send(rec, BlueprintActivation::default())
+        .map_err(err)?;
+    rec.log_static("/", &rerun::ViewCoordinates::RIGHT_HAND_Z_UP())
+        .map_err(err)?;
     log_series(rec, res)?;
     log_bodies(rec, res)?;
     rec.flush_blocking().map_err(err)?;
     Ok(())
 }
 
+/// The layout a recording opens with: the 3D rig and its force arrows on the left; on the right the
+/// forces, the coil current and the stick (and with an aircraft its pitch and load factor) over time.
+pub fn blueprint(flight: bool) -> Blueprint {
+    let mut plots: Vec<ContainerLike> = vec![
+        TimeSeriesView::new("force (N)")
+            .with_origin("/signals/force")
+            .into(),
+        TimeSeriesView::new("coil current (A)")
+            .with_origin("/signals/current")
+            .into(),
+        TimeSeriesView::new("pilot force (N), stick angle (rad)")
+            .with_contents(["+ /signals/pilot/**", "+ /signals/stick/**"])
+            .into(),
+    ];
+    if flight {
+        plots.push(
+            TimeSeriesView::new("aircraft")
+                .with_contents([
+                    "+ /signals/aircraft/pitch",
+                    "+ /signals/aircraft/pitch_cmd",
+                    "+ /signals/aircraft/nz",
+                    "+ /signals/aircraft/nz_cmd",
+                ])
+                .into(),
+        );
+    }
+    let rig = Spatial3DView::new("rig").with_origin("/").with_contents([
+        "+ /rig/**",
+        "+ /forces/**",
+        "+ /aircraft/**",
+    ]);
+    let columns: [ContainerLike; 2] = [rig.into(), Vertical::new(plots).into()];
+    Blueprint::new(Horizontal::new(columns).with_column_shares([0.45, 0.55]))
+        .with_time_panel(TimePanel::new().with_timeline("time"))
+}
+
 fn log_series(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
     let times: Vec<f64> = res.rows.iter().map(|r| r.t_s).collect();
     type Col = (&'static str, fn(&crate::sim::Row) -> f64);
     let cols: [Col; 10] = [
-        ("series/force/desired", |r| r.desired_force_n),
-        ("series/force/load_cell", |r| r.load_cell_n),
-        ("series/force/load_cell_true", |r| r.load_cell_true_n),
-        ("series/force/damper", |r| r.damper_force_n),
-        ("series/current/command", |r| r.current_a),
-        ("series/stroke/piston_x", |r| r.piston_x_m),
-        ("series/pilot/force", |r| r.pilot_force_n),
-        ("series/stick/angle", |r| r.stick_angle_rad),
-        ("series/energy/dissipated", |r| r.dissipated_j),
-        ("series/faults/mask", |r| f64::from(r.faults)),
+        ("signals/force/desired", |r| r.desired_force_n),
+        ("signals/force/load_cell", |r| r.load_cell_n),
+        ("signals/force/load_cell_true", |r| r.load_cell_true_n),
+        ("signals/force/damper", |r| r.damper_force_n),
+        ("signals/current/command", |r| r.current_a),
+        ("signals/stroke/piston_x", |r| r.piston_x_m),
+        ("signals/pilot/force", |r| r.pilot_force_n),
+        ("signals/stick/angle", |r| r.stick_angle_rad),
+        ("signals/energy/dissipated", |r| r.dissipated_j),
+        ("signals/faults/mask", |r| f64::from(r.faults)),
     ];
     type AeroCol = (&'static str, fn(&crate::sim::AeroRow) -> f64);
     let aero: [AeroCol; 9] = [
-        ("series/aircraft/pitch", |a| a.pitch_rad),
-        ("series/aircraft/pitch_cmd", |a| a.pitch_cmd_rad),
-        ("series/aircraft/nz", |a| a.nz_g),
-        ("series/aircraft/nz_cmd", |a| a.nz_cmd_g),
-        ("series/aircraft/elevator", |a| a.elevator_rad),
-        ("series/aircraft/hinge_moment", |a| a.hinge_moment_nm),
-        ("series/aircraft/qbar", |a| a.qbar_pa),
-        ("series/aircraft/stick_force", |a| a.stick_force_n),
-        ("series/aircraft/stick_cmd", |a| a.stick_cmd_rad),
+        ("signals/aircraft/pitch", |a| a.pitch_rad),
+        ("signals/aircraft/pitch_cmd", |a| a.pitch_cmd_rad),
+        ("signals/aircraft/nz", |a| a.nz_g),
+        ("signals/aircraft/nz_cmd", |a| a.nz_cmd_g),
+        ("signals/aircraft/elevator", |a| a.elevator_rad),
+        ("signals/aircraft/hinge_moment", |a| a.hinge_moment_nm),
+        ("signals/aircraft/qbar", |a| a.qbar_pa),
+        ("signals/aircraft/stick_force", |a| a.stick_force_n),
+        ("signals/aircraft/stick_cmd", |a| a.stick_cmd_rad),
     ];
     let mut all: Vec<(&str, Vec<f64>)> = cols
         .iter()
@@ -204,23 +254,46 @@ fn log_bodies(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
         )
         .map_err(err)?;
     }
-    // Link poses over time, and the load-cell force as an arrow at the piston along +x.
+    // Link poses over time, and the forces on the stick and the piston as arrows.
     let dt = if res.rows.len() > 1 {
         res.rows[1].t_s - res.rows[0].t_s
     } else {
         1.0
     };
+    let grip = grip_of(&res.visuals);
     for (t, poses) in &res.frames {
         rec.set_duration_secs("time", *t);
         log_link_poses(rec, "rig", poses).map_err(err)?;
         let k = ((t / dt).round() as usize).min(res.rows.len().saturating_sub(1));
-        if let (Some(row), Some(piston)) = (res.rows.get(k), poses.iter().find(|p| p.name == "piston")) {
+        let Some(row) = res.rows.get(k) else { continue };
+        if let Some(piston) = poses.iter().find(|p| p.name == "piston") {
+            let at = [f32x3(piston.translation_m)];
+            let along_x = |f_n: f64| [[(f_n * f64::from(ARROW_M_PER_N)) as f32, 0.0, 0.0]];
             rec.log(
                 "forces/load_cell",
-                &rerun::Arrows3D::from_vectors([[row.load_cell_true_n as f32 * ARROW_M_PER_N, 0.0, 0.0]])
-                    .with_origins([f32x3(piston.translation_m)]),
+                &rerun::Arrows3D::from_vectors(along_x(row.load_cell_true_n)).with_origins(at),
             )
             .map_err(err)?;
+            rec.log(
+                "forces/damper",
+                &rerun::Arrows3D::from_vectors(along_x(-row.damper_force_n)).with_origins(at),
+            )
+            .map_err(err)?;
+        }
+        if let Some((link, offset)) = &grip {
+            if let Some(pose) = poses.iter().find(|p| &p.name == link) {
+                // The grip path is the link's local +x at the grip (a pull moves the grip aft).
+                let (origin, dir) = in_world(
+                    pose,
+                    *offset,
+                    [row.pilot_force_n * f64::from(ARROW_M_PER_N), 0.0, 0.0],
+                );
+                rec.log(
+                    "forces/hand",
+                    &rerun::Arrows3D::from_vectors([f32x3(dir)]).with_origins([f32x3(origin)]),
+                )
+                .map_err(err)?;
+            }
         }
         if let Some(a) = res.rows.get(k).and_then(|r| r.aero) {
             // Nose-up pitch θ turns the nose (−x) towards +z: a rotation by θ about +y.
@@ -238,10 +311,54 @@ fn log_bodies(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
     Ok(())
 }
 
+/// The link carrying the URDF visual named `grip` and that visual's origin in the link's frame.
+fn grip_of(visuals: &[LinkVisuals]) -> Option<(String, [f64; 3])> {
+    visuals.iter().find_map(|l| {
+        l.visuals
+            .iter()
+            .find(|v| v.name.as_deref() == Some("grip"))
+            .map(|v| (l.name.clone(), v.translation_m))
+    })
+}
+
+/// The point `local` of a link's frame, and the vector `along` in it, in the world at the link's `pose`.
+fn in_world(pose: &BodyPose, local: [f64; 3], along: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+    use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+    let [x, y, z, w] = pose.rotation_xyzw;
+    let q = UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z));
+    let at = Vector3::from(pose.translation_m) + q * Vector3::from(local);
+    (at.into(), (q * Vector3::from(along)).into())
+}
+
 pub(crate) fn f32x3(a: [f64; 3]) -> [f32; 3] {
     [a[0] as f32, a[1] as f32, a[2] as f32]
 }
 
 pub(crate) fn f32x4(a: [f64; 4]) -> [f32; 4] {
     [a[0] as f32, a[1] as f32, a[2] as f32, a[3] as f32]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A stick tilted aft by θ (about +y) carries its grip 0.40 m up the stick to (0.4 sin θ, 0, 0.4 cos θ),
+    /// and the grip path (local +x) to (cos θ, 0, −sin θ): the hand arrow starts at the grip and points
+    /// along the path the grip moves on.
+    #[test]
+    fn the_grip_and_its_path_follow_the_stick() {
+        let th: f64 = 0.3;
+        let pose = BodyPose {
+            name: "stick".into(),
+            translation_m: [0.1, 0.0, 0.0],
+            rotation_xyzw: [0.0, (th / 2.0).sin(), 0.0, (th / 2.0).cos()],
+        };
+        let (at, dir) = in_world(&pose, [0.0, 0.0, 0.4], [1.0, 0.0, 0.0]);
+        let want_at = [0.1 + 0.4 * th.sin(), 0.0, 0.4 * th.cos()];
+        let want_dir = [th.cos(), 0.0, -th.sin()];
+        for i in 0..3 {
+            assert!((at[i] - want_at[i]).abs() < 1e-12, "{at:?}");
+            assert!((dir[i] - want_dir[i]).abs() < 1e-12, "{dir:?}");
+        }
+    }
 }
