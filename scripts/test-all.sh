@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # Every test of mrfeel, on a fresh machine. Installs what it needs: a Python virtual environment in .venv
-# with the pinned JSBSim, rerun-sdk, maturin, NumPy and pytest (python/requirements.txt), then runs:
+# with the pinned JSBSim, rerun-sdk, Ray, maturin, NumPy, pandas and pytest (python/requirements.txt), then runs:
 #   1. the JSBSim reference check: the committed tables in scenarios/jsbsim/ regenerate bit for bit;
 #   2. cargo test: unit, integration (CLI) and doc tests, including the Rerun read-back through rerun-sdk;
 #   3. the Python package: its wheel built by maturin (dev profile, in the target directory cargo test
-#      filled, so no dependency is built twice), installed in .venv, and pytest on python/tests/.
+#      filled, so no dependency is built twice), installed in .venv, and pytest on python/tests/;
+#   4. a sweep on a real local Ray cluster against the same sweep in one process, byte for byte.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 echo "== Python environment (.venv: jsbsim, rerun-sdk)"
@@ -19,3 +20,5 @@ echo "== Python package: build the wheel, install it, pytest python/tests/"
     "$(ls -t target/wheels-test/mrfeel-*.whl | head -1)"
 # pytest exits 5 when it collects no test: under `set -e` that fails the run, as any non-zero exit does.
 MRFEEL_BIN="$PWD/target/debug/mrfeel" "$py" -m pytest -q python/tests/
+echo "== A sweep on a local Ray cluster equals one process (scripts/test-ray.sh)"
+MRFEEL_BIN="$PWD/target/debug/mrfeel" bash scripts/test-ray.sh

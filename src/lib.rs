@@ -16,6 +16,7 @@ pub mod rig;
 pub mod scenario;
 pub mod sensors;
 pub mod sim;
+pub mod sweep;
 pub mod text_lines;
 pub mod units;
 pub mod viz;

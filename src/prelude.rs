@@ -15,13 +15,12 @@ pub use crate::ident::timing::{TimingChoice, TimingDecision};
 pub use crate::ident::validate::Figures;
 pub use crate::ident::{AcquisitionChoice, IdentError, Test};
 pub use crate::measurement::{Measurement, MeasurementError};
-pub use crate::scenario::Scenario;
+pub use crate::scenario::{Origin, Override, Scenario};
 pub use crate::sim::Results;
 
 use crate::ident::fit::all_spans;
-use crate::ident::residual::where_regions;
 use crate::ident::timing::{decide, retimed};
-use crate::ident::validate::{evaluate, figures};
+use crate::ident::validate::evaluate;
 
 /// Measurements prepared for the models, and what was found about their acquisition chain.
 #[derive(Debug, Clone)]
@@ -274,15 +273,12 @@ impl Fitted {
 
     /// `fit --json` for the predictions `pred` ([`Fitted::predictions`]).
     pub fn report(&self, pred: &[Vec<f64>]) -> FitJson {
-        let (per, total) = figures(pred, &self.tests);
         FitJson::new(
             &self.model,
             &self.result.params,
             Some(&self.result),
             &self.tests,
-            &per,
-            &total,
-            where_regions(&self.tests, pred),
+            pred,
         )
     }
 }
@@ -293,16 +289,7 @@ pub fn validate(cfg: &DeviceConfig, data: Data) -> anyhow::Result<(Vec<Test>, Ve
     require(&data.tests, cfg.model.n_params())?;
     let tests = retimed(data.tests, cfg.command_timing);
     let pred = evaluate(&cfg.model, &cfg.params, &tests);
-    let (per, total) = figures(&pred, &tests);
-    let mut out = FitJson::new(
-        &cfg.model,
-        &cfg.params,
-        None,
-        &tests,
-        &per,
-        &total,
-        where_regions(&tests, &pred),
-    );
+    let mut out = FitJson::new(&cfg.model, &cfg.params, None, &tests, &pred);
     // Standard errors as the PARAMS.json saved them.
     for (name, p) in out.params.iter_mut() {
         p.std_err = cfg.model.param_index(name).and_then(|k| cfg.std_errs[k]);
@@ -398,11 +385,31 @@ pub fn diagnose_in(
     })
 }
 
+/// The scenario at `path` with values replaced by dotted key (`feel.gradient_n_per_m` → 900), checked as the
+/// file's own; `what` names where the overrides were given, for errors (`overrides["feel.x"]`).
+pub fn load_scenario_with(
+    path: &Path,
+    overrides: &[(String, serde_json::Value)],
+    what: &str,
+) -> anyhow::Result<Scenario> {
+    let overrides = overrides
+        .iter()
+        .map(|(key, v)| {
+            let origin = Origin::Argument(format!("{what}[{key:?}]"));
+            let value = toml::Value::try_from(v)
+                .map_err(|e| anyhow::anyhow!("{origin}: `{key}`: not a scenario value: {e}"))?;
+            Ok(Override::set(key, value, origin))
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    Ok(Scenario::load_with(path, &overrides)?)
+}
+
 /// Run a loaded scenario (read from `path`) headless to its end, as `mrfeel run` without a recording.
 pub fn run_scenario(scn: &Scenario, path: &Path) -> anyhow::Result<Results> {
-    let (device, rig) = crate::sim::cli::device_and_rig(scn, path)?;
+    let devices = crate::sim::Devices::load(scn)?;
+    let rig = crate::sim::build_rig(scn, &devices.plant)?;
     let opts = crate::sim::RunOptions { frames_hz: None };
-    crate::sim::run(scn, &device, rig, opts, |_| {})
+    crate::sim::run(scn, &devices, rig, opts, |_| {})
         .with_context(|| format!("running scenario {}", path.display()))
 }
 

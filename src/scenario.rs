@@ -19,6 +19,9 @@ use crate::rig::RigConfig;
 use crate::sensors::{DaqConfig, LaserConfig, LoadCellConfig, SensorsConfig};
 use crate::text_lines::line_of;
 
+mod overrides;
+pub use overrides::{Origin, Override};
+
 #[derive(Debug, thiserror::Error)]
 pub enum ScenarioError {
     #[error("{}: {msg}", path.display())]
@@ -34,6 +37,20 @@ pub enum ScenarioError {
         line: usize,
         key: String,
         msg: String,
+    },
+    /// An override ([`Override`]) refused at the place it was written.
+    #[error("{origin}: `{key}`: {msg}")]
+    Override {
+        origin: Origin,
+        key: String,
+        msg: String,
+    },
+    /// An error the overrides caused at another key of the scenario (a DAQ rate above a lowered physics
+    /// rate), at the scenario's line.
+    #[error("{error} (with the overrides {overrides})")]
+    Overridden {
+        error: Box<ScenarioError>,
+        overrides: String,
     },
 }
 
@@ -114,6 +131,10 @@ pub struct KeyLines {
     pub aircraft_model: usize,
     /// `feel.law` (a DAQ sweep needs a step test).
     pub feel_law: usize,
+    /// `device.file` (errors of the plant's device file).
+    pub device_file: usize,
+    /// `controller.model` (errors of the model file it names), else `device.file`.
+    pub controller_model: usize,
 }
 
 /// A validated scenario.
@@ -128,6 +149,9 @@ pub struct Scenario {
     /// The rig's settings, with the URDF path resolved against the scenario's directory.
     pub rig: RigConfig,
     pub device_path: PathBuf,
+    /// The model the feel controller believes (`[controller] model`): a device file or a fitted
+    /// `PARAMS.json`; `None`: the plant's own device file.
+    pub controller_model_path: Option<PathBuf>,
     pub sensors: SensorsConfig,
     pub controller: ControllerConfig,
     pub feel: FeelLaw,
@@ -172,6 +196,9 @@ impl Scenario {
             ("URDF", self.rig.urdf.clone()),
             ("pilot model", self.pilot.hand_path.clone()),
         ];
+        if let Some(p) = &self.controller_model_path {
+            files.push(("controller model", p.clone()));
+        }
         if let Some(p) = &self.springs_path {
             files.push(("feel-spring file", p.clone()));
         }
@@ -207,6 +234,14 @@ impl Scenario {
             "device.file",
             Path::new(f.device.file.get_ref()),
         )?;
+        let controller_model_path = match &f.controller.model {
+            Some(m) => Some(c.named_file(
+                line_of(text, m.span().start),
+                "controller.model",
+                Path::new(m.get_ref()),
+            )?),
+            None => None,
+        };
         let physics_rate_hz = rig.physics_hz;
         if !(physics_rate_hz.is_finite() && (100.0..=100_000.0).contains(&physics_rate_hz)) {
             return Err(ScenarioError::Field {
@@ -461,12 +496,18 @@ impl Scenario {
                 airspeed: crate::text_lines::toml_key_line(text, "aircraft", "airspeed_m_s"),
                 aircraft_model: crate::text_lines::toml_key_line(text, "aircraft", "model"),
                 feel_law: crate::text_lines::toml_key_line(text, "feel", "law"),
+                device_file: line_of(text, f.device.file.span().start),
+                controller_model: match &f.controller.model {
+                    Some(m) => line_of(text, m.span().start),
+                    None => line_of(text, f.device.file.span().start),
+                },
             },
             name: f.name,
             duration_s,
             seed,
             rig,
             device_path,
+            controller_model_path,
             sensors,
             controller,
             feel,
@@ -1251,6 +1292,8 @@ struct ControllerSection {
     rest_force_n: Spanned<f64>,
     current_min_a: Spanned<f64>,
     current_max_a: Spanned<f64>,
+    /// The model the controller believes (a device file or a `PARAMS.json`); the plant's file if absent.
+    model: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize)]

@@ -129,6 +129,8 @@ fn velocity_squared_drag_is_found_as_quadratic_damping() {
         "{:?}\n{report}",
         t.features
     );
+    // The family is read from the final fit, where the `v|v|` term carries the force.
+    assert!(t.resembles.starts_with("quadratic"), "{}\n{report}", t.resembles);
     assert!(d.unexplained().is_none(), "{report}");
     // The saved effect, loaded back and refitted alone from bingham on the same folds, keeps the gain.
     let path = dir.path().join("drag.toml");
@@ -238,7 +240,7 @@ fn discovery_matrix() {
 /// as the built-ins: on drag data it fits the drag and the error falls well below `bingham`'s.
 #[test]
 fn fit_loads_an_effect_file_named_in_the_model_spec() {
-    let (dir, _tests) = generate("drag", &[], 8);
+    let (dir, tests) = generate("drag", &[], 8);
     let data = dir.path().join("data");
     let effect = dir.path().join("quad.toml");
     std::fs::write(
@@ -266,6 +268,23 @@ fn fit_loads_an_effect_file_named_in_the_model_spec() {
     // Over every sample, reversals included (where a noisy velocity's sign is unknown), so the fall is
     // smaller than held out; the coefficient above is the physical check.
     assert!(with < 0.95 * plain, "bingham {plain:.4}, with the file {with:.4}");
+    // Where the velocity's sign is known (the samples the fit minimises), the fit is at the noise: the
+    // figures over all samples and over those are both reported, and fit and held-out scores agree.
+    let known = &j["direction_known"];
+    let (n_known, n_all) = (
+        known["samples"].as_u64().expect("samples"),
+        j["samples"].as_u64().expect("all"),
+    );
+    assert!(
+        n_known < n_all && n_known as f64 > 0.97 * n_all as f64,
+        "{n_known} of {n_all}"
+    );
+    let truth = truth_nrmse(&tests, NOISE_N);
+    let k = known["nrmse"].as_f64().expect("nrmse");
+    assert!(
+        k <= 1.3 * truth,
+        "direction-known NRMSE {k:.4} vs the noise's {truth:.4}"
+    );
 }
 
 /// An effect file with an unknown feature, a formula that does not parse or a parameter without bounds

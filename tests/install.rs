@@ -264,7 +264,14 @@ fn run_plot_draws_the_run_with_its_fault_windows() {
             png.len()
         );
         let svg = std::fs::read_to_string(tmp.path().join(dir).join("run.svg")).unwrap();
-        for label in ["desired", "load cell", "damper", "command"] {
+        for label in [
+            "desired",
+            "load cell",
+            "damper",
+            "command",
+            "stick angle",
+            "pilot",
+        ] {
             assert!(svg.contains(label), "{dir}: no `{label}` in the plot");
         }
         // The SVG writer puts a text element's content on a line of its own.

@@ -7,23 +7,22 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 use mrfeel::control::{FeelLaw, LoopMode};
-use mrfeel::device::DeviceConfig;
 use mrfeel::pilot::{Signal, Task};
 use mrfeel::scenario::Scenario;
-use mrfeel::sim::{self, cli, Results, RunOptions};
+use mrfeel::sim::{self, cli, Devices, Results, RunOptions};
 use mrfeel::units::IN_TO_M;
 
 fn scenario_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios").join(name)
 }
 
-fn load(name: &str) -> (Scenario, DeviceConfig) {
+fn load(name: &str) -> (Scenario, Devices) {
     let (scn, device, _) = cli::load(&scenario_path(name)).unwrap_or_else(|e| panic!("{name}: {e:#}"));
     (scn, device)
 }
 
-fn run(scn: &Scenario, device: &DeviceConfig, opts: RunOptions) -> Results {
-    let rig = cli::build_rig(scn, device).unwrap_or_else(|e| panic!("{e:#}"));
+fn run(scn: &Scenario, device: &Devices, opts: RunOptions) -> Results {
+    let rig = cli::build_rig(scn, &device.plant).unwrap_or_else(|e| panic!("{e:#}"));
     sim::run(scn, device, rig, opts, |_| {}).unwrap_or_else(|e| panic!("{e}"))
 }
 
@@ -398,8 +397,8 @@ fn force_settles_as_fast_as_the_coil_and_fluid_lags_allow_and_later_at_a_slow_da
     let (slow, fast) = (&pts[0], &pts[1]);
     assert!(slow.steps >= 5 && fast.steps >= 5, "{pts:?}");
     assert!(slow.unsettled == 0 && fast.unsettled == 0, "{pts:?}");
-    let te = device.param("te_s").unwrap();
-    let tm = device.param("tm_s").unwrap();
+    let te = device.plant.param("te_s").unwrap();
+    let tm = device.plant.param("tm_s").unwrap();
     let latency = scn.sensors.daq.latency_samples as f64;
     // With a fast DAQ the feedforward's current step reaches the force through the coil and the fluid lags
     // in series, after the DAQ's delay ((latency + ½) periods on average): the force settles when that
@@ -589,5 +588,45 @@ fn run_with_spawn_streams_the_recording_to_the_spawned_viewer() {
     assert!(
         text.contains("ok /signals/force/load_cell == CSV load_cell_n"),
         "{text}"
+    );
+}
+
+fn run_json(extra: &[&str]) -> serde_json::Value {
+    let scn = scenario_path("paper-feel-loop.toml");
+    let mut args = vec!["run", scn.to_str().unwrap(), "--json", "--set", "duration_s=2"];
+    args.extend_from_slice(extra);
+    let out = common::mrfeel(&args);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+#[test]
+fn run_set_changes_the_physics_its_key_names() {
+    // The spring feel tops out at `feel.max_force_n` (70 N in the file). In 2 s the pilot's 0.25 Hz
+    // triangle takes the stick to 16° and back (piston about 41 mm out), where the 1400 N/m gradient asks
+    // 5 + 1400 * 0.041 ≈ 62 N: capped at 20 N the load cell must stay near 20 N (the damper has no force
+    // of its own at 0 A), uncapped it must go well past it.
+    let free = run_json(&[]);
+    let capped = run_json(&["--set", "feel.max_force_n=20"]);
+    assert!(
+        (free["duration_s"].as_f64().unwrap() - 2.0).abs() < 0.01,
+        "{free}"
+    );
+    let peak = |v: &serde_json::Value| v["max_abs_load_cell_n"].as_f64().unwrap();
+    assert!(peak(&free) > 30.0, "{free}");
+    assert!(peak(&capped) < 26.0, "{capped}");
+    // A key the scenario does not have: refused with the argument and the key, nothing run.
+    let scn = scenario_path("paper-feel-loop.toml");
+    let out = common::mrfeel(&[
+        "run",
+        scn.to_str().unwrap(),
+        "--set",
+        "feel.gradient_n_per_mm=900",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("--set feel.gradient_n_per_mm=900: `feel.gradient_n_per_mm`: unknown field"),
+        "{err}"
     );
 }

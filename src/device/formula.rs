@@ -478,6 +478,12 @@ impl FormulaEffect {
         &self.resembles
     }
 
+    /// The same effect with another physical family named.
+    pub fn with_resembles(mut self, family: &str) -> Self {
+        self.resembles = family.to_string();
+        self
+    }
+
     pub fn declared_params(&self) -> &[FormulaParam] {
         &self.declared
     }

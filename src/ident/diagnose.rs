@@ -900,6 +900,10 @@ pub fn diagnose(
                         .map_or(f64::NAN, |k| final_fit.params[k])
                 })
                 .collect();
+            let effect = match super::discover::strongest_family(&effect, &values, tests, &current) {
+                Some(family) => effect.with_resembles(family),
+                None => effect,
+            };
             Discovered {
                 name: effect.name().to_string(),
                 formula: readable(&effect, &values),

@@ -376,6 +376,30 @@ pub fn merged(name: &str, effects: &[FormulaEffect]) -> Option<FormulaEffect> {
     .ok()
 }
 
+/// The family of the term of `effect` that carries the most force with the coefficients `values` (its
+/// share `c² Σ term²` over `tests`), or `None` when none of its terms is in the library. Read from the final
+/// fit, not from the search's least-squares proposal: once the model's own parameters are refitted beside
+/// the terms, the force can move from one term to another.
+pub(crate) fn strongest_family(
+    effect: &FormulaEffect,
+    values: &[f64],
+    tests: &[Test],
+    current: &[Vec<f64>],
+) -> Option<&'static str> {
+    let lib = library(Scales::of(tests));
+    features_of(effect)
+        .iter()
+        .zip(values)
+        .filter_map(|(f, c)| {
+            let term = lib.iter().find(|t| &t.feature == f)?;
+            let col = column(f, tests, current)?;
+            Some((term.family, c * c * col.iter().map(|x| x * x).sum::<f64>()))
+        })
+        .filter(|(_, share)| share.is_finite())
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(family, _)| family)
+}
+
 /// The library terms of a discovered effect (its formula is `c1 * term1 + c2 * term2 …`).
 pub fn features_of(effect: &FormulaEffect) -> Vec<String> {
     effect

@@ -7,8 +7,8 @@ use serde::Serialize;
 
 use super::diagnose::{Candidate, Diagnosis};
 use super::fit::FitResult;
-use super::residual::Region;
-use super::validate::Figures;
+use super::residual::{direction_weights, where_regions, Region};
+use super::validate::{figures, Figures};
 use super::Test;
 use crate::device::Model;
 
@@ -38,8 +38,21 @@ pub struct FitJson {
     pub rmse_n: f64,
     pub params: BTreeMap<String, ParamJson>,
     pub files: Vec<FileJson>,
+    /// The figures over the samples whose velocity sign is known (farther from zero than 4 standard
+    /// deviations of its noise): the samples fits minimise and held-out scores count. Where a noisy
+    /// velocity crosses zero the direction of the yield force is a coin toss for every model, and those few
+    /// samples can dominate `nrmse`.
+    pub direction_known: Subset,
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub r#where: Vec<Region>,
+}
+
+/// Error figures over a subset of the samples.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Subset {
+    pub samples: usize,
+    pub nrmse: f64,
+    pub rmse_n: f64,
 }
 
 impl FitJson {
@@ -48,10 +61,13 @@ impl FitJson {
         params: &[f64],
         fit: Option<&FitResult>,
         tests: &[Test],
-        per: &[Figures],
-        total: &Figures,
-        where_: Vec<Region>,
+        pred: &[Vec<f64>],
     ) -> Self {
+        let (per, total) = figures(pred, tests);
+        let mut known = Figures::default();
+        for (p, t) in pred.iter().zip(tests) {
+            known.add(&Figures::of_weighted(p, &t.f_n, &direction_weights(t)));
+        }
         let params = model
             .param_specs()
             .iter()
@@ -76,14 +92,19 @@ impl FitJson {
             params,
             files: tests
                 .iter()
-                .zip(per)
+                .zip(&per)
                 .map(|(t, f)| FileJson {
                     path: t.path.display().to_string(),
                     nrmse: f.nrmse(),
                     rmse_n: f.rmse_n(),
                 })
                 .collect(),
-            r#where: where_,
+            direction_known: Subset {
+                samples: known.samples,
+                nrmse: known.nrmse(),
+                rmse_n: known.rmse_n(),
+            },
+            r#where: where_regions(tests, pred),
         }
     }
 
@@ -95,6 +116,15 @@ impl FitJson {
             "{title} {}: {} samples, NRMSE {:.4}, RMSE {:.3} N",
             self.model, self.samples, self.nrmse, self.rmse_n
         );
+        let k = &self.direction_known;
+        if k.samples < self.samples {
+            let _ = writeln!(
+                s,
+                "  where the velocity's sign is known ({} samples, as fits and held-out scores count): \
+                 NRMSE {:.4}, RMSE {:.3} N",
+                k.samples, k.nrmse, k.rmse_n
+            );
+        }
         let _ = writeln!(s, "\n{:<28} {:>14} {:>12}  unit", "parameter", "value", "std err");
         for (name, p) in &self.params {
             let se = p

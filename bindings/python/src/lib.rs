@@ -584,9 +584,47 @@ fn diagnose<'py>(
     })
 }
 
+/// A Python override value (bool, int, float, str, or a list or dict of them) as the JSON value the
+/// scenario's overrides take.
+fn json_value(v: &Bound<'_, PyAny>) -> PyResult<serde_json::Value> {
+    use serde_json::Value;
+    // `bool` before `int`: Python's True is an int.
+    if let Ok(b) = v.cast::<pyo3::types::PyBool>() {
+        return Ok(Value::Bool(b.is_true()));
+    }
+    if let Ok(i) = v.extract::<i64>() {
+        return Ok(Value::from(i));
+    }
+    if let Ok(x) = v.extract::<f64>() {
+        return serde_json::Number::from_f64(x)
+            .map(Value::Number)
+            .ok_or_else(|| Error::new_err(format!("overrides: {x} is not a finite number")));
+    }
+    if let Ok(s) = v.extract::<String>() {
+        return Ok(Value::String(s));
+    }
+    if let Ok(d) = v.cast::<PyDict>() {
+        let mut m = serde_json::Map::new();
+        for (k, x) in d.iter() {
+            m.insert(k.extract::<String>()?, json_value(&x)?);
+        }
+        return Ok(Value::Object(m));
+    }
+    if let Ok(items) = v.try_iter() {
+        return Ok(Value::Array(
+            items.map(|x| json_value(&x?)).collect::<PyResult<_>>()?,
+        ));
+    }
+    Err(Error::new_err(format!(
+        "overrides: {} is not a scenario value (bool, int, float, str, list, dict)",
+        v.repr()?
+    )))
+}
+
 /// Run a scenario (`scenarios/*.toml`) headless, as `mrfeel run`: returns `(columns, summary)`, the columns
 /// of `mrfeel run --out`'s CSV by name (NumPy arrays, or one pandas DataFrame with `pandas=True`) and the
-/// summary of `mrfeel run --json`.
+/// summary of `mrfeel run --json`. `overrides` replaces scenario values by dotted key, as `mrfeel run --set`
+/// (`{"feel.gradient_n_per_m": 900.0}`); paths given there are relative to the working directory.
 #[pyfunction]
 #[pyo3(signature = (path, overrides=None, pandas=false))]
 fn run_scenario<'py>(
@@ -595,11 +633,15 @@ fn run_scenario<'py>(
     overrides: Option<&Bound<'py, PyDict>>,
     pandas: bool,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
-    if overrides.is_some_and(|o| !o.is_empty()) {
-        return Err(Error::new_err("run_scenario: overrides are not supported yet"));
-    }
+    let overrides = match overrides {
+        Some(d) => d
+            .iter()
+            .map(|(k, v)| Ok((k.extract::<String>()?, json_value(&v)?)))
+            .collect::<PyResult<Vec<_>>>()?,
+        None => Vec::new(),
+    };
     let (columns, summary) = work(py, || {
-        let scn = prelude::Scenario::load(&path)?;
+        let scn = prelude::load_scenario_with(&path, &overrides, "overrides")?;
         let res = prelude::run_scenario(&scn, &path)?;
         let summary = serde_json::to_string(&prelude::run_summary(&res, &scn)?)?;
         Ok((res.columns(), summary))

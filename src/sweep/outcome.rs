@@ -1,0 +1,160 @@
+//! What one run of a sweep gives: its figures (tracking, forces) and its handling-qualities verdicts, or
+//! the error that stopped it.
+
+use serde::{Deserialize, Serialize};
+
+use super::hq;
+use crate::aero::certification::CertificationBasis;
+use crate::aero::model::{AircraftModel, CertificationPart, ControlType};
+use crate::scenario::Scenario;
+use crate::sim::Results;
+use crate::units::G0_M_S2;
+
+/// A cell of a results column. `None`: not applicable to this run (no aircraft, a run that failed).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Cell {
+    F(Option<f64>),
+    B(Option<bool>),
+    U(Option<u8>),
+    S(Option<String>),
+}
+
+/// One run's figures and verdicts. Non-finite figures are `None`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Outcome {
+    /// RMS of (load cell − desired force) where the loop resists the motion, N (the feel loop's tracking).
+    pub force_tracking_rmse_n: Option<f64>,
+    pub force_tracking_nrmse: Option<f64>,
+    /// RMS of the pilot's task error (pitch, rad; load factor, g) with an outer loop.
+    pub task_tracking_rms: Option<f64>,
+    /// RMS of (true load cell − desired) where the damper can follow, N (flight runs).
+    pub follow_rms_n: Option<f64>,
+    /// Largest |pilot force at the grip|, N, and the largest held over the prolonged window, N.
+    pub grip_force_peak_n: Option<f64>,
+    pub grip_force_prolonged_n: Option<f64>,
+    /// Largest |aircraft stick force| asked for at the grip, N.
+    pub stick_force_peak_n: Option<f64>,
+    pub current_max_a: Option<f64>,
+    /// Span of the load factor flown, g, and the felt pull force per g over it (least squares), N/g.
+    pub nz_span_g: Option<f64>,
+    pub stick_force_per_g_n: Option<f64>,
+    /// Acceleration sensitivity at trim, g/rad.
+    pub n_per_alpha_g_per_rad: Option<f64>,
+    /// Largest |felt − aircraft stick force| as a ratio of the Part 60 tolerance.
+    pub part60_force_ratio: Option<f64>,
+    /// 14 CFR 23.143 / 25.143: peak within the temporary limit, prolonged within the prolonged limit.
+    pub far_temporary_ok: Option<bool>,
+    pub far_prolonged_ok: Option<bool>,
+    /// MIL-F-8785C Table V Level of the stick force per g (4: outside Level 3).
+    pub per_g_level: Option<u8>,
+    /// 14 CFR Part 60 force tolerance met throughout.
+    pub part60_force_ok: Option<bool>,
+    /// Why the run stopped, if it did (its figures are then empty).
+    pub error: Option<String>,
+}
+
+/// A load-factor span below this gives no stick force per g (the slope would be noise), g.
+const MIN_NZ_SPAN_G: f64 = 0.2;
+
+fn finite(x: f64) -> Option<f64> {
+    x.is_finite().then_some(x)
+}
+
+impl Outcome {
+    pub fn failed(msg: String) -> Self {
+        Self {
+            error: Some(msg),
+            ..Self::default()
+        }
+    }
+
+    /// The figures and verdicts of a finished run of `scn`.
+    pub fn of(res: &Results, scn: &Scenario, prolonged_window_s: f64) -> Self {
+        let s = res.summary();
+        let flight = crate::sim::metrics::FlightMetrics::of(res, scn);
+        let t: Vec<f64> = res.rows.iter().map(|r| r.t_s).collect();
+        let grip: Vec<f64> = res.rows.iter().map(|r| r.pilot_force_n).collect();
+        let peak = grip.iter().fold(0.0_f64, |m, f| m.max(f.abs()));
+        let prolonged = hq::prolonged_force_n(&t, &grip, prolonged_window_s);
+        let model = scn.aircraft.as_ref().and_then(|a| {
+            AircraftModel::load_builtin(a.model.strip_prefix("jsbsim:").unwrap_or(&a.model)).ok()
+        });
+        let basis = match &model {
+            Some(m) => CertificationBasis::for_model(m),
+            // The rig alone: a stick under Part 23 (the paper's light-aircraft stick).
+            None => CertificationBasis::new(CertificationPart::Part23, ControlType::Stick, 0.0),
+        };
+        let (temporary, prolonged_limit) = hq::force_limits(&basis);
+        let mut o = Outcome {
+            force_tracking_rmse_n: finite(s.tracking_rmse_n),
+            force_tracking_nrmse: finite(s.tracking_nrmse),
+            task_tracking_rms: flight.and_then(|f| finite(f.tracking_rms)),
+            follow_rms_n: flight.and_then(|f| finite(f.follow_rms_n)),
+            grip_force_peak_n: finite(peak),
+            grip_force_prolonged_n: prolonged,
+            stick_force_peak_n: flight.and_then(|f| finite(f.stick_force_peak_n)),
+            current_max_a: finite(s.current_max_a),
+            far_temporary_ok: Some(peak <= temporary),
+            far_prolonged_ok: prolonged.map(|p| p <= prolonged_limit),
+            ..Self::default()
+        };
+        let aero: Vec<(f64, crate::sim::AeroRow)> = res
+            .rows
+            .iter()
+            .filter_map(|r| r.aero.map(|a| (r.pilot_force_n, a)))
+            .collect();
+        if let (Some(m), Some(first)) = (&model, aero.first()) {
+            // The felt force's sign as the aircraft's (pull +): the pilot's force on the grip follows it.
+            let dot: f64 = aero.iter().map(|(f, a)| f * a.stick_force_n).sum();
+            let sign = if dot < 0.0 { -1.0 } else { 1.0 };
+            let felt: Vec<f64> = aero.iter().map(|(f, _)| sign * f).collect();
+            let target: Vec<f64> = aero.iter().map(|(_, a)| a.stick_force_n).collect();
+            let nz_lo = aero.iter().map(|(_, a)| a.nz_g).fold(f64::INFINITY, f64::min);
+            let nz_hi = aero.iter().map(|(_, a)| a.nz_g).fold(f64::NEG_INFINITY, f64::max);
+            o.nz_span_g = finite(nz_hi - nz_lo);
+            // n/α = q̄ S C_Lα / W at the trim's angle of attack (C_Lα the slope of the lift table there).
+            let alpha = first.1.alpha_rad;
+            let d = 0.01;
+            let cl_alpha = (m.cl_alpha.eval(alpha + d) - m.cl_alpha.eval(alpha - d)) / (2.0 * d);
+            let n_alpha = first.1.qbar_pa * m.wing_area_m2 * cl_alpha / (m.mass_kg * G0_M_S2);
+            o.n_per_alpha_g_per_rad = finite(n_alpha);
+            if nz_hi - nz_lo >= MIN_NZ_SPAN_G {
+                let per_g =
+                    crate::compare::metrics::slope(aero.iter().zip(&felt).map(|((_, a), f)| (a.nz_g, *f)));
+                o.stick_force_per_g_n = finite(per_g);
+                if let (Some(g), Some(na)) = (o.stick_force_per_g_n, o.n_per_alpha_g_per_rad) {
+                    let bounds = hq::centre_stick_per_g_bounds(m.limit_load_factor, na);
+                    o.per_g_level = Some(hq::per_g_level(g, &bounds));
+                }
+            }
+            o.part60_force_ratio = hq::part60_force_ratio(&felt, &target).and_then(finite);
+            o.part60_force_ok = o.part60_force_ratio.map(|r| r <= 1.0);
+        }
+        o
+    }
+
+    /// The columns, in the results' order.
+    pub fn columns(&self) -> Vec<(&'static str, Cell)> {
+        use Cell::{B, F, S, U};
+        vec![
+            ("force_tracking_rmse_n", F(self.force_tracking_rmse_n)),
+            ("force_tracking_nrmse", F(self.force_tracking_nrmse)),
+            ("task_tracking_rms", F(self.task_tracking_rms)),
+            ("follow_rms_n", F(self.follow_rms_n)),
+            ("grip_force_peak_n", F(self.grip_force_peak_n)),
+            ("grip_force_prolonged_n", F(self.grip_force_prolonged_n)),
+            ("stick_force_peak_n", F(self.stick_force_peak_n)),
+            ("current_max_a", F(self.current_max_a)),
+            ("nz_span_g", F(self.nz_span_g)),
+            ("stick_force_per_g_n", F(self.stick_force_per_g_n)),
+            ("n_per_alpha_g_per_rad", F(self.n_per_alpha_g_per_rad)),
+            ("part60_force_ratio", F(self.part60_force_ratio)),
+            ("far_temporary_ok", B(self.far_temporary_ok)),
+            ("far_prolonged_ok", B(self.far_prolonged_ok)),
+            ("per_g_level", U(self.per_g_level)),
+            ("part60_force_ok", B(self.part60_force_ok)),
+            ("error", S(self.error.clone())),
+        ]
+    }
+}

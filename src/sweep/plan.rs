@@ -1,0 +1,650 @@
+//! A sweep plan (`scenarios/sweeps/*.toml`): a base scenario, axes over its values by dotted key, and how
+//! they combine (every combination, or seeded draws). Expanded into runs, each with its index, its seed
+//! (from the plan's seed and the index alone) and its overrides.
+
+use std::path::{Path, PathBuf};
+
+use rand::{Rng, RngCore, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use serde::Deserialize;
+use toml::Spanned;
+
+use crate::scenario::{Origin, Override, Scenario, ScenarioError};
+use crate::text_lines::line_of;
+
+/// Most runs a plan may have (a typo in a grid multiplies).
+pub const MAX_RUNS: u64 = 10_000_000;
+
+#[derive(Debug, thiserror::Error)]
+pub enum PlanError {
+    #[error("{}: {msg}", path.display())]
+    Io { path: PathBuf, msg: String },
+    #[error("{}:{line}: {msg}", path.display())]
+    Parse { path: PathBuf, line: usize, msg: String },
+    #[error("{}:{line}: `{key}`: {msg}", path.display())]
+    Field {
+        path: PathBuf,
+        line: usize,
+        key: String,
+        msg: String,
+    },
+    /// A run's scenario refused (an axis value out of its key's range, an unknown key).
+    #[error("run {index}: {error}")]
+    Run { index: u64, error: ScenarioError },
+}
+
+/// A parameter's value in a run, as its column holds it.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(untagged)]
+pub enum Param {
+    Num(f64),
+    Text(String),
+}
+
+impl std::fmt::Display for Param {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Param::Num(x) => write!(f, "{x}"),
+            Param::Text(s) => f.write_str(s),
+        }
+    }
+}
+
+/// How an axis gives its values.
+#[derive(Debug, Clone, PartialEq)]
+enum Source {
+    /// Values as listed (numbers or any TOML value), each with its line.
+    List(Vec<(toml::Value, usize)>),
+    /// Named cases, each a set of overrides (`label`, overrides).
+    Cases(Vec<(String, Vec<Override>)>),
+    /// Seeded draws; in a grid, `count` of them.
+    Draw { dist: Dist, count: Option<u64> },
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Dist {
+    Uniform { low: f64, high: f64 },
+    Normal { mean: f64, sd: f64 },
+    LogUniform { low: f64, high: f64 },
+}
+
+impl Dist {
+    fn draw(&self, rng: &mut ChaCha8Rng) -> f64 {
+        match *self {
+            Dist::Uniform { low, high } => rng.random_range(low..=high),
+            Dist::Normal { mean, sd } => Normal::new(mean, sd).map_or(mean, |d| d.sample(rng)),
+            Dist::LogUniform { low, high } => (rng.random_range(low.ln()..=high.ln())).exp(),
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Axis {
+    /// The column name: the dotted key, or the axis's `name` for cases.
+    pub name: String,
+    /// The dotted key a value axis sets (`None` for cases).
+    key: Option<String>,
+    source: Source,
+    line: usize,
+}
+
+impl Axis {
+    /// Values a grid takes along this axis (draw axes: `count`, drawn from the plan's seed and the axis).
+    fn grid_len(&self) -> u64 {
+        match &self.source {
+            Source::List(v) => v.len() as u64,
+            Source::Cases(c) => c.len() as u64,
+            Source::Draw { count, .. } => count.unwrap_or(1),
+        }
+    }
+
+    /// True if every value is a number (its column is numeric).
+    pub fn numeric(&self) -> bool {
+        match &self.source {
+            Source::List(v) => v.iter().all(|(x, _)| x.is_float() || x.is_integer()),
+            Source::Cases(_) => false,
+            Source::Draw { .. } => true,
+        }
+    }
+}
+
+/// One run of a plan.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Run {
+    pub index: u64,
+    /// The scenario's seed in this run: from the plan's seed and the index only.
+    pub seed: u64,
+    /// One value per axis, in the plan's order.
+    pub params: Vec<Param>,
+    pub overrides: Vec<Override>,
+}
+
+/// How the axes combine.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Mode {
+    /// Every combination (the last axis varies fastest).
+    Grid,
+    /// `runs` runs, each axis drawn independently per run (a list: one of its values, uniformly).
+    Sample { runs: u64 },
+}
+
+/// Maps over the envelope (`[map]`): cells at (x, y), one panel per combination of the `facet` axes.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct MapSpec {
+    pub x: String,
+    pub y: String,
+    pub facets: Vec<String>,
+}
+
+/// A loaded, checked plan.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    pub path: PathBuf,
+    pub name: String,
+    pub scenario_path: PathBuf,
+    pub scenario_text: String,
+    pub seed: u64,
+    pub mode: Mode,
+    pub axes: Vec<Axis>,
+    /// Window over which a held force counts as prolonged (14 CFR 23.143 / 25.143), s.
+    pub prolonged_window_s: f64,
+    pub map: Option<MapSpec>,
+    /// SHA-256 of the plan's and the base scenario's texts: shards of one plan carry the same.
+    pub digest: String,
+    /// The plan's `seed` line (each run's scenario seed is set from it).
+    seed_line: usize,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PlanFile {
+    name: String,
+    #[serde(default)]
+    #[allow(dead_code)]
+    description: String,
+    scenario: Spanned<PathBuf>,
+    seed: Spanned<i64>,
+    mode: Option<Spanned<String>>,
+    runs: Option<Spanned<i64>>,
+    prolonged_window_s: Option<Spanned<f64>>,
+    #[serde(default)]
+    axis: Vec<Spanned<AxisFile>>,
+    map: Option<Spanned<MapFile>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MapFile {
+    x: Spanned<String>,
+    y: Spanned<String>,
+    #[serde(default)]
+    facets: Vec<Spanned<String>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AxisFile {
+    key: Option<Spanned<String>>,
+    name: Option<Spanned<String>>,
+    values: Option<Vec<Spanned<toml::Value>>>,
+    range: Option<Spanned<RangeFile>>,
+    draw: Option<Spanned<DrawFile>>,
+    case: Option<Vec<Spanned<CaseFile>>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RangeFile {
+    from: f64,
+    to: f64,
+    count: i64,
+    #[serde(default)]
+    log: bool,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DrawFile {
+    dist: String,
+    low: Option<f64>,
+    high: Option<f64>,
+    mean: Option<f64>,
+    sd: Option<f64>,
+    count: Option<i64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CaseFile {
+    label: Spanned<String>,
+    #[serde(default)]
+    set: Option<Spanned<toml::Table>>,
+    #[serde(default)]
+    unset: Vec<Spanned<String>>,
+}
+
+impl Plan {
+    pub fn load(path: &Path) -> Result<Self, PlanError> {
+        let text = crate::text_lines::read_text(path).map_err(|msg| PlanError::Io {
+            path: path.to_path_buf(),
+            msg,
+        })?;
+        Self::parse(&text, path)
+    }
+
+    pub fn parse(text: &str, path: &Path) -> Result<Self, PlanError> {
+        let f: PlanFile = crate::text_lines::parse_toml(text).map_err(|e| PlanError::Parse {
+            path: path.to_path_buf(),
+            line: e.line,
+            msg: e.message(),
+        })?;
+        let err = |at: usize, key: &str, msg: String| PlanError::Field {
+            path: path.to_path_buf(),
+            line: line_of(text, at),
+            key: key.to_string(),
+            msg,
+        };
+        let origin = |at: usize| Origin::File {
+            path: path.to_path_buf(),
+            line: line_of(text, at),
+        };
+        let dir = path.parent().unwrap_or(Path::new(""));
+        let scenario_path = dir.join(f.scenario.get_ref());
+        let scenario_text = crate::text_lines::read_text(&scenario_path).map_err(|msg| {
+            err(
+                f.scenario.span().start,
+                "scenario",
+                format!("{}: {msg}", scenario_path.display()),
+            )
+        })?;
+        // The base itself must be a good scenario: its errors are its own, not the axes'.
+        Scenario::parse(&scenario_text, &scenario_path)
+            .map_err(|e| err(f.scenario.span().start, "scenario", e.to_string()))?;
+        let seed = *f.seed.get_ref();
+        if seed < 0 {
+            return Err(err(
+                f.seed.span().start,
+                "seed",
+                format!("{seed} is negative: give 0 or more"),
+            ));
+        }
+        let mode = match (f.mode.as_ref().map(|m| m.get_ref().as_str()), &f.runs) {
+            (None | Some("grid"), None) => Mode::Grid,
+            (None | Some("grid"), Some(r)) => {
+                return Err(err(
+                    r.span().start,
+                    "runs",
+                    "only with mode = \"sample\" (a grid runs every combination)".into(),
+                ))
+            }
+            (Some("sample"), Some(r)) => match u64::try_from(*r.get_ref()) {
+                Ok(n) if (1..=MAX_RUNS).contains(&n) => Mode::Sample { runs: n },
+                _ => {
+                    return Err(err(
+                        r.span().start,
+                        "runs",
+                        format!("{} outside the allowed range [1, {MAX_RUNS}]", r.get_ref()),
+                    ))
+                }
+            },
+            (Some("sample"), None) => {
+                let at = f.mode.as_ref().map_or(0, |m| m.span().start);
+                return Err(err(
+                    at,
+                    "runs",
+                    "required by mode = \"sample\" (how many runs to draw)".into(),
+                ));
+            }
+            (Some(other), _) => {
+                let at = f.mode.as_ref().map_or(0, |m| m.span().start);
+                return Err(err(at, "mode", format!("`{other}` is not one of: grid, sample")));
+            }
+        };
+        let prolonged_window_s = match &f.prolonged_window_s {
+            Some(w) if !(w.get_ref().is_finite() && (0.1..=600.0).contains(w.get_ref())) => {
+                return Err(err(
+                    w.span().start,
+                    "prolonged_window_s",
+                    format!("value {} outside the allowed range [0.1, 600] s", w.get_ref()),
+                ))
+            }
+            Some(w) => *w.get_ref(),
+            None => 5.0,
+        };
+        if f.axis.is_empty() {
+            return Err(PlanError::Parse {
+                path: path.to_path_buf(),
+                line: 1,
+                msg: "no `[[axis]]`: a plan sweeps at least one key".into(),
+            });
+        }
+        let mut axes: Vec<Axis> = Vec::new();
+        for a in &f.axis {
+            let at = a.span().start;
+            let a = a.get_ref();
+            let axis = match (&a.key, &a.name, &a.case) {
+                (Some(key), None, None) => {
+                    let k = key.get_ref().clone();
+                    let kat = key.span().start;
+                    let source = match (&a.values, &a.range, &a.draw) {
+                        (Some(v), None, None) => {
+                            if v.is_empty() {
+                                return Err(err(kat, "values", "an empty list: give at least one value".into()));
+                            }
+                            Source::List(v.iter().map(|x| (x.get_ref().clone(), line_of(text, x.span().start))).collect())
+                        }
+                        (None, Some(r), None) => {
+                            let rat = r.span().start;
+                            let r = r.get_ref();
+                            let n = match u64::try_from(r.count) {
+                                Ok(n) if (1..=MAX_RUNS).contains(&n) => n,
+                                _ => return Err(err(rat, "range.count", format!("{} outside the allowed range [1, {MAX_RUNS}]", r.count))),
+                            };
+                            if !(r.from.is_finite() && r.to.is_finite()) || (r.log && (r.from <= 0.0 || r.to <= 0.0)) {
+                                return Err(err(rat, "range", "from and to must be finite (and positive with log = true)".into()));
+                            }
+                            let line = line_of(text, rat);
+                            Source::List(
+                                (0..n)
+                                    .map(|i| {
+                                        let u = if n == 1 { 0.0 } else { i as f64 / (n - 1) as f64 };
+                                        let x = if r.log {
+                                            (r.from.ln() + u * (r.to.ln() - r.from.ln())).exp()
+                                        } else {
+                                            r.from + u * (r.to - r.from)
+                                        };
+                                        (toml::Value::Float(x), line)
+                                    })
+                                    .collect(),
+                            )
+                        }
+                        (None, None, Some(d)) => {
+                            let dat = d.span().start;
+                            let d = d.get_ref();
+                            let need = |v: Option<f64>, name: &str| {
+                                v.filter(|x| x.is_finite())
+                                    .ok_or_else(|| err(dat, &format!("draw.{name}"), format!("required (a finite number) by dist = \"{}\"", d.dist)))
+                            };
+                            let dist = match d.dist.as_str() {
+                                "uniform" | "log-uniform" => {
+                                    let (low, high) = (need(d.low, "low")?, need(d.high, "high")?);
+                                    if d.mean.is_some() || d.sd.is_some() {
+                                        return Err(err(dat, "draw", format!("mean and sd are not used by dist = \"{}\"", d.dist)));
+                                    }
+                                    if low > high || (d.dist == "log-uniform" && low <= 0.0) {
+                                        return Err(err(dat, "draw.low", format!("low {low} must be at most high {high} (and above 0 for log-uniform)")));
+                                    }
+                                    if d.dist == "uniform" {
+                                        Dist::Uniform { low, high }
+                                    } else {
+                                        Dist::LogUniform { low, high }
+                                    }
+                                }
+                                "normal" => {
+                                    let (mean, sd) = (need(d.mean, "mean")?, need(d.sd, "sd")?);
+                                    if d.low.is_some() || d.high.is_some() {
+                                        return Err(err(dat, "draw", "low and high are not used by dist = \"normal\"".into()));
+                                    }
+                                    if sd < 0.0 {
+                                        return Err(err(dat, "draw.sd", format!("{sd} is negative")));
+                                    }
+                                    Dist::Normal { mean, sd }
+                                }
+                                other => {
+                                    return Err(err(dat, "draw.dist", format!("`{other}` is not one of: uniform, normal, log-uniform")))
+                                }
+                            };
+                            let count = match (mode, d.count) {
+                                (Mode::Grid, Some(c)) => match u64::try_from(c) {
+                                    Ok(n) if (1..=MAX_RUNS).contains(&n) => Some(n),
+                                    _ => return Err(err(dat, "draw.count", format!("{c} outside the allowed range [1, {MAX_RUNS}]"))),
+                                },
+                                (Mode::Grid, None) => {
+                                    return Err(err(dat, "draw.count", "required in a grid (how many draws this axis takes)".into()))
+                                }
+                                (Mode::Sample { .. }, Some(_)) => {
+                                    return Err(err(dat, "draw.count", "not used by mode = \"sample\" (each run draws once)".into()))
+                                }
+                                (Mode::Sample { .. }, None) => None,
+                            };
+                            Source::Draw { dist, count }
+                        }
+                        _ => {
+                            return Err(err(kat, &k, "give exactly one of `values`, `range`, `draw`".into()));
+                        }
+                    };
+                    Axis {
+                        name: k.clone(),
+                        key: Some(k),
+                        source,
+                        line: line_of(text, kat),
+                    }
+                }
+                (None, Some(name), Some(cases)) => {
+                    if a.values.is_some() || a.range.is_some() || a.draw.is_some() {
+                        return Err(err(name.span().start, "case", "an axis of cases takes no values, range or draw".into()));
+                    }
+                    if cases.is_empty() {
+                        return Err(err(name.span().start, "case", "no cases: give at least one `[[axis.case]]`".into()));
+                    }
+                    let mut out = Vec::new();
+                    for c in cases {
+                        let c = c.get_ref();
+                        let label = c.label.get_ref().clone();
+                        if out.iter().any(|(l, _): &(String, _)| *l == label) {
+                            return Err(err(c.label.span().start, "label", format!("`{label}` given twice in this axis")));
+                        }
+                        let mut ov = Vec::new();
+                        if let Some(set) = &c.set {
+                            let o = origin(set.span().start);
+                            flatten("", set.get_ref(), &mut |k, v| ov.push(Override::set(&k, v.clone(), o.clone())));
+                        }
+                        for u in &c.unset {
+                            ov.push(Override {
+                                key: u.get_ref().clone(),
+                                value: None,
+                                origin: origin(u.span().start),
+                            });
+                        }
+                        out.push((label, ov));
+                    }
+                    Axis {
+                        name: name.get_ref().clone(),
+                        key: None,
+                        source: Source::Cases(out),
+                        line: line_of(text, name.span().start),
+                    }
+                }
+                _ => {
+                    return Err(err(
+                        at,
+                        "axis",
+                        "an axis is either `key` with `values`, `range` or `draw`, or `name` with `[[axis.case]]` tables".into(),
+                    ))
+                }
+            };
+            if axes.iter().any(|b| b.name == axis.name) {
+                return Err(PlanError::Field {
+                    path: path.to_path_buf(),
+                    line: axis.line,
+                    key: axis.name.clone(),
+                    msg: "a second axis of this name: one axis per key".into(),
+                });
+            }
+            axes.push(axis);
+        }
+        let map = match &f.map {
+            None => None,
+            Some(m) => {
+                let m = m.get_ref();
+                for s in std::iter::once(&m.x).chain([&m.y]).chain(&m.facets) {
+                    if !axes.iter().any(|a| a.name == *s.get_ref()) {
+                        let names: Vec<&str> = axes.iter().map(|a| a.name.as_str()).collect();
+                        return Err(err(
+                            s.span().start,
+                            "map",
+                            format!("`{}` is not an axis (axes: {})", s.get_ref(), names.join(", ")),
+                        ));
+                    }
+                }
+                Some(MapSpec {
+                    x: m.x.get_ref().clone(),
+                    y: m.y.get_ref().clone(),
+                    facets: m.facets.iter().map(|s| s.get_ref().clone()).collect(),
+                })
+            }
+        };
+        let digest = {
+            use sha2::Digest;
+            let mut h = sha2::Sha256::new();
+            h.update(text.as_bytes());
+            h.update([0u8]);
+            h.update(scenario_text.as_bytes());
+            format!("{:x}", h.finalize())
+        };
+        let plan = Plan {
+            path: path.to_path_buf(),
+            name: f.name,
+            scenario_path,
+            scenario_text,
+            seed: seed as u64,
+            mode,
+            axes,
+            prolonged_window_s,
+            map,
+            digest,
+            seed_line: line_of(text, f.seed.span().start),
+        };
+        let n = plan.run_count();
+        if n > MAX_RUNS {
+            return Err(PlanError::Parse {
+                path: path.to_path_buf(),
+                line: 1,
+                msg: format!("{n} runs: at most {MAX_RUNS} (the axes multiply in a grid)"),
+            });
+        }
+        Ok(plan)
+    }
+
+    /// How many runs the plan has.
+    pub fn run_count(&self) -> u64 {
+        match self.mode {
+            Mode::Grid => self
+                .axes
+                .iter()
+                .map(Axis::grid_len)
+                .fold(1u64, |a, b| a.saturating_mul(b)),
+            Mode::Sample { runs } => runs,
+        }
+    }
+
+    /// A generator for run `index`'s seed and draws: the plan's seed and the index only, whatever the
+    /// worker, the shard or the order of the runs.
+    fn rng(&self, index: u64, stream: u64) -> ChaCha8Rng {
+        let mut r = ChaCha8Rng::seed_from_u64(self.seed);
+        r.set_stream(stream);
+        r.set_word_pos(u128::from(index) * 1024);
+        r
+    }
+
+    /// Run `index` (0-based, below [`Plan::run_count`]).
+    pub fn run(&self, index: u64) -> Run {
+        // Stream 0: the runs' seeds and sampled draws, 1024 words per run; stream 1 + axis: a grid's draws.
+        let mut rng = self.rng(index, 0);
+        let seed = rng.next_u64() >> 1;
+        let mut params = Vec::new();
+        let mut overrides = vec![Override::set(
+            "seed",
+            toml::Value::Integer(seed as i64),
+            Origin::File {
+                path: self.path.clone(),
+                line: self.seed_line,
+            },
+        )];
+        let mut rest = index;
+        let sizes: Vec<u64> = self.axes.iter().map(Axis::grid_len).collect();
+        let mut grid_pos = vec![0u64; self.axes.len()];
+        for k in (0..self.axes.len()).rev() {
+            grid_pos[k] = rest % sizes[k];
+            rest /= sizes[k];
+        }
+        for (k, a) in self.axes.iter().enumerate() {
+            let pick = match self.mode {
+                Mode::Grid => grid_pos[k],
+                Mode::Sample { .. } => rng.random_range(0..sizes[k]),
+            };
+            let origin = Origin::File {
+                path: self.path.clone(),
+                line: a.line,
+            };
+            match &a.source {
+                Source::List(v) => {
+                    let (value, line) = &v[pick as usize];
+                    params.push(match value {
+                        toml::Value::Float(x) => Param::Num(*x),
+                        toml::Value::Integer(i) if a.numeric() => Param::Num(*i as f64),
+                        toml::Value::String(s) => Param::Text(s.clone()),
+                        other => Param::Text(other.to_string()),
+                    });
+                    overrides.push(Override::set(
+                        a.key.as_deref().unwrap_or(&a.name),
+                        value.clone(),
+                        Origin::File {
+                            path: self.path.clone(),
+                            line: *line,
+                        },
+                    ));
+                }
+                Source::Cases(c) => {
+                    let (label, ov) = &c[pick as usize];
+                    params.push(Param::Text(label.clone()));
+                    overrides.extend(ov.iter().cloned());
+                }
+                Source::Draw { dist, .. } => {
+                    let x = match self.mode {
+                        Mode::Grid => dist.draw(&mut self.rng(pick, 1 + k as u64)),
+                        Mode::Sample { .. } => dist.draw(&mut rng),
+                    };
+                    params.push(Param::Num(x));
+                    overrides.push(Override::set(
+                        a.key.as_deref().unwrap_or(&a.name),
+                        toml::Value::Float(x),
+                        origin,
+                    ));
+                }
+            }
+        }
+        Run {
+            index,
+            seed,
+            params,
+            overrides,
+        }
+    }
+
+    /// The scenario of a run, checked.
+    pub fn scenario(&self, run: &Run) -> Result<Scenario, PlanError> {
+        Scenario::parse_with(&self.scenario_text, &self.scenario_path, &run.overrides).map_err(|error| {
+            PlanError::Run {
+                index: run.index,
+                error,
+            }
+        })
+    }
+}
+
+/// Every leaf of a table as `dotted.key = value` (a table in a table is a deeper key; arrays are values).
+fn flatten(prefix: &str, t: &toml::Table, out: &mut dyn FnMut(String, &toml::Value)) {
+    for (k, v) in t {
+        let key = if prefix.is_empty() {
+            k.clone()
+        } else {
+            format!("{prefix}.{k}")
+        };
+        match v {
+            toml::Value::Table(inner) => flatten(&key, inner, out),
+            _ => out(key, v),
+        }
+    }
+}

@@ -1,0 +1,321 @@
+//! The end of a sweep: a summary table per group of runs, a one-page text report, and maps over the
+//! envelope coloured by handling-qualities Level.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use plotters::prelude::*;
+
+use super::plan::{MapSpec, Param};
+use super::store::Record;
+
+/// Counts of one group of runs.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Group {
+    pub runs: usize,
+    pub failed: usize,
+    /// Runs per stick-force-per-g Level 1, 2, 3, worse; runs with no Level (too little load factor flown).
+    pub levels: [usize; 4],
+    pub no_level: usize,
+    pub far_temporary_ok: usize,
+    pub far_prolonged_ok: usize,
+    pub part60_ok: usize,
+    /// Runs judged by Part 60 (with an aircraft).
+    pub part60_judged: usize,
+}
+
+/// Runs grouped by the value of axis `by` (all runs in one group `all` when `None`).
+pub fn groups(columns: &[String], records: &[Record], by: Option<&str>) -> BTreeMap<String, Group> {
+    let k = by.and_then(|b| columns.iter().position(|c| c == b));
+    let mut out: BTreeMap<String, Group> = BTreeMap::new();
+    for r in records {
+        let key = k
+            .and_then(|k| r.params.get(k))
+            .map_or("all".to_string(), Param::to_string);
+        let g = out.entry(key).or_default();
+        let o = &r.outcome;
+        g.runs += 1;
+        if o.error.is_some() {
+            g.failed += 1;
+            continue;
+        }
+        match o.per_g_level {
+            Some(l @ 1..=4) => g.levels[l as usize - 1] += 1,
+            _ => g.no_level += 1,
+        }
+        g.far_temporary_ok += usize::from(o.far_temporary_ok == Some(true));
+        g.far_prolonged_ok += usize::from(o.far_prolonged_ok == Some(true));
+        g.part60_judged += usize::from(o.part60_force_ok.is_some());
+        g.part60_ok += usize::from(o.part60_force_ok == Some(true));
+    }
+    out
+}
+
+/// The summary as a Markdown table.
+pub fn summary_table(columns: &[String], records: &[Record], by: Option<&str>) -> String {
+    let mut s = format!(
+        "| {} | runs | failed | Level 1 | Level 2 | Level 3 | worse | no Level | FAR temporary ok | FAR prolonged ok | Part 60 ok |\n",
+        by.unwrap_or("group")
+    );
+    s.push_str("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+    for (name, g) in groups(columns, records, by) {
+        s.push_str(&format!(
+            "| {name} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {}/{} |\n",
+            g.runs,
+            g.failed,
+            g.levels[0],
+            g.levels[1],
+            g.levels[2],
+            g.levels[3],
+            g.no_level,
+            g.far_temporary_ok,
+            g.far_prolonged_ok,
+            g.part60_ok,
+            g.part60_judged
+        ));
+    }
+    s
+}
+
+/// The axis to group a summary by: the first axis whose values are names (feel systems, pilots), if any.
+pub fn group_axis<'a>(columns: &'a [String], records: &[Record]) -> Option<&'a str> {
+    let first = records.first()?;
+    columns
+        .iter()
+        .zip(&first.params)
+        .find(|(_, p)| matches!(p, Param::Text(_)))
+        .map(|(c, _)| c.as_str())
+}
+
+/// A one-page report: what was run, the summary per group, and the runs that fared worst.
+pub fn report(name: &str, columns: &[String], records: &[Record], maps: &[PathBuf]) -> String {
+    let by = group_axis(columns, records);
+    let mut s = format!("# Sweep `{name}`: {} runs\n\n", records.len());
+    s.push_str(
+        "Verdicts per run: 14 CFR 23.143(c) / 25.143(d) temporary and prolonged pitch force limits; stick force \
+         per g against MIL-F-8785C Table V (centre stick) Levels; the felt force against the aircraft's within \
+         the 14 CFR Part 60 tolerance (±10 lbf or ±10 %). Sources and readings: docs/sweep.md.\n\n",
+    );
+    s.push_str(&summary_table(columns, records, by));
+    let mut worst: Vec<&Record> = records.iter().filter(|r| r.outcome.error.is_none()).collect();
+    worst.sort_by(|a, b| {
+        let key = |r: &Record| {
+            (
+                r.outcome.per_g_level.unwrap_or(0),
+                r.outcome.part60_force_ratio.unwrap_or(0.0),
+            )
+        };
+        let (ka, kb) = (key(a), key(b));
+        kb.0.cmp(&ka.0)
+            .then(kb.1.total_cmp(&ka.1))
+            .then(a.index.cmp(&b.index))
+    });
+    s.push_str("\n## Worst runs (Level, then Part 60 force ratio)\n\n| index | ");
+    s.push_str(&columns.join(" | "));
+    s.push_str(" | Level | stick force per g, N/g | Part 60 ratio | peak grip force, N |\n|");
+    s.push_str(&"---|".repeat(columns.len() + 5));
+    s.push('\n');
+    let num = |v: Option<f64>| v.map_or("–".to_string(), |x| format!("{x:.3}"));
+    for r in worst.iter().take(8) {
+        let params: Vec<String> = r.params.iter().map(Param::to_string).collect();
+        s.push_str(&format!(
+            "| {} | {} | {} | {} | {} | {} |\n",
+            r.index,
+            params.join(" | "),
+            r.outcome.per_g_level.map_or("–".into(), |l| l.to_string()),
+            num(r.outcome.stick_force_per_g_n),
+            num(r.outcome.part60_force_ratio),
+            num(r.outcome.grip_force_peak_n)
+        ));
+    }
+    let failed: Vec<&Record> = records.iter().filter(|r| r.outcome.error.is_some()).collect();
+    if !failed.is_empty() {
+        s.push_str(&format!("\n## Failed runs: {}\n\n", failed.len()));
+        for r in failed.iter().take(5) {
+            s.push_str(&format!(
+                "- run {}: {}\n",
+                r.index,
+                r.outcome.error.as_deref().unwrap_or("")
+            ));
+        }
+    }
+    if !maps.is_empty() {
+        s.push_str("\n## Maps\n\n");
+        for m in maps {
+            s.push_str(&format!("- {}\n", m.display()));
+        }
+    }
+    s
+}
+
+/// Colour of a Level (1 green, 2 yellow, 3 orange, worse red), grey for a run with none, black failed.
+fn level_colour(level: Option<u8>, failed: bool) -> RGBColor {
+    match (failed, level) {
+        (true, _) => RGBColor(40, 40, 40),
+        (_, Some(1)) => RGBColor(0, 158, 115),
+        (_, Some(2)) => RGBColor(240, 228, 66),
+        (_, Some(3)) => RGBColor(230, 159, 0),
+        (_, Some(_)) => RGBColor(213, 94, 0),
+        (_, None) => RGBColor(200, 200, 200),
+    }
+}
+
+/// Maps of the stick-force-per-g Level over (x, y), one panel per combination of the facet axes; where
+/// other axes vary, a cell shows the worst Level of its runs. Written to `DIR/map-level.png` and `.svg`.
+pub fn maps(
+    dir: &Path,
+    spec: &MapSpec,
+    columns: &[String],
+    records: &[Record],
+) -> Result<Vec<PathBuf>, String> {
+    let col = |n: &str| {
+        columns
+            .iter()
+            .position(|c| c == n)
+            .ok_or(format!("no axis `{n}`"))
+    };
+    let (ix, iy) = (col(&spec.x)?, col(&spec.y)?);
+    let facets: Vec<usize> = spec.facets.iter().map(|f| col(f)).collect::<Result<_, _>>()?;
+    let text = |r: &Record, k: usize| r.params.get(k).map_or(String::new(), Param::to_string);
+    let num = |r: &Record, k: usize| match r.params.get(k) {
+        Some(Param::Num(x)) => *x,
+        _ => f64::NAN,
+    };
+    let mut xs: Vec<f64> = records
+        .iter()
+        .map(|r| num(r, ix))
+        .filter(|x| x.is_finite())
+        .collect();
+    let mut ys: Vec<f64> = records
+        .iter()
+        .map(|r| num(r, iy))
+        .filter(|x| x.is_finite())
+        .collect();
+    for v in [&mut xs, &mut ys] {
+        v.sort_by(f64::total_cmp);
+        v.dedup();
+    }
+    if xs.is_empty() || ys.is_empty() {
+        return Err(format!(
+            "the map's axes `{}` and `{}` must be numeric",
+            spec.x, spec.y
+        ));
+    }
+    // (panel, x cell, y cell) -> worst (failed, level) seen.
+    let mut panels: BTreeMap<String, BTreeMap<(usize, usize), (bool, Option<u8>)>> = BTreeMap::new();
+    for r in records {
+        let panel: Vec<String> = facets.iter().map(|&k| text(r, k)).collect();
+        let (Some(cx), Some(cy)) = (
+            xs.iter().position(|&x| x == num(r, ix)),
+            ys.iter().position(|&y| y == num(r, iy)),
+        ) else {
+            continue;
+        };
+        let cell = (r.outcome.error.is_some(), r.outcome.per_g_level);
+        let e = panels
+            .entry(panel.join(", "))
+            .or_default()
+            .entry((cx, cy))
+            .or_insert(cell);
+        let rank = |c: &(bool, Option<u8>)| if c.0 { 6 } else { c.1.map_or(5, |l| l) };
+        if rank(&cell) > rank(e) {
+            *e = cell;
+        }
+    }
+    crate::viz::plot::register_font();
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let n = panels.len().max(1);
+    let cols = n.min(3);
+    let rows = n.div_ceil(cols);
+    let size = (420 * cols as u32, 340 * rows as u32 + 40);
+    let edges = |v: &[f64]| -> Vec<f64> {
+        // Cell edges halfway between values (a value's own width at the ends).
+        let w = |k: usize| {
+            if v.len() > 1 {
+                v[k.min(v.len() - 2) + 1] - v[k.min(v.len() - 2)]
+            } else {
+                1.0
+            }
+        };
+        let mut e = vec![v[0] - w(0) / 2.0];
+        e.extend(v.windows(2).map(|p| (p[0] + p[1]) / 2.0));
+        e.push(v[v.len() - 1] + w(v.len() - 1) / 2.0);
+        e
+    };
+    let (ex, ey) = (edges(&xs), edges(&ys));
+    let png = dir.join("map-level.png");
+    let svg = dir.join("map-level.svg");
+    crate::outputs::write_whole(
+        &png,
+        |tmp| {
+            let root = BitMapBackend::new(tmp, size).into_drawing_area();
+            draw_panels(root.clone(), &panels, &ex, &ey, spec)?;
+            root.present().map_err(|e| e.to_string())
+        },
+        |e| e.to_string(),
+    )?;
+    crate::outputs::write_whole(
+        &svg,
+        |tmp| {
+            let root = SVGBackend::new(tmp, size).into_drawing_area();
+            draw_panels(root.clone(), &panels, &ex, &ey, spec)?;
+            root.present().map_err(|e| e.to_string())
+        },
+        |e| e.to_string(),
+    )?;
+    Ok(vec![png, svg])
+}
+
+type Panels = BTreeMap<String, BTreeMap<(usize, usize), (bool, Option<u8>)>>;
+
+fn draw_panels<DB: DrawingBackend>(
+    root: DrawingArea<DB, plotters::coord::Shift>,
+    panels: &Panels,
+    ex: &[f64],
+    ey: &[f64],
+    spec: &MapSpec,
+) -> Result<(), String> {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    root.fill(&WHITE).map_err(e)?;
+    let (top, body) = root.split_vertically(40);
+    top.draw_text(
+        "stick force per g: Level 1 green, 2 yellow, 3 orange, worse red; grey no Level, black failed",
+        &("sans-serif", 14).into_text_style(&top),
+        (10, 12),
+    )
+    .map_err(e)?;
+    let n = panels.len().max(1);
+    let cols = n.min(3);
+    let rows = n.div_ceil(cols);
+    let areas = body.split_evenly((rows, cols));
+    for ((title, cells), area) in panels.iter().zip(areas) {
+        let mut c = ChartBuilder::on(&area)
+            .caption(
+                if title.is_empty() { "all runs" } else { title },
+                ("sans-serif", 15),
+            )
+            .margin(8)
+            .x_label_area_size(36)
+            .y_label_area_size(56)
+            .build_cartesian_2d(ex[0]..ex[ex.len() - 1], ey[0]..ey[ey.len() - 1])
+            .map_err(e)?;
+        c.configure_mesh()
+            .x_desc(spec.x.as_str())
+            .y_desc(spec.y.as_str())
+            .label_style(("sans-serif", 12))
+            .disable_mesh()
+            .draw()
+            .map_err(e)?;
+        for (&(cx, cy), &(failed, level)) in cells {
+            let r = [(ex[cx], ey[cy]), (ex[cx + 1], ey[cy + 1])];
+            c.draw_series(std::iter::once(Rectangle::new(
+                r,
+                level_colour(level, failed).filled(),
+            )))
+            .map_err(e)?;
+            c.draw_series(std::iter::once(Rectangle::new(r, WHITE.stroke_width(1))))
+                .map_err(e)?;
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,532 @@
+//! A sweep's output directory: the manifest (`sweep.toml`: plan, digest, shard, columns), the journal of
+//! finished runs (`runs.jsonl`, appended line by line, so a killed sweep loses at most the line it was
+//! writing), and the results (`results.csv`, `results.arrow`) written from the journal sorted by index.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use serde::{Deserialize, Serialize};
+use toml::Spanned;
+
+use super::outcome::{Cell, Outcome};
+use super::plan::{Param, Plan};
+use crate::text_lines::line_of;
+
+#[derive(Debug, thiserror::Error)]
+pub enum StoreError {
+    #[error("{}: {msg}", path.display())]
+    Io { path: PathBuf, msg: String },
+    #[error("{}:{line}: `{key}`: {msg}", path.display())]
+    Field {
+        path: PathBuf,
+        line: usize,
+        key: String,
+        msg: String,
+    },
+    #[error("{}:{line}: {msg}", path.display())]
+    Line { path: PathBuf, line: usize, msg: String },
+    #[error("--shard {arg}: {msg}")]
+    Shard { arg: String, msg: String },
+}
+
+fn io(path: &Path) -> impl Fn(std::io::Error) -> StoreError + '_ {
+    move |e| StoreError::Io {
+        path: path.to_path_buf(),
+        msg: e.to_string(),
+    }
+}
+
+/// Shard `k` of `n` (0-based, as Slurm's `$SLURM_ARRAY_TASK_ID` of `--array=0-(n-1)`): the runs whose
+/// index is `k` modulo `n`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Shard {
+    pub k: u64,
+    pub n: u64,
+}
+
+impl Shard {
+    pub const ALL: Shard = Shard { k: 0, n: 1 };
+
+    pub fn contains(&self, index: u64) -> bool {
+        index % self.n == self.k
+    }
+
+    fn label(&self) -> String {
+        if *self == Self::ALL {
+            "all".into()
+        } else {
+            format!("{}/{}", self.k, self.n)
+        }
+    }
+}
+
+impl std::str::FromStr for Shard {
+    type Err = StoreError;
+    fn from_str(arg: &str) -> Result<Self, StoreError> {
+        let bad = |msg: String| StoreError::Shard {
+            arg: arg.to_string(),
+            msg,
+        };
+        let (k, n) = arg
+            .split_once('/')
+            .ok_or_else(|| bad("expected K/N, shard K (0-based) of N, e.g. 0/4".into()))?;
+        let k: u64 = k
+            .trim()
+            .parse()
+            .map_err(|_| bad(format!("K = `{k}` is not a whole number ≥ 0")))?;
+        let n: u64 = n
+            .trim()
+            .parse()
+            .map_err(|_| bad(format!("N = `{n}` is not a whole number ≥ 1")))?;
+        if n == 0 || k >= n {
+            return Err(bad(format!(
+                "K must be in 0..N-1 and N at least 1 (K = {k}, N = {n}); with Slurm: --array=0-{}",
+                n.max(1) - 1
+            )));
+        }
+        Ok(Shard { k, n })
+    }
+}
+
+/// One finished run: its index, seed, parameters (one per axis) and outcome.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Record {
+    pub index: u64,
+    pub seed: u64,
+    pub params: Vec<Param>,
+    pub outcome: Outcome,
+}
+
+/// `sweep.toml`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+struct Manifest {
+    name: String,
+    plan: String,
+    digest: String,
+    runs: u64,
+    shard: String,
+    columns: Vec<String>,
+    numeric: Vec<bool>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ManifestFile {
+    name: String,
+    plan: String,
+    digest: Spanned<String>,
+    runs: Spanned<u64>,
+    shard: Spanned<String>,
+    columns: Spanned<Vec<String>>,
+    numeric: Vec<bool>,
+}
+
+/// What a directory's manifest says, and where.
+struct Loaded {
+    path: PathBuf,
+    text: String,
+    file: ManifestFile,
+}
+
+impl Loaded {
+    fn read(path: &Path) -> Result<Option<Self>, StoreError> {
+        if !path.exists() {
+            return Ok(None);
+        }
+        let text = crate::text_lines::read_text(path).map_err(|msg| StoreError::Io {
+            path: path.to_path_buf(),
+            msg,
+        })?;
+        let file: ManifestFile = crate::text_lines::parse_toml(&text).map_err(|e| StoreError::Line {
+            path: path.to_path_buf(),
+            line: e.line,
+            msg: e.message(),
+        })?;
+        Ok(Some(Self {
+            path: path.to_path_buf(),
+            text,
+            file,
+        }))
+    }
+
+    fn err<T>(&self, at: &Spanned<T>, key: &str, msg: String) -> StoreError {
+        StoreError::Field {
+            path: self.path.clone(),
+            line: line_of(&self.text, at.span().start),
+            key: key.into(),
+            msg,
+        }
+    }
+
+    fn manifest(&self) -> Manifest {
+        let f = &self.file;
+        Manifest {
+            name: f.name.clone(),
+            plan: f.plan.clone(),
+            digest: f.digest.get_ref().clone(),
+            runs: *f.runs.get_ref(),
+            shard: f.shard.get_ref().clone(),
+            columns: f.columns.get_ref().clone(),
+            numeric: f.numeric.clone(),
+        }
+    }
+}
+
+pub const MANIFEST: &str = "sweep.toml";
+pub const JOURNAL: &str = "runs.jsonl";
+pub const RESULTS_CSV: &str = "results.csv";
+pub const RESULTS_ARROW: &str = "results.arrow";
+
+/// An output directory open for a plan's shard: its journal to append to, and the runs it already has.
+pub struct Store {
+    pub dir: PathBuf,
+    manifest: Manifest,
+    journal: std::fs::File,
+    pub done: Vec<Record>,
+}
+
+impl Store {
+    /// Open (or start) `dir` for `plan`'s `shard`. A directory of another plan or shard is refused at its
+    /// manifest's line; a journal's last line cut short by a kill is dropped (the run runs again).
+    pub fn open(dir: &Path, plan: &Plan, shard: Shard) -> Result<Self, StoreError> {
+        std::fs::create_dir_all(dir).map_err(io(dir))?;
+        let mpath = dir.join(MANIFEST);
+        let manifest = Manifest {
+            name: plan.name.clone(),
+            plan: plan.path.display().to_string(),
+            digest: plan.digest.clone(),
+            runs: plan.run_count(),
+            shard: shard.label(),
+            columns: plan.axes.iter().map(|a| a.name.clone()).collect(),
+            numeric: plan.axes.iter().map(|a| a.numeric()).collect(),
+        };
+        match Loaded::read(&mpath)? {
+            Some(l) => {
+                if *l.file.digest.get_ref() != plan.digest {
+                    return Err(l.err(
+                        &l.file.digest,
+                        "digest",
+                        format!(
+                            "this directory holds a sweep of another plan (or of another version of {} or its \
+                             scenario): give another --out",
+                            plan.path.display()
+                        ),
+                    ));
+                }
+                if *l.file.shard.get_ref() != shard.label() {
+                    return Err(l.err(
+                        &l.file.shard,
+                        "shard",
+                        format!(
+                            "this directory holds shard {}, not {}: give another --out",
+                            l.file.shard.get_ref(),
+                            shard.label()
+                        ),
+                    ));
+                }
+            }
+            None => write_text(&mpath, &toml::to_string(&manifest).expect("manifest serialises"))?,
+        }
+        let jpath = dir.join(JOURNAL);
+        let done = read_journal(&jpath, manifest.runs, |i| shard.contains(i), true)?;
+        let journal = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(&jpath)
+            .map_err(io(&jpath))?;
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            manifest,
+            journal,
+            done,
+        })
+    }
+
+    /// Append a finished run to the journal, in one write of one line.
+    pub fn append(&mut self, r: &Record) -> Result<(), StoreError> {
+        let mut line = serde_json::to_string(r).expect("a record serialises");
+        line.push('\n');
+        let p = self.dir.join(JOURNAL);
+        self.journal.write_all(line.as_bytes()).map_err(io(&p))?;
+        self.journal.flush().map_err(io(&p))
+    }
+
+    /// Write the results of `records` (all of this shard's runs): the journal sorted, CSV and Arrow IPC.
+    pub fn finish(&self, records: &mut [Record]) -> Result<(), StoreError> {
+        write_results(&self.dir, &self.manifest, records)
+    }
+}
+
+/// Read a journal: its records, each index once, within `runs` and `in_shard`. With `repair`, a last line
+/// without its newline (a write cut short) is cut off the file.
+fn read_journal(
+    path: &Path,
+    runs: u64,
+    in_shard: impl Fn(u64) -> bool,
+    repair: bool,
+) -> Result<Vec<Record>, StoreError> {
+    let text = match std::fs::read(path) {
+        Ok(b) => b,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => return Err(io(path)(e)),
+    };
+    let whole = text.iter().rposition(|&b| b == b'\n').map_or(0, |p| p + 1);
+    if whole < text.len() && repair {
+        let f = std::fs::OpenOptions::new()
+            .write(true)
+            .open(path)
+            .map_err(io(path))?;
+        f.set_len(whole as u64).map_err(io(path))?;
+    }
+    let text = String::from_utf8_lossy(&text[..whole]);
+    let mut out: Vec<Record> = Vec::new();
+    let mut seen = std::collections::HashSet::new();
+    for (k, line) in text.lines().enumerate() {
+        let bad = |msg: String| StoreError::Line {
+            path: path.to_path_buf(),
+            line: k + 1,
+            msg,
+        };
+        let r: Record = serde_json::from_str(line).map_err(|e| bad(format!("not a run record: {e}")))?;
+        if r.index >= runs || !in_shard(r.index) {
+            return Err(bad(format!(
+                "run {} is not one of this directory's runs",
+                r.index
+            )));
+        }
+        if !seen.insert(r.index) {
+            return Err(bad(format!("run {} recorded twice", r.index)));
+        }
+        out.push(r);
+    }
+    Ok(out)
+}
+
+fn write_text(path: &Path, text: &str) -> Result<(), StoreError> {
+    write_bytes(path, text.as_bytes())
+}
+
+/// Write a whole file through a temporary beside it, so that a reader never sees half of it.
+fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), StoreError> {
+    crate::outputs::write_whole(path, |tmp| std::fs::write(tmp, bytes).map_err(io(path)), io(path))
+}
+
+fn write_results(dir: &Path, m: &Manifest, records: &mut [Record]) -> Result<(), StoreError> {
+    records.sort_by_key(|r| r.index);
+    let mut journal = String::new();
+    for r in records.iter() {
+        journal.push_str(&serde_json::to_string(r).expect("a record serialises"));
+        journal.push('\n');
+    }
+    write_text(&dir.join(JOURNAL), &journal)?;
+    write_bytes(&dir.join(RESULTS_CSV), &csv_bytes(m, records))?;
+    let p = dir.join(RESULTS_ARROW);
+    let bytes = arrow_bytes(m, records).map_err(|msg| StoreError::Io { path: p.clone(), msg })?;
+    write_bytes(&p, &bytes)
+}
+
+fn cell_text(c: &Cell) -> String {
+    match c {
+        Cell::F(v) => v.map(|x| x.to_string()).unwrap_or_default(),
+        Cell::B(v) => v.map(|x| x.to_string()).unwrap_or_default(),
+        Cell::U(v) => v.map(|x| x.to_string()).unwrap_or_default(),
+        Cell::S(v) => v.clone().unwrap_or_default(),
+    }
+}
+
+fn csv_bytes(m: &Manifest, records: &[Record]) -> Vec<u8> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let metric_names: Vec<&str> = Outcome::default().columns().iter().map(|c| c.0).collect();
+    let mut header = vec!["index".to_string(), "seed".to_string()];
+    header.extend(m.columns.iter().cloned());
+    header.extend(metric_names.iter().map(|s| s.to_string()));
+    w.write_record(&header).expect("writing to memory");
+    for r in records {
+        let mut row = vec![r.index.to_string(), r.seed.to_string()];
+        row.extend(r.params.iter().map(Param::to_string));
+        row.extend(r.outcome.columns().iter().map(|(_, c)| cell_text(c)));
+        w.write_record(&row).expect("writing to memory");
+    }
+    w.into_inner().expect("writing to memory")
+}
+
+/// The results as an Arrow IPC file (one record batch).
+fn arrow_bytes(m: &Manifest, records: &[Record]) -> Result<Vec<u8>, String> {
+    use arrow_array::{
+        ArrayRef, BooleanArray, Float64Array, RecordBatch, StringArray, UInt64Array, UInt8Array,
+    };
+    use arrow_schema::{DataType, Field, Schema};
+    let mut fields = vec![
+        Field::new("index", DataType::UInt64, false),
+        Field::new("seed", DataType::UInt64, false),
+    ];
+    let mut cols: Vec<ArrayRef> = vec![
+        Arc::new(UInt64Array::from_iter_values(records.iter().map(|r| r.index))),
+        Arc::new(UInt64Array::from_iter_values(records.iter().map(|r| r.seed))),
+    ];
+    for (k, (name, numeric)) in m.columns.iter().zip(&m.numeric).enumerate() {
+        if *numeric {
+            fields.push(Field::new(name, DataType::Float64, true));
+            cols.push(Arc::new(Float64Array::from_iter(records.iter().map(
+                |r| match r.params.get(k) {
+                    Some(Param::Num(x)) => Some(*x),
+                    _ => None,
+                },
+            ))));
+        } else {
+            fields.push(Field::new(name, DataType::Utf8, true));
+            cols.push(Arc::new(StringArray::from_iter(
+                records.iter().map(|r| r.params.get(k).map(Param::to_string)),
+            )));
+        }
+    }
+    let per_run: Vec<Vec<(&'static str, Cell)>> = records.iter().map(|r| r.outcome.columns()).collect();
+    for (j, (name, kind)) in Outcome::default().columns().into_iter().enumerate() {
+        let col = per_run.iter().map(|c| &c[j].1);
+        let (dt, arr): (DataType, ArrayRef) = match kind {
+            Cell::F(_) => (
+                DataType::Float64,
+                Arc::new(Float64Array::from_iter(col.map(|c| match c {
+                    Cell::F(v) => *v,
+                    _ => None,
+                }))),
+            ),
+            Cell::B(_) => (
+                DataType::Boolean,
+                Arc::new(BooleanArray::from_iter(col.map(|c| match c {
+                    Cell::B(v) => *v,
+                    _ => None,
+                }))),
+            ),
+            Cell::U(_) => (
+                DataType::UInt8,
+                Arc::new(UInt8Array::from_iter(col.map(|c| match c {
+                    Cell::U(v) => *v,
+                    _ => None,
+                }))),
+            ),
+            Cell::S(_) => (
+                DataType::Utf8,
+                Arc::new(StringArray::from_iter(col.map(|c| match c {
+                    Cell::S(v) => v.clone(),
+                    _ => None,
+                }))),
+            ),
+        };
+        fields.push(Field::new(name, dt, true));
+        cols.push(arr);
+    }
+    let schema = Arc::new(Schema::new(fields));
+    let batch = RecordBatch::try_new(schema.clone(), cols).map_err(|e| e.to_string())?;
+    let mut buf = Vec::new();
+    let mut w = arrow_ipc::writer::FileWriter::try_new(&mut buf, &schema).map_err(|e| e.to_string())?;
+    w.write(&batch).map_err(|e| e.to_string())?;
+    w.finish().map_err(|e| e.to_string())?;
+    drop(w);
+    Ok(buf)
+}
+
+/// `mrfeel sweep merge`: join the shards in `dirs` (all of one plan) into `out`, as one process would have
+/// written it. Shards of different plans, a run missing or recorded twice with other results are refused.
+pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<usize, StoreError> {
+    let mut first: Option<Loaded> = None;
+    let mut all: std::collections::BTreeMap<u64, Record> = Default::default();
+    for d in dirs {
+        let mpath = d.join(MANIFEST);
+        let l = Loaded::read(&mpath)?.ok_or_else(|| StoreError::Io {
+            path: mpath.clone(),
+            msg: "no such file: not a sweep's output directory".into(),
+        })?;
+        if let Some(f) = &first {
+            if l.file.digest.get_ref() != f.file.digest.get_ref() {
+                return Err(l.err(
+                    &l.file.digest,
+                    "digest",
+                    format!(
+                        "a shard of another plan than {}'s (plan {} here, {} there): merge shards of one plan",
+                        f.path.display(),
+                        l.file.plan,
+                        f.file.plan
+                    ),
+                ));
+            }
+            if l.file.columns.get_ref() != f.file.columns.get_ref()
+                || l.file.runs.get_ref() != f.file.runs.get_ref()
+            {
+                return Err(l.err(
+                    &l.file.columns,
+                    "columns",
+                    format!("differs from {}", f.path.display()),
+                ));
+            }
+        }
+        let shard: Shard = match l.file.shard.get_ref().as_str() {
+            "all" => Shard::ALL,
+            s => s
+                .parse()
+                .map_err(|e: StoreError| l.err(&l.file.shard, "shard", e.to_string()))?,
+        };
+        let runs = *l.file.runs.get_ref();
+        for r in read_journal(&d.join(JOURNAL), runs, |i| shard.contains(i), false)? {
+            match all.get(&r.index) {
+                Some(prev) if *prev != r => {
+                    return Err(StoreError::Io {
+                        path: d.join(JOURNAL),
+                        msg: format!("run {} differs from the same run in another shard", r.index),
+                    })
+                }
+                _ => {
+                    all.insert(r.index, r);
+                }
+            }
+        }
+        if first.is_none() {
+            first = Some(l);
+        }
+    }
+    let Some(first) = first else {
+        return Err(StoreError::Io {
+            path: out.to_path_buf(),
+            msg: "no shard directories to merge".into(),
+        });
+    };
+    let mut m = first.manifest();
+    m.shard = Shard::ALL.label();
+    let missing: Vec<u64> = (0..m.runs).filter(|i| !all.contains_key(i)).take(6).collect();
+    if !missing.is_empty() {
+        return Err(StoreError::Field {
+            path: first.path.clone(),
+            line: line_of(&first.text, first.file.runs.span().start),
+            key: "runs".into(),
+            msg: format!(
+                "{} of the plan's {} runs are in these directories; missing runs {:?}{}: finish every shard first \
+                 (rerun it: it resumes)",
+                all.len(),
+                m.runs,
+                &missing[..missing.len().min(5)],
+                if missing.len() > 5 { " and more" } else { "" }
+            ),
+        });
+    }
+    std::fs::create_dir_all(out).map_err(io(out))?;
+    write_text(
+        &out.join(MANIFEST),
+        &toml::to_string(&m).expect("manifest serialises"),
+    )?;
+    let mut records: Vec<Record> = all.into_values().collect();
+    write_results(out, &m, &mut records)?;
+    Ok(records.len())
+}
+
+/// The records of a finished output directory (for reports), with its axis names.
+pub fn read_results(dir: &Path) -> Result<(Vec<String>, Vec<Record>), StoreError> {
+    let mpath = dir.join(MANIFEST);
+    let l = Loaded::read(&mpath)?.ok_or_else(|| StoreError::Io {
+        path: mpath,
+        msg: "no such file: not a sweep's output directory".into(),
+    })?;
+    let recs = read_journal(&dir.join(JOURNAL), *l.file.runs.get_ref(), |_| true, false)?;
+    Ok((l.file.columns.get_ref().clone(), recs))
+}
