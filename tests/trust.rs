@@ -230,3 +230,21 @@ fn errors_quote_input_bounded_and_with_control_characters_escaped() {
     assert!(err.len() < 4000, "an error of {} bytes", err.len());
     assert!(!err.contains('\u{1b}'), "a raw escape code in the error");
 }
+
+/// A `run` with nothing that needs its whole rows streams them to its CSV as they are made (memory bounded
+/// whatever its length); the file is the same to the byte as that of a run that keeps its rows (`--plot`
+/// needs them).
+#[test]
+fn a_streamed_run_writes_the_same_csv_as_a_kept_one() {
+    let d = tempfile::tempdir().unwrap();
+    let scn = paper_loop_with(d.path(), &[("", "duration_s", "1.0")]);
+    let (streamed, kept) = (d.path().join("streamed.csv"), d.path().join("kept.csv"));
+    let o = mrfeel(&["run", &s(&scn), "--out", &s(&streamed)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let plots = d.path().join("plots");
+    let o = mrfeel(&["run", &s(&scn), "--out", &s(&kept), "--plot", &s(&plots)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (a, b) = (std::fs::read(&streamed).unwrap(), std::fs::read(&kept).unwrap());
+    assert!(a.len() > 100_000, "{} bytes", a.len());
+    assert!(a == b, "the streamed CSV differs from the kept one");
+}

@@ -177,6 +177,27 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
     let opts = RunOptions {
         frames_hz: want_viz.then_some(60.0),
     };
+    // Nothing needs the whole run (no plots, no aircraft's metrics, no viewer): its rows go to the CSV and
+    // the recording as they are made, so that memory does not grow with the run's length.
+    #[cfg(feature = "rerun")]
+    let streamed = rec.is_none();
+    #[cfg(not(feature = "rerun"))]
+    let streamed = true;
+    if streamed && args.plot.is_none() && scn.aircraft.is_none() {
+        let summary = run_streamed(args, &scn, &devices, rig, opts)?;
+        if args.json {
+            crate::outln!("{}", serde_json::to_string_pretty(&summary)?)?;
+        } else {
+            crate::outln!("{summary}")?;
+            if let Some(p) = &args.out {
+                crate::outln!("  results: {}", p.display())?;
+            }
+            if let Some(p) = &args.rerun {
+                crate::outln!("  recording: {} (open with `rerun {}`)", p.display(), p.display())?;
+            }
+        }
+        return Ok(());
+    }
     let res = run_with_progress(&scn, &devices, rig, opts)?;
     if let Some(path) = &args.out {
         let writing = || format!("writing {}", path.display());
@@ -249,6 +270,111 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// `write_whole` of `path` where there is one; else `write` with no file.
+fn maybe_whole<T>(
+    path: Option<&Path>,
+    what: &str,
+    write: impl FnOnce(Option<&Path>) -> anyhow::Result<T>,
+) -> anyhow::Result<T> {
+    match path {
+        Some(p) => crate::outputs::write_whole(
+            p,
+            |tmp| write(Some(tmp)),
+            |e| anyhow::Error::new(e).context(format!("{what} {}", p.display())),
+        ),
+        None => write(None),
+    }
+}
+
+/// A run whose rows go to its CSV (`--out`) and its recording (`--rerun FILE`) as they are made
+/// ([`super::run_streaming`]), none kept; each file is whole or not written. Returns the run's summary.
+fn run_streamed<P: Plant>(
+    args: &RunArgs,
+    scn: &Scenario,
+    devices: &Devices,
+    plant: P,
+    opts: RunOptions,
+) -> anyhow::Result<super::Summary> {
+    #[cfg(feature = "rerun")]
+    let rrd = args.rerun.as_deref();
+    #[cfg(not(feature = "rerun"))]
+    let rrd: Option<&Path> = None;
+    let pb = progress_bar(1000, &scn.name);
+    let writing = || {
+        format!(
+            "writing {}",
+            args.out.as_deref().unwrap_or(Path::new("")).display()
+        )
+    };
+    let summary = maybe_whole(args.out.as_deref(), "writing", |csv_tmp| {
+        maybe_whole(rrd, "--rerun", |_rrd_tmp| {
+            let mut csv = match csv_tmp {
+                Some(p) => Some(std::io::BufWriter::new(
+                    std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?,
+                )),
+                None => None,
+            };
+            #[cfg(feature = "rerun")]
+            let file_rec = match _rrd_tmp {
+                Some(p) => Some(crate::viz::rerun_rig::to_file(p)?),
+                None => None,
+            };
+            #[cfg(feature = "rerun")]
+            let mut logger: Option<crate::viz::rerun_rig::RunLogger<'_>> = None;
+            let mut head: Option<Results> = None;
+            let (_, summary) = super::run_streaming(
+                scn,
+                devices,
+                plant,
+                opts,
+                |f| pb.set_position((f * 1000.0) as u64),
+                |e| -> anyhow::Result<()> {
+                    match e {
+                        super::Event::Start(h) => {
+                            if let Some(w) = csv.as_mut() {
+                                h.write_csv_head(w).with_context(writing)?;
+                            }
+                            #[cfg(feature = "rerun")]
+                            if let Some(rec) = &file_rec {
+                                logger = Some(crate::viz::rerun_rig::RunLogger::new(rec, h)?);
+                            }
+                            head = Some(h.clone());
+                        }
+                        super::Event::Frame(_t, _poses) =>
+                        {
+                            #[cfg(feature = "rerun")]
+                            if let Some(l) = logger.as_mut() {
+                                l.frame(_t, _poses);
+                            }
+                        }
+                        super::Event::Row(r) => {
+                            if let (Some(w), Some(h)) = (csv.as_mut(), &head) {
+                                h.write_csv_row(w, r).with_context(writing)?;
+                            }
+                            #[cfg(feature = "rerun")]
+                            if let Some(l) = logger.as_mut() {
+                                l.row(r)?;
+                            }
+                        }
+                    }
+                    Ok(())
+                },
+            )?;
+            #[cfg(feature = "rerun")]
+            if let Some(l) = logger {
+                l.finish()?;
+            }
+            if let Some(mut w) = csv {
+                // A buffered writer drops its last failure: flush it here, where the error can be reported.
+                w.flush().with_context(writing)?;
+            }
+            Ok(summary)
+        })
+    });
+    pb.finish_and_clear();
+    summary
 }
 
 /// The run drawn for `run --plot DIR`: `DIR/run.png` and `DIR/run.svg`.
