@@ -3,7 +3,7 @@
 # Needs no Python and nothing beside the repository. Open a recording with the Rerun viewer:
 # `rerun out/paper-feel-loop.rrd`.
 #   MRFEEL_BIN=path/to/mrfeel   run that binary instead of building one (`cargo build`)
-#   MRFEEL_STEPS="1 4"          run only these steps (default: all, 1 to 6)
+#   MRFEEL_STEPS="1 4"          run only these steps (default: all, 1 to 7)
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 out="${1:-out}"
@@ -14,7 +14,7 @@ if [ -z "$mrfeel" ]; then
     cargo build --locked --quiet
     mrfeel=target/debug/mrfeel
 fi
-steps=" ${MRFEEL_STEPS:-1 2 3 4 5 6} "
+steps=" ${MRFEEL_STEPS:-1 2 3 4 5 6 7} "
 
 # step N TITLE: whether step N runs (printing its title if so).
 step() {
@@ -47,6 +47,12 @@ fi
 
 if step 6 "Feel systems compared (springs, MR, hybrid) and under faults"; then
     "$mrfeel" compare scenarios/compare-feel.toml --plot "$out/compare" --rerun "$out/compare.rrd" --faults
+fi
+
+if step 7 "Feel design across the c172p's envelope: five feel systems x airspeed x altitude x two pilots (200 runs), handling-qualities verdicts, maps by Level"; then
+    # A fresh directory: a sweep resumes from what its output directory already holds.
+    rm -rf "$out/sweep-c172p-envelope"
+    "$mrfeel" sweep scenarios/sweeps/c172p-envelope.toml --out "$out/sweep-c172p-envelope"
 fi
 
 printf '\nAll results are in %s/\n' "$out"
