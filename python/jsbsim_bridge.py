@@ -120,7 +120,7 @@ class Live:
         f["propulsion/set-running"] = -1
         f.do_trim(1)
         self.t0 = f["simulation/sim-time-sec"]
-        self.engines = 2 if aircraft == "737" else 1
+        self.engines = f.get_propulsion().get_num_engines()
         self.trim_throttle = [f[f"fcs/throttle-cmd-norm[{k}]"] for k in range(self.engines)]
         self.pitch_trim = f["fcs/pitch-trim-cmd-norm"]
         self.has_induced = aircraft == "c172p"  # the c172p's elevator sees the slipstream (qbar-induced-psf)

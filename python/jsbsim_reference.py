@@ -58,6 +58,10 @@ AIRCRAFT = {
         "approach_m_s": (50.0, 33.0),
         "approach_throttle_factor": 0.6,
         "speed_gains": (0.02, 0.004),
+        # steady pull-ups (JSBSim's own trim, do_trim(3)) at equivalent airspeeds x altitudes
+        "per_g_eas_m_s": [40.0, 44.0, 48.0, 52.0, 56.0],
+        "per_g_altitudes_m": [300.0, 900.0, 1500.0, 2100.0],
+        "per_g_nz_g": 1.5,
     },
     "737": {
         "altitude_m": 3000.0,
@@ -69,6 +73,23 @@ AIRCRAFT = {
         "approach_m_s": (160.0, 120.0),
         "approach_throttle_factor": 0.6,
         "speed_gains": (0.004, 0.0004),
+        "per_g_eas_m_s": [125.0, 140.0, 155.0, 170.0, 185.0],
+        "per_g_altitudes_m": [1000.0, 2500.0, 4000.0, 5500.0],
+        "per_g_nz_g": 1.5,
+    },
+    "T37": {
+        "altitude_m": 3000.0,
+        "trim_speeds_m_s": [80.0, 100.0, 120.0, 140.0, 160.0, 180.0],
+        "cruise_m_s": 140.0,
+        "doublet_cmd": 0.05,
+        "pullup_nz_g": 2.5,
+        "pullup_gains": (0.1, 0.5),
+        "approach_m_s": (140.0, 90.0),
+        "approach_throttle_factor": 0.6,
+        "speed_gains": (0.01, 0.001),
+        "per_g_eas_m_s": [75.0, 85.0, 95.0, 105.0, 115.0],
+        "per_g_altitudes_m": [500.0, 1500.0, 2500.0, 3500.0],
+        "per_g_nz_g": 1.5,
     },
 }
 
@@ -161,7 +182,7 @@ class Flight:
         ]
 
     def engines(self) -> int:
-        return 2 if self.fdm.get_model_name() == "737" else 1
+        return self.fdm.get_propulsion().get_num_engines()
 
     def step(self):
         self.fdm.run()
@@ -280,6 +301,54 @@ def run_trims(jsbsim, ac: str, cfg: dict):
     return what, props, cols, rows
 
 
+def isa_density_ratio(altitude_m: float) -> float:
+    """ISA troposphere density over sea-level density (the grid's equivalent airspeeds become true ones)."""
+    t = 288.15 - 0.0065 * altitude_m
+    return (t / 288.15) ** (9.80665 / (0.0065 * 287.05287) - 1.0)
+
+
+def trim_state(jsbsim, ac: str, eas_m_s: float, altitude_m: float, nz_g: float) -> list[float]:
+    """JSBSim's own trim at an equivalent airspeed and altitude: level flight (full trim) for 1 g, the
+    bottom of a steady pull-up (do_trim(3), ic/targetNlf) otherwise; throttle trimmed in both."""
+    f = jsbsim.FGFDMExec(root_dir=jsbsim.get_default_root_dir())
+    f.set_debug_level(0)
+    f.set_aircraft_path(str(offline_aircraft_dir(jsbsim, ac)))
+    f.load_model(ac)
+    f.set_dt(DT_S)
+    f["ic/lat-geod-deg"] = LATITUDE_DEG
+    f["ic/long-gc-deg"] = 0.0
+    f["ic/h-sl-ft"] = altitude_m / FT_TO_M
+    f["ic/vt-fps"] = eas_m_s / isa_density_ratio(altitude_m) ** 0.5 / FT_TO_M
+    f["ic/gamma-deg"] = 0.0
+    f["ic/psi-true-deg"] = 0.0
+    f["ic/targetNlf"] = nz_g
+    f["propulsion/fuel_freeze"] = 1
+    f["gear/gear-cmd-norm"] = 0.0
+    f["fcs/flap-cmd-norm"] = 0.0
+    f.run_ic()
+    f["propulsion/set-running"] = -1
+    f.do_trim(1 if nz_g == 1.0 else 3)
+    return [f["velocities/vt-fps"] * FT_TO_M, f["accelerations/Nz"], f["fcs/elevator-pos-rad"], f["aero/alpha-rad"],
+            f["velocities/q-rad_sec"], f["fcs/throttle-cmd-norm[0]"], f["velocities/mach"]]
+
+
+def run_per_g(jsbsim, ac: str, cfg: dict):
+    """Elevator per g: JSBSim's level trim and steady pull-up trim at each flight condition."""
+    n = cfg["per_g_nz_g"]
+    cols = ["eas_m_s", "airspeed_m_s", "altitude_m", "mach", "nz1_g", "elevator1_rad", "alpha1_rad", "throttle1",
+            "nz_g", "elevator_rad", "alpha_rad", "q_rad_s", "throttle"]
+    rows = []
+    for h in cfg["per_g_altitudes_m"]:
+        for ve in cfg["per_g_eas_m_s"]:
+            v1, nz1, de1, a1, _, thr1, mach = trim_state(jsbsim, ac, ve, h, 1.0)
+            _, nzn, den, an, qn, thrn, _ = trim_state(jsbsim, ac, ve, h, n)
+            rows.append([ve, v1, h, mach, nz1, de1, a1, thr1, nzn, den, an, qn, thrn])
+    what = (f"run: JSBSim trims, level (do_trim(1)) and steady pull-up at {fmt(n)} g (do_trim(3), ic/targetNlf), "
+            f"throttle trimmed, at equivalent airspeeds {cfg['per_g_eas_m_s']} m/s x altitudes "
+            f"{cfg['per_g_altitudes_m']} m; columns 1 = level trim, the others = pull-up")
+    return what, cols, rows
+
+
 def generate(out: Path) -> list[Path]:
     import jsbsim  # imported after stdout is redirected: the banner goes to stderr
 
@@ -288,6 +357,10 @@ def generate(out: Path) -> list[Path]:
     for ac, cfg in AIRCRAFT.items():
         what, props, cols, rows = run_trims(jsbsim, ac, cfg)
         p = out / f"{ac}_trim.csv"
+        write_csv(p, common_header(jsbsim, ac, what, props), cols, rows)
+        written.append(p)
+        what, cols, rows = run_per_g(jsbsim, ac, cfg)
+        p = out / f"{ac}_per_g.csv"
         write_csv(p, common_header(jsbsim, ac, what, props), cols, rows)
         written.append(p)
         for name, fn in (("doublet", run_doublet), ("pullup", run_pullup), ("approach", run_approach)):

@@ -3,18 +3,18 @@
 # Needs no Python and nothing beside the repository. Open a recording with the Rerun viewer:
 # `rerun out/paper-feel-loop.rrd`.
 #   MRFEEL_BIN=path/to/mrfeel   run that binary instead of building one (`cargo build`)
-#   MRFEEL_STEPS="1 4"          run only these steps (default: all, 1 to 7)
+#   MRFEEL_STEPS="1 4"          run only these steps (default: all, 1 to 8)
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 out="${1:-out}"
 data="data/utfsm-mr-damper"
-mkdir -p "$out"/{mts,diagnose,fit,daq-sweep,compare}
+mkdir -p "$out"/{mts,diagnose,fit,daq-sweep,compare,flight}
 mrfeel="${MRFEEL_BIN:-}"
 if [ -z "$mrfeel" ]; then
     cargo build --locked --quiet
     mrfeel=target/debug/mrfeel
 fi
-steps=" ${MRFEEL_STEPS:-1 2 3 4 5 6 7} "
+steps=" ${MRFEEL_STEPS:-1 2 3 4 5 6 7 8} "
 
 # step N TITLE: whether step N runs (printing its title if so).
 step() {
@@ -53,6 +53,12 @@ if step 7 "Feel design across the c172p's envelope: five feel systems x airspeed
     # A fresh directory: a sweep resumes from what its output directory already holds.
     rm -rf "$out/sweep-c172p-envelope"
     "$mrfeel" sweep scenarios/sweeps/c172p-envelope.toml --out "$out/sweep-c172p-envelope"
+fi
+
+if step 8 "A pull-up in each aircraft: stick force against load factor, flown and steady, against its basis's band"; then
+    for scn in c172p-pullup T37-pullup 737-approach; do
+        "$mrfeel" run "scenarios/$scn.toml" --out "$out/flight/$scn.csv" --plot "$out/flight/$scn"
+    done
 fi
 
 printf '\nAll results are in %s/\n' "$out"

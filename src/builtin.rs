@@ -45,6 +45,10 @@ const FILES: &[(&str, &str)] = &[
         include_str!("../models/aircraft/737.toml"),
     ),
     (
+        "models/aircraft/T37.toml",
+        include_str!("../models/aircraft/T37.toml"),
+    ),
+    (
         "scenarios/paper-feel-loop.toml",
         include_str!("../scenarios/paper-feel-loop.toml"),
     ),
@@ -67,6 +71,10 @@ const FILES: &[(&str, &str)] = &[
     (
         "scenarios/737-approach.toml",
         include_str!("../scenarios/737-approach.toml"),
+    ),
+    (
+        "scenarios/T37-pullup.toml",
+        include_str!("../scenarios/T37-pullup.toml"),
     ),
     (
         "python/jsbsim_bridge.py",

@@ -5,8 +5,6 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use mrfeel::aero::longitudinal::slipstream_qbar_pa;
-use mrfeel::aero::model::Propulsion;
 use mrfeel::aero::reference::ReferenceRun;
 use mrfeel::aero::{AeroError, Aircraft, AircraftModel, AircraftState, FeelAssessment};
 use mrfeel::units::{G0_M_S2, LBF_TO_N};
@@ -117,6 +115,11 @@ fn c172p_doublet_pitch_rate_and_load_factor_follow_jsbsim() {
 #[test]
 fn b737_doublet_pitch_rate_and_load_factor_follow_jsbsim() {
     check_replay("737", 0.05, 0.05);
+}
+
+#[test]
+fn t37_doublet_pitch_rate_and_load_factor_follow_jsbsim() {
+    check_replay("T37", 0.08, 0.08);
 }
 
 /// Trim alpha and elevator over the JSBSim speed sweep.
@@ -260,6 +263,7 @@ fn stick_force_per_g_is_a_pull_across_the_speed_range() {
     for (name, speeds, h) in [
         ("c172p", [35.0, 45.0, 55.0], 1000.0),
         ("737", [130.0, 150.0, 210.0], 3000.0),
+        ("T37", [100.0, 120.0, 140.0], 3000.0),
     ] {
         let a = aircraft(name);
         for v in speeds {
@@ -291,112 +295,121 @@ fn feel_sits_inside_the_far_control_force_limits() {
     }
 }
 
-/// Stick force through JSBSim's pull-up: the hinge model applied to JSBSim's recorded flight
-/// (qbar, alpha, q, elevator, thrust for the slipstream) against the Rust aircraft replaying the
-/// same elevator from its own trim. Also reports the stick force per g on the plateau.
-fn check_pullup_stick_force(name: &str, tol: f64) {
-    let r = run(name, "pullup");
-    let mut a = aircraft(name);
-    let m = a.model().clone();
-    let hinge = a.hinge().clone();
+/// Elevator angle per g of the Rust model against JSBSim's own trims (level flight and the bottom of a
+/// steady pull-up, throttle trimmed in both, `scenarios/jsbsim/<ac>_per_g.csv`) at every flight
+/// condition of the table (5 equivalent airspeeds x 4 altitudes). Each side's per-g figure uses its own
+/// load factors, so JSBSim's round-earth 0.998 g in level flight does not count as an error.
+fn check_elevator_per_g(name: &str, tol: f64) {
+    let r = run(name, "per_g");
     let col = |c: &str| r.column(c).unwrap();
-    let (t, nz, v, alpha, q, de) = (
-        col("t_s"),
+    let (v, h) = (col("airspeed_m_s"), col("altitude_m"));
+    let (nz1, de1, nzn, den) = (
+        col("nz1_g"),
+        col("elevator1_rad"),
         col("nz_g"),
-        col("airspeed_m_s"),
-        col("alpha_rad"),
-        col("q_rad_s"),
         col("elevator_rad"),
     );
-    let (qbar, thrust, rho, h) = (
-        col("qbar_pa"),
-        col("thrust_n"),
-        col("rho_kg_m3"),
-        col("altitude_m"),
+    let a = aircraft(name);
+    let (mut worst, mut sum_rel) = (0.0_f64, 0.0);
+    for k in 0..v.len() {
+        let jsb = (den[k] - de1[k]) / (nzn[k] - nz1[k]);
+        let s1 = a.steady_state(v[k], h[k], 1.0).unwrap();
+        let sn = a.steady_state(v[k], h[k], nzn[k]).unwrap();
+        let ours = (sn.elevator_rad - s1.elevator_rad) / (sn.nz_g - s1.nz_g);
+        let rel = (ours / jsb - 1.0).abs();
+        worst = worst.max(rel);
+        sum_rel += rel;
+        assert!(
+            jsb < 0.0,
+            "{name}: JSBSim's elevator per g must be trailing edge up: {jsb}"
+        );
+        assert!(
+            rel <= tol,
+            "{name} at {:.1} m/s, {} m: elevator per g {ours:.5} rad/g vs JSBSim {jsb:.5} rad/g",
+            v[k],
+            h[k]
+        );
+    }
+    eprintln!(
+        "{name} elevator per g vs JSBSim's trims at {} conditions: worst {:.2} %, mean {:.2} %",
+        v.len(),
+        100.0 * worst,
+        100.0 * sum_rel / v.len() as f64
     );
-    let qbar_e = |k: usize| match m.propulsion {
-        Propulsion::Propeller { diameter_m, .. } if m.elevator_in_slipstream => {
-            slipstream_qbar_pa(v[k] * alpha[k].cos(), thrust[k], rho[k], diameter_m)
-        }
-        _ => qbar[k],
-    };
-    let hm = |k: usize, tab: f64| {
-        hinge.hinge_moment_nm(qbar_e(k), hinge.alpha_tail_rad(alpha[k], q[k], v[k]), de[k], tab)
-    };
-    let tab = hinge
-        .trim_tab_rad(hinge.alpha_tail_rad(alpha[0], q[0], v[0]), de[0])
-        .unwrap();
-    let mach = col("mach");
-    // the feel computer's column neutral (powered controls) is set at JSBSim's trim, as the tab is
-    let feel_trim = hinge.feel_computer.map_or(0.0, |fc| {
-        fc.trim_rad(hinge.stick_from_elevator_rad(de[0]), mach[0])
-    });
-    let jsbsim_state = |k: usize| AircraftState {
-        qbar_pa: qbar[k],
-        mach: mach[k],
-        elevator_rad: de[k],
-        hinge_moment_nm: hm(k, tab),
-        tab_rad: tab,
-        feel_trim_rad: feel_trim,
-        ..AircraftState::default()
-    };
-    let f_ref: Vec<f64> = (0..t.len())
-        .map(|k| hinge.stick_force_n(&jsbsim_state(k)))
-        .collect();
-    assert!(f_ref[0].abs() < 1e-9);
+    assert!(v.len() >= 20, "{name}: only {} flight conditions", v.len());
+}
 
-    let trim = a.trim(v[0], h[0]).unwrap();
-    let (mut err, mut peak) = (0.0_f64, 0.0_f64);
-    let (mut f_plateau, mut n_plateau, mut count) = (0.0, 0.0, 0.0);
-    for k in 0..t.len() {
-        // the Rust force at this row's state with this row's elevator (the state reports the
-        // force for the elevator of the step that led to it)
-        let s = a.state();
-        let de_k = trim.elevator_rad + (de[k] - de[0]);
-        let f = hinge.stick_force_n(&AircraftState {
-            elevator_rad: de_k,
-            hinge_moment_nm: hinge.hinge_moment_nm(s.qbar_elevator_pa, s.alpha_tail_rad, de_k, s.tab_rad),
-            ..*s
-        });
-        err = err.max((f - f_ref[k]).abs());
-        peak = peak.max(f_ref[k].abs());
-        if (2.5..=4.5).contains(&t[k]) {
-            f_plateau += f_ref[k];
-            n_plateau += nz[k];
-            count += 1.0;
-        }
-        if k + 1 < t.len() {
-            // rows every other JSBSim frame: hold the recorded elevator over both frames
-            let dt = (t[k + 1] - t[k]) / 2.0;
-            for _ in 0..2 {
-                a.step(trim.elevator_rad + (de[k] - de[0]), trim.throttle, dt);
-            }
+#[test]
+fn c172p_elevator_per_g_matches_jsbsim_trims_at_20_conditions() {
+    check_elevator_per_g("c172p", 0.05);
+}
+
+#[test]
+fn b737_elevator_per_g_matches_jsbsim_trims_at_20_conditions() {
+    check_elevator_per_g("737", 0.05);
+}
+
+#[test]
+fn t37_elevator_per_g_matches_jsbsim_trims_at_20_conditions() {
+    check_elevator_per_g("T37", 0.05);
+}
+
+#[test]
+fn t37_trim_alpha_and_elevator_match_jsbsim_over_the_speed_range() {
+    check_trims("T37", 0.005, 0.01);
+}
+
+/// The c172p's stick force per g at cruise (50 m/s, 1000 m, tab trimmed), lbf/g; `None` when the
+/// aircraft cannot be trimmed (the tab cannot zero the force).
+fn c172p_per_g_lbf(m: AircraftModel) -> Option<f64> {
+    let a = Aircraft::new(Arc::new(m));
+    let f = FeelAssessment::assess(&a, 50.0, 1000.0).ok()?;
+    Some(f.stick_force_per_g_n / LBF_TO_N)
+}
+
+/// The c172p's stick force per g from the derived hinge moments against figures it was not built from:
+/// its Part 23 type certificate bounds it (14 CFR 23.155(a): at least W/100 = 24 lbf, 23.143(c): at
+/// most 75 lbf, from 1 g to the 3.8 g limit, so 8.6 to 26.8 lbf/g), and the C172's "more than 20 lb/G"
+/// (E. Kolano, AOPA, *Flight Control Forces*, aopa.org/training-and-safety/students/presolo/topics/
+/// flight-control-forces; no speed, weight or CG given) is printed beside it, not asserted: the model
+/// reads 12 % below it (docs/aero.md). The band catches `Ch_δ` of the wrong sign or wrong by a factor of
+/// two, and `Ch_α` of the wrong sign; a factor of two in `Ch_α` stays inside it (the section test
+/// against the discrete-vortex solution catches that, `aero::hinge_theory`).
+#[test]
+fn c172p_stick_force_per_g_from_derived_hinge_moments_sits_in_its_certification_band() {
+    let m = AircraftModel::load(&AircraftModel::builtin_path("c172p")).unwrap();
+    eprintln!(
+        "c172p hinge derivatives from geometry: Ch_alpha {:.3}, Ch_delta {:.3}, Ch_tab {:.3} per rad",
+        m.ch_alpha_per_rad, m.ch_elevator_per_rad, m.ch_tab_per_rad
+    );
+    let (lo, hi) = (24.0 / 2.8, 75.0 / 2.8);
+    let per_g = c172p_per_g_lbf(m.clone()).unwrap();
+    eprintln!(
+        "c172p stick force per g at 50 m/s, 1000 m: {per_g:.1} lbf/g (Part 23 band [{lo:.1}, {hi:.1}] lbf/g; \
+         AOPA: more than 20 lbf/g)"
+    );
+    assert!((lo..=hi).contains(&per_g), "{per_g} lbf/g outside [{lo}, {hi}]");
+    type Mutation = (&'static str, fn(&mut AircraftModel));
+    let mutations: [Mutation; 6] = [
+        ("Ch_delta x 2", |m| m.ch_elevator_per_rad *= 2.0),
+        ("Ch_delta / 2", |m| m.ch_elevator_per_rad *= 0.5),
+        ("Ch_delta sign", |m| m.ch_elevator_per_rad *= -1.0),
+        ("Ch_alpha sign", |m| m.ch_alpha_per_rad *= -1.0),
+        ("Ch_alpha x 2 (not caught here)", |m| m.ch_alpha_per_rad *= 2.0),
+        ("Ch_alpha / 2 (not caught here)", |m| m.ch_alpha_per_rad *= 0.5),
+    ];
+    for (what, mutate) in mutations {
+        let mut bad = m.clone();
+        mutate(&mut bad);
+        let f = c172p_per_g_lbf(bad);
+        eprintln!("  {what}: {f:?} lbf/g");
+        if !what.contains("not caught") {
+            assert!(
+                f.is_none_or(|f| !(lo..=hi).contains(&f)),
+                "{what}: {f:?} lbf/g still inside the band"
+            );
         }
     }
-    let per_g_flight = (f_plateau / count) / (n_plateau / count - nz[0]);
-    let per_g_steady = a.stick_force_per_g(v[0], h[0], n_plateau / count).unwrap();
-    eprintln!(
-        "{name} pull-up: stick force max error {err:.1} N ({:.1} % of peak {peak:.1} N); stick force per g on \
-         JSBSim's plateau {per_g_flight:.1} N/g at {:.2} g (speed bleeding off), steady pull-up at the entry speed \
-         {per_g_steady:.1} N/g",
-        100.0 * err / peak,
-        n_plateau / count
-    );
-    assert!(per_g_flight > 0.0 && per_g_steady > 0.0);
-    assert!(
-        err <= tol * peak,
-        "{name}: stick force error {err} > {tol} x peak {peak}"
-    );
-}
-
-#[test]
-fn c172p_stick_force_through_jsbsim_pull_up_matches_hinge_model_on_its_flight() {
-    check_pullup_stick_force("c172p", 0.10);
-}
-
-#[test]
-fn b737_stick_force_through_jsbsim_pull_up_matches_hinge_model_on_its_flight() {
-    check_pullup_stick_force("737", 0.05);
 }
 
 #[test]

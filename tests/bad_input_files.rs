@@ -471,7 +471,7 @@ fn an_aircraft_name_is_never_a_path() {
         &run(dir.path(), &scn, &["--aircraft", "../../models/aircraft/c172p"]),
         &[
             "aircraft `../../models/aircraft/c172p`: not a model name",
-            "737, c172p",
+            "737, T37, c172p",
         ],
     );
     assert!(!e.contains("No such file"), "{e}");

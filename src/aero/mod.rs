@@ -17,6 +17,7 @@ pub mod atmosphere;
 pub mod backend;
 pub mod certification;
 pub mod hinge;
+pub mod hinge_theory;
 pub mod jsbsim_bridge;
 pub mod linear;
 pub mod longitudinal;

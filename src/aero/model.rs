@@ -10,6 +10,7 @@ use serde::Deserialize;
 use toml::Spanned;
 
 use super::hinge::FeelComputer;
+use super::hinge_theory::ControlGeometry;
 use super::table::Table1;
 use super::AeroError;
 use crate::text_lines::line_of;
@@ -23,6 +24,20 @@ pub enum CertificationPart {
     /// 14 CFR Part 25 (transport category).
     #[serde(rename = "25")]
     Part25,
+    /// MIL-F-8785C (military airplanes' flying qualities), Level 1 stick force per g (Table V).
+    #[serde(rename = "MIL-F-8785C")]
+    MilF8785C,
+}
+
+impl CertificationPart {
+    /// The basis as printed in reports and plots.
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::Part23 => "14 CFR 23",
+            Self::Part25 => "14 CFR 25",
+            Self::MilF8785C => "MIL-F-8785C Level 1",
+        }
+    }
 }
 
 /// The pilot's control.
@@ -58,6 +73,9 @@ pub struct AircraftModel {
     pub chord_m: f64,
     pub span_m: f64,
     pub htail_arm_m: f64,
+    /// Horizontal tail area and span, m², m.
+    pub htail_area_m2: f64,
+    pub htail_span_m: f64,
     /// Aerodynamic reference point in JSBSim's structural frame (x aft, z up), m.
     pub aero_ref_x_m: f64,
     pub aero_ref_z_m: f64,
@@ -92,8 +110,11 @@ pub struct AircraftModel {
     // elevator, hinge and stick
     pub elevator_min_rad: f64,
     pub elevator_max_rad: f64,
+    /// Elevator area and mean chord aft of the hinge line (chord ratio × tail area, × tail chord).
     pub elevator_area_m2: f64,
     pub elevator_chord_m: f64,
+    /// The elevator's geometry the hinge derivatives are computed from ([`ControlGeometry`]).
+    pub elevator_geometry: ControlGeometry,
     pub ch0: f64,
     pub ch_alpha_per_rad: f64,
     pub ch_elevator_per_rad: f64,
@@ -112,6 +133,8 @@ pub struct AircraftModel {
     pub control: ControlType,
     pub max_weight_kg: f64,
     pub limit_load_factor: f64,
+    /// Keys (`section.key`) whose value the file marks `[EST]`: estimates without a source.
+    pub estimates: Vec<String>,
 }
 
 type S<T> = Spanned<T>;
@@ -152,6 +175,8 @@ struct FileGeometry {
     chord_m: S<f64>,
     span_m: S<f64>,
     htail_arm_m: S<f64>,
+    htail_area_m2: S<f64>,
+    htail_span_m: S<f64>,
     aero_ref_x_m: S<f64>,
     aero_ref_z_m: S<f64>,
 }
@@ -204,17 +229,17 @@ struct FileAero {
 struct FileElevator {
     min_rad: S<f64>,
     max_rad: S<f64>,
-    area_m2: S<f64>,
-    chord_m: S<f64>,
+    chord_ratio: S<f64>,
+    balance_ratio: S<f64>,
+    tab_chord_ratio: S<f64>,
+    tab_span_ratio: S<f64>,
 }
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct FileHinge {
     ch0: S<f64>,
-    ch_alpha_per_rad: S<f64>,
-    ch_elevator_per_rad: S<f64>,
-    ch_tab_per_rad: S<f64>,
+    viscous_factor: S<f64>,
     tab_min_rad: S<f64>,
     tab_max_rad: S<f64>,
     tail_dynamic_pressure_ratio: S<f64>,
@@ -312,6 +337,32 @@ impl Ctx<'_> {
     }
 }
 
+/// The `section.key` of every line whose comment carries the `[EST]` tag, in file order.
+fn estimated_keys(text: &str) -> Vec<String> {
+    let mut section = String::new();
+    let mut keys = Vec::new();
+    for line in text.lines() {
+        let code = line.split('#').next().unwrap_or("").trim();
+        if code.starts_with('[') && !code.starts_with("[[") {
+            section = code.trim_matches(|c| c == '[' || c == ']').trim().to_string();
+            continue;
+        }
+        let Some((key, _)) = code.split_once('=') else {
+            continue;
+        };
+        let comment = line.find('#').map_or("", |i| &line[i..]);
+        if comment.contains("[EST]") {
+            let key = key.trim();
+            keys.push(if section.is_empty() {
+                key.to_string()
+            } else {
+                format!("{section}.{key}")
+            });
+        }
+    }
+    keys
+}
+
 impl AircraftModel {
     /// Load `models/aircraft/<name>.toml`.
     pub fn load(path: &Path) -> Result<Self, AeroError> {
@@ -395,6 +446,19 @@ impl AircraftModel {
                 ))
             }
         };
+        let htail_area_m2 = c.num(&g.htail_area_m2, "geometry.htail_area_m2", 0.01, 500.0)?;
+        let htail_span_m = c.num(&g.htail_span_m, "geometry.htail_span_m", 0.1, 50.0)?;
+        let elevator_geometry = ControlGeometry {
+            chord_ratio: c.num(&e.chord_ratio, "elevator.chord_ratio", 0.05, 0.6)?,
+            balance_ratio: c.num(&e.balance_ratio, "elevator.balance_ratio", 0.0, 0.6)?,
+            tab_chord_ratio: c.num(&e.tab_chord_ratio, "elevator.tab_chord_ratio", 0.0, 0.6)?,
+            tab_span_ratio: c.num(&e.tab_span_ratio, "elevator.tab_span_ratio", 0.0, 1.0)?,
+            tail_aspect_ratio: htail_span_m * htail_span_m / htail_area_m2,
+            viscous_factor: c.num(&h.viscous_factor, "hinge.viscous_factor", 0.05, 1.0)?,
+        };
+        let derived = elevator_geometry
+            .derivatives()
+            .map_err(|m| c.err(g.htail_span_m.span(), "geometry.htail_span_m", m))?;
         let model = AircraftModel {
             name: f.name.get_ref().clone(),
             path: path.to_path_buf(),
@@ -402,6 +466,8 @@ impl AircraftModel {
             chord_m: c.num(&g.chord_m, "geometry.chord_m", 0.05, 50.0)?,
             span_m: c.num(&g.span_m, "geometry.span_m", 0.1, 100.0)?,
             htail_arm_m: c.num(&g.htail_arm_m, "geometry.htail_arm_m", 0.1, 100.0)?,
+            htail_area_m2,
+            htail_span_m,
             aero_ref_x_m: c.num(&g.aero_ref_x_m, "geometry.aero_ref_x_m", -100.0, 100.0)?,
             aero_ref_z_m: c.num(&g.aero_ref_z_m, "geometry.aero_ref_z_m", -100.0, 100.0)?,
             mass_kg: c.num(&m.mass_kg, "mass.mass_kg", 1.0, 1e6)?,
@@ -437,12 +503,13 @@ impl AircraftModel {
             elevator_in_slipstream: a.elevator_in_slipstream,
             elevator_min_rad: c.num(&e.min_rad, "elevator.min_rad", -1.0, 0.0)?,
             elevator_max_rad: c.num(&e.max_rad, "elevator.max_rad", 0.0, 1.0)?,
-            elevator_area_m2: c.num(&e.area_m2, "elevator.area_m2", 0.01, 100.0)?,
-            elevator_chord_m: c.num(&e.chord_m, "elevator.chord_m", 0.01, 10.0)?,
+            elevator_area_m2: elevator_geometry.chord_ratio * htail_area_m2,
+            elevator_chord_m: elevator_geometry.chord_ratio * htail_area_m2 / htail_span_m,
+            elevator_geometry,
             ch0: c.num(&h.ch0, "hinge.ch0", -0.5, 0.5)?,
-            ch_alpha_per_rad: c.num(&h.ch_alpha_per_rad, "hinge.ch_alpha_per_rad", -2.0, 0.5)?,
-            ch_elevator_per_rad: c.num(&h.ch_elevator_per_rad, "hinge.ch_elevator_per_rad", -2.0, 0.0)?,
-            ch_tab_per_rad: c.num(&h.ch_tab_per_rad, "hinge.ch_tab_per_rad", -2.0, 0.0)?,
+            ch_alpha_per_rad: derived.ch_alpha_per_rad,
+            ch_elevator_per_rad: derived.ch_elevator_per_rad,
+            ch_tab_per_rad: derived.ch_tab_per_rad,
             tab_min_rad: c.num(&h.tab_min_rad, "hinge.tab_min_rad", -1.0, 0.0)?,
             tab_max_rad: c.num(&h.tab_max_rad, "hinge.tab_max_rad", 0.0, 1.0)?,
             tail_dynamic_pressure_ratio: c.num(
@@ -470,6 +537,7 @@ impl AircraftModel {
                 1.5,
                 10.0,
             )?,
+            estimates: estimated_keys(text),
         };
         if model.force_feedback_ratio < 1e-4 && model.feel_computer.is_none() {
             return Err(c.err(
@@ -630,7 +698,7 @@ mod tests {
         }
         let e = AircraftModel::builtin("c17").unwrap_err().to_string();
         assert!(
-            e.contains("aircraft `c17`: no model") && e.contains("737, c172p"),
+            e.contains("aircraft `c17`: no model") && e.contains("737, T37, c172p"),
             "{e}"
         );
     }

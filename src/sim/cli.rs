@@ -24,7 +24,9 @@ pub struct RunArgs {
     #[arg(long)]
     pub rerun: Option<PathBuf>,
     /// Write `run.png` and `run.svg` into this directory: forces, coil current, stick angle and the pilot's
-    /// hand force against time, and the force against the stick angle, with fault windows shaded.
+    /// hand force against time, and the force against the stick angle, with fault windows shaded. A flight
+    /// also writes `<scenario name>-stick-force-per-g.png` and `.svg`: stick force against load factor,
+    /// flown and steady, against the allowed band of the aircraft's basis.
     #[arg(long)]
     pub plot: Option<PathBuf>,
     /// Stream the recording to a newly spawned Rerun viewer.
@@ -37,7 +39,7 @@ pub struct RunArgs {
     #[arg(long)]
     pub json: bool,
     /// Fly another aircraft backend than the scenario's `[aircraft] model`: a model name from
-    /// `models/aircraft/` (`c172p`, `737`) or `jsbsim:<name>`; a name, never a path (`/`, `\`, `..` are refused).
+    /// `models/aircraft/` (`c172p`, `737`, `T37`) or `jsbsim:<name>`; a name, never a path (`/`, `\`, `..` are refused).
     #[arg(long)]
     pub aircraft: Option<String>,
     /// Simulate this damper instead of the scenario's `[device] file` (a device TOML or a `PARAMS.json`).
@@ -204,10 +206,17 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
         )?,
         (None, None) => {}
     }
-    let plotted = match &args.plot {
+    let mut plotted = match &args.plot {
         Some(dir) => run_plots(&res, dir)?,
         None => Vec::new(),
     };
+    if let (Some(dir), Some(chart)) = (&args.plot, super::flight::stick_force_per_g_chart(&res)?) {
+        let name = format!("{}-stick-force-per-g", scn.name);
+        plotted.extend(
+            crate::viz::plot::save_charts(&[chart], 1, dir, &name)
+                .with_context(|| format!("--plot {}", dir.display()))?,
+        );
+    }
     let summary = res.summary();
     let flight = super::metrics::FlightMetrics::of(&res, &scn);
     if args.json {
@@ -218,14 +227,25 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
         if let Some(m) = &flight {
             crate::outln!("{m}")?;
         }
+        if let Some(f) = &res.flight {
+            crate::outln!(
+                "  aircraft {}: {} parameters are estimates ([EST] in its model file, no source): {}",
+                f.aircraft,
+                f.estimates.len(),
+                f.estimates.join(", ")
+            )?;
+        }
         if let Some(p) = &args.out {
             crate::outln!("  results: {}", p.display())?;
         }
         if let Some(p) = &args.rerun {
             crate::outln!("  recording: {} (open with `rerun {}`)", p.display(), p.display())?;
         }
-        if let Some(p) = plotted.first() {
-            crate::outln!("  plots: {} and its .svg", p.display())?;
+        for p in plotted
+            .iter()
+            .filter(|p| p.extension().is_some_and(|e| e == "png"))
+        {
+            crate::outln!("  plot: {} and its .svg", p.display())?;
         }
     }
     Ok(())

@@ -141,6 +141,11 @@ impl Flight {
         self.backend.label()
     }
 
+    /// The aircraft model's parameters marked `[EST]` (estimates without a source).
+    pub fn estimates(&self) -> &[String] {
+        self.backend.estimates()
+    }
+
     /// Whether the pilot's outer loop sets the stick command.
     pub fn has_outer_loop(&self) -> bool {
         self.outer.is_some()
@@ -219,4 +224,56 @@ impl Flight {
             },
         }
     }
+}
+
+/// Stick force against load factor for a flight, with what it is judged by: the flown samples (every
+/// tenth row), the steady pull-up of the embedded model at the trim speed and altitude (tab and throttle
+/// at trim), and the boundaries `F = F/g (n − 1)` of the allowed stick force per g of the aircraft's
+/// basis at that condition (MIL-F-8785C Level 1, or the 14 CFR 23 / 25 force limits over the limit load
+/// factor; [`crate::aero::FeelAssessment`]). `None` for a run without an aircraft.
+pub fn stick_force_per_g_chart(res: &super::Results) -> Result<Option<crate::viz::plot::Chart>, AeroError> {
+    use crate::viz::plot::{Chart, Series};
+    let Some(f) = &res.flight else { return Ok(None) };
+    let name = f.aircraft.strip_prefix("jsbsim:").unwrap_or(&f.aircraft);
+    let a = crate::aero::Aircraft::new(std::sync::Arc::new(crate::aero::AircraftModel::load_builtin(
+        name,
+    )?));
+    let (v, h) = (f.trim.airspeed_m_s, f.trim.altitude_m);
+    let assess = crate::aero::FeelAssessment::assess(&a, v, h)?;
+    let flown: Vec<(f64, f64)> = res
+        .rows
+        .iter()
+        .step_by(10)
+        .filter_map(|x| x.aero)
+        .map(|x| (x.nz_g, x.stick_force_n))
+        .collect();
+    let nz_flown = flown.iter().map(|p| p.0).fold(1.0, f64::max);
+    let n_top = (nz_flown + 0.5).max(2.0).min(assess.limit_load_factor);
+    let ns: Vec<f64> = (0..=20).map(|k| 1.0 + (n_top - 1.0) * k as f64 / 20.0).collect();
+    // a condition past the stall or the elevator stop has no steady pull-up: the curve stops there
+    let steady: Vec<(f64, f64)> = ns
+        .iter()
+        .map_while(|&n| a.pull_up_stick_force_n(v, h, n).ok().map(|fs| (n, fs)))
+        .collect();
+    let (lo, hi) = assess.allowed_per_g_n;
+    let part = assess.basis.part.label();
+    let chart = Chart::new(
+        format!(
+            "{}: stick force vs load factor, trim {v:.0} m/s at {h:.0} m",
+            f.aircraft
+        ),
+        "load factor n_z (g)",
+        "stick force at the grip (N, pull +)",
+    )
+    .with(Series::points("flown", flown))
+    .with(Series::line("steady pull-up (embedded model)", steady))
+    .with(Series::dashed(
+        format!("{part}: minimum {lo:.1} N/g"),
+        ns.iter().map(|&n| (n, lo * (n - 1.0))).collect(),
+    ))
+    .with(Series::dashed(
+        format!("{part}: maximum {hi:.1} N/g"),
+        ns.iter().map(|&n| (n, hi * (n - 1.0))).collect(),
+    ));
+    Ok(Some(chart))
 }

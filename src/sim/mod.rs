@@ -509,6 +509,7 @@ pub fn run_streaming<P: Plant, E: From<SimError>>(
             trim: f.trim,
             trim_stick_rad: f.trim_stick_rad,
             round_trip_us: f.round_trip_us(),
+            estimates: f.estimates().to_vec(),
         })
     };
     let mut head = Results {

@@ -107,6 +107,8 @@ pub struct FlightInfo {
     pub trim_stick_rad: f64,
     /// Live JSBSim: (requests, mean µs, max µs) of the step round trips.
     pub round_trip_us: Option<(u64, f64, f64)>,
+    /// The aircraft model's parameters marked `[EST]` in its file (estimates without a source).
+    pub estimates: Vec<String>,
 }
 
 pub fn mode_code(m: LoopMode) -> u8 {
@@ -280,6 +282,11 @@ impl Results {
                 w,
                 "# aircraft: {}, trim {} m/s at {} m, trim stick {} rad; stick_force_n at the grip (pull +)",
                 f.aircraft, f.trim.airspeed_m_s, f.trim.altitude_m, f.trim_stick_rad
+            )?;
+            writeln!(
+                w,
+                "# aircraft estimates ([EST], no source): {}",
+                f.estimates.join(", ")
             )?;
         }
         let aero = self.flight.is_some();
