@@ -27,6 +27,9 @@ pub struct ForceInverse {
     params: Vec<f64>,
     /// Predicted state (layout of [`Model::init_state`]); empty until the first sample.
     state: Vec<f64>,
+    /// The state predicted one lag ahead (`te + tm`) at the sample's velocity: where the force the
+    /// command asks for arrives. Empty until the first sample.
+    ahead: Vec<f64>,
     /// The previous sample's inputs, with the command that was held after it.
     last: Option<Inputs>,
     /// The command most recently sent to the driver, A.
@@ -57,6 +60,7 @@ impl ForceInverse {
             model: device.model.clone(),
             params: device.params.clone(),
             state: Vec::new(),
+            ahead: Vec::new(),
             last: None,
             last_cmd_a: 0.0,
         })
@@ -119,6 +123,20 @@ impl ForceInverse {
             }
         }
         self.last = Some(inp);
+        // One lag ahead at this velocity: a command sent now acts through the coil and fluid lags.
+        let (te_s, tm_s) = self.lags_s();
+        let h = te_s + tm_s;
+        self.ahead.clone_from(&self.state);
+        if h > 0.0 {
+            let stage = self.model.eval(&self.params, &self.ahead, &inp);
+            let f = stage.force_n(v_m_s);
+            let step = Step {
+                dt_s: h,
+                dx_m: v_m_s * h,
+            };
+            self.model
+                .advance(&self.params, &mut self.ahead, &inp, &stage, f, step);
+        }
     }
 
     /// The force against the motion, N, that the damper gives in direction `dir` (±1) at `speed_m_s` and
@@ -132,10 +150,11 @@ impl ForceInverse {
             a_m_s2: 0.0,
             current_cmd_a: current_a,
         };
-        let mut s = if self.state.is_empty() {
+        let observed = if yielded { &self.state } else { &self.ahead };
+        let mut s = if observed.is_empty() {
             self.model.init_state(&self.params, &inp)
         } else {
-            self.state.clone()
+            observed.clone()
         };
         bingham::init_states(&mut s, current_a, self.model.current_limit_a);
         let stage = if yielded {

@@ -70,7 +70,13 @@ impl Override {
 }
 
 /// Keys whose values are paths, read relative to where the override was written (not to the scenario).
-const PATH_KEYS: [&str; 4] = ["device.file", "rig.urdf", "pilot.model", "feel_system.springs"];
+const PATH_KEYS: [&str; 5] = [
+    "device.file",
+    "controller.model",
+    "rig.urdf",
+    "pilot.model",
+    "feel_system.springs",
+];
 
 impl Scenario {
     /// The scenario at `path` with `overrides` applied in order, checked as a whole: the one public entry

@@ -574,6 +574,12 @@ pub fn loop_study_cmd(args: &LoopStudyArgs, mut scn: Scenario) -> anyhow::Result
             plant.path.display()
         )?;
         crate::out!("{}", super::loop_study::markdown_table(&figs))?;
+        crate::outln!(
+            "where renderable: the resisting samples whose desired force lies between the plant's force at 0 A \
+             and {:.0} % of its force at the driver's limit, at the sample's speed (the plant's model, not the \
+             controller's)",
+            100.0 * super::loop_study::RENDERABLE_SHARE
+        )?;
         if let Some(dir) = &args.plot {
             crate::outln!(
                 "plots: {}/loop-study.png, {}/loop-study.svg",

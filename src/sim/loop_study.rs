@@ -54,7 +54,7 @@ pub struct StageFigures {
 
 /// Share of the plant's force at the driver's limit up to which a desired force counts as renderable: the
 /// feedback keeps some authority (as the flight metric's 90 % of the feel ceiling).
-const RENDERABLE_SHARE: f64 = 0.9;
+pub const RENDERABLE_SHARE: f64 = 0.9;
 
 /// Which desired forces the plant can render at a speed: between its force at zero current and
 /// [`RENDERABLE_SHARE`] of its force at the driver's limit, both with the lags settled and the plant's
