@@ -27,7 +27,7 @@ fn bench(c: &mut Criterion) {
     let steps_per_iter = (1.0 / dt_s).round() as u64;
     g.throughput(Throughput::Elements(1));
     {
-        let mut lp = Loop::new(&scn, &device, cli::build_rig(&scn, &device).unwrap()).unwrap();
+        let mut lp = Loop::new(&scn, &device, cli::build_rig(&scn, &device.plant).unwrap()).unwrap();
         g.bench_function("full_loop_1000_steps", |b| {
             b.iter(|| {
                 for _ in 0..steps_per_iter {
@@ -38,7 +38,7 @@ fn bench(c: &mut Criterion) {
     }
     {
         // Baseline: the rig step alone, driven by a 0.25 Hz push so it moves as in the scenario.
-        let mut rig = cli::build_rig(&scn, &device).unwrap();
+        let mut rig = cli::build_rig(&scn, &device.plant).unwrap();
         let mut k = 0u64;
         g.bench_function("baseline_rig_1000_steps_only", |b| {
             b.iter(|| {
@@ -57,7 +57,7 @@ fn bench(c: &mut Criterion) {
     g.sample_size(10);
     g.throughput(Throughput::Elements(scn.duration_s.round() as u64));
     let whole = |scn: &Scenario| {
-        let rig = cli::build_rig(scn, &device).unwrap();
+        let rig = cli::build_rig(scn, &device.plant).unwrap();
         sim::run(scn, &device, rig, RunOptions::default(), |_| {})
             .unwrap()
             .rows

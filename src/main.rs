@@ -39,6 +39,9 @@ enum Command {
     Diagnose(mrfeel::ident::cli::DiagnoseArgs),
     /// The force of a saved model (or a device file) on your own motion and current (measurement CSV).
     Simulate(mrfeel::ident::cli::SimulateArgs),
+    /// Discovery to feel: diagnose rig data, fit each stage, and run a scenario with each as the feel
+    /// controller's model against the same plant.
+    LoopStudy(mrfeel::sim::cli::LoopStudyArgs),
     /// Sweep a scenario over a plan's axes (in parallel, in shards, resumable) with handling-qualities
     /// verdicts per run; `sweep merge` joins shards.
     Sweep(mrfeel::sweep::cli::SweepArgs),
@@ -58,6 +61,7 @@ enum Job {
     Validate(mrfeel::ident::cli::ValidateArgs),
     Diagnose(mrfeel::ident::cli::DiagnoseArgs),
     Simulate(mrfeel::ident::cli::SimulateArgs),
+    LoopStudy(mrfeel::sim::cli::LoopStudyArgs, Box<mrfeel::scenario::Scenario>),
     Sweep(mrfeel::sweep::cli::SweepArgs),
 }
 
@@ -82,6 +86,10 @@ impl Job {
             Command::Validate(a) => Job::Validate(a),
             Command::Diagnose(a) => Job::Diagnose(a),
             Command::Simulate(a) => Job::Simulate(a),
+            Command::LoopStudy(a) => {
+                let scn = Scenario::load(&a.scenario)?;
+                Job::LoopStudy(a, Box::new(scn))
+            }
             Command::Sweep(a) => Job::Sweep(a),
         })
     }
@@ -96,6 +104,7 @@ impl Job {
             Job::Validate(a) => mrfeel::ident::cli::run_validate(&a),
             Job::Diagnose(a) => mrfeel::ident::cli::run_diagnose(&a),
             Job::Simulate(a) => mrfeel::ident::cli::run_simulate(&a),
+            Job::LoopStudy(a, scn) => mrfeel::sim::cli::loop_study_cmd(&a, *scn),
             Job::Sweep(a) => mrfeel::sweep::cli::run_cmd(&a),
         }
     }
@@ -139,6 +148,7 @@ impl Job {
                 ("--rerun", a.rerun.as_ref(), File),
             ],
             Job::Simulate(a) => vec![("--out", Some(&a.out), File)],
+            Job::LoopStudy(a, _) => vec![("--plot", a.plot.as_ref(), Dir)],
             Job::Sweep(a) => vec![("--out", a.out_dir(), Dir)],
         };
         list.into_iter()
@@ -159,7 +169,12 @@ impl Job {
         };
         match self {
             Job::Mts(a) => a.device.iter().map(|p| ("device file", p.clone())).collect(),
-            Job::Run(a, scn) => mrfeel::sim::cli::input_files(&a.scenario, scn, a.aircraft.as_deref()),
+            Job::Run(a, scn) => {
+                let mut v = mrfeel::sim::cli::input_files(&a.scenario, scn, a.aircraft.as_deref());
+                v.extend(a.device.iter().map(|p| ("device file", p.clone())));
+                v.extend(a.controller_model.iter().map(|p| ("controller model", p.clone())));
+                v
+            }
             Job::DaqSweep(a, scn) => mrfeel::sim::cli::input_files(&a.scenario, scn, None),
             Job::Compare(a, scn) => mrfeel::compare::cli::input_files(&a.scenario, scn),
             Job::Fit(a) => data(&a.data),
@@ -173,6 +188,12 @@ impl Job {
                 ("motion file", a.input.clone()),
                 ("params file", a.params.clone()),
             ],
+            Job::LoopStudy(a, scn) => {
+                let mut v = mrfeel::sim::cli::input_files(&a.scenario, scn, None);
+                v.extend(data(&a.data));
+                v.extend(a.device.iter().map(|p| ("device file", p.clone())));
+                v
+            }
             Job::Sweep(a) => a.plan.iter().map(|p| ("sweep plan", p.clone())).collect(),
         }
     }

@@ -406,9 +406,10 @@ pub fn load_scenario_with(
 
 /// Run a loaded scenario (read from `path`) headless to its end, as `mrfeel run` without a recording.
 pub fn run_scenario(scn: &Scenario, path: &Path) -> anyhow::Result<Results> {
-    let (device, rig) = crate::sim::cli::device_and_rig(scn, path)?;
+    let devices = crate::sim::Devices::load(scn)?;
+    let rig = crate::sim::build_rig(scn, &devices.plant)?;
     let opts = crate::sim::RunOptions { frames_hz: None };
-    crate::sim::run(scn, &device, rig, opts, |_| {})
+    crate::sim::run(scn, &devices, rig, opts, |_| {})
         .with_context(|| format!("running scenario {}", path.display()))
 }
 

@@ -131,6 +131,10 @@ pub struct KeyLines {
     pub aircraft_model: usize,
     /// `feel.law` (a DAQ sweep needs a step test).
     pub feel_law: usize,
+    /// `device.file` (errors of the plant's device file).
+    pub device_file: usize,
+    /// `controller.model` (errors of the model file it names), else `device.file`.
+    pub controller_model: usize,
 }
 
 /// A validated scenario.
@@ -145,6 +149,9 @@ pub struct Scenario {
     /// The rig's settings, with the URDF path resolved against the scenario's directory.
     pub rig: RigConfig,
     pub device_path: PathBuf,
+    /// The model the feel controller believes (`[controller] model`): a device file or a fitted
+    /// `PARAMS.json`; `None`: the plant's own device file.
+    pub controller_model_path: Option<PathBuf>,
     pub sensors: SensorsConfig,
     pub controller: ControllerConfig,
     pub feel: FeelLaw,
@@ -189,6 +196,9 @@ impl Scenario {
             ("URDF", self.rig.urdf.clone()),
             ("pilot model", self.pilot.hand_path.clone()),
         ];
+        if let Some(p) = &self.controller_model_path {
+            files.push(("controller model", p.clone()));
+        }
         if let Some(p) = &self.springs_path {
             files.push(("feel-spring file", p.clone()));
         }
@@ -224,6 +234,14 @@ impl Scenario {
             "device.file",
             Path::new(f.device.file.get_ref()),
         )?;
+        let controller_model_path = match &f.controller.model {
+            Some(m) => Some(c.named_file(
+                line_of(text, m.span().start),
+                "controller.model",
+                Path::new(m.get_ref()),
+            )?),
+            None => None,
+        };
         let physics_rate_hz = rig.physics_hz;
         if !(physics_rate_hz.is_finite() && (100.0..=100_000.0).contains(&physics_rate_hz)) {
             return Err(ScenarioError::Field {
@@ -478,12 +496,18 @@ impl Scenario {
                 airspeed: crate::text_lines::toml_key_line(text, "aircraft", "airspeed_m_s"),
                 aircraft_model: crate::text_lines::toml_key_line(text, "aircraft", "model"),
                 feel_law: crate::text_lines::toml_key_line(text, "feel", "law"),
+                device_file: line_of(text, f.device.file.span().start),
+                controller_model: match &f.controller.model {
+                    Some(m) => line_of(text, m.span().start),
+                    None => line_of(text, f.device.file.span().start),
+                },
             },
             name: f.name,
             duration_s,
             seed,
             rig,
             device_path,
+            controller_model_path,
             sensors,
             controller,
             feel,
@@ -1268,6 +1292,8 @@ struct ControllerSection {
     rest_force_n: Spanned<f64>,
     current_min_a: Spanned<f64>,
     current_max_a: Spanned<f64>,
+    /// The model the controller believes (a device file or a `PARAMS.json`); the plant's file if absent.
+    model: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize)]

@@ -97,7 +97,7 @@ fn q_feel_gradient_at_the_grip_scales_with_dynamic_pressure() {
     let (g1, g2) = (slope_at(&scn, q1), slope_at(&scn, q2));
     // Grip gradient = k·g²/L (x = g θ at the piston, F_grip = F_piston·g/L); gravity, inertia and the
     // stick's own stiffness cancel in the difference.
-    let rig = mrfeel::rig::Rig::new(&scn.rig, scn.device.damper()).unwrap();
+    let rig = mrfeel::rig::Rig::new(&scn.rig, scn.devices.plant.damper()).unwrap();
     let (g, l) = (rig.gearing_m_per_rad(), rig.grip_lever_m());
     let expect = scn.springs.q_feel.kq_n_per_m_per_pa * (q2 - q1) * g * g / l;
     eprintln!(
@@ -130,7 +130,7 @@ fn coil_open_drops_the_mr_force_to_the_zero_current_yield_and_stops_tracking() {
         FeelKind::Mr,
         &FaultSchedule::single(Fault::new(FaultKind::CoilOpen, a, b)),
     );
-    let fc0 = scn.device.param("fc0_n").unwrap();
+    let fc0 = scn.devices.plant.param("fc0_n").unwrap();
     // After the coil and fluid lags (Te + Tm = 23 ms; 0.2 s is > 8 of them), the yield is the zero-current one.
     let w = window(&tr, a + 0.2, b);
     let worst = w
@@ -164,8 +164,9 @@ fn driver_stuck_gives_the_14_a_force_whatever_the_target_and_the_stick_moves_onl
         FeelKind::Mr,
         &FaultSchedule::single(Fault::new(FaultKind::DriverStuck, a, b)),
     );
-    let limit = scn.device.model.current_limit_a;
-    let f14 = scn.device.param("fc0_n").unwrap() + scn.device.param("fc_gain_n_per_a").unwrap() * limit;
+    let limit = scn.devices.plant.model.current_limit_a;
+    let f14 = scn.devices.plant.param("fc0_n").unwrap()
+        + scn.devices.plant.param("fc_gain_n_per_a").unwrap() * limit;
     let w = window(&tr, a + 0.2, b);
     for r in &w {
         assert!(
@@ -204,14 +205,14 @@ fn driver_stuck_gives_the_14_a_force_whatever_the_target_and_the_stick_moves_onl
 }
 
 fn scn_gear_over_lever(scn: &CompareScenario) -> f64 {
-    let rig = mrfeel::rig::Rig::new(&scn.rig, scn.device.damper()).unwrap();
+    let rig = mrfeel::rig::Rig::new(&scn.rig, scn.devices.plant.damper()).unwrap();
     rig.gearing_m_per_rad() / rig.grip_lever_m()
 }
 
 #[test]
 fn stuck_or_zero_load_cell_winds_the_loop_to_its_limit_and_anti_windup_lets_go_after() {
     let scn = scenario();
-    let limit = scn.device.model.current_limit_a;
+    let limit = scn.devices.plant.model.current_limit_a;
     let (a, b) = (2.5, 4.0);
     for kind in [FaultKind::LoadCellStuck, FaultKind::LoadCellZero] {
         let tr = main_run(&scn, FeelKind::Mr, &FaultSchedule::single(Fault::new(kind, a, b)));
@@ -247,8 +248,9 @@ fn every_fault_leaves_the_run_going_is_flagged_and_cannot_touch_a_spring_feel_un
     let window_steps = ((b.min(scn.main_task().duration_s()) - a) / 1e-3).round() as usize;
     let spring_healthy = main_run(&scn, FeelKind::CentringSpring, &FaultSchedule::none());
     let mr_healthy = main_run(&scn, FeelKind::Mr, &FaultSchedule::none());
-    let limit = scn.device.model.current_limit_a;
-    let f14 = scn.device.param("fc0_n").unwrap() + scn.device.param("fc_gain_n_per_a").unwrap() * limit;
+    let limit = scn.devices.plant.model.current_limit_a;
+    let f14 = scn.devices.plant.param("fc0_n").unwrap()
+        + scn.devices.plant.param("fc_gain_n_per_a").unwrap() * limit;
     let f14_grip = f14 * scn_gear_over_lever(&scn);
     for f in FaultKind::ALL {
         let sched = FaultSchedule::single(Fault::new(f, a, b));
@@ -342,7 +344,14 @@ fn a_fault_scheduled_in_a_loop_scenario_reaches_the_coil_in_mrfeel_run() {
         mrfeel::device::DeviceConfig::load(&scn.device_path, &mrfeel::device::Registry::builtin()).unwrap();
     let fc0 = device.param("fc0_n").unwrap();
     let rig = mrfeel::rig::Rig::new(&scn.rig, device.damper()).unwrap();
-    let res = mrfeel::sim::run(&scn, &device, rig, Default::default(), |_| {}).unwrap();
+    let res = mrfeel::sim::run(
+        &scn,
+        &mrfeel::sim::Devices::same(device.clone()),
+        rig,
+        Default::default(),
+        |_| {},
+    )
+    .unwrap();
     let inside: Vec<_> = res.rows.iter().filter(|r| r.t_s >= 2.2 && r.t_s < 3.0).collect();
     assert!(
         inside.iter().all(|r| (r.yield_force_n - fc0).abs() < 0.5),
@@ -390,7 +399,14 @@ fn a_latency_spike_in_a_run_delays_what_the_controller_sees_and_is_marked_in_the
     let device =
         mrfeel::device::DeviceConfig::load(&scn.device_path, &mrfeel::device::Registry::builtin()).unwrap();
     let rig = mrfeel::rig::Rig::new(&scn.rig, device.damper()).unwrap();
-    let res = mrfeel::sim::run(&scn, &device, rig, Default::default(), |_| {}).unwrap();
+    let res = mrfeel::sim::run(
+        &scn,
+        &mrfeel::sim::Devices::same(device.clone()),
+        rig,
+        Default::default(),
+        |_| {},
+    )
+    .unwrap();
     let bit = mrfeel::faults::FaultKind::LatencySpike.bit();
     for r in &res.rows {
         let inside = r.t_s >= 2.0 && r.t_s < 3.0;
@@ -465,7 +481,14 @@ fn a_q_feel_spring_named_in_a_flight_scenario_follows_the_aircrafts_dynamic_pres
         mrfeel::control::feel::FeelSprings::load(&path.parent().unwrap().join("../models/feel-springs.toml"))
             .unwrap();
     let rig = mrfeel::sim::cli::build_rig(&scn, &device).unwrap();
-    let res = mrfeel::sim::run(&scn, &device, rig, Default::default(), |_| {}).unwrap();
+    let res = mrfeel::sim::run(
+        &scn,
+        &mrfeel::sim::Devices::same(device.clone()),
+        rig,
+        Default::default(),
+        |_| {},
+    )
+    .unwrap();
     let mut checked = 0;
     for r in res.rows.iter().filter(|r| r.piston_x_m.abs() > 5e-4) {
         let q = r.aero.unwrap().qbar_pa;

@@ -21,18 +21,18 @@ fn scenario_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios").join(name)
 }
 
-fn load(name: &str) -> (Scenario, DeviceConfig) {
+fn load(name: &str) -> (Scenario, sim::Devices) {
     let (scn, device, _) = cli::load(&scenario_path(name)).unwrap_or_else(|e| panic!("{name}: {e:#}"));
     (scn, device)
 }
 
-fn fly(scn: &Scenario, device: &DeviceConfig) -> Results {
-    let rig = cli::build_rig(scn, device).unwrap_or_else(|e| panic!("{e:#}"));
+fn fly(scn: &Scenario, device: &sim::Devices) -> Results {
+    let rig = cli::build_rig(scn, &device.plant).unwrap_or_else(|e| panic!("{e:#}"));
     sim::run(scn, device, rig, RunOptions::default(), |_| {}).unwrap_or_else(|e| panic!("{e}"))
 }
 
-fn pitch_tracking() -> &'static (Scenario, DeviceConfig, Results) {
-    static R: OnceLock<(Scenario, DeviceConfig, Results)> = OnceLock::new();
+fn pitch_tracking() -> &'static (Scenario, sim::Devices, Results) {
+    static R: OnceLock<(Scenario, sim::Devices, Results)> = OnceLock::new();
     R.get_or_init(|| {
         let (s, d) = load("c172p-pitch-tracking.toml");
         let r = fly(&s, &d);
@@ -196,7 +196,7 @@ fn pull_up_reaches_the_load_factor_with_the_feel_capped_at_the_device_force() {
         .filter(|x| x.current_a >= s.controller.gains.out_max - 1e-9)
         .count() as f64
         / capped.len().max(1) as f64;
-    let yield_14 = d.param("fc0_n").unwrap() + d.param("fc_gain_n_per_a").unwrap() * 14.0;
+    let yield_14 = d.plant.param("fc0_n").unwrap() + d.plant.param("fc_gain_n_per_a").unwrap() * 14.0;
     println!(
         "pull-up: mean load factor over the last 2 s of the hold (5-7 s) {nz_hold:.3} g (command 1.3 g; over the whole \
          hold, 3-7 s, {nz_whole:.3} g); tracking RMS {:.3} g \
@@ -254,7 +254,8 @@ fn a_pilot_adapted_to_the_aircraft_flies_the_pitch_task_without_given_gains() {
         .replace("lag_s = 0.1 ", "#")
         .replace("integral_per_s = 0.1", "");
     let s = Scenario::parse(&text, &p).unwrap_or_else(|e| panic!("{e}"));
-    let d = DeviceConfig::load(&s.device_path, &mrfeel::device::Registry::builtin()).unwrap();
+    let d =
+        sim::Devices::same(DeviceConfig::load(&s.device_path, &mrfeel::device::Registry::builtin()).unwrap());
     let r = fly(&s, &d);
     let m = FlightMetrics::of(&r, &s).unwrap();
     let peak = peak_pitch_above_trim(&r);
@@ -450,7 +451,7 @@ fn flight_scenario_errors_name_file_line_and_field() {
     // An unknown aircraft fails when the run opens it, naming the scenario and the model files it knows.
     let (mut s, d) = load("c172p-pitch-tracking.toml");
     s.aircraft.as_mut().unwrap().model = "no-such-plane".into();
-    let rig = cli::build_rig(&s, &d).unwrap();
+    let rig = cli::build_rig(&s, &d.plant).unwrap();
     let e = sim::run(&s, &d, rig, RunOptions::default(), |_| {})
         .err()
         .map(|e| e.to_string())
@@ -468,7 +469,7 @@ fn flight_recording_reads_back_with_the_aircraft_beside_the_stick() {
     common::venv_python(); // before the flight: the read-back needs it
     let (mut s, d) = load("c172p-pitch-tracking.toml");
     s.duration_s = 4.0;
-    let rig = cli::build_rig(&s, &d).unwrap();
+    let rig = cli::build_rig(&s, &d.plant).unwrap();
     let res = sim::run(
         &s,
         &d,

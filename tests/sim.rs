@@ -7,23 +7,22 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 use mrfeel::control::{FeelLaw, LoopMode};
-use mrfeel::device::DeviceConfig;
 use mrfeel::pilot::{Signal, Task};
 use mrfeel::scenario::Scenario;
-use mrfeel::sim::{self, cli, Results, RunOptions};
+use mrfeel::sim::{self, cli, Devices, Results, RunOptions};
 use mrfeel::units::IN_TO_M;
 
 fn scenario_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios").join(name)
 }
 
-fn load(name: &str) -> (Scenario, DeviceConfig) {
+fn load(name: &str) -> (Scenario, Devices) {
     let (scn, device, _) = cli::load(&scenario_path(name)).unwrap_or_else(|e| panic!("{name}: {e:#}"));
     (scn, device)
 }
 
-fn run(scn: &Scenario, device: &DeviceConfig, opts: RunOptions) -> Results {
-    let rig = cli::build_rig(scn, device).unwrap_or_else(|e| panic!("{e:#}"));
+fn run(scn: &Scenario, device: &Devices, opts: RunOptions) -> Results {
+    let rig = cli::build_rig(scn, &device.plant).unwrap_or_else(|e| panic!("{e:#}"));
     sim::run(scn, device, rig, opts, |_| {}).unwrap_or_else(|e| panic!("{e}"))
 }
 
@@ -398,8 +397,8 @@ fn force_settles_as_fast_as_the_coil_and_fluid_lags_allow_and_later_at_a_slow_da
     let (slow, fast) = (&pts[0], &pts[1]);
     assert!(slow.steps >= 5 && fast.steps >= 5, "{pts:?}");
     assert!(slow.unsettled == 0 && fast.unsettled == 0, "{pts:?}");
-    let te = device.param("te_s").unwrap();
-    let tm = device.param("tm_s").unwrap();
+    let te = device.plant.param("te_s").unwrap();
+    let tm = device.plant.param("tm_s").unwrap();
     let latency = scn.sensors.daq.latency_samples as f64;
     // With a fast DAQ the feedforward's current step reaches the force through the coil and the fluid lags
     // in series, after the DAQ's delay ((latency + ½) periods on average): the force settles when that

@@ -33,7 +33,6 @@ use serde::Deserialize;
 
 use crate::control::feel::{CentringSpring, FeelSprings, FeelSystemConfig};
 use crate::control::FeelLaw;
-use crate::device::{DeviceConfig, Registry};
 use crate::faults::FaultSchedule;
 use crate::pilot::Signal;
 use crate::rig::RigConfig;
@@ -236,7 +235,8 @@ pub struct CompareScenario {
     pub seed: u64,
     pub systems: Vec<FeelKind>,
     pub rig: RigConfig,
-    pub device: DeviceConfig,
+    /// The plant and the model its controller believes, as the base scenario names them.
+    pub devices: crate::sim::Devices,
     pub coil_resistance_ohm: f64,
     pub springs: FeelSprings,
     /// The feel-spring file `[springs] file` names.
@@ -316,7 +316,7 @@ impl CompareScenario {
             msg: crate::builtin::hint_if_missing(&base_path, e.to_string()),
         })?;
         let rig = base.rig.clone();
-        let device = DeviceConfig::load(&base.device_path, &Registry::builtin())?;
+        let devices = crate::sim::Devices::load(&base)?;
         chk(
             "device",
             "coil_resistance_ohm",
@@ -470,7 +470,7 @@ impl CompareScenario {
             seed: f.seed,
             systems,
             rig,
-            device,
+            devices,
             coil_resistance_ohm: f.device.coil_resistance_ohm,
             springs,
             springs_path,
@@ -759,10 +759,10 @@ pub fn run(
     s.faults = faults.clone();
     s.aircraft = None;
     s.outer_loop = None;
-    let rig =
-        crate::sim::cli::build_rig(&s, &scn.device).map_err(|e| CompareError::Feel(format!("{e:#}")))?;
+    let rig = crate::sim::cli::build_rig(&s, &scn.devices.plant)
+        .map_err(|e| CompareError::Feel(format!("{e:#}")))?;
     let lever = Plant::grip_arm_m(&rig);
-    let mut lp = Loop::new(&s, &scn.device, rig)?;
+    let mut lp = Loop::new(&s, &scn.devices, rig)?;
     let n = (task.duration_s() / dt).round() as usize;
     let mut rows = Vec::with_capacity(n);
     let mut e0 = None;

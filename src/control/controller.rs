@@ -14,39 +14,20 @@
 //! 5. moving against the law: track in magnitude, `i = PID(|F*|, s·F_meas) + ff(|F*|, |v|)`, clipped to
 //!    0–14 A.
 //!
-//! The optional feedforward inverts the static Bingham force (Eq. 2 with Eq. 6 at steady state):
-//! `i_ff = (|F*| − fc0 − C0 |v|) / (bH kH)`, clipped at 0. Its force arrives through the coil and fluid lags
-//! of Eq. (6), so with feedforward the PID's set point is `|F*|` passed through the same two lags (a
-//! reference model): the feedback then corrects only what the feedforward gets wrong, instead of winding up
-//! on the lag itself and overshooting every step.
+//! The optional feedforward is the inverse of the controller's model of the damper
+//! ([`crate::device::ForceInverse`]: a device file or a fitted `PARAMS.json`, not the simulated plant):
+//! tracking asks it for the current that gives `|F*|` at the measured speed on the model's observed state
+//! (pre-yield branch, heating), holding for the current whose yield force is `|F*|`. Its force arrives
+//! through the model's coil and fluid lags of Eq. (6), so with feedforward the PID's set point is `|F*|`
+//! passed through the same two lags (a reference model): the feedback then corrects only what the
+//! feedforward gets wrong, instead of winding up on the lag itself and overshooting every step.
 
 use super::feel::{FeelSystem, SpringElement};
 use super::law::{sgn, FeelLaw};
 use super::pid::Pid;
 use crate::device::lag::advance_two_lags;
+use crate::device::ForceInverse;
 use crate::sensors::DaqSample;
-
-/// Static inverse of the Bingham force (Eq. 2 with Eq. 6 at steady state) from the device's base parameters.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Feedforward {
-    pub fc0_n: f64,
-    pub fc_gain_n_per_a: f64,
-    pub c0_n_s_per_m: f64,
-    /// The coil (Eq. 3) and fluid (Eq. 4) time constants, s: the feedforward's force arrives through them,
-    /// so the feedback compares the load cell with the desired force passed through the same lags.
-    pub te_s: f64,
-    pub tm_s: f64,
-}
-
-impl Feedforward {
-    /// Current for a force magnitude at a speed, A (≥ 0).
-    pub fn current_a(&self, force_n: f64, speed_m_s: f64) -> f64 {
-        if self.fc_gain_n_per_a <= 0.0 {
-            return 0.0;
-        }
-        ((force_n - self.fc0_n - self.c0_n_s_per_m * speed_m_s) / self.fc_gain_n_per_a).max(0.0)
-    }
-}
 
 /// What the loop decided at one tick.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -79,7 +60,8 @@ pub struct Hybrid {
 pub struct FeelController {
     pub law: FeelLaw,
     pub pid: Pid,
-    pub feedforward: Option<Feedforward>,
+    /// The controller's model of the damper, when the loop uses its inverse as feedforward.
+    pub feedforward: Option<ForceInverse>,
     pub rest_speed_m_s: f64,
     /// At rest, load-cell forces below this are "not pushing", N.
     pub rest_force_n: f64,
@@ -94,7 +76,7 @@ impl FeelController {
     pub fn new(
         law: FeelLaw,
         pid: Pid,
-        feedforward: Option<Feedforward>,
+        feedforward: Option<ForceInverse>,
         rest_speed_m_s: f64,
         rest_force_n: f64,
     ) -> Self {
@@ -124,7 +106,12 @@ impl FeelController {
             0.0
         };
         let desired = self.law.force_n(t_s, s.x_m, s.v_m_s, dir);
-        let ff = |force: f64, speed: f64| self.feedforward.map(|f| f.current_a(force, speed)).unwrap_or(0.0);
+        if let Some(inv) = self.feedforward.as_mut() {
+            inv.observe(s.sampled_t_s, s.x_m, s.v_m_s);
+        }
+        let inv = self.feedforward.as_ref();
+        // The fully yielded (holding) current for a force magnitude, in the direction the pilot pushes.
+        let hold = |force: f64| inv.map_or(0.0, |m| m.current_a(force, dir, 0.0, s.x_m, true));
         // Hybrid: the spring's share of the force (it resists displacement from centre) is not the damper's.
         let spring_n = self
             .hybrid
@@ -135,41 +122,52 @@ impl FeelController {
             // Never hold against the spring: a speed-proportional yield force only.
             self.pid.reset();
             let c = self.hybrid.map_or(0.0, |h| h.return_damping_n_s_per_m);
-            let fc0 = self.feedforward.map_or(0.0, |f| f.fc0_n);
-            (LoopMode::Released, ff(fc0 + c * s.v_m_s.abs(), 0.0).clamp(lo, hi))
+            let at_zero = inv.map_or(0.0, |m| m.force_n(0.0, 1.0, 0.0, s.x_m, true));
+            (
+                LoopMode::Released,
+                inv.map_or(0.0, |m| {
+                    m.current_a(at_zero + c * s.v_m_s.abs(), 1.0, 0.0, s.x_m, true)
+                })
+                .clamp(lo, hi),
+            )
         } else if dir == 0.0 {
-            let hold = self.law.holding_force_n(t_s, s.x_m);
-            (LoopMode::Holding, ff(hold, 0.0).clamp(lo, hi))
+            let f = self.law.holding_force_n(t_s, s.x_m);
+            (LoopMode::Holding, hold(f).clamp(lo, hi))
         } else if desired * dir <= 0.0 {
             self.pid.reset();
             (LoopMode::Released, lo)
         } else if !moving {
-            (LoopMode::Holding, ff(desired.abs(), 0.0).clamp(lo, hi))
+            (LoopMode::Holding, hold(desired.abs()).clamp(lo, hi))
         } else {
             let measured = dir * s.force_n;
             if self.last_mode != LoopMode::Tracking {
                 self.pid.restart_derivative();
                 self.reference = (measured, measured);
             }
-            let setpoint = match self.feedforward {
-                Some(f) => {
+            let setpoint = match inv {
+                Some(m) => {
+                    let (te_s, tm_s) = m.lags_s();
                     self.reference = advance_two_lags(
                         self.reference.0,
                         self.reference.1,
                         desired.abs(),
-                        f.te_s,
-                        f.tm_s,
+                        te_s,
+                        tm_s,
                         dt_s,
                     );
                     self.reference.1
                 }
                 None => desired.abs(),
             };
-            let u = self
-                .pid
-                .update(setpoint, measured, ff(damper_share(desired), s.v_m_s.abs()), dt_s);
+            let ff = inv.map_or(0.0, |m| {
+                m.current_a(damper_share(desired), dir, s.v_m_s.abs(), s.x_m, false)
+            });
+            let u = self.pid.update(setpoint, measured, ff, dt_s);
             (LoopMode::Tracking, u)
         };
+        if let Some(m) = self.feedforward.as_mut() {
+            m.commanded(current);
+        }
         self.last_mode = mode;
         ControlOutput {
             desired_force_n: desired,
@@ -200,13 +198,16 @@ mod tests {
             out_max: 14.0,
             anti_windup: AntiWindup::Clamping,
         });
-        let ff = Feedforward {
-            fc0_n: 1.0,
-            fc_gain_n_per_a: 5.0,
-            c0_n_s_per_m: 20.0,
-            te_s: 0.01,
-            tm_s: 0.008,
-        };
+        // The controller's model: fc0 1 N, 5 N/A, C0 20 N·s/m.
+        let text = "model = \"bingham\"\n[params]\nfc0_n = 1.0\nfc_gain_n_per_a = 5.0\n\
+                    c0_n_s_per_m = 20.0\nte_s = 0.01\ntm_s = 0.008\n";
+        let device = crate::device::DeviceConfig::from_toml(
+            text,
+            std::path::Path::new("controller.toml"),
+            &crate::device::Registry::builtin(),
+        )
+        .unwrap();
+        let ff = ForceInverse::new(&device).unwrap();
         FeelController::new(law, pid, Some(ff), 0.002, 1.0)
     }
 
@@ -229,7 +230,7 @@ mod tests {
     }
 
     #[test]
-    fn moving_away_tracks_with_feedforward_from_the_bingham_inverse() {
+    fn moving_away_tracks_with_feedforward_from_the_models_inverse() {
         let mut c = ctl();
         // x = 0.03 m: F* = 5 + 30 = 35 N; measured exactly 35 N: output = feedforward (35-1-20·0.05)/5 = 6.6 A.
         let out = c.update(

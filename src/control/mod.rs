@@ -6,6 +6,6 @@ pub mod feel;
 pub mod law;
 pub mod pid;
 
-pub use controller::{ControlOutput, Feedforward, FeelController, Hybrid, LoopMode};
+pub use controller::{ControlOutput, FeelController, Hybrid, LoopMode};
 pub use law::FeelLaw;
 pub use pid::{AntiWindup, Pid, PidGains};

@@ -79,6 +79,32 @@ impl DeviceConfig {
         Damper::new(self.model.clone(), self.params.clone()).expect("parameter count checked on load")
     }
 
+    /// A model fitted to data, with its parameters (`path` names it in messages): no geometry, no
+    /// load-cell range, the driver's limit of the model.
+    pub fn from_model(model: Model, params: Vec<f64>, path: PathBuf) -> Self {
+        Self {
+            std_errs: vec![None; params.len()],
+            model: Arc::new(model),
+            params,
+            supply_limit_a: None,
+            geometry: None,
+            load_cell_range_n: None,
+            command_timing: CommandTiming::AfterSample,
+            acquisition_window_periods: None,
+            path,
+        }
+    }
+
+    /// The same damper with no MR yield force (none at zero current, none from the field) and damping
+    /// `c0_n_s_per_m`: a spring feel unit's own viscous damper on the same rig.
+    pub fn viscous_damper(&self, c0_n_s_per_m: f64) -> Damper {
+        let mut p = self.params.clone();
+        p[super::bingham::FC0] = 0.0;
+        p[super::bingham::FC_GAIN] = 0.0;
+        p[super::bingham::C0] = c0_n_s_per_m;
+        Damper::new(self.model.clone(), p).expect("parameter count checked on load")
+    }
+
     /// Value of a named parameter.
     pub fn param(&self, name: &str) -> Option<f64> {
         self.model.param_index(name).map(|k| self.params[k])

@@ -9,6 +9,7 @@ pub mod config;
 pub mod effect;
 pub mod effects;
 pub mod formula;
+pub mod inverse;
 pub mod lag;
 pub mod model;
 pub mod params;
@@ -18,6 +19,7 @@ use std::path::PathBuf;
 
 pub use config::{DeviceConfig, Geometry, ParamsFile};
 pub use effect::{Effect, EffectStage, Inputs, Stage, Step};
+pub use inverse::ForceInverse;
 pub use model::{Base, Damper, Model, ModelSpec, Registry, PAPER_CURRENT_LIMIT_A};
 pub use params::{DataStats, ParamSpec, ParamValue};
 

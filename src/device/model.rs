@@ -481,6 +481,27 @@ impl Model {
         stage
     }
 
+    /// [`Model::eval`] with the direction function set to `direction` (the fluid fully yielded that way):
+    /// the effects that shape the direction ([`super::EffectStage::Direction`]) are skipped, the others
+    /// apply as usual. A controller's holding force: the damper holds up to its yield force.
+    pub fn eval_yielded(&self, p: &[f64], s: &[f64], inp: &Inputs, direction: f64) -> Stage {
+        let mut stage = bingham::stage(p, s, inp);
+        stage.direction = direction;
+        for &k in &self.apply_order {
+            let slot = &self.slots[k];
+            if slot.effect.stage() != super::EffectStage::Direction {
+                slot.effect
+                    .apply(&p[slot.params.clone()], &s[slot.states.clone()], inp, &mut stage);
+            }
+        }
+        stage
+    }
+
+    /// Whether any effect keeps a state of its own (beyond the base model's coil and fluid lags).
+    pub fn has_effect_states(&self) -> bool {
+        self.n_states > bingham::N_STATES
+    }
+
     /// Advance every state from this sample to the next.
     pub fn advance(&self, p: &[f64], s: &mut [f64], inp: &Inputs, stage: &Stage, force_n: f64, step: Step) {
         for &k in &self.apply_order {

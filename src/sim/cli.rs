@@ -8,7 +8,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 
 use super::response::{self, SweepPoint};
-use super::{run, Plant, Results, RunOptions};
+use super::{run, Devices, Plant, Results, RunOptions};
 use crate::device::{DeviceConfig, Registry};
 use crate::scenario::Scenario;
 
@@ -40,6 +40,13 @@ pub struct RunArgs {
     /// `models/aircraft/` (`c172p`, `737`) or `jsbsim:<name>`; a name, never a path (`/`, `\`, `..` are refused).
     #[arg(long)]
     pub aircraft: Option<String>,
+    /// Simulate this damper instead of the scenario's `[device] file` (a device TOML or a `PARAMS.json`).
+    #[arg(long, value_name = "PATH")]
+    pub device: Option<PathBuf>,
+    /// Give the controller this model instead of the scenario's `[controller] model` (a `PARAMS.json`
+    /// from `fit`/`diagnose` or a device file).
+    #[arg(long, value_name = "PATH")]
+    pub controller_model: Option<PathBuf>,
     /// Replace a scenario value by its dotted key, checked as the file's own (repeatable):
     /// `--set feel.gradient_n_per_m=900 --set aircraft.airspeed_m_s=60`. Paths are relative to the
     /// working directory.
@@ -89,60 +96,20 @@ pub fn input_files(path: &Path, scn: &Scenario, aircraft: Option<&str>) -> Vec<(
     files
 }
 
-/// Load the scenario's device and build its rig.
-pub fn load(path: &Path) -> anyhow::Result<(Scenario, DeviceConfig, crate::rig::Rig)> {
+/// Load the scenario's plant and controller model and build its rig.
+pub fn load(path: &Path) -> anyhow::Result<(Scenario, Devices, crate::rig::Rig)> {
     let scn = Scenario::load(path)?;
-    let (device, rig) = device_and_rig(&scn, path)?;
-    Ok((scn, device, rig))
+    let devices = devices_of(&scn)?;
+    let rig = build_rig(&scn, &devices.plant)?;
+    Ok((scn, devices, rig))
 }
 
-/// The device of a loaded scenario (read from `path`) and its rig.
-pub(crate) fn device_and_rig(scn: &Scenario, path: &Path) -> anyhow::Result<(DeviceConfig, crate::rig::Rig)> {
-    let device = device_of(scn, path)?;
-    let rig = build_rig(scn, &device)?;
-    Ok((device, rig))
+/// The plant a loaded scenario names and the model its controller believes ([`Devices::load`]).
+pub fn devices_of(scn: &Scenario) -> anyhow::Result<Devices> {
+    Ok(Devices::load(scn)?)
 }
 
-/// The device file a loaded scenario (read from `path`) names.
-fn device_of(scn: &Scenario, path: &Path) -> anyhow::Result<DeviceConfig> {
-    DeviceConfig::load(&scn.device_path, &Registry::builtin())
-        .with_context(|| format!("device of scenario {}", path.display()))
-}
-
-/// The scenario's rig with the device's damper, or for a spring feel unit (no MR element) the same
-/// damper with no coil and the unit's own viscous damping.
-pub fn build_rig(scn: &Scenario, device: &DeviceConfig) -> anyhow::Result<crate::rig::Rig> {
-    let fs = &scn.feel_system;
-    let mut damper = device.damper();
-    if !fs.kind.has_coil() {
-        let mut p = damper.params().to_vec();
-        for (name, v) in [
-            ("fc0_n", 0.0),
-            ("fc_gain_n_per_a", 0.0),
-            ("c0_n_s_per_m", fs.unit_damping_n_s_per_m),
-        ] {
-            if let Some(k) = damper.model().param_index(name) {
-                p[k] = v;
-            }
-        }
-        damper = crate::device::Damper::new(device.model.clone(), p)
-            .with_context(|| format!("feel unit of scenario {}", scn.path.display()))?;
-    }
-    let rig = crate::rig::Rig::new(&scn.rig, damper);
-    let rig = rig.and_then(|rig| match device.geometry {
-        Some(g) => rig
-            .check_device_stroke(g.stroke_half_m, || {
-                // The device file's line, read again only to name it in the error.
-                let line = crate::text_lines::read_text(&device.path)
-                    .map(|t| crate::text_lines::toml_key_line(&t, "geometry", "stroke_half_in"))
-                    .unwrap_or(1);
-                format!("`geometry.stroke_half_in` at {}:{line}", device.path.display())
-            })
-            .map(|()| rig),
-        None => Ok(rig),
-    });
-    rig.with_context(|| format!("rig of scenario {}", scn.path.display()))
-}
+pub use super::build_rig;
 
 fn progress_bar(len: u64, msg: &str) -> ProgressBar {
     let pb = ProgressBar::with_draw_target(
@@ -165,19 +132,29 @@ fn progress_bar(len: u64, msg: &str) -> ProgressBar {
 /// Run a loaded scenario with a progress bar.
 pub fn run_with_progress<P: Plant>(
     scn: &Scenario,
-    device: &DeviceConfig,
+    devices: &Devices,
     plant: P,
     opts: RunOptions,
 ) -> Result<Results, super::SimError> {
     let pb = progress_bar(1000, &scn.name);
-    let res = run(scn, device, plant, opts, |f| pb.set_position((f * 1000.0) as u64));
+    let res = run(scn, devices, plant, opts, |f| {
+        pb.set_position((f * 1000.0) as u64)
+    });
     pb.finish_and_clear();
     res
 }
 
 /// `mrfeel run` of the scenario loaded from `args.scenario`.
 pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
-    let (device, rig) = device_and_rig(&scn, &args.scenario)?;
+    if let Some(p) = &args.device {
+        scn.device_path = p.clone();
+    }
+    let mut devices = devices_of(&scn)?;
+    if let Some(p) = &args.controller_model {
+        devices.controller = DeviceConfig::load(p, &Registry::builtin()).context("--controller-model")?;
+        devices.controller_is_plant = false;
+    }
+    let rig = build_rig(&scn, &devices.plant)?;
     if let Some(model) = &args.aircraft {
         scn = scn.with_aircraft_model(model).with_context(|| {
             format!(
@@ -198,7 +175,7 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
     let opts = RunOptions {
         frames_hz: want_viz.then_some(60.0),
     };
-    let res = run_with_progress(&scn, &device, rig, opts)?;
+    let res = run_with_progress(&scn, &devices, rig, opts)?;
     if let Some(path) = &args.out {
         let writing = || format!("writing {}", path.display());
         crate::outputs::write_whole(
@@ -316,7 +293,7 @@ pub fn run_plots(res: &Results, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
 }
 
 /// Run the scenario at each DAQ rate (in parallel, results in order) and measure the step responses.
-pub fn sweep(scn: &Scenario, device: &DeviceConfig, rates: &[f64]) -> anyhow::Result<Vec<SweepPoint>> {
+pub fn sweep(scn: &Scenario, devices: &Devices, rates: &[f64]) -> anyhow::Result<Vec<SweepPoint>> {
     // The scenario's own fault first: a sweep of a scenario that is not a step test has no rate to try.
     anyhow::ensure!(
         matches!(scn.feel, crate::control::FeelLaw::ForceSteps { .. }),
@@ -338,8 +315,8 @@ pub fn sweep(scn: &Scenario, device: &DeviceConfig, rates: &[f64]) -> anyhow::Re
         .par_iter()
         .map(|&rate| {
             let s = scn.with_daq_rate(rate);
-            let rig = build_rig(&s, device)?;
-            let res = run(&s, device, rig, RunOptions::default(), |_| {})?;
+            let rig = build_rig(&s, &devices.plant)?;
+            let res = run(&s, devices, rig, RunOptions::default(), |_| {})?;
             let steps = response::step_responses(&res, &s.feel);
             pb.inc(1);
             Ok(response::summarise(rate, &steps, &res))
@@ -360,8 +337,8 @@ pub fn daq_sweep_cmd(args: &DaqSweepArgs, scn: Scenario) -> anyhow::Result<()> {
             );
         }
     }
-    let device = device_of(&scn, &args.scenario)?;
-    let points = sweep(&scn, &device, &args.rates)?;
+    let devices = devices_of(&scn)?;
+    let points = sweep(&scn, &devices, &args.rates)?;
     if let Some(dir) = &args.plot {
         response::plot(
             &points,
@@ -376,6 +353,84 @@ pub fn daq_sweep_cmd(args: &DaqSweepArgs, scn: Scenario) -> anyhow::Result<()> {
         if let Some(dir) = &args.plot {
             crate::outln!(
                 "plots: {}/daq-sweep.png, {}/daq-sweep.svg",
+                dir.display(),
+                dir.display()
+            )?;
+        }
+    }
+    Ok(())
+}
+
+/// `mrfeel loop-study SCENARIO --data DIR`: discovery to feel.
+#[derive(Debug, clap::Args)]
+pub struct LoopStudyArgs {
+    /// Scenario to run (its `[device] file` is the plant unless `--device` names another).
+    pub scenario: PathBuf,
+    /// Test-rig measurements of the damper (CSV files or directories of them): diagnosed, and each stage
+    /// of the diagnosis fitted to them.
+    #[arg(long, required = true, num_args = 1..)]
+    pub data: Vec<PathBuf>,
+    /// The plant the rig simulates instead of the scenario's `[device] file`.
+    #[arg(long, value_name = "PATH")]
+    pub device: Option<PathBuf>,
+    /// Driver saturation of the fitted models, A (default: the data's, else the paper's 14 A).
+    #[arg(long)]
+    pub current_limit_a: Option<f64>,
+    /// Write `loop-study.png` and `loop-study.svg` into this directory.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Print the stages as JSON on stdout (nothing else on stdout).
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `mrfeel loop-study` of the scenario loaded from `args.scenario`.
+pub fn loop_study_cmd(args: &LoopStudyArgs, mut scn: Scenario) -> anyhow::Result<()> {
+    if let Some(p) = &args.device {
+        scn.device_path = p.clone();
+    }
+    let plant = Devices::load(&scn)?.plant;
+    let registry = Registry::builtin();
+    let tests = crate::ident::load_tests(&args.data)?;
+    let limit = args
+        .current_limit_a
+        .unwrap_or_else(|| crate::ident::default_current_limit_a(&tests));
+    anyhow::ensure!(
+        limit.is_finite() && limit > 0.0,
+        "--current-limit-a {limit}: a positive number of amperes"
+    );
+    crate::noteln!(
+        "loop-study: diagnosing {} tests and fitting each stage",
+        tests.len()
+    );
+    let stages = super::loop_study::stages_from_data(&tests, limit, &registry)?;
+    crate::noteln!(
+        "loop-study: running {} with {} controller models",
+        scn.name,
+        stages.len()
+    );
+    let runs = super::loop_study::run_stages(&scn, &plant, &stages)?;
+    let figs: Vec<_> = runs.into_iter().map(|(f, _)| f).collect();
+    if let Some(dir) = &args.plot {
+        super::loop_study::plot(
+            &figs,
+            dir,
+            &format!("Feel error by discovery stage ({})", scn.name),
+        )?;
+    }
+    if args.json {
+        crate::outln!("{}", serde_json::to_string_pretty(&figs)?)?;
+    } else {
+        crate::outln!(
+            "loop-study {}: plant {} ({}), controller model by discovery stage",
+            scn.name,
+            plant.model.name(),
+            plant.path.display()
+        )?;
+        crate::out!("{}", super::loop_study::markdown_table(&figs))?;
+        if let Some(dir) = &args.plot {
+            crate::outln!(
+                "plots: {}/loop-study.png, {}/loop-study.svg",
                 dir.display(),
                 dir.display()
             )?;

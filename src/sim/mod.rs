@@ -18,6 +18,7 @@
 
 pub mod cli;
 pub mod flight;
+pub mod loop_study;
 pub mod metrics;
 pub mod plant;
 pub mod response;
@@ -30,8 +31,8 @@ pub use results::{FlightInfo, Results, Row, Summary};
 use std::collections::VecDeque;
 
 use crate::control::feel::{FeelKind, FeelSystem, FeelSystemConfig, SpringElement};
-use crate::control::{Feedforward, FeelController, FeelLaw, Hybrid, LoopMode, Pid};
-use crate::device::DeviceConfig;
+use crate::control::{FeelController, FeelLaw, Hybrid, LoopMode, Pid};
+use crate::device::{DeviceConfig, ForceInverse};
 use crate::pilot::{Hand, Task};
 use crate::scenario::Scenario;
 use crate::sensors::{Daq, DaqSample};
@@ -48,6 +49,14 @@ pub enum SimError {
         scenario: std::path::PathBuf,
         line: usize,
         error: crate::aero::AeroError,
+    },
+    /// A device file the scenario names (`device.file`, `controller.model`) cannot be loaded.
+    #[error("{}:{line}: `{key}`: {error}", scenario.display())]
+    Device {
+        scenario: std::path::PathBuf,
+        line: usize,
+        key: &'static str,
+        error: crate::device::DeviceError,
     },
     /// The integration blew up: a run whose numbers would be reported as results is stopped instead.
     #[error(
@@ -87,6 +96,64 @@ fn diverged(row: &Row, stroke_half_m: f64) -> Option<String> {
             row.piston_x_m
         )
     })
+}
+
+/// The damper the rig simulates (the plant) and the model the feel controller believes: the controller
+/// computes its feedforward from `controller` only, never from `plant`.
+#[derive(Debug, Clone)]
+pub struct Devices {
+    pub plant: DeviceConfig,
+    pub controller: DeviceConfig,
+    /// Whether the controller's model is the plant's own file (no `[controller] model`).
+    pub controller_is_plant: bool,
+}
+
+impl Devices {
+    /// The plant a scenario names (`[device] file`) and the model its controller believes
+    /// (`[controller] model`, else the plant's file).
+    pub fn load(scn: &Scenario) -> Result<Self, SimError> {
+        let registry = crate::device::Registry::builtin();
+        let load = |path: &std::path::Path, line: usize, key: &'static str| {
+            DeviceConfig::load(path, &registry).map_err(|error| SimError::Device {
+                scenario: scn.path.clone(),
+                line,
+                key,
+                error,
+            })
+        };
+        let plant = load(&scn.device_path, scn.lines.device_file, "device.file")?;
+        match &scn.controller_model_path {
+            None => Ok(Self::same(plant)),
+            Some(p) => Ok(Self {
+                controller: load(p, scn.lines.controller_model, "controller.model")?,
+                plant,
+                controller_is_plant: false,
+            }),
+        }
+    }
+
+    /// The controller believes the plant's own file.
+    pub fn same(plant: DeviceConfig) -> Self {
+        Self {
+            controller: plant.clone(),
+            plant,
+            controller_is_plant: true,
+        }
+    }
+
+    /// What the controller believes, for the run's summary: its model and file.
+    pub fn controller_label(&self) -> String {
+        let own = if self.controller_is_plant {
+            " (the plant's file)"
+        } else {
+            ""
+        };
+        format!(
+            "{} from {}{own}",
+            self.controller.model.name(),
+            self.controller.path.display()
+        )
+    }
 }
 
 /// Options of one run that are not part of the scenario.
@@ -133,14 +200,24 @@ pub struct Loop<P: Plant> {
 
 impl<P: Plant> Loop<P> {
     /// Wire a scenario onto a plant; fails only when the aircraft cannot be opened or trimmed.
-    pub fn new(scn: &Scenario, device: &DeviceConfig, plant: P) -> Result<Self, SimError> {
-        let feedforward = scn.controller.feedforward.then(|| Feedforward {
-            fc0_n: device.param("fc0_n").unwrap_or(0.0),
-            fc_gain_n_per_a: device.param("fc_gain_n_per_a").unwrap_or(0.0),
-            c0_n_s_per_m: device.param("c0_n_s_per_m").unwrap_or(0.0),
-            te_s: device.param("te_s").unwrap_or(0.0),
-            tm_s: device.param("tm_s").unwrap_or(0.0),
-        });
+    pub fn new(scn: &Scenario, devices: &Devices, plant: P) -> Result<Self, SimError> {
+        let feedforward = if scn.controller.feedforward {
+            let (line, key) = if devices.controller_is_plant {
+                (scn.lines.device_file, "device.file")
+            } else {
+                (scn.lines.controller_model, "controller.model")
+            };
+            Some(
+                ForceInverse::new(&devices.controller).map_err(|error| SimError::Device {
+                    scenario: scn.path.clone(),
+                    line,
+                    key,
+                    error,
+                })?,
+            )
+        } else {
+            None
+        };
         let mut controller = FeelController::new(
             scn.feel.clone(),
             Pid::new(scn.controller.gains),
@@ -188,7 +265,7 @@ impl<P: Plant> Loop<P> {
             mode: LoopMode::Holding,
             pilot_work_j: 0.0,
             faults: crate::faults::FaultInjector::new(scn.faults.clone(), scn.seed),
-            current_limit_a: device.model.current_limit_a,
+            current_limit_a: devices.plant.model.current_limit_a,
             late: VecDeque::new(),
             has_latency_faults,
             last_delivered_t_s: f64::NEG_INFINITY,
@@ -355,15 +432,41 @@ impl<P: Plant> Loop<P> {
     }
 }
 
+/// The scenario's rig with the device's damper, or for a spring feel unit (no MR element) the same
+/// damper with no coil and the unit's own viscous damping.
+pub fn build_rig(scn: &Scenario, device: &DeviceConfig) -> anyhow::Result<crate::rig::Rig> {
+    use anyhow::Context;
+    let fs = &scn.feel_system;
+    let damper = if fs.kind.has_coil() {
+        device.damper()
+    } else {
+        device.viscous_damper(fs.unit_damping_n_s_per_m)
+    };
+    let rig = crate::rig::Rig::new(&scn.rig, damper);
+    let rig = rig.and_then(|rig| match device.geometry {
+        Some(g) => rig
+            .check_device_stroke(g.stroke_half_m, || {
+                // The device file's line, read again only to name it in the error.
+                let line = crate::text_lines::read_text(&device.path)
+                    .map(|t| crate::text_lines::toml_key_line(&t, "geometry", "stroke_half_in"))
+                    .unwrap_or(1);
+                format!("`geometry.stroke_half_in` at {}:{line}", device.path.display())
+            })
+            .map(|()| rig),
+        None => Ok(rig),
+    });
+    rig.with_context(|| format!("rig of scenario {}", scn.path.display()))
+}
+
 /// Run a scenario on a plant to its end; `progress` is called with the fraction done.
 pub fn run<P: Plant>(
     scn: &Scenario,
-    device: &DeviceConfig,
+    devices: &Devices,
     plant: P,
     opts: RunOptions,
     mut progress: impl FnMut(f64),
 ) -> Result<Results, SimError> {
-    let mut lp = Loop::new(scn, device, plant)?;
+    let mut lp = Loop::new(scn, devices, plant)?;
     let dt = lp.plant.dt_s();
     let n = (scn.duration_s / dt).round() as usize;
     let frame_every = opts
@@ -405,8 +508,12 @@ pub fn run<P: Plant>(
             Vec::new()
         },
         frames,
-        feel_ceiling_n: device.param("fc0_n").unwrap_or(0.0)
-            + device.param("fc_gain_n_per_a").unwrap_or(0.0) * scn.controller.gains.out_max,
+        // A plant the inverse refuses (`spencer`) has no Bingham yield force to name: no ceiling.
+        feel_ceiling_n: devices
+            .plant
+            .yield_force_n(scn.controller.gains.out_max)
+            .unwrap_or(0.0),
+        controller_model: devices.controller_label(),
         grip_arm_m: lp.plant.grip_arm_m(),
         gearing_at_centre_m_per_rad: lp.plant.gearing_m_per_rad(0.0),
         flight,

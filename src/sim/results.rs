@@ -131,6 +131,8 @@ pub struct Results {
     /// The largest yield force the controller can ask for (`fc0 + fc_gain · current_max`), N on the
     /// piston: the ceiling of the feel the damper can render.
     pub feel_ceiling_n: f64,
+    /// The model the controller believed, with its file.
+    pub controller_model: String,
     /// The grip's arm about the pivot, m, and the linkage's gearing at centre stick, m/rad (to express
     /// piston forces at the grip).
     pub grip_arm_m: f64,
@@ -144,6 +146,8 @@ pub struct Results {
 pub struct Summary {
     pub scenario: String,
     pub duration_s: f64,
+    /// The model the controller believed (`bingham from models/paper-device.toml (the plant's file)`).
+    pub controller_model: String,
     /// Samples where the target resists the motion (loop tracking and `F*·v > 0`).
     pub resisting_samples: usize,
     /// RMS of (true load-cell force − desired) over the resisting samples, N, and relative to the RMS of
@@ -194,6 +198,7 @@ impl Results {
         Summary {
             scenario: self.scenario.clone(),
             duration_s: last.t_s - first.t_s,
+            controller_model: self.controller_model.clone(),
             resisting_samples: n,
             tracking_rmse_n: rmse,
             tracking_nrmse: nrmse,
@@ -379,6 +384,7 @@ impl Row {
 impl std::fmt::Display for Summary {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(f, "scenario {}: {:.3} s", self.scenario, self.duration_s)?;
+        writeln!(f, "  controller model: {}", self.controller_model)?;
         writeln!(
             f,
             "  force tracking where the target resists motion: RMS error {:.2} N ({:.1} % of RMS desired) over {} samples",
