@@ -16,6 +16,7 @@ pub mod rig;
 pub mod scenario;
 pub mod sensors;
 pub mod sim;
+pub(crate) mod spikes;
 pub mod sweep;
 pub mod text_lines;
 pub mod units;
@@ -47,8 +48,10 @@ macro_rules! note {
 macro_rules! out {
     ($($arg:tt)*) => {{
         use std::io::Write as _;
-        write!(std::io::stdout(), $($arg)*)
-            .map_err(|e| std::io::Error::new(e.kind(), format!("writing to stdout: {e}")))
+        $crate::outputs::commit_open_set().and_then(|()| {
+            write!(std::io::stdout(), $($arg)*)
+                .map_err(|e| std::io::Error::new(e.kind(), format!("writing to stdout: {e}")))
+        })
     }};
 }
 
@@ -57,7 +60,10 @@ macro_rules! out {
 macro_rules! outln {
     ($($arg:tt)*) => {{
         use std::io::Write as _;
-        writeln!(std::io::stdout(), $($arg)*)
-            .map_err(|e| std::io::Error::new(e.kind(), format!("writing to stdout: {e}")))
+        // The files a command reports are in place before it reports them.
+        $crate::outputs::commit_open_set().and_then(|()| {
+            writeln!(std::io::stdout(), $($arg)*)
+                .map_err(|e| std::io::Error::new(e.kind(), format!("writing to stdout: {e}")))
+        })
     }};
 }

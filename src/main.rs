@@ -255,12 +255,20 @@ fn main() -> std::process::ExitCode {
         {
             anyhow::bail!(mrfeel::viz::NO_RERUN);
         }
-        job.run()
+        // Every output of the command as one set: renamed into place together, or not at all.
+        let set = mrfeel::outputs::OutputSet::open();
+        job.run()?;
+        set.commit()
+            .map_err(|e| anyhow::Error::new(e).context("putting the outputs in place"))
     });
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
-            mrfeel::noteln!("error: {e:#}");
+            // Errors quote input (a field, a name): bounded and with control characters escaped.
+            mrfeel::noteln!(
+                "{}",
+                mrfeel::text_lines::printable(&format!("error: {e:#}"), 2000)
+            );
             std::process::ExitCode::FAILURE
         }
     }

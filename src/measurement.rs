@@ -385,7 +385,7 @@ impl Measurement {
                     path: p(),
                     line: lineno,
                     column: header[c].clone(),
-                    value: s.to_string(),
+                    value: crate::text_lines::quoted(s, 80),
                     why: if s.is_empty() {
                         "empty field".into()
                     } else {
@@ -397,7 +397,7 @@ impl Measurement {
                         path: p(),
                         line: lineno,
                         column: header[c].clone(),
-                        value: s.to_string(),
+                        value: crate::text_lines::quoted(s, 80),
                         why,
                     });
                 }
@@ -456,7 +456,60 @@ impl Measurement {
                 m.extra.insert(name.clone(), std::mem::take(&mut text_cols[c]));
             }
         }
+        m.refuse_spikes()?;
         Ok(m)
+    }
+
+    /// Refuse a sample that looks like a spike ([`crate::spikes`]): a reading [`SPIKE_FACTOR`] spreads of
+    /// its column away from its neighbours, which no sensor on a moving damper makes and which would drive
+    /// every figure of a fit. Named by line and column, with how many more there are.
+    ///
+    /// [`SPIKE_FACTOR`]: crate::spikes::SPIKE_FACTOR
+    fn refuse_spikes(&self) -> Result<(), MeasurementError> {
+        let measured_v = self.velocity_measured.then_some(&self.v_m_s);
+        let columns = [
+            ("x_m", Some(&self.x_m)),
+            ("i_a", Some(&self.i_a)),
+            ("f_n", Some(&self.f_n)),
+            ("v_m_s", measured_v),
+            ("i_meas_a", self.i_meas_a.as_ref()),
+            ("a_m_s2", self.a_m_s2.as_ref()),
+            ("temp_c", self.temp_c.as_ref()),
+        ];
+        for (name, col) in columns {
+            let Some(col) = col else { continue };
+            let found = crate::spikes::spikes(col, crate::spikes::SPIKE_FACTOR);
+            let Some(first) = found.first() else { continue };
+            let more = match found.len() {
+                1 => String::new(),
+                n => {
+                    let lines: Vec<String> = found[1..]
+                        .iter()
+                        .take(5)
+                        .map(|s| self.lines[s.index].to_string())
+                        .collect();
+                    let etc = if n > 6 { ", …" } else { "" };
+                    format!(
+                        "; {} more in this column, at lines {}{etc}",
+                        n - 1,
+                        lines.join(", ")
+                    )
+                }
+            };
+            return Err(MeasurementError::BadValue {
+                path: self.path.clone(),
+                line: self.lines[first.index],
+                column: name.into(),
+                value: crate::text_lines::short_number(first.value),
+                why: format!(
+                    "looks like a spike: {} times the column's spread (its central 90 %) away from the median of \
+                     its neighbours, {}; no sensor moves so far for one sample: correct or remove it{more}",
+                    crate::text_lines::short_number(first.spreads.round()),
+                    crate::text_lines::short_number(first.neighbours)
+                ),
+            });
+        }
+        Ok(())
     }
 
     /// A measurement from columns in memory (SI units, one value per sample), checked as a file's columns

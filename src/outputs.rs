@@ -28,14 +28,13 @@ fn or_here(dir: &Path) -> &Path {
     }
 }
 
-/// Whether a file can be made in the existing directory `dir`: make one and remove it again.
+/// Whether a file can be made in the existing directory `dir`: make one, with a new name no other run
+/// uses, and remove it again.
 fn probe_dir(dir: &Path) -> std::io::Result<()> {
-    let probe = dir.join(format!(".mrfeel-write-check-{}", std::process::id()));
-    std::fs::OpenOptions::new()
-        .write(true)
-        .create_new(true)
-        .open(&probe)?;
-    std::fs::remove_file(&probe)
+    tempfile::Builder::new()
+        .prefix(".mrfeel-write-check-")
+        .tempfile_in(dir)?
+        .close()
 }
 
 /// The kinds of file an output directory receives: every plot is written as PNG and SVG.
@@ -75,11 +74,8 @@ fn check_output(option: &str, path: &Path, kind: Kind) -> Result<(), String> {
                     .map(drop)
                     .and_then(|()| probe_dir(or_here(&dir_of_target)))
             } else {
-                std::fs::OpenOptions::new()
-                    .write(true)
-                    .create_new(true)
-                    .open(path)
-                    .and_then(|_| std::fs::remove_file(path))
+                // Not the file itself: another run writing the same output may make it meanwhile.
+                probe_dir(dir)
             };
             probe.or_else(|e| fail(format!("cannot write the file: {e}")))
         }
@@ -145,49 +141,300 @@ fn is_stream(target: &Path) -> bool {
     std::fs::metadata(target).is_ok_and(|m| !m.is_file())
 }
 
-/// The temporary file beside `target` that [`write_whole`] writes first: hidden, named after the process,
-/// with `target`'s extension (plot backends choose the image format by it).
-fn partial_path(target: &Path) -> PathBuf {
+/// What the name of every temporary file beside an output holds, after a dot and the output's stem.
+const PARTIAL_MARK: &str = ".mrfeel-partial-";
+
+/// A temporary file beside `target` for [`write_whole`]: hidden, created exclusively under a name no one
+/// can predict (`.out.mrfeel-partial-XXXXXXXX.csv`: a planted file or link there is never written through),
+/// with `target`'s extension (plot backends choose the image format by it), and locked while its run
+/// lives, which tells the next run that it is not a stale one ([`remove_stale_partials`]).
+fn new_partial(target: &Path) -> std::io::Result<tempfile::NamedTempFile> {
     let name = target
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let pid = std::process::id();
-    let tmp = match name.rsplit_once('.') {
-        Some((stem, ext)) if !stem.is_empty() => format!(".{stem}.partial-{pid}.{ext}"),
-        _ => format!(".{name}.partial-{pid}"),
+    let (stem, ext) = match name.rsplit_once('.') {
+        Some((stem, ext)) if !stem.is_empty() => (stem.to_string(), format!(".{ext}")),
+        _ => (name, String::new()),
     };
-    target.with_file_name(tmp)
+    let dir = or_here(target.parent().unwrap_or(Path::new("")));
+    let tmp = tempfile::Builder::new()
+        .prefix(&format!(".{stem}{PARTIAL_MARK}"))
+        .suffix(&ext)
+        .rand_bytes(10)
+        .tempfile_in(dir)?;
+    tmp.as_file().lock()?;
+    Ok(tmp)
 }
 
-/// Write the file `path` whole or not at all. `write` writes a temporary file beside it (the path it is
-/// given), which is renamed over `path` only once `write` has succeeded; a failure (a full disk, a plot or a
-/// recording that cannot be made) leaves an existing file as it was and no partial file behind. A replaced
-/// file keeps its permissions; a symbolic link is followed and the file it points to replaced. An output
-/// that exists and is not a regular file (`/dev/null`, a named pipe) is written directly: it is a stream,
-/// not a file to replace. `io_error` turns a failed rename into the caller's error.
+/// Least age of an empty, unlocked temporary file before it counts as stale: a run locks its file as soon
+/// as it has made it, before writing a byte, so only in that instant is a live run's file empty and
+/// unlocked.
+const EMPTY_PARTIAL_AGE: std::time::Duration = std::time::Duration::from_secs(60);
+
+/// Whether a temporary file ([`new_partial`], a set's journal) that no run holds locked may be one a live
+/// run has just made and not yet locked: empty and younger than [`EMPTY_PARTIAL_AGE`].
+fn maybe_unlocked_yet(meta: &std::fs::Metadata) -> bool {
+    let young = meta
+        .modified()
+        .ok()
+        .and_then(|m| m.elapsed().ok())
+        .is_none_or(|age| age < EMPTY_PARTIAL_AGE);
+    meta.len() == 0 && young
+}
+
+/// The regular files in `dir` whose names start with a dot and hold `mark`, with their metadata.
+fn marked_files(dir: &Path, mark: &str) -> Vec<(PathBuf, std::fs::Metadata)> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    let mut found: Vec<(PathBuf, std::fs::Metadata)> = entries
+        .flatten()
+        .filter(|e| {
+            let name = e.file_name();
+            let name = name.to_string_lossy();
+            name.starts_with('.') && name.contains(mark)
+        })
+        .filter_map(|e| {
+            let meta = e.path().symlink_metadata().ok()?;
+            meta.is_file().then(|| (e.path(), meta))
+        })
+        .collect();
+    found.sort_by(|a, b| a.0.cmp(&b.0));
+    found
+}
+
+/// Remove the temporary files ([`new_partial`]) in `dir` that runs killed while writing left behind:
+/// those no live run holds locked. First, finish the output sets ([`OutputSet`]) such a run had begun to
+/// rename into `dir`, so that their files are not taken for leftovers. Best effort: one that cannot be
+/// removed stays.
+fn remove_stale_partials(dir: &Path) {
+    for (journal, meta) in marked_files(dir, SET_MARK) {
+        if !maybe_unlocked_yet(&meta) {
+            finish_killed_set(&journal);
+        }
+    }
+    for (path, meta) in marked_files(dir, PARTIAL_MARK) {
+        if maybe_unlocked_yet(&meta) {
+            continue;
+        }
+        let Ok(f) = std::fs::File::open(&path) else {
+            continue;
+        };
+        if f.try_lock().is_ok() {
+            let _ = std::fs::remove_file(&path);
+        }
+    }
+}
+
+/// Write the file `path` whole or not at all. `write` writes a temporary file beside it ([`new_partial`],
+/// the path it is given), which is flushed to the disk and renamed over `path` only once `write` has
+/// succeeded, and the directory then flushed too: a failure (a full disk, a plot or a recording that cannot
+/// be made) or a crash leaves an existing file as it was, and a run killed half way leaves a temporary
+/// file that the next run writing into that directory removes. Several runs writing one path at once each
+/// rename their own complete file, the last one staying. A replaced file keeps its permissions; a symbolic
+/// link is followed and the file it points to replaced. An output that exists and is not a regular file
+/// (`/dev/null`, a named pipe) is written directly: it is a stream, not a file to replace. Within an
+/// [`OutputSet`] the rename waits for the set's commit. `io_error` turns a failure to make, flush or rename
+/// the temporary file into the caller's error.
 pub fn write_whole<T, E>(
     path: &Path,
     write: impl FnOnce(&Path) -> Result<T, E>,
-    io_error: impl FnOnce(std::io::Error) -> E,
+    io_error: impl Fn(std::io::Error) -> E,
 ) -> Result<T, E> {
     let target = resolved(path);
     if is_stream(&target) {
         return write(&target);
     }
-    let tmp = partial_path(&target);
-    let done = write(&tmp).and_then(|v| {
-        if let Ok(m) = std::fs::metadata(&target) {
-            // Best effort: a file that cannot take the old permissions still replaces the old one whole.
-            let _ = std::fs::set_permissions(&tmp, m.permissions());
-        }
-        std::fs::rename(&tmp, &target).map(|()| v).map_err(io_error)
-    });
-    if done.is_err() {
-        // Nothing to remove if `write` failed before making the file.
-        let _ = std::fs::remove_file(&tmp);
+    let dir = or_here(target.parent().unwrap_or(Path::new(""))).to_path_buf();
+    remove_stale_partials(&dir);
+    let tmp = new_partial(&target).map_err(&io_error)?;
+    // On failure the temporary file is removed when `tmp` drops.
+    let v = write(tmp.path())?;
+    if let Ok(m) = std::fs::metadata(&target) {
+        // Best effort: a file that cannot take the old permissions still replaces the old one whole.
+        let _ = std::fs::set_permissions(tmp.path(), m.permissions());
     }
-    done
+    // The writer may have written through a handle of its own: flush the file by its name.
+    std::fs::File::open(tmp.path())
+        .and_then(|f| f.sync_all())
+        .map_err(&io_error)?;
+    let staged = Staged { tmp, target, dir };
+    if let Some(staged) = OutputSet::stage(staged) {
+        staged.rename().map_err(&io_error)?;
+    }
+    Ok(v)
+}
+
+/// Flush a directory's entries (a rename into it) to the disk.
+#[cfg(unix)]
+fn sync_dir(dir: &Path) -> std::io::Result<()> {
+    std::fs::File::open(dir)?.sync_all()
+}
+
+/// Directories cannot be opened as files here; the rename is as durable as the system makes it.
+#[cfg(not(unix))]
+fn sync_dir(_dir: &Path) -> std::io::Result<()> {
+    Ok(())
+}
+
+/// One output written whole and flushed beside its target, waiting to be renamed over it.
+struct Staged {
+    tmp: tempfile::NamedTempFile,
+    target: PathBuf,
+    /// The directory of `target` (and of `tmp`).
+    dir: PathBuf,
+}
+
+impl Staged {
+    fn rename(self) -> std::io::Result<()> {
+        self.tmp.persist(&self.target).map_err(|e| e.error)?;
+        sync_dir(&self.dir)
+    }
+}
+
+/// What the name of an output set's journal holds, after a dot ([`OutputSet`]).
+const SET_MARK: &str = "mrfeel-set-";
+
+thread_local! {
+    /// The outputs staged by this thread's open [`OutputSet`], `None` where no set is open.
+    static SET: std::cell::RefCell<Option<Vec<Staged>>> = const { std::cell::RefCell::new(None) };
+}
+
+/// A command's several outputs written as one set: while a set is open on a thread, each
+/// [`write_whole`] there writes and flushes its temporary file but does not rename it; [`OutputSet::commit`]
+/// then renames them all, and dropping the set uncommitted removes them (a command that fails writes
+/// nothing). A commit of several files first writes a journal (`.mrfeel-set-XXXXXXXXXX.json`, the pairs of
+/// temporary file and target) into each target's directory, flushed and locked while the run lives, then
+/// renames, then removes the journals: a run killed between two renames leaves its journal, and the next
+/// run writing into one of those directories finishes the renames before anything else, so that the set is
+/// never left part new, part old.
+pub struct OutputSet(());
+
+impl OutputSet {
+    /// Open a set on this thread. Panics if one is open already.
+    pub fn open() -> Self {
+        SET.with_borrow_mut(|s| {
+            assert!(s.is_none(), "an output set is open already on this thread");
+            *s = Some(Vec::new());
+        });
+        OutputSet(())
+    }
+
+    /// Hold `staged` for the commit of the open set; hand it back where no set is open.
+    fn stage(staged: Staged) -> Option<Staged> {
+        SET.with_borrow_mut(|s| match s {
+            Some(v) => {
+                v.push(staged);
+                None
+            }
+            None => Some(staged),
+        })
+    }
+
+    /// Rename every output staged so far into place, as one set; the set stays open for further outputs.
+    /// The error names the output that could not be put in place.
+    pub fn commit(&self) -> std::io::Result<()> {
+        commit_open_set()
+    }
+}
+
+/// Commit the outputs staged so far by this thread's open [`OutputSet`], if one is open: what a command
+/// prints on stdout ([`crate::outln`]) comes after the files it reports.
+pub fn commit_open_set() -> std::io::Result<()> {
+    let staged = SET.with_borrow_mut(|s| s.as_mut().map(std::mem::take).unwrap_or_default());
+    commit(staged)
+}
+
+impl Drop for OutputSet {
+    fn drop(&mut self) {
+        // Whatever is still staged is removed with its temporary files.
+        SET.with_borrow_mut(|s| *s = None);
+    }
+}
+
+/// Rename `staged` into place: one file directly, several through journals ([`OutputSet`]).
+fn commit(staged: Vec<Staged>) -> std::io::Result<()> {
+    fn named(target: &Path, e: std::io::Error) -> std::io::Error {
+        std::io::Error::new(e.kind(), format!("writing {}: {e}", target.display()))
+    }
+    if staged.len() < 2 {
+        for s in staged {
+            let target = s.target.clone();
+            s.rename().map_err(|e| named(&target, e))?;
+        }
+        return Ok(());
+    }
+    // Absolute, so that a run started elsewhere finds them.
+    let pairs = staged
+        .iter()
+        .map(|s| -> std::io::Result<(PathBuf, PathBuf)> {
+            Ok((
+                std::path::absolute(s.tmp.path())?,
+                std::path::absolute(&s.target)?,
+            ))
+        })
+        .collect::<std::io::Result<Vec<(PathBuf, PathBuf)>>>()?;
+    let text = serde_json::to_string(&pairs).map_err(|e| {
+        std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("an output's name: {e}"))
+    })?;
+    let mut dirs: Vec<&Path> = staged.iter().map(|s| s.dir.as_path()).collect();
+    dirs.sort();
+    dirs.dedup();
+    let mut journals = Vec::with_capacity(dirs.len());
+    for dir in &dirs {
+        journals.push(write_journal(dir, &text).map_err(|e| named(dir, e))?);
+    }
+    let synced: Vec<PathBuf> = dirs.iter().map(|d| d.to_path_buf()).collect();
+    for s in staged {
+        let target = s.target.clone();
+        s.tmp.persist(&target).map_err(|e| named(&target, e.error))?;
+    }
+    for dir in &synced {
+        sync_dir(dir).map_err(|e| named(dir, e))?;
+    }
+    for j in journals {
+        let _ = j.close();
+    }
+    Ok(())
+}
+
+/// A set's journal in `dir`: made, locked, written and flushed; removed when the returned file drops.
+fn write_journal(dir: &Path, text: &str) -> std::io::Result<tempfile::NamedTempFile> {
+    use std::io::Write as _;
+    let mut j = tempfile::Builder::new()
+        .prefix(&format!(".{SET_MARK}"))
+        .suffix(".json")
+        .rand_bytes(10)
+        .tempfile_in(dir)?;
+    j.as_file().lock()?;
+    j.write_all(text.as_bytes())?;
+    j.as_file().sync_all()?;
+    sync_dir(dir)?;
+    Ok(j)
+}
+
+/// Finish the set whose journal a killed run left at `journal` (no live run holds it locked): rename each
+/// temporary file it lists that is still there over its target, then remove the journal. A journal that
+/// does not parse was being written when its run died, before any rename: it is removed with nothing
+/// renamed, and its temporary files are left for [`remove_stale_partials`].
+fn finish_killed_set(journal: &Path) {
+    let Ok(f) = std::fs::File::open(journal) else {
+        return;
+    };
+    if f.try_lock().is_err() {
+        return;
+    }
+    let pairs: Vec<(PathBuf, PathBuf)> = std::fs::read_to_string(journal)
+        .ok()
+        .and_then(|t| serde_json::from_str(&t).ok())
+        .unwrap_or_default();
+    for (tmp, target) in pairs {
+        if tmp.is_file() {
+            let _ = std::fs::rename(&tmp, &target);
+        }
+    }
+    let _ = std::fs::remove_file(journal);
 }
 
 /// What a path names on disk, to tell whether two paths are one file: an existing file by its device and
@@ -384,5 +631,99 @@ mod tests {
         assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
         assert_eq!(std::fs::read_to_string(&real).unwrap(), "new");
         assert_eq!(names(d.path()), ["link.json", "real.json"]);
+    }
+
+    fn put(path: &Path, text: &str) -> std::io::Result<()> {
+        write_whole(path, |tmp| std::fs::write(tmp, text), |e| e)
+    }
+
+    /// Within an open set, outputs in two directories keep their old contents until the commit, which puts
+    /// both in place and leaves no temporary file or journal; a set dropped uncommitted (a command that
+    /// failed) changes nothing and leaves nothing behind.
+    #[test]
+    fn an_output_set_is_put_in_place_whole_at_its_commit_or_not_at_all() {
+        let d = tempfile::tempdir().unwrap();
+        let (a, b) = (d.path().join("a"), d.path().join("b"));
+        std::fs::create_dir(&a).unwrap();
+        std::fs::create_dir(&b).unwrap();
+        let (fa, fb) = (a.join("out.csv"), b.join("device.json"));
+        std::fs::write(&fa, "old a").unwrap();
+        std::fs::write(&fb, "old b").unwrap();
+        {
+            let _set = OutputSet::open();
+            put(&fa, "new a").unwrap();
+            put(&fb, "new b").unwrap();
+            assert_eq!(std::fs::read_to_string(&fa).unwrap(), "old a");
+        }
+        assert_eq!(std::fs::read_to_string(&fa).unwrap(), "old a");
+        assert_eq!(std::fs::read_to_string(&fb).unwrap(), "old b");
+        assert_eq!(
+            (names(&a), names(&b)),
+            (vec!["out.csv".to_string()], vec!["device.json".to_string()])
+        );
+
+        let set = OutputSet::open();
+        put(&fa, "new a").unwrap();
+        put(&fb, "new b").unwrap();
+        assert_eq!(std::fs::read_to_string(&fb).unwrap(), "old b");
+        set.commit().unwrap();
+        drop(set);
+        assert_eq!(std::fs::read_to_string(&fa).unwrap(), "new a");
+        assert_eq!(std::fs::read_to_string(&fb).unwrap(), "new b");
+        assert_eq!(
+            (names(&a), names(&b)),
+            (vec!["out.csv".to_string()], vec!["device.json".to_string()])
+        );
+    }
+
+    /// A run killed between the renames of a set: its first output is new, the second still old, with the
+    /// second's temporary file and a journal in each directory left behind. The next run writing into
+    /// either directory finishes the set (the second output new) and removes the journal and temporary
+    /// files; the other directory's journal goes with the next run there.
+    #[test]
+    fn a_set_a_killed_run_left_half_renamed_is_finished_by_the_next_run() {
+        let d = tempfile::tempdir().unwrap();
+        let (a, b) = (d.path().join("a"), d.path().join("b"));
+        std::fs::create_dir(&a).unwrap();
+        std::fs::create_dir(&b).unwrap();
+        let (fa, fb) = (a.join("out.csv"), b.join("device.json"));
+        let (ta, tb) = (
+            a.join(".out.mrfeel-partial-AbCdEfGhIj.csv"),
+            b.join(".device.mrfeel-partial-KlMnOpQrSt.json"),
+        );
+        // The state the killed run left: `out.csv` renamed, `device.json` not yet.
+        std::fs::write(&fa, "new a").unwrap();
+        std::fs::write(&fb, "old b").unwrap();
+        std::fs::write(&tb, "new b").unwrap();
+        let journal = serde_json::to_string(&[(&ta, &fa), (&tb, &fb)]).unwrap();
+        std::fs::write(a.join(".mrfeel-set-0123456789.json"), &journal).unwrap();
+        std::fs::write(b.join(".mrfeel-set-9876543210.json"), &journal).unwrap();
+
+        put(&b.join("other.csv"), "x").unwrap();
+        assert_eq!(std::fs::read_to_string(&fb).unwrap(), "new b");
+        assert_eq!(std::fs::read_to_string(&fa).unwrap(), "new a");
+        assert_eq!(names(&b), ["device.json", "other.csv"]);
+        put(&a.join("other.csv"), "y").unwrap();
+        assert_eq!(names(&a), ["other.csv", "out.csv"]);
+        assert_eq!(std::fs::read_to_string(&fa).unwrap(), "new a");
+    }
+
+    /// A journal a live run holds locked is left alone, and so are the temporary files it names.
+    #[test]
+    fn a_live_runs_journal_is_left_alone() {
+        let d = tempfile::tempdir().unwrap();
+        let target = d.path().join("out.csv");
+        let tmp = d.path().join(".out.mrfeel-partial-AbCdEfGhIj.csv");
+        std::fs::write(&target, "old").unwrap();
+        std::fs::write(&tmp, "new").unwrap();
+        let held_tmp = std::fs::File::open(&tmp).unwrap();
+        held_tmp.lock().unwrap();
+        let journal = d.path().join(".mrfeel-set-0123456789.json");
+        std::fs::write(&journal, serde_json::to_string(&[(&tmp, &target)]).unwrap()).unwrap();
+        let held = std::fs::File::open(&journal).unwrap();
+        held.lock().unwrap();
+        put(&d.path().join("other.csv"), "x").unwrap();
+        assert_eq!(std::fs::read_to_string(&target).unwrap(), "old");
+        assert!(journal.exists() && tmp.exists());
     }
 }

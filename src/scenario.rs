@@ -131,6 +131,9 @@ pub struct KeyLines {
     pub aircraft_model: usize,
     /// `feel.law` (a DAQ sweep needs a step test).
     pub feel_law: usize,
+    /// `pilot.frequency_hz` (the `[pilot]` header where it is not written), a likely cause of a run that
+    /// breaks an invariant ([`crate::sim::invariants`]).
+    pub pilot_frequency: usize,
     /// `device.file` (errors of the plant's device file).
     pub device_file: usize,
     /// `controller.model` (errors of the model file it names), else `device.file`.
@@ -496,6 +499,7 @@ impl Scenario {
                 airspeed: crate::text_lines::toml_key_line(text, "aircraft", "airspeed_m_s"),
                 aircraft_model: crate::text_lines::toml_key_line(text, "aircraft", "model"),
                 feel_law: crate::text_lines::toml_key_line(text, "feel", "law"),
+                pilot_frequency: crate::text_lines::toml_key_line(text, "pilot", "frequency_hz"),
                 device_file: line_of(text, f.device.file.span().start),
                 controller_model: match &f.controller.model {
                     Some(m) => line_of(text, m.span().start),

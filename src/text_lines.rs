@@ -233,6 +233,38 @@ pub fn short_number(v: f64) -> String {
     }
 }
 
+/// Text from an input for a message: control characters escaped (`\u{1b}`: a terminal's escape codes are
+/// shown, not obeyed; line breaks too, so that the quote stays on its line) and at most `max` characters,
+/// the middle left out and counted (a 5 MB field does not make a 5 MB message).
+pub fn quoted(s: &str, max: usize) -> String {
+    let escape = |c: char| -> String {
+        if c.is_control() {
+            c.escape_default().collect()
+        } else {
+            c.to_string()
+        }
+    };
+    let n = s.chars().count();
+    if n <= max {
+        return s.chars().map(escape).collect();
+    }
+    let head = max.div_ceil(2);
+    let tail = max / 2;
+    let start: String = s.chars().take(head).map(escape).collect();
+    let end: String = s.chars().skip(n - tail).map(escape).collect();
+    format!("{start}…[{} characters left out]…{end}", n - head - tail)
+}
+
+/// A whole message for the terminal: each line [`quoted`] to at most `max` characters, the line breaks
+/// kept.
+pub fn printable(message: &str, max: usize) -> String {
+    message
+        .split('\n')
+        .map(|l| quoted(l, max))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
 /// A number for people, to `digits` significant digits: plain between 0.001 and a million (`62.6440`,
 /// `0.0108469`), in exponent form beyond (`1.00e-6`, `2.50e8`); 0 as `0`.
 pub fn significant(v: f64, digits: usize) -> String {
@@ -447,6 +479,23 @@ mod tests {
         assert!(TomlError::new("duration_s = 1.0\r[rig]\r", &e)
             .msg
             .contains("bare carriage return"));
+    }
+
+    /// A quote of input never holds a control character and is bounded, whatever the input; short text
+    /// is quoted as it is.
+    #[test]
+    fn quotes_of_input_are_bounded_and_escape_control_characters() {
+        assert_eq!(quoted("x_m", 80), "x_m");
+        assert_eq!(quoted("a\u{1b}[31mb\r\n", 80), "a\\u{1b}[31mb\\r\\n");
+        let long = "é".repeat(5_000_000);
+        let q = quoted(&long, 80);
+        assert!(q.chars().count() < 120, "{}", q.len());
+        assert!(q.contains("4999920 characters left out"), "{q}");
+        let msg = printable(&format!("error: {}\nline two \u{7}", "x".repeat(10_000)), 200);
+        assert_eq!(msg.lines().count(), 2);
+        assert!(msg
+            .lines()
+            .all(|l| l.chars().count() < 260 && !l.chars().any(char::is_control)));
     }
 
     #[test]

@@ -268,6 +268,14 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
         fr.termination
     );
     let pred = fitted.predictions();
+    let (_, total) = super::validate::figures(&pred, &fitted.tests);
+    let mut numbers: Vec<(String, f64)> = Vec::new();
+    for ((spec, p), se) in fitted.model.param_specs().iter().zip(&fr.params).zip(&fr.std_err) {
+        numbers.push((spec.name.to_string(), *p));
+        numbers.extend(se.map(|se| (format!("std_err of {}", spec.name), se)));
+    }
+    numbers.extend([("rmse_n".into(), total.rmse_n()), ("nrmse".into(), total.nrmse())]);
+    super::validate::check_finite("fit", &numbers, &fitted.tests, &pred).map_err(anyhow::Error::msg)?;
     let out = fitted.report(&pred);
     if let Some(path) = &a.save {
         fitted
@@ -351,6 +359,14 @@ pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
         fits: None,
     });
     let (tests, pred, out) = prelude::validate(&cfg, data)?;
+    let (_, total) = super::validate::figures(&pred, &tests);
+    super::validate::check_finite(
+        "validate",
+        &[("rmse_n".into(), total.rmse_n()), ("nrmse".into(), total.nrmse())],
+        &tests,
+        &pred,
+    )
+    .map_err(anyhow::Error::msg)?;
     if let Some(path) = &a.out {
         write_beside(path, &ms, &pred)?;
     }
@@ -389,6 +405,19 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
         ..
     } = prelude::diagnose_in(data, &setup, &registry, !a.named_only)?;
     note_timing(&timing);
+    let mut numbers = vec![
+        ("base fit nrmse".to_string(), d.base_fit_nrmse),
+        ("base held-out nrmse".into(), d.base_heldout_nrmse),
+        ("final fit nrmse".into(), d.final_fit_nrmse),
+        ("final held-out nrmse".into(), d.final_heldout_nrmse),
+    ];
+    numbers.extend(
+        d.final_params
+            .iter()
+            .enumerate()
+            .map(|(k, v)| (format!("final parameter {}", k + 1), *v)),
+    );
+    super::validate::check_finite("diagnose", &numbers, &tests, &d.final_pred).map_err(anyhow::Error::msg)?;
     crate::noteln!("diagnosed in {:.1} s", t0.elapsed().as_secs_f64());
     // The files first, stdout last: a run that fails to write prints no result.
     if let Some(dir) = &a.plot {

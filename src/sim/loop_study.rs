@@ -204,8 +204,8 @@ pub fn figures(
     Ok(StageFigures {
         model: model.to_string(),
         resisting_samples: s.resisting_samples,
-        force_rmse_n: s.tracking_rmse_n,
-        force_nrmse: s.tracking_nrmse,
+        force_rmse_n: s.tracking_rmse_n.unwrap_or(f64::NAN),
+        force_nrmse: s.tracking_nrmse.unwrap_or(f64::NAN),
         breakout_rmse_n,
         within_part60_share: if total > 0 {
             within as f64 / total as f64

@@ -18,6 +18,7 @@
 
 pub mod cli;
 pub mod flight;
+pub mod invariants;
 pub mod loop_study;
 pub mod metrics;
 pub mod plant;
@@ -26,7 +27,7 @@ pub mod results;
 
 pub use flight::{AeroRow, Flight};
 pub use plant::{Plant, PlantState};
-pub use results::{FlightInfo, Results, Row, Summary};
+pub use results::{FlightInfo, Results, Row, Summary, SummaryAcc};
 
 use std::collections::VecDeque;
 
@@ -71,6 +72,21 @@ pub enum SimError {
         t_s: f64,
         what: String,
         physics_hz: f64,
+    },
+    /// A finished run breaks an invariant its results must satisfy ([`invariants`]); `key` (at `line`) is
+    /// the setting that most likely caused it.
+    #[error(
+        "{}:{line}: `{key}`: the run breaks an invariant at t = {t_s} s: {invariant}; {advice} (nothing was \
+         written)",
+        scenario.display()
+    )]
+    Invariant {
+        scenario: std::path::PathBuf,
+        line: usize,
+        key: &'static str,
+        invariant: String,
+        t_s: f64,
+        advice: String,
     },
     /// Stopped on request ([`crate::interrupt`]).
     #[error("interrupted")]
@@ -458,56 +474,55 @@ pub fn build_rig(scn: &Scenario, device: &DeviceConfig) -> anyhow::Result<crate:
     rig.with_context(|| format!("rig of scenario {}", scn.path.display()))
 }
 
-/// Run a scenario on a plant to its end; `progress` is called with the fraction done.
-pub fn run<P: Plant>(
+/// What a run hands to its outputs as it goes ([`run_streaming`]).
+pub enum Event<'a> {
+    /// Once, before the first row: the run's facts ([`Results`] without rows or frames).
+    Start(&'a Results),
+    /// The bodies' poses at a drawing frame, before the row of the same step.
+    Frame(f64, &'a [crate::rig::BodyPose]),
+    /// One physics step's row.
+    Row(&'a Row),
+}
+
+/// Run a scenario on a plant to its end, handing every row and drawing frame to `sink` as it is made and
+/// keeping none: memory stays bounded whatever the run's length. Every row is checked
+/// ([`invariants::Checker`]) before it is handed on, and the whole run at its end. Returns the run's facts
+/// (no rows, no frames; the flight's round-trip times filled in) and its summary. `progress` is called with
+/// the fraction done.
+pub fn run_streaming<P: Plant, E: From<SimError>>(
     scn: &Scenario,
     devices: &Devices,
     plant: P,
     opts: RunOptions,
     mut progress: impl FnMut(f64),
-) -> Result<Results, SimError> {
+    mut sink: impl FnMut(Event<'_>) -> Result<(), E>,
+) -> Result<(Results, Summary), E> {
     let mut lp = Loop::new(scn, devices, plant)?;
     let dt = lp.plant.dt_s();
     let n = (scn.duration_s / dt).round() as usize;
     let frame_every = opts
         .frames_hz
         .map(|hz| ((1.0 / (hz * dt)).round() as usize).max(1));
-    let mut rows = Vec::with_capacity(n + 1);
-    let mut frames = Vec::new();
-    let report_every = (n / 200).max(1);
-    for k in 0..n {
-        if let Some(every) = frame_every {
-            if k % every == 0 {
-                frames.push((k as f64 * dt, lp.plant.poses()));
-            }
-        }
-        rows.push(lp.step()?);
-        if k % report_every == 0 {
-            if crate::interrupt::requested() {
-                return Err(SimError::Interrupted);
-            }
-            progress(k as f64 / n as f64);
-        }
-    }
-    progress(1.0);
-    let flight = lp.flight.as_ref().map(|f| FlightInfo {
-        aircraft: f.label().to_string(),
-        trim: f.trim,
-        trim_stick_rad: f.trim_stick_rad,
-        round_trip_us: f.round_trip_us(),
-    });
-    Ok(Results {
+    let flight_info = |lp: &Loop<P>| {
+        lp.flight.as_ref().map(|f| FlightInfo {
+            aircraft: f.label().to_string(),
+            trim: f.trim,
+            trim_stick_rad: f.trim_stick_rad,
+            round_trip_us: f.round_trip_us(),
+        })
+    };
+    let mut head = Results {
         scenario: scn.name.clone(),
         rest_speed_m_s: scn.controller.rest_speed_m_s,
         stroke_half_m: lp.plant.stroke_half_m(),
         current_max_a: scn.controller.gains.out_max,
-        rows,
+        rows: Vec::new(),
         visuals: if frame_every.is_some() {
             lp.plant.visuals()
         } else {
             Vec::new()
         },
-        frames,
+        frames: Vec::new(),
         // A plant the inverse refuses (`spencer`) has no Bingham yield force to name: no ceiling.
         feel_ceiling_n: devices
             .plant
@@ -516,6 +531,57 @@ pub fn run<P: Plant>(
         controller_model: devices.controller_label(),
         grip_arm_m: lp.plant.grip_arm_m(),
         gearing_at_centre_m_per_rad: lp.plant.gearing_m_per_rad(0.0),
-        flight,
-    })
+        flight: flight_info(&lp),
+    };
+    sink(Event::Start(&head))?;
+    let mut check = invariants::Checker::new(scn);
+    let mut summary = results::SummaryAcc::default();
+    let report_every = (n / 200).max(1);
+    for k in 0..n {
+        if let Some(every) = frame_every {
+            if k % every == 0 {
+                sink(Event::Frame(k as f64 * dt, &lp.plant.poses()))?;
+            }
+        }
+        let row = lp.step()?;
+        check.push(&row)?;
+        summary.push(&row);
+        sink(Event::Row(&row))?;
+        if k % report_every == 0 {
+            if crate::interrupt::requested() {
+                return Err(SimError::Interrupted.into());
+            }
+            progress(k as f64 / n as f64);
+        }
+    }
+    progress(1.0);
+    let summary = summary.finish(&head);
+    check.finish(&summary)?;
+    head.flight = flight_info(&lp);
+    Ok((head, summary))
+}
+
+/// Run a scenario on a plant to its end, keeping every row and drawing frame ([`run_streaming`]);
+/// `progress` is called with the fraction done.
+pub fn run<P: Plant>(
+    scn: &Scenario,
+    devices: &Devices,
+    plant: P,
+    opts: RunOptions,
+    progress: impl FnMut(f64),
+) -> Result<Results, SimError> {
+    let n = (scn.duration_s * scn.physics_rate_hz()).round() as usize;
+    let mut rows = Vec::with_capacity(n + 1);
+    let mut frames = Vec::new();
+    let (mut res, _) = run_streaming(scn, devices, plant, opts, progress, |e| {
+        match e {
+            Event::Start(_) => {}
+            Event::Frame(t, poses) => frames.push((t, poses.to_vec())),
+            Event::Row(r) => rows.push(*r),
+        }
+        Ok::<(), SimError>(())
+    })?;
+    res.rows = rows;
+    res.frames = frames;
+    Ok(res)
 }

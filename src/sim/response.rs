@@ -135,7 +135,8 @@ pub struct SweepPoint {
     pub max_settling_ms: Option<f64>,
     /// Steps that never settled within their window.
     pub unsettled: usize,
-    pub tracking_nrmse: f64,
+    /// `None` where nothing was tracked ([`crate::sim::Summary::tracking_nrmse`]).
+    pub tracking_nrmse: Option<f64>,
 }
 
 pub fn summarise(rate_hz: f64, steps: &[StepResponse], res: &Results) -> SweepPoint {
@@ -164,7 +165,7 @@ pub fn markdown_table(points: &[SweepPoint]) -> String {
     let opt = |v: Option<f64>| v.map(|x| format!("{x:.1}")).unwrap_or_else(|| "–".into());
     for p in points {
         s.push_str(&format!(
-            "| {:.0} | {} | {} | {} / {} | {} / {} | {} | {:.3} |\n",
+            "| {:.0} | {} | {} | {} / {} | {} / {} | {} | {} |\n",
             p.daq_rate_hz,
             p.steps,
             opt(p.mean_delay_ms),
@@ -173,7 +174,7 @@ pub fn markdown_table(points: &[SweepPoint]) -> String {
             opt(p.mean_settling_ms),
             opt(p.max_settling_ms),
             p.unsettled,
-            p.tracking_nrmse
+            p.tracking_nrmse.map_or("–".into(), |x| format!("{x:.3}"))
         ));
     }
     s

@@ -151,9 +151,10 @@ pub struct Summary {
     /// Samples where the target resists the motion (loop tracking and `F*·v > 0`).
     pub resisting_samples: usize,
     /// RMS of (true load-cell force − desired) over the resisting samples, N, and relative to the RMS of
-    /// the desired force there.
-    pub tracking_rmse_n: f64,
-    pub tracking_nrmse: f64,
+    /// the desired force there; `None` (JSON `null`) where no sample resists, or the desired force there
+    /// is zero: nothing was tracked.
+    pub tracking_rmse_n: Option<f64>,
+    pub tracking_nrmse: Option<f64>,
     pub max_abs_piston_x_m: f64,
     pub stroke_half_m: f64,
     pub current_min_a: f64,
@@ -167,28 +168,47 @@ pub struct Summary {
     /// Work of the active stick's motor, J (0 for the passive systems).
     pub actuator_work_j: f64,
     pub dissipated_j: f64,
-    /// (pilot work + motor work − ΔKE − ΔPE − Δspring − dissipated) / (|pilot work| + |motor work|).
-    pub energy_residual: f64,
+    /// (pilot work + motor work − ΔKE − ΔPE − Δspring − dissipated) / (|pilot work| + |motor work|);
+    /// `None` where no work was done.
+    pub energy_residual: Option<f64>,
 }
 
-impl Results {
-    pub fn summary(&self) -> Summary {
-        let rows = &self.rows;
-        let (mut se, mut sd, mut n) = (0.0, 0.0, 0usize);
-        for r in rows {
-            if r.mode == LoopMode::Tracking && r.desired_force_n * r.piston_v_m_s > 0.0 {
-                se += (r.load_cell_true_n - r.desired_force_n).powi(2);
-                sd += r.desired_force_n.powi(2);
-                n += 1;
-            }
+/// A run's [`Summary`] gathered row by row, so that a run streamed to its outputs needs no rows kept.
+#[derive(Debug, Clone, Default)]
+pub struct SummaryAcc {
+    se: f64,
+    sd: f64,
+    n: usize,
+    max_abs_x: f64,
+    current_min: Option<f64>,
+    current_max: Option<f64>,
+    max_abs_load_cell: f64,
+    first: Option<Row>,
+    last: Option<Row>,
+}
+
+impl SummaryAcc {
+    pub fn push(&mut self, r: &Row) {
+        if r.mode == LoopMode::Tracking && r.desired_force_n * r.piston_v_m_s > 0.0 {
+            self.se += (r.load_cell_true_n - r.desired_force_n).powi(2);
+            self.sd += r.desired_force_n.powi(2);
+            self.n += 1;
         }
-        let rmse = if n > 0 { (se / n as f64).sqrt() } else { f64::NAN };
-        let nrmse = if sd > 0.0 { (se / sd).sqrt() } else { f64::NAN };
-        let fold = |f: fn(&Row) -> f64, init: f64, op: fn(f64, f64) -> f64| rows.iter().map(f).fold(init, op);
-        let (first, last) = match (rows.first(), rows.last()) {
-            (Some(a), Some(b)) => (*a, *b),
-            _ => (Row::zero(), Row::zero()),
-        };
+        self.max_abs_x = self.max_abs_x.max(r.piston_x_m.abs());
+        self.current_min = Some(self.current_min.map_or(r.current_a, |c| c.min(r.current_a)));
+        self.current_max = Some(self.current_max.map_or(r.current_a, |c| c.max(r.current_a)));
+        self.max_abs_load_cell = self.max_abs_load_cell.max(r.load_cell_true_n.abs());
+        self.first.get_or_insert(*r);
+        self.last = Some(*r);
+    }
+
+    /// The summary of the rows pushed, of the run whose facts `head` holds.
+    pub fn finish(&self, head: &Results) -> Summary {
+        let (se, sd, n) = (self.se, self.sd, self.n);
+        let rmse = (n > 0).then(|| (se / n as f64).sqrt());
+        let nrmse = (n > 0 && sd > 0.0).then(|| (se / sd).sqrt());
+        let first = self.first.unwrap_or_else(Row::zero);
+        let last = self.last.unwrap_or_else(Row::zero);
         let w = last.pilot_work_j - first.pilot_work_j;
         let dke = last.kinetic_energy_j - first.kinetic_energy_j;
         let dpe = last.potential_energy_j - first.potential_energy_j;
@@ -196,34 +216,50 @@ impl Results {
         let dspring = last.spring_energy_j - first.spring_energy_j;
         let wa = last.actuator_work_j - first.actuator_work_j;
         Summary {
-            scenario: self.scenario.clone(),
+            scenario: head.scenario.clone(),
             duration_s: last.t_s - first.t_s,
-            controller_model: self.controller_model.clone(),
+            controller_model: head.controller_model.clone(),
             resisting_samples: n,
             tracking_rmse_n: rmse,
             tracking_nrmse: nrmse,
-            max_abs_piston_x_m: fold(|r| r.piston_x_m.abs(), 0.0, f64::max),
-            stroke_half_m: self.stroke_half_m,
-            current_min_a: fold(|r| r.current_a, f64::INFINITY, f64::min),
-            current_max_a: fold(|r| r.current_a, f64::NEG_INFINITY, f64::max),
-            max_abs_load_cell_n: fold(|r| r.load_cell_true_n.abs(), 0.0, f64::max),
+            max_abs_piston_x_m: self.max_abs_x,
+            stroke_half_m: head.stroke_half_m,
+            current_min_a: self.current_min.unwrap_or(0.0),
+            current_max_a: self.current_max.unwrap_or(0.0),
+            max_abs_load_cell_n: self.max_abs_load_cell,
             pilot_work_j: w,
             kinetic_energy_change_j: dke,
             potential_energy_change_j: dpe,
             spring_energy_change_j: dspring,
             actuator_work_j: wa,
             dissipated_j: diss,
-            energy_residual: if w != 0.0 || wa != 0.0 {
-                (w + wa - dke - dpe - dspring - diss) / (w.abs() + wa.abs())
-            } else {
-                f64::NAN
-            },
+            energy_residual: (w != 0.0 || wa != 0.0)
+                .then(|| (w + wa - dke - dpe - dspring - diss) / (w.abs() + wa.abs())),
         }
+    }
+}
+
+impl Results {
+    pub fn summary(&self) -> Summary {
+        let mut acc = SummaryAcc::default();
+        for r in &self.rows {
+            acc.push(r);
+        }
+        acc.finish(self)
     }
 
     /// Write the CSV: a `# key: value` metadata block, the header, one row per physics step. Numbers are
     /// printed with Rust's shortest round-trip formatting, so the same run gives the same bytes.
     pub fn write_csv(&self, mut w: impl Write) -> std::io::Result<()> {
+        self.write_csv_head(&mut w)?;
+        for r in &self.rows {
+            self.write_csv_row(&mut w, r)?;
+        }
+        Ok(())
+    }
+
+    /// The CSV's metadata block and header ([`Results::write_csv`]), from the run's facts alone (no rows).
+    pub fn write_csv_head(&self, mut w: impl Write) -> std::io::Result<()> {
         writeln!(w, "# source: mrfeel run")?;
         writeln!(w, "# scenario: {}", self.scenario)?;
         writeln!(
@@ -252,8 +288,13 @@ impl Results {
             header.push(',');
             header.push_str(&AERO_COLUMNS.join(","));
         }
-        writeln!(w, "{header}")?;
-        for r in &self.rows {
+        writeln!(w, "{header}")
+    }
+
+    /// One row of the CSV ([`Results::write_csv`]).
+    pub fn write_csv_row(&self, mut w: impl Write, r: &Row) -> std::io::Result<()> {
+        let aero = self.flight.is_some();
+        {
             for (k, v) in r.values().iter().enumerate() {
                 if k > 0 {
                     w.write_all(b",")?;
@@ -385,13 +426,20 @@ impl std::fmt::Display for Summary {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(f, "scenario {}: {:.3} s", self.scenario, self.duration_s)?;
         writeln!(f, "  controller model: {}", self.controller_model)?;
-        writeln!(
-            f,
-            "  force tracking where the target resists motion: RMS error {:.2} N ({:.1} % of RMS desired) over {} samples",
-            self.tracking_rmse_n,
-            100.0 * self.tracking_nrmse,
-            self.resisting_samples
-        )?;
+        match (self.tracking_rmse_n, self.tracking_nrmse) {
+            (Some(e), Some(n)) => writeln!(
+                f,
+                "  force tracking where the target resists motion: RMS error {e:.2} N ({:.1} % of RMS desired) over {} samples",
+                100.0 * n,
+                self.resisting_samples
+            )?,
+            _ => writeln!(
+                f,
+                "  force tracking: none to measure (the desired force resisted the motion at {} samples, with an \
+                 RMS of 0 N)",
+                self.resisting_samples
+            )?,
+        }
         writeln!(
             f,
             "  max stroke |x| {:.4} m of ±{:.4} m ({:.2} in of ±{:.2} in)",
@@ -408,13 +456,14 @@ impl std::fmt::Display for Summary {
         writeln!(f, "  max |load cell| {:.1} N", self.max_abs_load_cell_n)?;
         write!(
             f,
-            "  energy: pilot work {:.4} J = ΔKE {:.4} J + ΔPE {:.4} J + Δspring {:.4} J + dissipated {:.4} J (residual {:.3} %)",
+            "  energy: pilot work {:.4} J = ΔKE {:.4} J + ΔPE {:.4} J + Δspring {:.4} J + dissipated {:.4} J (residual {})",
             self.pilot_work_j,
             self.kinetic_energy_change_j,
             self.potential_energy_change_j,
             self.spring_energy_change_j,
             self.dissipated_j,
-            100.0 * self.energy_residual
+            self.energy_residual
+                .map_or("none: no work done".into(), |e| format!("{:.3} %", 100.0 * e))
         )
     }
 }

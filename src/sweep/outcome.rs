@@ -87,8 +87,8 @@ impl Outcome {
         };
         let (temporary, prolonged_limit) = hq::force_limits(&basis);
         let mut o = Outcome {
-            force_tracking_rmse_n: finite(s.tracking_rmse_n),
-            force_tracking_nrmse: finite(s.tracking_nrmse),
+            force_tracking_rmse_n: s.tracking_rmse_n.and_then(finite),
+            force_tracking_nrmse: s.tracking_nrmse.and_then(finite),
             task_tracking_rms: flight.and_then(|f| finite(f.tracking_rms)),
             follow_rms_n: flight.and_then(|f| finite(f.follow_rms_n)),
             grip_force_peak_n: finite(peak),

@@ -78,17 +78,25 @@ pub fn spawn_on_port(port: u16) -> Result<RecordingStream, VizError> {
         .map_err(|e| VizError::Spawn(e.to_string()))
 }
 
-/// Log one run, with its default blueprint ([`blueprint`]) and the world's up axis.
+/// Log one run whose rows and frames are all in memory ([`RunLogger`]).
 pub fn log_run(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
-    blueprint(res.flight.is_some())
-        .send(rec, BlueprintActivation::default())
-        .map_err(err)?;
-    rec.log_static("/", &rerun::ViewCoordinates::RIGHT_HAND_Z_UP())
-        .map_err(err)?;
-    log_series(rec, res)?;
-    log_bodies(rec, res)?;
-    rec.flush_blocking().map_err(err)?;
-    Ok(())
+    let mut log = RunLogger::new(rec, res)?;
+    let dt = if res.rows.len() > 1 {
+        res.rows[1].t_s - res.rows[0].t_s
+    } else {
+        1.0
+    };
+    let mut frames = res.frames.iter().peekable();
+    for (k, row) in res.rows.iter().enumerate() {
+        // Each frame before the row of its step, as a run hands them over.
+        while let Some((t, poses)) =
+            frames.next_if(|(t, _)| ((t / dt).round() as usize).min(res.rows.len() - 1) <= k)
+        {
+            log.frame(*t, poses);
+        }
+        log.row(row)?;
+    }
+    log.finish()
 }
 
 /// The layout a recording opens with: the 3D rig and its force arrows on the left; on the right the
@@ -127,59 +135,118 @@ pub fn blueprint(flight: bool) -> Blueprint {
         .with_time_panel(TimePanel::new().with_timeline("time"))
 }
 
-fn log_series(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
-    let times: Vec<f64> = res.rows.iter().map(|r| r.t_s).collect();
-    type Col = (&'static str, fn(&crate::sim::Row) -> f64);
-    let cols: [Col; 10] = [
-        ("signals/force/desired", |r| r.desired_force_n),
-        ("signals/force/load_cell", |r| r.load_cell_n),
-        ("signals/force/load_cell_true", |r| r.load_cell_true_n),
-        ("signals/force/damper", |r| r.damper_force_n),
-        ("signals/current/command", |r| r.current_a),
-        ("signals/stroke/piston_x", |r| r.piston_x_m),
-        ("signals/pilot/force", |r| r.pilot_force_n),
-        ("signals/stick/angle", |r| r.stick_angle_rad),
-        ("signals/energy/dissipated", |r| r.dissipated_j),
-        ("signals/faults/mask", |r| f64::from(r.faults)),
-    ];
-    type AeroCol = (&'static str, fn(&crate::sim::AeroRow) -> f64);
-    let aero: [AeroCol; 9] = [
-        ("signals/aircraft/pitch", |a| a.pitch_rad),
-        ("signals/aircraft/pitch_cmd", |a| a.pitch_cmd_rad),
-        ("signals/aircraft/nz", |a| a.nz_g),
-        ("signals/aircraft/nz_cmd", |a| a.nz_cmd_g),
-        ("signals/aircraft/elevator", |a| a.elevator_rad),
-        ("signals/aircraft/hinge_moment", |a| a.hinge_moment_nm),
-        ("signals/aircraft/qbar", |a| a.qbar_pa),
-        ("signals/aircraft/stick_force", |a| a.stick_force_n),
-        ("signals/aircraft/stick_cmd", |a| a.stick_cmd_rad),
-    ];
-    let mut all: Vec<(&str, Vec<f64>)> = cols
-        .iter()
-        .map(|(p, f)| (*p, res.rows.iter().map(f).collect()))
-        .collect();
-    if res.flight.is_some() {
-        for (p, f) in aero {
-            all.push((
-                p,
-                res.rows
-                    .iter()
-                    .map(|r| r.aero.map_or(f64::NAN, |a| f(&a)))
-                    .collect(),
-            ));
+/// Rows logged per batch of time series: memory is bounded by the batch, not the run's length.
+const ROWS_PER_BATCH: usize = 4096;
+
+type Col = (&'static str, fn(&crate::sim::Row) -> f64);
+const SERIES: [Col; 10] = [
+    ("signals/force/desired", |r| r.desired_force_n),
+    ("signals/force/load_cell", |r| r.load_cell_n),
+    ("signals/force/load_cell_true", |r| r.load_cell_true_n),
+    ("signals/force/damper", |r| r.damper_force_n),
+    ("signals/current/command", |r| r.current_a),
+    ("signals/stroke/piston_x", |r| r.piston_x_m),
+    ("signals/pilot/force", |r| r.pilot_force_n),
+    ("signals/stick/angle", |r| r.stick_angle_rad),
+    ("signals/energy/dissipated", |r| r.dissipated_j),
+    ("signals/faults/mask", |r| f64::from(r.faults)),
+];
+type AeroCol = (&'static str, fn(&crate::sim::AeroRow) -> f64);
+const AERO_SERIES: [AeroCol; 9] = [
+    ("signals/aircraft/pitch", |a| a.pitch_rad),
+    ("signals/aircraft/pitch_cmd", |a| a.pitch_cmd_rad),
+    ("signals/aircraft/nz", |a| a.nz_g),
+    ("signals/aircraft/nz_cmd", |a| a.nz_cmd_g),
+    ("signals/aircraft/elevator", |a| a.elevator_rad),
+    ("signals/aircraft/hinge_moment", |a| a.hinge_moment_nm),
+    ("signals/aircraft/qbar", |a| a.qbar_pa),
+    ("signals/aircraft/stick_force", |a| a.stick_force_n),
+    ("signals/aircraft/stick_cmd", |a| a.stick_cmd_rad),
+];
+
+/// A run's recording made as the run goes ([`crate::sim::run_streaming`]): the blueprint, up axis and
+/// static shapes at the start, each frame's poses with the force arrows of its step's row, and the time
+/// series in batches of [`ROWS_PER_BATCH`] rows, so that memory does not grow with the run.
+pub struct RunLogger<'a> {
+    rec: &'a RecordingStream,
+    aero: bool,
+    grip: Option<(String, [f64; 3])>,
+    batch: Vec<crate::sim::Row>,
+    /// A frame waiting for the row of its step (the arrows show that row's forces).
+    pending: Option<(f64, Vec<BodyPose>)>,
+}
+
+impl<'a> RunLogger<'a> {
+    /// Start the recording of the run whose facts `head` holds (its shapes, whether it flies).
+    pub fn new(rec: &'a RecordingStream, head: &Results) -> Result<Self, VizError> {
+        blueprint(head.flight.is_some())
+            .send(rec, BlueprintActivation::default())
+            .map_err(err)?;
+        rec.log_static("/", &rerun::ViewCoordinates::RIGHT_HAND_Z_UP())
+            .map_err(err)?;
+        log_shapes(rec, head)?;
+        Ok(Self {
+            rec,
+            aero: head.flight.is_some(),
+            grip: grip_of(&head.visuals),
+            batch: Vec::with_capacity(ROWS_PER_BATCH),
+            pending: None,
+        })
+    }
+
+    /// The poses of a drawing frame at time `t`, logged with the next row.
+    pub fn frame(&mut self, t: f64, poses: &[BodyPose]) {
+        self.pending = Some((t, poses.to_vec()));
+    }
+
+    pub fn row(&mut self, row: &crate::sim::Row) -> Result<(), VizError> {
+        if let Some((t, poses)) = self.pending.take() {
+            log_frame(self.rec, t, &poses, row, self.grip.as_ref())?;
         }
+        self.batch.push(*row);
+        if self.batch.len() == ROWS_PER_BATCH {
+            self.send_batch()?;
+        }
+        Ok(())
     }
-    for (path, values) in all {
-        rec.send_columns(
-            path,
-            [TimeColumn::new_duration_secs("time", times.iter().copied())],
-            rerun::Scalars::new(values)
-                .columns_of_unit_batches()
-                .map_err(err)?,
-        )
-        .map_err(err)?;
+
+    fn send_batch(&mut self) -> Result<(), VizError> {
+        if self.batch.is_empty() {
+            return Ok(());
+        }
+        let rows = std::mem::take(&mut self.batch);
+        let times = || TimeColumn::new_duration_secs("time", rows.iter().map(|r| r.t_s));
+        for (path, f) in SERIES {
+            self.send(path, times(), rows.iter().map(f).collect())?;
+        }
+        if self.aero {
+            for (path, f) in AERO_SERIES {
+                let v = rows.iter().map(|r| r.aero.map_or(f64::NAN, |a| f(&a))).collect();
+                self.send(path, times(), v)?;
+            }
+        }
+        self.batch = rows;
+        self.batch.clear();
+        Ok(())
     }
-    Ok(())
+
+    fn send(&self, path: &str, time: TimeColumn, values: Vec<f64>) -> Result<(), VizError> {
+        self.rec
+            .send_columns(
+                path,
+                [time],
+                rerun::Scalars::new(values)
+                    .columns_of_unit_batches()
+                    .map_err(err)?,
+            )
+            .map_err(err)
+    }
+
+    /// Log what is left and wait until the recording has it all.
+    pub fn finish(mut self) -> Result<(), VizError> {
+        self.send_batch()?;
+        self.rec.flush_blocking().map_err(err)
+    }
 }
 
 /// Each link's visual shapes, static, under `PREFIX/<link>/visual_<k>`, posed in the link's frame (the
@@ -231,7 +298,8 @@ pub fn log_link_poses(rec: &RecordingStream, prefix: &str, poses: &[BodyPose]) -
     Ok(())
 }
 
-fn log_bodies(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
+/// The static shapes of a run: the links' visuals and, when it flies, the airframe.
+fn log_shapes(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
     log_link_visuals(rec, "rig", &res.visuals).map_err(err)?;
     if res.flight.is_some() {
         // Airframe: fuselage, wing, tailplane and fin boxes, nose towards −x (forward), 1:20 scale.
@@ -254,59 +322,61 @@ fn log_bodies(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
         )
         .map_err(err)?;
     }
-    // Link poses over time, and the forces on the stick and the piston as arrows.
-    let dt = if res.rows.len() > 1 {
-        res.rows[1].t_s - res.rows[0].t_s
-    } else {
-        1.0
-    };
-    let grip = grip_of(&res.visuals);
-    for (t, poses) in &res.frames {
-        rec.set_duration_secs("time", *t);
-        log_link_poses(rec, "rig", poses).map_err(err)?;
-        let k = ((t / dt).round() as usize).min(res.rows.len().saturating_sub(1));
-        let Some(row) = res.rows.get(k) else { continue };
-        if let Some(piston) = poses.iter().find(|p| p.name == "piston") {
-            let at = [f32x3(piston.translation_m)];
-            let along_x = |f_n: f64| [[(f_n * f64::from(ARROW_M_PER_N)) as f32, 0.0, 0.0]];
+    Ok(())
+}
+
+/// One drawing frame at time `t`: the links' poses; the forces of `row` (its step's row) as arrows: the
+/// load cell's and the damper's at the piston along x, the pilot's hand at the grip along its path; and
+/// the aircraft's attitude.
+fn log_frame(
+    rec: &RecordingStream,
+    t: f64,
+    poses: &[BodyPose],
+    row: &crate::sim::Row,
+    grip: Option<&(String, [f64; 3])>,
+) -> Result<(), VizError> {
+    rec.set_duration_secs("time", t);
+    log_link_poses(rec, "rig", poses).map_err(err)?;
+    if let Some(piston) = poses.iter().find(|p| p.name == "piston") {
+        let at = [f32x3(piston.translation_m)];
+        let along_x = |f_n: f64| [[(f_n * f64::from(ARROW_M_PER_N)) as f32, 0.0, 0.0]];
+        rec.log(
+            "forces/load_cell",
+            &rerun::Arrows3D::from_vectors(along_x(row.load_cell_true_n)).with_origins(at),
+        )
+        .map_err(err)?;
+        rec.log(
+            "forces/damper",
+            &rerun::Arrows3D::from_vectors(along_x(-row.damper_force_n)).with_origins(at),
+        )
+        .map_err(err)?;
+    }
+    if let Some((link, offset)) = grip {
+        if let Some(pose) = poses.iter().find(|p| &p.name == link) {
+            // The grip path is the link's local +x at the grip (a pull moves the grip aft).
+            let (origin, dir) = in_world(
+                pose,
+                *offset,
+                [row.pilot_force_n * f64::from(ARROW_M_PER_N), 0.0, 0.0],
+            );
             rec.log(
-                "forces/load_cell",
-                &rerun::Arrows3D::from_vectors(along_x(row.load_cell_true_n)).with_origins(at),
-            )
-            .map_err(err)?;
-            rec.log(
-                "forces/damper",
-                &rerun::Arrows3D::from_vectors(along_x(-row.damper_force_n)).with_origins(at),
-            )
-            .map_err(err)?;
-        }
-        if let Some((link, offset)) = &grip {
-            if let Some(pose) = poses.iter().find(|p| &p.name == link) {
-                // The grip path is the link's local +x at the grip (a pull moves the grip aft).
-                let (origin, dir) = in_world(
-                    pose,
-                    *offset,
-                    [row.pilot_force_n * f64::from(ARROW_M_PER_N), 0.0, 0.0],
-                );
-                rec.log(
-                    "forces/hand",
-                    &rerun::Arrows3D::from_vectors([f32x3(dir)]).with_origins([f32x3(origin)]),
-                )
-                .map_err(err)?;
-            }
-        }
-        if let Some(a) = res.rows.get(k).and_then(|r| r.aero) {
-            // Nose-up pitch θ turns the nose (−x) towards +z: a rotation by θ about +y.
-            let h = (a.pitch_rad * 0.5) as f32;
-            rec.log(
-                "aircraft",
-                &rerun::Transform3D::from_translation_rotation(
-                    AIRCRAFT_AT_M,
-                    rerun::Quaternion::from_xyzw([0.0, h.sin(), 0.0, h.cos()]),
-                ),
+                "forces/hand",
+                &rerun::Arrows3D::from_vectors([f32x3(dir)]).with_origins([f32x3(origin)]),
             )
             .map_err(err)?;
         }
+    }
+    if let Some(a) = row.aero {
+        // Nose-up pitch θ turns the nose (−x) towards +z: a rotation by θ about +y.
+        let h = (a.pitch_rad * 0.5) as f32;
+        rec.log(
+            "aircraft",
+            &rerun::Transform3D::from_translation_rotation(
+                AIRCRAFT_AT_M,
+                rerun::Quaternion::from_xyzw([0.0, h.sin(), 0.0, h.cos()]),
+            ),
+        )
+        .map_err(err)?;
     }
     Ok(())
 }
