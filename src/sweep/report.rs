@@ -160,6 +160,9 @@ fn level_colour(level: Option<u8>, failed: bool) -> RGBColor {
     }
 }
 
+/// A map cell: whether a run there failed, and the worst Level seen there.
+type MapCell = (bool, Option<u8>);
+
 /// Maps of the stick-force-per-g Level over (x, y), one panel per combination of the facet axes; where
 /// other axes vary, a cell shows the worst Level of its runs. Written to `DIR/map-level.png` and `.svg`.
 pub fn maps(
@@ -202,7 +205,7 @@ pub fn maps(
         ));
     }
     // (panel, x cell, y cell) -> worst (failed, level) seen.
-    let mut panels: BTreeMap<String, BTreeMap<(usize, usize), (bool, Option<u8>)>> = BTreeMap::new();
+    let mut panels: BTreeMap<String, BTreeMap<(usize, usize), MapCell>> = BTreeMap::new();
     for r in records {
         let panel: Vec<String> = facets.iter().map(|&k| text(r, k)).collect();
         let (Some(cx), Some(cy)) = (
