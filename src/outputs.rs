@@ -227,7 +227,7 @@ fn remove_stale_partials(dir: &Path) {
     }
 }
 
-/// Write the file `path` whole or not at all. `write` writes a temporary file beside it ([`new_partial`],
+/// Write the file `path` whole or not at all. `write` writes a temporary file beside it (`new_partial`,
 /// the path it is given), which is flushed to the disk and renamed over `path` only once `write` has
 /// succeeded, and the directory then flushed too: a failure (a full disk, a plot or a recording that cannot
 /// be made) or a crash leaves an existing file as it was, and a run killed half way leaves a temporary

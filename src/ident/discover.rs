@@ -3,7 +3,7 @@
 //!
 //! **Term search.** A library of candidate force terms built from the measured and derived signals (odd and
 //! even functions of velocity at several scales, powers and saturations of displacement, products with the
-//! lagged current, low-pass states; [`library`]) is searched by forward-regression orthogonal least squares
+//! lagged current, low-pass states; `library`) is searched by forward-regression orthogonal least squares
 //! (FROLS, Billings' error-reduction ratio) on the current model's held-out residual. FROLS rather than
 //! sequential thresholded least squares or a Lasso path: the candidates have unrelated units and scales
 //! (`v³` in m³/s³ beside `tanh(v/0.01)`), and FROLS's criterion, the share of the residual's energy each
@@ -17,7 +17,7 @@
 //! a, the lagged current i and t, time-shifted copies, low-pass states and piecewise-constant bins of each
 //! signal and of pairs of them) is fitted to the final model's held-out residual on the training folds and
 //! scored on the held-out fold: the share of the residual's mean square it predicts out of sample is
-//! structure the model lacks; noise is not predictable. [`verdict`].
+//! structure the model lacks; noise is not predictable. `verdict`.
 
 use nalgebra::{DMatrix, DVector};
 

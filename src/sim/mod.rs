@@ -57,7 +57,8 @@ pub enum SimError {
         scenario: std::path::PathBuf,
         line: usize,
         key: &'static str,
-        error: crate::device::DeviceError,
+        /// Boxed: the error type stays small on the happy path of every run.
+        error: Box<crate::device::DeviceError>,
     },
     /// The integration blew up: a run whose numbers would be reported as results is stopped instead.
     #[error(
@@ -134,7 +135,7 @@ impl Devices {
                 scenario: scn.path.clone(),
                 line,
                 key,
-                error,
+                error: Box::new(error),
             })
         };
         let plant = load(&scn.device_path, scn.lines.device_file, "device.file")?;
@@ -228,7 +229,7 @@ impl<P: Plant> Loop<P> {
                     scenario: scn.path.clone(),
                     line,
                     key,
-                    error,
+                    error: Box::new(error),
                 })?,
             )
         } else {

@@ -166,7 +166,7 @@ const AERO_SERIES: [AeroCol; 9] = [
 
 /// A run's recording made as the run goes ([`crate::sim::run_streaming`]): the blueprint, up axis and
 /// static shapes at the start, each frame's poses with the force arrows of its step's row, and the time
-/// series in batches of [`ROWS_PER_BATCH`] rows, so that memory does not grow with the run.
+/// series in batches of `ROWS_PER_BATCH` rows, so that memory does not grow with the run.
 pub struct RunLogger<'a> {
     rec: &'a RecordingStream,
     aero: bool,
