@@ -5,7 +5,7 @@
 //! A file a scenario names is looked for, in order: relative to the scenario's folder (an absolute path as
 //! given); in the data directory (`--data-dir` or `MRFEEL_DATA`), where one is set; then, for a relative
 //! path, among the built-in files by its file name. A built-in file has the path `<built-in>/models/…`,
-//! which every reader of this crate reads through [`crate::text_lines::read_bytes`] and which error
+//! which every reader of this crate reads through [`crate::input::text::read_bytes`] and which error
 //! messages name with its lines like any other file.
 
 use std::path::{Component, Path, PathBuf};
@@ -287,10 +287,10 @@ mod tests {
     #[test]
     fn built_in_files_read_as_the_repository_files() {
         for (p, _) in FILES {
-            let built_in = crate::text_lines::read_text(&path_of(p)).unwrap();
+            let built_in = crate::input::text::read_text(&path_of(p)).unwrap();
             assert_eq!(built_in, std::fs::read_to_string(p).unwrap(), "{p}");
         }
-        assert!(crate::text_lines::read_text(Path::new("<built-in>/models/nothing.toml")).is_err());
+        assert!(crate::input::text::read_text(Path::new("<built-in>/models/nothing.toml")).is_err());
     }
 
     /// A relative path that does not exist falls back to the built-in file of its name; one that exists is

@@ -32,7 +32,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::text_lines::line_of;
+use crate::input::text::line_of;
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -217,7 +217,7 @@ impl FaultSchedule {
     pub fn from_scenario_text(text: &str, path: &Path, duration_s: f64) -> Result<Self, FaultError> {
         let line = |at: usize| line_of(text, at);
         let parse_err = |e: toml::de::Error| {
-            let e = crate::text_lines::TomlError::new(text, &e);
+            let e = crate::input::text::TomlError::new(text, &e);
             FaultError::Parse {
                 path: path.to_path_buf(),
                 line: e.line,
@@ -242,7 +242,7 @@ impl FaultSchedule {
             match at.and_then(|a| tables.fault.iter().position(|t| t.span().contains(&a))) {
                 Some(k) => {
                     // The key of the value at fault (a wrong type), else the table's (a key missing).
-                    let placed = crate::text_lines::TomlError::new(text, &e);
+                    let placed = crate::input::text::TomlError::new(text, &e);
                     let key = placed.field.unwrap_or_else(|| "fault".into());
                     FaultError::Field {
                         path: path.to_path_buf(),

@@ -6,6 +6,7 @@ pub mod control;
 pub mod device;
 pub mod faults;
 pub mod ident;
+pub mod input;
 pub mod interrupt;
 pub mod measurement;
 pub mod mts;
@@ -18,7 +19,6 @@ pub mod sensors;
 pub mod sim;
 pub(crate) mod spikes;
 pub mod sweep;
-pub mod text_lines;
 pub mod units;
 pub mod viz;
 

@@ -267,7 +267,7 @@ fn main() -> std::process::ExitCode {
             // Errors quote input (a field, a name): bounded and with control characters escaped.
             mrfeel::noteln!(
                 "{}",
-                mrfeel::text_lines::printable(&format!("error: {e:#}"), 2000)
+                mrfeel::input::text::printable(&format!("error: {e:#}"), 2000)
             );
             std::process::ExitCode::FAILURE
         }

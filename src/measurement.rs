@@ -214,7 +214,7 @@ impl Measurement {
 
     /// Read a measurement file (at most [`MEASUREMENT_LIMIT_BYTES`]; a device is refused).
     pub fn read(path: &Path) -> Result<Self, MeasurementError> {
-        let bytes = crate::text_lines::read_bytes(path, MEASUREMENT_LIMIT_BYTES).map_err(|msg| {
+        let bytes = crate::input::text::read_bytes(path, MEASUREMENT_LIMIT_BYTES).map_err(|msg| {
             MeasurementError::Io {
                 path: path.into(),
                 msg,
@@ -226,7 +226,7 @@ impl Measurement {
     /// Read a record of motion and current to predict the force of (`mrfeel simulate`): the format
     /// with the force column optional (read into [`Measurement::f_n`] where present, empty where not).
     pub fn read_motion(path: &Path) -> Result<Self, MeasurementError> {
-        let bytes = crate::text_lines::read_bytes(path, MEASUREMENT_LIMIT_BYTES).map_err(|msg| {
+        let bytes = crate::input::text::read_bytes(path, MEASUREMENT_LIMIT_BYTES).map_err(|msg| {
             MeasurementError::Io {
                 path: path.into(),
                 msg,
@@ -246,14 +246,14 @@ impl Measurement {
         if bytes.is_empty() {
             return Err(MeasurementError::Empty { path: p() });
         }
-        let text = crate::text_lines::decode(bytes).map_err(|e| MeasurementError::NotCsv {
+        let text = crate::input::text::decode(bytes).map_err(|e| MeasurementError::NotCsv {
             path: p(),
             line: e.line,
             why: e.what(),
         })?;
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         if let Some(nul) = text.find('\0') {
-            let line = crate::text_lines::line_of(text, nul);
+            let line = crate::input::text::line_of(text, nul);
             return Err(MeasurementError::NotCsv {
                 path: p(),
                 line,
@@ -385,7 +385,7 @@ impl Measurement {
                     path: p(),
                     line: lineno,
                     column: header[c].clone(),
-                    value: crate::text_lines::quoted(s, 80),
+                    value: crate::input::text::quoted(s, 80),
                     why: if s.is_empty() {
                         "empty field".into()
                     } else {
@@ -397,7 +397,7 @@ impl Measurement {
                         path: p(),
                         line: lineno,
                         column: header[c].clone(),
-                        value: crate::text_lines::quoted(s, 80),
+                        value: crate::input::text::quoted(s, 80),
                         why,
                     });
                 }
@@ -500,12 +500,12 @@ impl Measurement {
                 path: self.path.clone(),
                 line: self.lines[first.index],
                 column: name.into(),
-                value: crate::text_lines::short_number(first.value),
+                value: crate::input::text::short_number(first.value),
                 why: format!(
                     "looks like a spike: {} times the column's spread (its central 90 %) away from the median of \
                      its neighbours, {}; no sensor moves so far for one sample: correct or remove it{more}",
-                    crate::text_lines::short_number(first.spreads.round()),
-                    crate::text_lines::short_number(first.neighbours)
+                    crate::input::text::short_number(first.spreads.round()),
+                    crate::input::text::short_number(first.neighbours)
                 ),
             });
         }
@@ -717,7 +717,7 @@ pub fn measurement_files(paths: &[PathBuf]) -> Result<Vec<PathBuf>, MeasurementE
 
 /// What a directory entry is when it is not a regular file (after following a link), or `None` for a file.
 fn not_a_file(q: &Path) -> Option<String> {
-    use crate::text_lines::NotAFile;
+    use crate::input::text::NotAFile;
     match std::fs::metadata(q) {
         Err(e) => Some(format!("unreadable ({e}; a broken link?)")),
         Ok(meta) => NotAFile::of(&meta).map(|kind| match kind {

@@ -13,11 +13,11 @@ use toml::Spanned;
 
 use crate::control::feel::{CentringSpring, FeelKind, FeelSprings, FeelSystemConfig};
 use crate::control::{AntiWindup, FeelLaw, PidGains};
+use crate::input::text::line_of;
 use crate::pilot::attitude::{CrossoverPilotConfig, PilotLoop, Schedule};
 use crate::pilot::{HandConfig, Signal, Task};
 use crate::rig::RigConfig;
 use crate::sensors::{DaqConfig, LaserConfig, LoadCellConfig, SensorsConfig};
-use crate::text_lines::line_of;
 
 mod overrides;
 pub use overrides::{Origin, Override};
@@ -232,7 +232,7 @@ impl Scenario {
         let c = Ctx { path, text };
         let dir = path.parent().unwrap_or(Path::new("."));
         let mut rig = f.rig.clone();
-        let rig_line = |key: &str| crate::text_lines::toml_key_line(text, "rig", key);
+        let rig_line = |key: &str| crate::input::text::toml_key_line(text, "rig", key);
         // The files the run reads later: named here, with the line that names them, when they are missing.
         rig.urdf = c.named_file(rig_line("urdf"), "rig.urdf", &f.rig.urdf)?;
         let device_path = c.named_file(
@@ -498,11 +498,11 @@ impl Scenario {
         Ok(Scenario {
             path: path.to_path_buf(),
             lines: KeyLines {
-                physics_hz: crate::text_lines::toml_key_line(text, "rig", "physics_hz"),
-                airspeed: crate::text_lines::toml_key_line(text, "aircraft", "airspeed_m_s"),
-                aircraft_model: crate::text_lines::toml_key_line(text, "aircraft", "model"),
-                feel_law: crate::text_lines::toml_key_line(text, "feel", "law"),
-                pilot_frequency: crate::text_lines::toml_key_line(text, "pilot", "frequency_hz"),
+                physics_hz: crate::input::text::toml_key_line(text, "rig", "physics_hz"),
+                airspeed: crate::input::text::toml_key_line(text, "aircraft", "airspeed_m_s"),
+                aircraft_model: crate::input::text::toml_key_line(text, "aircraft", "model"),
+                feel_law: crate::input::text::toml_key_line(text, "feel", "law"),
+                pilot_frequency: crate::input::text::toml_key_line(text, "pilot", "frequency_hz"),
                 device_file: line_of(text, f.device.file.span().start),
                 controller_model: match &f.controller.model {
                     Some(m) => line_of(text, m.span().start),
@@ -995,14 +995,14 @@ pub fn load_hand(path: &Path) -> Result<HandConfig, ScenarioError> {
 }
 
 fn read(path: &Path) -> Result<String, ScenarioError> {
-    crate::text_lines::read_text(path).map_err(|msg| ScenarioError::Io {
+    crate::input::text::read_text(path).map_err(|msg| ScenarioError::Io {
         path: path.to_path_buf(),
         msg,
     })
 }
 
 fn from_toml<T: serde::de::DeserializeOwned>(text: &str, path: &Path) -> Result<T, ScenarioError> {
-    crate::text_lines::parse_toml(text).map_err(|e| ScenarioError::Parse {
+    crate::input::text::parse_toml(text).map_err(|e| ScenarioError::Parse {
         path: path.to_path_buf(),
         line: e.line,
         msg: e.message(),
@@ -1037,7 +1037,7 @@ impl Ctx<'_> {
         }
         // A regular file only: the rig's URDF and the device are read again for every run of a comparison
         // or a DAQ sweep, which a pipe cannot give twice.
-        use crate::text_lines::NotAFile;
+        use crate::input::text::NotAFile;
         let msg = match std::fs::metadata(&file).map(|m| NotAFile::of(&m)) {
             Ok(None) => return Ok(file),
             Ok(Some(NotAFile::Directory)) => format!("{}: a directory, not a file", file.display()),

@@ -415,7 +415,7 @@ fn c172p_stick_force_per_g_from_derived_hinge_moments_sits_in_its_certification_
 #[test]
 fn bad_model_file_names_file_line_and_field() {
     let path = AircraftModel::builtin_path("c172p");
-    let text = mrfeel::text_lines::read_text(&path).unwrap();
+    let text = mrfeel::input::text::read_text(&path).unwrap();
     let bad = text.replace("mass_kg = 852.753644", "mass_kg = -5.0");
     let line = bad.lines().position(|l| l.starts_with("mass_kg = -5.0")).unwrap() + 1;
     match AircraftModel::from_toml(&bad, Path::new("c172p.toml")) {

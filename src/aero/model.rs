@@ -13,7 +13,7 @@ use super::hinge::FeelComputer;
 use super::hinge_theory::ControlGeometry;
 use super::table::Table1;
 use super::AeroError;
-use crate::text_lines::line_of;
+use crate::input::text::line_of;
 
 /// Which certification basis the aircraft's control forces are checked against.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
@@ -366,7 +366,7 @@ fn estimated_keys(text: &str) -> Vec<String> {
 impl AircraftModel {
     /// Load `models/aircraft/<name>.toml`.
     pub fn load(path: &Path) -> Result<Self, AeroError> {
-        let text = crate::text_lines::read_text(path).map_err(|msg| AeroError::Io {
+        let text = crate::input::text::read_text(path).map_err(|msg| AeroError::Io {
             path: path.to_path_buf(),
             msg,
         })?;
@@ -375,7 +375,7 @@ impl AircraftModel {
 
     /// Parse and validate model TOML; `path` is used in error messages.
     pub fn from_toml(text: &str, path: &Path) -> Result<Self, AeroError> {
-        let f: FileModel = crate::text_lines::parse_toml(text).map_err(|e| AeroError::Parse {
+        let f: FileModel = crate::input::text::parse_toml(text).map_err(|e| AeroError::Parse {
             path: path.to_path_buf(),
             line: e.line,
             msg: e.message(),
@@ -629,7 +629,7 @@ mod tests {
 
     fn c172p() -> (PathBuf, String) {
         let path = AircraftModel::builtin_path("c172p");
-        let text = crate::text_lines::read_text(&path).unwrap();
+        let text = crate::input::text::read_text(&path).unwrap();
         (path, text)
     }
 

@@ -17,7 +17,7 @@ pub struct ReferenceRun {
 
 impl ReferenceRun {
     pub fn load(path: &Path) -> Result<Self, AeroError> {
-        let text = crate::text_lines::read_text(path).map_err(|msg| AeroError::Io {
+        let text = crate::input::text::read_text(path).map_err(|msg| AeroError::Io {
             path: path.to_path_buf(),
             msg,
         })?;

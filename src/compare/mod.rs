@@ -34,11 +34,11 @@ use serde::Deserialize;
 use crate::control::feel::{CentringSpring, FeelSprings, FeelSystemConfig};
 use crate::control::FeelLaw;
 use crate::faults::FaultSchedule;
+use crate::input::text::toml_key_line as line_of_key;
 use crate::pilot::Signal;
 use crate::rig::RigConfig;
 use crate::scenario::Scenario;
 use crate::sim::{Loop, Plant};
-use crate::text_lines::toml_key_line as line_of_key;
 
 pub use crate::control::feel::FeelKind;
 
@@ -261,7 +261,7 @@ pub struct CompareScenario {
 
 impl CompareScenario {
     pub fn load(path: &Path) -> Result<Self, CompareError> {
-        let text = crate::text_lines::read_text(path).map_err(|msg| CompareError::Io {
+        let text = crate::input::text::read_text(path).map_err(|msg| CompareError::Io {
             path: path.to_path_buf(),
             msg,
         })?;
@@ -269,7 +269,7 @@ impl CompareScenario {
     }
 
     pub fn parse(text: &str, path: &Path) -> Result<Self, CompareError> {
-        let f: File = crate::text_lines::parse_toml(text).map_err(|e| CompareError::Parse {
+        let f: File = crate::input::text::parse_toml(text).map_err(|e| CompareError::Parse {
             path: path.to_path_buf(),
             line: e.line,
             msg: e.message(),

@@ -340,11 +340,11 @@ pub enum FeelError {
 
 impl FeelSprings {
     pub fn load(path: &Path) -> Result<Self, FeelError> {
-        let text = crate::text_lines::read_text(path).map_err(|msg| FeelError::Io {
+        let text = crate::input::text::read_text(path).map_err(|msg| FeelError::Io {
             path: path.to_path_buf(),
             msg,
         })?;
-        let f: FeelSprings = crate::text_lines::parse_toml(&text).map_err(|e| FeelError::Parse {
+        let f: FeelSprings = crate::input::text::parse_toml(&text).map_err(|e| FeelError::Parse {
             path: path.to_path_buf(),
             line: e.line,
             msg: e.message(),
@@ -378,7 +378,7 @@ impl FeelSprings {
                 let (table, key) = field.split_once('.').unwrap_or(("", field));
                 return Err(FeelError::Field {
                     path: path.to_path_buf(),
-                    line: crate::text_lines::toml_key_line(&text, table, key),
+                    line: crate::input::text::toml_key_line(&text, table, key),
                     field: field.into(),
                     msg: format!("{v} outside the allowed range [{lo}, {hi}]"),
                 });
@@ -434,7 +434,7 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("mrfeel-feel-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let bad = dir.join("bad.toml");
-        let text = crate::text_lines::read_text(&path)
+        let text = crate::input::text::read_text(&path)
             .unwrap()
             .replace("nonlinearity = ", "nonlinearity = -");
         std::fs::write(&bad, text).unwrap();

@@ -11,8 +11,8 @@ use serde::{Deserialize, Serialize};
 use super::model::{Damper, Model, ModelSpec, Registry, PAPER_CURRENT_LIMIT_A};
 use super::params::ParamValue;
 use super::DeviceError;
+use crate::input::text::{line_of, short_number as num};
 use crate::measurement::CommandTiming;
-use crate::text_lines::{line_of, short_number as num};
 use crate::units::IN_TO_M;
 
 /// Table 1 geometry of the paper's device, in SI units (converted once from inches on load).
@@ -54,7 +54,7 @@ impl DeviceConfig {
     /// by the extension in any case, or where there is none of the two (a pipe: `--params <(…)`) by the
     /// text: a JSON object opens with `{`, which no TOML document does.
     pub fn load(path: &Path, registry: &Registry) -> Result<Self, DeviceError> {
-        let text = crate::text_lines::read_text(path).map_err(|msg| DeviceError::Io {
+        let text = crate::input::text::read_text(path).map_err(|msg| DeviceError::Io {
             path: path.to_path_buf(),
             msg,
         })?;
@@ -111,7 +111,7 @@ impl DeviceConfig {
     }
 
     pub fn from_toml(text: &str, path: &Path, registry: &Registry) -> Result<Self, DeviceError> {
-        let file: TomlDevice = crate::text_lines::parse_toml(text).map_err(|e| {
+        let file: TomlDevice = crate::input::text::parse_toml(text).map_err(|e| {
             // A missing key is reported with the span of the table that lacks it; a value of the wrong
             // type by the key of its line (toml's message does not name it).
             match e.field {

@@ -26,7 +26,7 @@ use super::effect::{Effect, EffectStage, Inputs, Stage, Step};
 use super::model::Registry;
 use super::params::{DataStats, ParamSpec};
 use super::DeviceError;
-use crate::text_lines::line_of;
+use crate::input::text::line_of;
 
 /// A signal a formula may read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -490,7 +490,7 @@ impl FormulaEffect {
 
     /// Load an effect file; errors name the file, the line and the field.
     pub fn load(path: &Path) -> Result<Self, DeviceError> {
-        let text = crate::text_lines::read_text(path).map_err(|msg| DeviceError::Io {
+        let text = crate::input::text::read_text(path).map_err(|msg| DeviceError::Io {
             path: path.to_path_buf(),
             msg,
         })?;
@@ -499,7 +499,7 @@ impl FormulaEffect {
 
     /// Parse an effect file's text (`path` for messages).
     pub fn from_toml(text: &str, path: &Path) -> Result<Self, DeviceError> {
-        let file: EffectFile = crate::text_lines::parse_toml(text).map_err(|e| match e.field {
+        let file: EffectFile = crate::input::text::parse_toml(text).map_err(|e| match e.field {
             Some(field) => DeviceError::Field {
                 path: path.to_path_buf(),
                 line: e.line,

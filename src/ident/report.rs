@@ -129,9 +129,9 @@ impl FitJson {
         for (name, p) in &self.params {
             let se = p
                 .std_err
-                .map(|e| crate::text_lines::significant(e, 3))
+                .map(|e| crate::input::text::significant(e, 3))
                 .unwrap_or_else(|| "—".into());
-            let value = crate::text_lines::significant(p.value, 6);
+            let value = crate::input::text::significant(p.value, 6);
             let _ = writeln!(s, "{name:<28} {value:>14} {se:>12}  {}", p.unit);
             if !p.note.is_empty() {
                 let _ = writeln!(s, "{:<28} ({})", "", p.note);

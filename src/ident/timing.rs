@@ -90,8 +90,8 @@ impl TimingDecision {
                 self.timing.describe(),
                 a.nrmse(),
                 b.nrmse(),
-                crate::text_lines::significant(a.loss, 7),
-                crate::text_lines::significant(b.loss, 7)
+                crate::input::text::significant(a.loss, 7),
+                crate::input::text::significant(b.loss, 7)
             ),
             None => format!("current command timing: {} ({})", self.timing.as_str(), self.timing.describe()),
         }

@@ -120,11 +120,11 @@ pub fn check_finite(
                 t.path.display(),
                 i.t_s,
                 k + 1,
-                crate::text_lines::short_number(i.x_m),
-                crate::text_lines::short_number(i.v_m_s),
-                crate::text_lines::short_number(i.current_cmd_a),
-                crate::text_lines::short_number(t.f_n[k]),
-                crate::text_lines::short_number(pred[j][k])
+                crate::input::text::short_number(i.x_m),
+                crate::input::text::short_number(i.v_m_s),
+                crate::input::text::short_number(i.current_cmd_a),
+                crate::input::text::short_number(t.f_n[k]),
+                crate::input::text::short_number(pred[j][k])
             )
         })
         .collect();

@@ -177,7 +177,7 @@ fn check_sensor_options(a: &MtsArgs, range_n: f64) -> Result<()> {
 /// there), or a force that quantised to zero at every sample, which the measurement reader then refuses.
 fn check_record(m: &crate::measurement::Measurement, test: &MtsTest) -> Result<()> {
     let clipped = |y: &[f64], range: f64| y.iter().filter(|v| v.abs() >= range * 0.999).count();
-    let short = crate::text_lines::short_number;
+    let short = crate::input::text::short_number;
     let range_n = short(test.load_cell.range);
     let n = clipped(&m.f_n, test.load_cell.range);
     if n > 0 {

@@ -26,7 +26,7 @@ pub struct UrdfModel {
 impl UrdfModel {
     /// Read and parse a URDF file with its loop joints.
     pub fn load(path: &Path) -> Result<Self, RigError> {
-        let text = crate::text_lines::read_text(path).map_err(|msg| RigError::Io {
+        let text = crate::input::text::read_text(path).map_err(|msg| RigError::Io {
             path: path.to_path_buf(),
             msg,
         })?;

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use toml_edit::{DocumentMut, ImDocument, Item, TableLike};
 
 use super::{Scenario, ScenarioError};
-use crate::text_lines::line_of;
+use crate::input::text::line_of;
 
 /// Where an override was written, for its errors.
 #[derive(Debug, Clone, PartialEq, Eq)]

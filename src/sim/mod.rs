@@ -464,8 +464,8 @@ pub fn build_rig(scn: &Scenario, device: &DeviceConfig) -> anyhow::Result<crate:
         Some(g) => rig
             .check_device_stroke(g.stroke_half_m, || {
                 // The device file's line, read again only to name it in the error.
-                let line = crate::text_lines::read_text(&device.path)
-                    .map(|t| crate::text_lines::toml_key_line(&t, "geometry", "stroke_half_in"))
+                let line = crate::input::text::read_text(&device.path)
+                    .map(|t| crate::input::text::toml_key_line(&t, "geometry", "stroke_half_in"))
                     .unwrap_or(1);
                 format!("`geometry.stroke_half_in` at {}:{line}", device.path.display())
             })

@@ -10,8 +10,8 @@ use rand_distr::{Distribution, Normal};
 use serde::Deserialize;
 use toml::Spanned;
 
+use crate::input::text::line_of;
 use crate::scenario::{Origin, Override, Scenario, ScenarioError};
-use crate::text_lines::line_of;
 
 /// Most runs a plan may have (a typo in a grid multiplies).
 pub const MAX_RUNS: u64 = 10_000_000;
@@ -226,7 +226,7 @@ struct CaseFile {
 
 impl Plan {
     pub fn load(path: &Path) -> Result<Self, PlanError> {
-        let text = crate::text_lines::read_text(path).map_err(|msg| PlanError::Io {
+        let text = crate::input::text::read_text(path).map_err(|msg| PlanError::Io {
             path: path.to_path_buf(),
             msg,
         })?;
@@ -234,7 +234,7 @@ impl Plan {
     }
 
     pub fn parse(text: &str, path: &Path) -> Result<Self, PlanError> {
-        let f: PlanFile = crate::text_lines::parse_toml(text).map_err(|e| PlanError::Parse {
+        let f: PlanFile = crate::input::text::parse_toml(text).map_err(|e| PlanError::Parse {
             path: path.to_path_buf(),
             line: e.line,
             msg: e.message(),
@@ -251,7 +251,7 @@ impl Plan {
         };
         let dir = path.parent().unwrap_or(Path::new(""));
         let scenario_path = dir.join(f.scenario.get_ref());
-        let scenario_text = crate::text_lines::read_text(&scenario_path).map_err(|msg| {
+        let scenario_text = crate::input::text::read_text(&scenario_path).map_err(|msg| {
             err(
                 f.scenario.span().start,
                 "scenario",

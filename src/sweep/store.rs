@@ -11,7 +11,7 @@ use toml::Spanned;
 
 use super::outcome::{Cell, Outcome};
 use super::plan::{Param, Plan};
-use crate::text_lines::line_of;
+use crate::input::text::line_of;
 
 #[derive(Debug, thiserror::Error)]
 pub enum StoreError {
@@ -135,11 +135,11 @@ impl Loaded {
         if !path.exists() {
             return Ok(None);
         }
-        let text = crate::text_lines::read_text(path).map_err(|msg| StoreError::Io {
+        let text = crate::input::text::read_text(path).map_err(|msg| StoreError::Io {
             path: path.to_path_buf(),
             msg,
         })?;
-        let file: ManifestFile = crate::text_lines::parse_toml(&text).map_err(|e| StoreError::Line {
+        let file: ManifestFile = crate::input::text::parse_toml(&text).map_err(|e| StoreError::Line {
             path: path.to_path_buf(),
             line: e.line,
             msg: e.message(),

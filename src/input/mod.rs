@@ -1,0 +1,225 @@
+//! The input layer: every file mrfeel reads is read here, into a typed schema, and every refusal is one
+//! [`InputError`] naming the file, the line and the field. Domain modules take the checked structs and do
+//! not read files.
+//!
+//! TOML files are read with serde into schemas whose values carry their place ([`toml::Spanned`]); a
+//! schema's range checks go through [`Source`], so that a value out of range names its own line.
+
+pub mod text;
+
+use std::fmt;
+use std::ops::RangeInclusive;
+use std::path::{Path, PathBuf};
+
+use toml::Spanned;
+
+/// An input refused: the file, where in it (line, field) when that is known, and why.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct InputError {
+    pub path: PathBuf,
+    /// 1-based line.
+    pub line: Option<usize>,
+    /// The key or column, as written in the file (dotted for a nested key: `rig.physics_hz`).
+    pub field: Option<String>,
+    pub msg: String,
+}
+
+impl InputError {
+    /// The whole file is refused (it cannot be read, or lacks something that has no line).
+    pub fn file(path: impl Into<PathBuf>, msg: impl Into<String>) -> Self {
+        Self {
+            path: path.into(),
+            line: None,
+            field: None,
+            msg: msg.into(),
+        }
+    }
+
+    /// A line is refused.
+    pub fn line(path: impl Into<PathBuf>, line: usize, msg: impl Into<String>) -> Self {
+        Self {
+            line: Some(line),
+            ..Self::file(path, msg)
+        }
+    }
+
+    /// A field's value, at its line, is refused.
+    pub fn field(
+        path: impl Into<PathBuf>,
+        line: usize,
+        field: impl Into<String>,
+        msg: impl Into<String>,
+    ) -> Self {
+        Self {
+            line: Some(line),
+            field: Some(field.into()),
+            ..Self::file(path, msg)
+        }
+    }
+
+    /// The same error with `context` before its message (`… in the file the scenario names: …`).
+    pub fn context(mut self, context: impl fmt::Display) -> Self {
+        self.msg = format!("{context}: {}", self.msg);
+        self
+    }
+}
+
+impl fmt::Display for InputError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.path.display())?;
+        if let Some(line) = self.line {
+            write!(f, ":{line}")?;
+        }
+        if let Some(field) = &self.field {
+            write!(f, ": field `{field}`")?;
+        }
+        write!(f, ": {}", self.msg)
+    }
+}
+
+impl std::error::Error for InputError {}
+
+/// A text input file: its path (for errors) and its text (for lines).
+#[derive(Debug, Clone)]
+pub struct Source {
+    pub path: PathBuf,
+    pub text: String,
+}
+
+impl Source {
+    /// Read a text file ([`text::read_text`]: built-in files, size limit, the first byte that is not UTF-8).
+    pub fn read(path: &Path) -> Result<Self, InputError> {
+        let text = text::read_text(path).map_err(|msg| InputError::file(path, msg))?;
+        Ok(Self::new(path, text))
+    }
+
+    /// A text already in memory, placed at `path` for its errors.
+    pub fn new(path: impl Into<PathBuf>, text: impl Into<String>) -> Self {
+        Self {
+            path: path.into(),
+            text: text.into(),
+        }
+    }
+
+    /// The text read as TOML into `T`: a syntax error, an unknown key or a value of the wrong type names
+    /// its line and key.
+    pub fn toml<T: serde::de::DeserializeOwned>(&self) -> Result<T, InputError> {
+        text::parse_toml(&self.text).map_err(|e| InputError {
+            path: self.path.clone(),
+            line: Some(e.line),
+            field: e.field,
+            msg: e.msg,
+        })
+    }
+
+    /// 1-based line of a byte offset.
+    pub fn line_of(&self, offset: usize) -> usize {
+        text::line_of(&self.text, offset)
+    }
+
+    /// An error at a spanned value's line, naming `field`.
+    pub fn err<T>(&self, at: &Spanned<T>, field: &str, msg: impl Into<String>) -> InputError {
+        InputError::field(&self.path, self.line_of(at.span().start), field, msg)
+    }
+
+    /// A number checked to lie in `range` (`unit` for the message): a value outside, or not finite, names
+    /// its line and field with the allowed range.
+    pub fn within(
+        &self,
+        v: &Spanned<f64>,
+        field: &str,
+        range: RangeInclusive<f64>,
+        unit: &str,
+    ) -> Result<f64, InputError> {
+        let x = *v.get_ref();
+        if x.is_finite() && range.contains(&x) {
+            return Ok(x);
+        }
+        let msg = format!(
+            "value {} outside the allowed range [{}, {}] {unit}",
+            text::short_number(x),
+            text::short_number(*range.start()),
+            text::short_number(*range.end())
+        );
+        Err(self.err(v, field, msg.trim_end()))
+    }
+
+    /// An integer checked to lie in `range`.
+    pub fn within_int(
+        &self,
+        v: &Spanned<i64>,
+        field: &str,
+        range: RangeInclusive<i64>,
+    ) -> Result<i64, InputError> {
+        let x = *v.get_ref();
+        if range.contains(&x) {
+            return Ok(x);
+        }
+        Err(self.err(
+            v,
+            field,
+            format!(
+                "value {x} outside the allowed range [{}, {}]",
+                range.start(),
+                range.end()
+            ),
+        ))
+    }
+
+    /// A path written in the file, relative to the file's folder (absolute paths kept).
+    pub fn relative(&self, written: &Path) -> PathBuf {
+        match self.path.parent() {
+            Some(dir) if written.is_relative() => dir.join(written),
+            _ => written.to_path_buf(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde::Deserialize;
+
+    #[derive(Debug, Deserialize)]
+    #[serde(deny_unknown_fields)]
+    struct Rig {
+        physics_hz: Spanned<f64>,
+    }
+
+    #[derive(Debug, Deserialize)]
+    #[serde(deny_unknown_fields)]
+    struct File {
+        rig: Rig,
+    }
+
+    const TEXT: &str = "# a scenario\n\n[rig]\nphysics_hz = 50.0\n";
+
+    #[test]
+    fn a_value_out_of_range_names_its_file_line_and_field() {
+        let src = Source::new("scn.toml", TEXT);
+        let f: File = src.toml().unwrap();
+        let e = src
+            .within(&f.rig.physics_hz, "rig.physics_hz", 100.0..=1e5, "Hz")
+            .unwrap_err();
+        assert_eq!((e.line, e.field.as_deref()), (Some(4), Some("rig.physics_hz")));
+        assert_eq!(
+            e.to_string(),
+            "scn.toml:4: field `rig.physics_hz`: value 50 outside the allowed range [100, 100000] Hz"
+        );
+    }
+
+    #[test]
+    fn an_unknown_key_is_refused_at_its_line() {
+        let src = Source::new("scn.toml", format!("{TEXT}physics_hx = 1.0\n"));
+        let e = src.toml::<File>().unwrap_err();
+        assert_eq!(e.line, Some(5), "{e}");
+        assert!(e.msg.contains("physics_hx"), "{e}");
+    }
+
+    #[test]
+    fn relative_paths_are_read_from_the_files_folder() {
+        let src = Source::new("a/b/scn.toml", "");
+        assert_eq!(src.relative(Path::new("d.toml")), Path::new("a/b/d.toml"));
+        assert_eq!(src.relative(Path::new("/x/d.toml")), Path::new("/x/d.toml"));
+    }
+}
