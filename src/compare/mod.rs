@@ -95,7 +95,7 @@ pub enum CompareError {
     #[error(transparent)]
     Device(#[from] crate::device::DeviceError),
     #[error(transparent)]
-    Springs(#[from] crate::control::feel::FeelError),
+    Springs(#[from] crate::input::InputError),
     #[error(transparent)]
     Rig(#[from] crate::rig::RigError),
     #[error(transparent)]
@@ -490,24 +490,24 @@ impl CompareScenario {
         })
     }
 
-    /// The feel system `kind` as this comparison sets it up (the q-feel spring at the scenario's q̄).
-    pub fn feel_system(&self, kind: FeelKind) -> FeelSystemConfig {
-        if kind == FeelKind::Active {
-            // Checked on load: `[active]` is present whenever `active` can be run.
-            let a = self.active.unwrap_or(ActiveSection {
-                max_force_n: 0.0,
-                damping_n_s_per_m: 0.0,
-            });
-            return FeelSystemConfig::active(a.max_force_n, a.damping_n_s_per_m);
+    /// The feel system `kind` as this comparison sets it up (the q-feel spring at the scenario's q̄); the
+    /// active stick needs the file's `[active]` motor.
+    pub fn feel_system(&self, kind: FeelKind) -> Result<FeelSystemConfig, CompareError> {
+        match (kind, self.active) {
+            (FeelKind::Active, Some(a)) => Ok(FeelSystemConfig::active(a.max_force_n, a.damping_n_s_per_m)),
+            (FeelKind::Active, None) => Err(CompareError::Feel(format!(
+                "{}: `active` needs an `[active]` section (max_force_n, damping_n_s_per_m)",
+                self.path.display()
+            ))),
+            _ => Ok(FeelSystemConfig::from_springs(
+                kind,
+                &self.springs,
+                self.qbar_pa,
+                self.hybrid_spring,
+                self.spring_damping_n_s_per_m,
+                self.hybrid_return_damping_n_s_per_m,
+            )),
         }
-        FeelSystemConfig::from_springs(
-            kind,
-            &self.springs,
-            self.qbar_pa,
-            self.hybrid_spring,
-            self.spring_damping_n_s_per_m,
-            self.hybrid_return_damping_n_s_per_m,
-        )
     }
 
     /// The standard task: sinusoidal stick motion, then deflect–hold–let go.
@@ -733,15 +733,9 @@ pub fn run(
     task: &Task,
     faults: &FaultSchedule,
 ) -> Result<Trace, CompareError> {
-    if kind == FeelKind::Active && scn.active.is_none() {
-        return Err(CompareError::Feel(format!(
-            "{}: `active` needs an `[active]` section (max_force_n, damping_n_s_per_m)",
-            scn.path.display()
-        )));
-    }
+    let mut s = scn.base.with_feel_system(scn.feel_system(kind)?);
     let dt = 1.0 / scn.base.rig.physics_hz;
     let (pilot_task, samples) = pilot_command(task, dt)?;
-    let mut s = scn.base.with_feel_system(scn.feel_system(kind));
     s.name = format!("{}/{}", scn.name, kind.name());
     s.seed = scn.seed;
     s.duration_s = task.duration_s();
@@ -759,8 +753,8 @@ pub fn run(
     s.faults = faults.clone();
     s.aircraft = None;
     s.outer_loop = None;
-    let rig = crate::sim::cli::build_rig(&s, &scn.devices.plant)
-        .map_err(|e| CompareError::Feel(format!("{e:#}")))?;
+    let rig =
+        crate::sim::build_rig(&s, &scn.devices.plant).map_err(|e| CompareError::Feel(format!("{e:#}")))?;
     let lever = Plant::grip_arm_m(&rig);
     let mut lp = Loop::new(&s, &scn.devices, rig)?;
     let n = (task.duration_s() / dt).round() as usize;

@@ -8,7 +8,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 
 use super::response::{self, SweepPoint};
-use super::{run, Devices, Plant, Results, RunOptions};
+use super::{build_rig, run, Devices, Plant, Results, RunOptions};
 use crate::device::{DeviceConfig, Registry};
 use crate::scenario::Scenario;
 
@@ -98,21 +98,6 @@ pub fn input_files(path: &Path, scn: &Scenario, aircraft: Option<&str>) -> Vec<(
     files
 }
 
-/// Load the scenario's plant and controller model and build its rig.
-pub fn load(path: &Path) -> anyhow::Result<(Scenario, Devices, crate::rig::Rig)> {
-    let scn = Scenario::load(path)?;
-    let devices = devices_of(&scn)?;
-    let rig = build_rig(&scn, &devices.plant)?;
-    Ok((scn, devices, rig))
-}
-
-/// The plant a loaded scenario names and the model its controller believes ([`Devices::load`]).
-pub fn devices_of(scn: &Scenario) -> anyhow::Result<Devices> {
-    Ok(Devices::load(scn)?)
-}
-
-pub use super::build_rig;
-
 fn progress_bar(len: u64, msg: &str) -> ProgressBar {
     let pb = ProgressBar::with_draw_target(
         Some(len),
@@ -151,7 +136,7 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
     if let Some(p) = &args.device {
         scn.device_path = p.clone();
     }
-    let mut devices = devices_of(&scn)?;
+    let mut devices = Devices::load(&scn)?;
     if let Some(p) = &args.controller_model {
         devices.controller = DeviceConfig::load(p, &Registry::builtin()).context("--controller-model")?;
         devices.controller_is_plant = false;
@@ -483,7 +468,7 @@ pub fn daq_sweep_cmd(args: &DaqSweepArgs, scn: Scenario) -> anyhow::Result<()> {
             );
         }
     }
-    let devices = devices_of(&scn)?;
+    let devices = Devices::load(&scn)?;
     let points = sweep(&scn, &devices, &args.rates)?;
     if let Some(dir) = &args.plot {
         response::plot(
