@@ -1,28 +1,21 @@
-//! Feel systems compared on the same rig and linkage (issue 6): three spring feel units, the paper's MR
-//! damper under a force loop, and a hybrid MR damper + centring spring, all driven by the same pilot task;
-//! plus the same runs with faults in the loop's power and signal path ([`crate::faults`]).
+//! Feel systems compared on the same rig, linkage and pilot task: three spring feel units, the paper's MR
+//! damper under a force loop, the hybrid MR damper + centring spring and the active stick; plus the same
+//! runs with faults in the power and signal path ([`crate::faults`]).
 //!
-//! # Systems
 //! | name | force element on the piston joint | electrical path |
 //! |---|---|---|
-//! | `centring_spring` | Hanlon's centring spring + the feel unit's viscous damper | none |
+//! | `centring_spring` | Hanlon's centring spring + the unit's viscous damper | none |
 //! | `variable_gradient_spring` | Griffith's variable-gradient spring + damper | none |
 //! | `q_feel` | q-feel spring at the scenario's q̄ + damper | none |
 //! | `mr` | the paper's MR damper (Eq. 2–6), force loop on the load cell | DAQ → PI → driver → coil |
 //! | `mr_spring` | MR damper + a lighter centring spring (hybrid) | as `mr` |
+//! | `active` | a motor rendering the target by impedance control | DAQ → driver → motor |
 //!
-//! Every system runs in the same loop as `mrfeel run` ([`crate::sim::Loop`]), built from the `base`
-//! scenario (rig, device, load cell, laser, DAQ, the PID feel controller with feedforward, the pilot's
-//! hand), with the comparison's target as the feel law and the system as the scenario's feel system
-//! ([`crate::control::feel::FeelSystemConfig`]): the same component a user names in any scenario's
-//! `[feel_system]`. The springs are implicit joint springs on the piston; a spring feel unit has no MR
-//! damper: its damper is the device with the coil never energised (`fc0`, `fc_gain` 0, `C0` replaced by
-//! the unit's `damping_n_s_per_m`). The hybrid's controller gives the spring's share of the target to the
-//! spring and, at rest or returning, only a speed-proportional current
-//! ([`crate::control::Hybrid`]), so the spring can re-centre the stick.
-//!
-//! The pilot's task (sinusoidal motion, deflect–hold, let go; or a slow force ramp for the breakout) is
-//! fed to the hand sample by sample; letting go is a NaN command (hands off).
+//! Every system runs in the loop of `mrfeel run` ([`crate::sim::Loop`]) built from the `base` scenario,
+//! with the comparison's target as the feel law and the system as the scenario's feel system
+//! ([`crate::control::FeelSystem`]), the component any scenario's `[feel_system]` names. The pilot's task
+//! (sinusoidal motion, deflect–hold, let go; or a slow force ramp for the breakout) is fed to the hand
+//! sample by sample; letting go is a NaN command (hands off).
 
 pub mod cli;
 pub mod metrics;
