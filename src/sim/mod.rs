@@ -13,7 +13,6 @@
 //! Faults ([`crate::faults`]) act between transducers and DAQ, DAQ and controller (latency spikes), driver
 //! and coil or motor; every row carries the mask of the faults active at its time.
 
-pub mod cli;
 pub mod flight;
 pub mod invariants;
 pub mod loop_study;
@@ -24,6 +23,8 @@ pub mod results;
 
 pub use flight::{AeroRow, Flight};
 pub use plant::{Plant, PlantState};
+#[cfg(feature = "rerun")]
+pub use results::{log_rerun, rerun_sample};
 pub use results::{FlightInfo, Results, Row, Summary, SummaryAcc};
 
 use std::collections::VecDeque;
