@@ -5,6 +5,9 @@
 //! TOML files are read with serde into schemas whose values carry their place ([`toml::Spanned`]); a
 //! schema's range checks go through [`Source`], so that a value out of range names its own line.
 
+pub mod json;
+pub mod measurement;
+pub mod params;
 pub mod text;
 
 use std::fmt;
