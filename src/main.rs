@@ -34,13 +34,13 @@ enum Command {
     /// Compare feel systems (springs, MR damper, hybrid) on the same rig and pilot task, with faults.
     Compare(cli::compare::CompareArgs),
     /// Fit a model (`bingham+effect+...`) to measured tests, jointly, each from its own start.
-    Fit(mrfeel::ident::cli::FitArgs),
+    Fit(cli::ident::FitArgs),
     /// Run a saved model unchanged on other tests and report its error (no refit).
-    Validate(mrfeel::ident::cli::ValidateArgs),
+    Validate(cli::ident::ValidateArgs),
     /// Find where a model fails and name the missing effects by the held-out error they remove.
-    Diagnose(mrfeel::ident::cli::DiagnoseArgs),
+    Diagnose(cli::ident::DiagnoseArgs),
     /// The force of a saved model (or a device file) on your own motion and current (measurement CSV).
-    Simulate(mrfeel::ident::cli::SimulateArgs),
+    Simulate(cli::ident::SimulateArgs),
     /// Discovery to feel: diagnose rig data, fit each stage, and run a scenario with each as the feel
     /// controller's model against the same plant.
     LoopStudy(cli::sim::LoopStudyArgs),
@@ -56,10 +56,10 @@ enum Job {
     Run(cli::sim::RunArgs, Box<mrfeel::scenario::Scenario>),
     DaqSweep(cli::sim::DaqSweepArgs, Box<mrfeel::scenario::Scenario>),
     Compare(cli::compare::CompareArgs, Box<mrfeel::compare::CompareScenario>),
-    Fit(mrfeel::ident::cli::FitArgs),
-    Validate(mrfeel::ident::cli::ValidateArgs),
-    Diagnose(mrfeel::ident::cli::DiagnoseArgs),
-    Simulate(mrfeel::ident::cli::SimulateArgs),
+    Fit(cli::ident::FitArgs),
+    Validate(cli::ident::ValidateArgs),
+    Diagnose(cli::ident::DiagnoseArgs),
+    Simulate(cli::ident::SimulateArgs),
     LoopStudy(cli::sim::LoopStudyArgs, Box<mrfeel::scenario::Scenario>),
     Sweep(cli::sweep::SweepArgs),
 }
@@ -99,10 +99,10 @@ impl Job {
             Job::Run(a, scn) => cli::sim::run_cmd(&a, *scn),
             Job::DaqSweep(a, scn) => cli::sim::daq_sweep_cmd(&a, *scn),
             Job::Compare(a, scn) => cli::compare::run_cmd(a, *scn),
-            Job::Fit(a) => mrfeel::ident::cli::run_fit(&a),
-            Job::Validate(a) => mrfeel::ident::cli::run_validate(&a),
-            Job::Diagnose(a) => mrfeel::ident::cli::run_diagnose(&a),
-            Job::Simulate(a) => mrfeel::ident::cli::run_simulate(&a),
+            Job::Fit(a) => cli::ident::run_fit(&a),
+            Job::Validate(a) => cli::ident::run_validate(&a),
+            Job::Diagnose(a) => cli::ident::run_diagnose(&a),
+            Job::Simulate(a) => cli::ident::run_simulate(&a),
             Job::LoopStudy(a, scn) => cli::sim::loop_study_cmd(&a, *scn),
             Job::Sweep(a) => cli::sweep::run_cmd(&a),
         }
