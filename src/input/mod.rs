@@ -5,6 +5,9 @@
 //! TOML files are read with serde into schemas whose values carry their place ([`toml::Spanned`]); a
 //! schema's range checks go through [`Source`], so that a value out of range names its own line.
 
+pub mod aircraft;
+pub mod compare;
+pub mod reference;
 pub mod text;
 
 use std::fmt;
