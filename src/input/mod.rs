@@ -8,6 +8,7 @@
 pub mod aircraft;
 pub mod compare;
 pub mod reference;
+pub mod springs;
 pub mod text;
 
 use std::fmt;
