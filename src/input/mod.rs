@@ -7,6 +7,9 @@
 
 pub mod aircraft;
 pub mod compare;
+pub mod json;
+pub mod measurement;
+pub mod params;
 pub mod reference;
 pub mod springs;
 pub mod text;
