@@ -91,15 +91,13 @@ pub enum CompareError {
     #[error("feel systems: {0}")]
     Feel(String),
     #[error(transparent)]
-    Faults(#[from] crate::faults::FaultError),
-    #[error(transparent)]
     Device(#[from] crate::device::DeviceError),
     #[error(transparent)]
     Springs(#[from] crate::control::feel::FeelError),
     #[error(transparent)]
     Rig(#[from] crate::rig::RigError),
     #[error(transparent)]
-    Scenario(#[from] crate::scenario::ScenarioError),
+    Input(#[from] crate::input::InputError),
     #[error(transparent)]
     Sim(#[from] crate::sim::SimError),
 }
@@ -126,7 +124,7 @@ struct File {
     fault_test: FaultTest,
     /// The active stick (`active`), if compared.
     active: Option<ActiveSection>,
-    /// `[[fault]]` tables, read by [`FaultSchedule::from_scenario_text`].
+    /// `[[fault]]` tables, read by [`crate::input::faults::from_file`].
     #[serde(default)]
     #[allow(dead_code)]
     fault: Option<toml::Value>,
@@ -436,7 +434,7 @@ impl CompareScenario {
         )?;
         let task_s = main_task(k).duration_s();
         if let Some((key, msg)) =
-            crate::faults::window_error(f.fault_test.start_s, f.fault_test.end_s, task_s, "task")
+            crate::input::faults::window_error(f.fault_test.start_s, f.fault_test.end_s, task_s, "task")
         {
             return Err(CompareError::Field {
                 path: path.to_path_buf(),
@@ -463,7 +461,7 @@ impl CompareScenario {
                 msg: "`active` needs an `[active]` section (max_force_n, damping_n_s_per_m)".into(),
             });
         }
-        let faults = FaultSchedule::from_scenario_text(text, path, task_s)?;
+        let faults = crate::input::faults::from_file(&crate::input::Source::new(path, text), task_s)?;
         Ok(Self {
             path: path.to_path_buf(),
             name: f.name,
