@@ -35,6 +35,7 @@ pub enum FaultKind {
 }
 
 impl FaultKind {
+    /// Every kind, in table order.
     pub const ALL: [FaultKind; 7] = [
         FaultKind::CoilOpen,
         FaultKind::DriverStuck,
@@ -58,6 +59,7 @@ impl FaultKind {
         }
     }
 
+    /// The kind's bit in a mask of active faults.
     pub fn bit(self) -> u8 {
         1 << (self as u8)
     }
@@ -83,6 +85,7 @@ pub struct Fault {
 }
 
 impl Fault {
+    /// A fault with the default noise and latency.
     pub fn new(kind: FaultKind, start_s: f64, end_s: f64) -> Self {
         Self {
             kind,
@@ -93,6 +96,7 @@ impl Fault {
         }
     }
 
+    /// Whether the fault acts at `t_s`.
     pub fn active(&self, t_s: f64) -> bool {
         t_s >= self.start_s && t_s < self.end_s
     }
@@ -105,10 +109,12 @@ pub struct FaultSchedule {
 }
 
 impl FaultSchedule {
+    /// No faults.
     pub fn none() -> Self {
         Self::default()
     }
 
+    /// One fault.
     pub fn single(fault: Fault) -> Self {
         Self { faults: vec![fault] }
     }
@@ -126,6 +132,7 @@ impl FaultSchedule {
             .fold(0, |m, f| m | f.kind.bit())
     }
 
+    /// Whether no fault is scheduled.
     pub fn is_empty(&self) -> bool {
         self.faults.is_empty()
     }
@@ -153,6 +160,7 @@ pub struct FaultInjector {
 }
 
 impl FaultInjector {
+    /// An injector of `schedule`, its noise seeded by `seed`.
     pub fn new(schedule: FaultSchedule, seed: u64) -> Self {
         Self {
             schedule,

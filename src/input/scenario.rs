@@ -126,20 +126,6 @@ enum LawName {
     Aircraft,
 }
 
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct FeelSection {
-    law: Spanned<Variant<LawName>>,
-    breakout_n: Opt,
-    gradient_n_per_m: Opt,
-    damping_n_s_per_m: Opt,
-    max_force_n: Opt,
-    low_n: Opt,
-    high_n: Opt,
-    start_s: Opt,
-    period_s: Opt,
-}
-
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 enum SignalName {
@@ -166,63 +152,44 @@ impl SignalName {
     }
 }
 
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct PilotSection {
-    model: Spanned<PathBuf>,
-    task: Spanned<Variant<Task>>,
-    signal: Spanned<Variant<SignalName>>,
-    value_rad: Opt,
-    value_n: Opt,
-    initial_rad: Opt,
-    initial_n: Opt,
-    final_rad: Opt,
-    final_n: Opt,
-    from_rad: Opt,
-    from_n: Opt,
-    to_rad: Opt,
-    to_n: Opt,
-    offset_rad: Opt,
-    offset_n: Opt,
-    amplitude_rad: Opt,
-    amplitude_n: Opt,
-    rms_rad: Opt,
-    rms_n: Opt,
-    at_s: Opt,
-    start_s: Opt,
-    ramp_duration_s: Opt,
-    frequency_hz: Opt,
-    cutoff_hz: Opt,
+/// A section whose variant (chosen by one of its `fixed` fields) takes some of its optional numbers
+/// (`keys`), listed by `keys()` so that those of another variant are refused.
+macro_rules! keyed_section {
+    ($(#[$doc:meta])* $name:ident { $($fixed:ident: $ty:ty),* } $($key:ident),*) => {
+        $(#[$doc])*
+        #[derive(Deserialize)]
+        #[serde(deny_unknown_fields)]
+        struct $name {
+            $($fixed: $ty,)*
+            $($key: Opt,)*
+        }
+
+        impl $name {
+            /// Every optional number as written.
+            fn keys(&self) -> Vec<(&'static str, Option<&Num>)> {
+                vec![$((stringify!($key), self.$key.as_ref())),*]
+            }
+        }
+    };
 }
 
-impl PilotSection {
-    /// Every signal key as written.
-    fn keys(&self) -> [(&'static str, Option<&Num>); 21] {
-        [
-            ("value_rad", self.value_rad.as_ref()),
-            ("value_n", self.value_n.as_ref()),
-            ("initial_rad", self.initial_rad.as_ref()),
-            ("initial_n", self.initial_n.as_ref()),
-            ("final_rad", self.final_rad.as_ref()),
-            ("final_n", self.final_n.as_ref()),
-            ("from_rad", self.from_rad.as_ref()),
-            ("from_n", self.from_n.as_ref()),
-            ("to_rad", self.to_rad.as_ref()),
-            ("to_n", self.to_n.as_ref()),
-            ("offset_rad", self.offset_rad.as_ref()),
-            ("offset_n", self.offset_n.as_ref()),
-            ("amplitude_rad", self.amplitude_rad.as_ref()),
-            ("amplitude_n", self.amplitude_n.as_ref()),
-            ("rms_rad", self.rms_rad.as_ref()),
-            ("rms_n", self.rms_n.as_ref()),
-            ("at_s", self.at_s.as_ref()),
-            ("start_s", self.start_s.as_ref()),
-            ("ramp_duration_s", self.ramp_duration_s.as_ref()),
-            ("frequency_hz", self.frequency_hz.as_ref()),
-            ("cutoff_hz", self.cutoff_hz.as_ref()),
-        ]
-    }
-}
+keyed_section!(
+    /// `[pilot]`: a command value's key ends in the task's unit (`_rad`, `_n`).
+    PilotSection { model: Spanned<PathBuf>, task: Spanned<Variant<Task>>, signal: Spanned<Variant<SignalName>> }
+    value_rad, value_n, initial_rad, initial_n, final_rad, final_n, from_rad, from_n, to_rad, to_n,
+    offset_rad, offset_n, amplitude_rad, amplitude_n, rms_rad, rms_n, at_s, start_s, ramp_duration_s,
+    frequency_hz, cutoff_hz
+);
+
+keyed_section!(
+    FeelSection { law: Spanned<Variant<LawName>> }
+    breakout_n, gradient_n_per_m, damping_n_s_per_m, max_force_n, low_n, high_n, start_s, period_s
+);
+
+keyed_section!(
+    FeelSystemSection { kind: Spanned<String>, springs: Option<Spanned<PathBuf>> }
+    damping_n_s_per_m, qbar_pa, hybrid_k_n_per_m, return_damping_n_s_per_m, motor_max_force_n
+);
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -248,18 +215,6 @@ struct OuterLoopSection {
     stick_lag_s: Opt,
     /// `[[t_s, value], ...]`: pitch in degrees relative to trim, or load factor in g.
     command: Spanned<Vec<Point>>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct FeelSystemSection {
-    kind: Spanned<String>,
-    springs: Option<Spanned<PathBuf>>,
-    damping_n_s_per_m: Opt,
-    qbar_pa: Opt,
-    hybrid_k_n_per_m: Opt,
-    return_damping_n_s_per_m: Opt,
-    motor_max_force_n: Opt,
 }
 
 /// A point `[t_s, value]` of a schedule: exactly two numbers (serde's `[f64; 2]` would read the first two
@@ -570,16 +525,6 @@ pub fn scenario(src: &Source) -> Result<Scenario, InputError> {
 fn feel_law(c: &Check, fl: &FeelSection, duration_s: f64, has_aircraft: bool) -> Result<FeelLaw, InputError> {
     let name = c.0.variant(&fl.law, "feel.law")?;
     let by = &format!("`{}`", fl.law.get_ref().name());
-    let keys = [
-        ("breakout_n", fl.breakout_n.as_ref()),
-        ("gradient_n_per_m", fl.gradient_n_per_m.as_ref()),
-        ("damping_n_s_per_m", fl.damping_n_s_per_m.as_ref()),
-        ("max_force_n", fl.max_force_n.as_ref()),
-        ("low_n", fl.low_n.as_ref()),
-        ("high_n", fl.high_n.as_ref()),
-        ("start_s", fl.start_s.as_ref()),
-        ("period_s", fl.period_s.as_ref()),
-    ];
     let need = |v: &Opt, key: &str, lo: f64, hi: f64, unit: &str| {
         c.need(v, &format!("feel.{key}"), &fl.law, by, lo, hi, unit)
     };
@@ -612,7 +557,7 @@ fn feel_law(c: &Check, fl: &FeelSection, duration_s: f64, has_aircraft: bool) ->
         LawName::ForceSteps => &["low_n", "high_n", "start_s", "period_s"],
         LawName::Aircraft => &[],
     };
-    c.unused("feel", &keys, used, &format!("not used by {by}"))?;
+    c.unused("feel", &fl.keys(), used, &format!("not used by {by}"))?;
     Ok(law)
 }
 
@@ -641,14 +586,7 @@ fn feel_system(
     if let Some(p) = fs.springs.as_ref().filter(|_| !used.contains(&"springs")) {
         return Err(src.err(p, "feel_system.springs", format!("not used by {by}")));
     }
-    let keys = [
-        ("damping_n_s_per_m", fs.damping_n_s_per_m.as_ref()),
-        ("qbar_pa", fs.qbar_pa.as_ref()),
-        ("hybrid_k_n_per_m", fs.hybrid_k_n_per_m.as_ref()),
-        ("return_damping_n_s_per_m", fs.return_damping_n_s_per_m.as_ref()),
-        ("motor_max_force_n", fs.motor_max_force_n.as_ref()),
-    ];
-    c.unused("feel_system", &keys, used, &format!("not used by {by}"))?;
+    c.unused("feel_system", &fs.keys(), used, &format!("not used by {by}"))?;
     if kind == FeelKind::Active {
         let config = FeelSystemConfig::active(
             need(&fs.motor_max_force_n, "motor_max_force_n", 1e4, "N")?,

@@ -47,6 +47,7 @@ pub struct Override {
 }
 
 impl Override {
+    /// `key` set to `value`, written at `origin`.
     pub fn set(key: &str, value: toml::Value, origin: Origin) -> Self {
         Self {
             key: key.to_string(),
