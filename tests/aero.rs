@@ -5,8 +5,9 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use mrfeel::aero::reference::ReferenceRun;
 use mrfeel::aero::{AeroError, Aircraft, AircraftModel, AircraftState, FeelAssessment};
+use mrfeel::input::reference::ReferenceRun;
+use mrfeel::input::InputError;
 use mrfeel::units::{G0_M_S2, LBF_TO_N};
 
 fn aircraft(name: &str) -> Aircraft {
@@ -380,7 +381,7 @@ fn c172p_stick_force_per_g_from_derived_hinge_moments_sits_in_its_certification_
     let m = AircraftModel::load(&AircraftModel::builtin_path("c172p")).unwrap();
     eprintln!(
         "c172p hinge derivatives from geometry: Ch_alpha {:.3}, Ch_delta {:.3}, Ch_tab {:.3} per rad",
-        m.ch_alpha_per_rad, m.ch_elevator_per_rad, m.ch_tab_per_rad
+        m.hinge.ch_alpha_per_rad, m.hinge.ch_elevator_per_rad, m.hinge.ch_tab_per_rad
     );
     let (lo, hi) = (24.0 / 2.8, 75.0 / 2.8);
     let per_g = c172p_per_g_lbf(m.clone()).unwrap();
@@ -391,12 +392,16 @@ fn c172p_stick_force_per_g_from_derived_hinge_moments_sits_in_its_certification_
     assert!((lo..=hi).contains(&per_g), "{per_g} lbf/g outside [{lo}, {hi}]");
     type Mutation = (&'static str, fn(&mut AircraftModel));
     let mutations: [Mutation; 6] = [
-        ("Ch_delta x 2", |m| m.ch_elevator_per_rad *= 2.0),
-        ("Ch_delta / 2", |m| m.ch_elevator_per_rad *= 0.5),
-        ("Ch_delta sign", |m| m.ch_elevator_per_rad *= -1.0),
-        ("Ch_alpha sign", |m| m.ch_alpha_per_rad *= -1.0),
-        ("Ch_alpha x 2 (not caught here)", |m| m.ch_alpha_per_rad *= 2.0),
-        ("Ch_alpha / 2 (not caught here)", |m| m.ch_alpha_per_rad *= 0.5),
+        ("Ch_delta x 2", |m| m.hinge.ch_elevator_per_rad *= 2.0),
+        ("Ch_delta / 2", |m| m.hinge.ch_elevator_per_rad *= 0.5),
+        ("Ch_delta sign", |m| m.hinge.ch_elevator_per_rad *= -1.0),
+        ("Ch_alpha sign", |m| m.hinge.ch_alpha_per_rad *= -1.0),
+        ("Ch_alpha x 2 (not caught here)", |m| {
+            m.hinge.ch_alpha_per_rad *= 2.0
+        }),
+        ("Ch_alpha / 2 (not caught here)", |m| {
+            m.hinge.ch_alpha_per_rad *= 0.5
+        }),
     ];
     for (what, mutate) in mutations {
         let mut bad = m.clone();
@@ -419,7 +424,7 @@ fn bad_model_file_names_file_line_and_field() {
     let bad = text.replace("mass_kg = 852.753644", "mass_kg = -5.0");
     let line = bad.lines().position(|l| l.starts_with("mass_kg = -5.0")).unwrap() + 1;
     match AircraftModel::from_toml(&bad, Path::new("c172p.toml")) {
-        Err(e @ AeroError::Field { .. }) => {
+        Err(e) if e.field.is_some() => {
             let msg = e.to_string();
             assert!(msg.starts_with(&format!("c172p.toml:{line}:")), "{msg}");
             assert!(
@@ -432,7 +437,7 @@ fn bad_model_file_names_file_line_and_field() {
     let unknown = text.replace("cd0 = 0.027", "cd0 = 0.027\ncd_typo = 1.0");
     let line = unknown.lines().position(|l| l.starts_with("cd_typo")).unwrap() + 1;
     match AircraftModel::from_toml(&unknown, Path::new("c172p.toml")) {
-        Err(e @ AeroError::Parse { .. }) => {
+        Err(e) => {
             let msg = e.to_string();
             assert!(
                 msg.starts_with(&format!("c172p.toml:{line}:")) && msg.contains("cd_typo"),
@@ -449,7 +454,7 @@ fn bad_model_file_names_file_line_and_field() {
         .unwrap()
         + 1;
     match AircraftModel::from_toml(&no_feel, Path::new("c172p.toml")) {
-        Err(e @ AeroError::Field { .. }) => {
+        Err(e) if e.field.is_some() => {
             let msg = e.to_string();
             assert!(
                 msg.starts_with(&format!("c172p.toml:{line}:")) && msg.contains("[feel_computer]"),
@@ -461,7 +466,7 @@ fn bad_model_file_names_file_line_and_field() {
     let table = text.replace("[0.09, 0.73], [0.10, 0.83]", "[0.10, 0.73], [0.09, 0.83]");
     assert!(matches!(
         AircraftModel::from_toml(&table, Path::new("x.toml")),
-        Err(AeroError::Field { .. })
+        Err(InputError { field: Some(_), .. })
     ));
 }
 
@@ -518,8 +523,11 @@ fn b737_feel_computer_meets_25_143_and_25_173c_from_130_to_210_m_s() {
 #[test]
 fn b737_feel_force_scales_with_impact_pressure() {
     let model = AircraftModel::load(&AircraftModel::builtin_path("737")).unwrap();
-    let fc = model.feel_computer.expect("the 737 has a feel computer");
-    assert_eq!(model.force_feedback_ratio, 0.0, "irreversible: no hinge feedback");
+    let fc = model.hinge.feel_computer.expect("the 737 has a feel computer");
+    assert_eq!(
+        model.hinge.force_feedback_ratio, 0.0,
+        "irreversible: no hinge feedback"
+    );
     let displacement_rad = 0.02; // column aft of the trimmed neutral
     let mut out = Vec::new();
     for v in [130.0, 210.0] {

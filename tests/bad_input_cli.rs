@@ -484,7 +484,10 @@ fn compare_refuses_a_feel_system_named_twice_or_none() {
         let path = d.path().join("c.toml");
         std::fs::write(&path, text.replace(&original, systems)).unwrap();
         let o = mrfeel(&["compare", &s(&path), "--feel", "centring_spring"]);
-        refused(&o, &[&format!("{}:{line}: `systems`", path.display()), needle]);
+        refused(
+            &o,
+            &[&format!("{}:{line}: field `systems`", path.display()), needle],
+        );
     }
     // The copy itself, unchanged but for its paths, loads and runs.
     let path = d.path().join("c.toml");

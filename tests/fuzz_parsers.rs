@@ -348,7 +348,7 @@ fn jsbsim_reference_csv(cases: u32) {
         "scenarios/jsbsim/c172p_doublet.csv",
         "r.csv",
         |p| {
-            mrfeel::aero::reference::ReferenceRun::load(p)
+            mrfeel::input::reference::ReferenceRun::load(p)
                 .map(drop)
                 .map_err(|e| format!("{e:#}"))
         },

@@ -288,7 +288,7 @@ fn bad_axes_shards_and_merges_are_refused_at_their_line() {
             o,
         ],
         &[
-            &format!("{}:3: `digest`", b.join("sweep.toml").display()),
+            &format!("{}:3: field `digest`", b.join("sweep.toml").display()),
             "another plan",
         ],
     );
@@ -302,6 +302,6 @@ fn bad_axes_shards_and_merges_are_refused_at_their_line() {
             "--shard",
             "0/2",
         ],
-        &["sweep.toml:3: `digest`"],
+        &["sweep.toml:3: field `digest`"],
     );
 }

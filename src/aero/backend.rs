@@ -49,7 +49,7 @@ pub fn model_file(name: &str) -> Result<PathBuf, AeroError> {
     let Some(dir) = jsbsim_folder(name) else {
         return AircraftModel::builtin(name);
     };
-    let fail = |why: String| AeroError::Input {
+    let fail = |why: String| AeroError::Refused {
         what: format!("JSBSim aircraft folder `{}`", dir.display()),
         why,
     };
@@ -87,7 +87,7 @@ pub fn open(spec: &str) -> Result<Box<dyn AircraftBackend>, AeroError> {
             let model = Arc::new(AircraftModel::load(&model_file(name)?)?);
             Ok(Box::new(JsbsimBridge::spawn(name, model)?))
         }
-        Some((other, _)) => Err(AeroError::Input {
+        Some((other, _)) => Err(AeroError::Refused {
             what: format!("aircraft `{spec}`"),
             why: format!("unknown backend `{other}` (use `<name>` or `jsbsim:<name>`)"),
         }),

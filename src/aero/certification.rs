@@ -129,7 +129,7 @@ impl FeelAssessment {
         let n_stall = m.cl_max() / cl_1g;
         let n_ref = 2.0_f64.min(n_lim).min(1.0 + 0.8 * (n_stall - 1.0));
         if n_ref <= 1.05 {
-            return Err(AeroError::Input {
+            return Err(AeroError::Refused {
                 what: format!("{} at {airspeed_m_s} m/s, {altitude_m} m", m.name),
                 why: format!("too close to the stall for a pull-up (stall load factor {n_stall:.2})"),
             });

@@ -39,9 +39,7 @@
 
 use super::longitudinal::AircraftState;
 
-use super::model::AircraftModel;
-
-/// Per-aircraft hinge, tail and stick-gearing parameters (from the model TOML).
+/// An aircraft's elevator hinge, tail and stick gearing (part of its [`super::AircraftModel`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct HingeModel {
     pub elevator_area_m2: f64,
@@ -68,28 +66,6 @@ pub struct HingeModel {
 }
 
 impl HingeModel {
-    pub fn from_model(m: &AircraftModel) -> Self {
-        Self {
-            elevator_area_m2: m.elevator_area_m2,
-            elevator_chord_m: m.elevator_chord_m,
-            ch0: m.ch0,
-            ch_alpha_per_rad: m.ch_alpha_per_rad,
-            ch_elevator_per_rad: m.ch_elevator_per_rad,
-            ch_tab_per_rad: m.ch_tab_per_rad,
-            tab_min_rad: m.tab_min_rad,
-            tab_max_rad: m.tab_max_rad,
-            tail_dynamic_pressure_ratio: m.tail_dynamic_pressure_ratio,
-            downwash_gradient: m.downwash_gradient,
-            tail_arm_m: m.htail_arm_m,
-            elevator_per_stick_rad_per_rad: m.elevator_per_stick_rad_per_rad,
-            stick_arm_m: m.stick_arm_m,
-            force_feedback_ratio: m.force_feedback_ratio,
-            feel_computer: m.feel_computer,
-            elevator_min_rad: m.elevator_min_rad,
-            elevator_max_rad: m.elevator_max_rad,
-        }
-    }
-
     /// Tail angle-of-attack increment: wing alpha less downwash, plus the pitch-rate term `q l_t / V`.
     pub fn alpha_tail_rad(&self, alpha_rad: f64, q_rad_s: f64, airspeed_m_s: f64) -> f64 {
         alpha_rad * (1.0 - self.downwash_gradient) + q_rad_s * self.tail_arm_m / airspeed_m_s.max(1.0)

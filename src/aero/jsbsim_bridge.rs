@@ -112,7 +112,7 @@ impl JsbsimBridge {
     /// stick gearing come from the embedded model of the same name.
     pub fn spawn(name: &str, model: Arc<AircraftModel>) -> Result<Self, AeroError> {
         let (py, found) = python();
-        let fail = |why: String| AeroError::Input {
+        let fail = |why: String| AeroError::Refused {
             what: format!("live JSBSim `jsbsim:{name}`"),
             why,
         };
@@ -173,7 +173,7 @@ impl JsbsimBridge {
         let mut b = Self {
             label: format!("jsbsim:{name}"),
             name: name.to_string(),
-            hinge: HingeModel::from_model(&model),
+            hinge: model.hinge.clone(),
             estimates: model.estimates.clone(),
             child,
             stdin,
@@ -202,7 +202,7 @@ impl JsbsimBridge {
 
     fn error(&self, why: String) -> AeroError {
         let tail = self.stderr_tail.lock().map(|t| t.join("\n")).unwrap_or_default();
-        AeroError::Input {
+        AeroError::Refused {
             what: format!("live JSBSim `{}`", self.label),
             why: if tail.is_empty() {
                 why

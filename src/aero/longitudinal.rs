@@ -89,7 +89,6 @@ struct Eval {
 #[derive(Debug, Clone)]
 pub struct Aircraft {
     model: Arc<AircraftModel>,
-    hinge: HingeModel,
     x: X,
     t_s: f64,
     controls: Controls,
@@ -100,10 +99,8 @@ pub struct Aircraft {
 
 impl Aircraft {
     pub fn new(model: Arc<AircraftModel>) -> Self {
-        let hinge = HingeModel::from_model(&model);
         let mut a = Self {
             model,
-            hinge,
             x: [50.0, 0.0, 0.0, 0.0, 1000.0],
             t_s: 0.0,
             controls: Controls {
@@ -128,7 +125,7 @@ impl Aircraft {
     }
 
     pub fn hinge(&self) -> &HingeModel {
-        &self.hinge
+        &self.model.hinge
     }
 
     pub fn state(&self) -> &AircraftState {
@@ -143,8 +140,12 @@ impl Aircraft {
         self.x = x;
         self.controls = c;
         self.t_s = 0.0;
-        let alpha_t = self.hinge.alpha_tail_rad(x[1].atan2(x[0]), x[2], airspeed_m_s);
+        let alpha_t = self
+            .model
+            .hinge
+            .alpha_tail_rad(x[1].atan2(x[0]), x[2], airspeed_m_s);
         self.tab_rad = self
+            .model
             .hinge
             .trim_tab_rad(alpha_t, c.elevator_rad)
             .ok_or_else(|| AeroError::Trim {
@@ -154,13 +155,13 @@ impl Aircraft {
                 nz_g: 1.0,
                 why: format!(
                     "the tab cannot zero the stick force (travel [{}, {}] rad)",
-                    self.hinge.tab_min_rad, self.hinge.tab_max_rad
+                    self.model.hinge.tab_min_rad, self.model.hinge.tab_max_rad
                 ),
             })?;
         self.feel_trim_rad = 0.0;
         self.refresh();
-        if let Some(fc) = &self.hinge.feel_computer {
-            let stick = self.hinge.stick_from_elevator_rad(c.elevator_rad);
+        if let Some(fc) = &self.model.hinge.feel_computer {
+            let stick = self.model.hinge.stick_from_elevator_rad(c.elevator_rad);
             self.feel_trim_rad = fc.trim_rad(stick, self.state.mach);
             self.refresh();
         }
@@ -171,7 +172,10 @@ impl Aircraft {
     /// and throttle (0–1) held over the step. Returns the new state.
     pub fn step(&mut self, elevator_rad: f64, throttle: f64, dt_s: f64) -> &AircraftState {
         self.controls = Controls {
-            elevator_rad: elevator_rad.clamp(self.model.elevator_min_rad, self.model.elevator_max_rad),
+            elevator_rad: elevator_rad.clamp(
+                self.model.hinge.elevator_min_rad,
+                self.model.hinge.elevator_max_rad,
+            ),
             throttle: throttle.clamp(0.0, 1.0),
         };
         let c = self.controls;
@@ -190,14 +194,14 @@ impl Aircraft {
 
     /// Set the trim tab (rad); the stick force changes, the flight path does not.
     pub fn set_tab_rad(&mut self, tab_rad: f64) {
-        self.tab_rad = tab_rad.clamp(self.hinge.tab_min_rad, self.hinge.tab_max_rad);
+        self.tab_rad = tab_rad.clamp(self.model.hinge.tab_min_rad, self.model.hinge.tab_max_rad);
         self.refresh();
     }
 
     /// Move the feel computer's column neutral (the pilot re-trims a powered elevator), stick rad
     /// positive aft; no effect without a feel computer.
     pub fn set_feel_trim_rad(&mut self, feel_trim_rad: f64) {
-        if self.hinge.feel_computer.is_some() {
+        if self.model.hinge.feel_computer.is_some() {
             self.feel_trim_rad = feel_trim_rad;
             self.refresh();
         }
@@ -248,7 +252,7 @@ impl Aircraft {
         let mut trimmed = self.clone();
         let s1 = trimmed.trim(airspeed_m_s, altitude_m)?;
         let (_, c) = trimmed.solve_trim(airspeed_m_s, altitude_m, nz_g, Throttle::Held(s1.throttle))?;
-        let h = &self.hinge;
+        let h = &self.model.hinge;
         Ok(
             (h.stick_from_elevator_rad(c.elevator_rad) - h.stick_from_elevator_rad(s1.elevator_rad))
                 / (nz_g - 1.0),
@@ -320,10 +324,11 @@ impl Aircraft {
     fn refresh(&mut self) {
         let e = self.eval(&self.x, self.controls);
         let [u, w, q, theta, h] = self.x;
-        let alpha_t = self.hinge.alpha_tail_rad(e.alpha, q, e.airspeed);
-        let hm = self
-            .hinge
-            .hinge_moment_nm(e.qbar_e, alpha_t, self.controls.elevator_rad, self.tab_rad);
+        let alpha_t = self.model.hinge.alpha_tail_rad(e.alpha, q, e.airspeed);
+        let hm =
+            self.model
+                .hinge
+                .hinge_moment_nm(e.qbar_e, alpha_t, self.controls.elevator_rad, self.tab_rad);
         self.state = AircraftState {
             t_s: self.t_s,
             u_m_s: u,
@@ -347,7 +352,7 @@ impl Aircraft {
             feel_trim_rad: self.feel_trim_rad,
             stick_force_n: 0.0,
         };
-        self.state.stick_force_n = self.hinge.stick_force_n(&self.state);
+        self.state.stick_force_n = self.model.hinge.stick_force_n(&self.state);
     }
 
     fn thrust_n(&self, throttle: f64, airspeed: f64, rho: f64) -> f64 {
@@ -517,10 +522,10 @@ impl Aircraft {
             let r = residual(&p);
             if r.norm() < 1e-11 {
                 let (x, c) = state(&p);
-                if c.elevator_rad < m.elevator_min_rad || c.elevator_rad > m.elevator_max_rad {
+                if c.elevator_rad < m.hinge.elevator_min_rad || c.elevator_rad > m.hinge.elevator_max_rad {
                     return Err(fail(format!(
                         "elevator {:.4} rad is beyond its stops [{}, {}]",
-                        c.elevator_rad, m.elevator_min_rad, m.elevator_max_rad
+                        c.elevator_rad, m.hinge.elevator_min_rad, m.hinge.elevator_max_rad
                     )));
                 }
                 if !matches!(throttle_mode, Throttle::Unbounded) && !(0.0..=1.0).contains(&c.throttle) {

@@ -8,7 +8,6 @@
 //! - [`HingeModel`]: `H = qbar_t S_e c_e (Ch0 + Ch_alpha alpha_t + Ch_delta delta_e + Ch_tab delta_tab)`
 //!   and the stick force `F = H * gearing / arm * feedback` (pull = positive aft force).
 //! - [`certification`]: 14 CFR 23/25 control-force limits and where an aircraft sits.
-//! - [`reference`](mod@reference): reader for the JSBSim reference tables in `scenarios/jsbsim/`.
 //!
 //! Axes: body x forward, z down; pitch rate, pitch angle and angle of attack positive nose-up;
 //! elevator positive trailing edge down (JSBSim's convention: positive elevator pitches nose-down).
@@ -22,10 +21,7 @@ pub mod jsbsim_bridge;
 pub mod linear;
 pub mod longitudinal;
 pub mod model;
-pub mod reference;
 pub mod table;
-
-use std::path::PathBuf;
 
 pub use certification::{CertificationBasis, FeelAssessment};
 pub use hinge::HingeModel;
@@ -33,20 +29,11 @@ pub use longitudinal::{Aircraft, AircraftState};
 pub use model::AircraftModel;
 pub use table::Table1;
 
-/// Errors from loading aircraft models or reference tables, or from trimming.
+/// An aircraft refused: its file, its name, or a flight condition it cannot trim at.
 #[derive(Debug, thiserror::Error)]
 pub enum AeroError {
-    #[error("{}: {msg}", path.display())]
-    Io { path: PathBuf, msg: String },
-    #[error("{}:{line}: {msg}", path.display())]
-    Parse { path: PathBuf, line: usize, msg: String },
-    #[error("{}:{line}: field `{field}`: {msg}", path.display())]
-    Field {
-        path: PathBuf,
-        line: usize,
-        field: String,
-        msg: String,
-    },
+    #[error(transparent)]
+    Input(#[from] crate::input::InputError),
     #[error("trim failed for {aircraft} at {airspeed_m_s} m/s, {altitude_m} m, {nz_g} g: {why}")]
     Trim {
         aircraft: String,
@@ -55,6 +42,7 @@ pub enum AeroError {
         nz_g: f64,
         why: String,
     },
+    /// A name, a JSBSim folder or the JSBSim bridge refused (`what`: which, `why`: the reason).
     #[error("{what}: {why}")]
-    Input { what: String, why: String },
+    Refused { what: String, why: String },
 }

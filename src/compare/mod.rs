@@ -27,14 +27,11 @@
 pub mod cli;
 pub mod metrics;
 
-use std::path::{Path, PathBuf};
-
-use serde::Deserialize;
+use std::path::PathBuf;
 
 use crate::control::feel::{CentringSpring, FeelSprings, FeelSystemConfig};
 use crate::control::FeelLaw;
 use crate::faults::FaultSchedule;
-use crate::input::text::toml_key_line as line_of_key;
 use crate::pilot::Signal;
 use crate::rig::RigConfig;
 use crate::scenario::Scenario;
@@ -56,7 +53,7 @@ pub fn parse_feel_list(s: &str) -> Result<Vec<FeelKind>, CompareError> {
 }
 
 /// The feel systems of a list of names, in order: each a known system, named once.
-fn feel_kinds(names: &[&str]) -> Result<Vec<FeelKind>, String> {
+pub(crate) fn feel_kinds(names: &[&str]) -> Result<Vec<FeelKind>, String> {
     let mut out = Vec::with_capacity(names.len());
     for (pos, name) in names.iter().enumerate() {
         if name.is_empty() {
@@ -75,19 +72,11 @@ fn unknown_feel(name: &str) -> String {
     format!("`{name}` is not one of: {}", FeelKind::names())
 }
 
+/// A comparison refused: its file, a feel-system list, or what it loads.
 #[derive(Debug, thiserror::Error)]
 pub enum CompareError {
-    #[error("{}: {msg}", path.display())]
-    Io { path: PathBuf, msg: String },
-    #[error("{}:{line}: {msg}", path.display())]
-    Parse { path: PathBuf, line: usize, msg: String },
-    #[error("{}:{line}: `{key}`: {msg}", path.display())]
-    Field {
-        path: PathBuf,
-        line: usize,
-        key: String,
-        msg: String,
-    },
+    #[error(transparent)]
+    Input(#[from] crate::input::InputError),
     #[error("feel systems: {0}")]
     Feel(String),
     #[error(transparent)]
@@ -97,42 +86,11 @@ pub enum CompareError {
     #[error(transparent)]
     Rig(#[from] crate::rig::RigError),
     #[error(transparent)]
-    Input(#[from] crate::input::InputError),
-    #[error(transparent)]
     Sim(#[from] crate::sim::SimError),
 }
 
-// ---------------------------------------------------------------------------------------------------
-// Scenario file (`scenarios/compare-*.toml`)
-
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct File {
-    name: String,
-    #[serde(default)]
-    #[allow(dead_code)]
-    description: String,
-    seed: u64,
-    systems: Vec<String>,
-    /// The loop scenario every system runs in (rig, device, sensors, DAQ, controller, pilot hand).
-    base: PathBuf,
-    device: DeviceSection,
-    springs: SpringsSection,
-    target: TargetLaw,
-    task: TaskSection,
-    limits: Limits,
-    fault_test: FaultTest,
-    /// The active stick (`active`), if compared.
-    active: Option<ActiveSection>,
-    /// `[[fault]]` tables, read by [`crate::input::faults::from_file`].
-    #[serde(default)]
-    #[allow(dead_code)]
-    fault: Option<toml::Value>,
-}
-
 /// `[active]`: the motor-driven stick.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ActiveSection {
     /// The motor's force limit on the piston, N.
     pub max_force_n: f64,
@@ -140,25 +98,8 @@ pub struct ActiveSection {
     pub damping_n_s_per_m: f64,
 }
 
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct DeviceSection {
-    coil_resistance_ohm: f64,
-}
-
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct SpringsSection {
-    file: PathBuf,
-    damping_n_s_per_m: f64,
-    qbar_pa: f64,
-    hybrid_k_n_per_m: f64,
-    hybrid_return_damping_n_s_per_m: f64,
-}
-
 /// The feel target, at the piston (force along +x): `F* = breakout·sgn x + gradient·x`, clipped.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TargetLaw {
     pub breakout_n: f64,
     pub gradient_n_per_m: f64,
@@ -173,8 +114,7 @@ impl TargetLaw {
     }
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TaskSection {
     /// Sinusoidal stick motion: amplitude, rad; frequency, Hz; whole cycles.
     pub sweep_amplitude_rad: f64,
@@ -194,8 +134,7 @@ pub struct TaskSection {
 }
 
 /// Certification force limits at the stick, lbf (converted once to N in [`Limits::newtons`]).
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Limits {
     /// 14 CFR 23.143(c): stick, pitch, temporary application.
     pub part23_stick_pitch_temporary_lbf: f64,
@@ -218,8 +157,7 @@ impl Limits {
 }
 
 /// The fault table's runs: each fault active from `start_s` to `end_s` of the standard task.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FaultTest {
     pub start_s: f64,
     pub end_s: f64,
@@ -258,236 +196,6 @@ pub struct CompareScenario {
 }
 
 impl CompareScenario {
-    pub fn load(path: &Path) -> Result<Self, CompareError> {
-        let text = crate::input::text::read_text(path).map_err(|msg| CompareError::Io {
-            path: path.to_path_buf(),
-            msg,
-        })?;
-        Self::parse(&text, path)
-    }
-
-    pub fn parse(text: &str, path: &Path) -> Result<Self, CompareError> {
-        let f: File = crate::input::text::parse_toml(text).map_err(|e| CompareError::Parse {
-            path: path.to_path_buf(),
-            line: e.line,
-            msg: e.message(),
-        })?;
-        let dir = path.parent().unwrap_or(Path::new("."));
-        let chk =
-            |section: &str, key: &str, v: f64, lo: f64, hi: f64, unit: &str| -> Result<f64, CompareError> {
-                if v.is_finite() && v >= lo && v <= hi {
-                    Ok(v)
-                } else {
-                    Err(CompareError::Field {
-                        path: path.to_path_buf(),
-                        line: line_of_key(text, section, key),
-                        key: if section.is_empty() {
-                            key.to_string()
-                        } else {
-                            format!("{section}.{key}")
-                        },
-                        msg: format!("value {v} outside the allowed range [{lo}, {hi}] {unit}")
-                            .trim_end()
-                            .to_string(),
-                    })
-                }
-            };
-        let systems_err = |msg: String| CompareError::Field {
-            path: path.to_path_buf(),
-            line: line_of_key(text, "", "systems"),
-            key: "systems".into(),
-            msg,
-        };
-        if f.systems.is_empty() {
-            return Err(systems_err(format!(
-                "no feel system listed; name at least one of: {}",
-                FeelKind::names()
-            )));
-        }
-        let names: Vec<&str> = f.systems.iter().map(String::as_str).collect();
-        let systems = feel_kinds(&names).map_err(systems_err)?;
-        let base_path = crate::builtin::resolve(dir, &f.base);
-        let base = Scenario::load(&base_path).map_err(|e| CompareError::Field {
-            path: path.to_path_buf(),
-            line: line_of_key(text, "", "base"),
-            key: "base".into(),
-            msg: crate::builtin::hint_if_missing(&base_path, e.to_string()),
-        })?;
-        let rig = base.rig.clone();
-        let devices = crate::sim::Devices::load(&base)?;
-        chk(
-            "device",
-            "coil_resistance_ohm",
-            f.device.coil_resistance_ohm,
-            0.0,
-            1000.0,
-            "Ω",
-        )?;
-        let springs_path = crate::builtin::resolve(dir, &f.springs.file);
-        let springs = FeelSprings::load(&springs_path).map_err(|e| CompareError::Field {
-            path: path.to_path_buf(),
-            line: line_of_key(text, "springs", "file"),
-            key: "springs.file".into(),
-            msg: crate::builtin::hint_if_missing(&springs_path, e.to_string()),
-        })?;
-        let s = &f.springs;
-        chk(
-            "springs",
-            "damping_n_s_per_m",
-            s.damping_n_s_per_m,
-            0.0,
-            1e5,
-            "N·s/m",
-        )?;
-        chk("springs", "qbar_pa", s.qbar_pa, 0.0, 1e6, "Pa")?;
-        chk("springs", "hybrid_k_n_per_m", s.hybrid_k_n_per_m, 0.0, 1e6, "N/m")?;
-        chk(
-            "springs",
-            "hybrid_return_damping_n_s_per_m",
-            s.hybrid_return_damping_n_s_per_m,
-            0.0,
-            1e5,
-            "N·s/m",
-        )?;
-        let t = &f.target;
-        chk("target", "breakout_n", t.breakout_n, 0.0, 250.0, "N")?;
-        chk("target", "gradient_n_per_m", t.gradient_n_per_m, 0.0, 1e6, "N/m")?;
-        chk("target", "max_force_n", t.max_force_n, 0.0, 250.0, "N")?;
-        let k = &f.task;
-        chk(
-            "task",
-            "sweep_amplitude_rad",
-            k.sweep_amplitude_rad,
-            0.0,
-            1.0,
-            "rad",
-        )?;
-        chk(
-            "task",
-            "sweep_frequency_hz",
-            k.sweep_frequency_hz,
-            0.01,
-            20.0,
-            "Hz",
-        )?;
-        chk(
-            "task",
-            "sweep_cycles",
-            k.sweep_cycles as f64,
-            2.0,
-            100.0,
-            "(the first cycle is a run-in)",
-        )?;
-        chk("task", "release_angle_rad", k.release_angle_rad, -1.0, 1.0, "rad")?;
-        chk("task", "release_ramp_s", k.release_ramp_s, 0.01, 60.0, "s")?;
-        chk("task", "release_hold_s", k.release_hold_s, 0.0, 60.0, "s")?;
-        chk("task", "release_observe_s", k.release_observe_s, 0.1, 60.0, "s")?;
-        chk("task", "recentre_band_rad", k.recentre_band_rad, 1e-5, 0.5, "rad")?;
-        chk(
-            "task",
-            "breakout_ramp_n_per_s",
-            k.breakout_ramp_n_per_s,
-            0.1,
-            1000.0,
-            "N/s",
-        )?;
-        chk(
-            "task",
-            "breakout_duration_s",
-            k.breakout_duration_s,
-            0.1,
-            60.0,
-            "s",
-        )?;
-        chk(
-            "task",
-            "breakout_threshold_rad",
-            k.breakout_threshold_rad,
-            1e-5,
-            0.5,
-            "rad",
-        )?;
-        let l = &f.limits;
-        chk(
-            "limits",
-            "part23_stick_pitch_temporary_lbf",
-            l.part23_stick_pitch_temporary_lbf,
-            0.0,
-            500.0,
-            "lbf",
-        )?;
-        chk(
-            "limits",
-            "pitch_prolonged_lbf",
-            l.pitch_prolonged_lbf,
-            0.0,
-            500.0,
-            "lbf",
-        )?;
-        chk(
-            "limits",
-            "part25_pitch_one_hand_lbf",
-            l.part25_pitch_one_hand_lbf,
-            0.0,
-            500.0,
-            "lbf",
-        )?;
-        let task_s = main_task(k).duration_s();
-        if let Some((key, msg)) =
-            crate::input::faults::window_error(f.fault_test.start_s, f.fault_test.end_s, task_s, "task")
-        {
-            return Err(CompareError::Field {
-                path: path.to_path_buf(),
-                line: line_of_key(text, "fault_test", key),
-                key: format!("fault_test.{key}"),
-                msg,
-            });
-        }
-        if let Some(a) = &f.active {
-            chk("active", "max_force_n", a.max_force_n, 0.0, 1e4, "N")?;
-            chk(
-                "active",
-                "damping_n_s_per_m",
-                a.damping_n_s_per_m,
-                0.0,
-                1e5,
-                "N·s/m",
-            )?;
-        } else if systems.contains(&FeelKind::Active) {
-            return Err(CompareError::Field {
-                path: path.to_path_buf(),
-                line: line_of_key(text, "", "systems"),
-                key: "systems".into(),
-                msg: "`active` needs an `[active]` section (max_force_n, damping_n_s_per_m)".into(),
-            });
-        }
-        let faults = crate::input::faults::from_file(&crate::input::Source::new(path, text), task_s)?;
-        Ok(Self {
-            path: path.to_path_buf(),
-            name: f.name,
-            seed: f.seed,
-            systems,
-            rig,
-            devices,
-            coil_resistance_ohm: f.device.coil_resistance_ohm,
-            springs,
-            springs_path,
-            spring_damping_n_s_per_m: s.damping_n_s_per_m,
-            qbar_pa: s.qbar_pa,
-            hybrid_spring: CentringSpring {
-                k_n_per_m: s.hybrid_k_n_per_m,
-            },
-            hybrid_return_damping_n_s_per_m: s.hybrid_return_damping_n_s_per_m,
-            target: f.target,
-            base,
-            task: f.task,
-            limits: f.limits,
-            fault_test: f.fault_test,
-            active: f.active,
-            faults,
-        })
-    }
-
     /// The feel system `kind` as this comparison sets it up (the q-feel spring at the scenario's q̄).
     pub fn feel_system(&self, kind: FeelKind) -> FeelSystemConfig {
         if kind == FeelKind::Active {
@@ -524,7 +232,7 @@ impl CompareScenario {
     }
 }
 
-fn main_task(k: &TaskSection) -> Task {
+pub(crate) fn main_task(k: &TaskSection) -> Task {
     Task {
         segments: vec![
             Segment::Sine {

@@ -1,4 +1,4 @@
-//! `[[fault]]` tables (in a scenario or a comparison): the faults a run schedules ([`crate::faults`]).
+//! `[[fault]]` tables (in a scenario or a comparison, read in the file's one pass): the faults a run schedules ([`crate::faults`]).
 //!
 //! ```toml
 //! [[fault]]
@@ -95,23 +95,21 @@ pub fn schedule(src: &Source, tables: &[FaultTable], run_s: f64) -> Result<Fault
     Ok(FaultSchedule { faults })
 }
 
-/// The `[[fault]]` tables of a whole TOML file whose other keys are read elsewhere (a comparison).
-pub fn from_file(src: &Source, run_s: f64) -> Result<FaultSchedule, InputError> {
-    #[derive(Deserialize)]
-    struct Faults {
-        #[serde(default)]
-        fault: Vec<FaultTable>,
-    }
-    schedule(src, &src.toml::<Faults>()?.fault, run_s)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::faults::mask_names;
 
+    /// The faults of a text that holds `[[fault]]` tables among other keys.
     fn parse(text: &str) -> Result<FaultSchedule, String> {
-        from_file(&Source::new("s.toml", text), 5.0).map_err(|e| e.to_string())
+        #[derive(Deserialize)]
+        struct Faults {
+            #[serde(default)]
+            fault: Vec<FaultTable>,
+        }
+        let src = Source::new("s.toml", text);
+        let tables = src.toml::<Faults>().map_err(|e| e.to_string())?;
+        schedule(&src, &tables.fault, 5.0).map_err(|e| e.to_string())
     }
 
     #[test]

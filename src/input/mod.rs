@@ -5,8 +5,11 @@
 //! TOML files are read with serde into schemas whose values carry their place ([`toml::Spanned`]); a
 //! schema's range checks go through [`Source`], so that a value out of range names its own line.
 
+pub mod aircraft;
+pub mod compare;
 pub mod faults;
 pub mod hand;
+pub mod reference;
 pub mod scenario;
 pub mod text;
 

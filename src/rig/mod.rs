@@ -41,32 +41,13 @@ use frames::{neutral_frames, Frame, V3};
 pub use linkage::Linkage;
 use urdf::UrdfModel;
 
-/// Errors building the rig. Each names the file and, where it can, the line and the element.
+/// Errors building the rig: its URDF refused (file, line, element), or its configuration out of range.
 #[derive(Debug, thiserror::Error)]
 pub enum RigError {
-    #[error("{}: {msg}", path.display())]
-    Io { path: PathBuf, msg: String },
-    /// `line` 0: no line to name (the message names what is missing).
-    #[error("{}: {msg}", at(path, *line))]
-    Urdf { path: PathBuf, line: usize, msg: String },
-    #[error("{}: {field}: {msg}", at(path, *line))]
-    Field {
-        path: PathBuf,
-        line: usize,
-        field: String,
-        msg: String,
-    },
+    #[error(transparent)]
+    Input(#[from] crate::input::InputError),
     #[error("rig configuration: field `{field}`: {msg}")]
     Config { field: String, msg: String },
-}
-
-/// `file:line`, or `file` alone for line 0 (nothing to point at).
-fn at(path: &Path, line: usize) -> String {
-    if line == 0 {
-        path.display().to_string()
-    } else {
-        format!("{}:{line}", path.display())
-    }
 }
 
 /// How far the URDF's piston stops may lie from a device's half stroke, m: 0.1 mm, the rounding of a
@@ -179,10 +160,7 @@ impl RigConfig {
             ..Self::new(urdf)
         };
         cfg.check()?;
-        std::fs::metadata(urdf).map_err(|e| RigError::Io {
-            path: urdf.to_path_buf(),
-            msg: e.to_string(),
-        })?;
+        std::fs::metadata(urdf).map_err(|e| crate::input::InputError::file(urdf, e.to_string()))?;
         Ok(cfg)
     }
 
@@ -593,10 +571,12 @@ impl Rig {
                 .iter()
                 .position(|n| n == body_link)
                 .map(|k| (handles.links[k].body, offset))
-                .ok_or_else(|| RigError::Urdf {
-                    path: model.path.clone(),
-                    line: model.line_of("link", name),
-                    msg: format!("link `{name}` was dropped by the loader (an empty link?)"),
+                .ok_or_else(|| {
+                    RigError::from(urdf::urdf_error(
+                        &model.path,
+                        model.line_of("link", name),
+                        format!("link `{name}` was dropped by the loader (an empty link?)"),
+                    ))
                 })
         };
         let joint_of = |name: &str| -> Result<MultibodyJointHandle, RigError> {
@@ -604,10 +584,12 @@ impl Rig {
                 .iter()
                 .position(|n| n == name)
                 .and_then(|k| handles.joints[k].joint)
-                .ok_or_else(|| RigError::Urdf {
-                    path: model.path.clone(),
-                    line: model.line_of("joint", name),
-                    msg: format!("joint `{name}` could not be inserted into the multibody"),
+                .ok_or_else(|| {
+                    RigError::from(urdf::urdf_error(
+                        &model.path,
+                        model.line_of("joint", name),
+                        format!("joint `{name}` could not be inserted into the multibody"),
+                    ))
                 })
         };
         for name in &joint_names {
@@ -1008,18 +990,13 @@ impl Rig {
         }
         let (path, line, joint) = &self.stroke_limits_at;
         let device = device();
-        Err(RigError::Field {
-            path: path.clone(),
-            line: *line,
-            field: format!("joint `{joint}`: limit"),
-            msg: format!(
-                "the piston's stops [{lo}, {hi}] m are not the device's stroke ±{stroke_half_m} m \
+        Err(RigError::from(urdf::urdf_error(path, *line, format!(
+                "joint `{joint}`: limit: the piston's stops [{lo}, {hi}] m are not the device's stroke ±{stroke_half_m} m \
                  (±{} in, {device}): the rig's piston is the device's damper; make the two agree (within \
                  {} mm)",
                 stroke_half_m / crate::units::IN_TO_M,
                 STROKE_TOLERANCE_M * 1e3
-            ),
-        })
+            ))))
     }
 
     /// Piston x per stick angle at neutral, m/rad.

@@ -10,6 +10,7 @@
 use std::path::{Path, PathBuf};
 
 use super::RigError;
+use crate::input::{InputError, Source};
 
 /// A parsed rig description.
 #[derive(Debug, Clone)]
@@ -26,49 +27,41 @@ pub struct UrdfModel {
 impl UrdfModel {
     /// Read and parse a URDF file with its loop joints.
     pub fn load(path: &Path) -> Result<Self, RigError> {
-        let text = crate::input::text::read_text(path).map_err(|msg| RigError::Io {
-            path: path.to_path_buf(),
-            msg,
-        })?;
-        Self::parse(&text, path)
+        Self::parse(&Source::read(path)?.text, path)
     }
 
     /// Parse URDF text; `path` is used for messages and to resolve nothing else.
     pub fn parse(text: &str, path: &Path) -> Result<Self, RigError> {
-        let xml = scan_xml(text).map_err(|(line, msg)| RigError::Urdf {
-            path: path.to_path_buf(),
-            line,
-            msg: format!("not a valid URDF (XML): {msg}"),
+        let xml = scan_xml(text).map_err(|(line, msg)| {
+            RigError::from(urdf_error(path, line, format!("not a valid URDF (XML): {msg}")))
         })?;
-        check_schema(&xml).map_err(|(line, field, msg)| RigError::Field {
-            path: path.to_path_buf(),
-            line,
-            field,
-            msg,
+        check_schema(&xml).map_err(|(line, field, msg)| {
+            RigError::from(urdf_error(path, line, format!("{field}: {msg}")))
         })?;
         // What the checks above let through, `urdf-rs` reads; should it not, the line its XML reader names
         // (`Line: N`, e.g. for `--` inside a comment, which quick-xml lets pass), else the <robot> line.
         let robot = urdf_rs::read_from_string(text).map_err(|e| {
             let msg = e.to_string();
-            RigError::Urdf {
-                path: path.to_path_buf(),
-                line: line_in_message(&msg).unwrap_or(xml.line),
-                msg: format!("not a valid URDF: {msg}"),
-            }
+            RigError::from(urdf_error(
+                path,
+                line_in_message(&msg).unwrap_or(xml.line),
+                format!("not a valid URDF: {msg}"),
+            ))
         })?;
         // The loop joints read as ordinary joints once their tag is renamed; those whose names are not
         // in the tree are the loop joints.
         let renamed = text
             .replace("<loop_joint", "<joint")
             .replace("</loop_joint>", "</joint>");
-        let all = urdf_rs::read_from_string(&renamed).map_err(|e| RigError::Urdf {
-            path: path.to_path_buf(),
-            line: xml
-                .children
-                .iter()
-                .find(|c| c.name == "loop_joint")
-                .map_or(xml.line, |c| c.line),
-            msg: format!("a <loop_joint> element is not a valid joint: {e}"),
+        let all = urdf_rs::read_from_string(&renamed).map_err(|e| {
+            RigError::from(urdf_error(
+                path,
+                xml.children
+                    .iter()
+                    .find(|c| c.name == "loop_joint")
+                    .map_or(xml.line, |c| c.line),
+                format!("a <loop_joint> element is not a valid joint: {e}"),
+            ))
         })?;
         let loop_names: Vec<&str> = xml
             .children
@@ -120,23 +113,19 @@ impl UrdfModel {
 
     /// An error about a field of a named element.
     pub fn field_error(&self, element: &str, name: &str, field: &str, msg: impl Into<String>) -> RigError {
-        RigError::Field {
-            path: self.path.clone(),
-            line: self.line_of(element, name),
-            field: format!("{element} `{name}`: {field}"),
-            msg: msg.into(),
-        }
+        RigError::from(urdf_error(
+            &self.path,
+            self.line_of(element, name),
+            format!("{element} `{name}`: {field}: {}", msg.into()),
+        ))
     }
 
     pub fn link(&self, name: &str) -> Result<&urdf_rs::Link, RigError> {
-        self.robot
-            .links
-            .iter()
-            .find(|l| l.name == name)
-            .ok_or_else(|| RigError::Urdf {
-                path: self.path.clone(),
-                line: 0,
-                msg: format!(
+        self.robot.links.iter().find(|l| l.name == name).ok_or_else(|| {
+            RigError::from(urdf_error(
+                &self.path,
+                0,
+                format!(
                     "no link named `{name}` (links: {})",
                     self.robot
                         .links
@@ -145,18 +134,16 @@ impl UrdfModel {
                         .collect::<Vec<_>>()
                         .join(", ")
                 ),
-            })
+            ))
+        })
     }
 
     pub fn joint(&self, name: &str) -> Result<&urdf_rs::Joint, RigError> {
-        self.robot
-            .joints
-            .iter()
-            .find(|j| j.name == name)
-            .ok_or_else(|| RigError::Urdf {
-                path: self.path.clone(),
-                line: 0,
-                msg: format!(
+        self.robot.joints.iter().find(|j| j.name == name).ok_or_else(|| {
+            RigError::from(urdf_error(
+                &self.path,
+                0,
+                format!(
                     "no joint named `{name}` (joints: {})",
                     self.robot
                         .joints
@@ -165,17 +152,16 @@ impl UrdfModel {
                         .collect::<Vec<_>>()
                         .join(", ")
                 ),
-            })
+            ))
+        })
     }
 
     pub fn loop_joint(&self, name: &str) -> Result<&urdf_rs::Joint, RigError> {
-        self.loops
-            .iter()
-            .find(|j| j.name == name)
-            .ok_or_else(|| RigError::Urdf {
-                path: self.path.clone(),
-                line: 0,
-                msg: format!(
+        self.loops.iter().find(|j| j.name == name).ok_or_else(|| {
+            RigError::from(urdf_error(
+                &self.path,
+                0,
+                format!(
                     "no <loop_joint> named `{name}` (loop joints: {})",
                     self.loops
                         .iter()
@@ -183,7 +169,8 @@ impl UrdfModel {
                         .collect::<Vec<_>>()
                         .join(", ")
                 ),
-            })
+            ))
+        })
     }
 
     /// Every joint's parent and child exist, every link has at most one parent joint, and masses and
@@ -302,12 +289,19 @@ impl UrdfModel {
 
     /// An error about `<inertial><child>` of a link, at the line of that element.
     fn inertial_error(&self, link: &str, child: &str, field: &str, msg: String) -> RigError {
-        RigError::Field {
-            path: self.path.clone(),
-            line: self.line_in("link", link, &["inertial", child]),
-            field: format!("link `{link}`: {field}"),
-            msg,
-        }
+        RigError::from(urdf_error(
+            &self.path,
+            self.line_in("link", link, &["inertial", child]),
+            format!("link `{link}`: {field}: {msg}"),
+        ))
+    }
+}
+
+/// An error at `line` of a URDF (0: no line to name).
+pub(crate) fn urdf_error(path: &Path, line: usize, msg: impl Into<String>) -> InputError {
+    match line {
+        0 => InputError::file(path, msg),
+        _ => InputError::line(path, line, msg),
     }
 }
 

@@ -55,7 +55,7 @@ fn adapted(
         &crate::pilot::attitude::CrossoverDesign::new(crossover_rad_s, delay_s),
         stick_lag_s,
     )
-    .map_err(|e| AeroError::Input {
+    .map_err(|e| AeroError::Refused {
         what: format!("adapted pilot for `{}` at ω_c {crossover_rad_s} rad/s", cfg.model),
         why: e.0,
     })

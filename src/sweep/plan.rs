@@ -10,26 +10,17 @@ use rand_distr::{Distribution, Normal};
 use serde::Deserialize;
 use toml::Spanned;
 
-use crate::input::text::line_of;
-use crate::input::InputError;
+use crate::input::{InputError, Source as Text};
 use crate::scenario::{Origin, Override, Scenario};
 
 /// Most runs a plan may have (a typo in a grid multiplies).
 pub const MAX_RUNS: u64 = 10_000_000;
 
+/// A plan refused (its file, as `InputError`), or a run's scenario refused.
 #[derive(Debug, thiserror::Error)]
 pub enum PlanError {
-    #[error("{}: {msg}", path.display())]
-    Io { path: PathBuf, msg: String },
-    #[error("{}:{line}: {msg}", path.display())]
-    Parse { path: PathBuf, line: usize, msg: String },
-    #[error("{}:{line}: `{key}`: {msg}", path.display())]
-    Field {
-        path: PathBuf,
-        line: usize,
-        key: String,
-        msg: String,
-    },
+    #[error(transparent)]
+    Input(#[from] InputError),
     /// A run's scenario refused (an axis value out of its key's range, an unknown key).
     #[error("run {index}: {error}")]
     Run { index: u64, error: InputError },
@@ -166,12 +157,37 @@ struct PlanFile {
     description: String,
     scenario: Spanned<PathBuf>,
     seed: Spanned<i64>,
-    mode: Option<Spanned<String>>,
+    mode: Option<Spanned<ModeName>>,
     runs: Option<Spanned<i64>>,
     prolonged_window_s: Option<Spanned<f64>>,
     #[serde(default)]
     axis: Vec<Spanned<AxisFile>>,
     map: Option<Spanned<MapFile>>,
+}
+
+#[derive(Deserialize, Clone, Copy, PartialEq)]
+#[serde(rename_all = "lowercase")]
+enum ModeName {
+    Grid,
+    Sample,
+}
+
+#[derive(Deserialize, Clone, Copy, PartialEq)]
+#[serde(rename_all = "kebab-case")]
+enum DistName {
+    Uniform,
+    Normal,
+    LogUniform,
+}
+
+impl DistName {
+    fn as_str(self) -> &'static str {
+        match self {
+            Self::Uniform => "uniform",
+            Self::Normal => "normal",
+            Self::LogUniform => "log-uniform",
+        }
+    }
 }
 
 #[derive(Deserialize)]
@@ -207,7 +223,7 @@ struct RangeFile {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct DrawFile {
-    dist: String,
+    dist: DistName,
     low: Option<f64>,
     high: Option<f64>,
     mean: Option<f64>,
@@ -227,28 +243,18 @@ struct CaseFile {
 
 impl Plan {
     pub fn load(path: &Path) -> Result<Self, PlanError> {
-        let text = crate::input::text::read_text(path).map_err(|msg| PlanError::Io {
-            path: path.to_path_buf(),
-            msg,
-        })?;
-        Self::parse(&text, path)
+        Self::parse(&Text::read(path)?.text, path)
     }
 
     pub fn parse(text: &str, path: &Path) -> Result<Self, PlanError> {
-        let f: PlanFile = crate::input::text::parse_toml(text).map_err(|e| PlanError::Parse {
-            path: path.to_path_buf(),
-            line: e.line,
-            msg: e.message(),
-        })?;
-        let err = |at: usize, key: &str, msg: String| PlanError::Field {
-            path: path.to_path_buf(),
-            line: line_of(text, at),
-            key: key.to_string(),
-            msg,
+        let src = Text::new(path, text);
+        let f: PlanFile = src.toml()?;
+        let err = |at: usize, key: &str, msg: String| {
+            PlanError::from(InputError::field(path, src.line_of(at), key, msg))
         };
         let origin = |at: usize| Origin::File {
             path: path.to_path_buf(),
-            line: line_of(text, at),
+            line: src.line_of(at),
         };
         let dir = path.parent().unwrap_or(Path::new(""));
         let scenario_path = dir.join(f.scenario.get_ref());
@@ -270,16 +276,16 @@ impl Plan {
                 format!("{seed} is negative: give 0 or more"),
             ));
         }
-        let mode = match (f.mode.as_ref().map(|m| m.get_ref().as_str()), &f.runs) {
-            (None | Some("grid"), None) => Mode::Grid,
-            (None | Some("grid"), Some(r)) => {
+        let mode = match (f.mode.as_ref().map(|m| *m.get_ref()), &f.runs) {
+            (None | Some(ModeName::Grid), None) => Mode::Grid,
+            (None | Some(ModeName::Grid), Some(r)) => {
                 return Err(err(
                     r.span().start,
                     "runs",
                     "only with mode = \"sample\" (a grid runs every combination)".into(),
                 ))
             }
-            (Some("sample"), Some(r)) => match u64::try_from(*r.get_ref()) {
+            (Some(ModeName::Sample), Some(r)) => match u64::try_from(*r.get_ref()) {
                 Ok(n) if (1..=MAX_RUNS).contains(&n) => Mode::Sample { runs: n },
                 _ => {
                     return Err(err(
@@ -289,17 +295,13 @@ impl Plan {
                     ))
                 }
             },
-            (Some("sample"), None) => {
+            (Some(ModeName::Sample), None) => {
                 let at = f.mode.as_ref().map_or(0, |m| m.span().start);
                 return Err(err(
                     at,
                     "runs",
                     "required by mode = \"sample\" (how many runs to draw)".into(),
                 ));
-            }
-            (Some(other), _) => {
-                let at = f.mode.as_ref().map_or(0, |m| m.span().start);
-                return Err(err(at, "mode", format!("`{other}` is not one of: grid, sample")));
             }
         };
         let prolonged_window_s = match &f.prolonged_window_s {
@@ -314,11 +316,7 @@ impl Plan {
             None => 5.0,
         };
         if f.axis.is_empty() {
-            return Err(PlanError::Parse {
-                path: path.to_path_buf(),
-                line: 1,
-                msg: "no `[[axis]]`: a plan sweeps at least one key".into(),
-            });
+            return Err(InputError::line(path, 1, "no `[[axis]]`: a plan sweeps at least one key").into());
         }
         let mut axes: Vec<Axis> = Vec::new();
         for a in &f.axis {
@@ -333,7 +331,7 @@ impl Plan {
                             if v.is_empty() {
                                 return Err(err(kat, "values", "an empty list: give at least one value".into()));
                             }
-                            Source::List(v.iter().map(|x| (x.get_ref().clone(), line_of(text, x.span().start))).collect())
+                            Source::List(v.iter().map(|x| (x.get_ref().clone(), src.line_of(x.span().start))).collect())
                         }
                         (None, Some(r), None) => {
                             let rat = r.span().start;
@@ -345,7 +343,7 @@ impl Plan {
                             if !(r.from.is_finite() && r.to.is_finite()) || (r.log && (r.from <= 0.0 || r.to <= 0.0)) {
                                 return Err(err(rat, "range", "from and to must be finite (and positive with log = true)".into()));
                             }
-                            let line = line_of(text, rat);
+                            let line = src.line_of(rat);
                             Source::List(
                                 (0..n)
                                     .map(|i| {
@@ -365,24 +363,24 @@ impl Plan {
                             let d = d.get_ref();
                             let need = |v: Option<f64>, name: &str| {
                                 v.filter(|x| x.is_finite())
-                                    .ok_or_else(|| err(dat, &format!("draw.{name}"), format!("required (a finite number) by dist = \"{}\"", d.dist)))
+                                    .ok_or_else(|| err(dat, &format!("draw.{name}"), format!("required (a finite number) by dist = \"{}\"", d.dist.as_str())))
                             };
-                            let dist = match d.dist.as_str() {
-                                "uniform" | "log-uniform" => {
+                            let dist = match d.dist {
+                                DistName::Uniform | DistName::LogUniform => {
                                     let (low, high) = (need(d.low, "low")?, need(d.high, "high")?);
                                     if d.mean.is_some() || d.sd.is_some() {
-                                        return Err(err(dat, "draw", format!("mean and sd are not used by dist = \"{}\"", d.dist)));
+                                        return Err(err(dat, "draw", format!("mean and sd are not used by dist = \"{}\"", d.dist.as_str())));
                                     }
-                                    if low > high || (d.dist == "log-uniform" && low <= 0.0) {
+                                    if low > high || (d.dist == DistName::LogUniform && low <= 0.0) {
                                         return Err(err(dat, "draw.low", format!("low {low} must be at most high {high} (and above 0 for log-uniform)")));
                                     }
-                                    if d.dist == "uniform" {
+                                    if d.dist == DistName::Uniform {
                                         Dist::Uniform { low, high }
                                     } else {
                                         Dist::LogUniform { low, high }
                                     }
                                 }
-                                "normal" => {
+                                DistName::Normal => {
                                     let (mean, sd) = (need(d.mean, "mean")?, need(d.sd, "sd")?);
                                     if d.low.is_some() || d.high.is_some() {
                                         return Err(err(dat, "draw", "low and high are not used by dist = \"normal\"".into()));
@@ -391,9 +389,6 @@ impl Plan {
                                         return Err(err(dat, "draw.sd", format!("{sd} is negative")));
                                     }
                                     Dist::Normal { mean, sd }
-                                }
-                                other => {
-                                    return Err(err(dat, "draw.dist", format!("`{other}` is not one of: uniform, normal, log-uniform")))
                                 }
                             };
                             let count = match (mode, d.count) {
@@ -419,7 +414,7 @@ impl Plan {
                         name: k.clone(),
                         key: Some(k),
                         source,
-                        line: line_of(text, kat),
+                        line: src.line_of(kat),
                     }
                 }
                 (None, Some(name), Some(cases)) => {
@@ -454,7 +449,7 @@ impl Plan {
                         name: name.get_ref().clone(),
                         key: None,
                         source: Source::Cases(out),
-                        line: line_of(text, name.span().start),
+                        line: src.line_of(name.span().start),
                     }
                 }
                 _ => {
@@ -466,12 +461,8 @@ impl Plan {
                 }
             };
             if axes.iter().any(|b| b.name == axis.name) {
-                return Err(PlanError::Field {
-                    path: path.to_path_buf(),
-                    line: axis.line,
-                    key: axis.name.clone(),
-                    msg: "a second axis of this name: one axis per key".into(),
-                });
+                let msg = "a second axis of this name: one axis per key";
+                return Err(InputError::field(path, axis.line, &axis.name, msg).into());
             }
             axes.push(axis);
         }
@@ -515,15 +506,12 @@ impl Plan {
             prolonged_window_s,
             map,
             digest,
-            seed_line: line_of(text, f.seed.span().start),
+            seed_line: src.line_of(f.seed.span().start),
         };
         let n = plan.run_count();
         if n > MAX_RUNS {
-            return Err(PlanError::Parse {
-                path: path.to_path_buf(),
-                line: 1,
-                msg: format!("{n} runs: at most {MAX_RUNS} (the axes multiply in a grid)"),
-            });
+            let msg = format!("{n} runs: at most {MAX_RUNS} (the axes multiply in a grid)");
+            return Err(InputError::line(path, 1, msg).into());
         }
         Ok(plan)
     }

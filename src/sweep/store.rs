@@ -11,21 +11,16 @@ use toml::Spanned;
 
 use super::outcome::{Cell, Outcome};
 use super::plan::{Param, Plan};
-use crate::input::text::line_of;
+use crate::input::{InputError, Source};
 
+/// A sweep directory refused (its manifest or journal, as `InputError`), a write that failed, or a
+/// `--shard` argument refused.
 #[derive(Debug, thiserror::Error)]
 pub enum StoreError {
+    #[error(transparent)]
+    Input(#[from] InputError),
     #[error("{}: {msg}", path.display())]
     Io { path: PathBuf, msg: String },
-    #[error("{}:{line}: `{key}`: {msg}", path.display())]
-    Field {
-        path: PathBuf,
-        line: usize,
-        key: String,
-        msg: String,
-    },
-    #[error("{}:{line}: {msg}", path.display())]
-    Line { path: PathBuf, line: usize, msg: String },
     #[error("--shard {arg}: {msg}")]
     Shard { arg: String, msg: String },
 }
@@ -35,6 +30,10 @@ fn io(path: &Path) -> impl Fn(std::io::Error) -> StoreError + '_ {
         path: path.to_path_buf(),
         msg: e.to_string(),
     }
+}
+
+fn not_a_sweep(manifest: &Path) -> InputError {
+    InputError::file(manifest, "no such file: not a sweep's output directory")
 }
 
 /// Shard `k` of `n` (0-based, as Slurm's `$SLURM_ARRAY_TASK_ID` of `--array=0-(n-1)`): the runs whose
@@ -125,8 +124,7 @@ struct ManifestFile {
 
 /// What a directory's manifest says, and where.
 struct Loaded {
-    path: PathBuf,
-    text: String,
+    src: Source,
     file: ManifestFile,
 }
 
@@ -135,29 +133,13 @@ impl Loaded {
         if !path.exists() {
             return Ok(None);
         }
-        let text = crate::input::text::read_text(path).map_err(|msg| StoreError::Io {
-            path: path.to_path_buf(),
-            msg,
-        })?;
-        let file: ManifestFile = crate::input::text::parse_toml(&text).map_err(|e| StoreError::Line {
-            path: path.to_path_buf(),
-            line: e.line,
-            msg: e.message(),
-        })?;
-        Ok(Some(Self {
-            path: path.to_path_buf(),
-            text,
-            file,
-        }))
+        let src = Source::read(path)?;
+        let file = src.toml()?;
+        Ok(Some(Self { src, file }))
     }
 
     fn err<T>(&self, at: &Spanned<T>, key: &str, msg: String) -> StoreError {
-        StoreError::Field {
-            path: self.path.clone(),
-            line: line_of(&self.text, at.span().start),
-            key: key.into(),
-            msg,
-        }
+        self.src.err(at, key, msg).into()
     }
 
     fn manifest(&self) -> Manifest {
@@ -284,11 +266,7 @@ fn read_journal(
     let mut out: Vec<Record> = Vec::new();
     let mut seen = std::collections::HashSet::new();
     for (k, line) in text.lines().enumerate() {
-        let bad = |msg: String| StoreError::Line {
-            path: path.to_path_buf(),
-            line: k + 1,
-            msg,
-        };
+        let bad = |msg: String| StoreError::from(InputError::line(path, k + 1, msg));
         let r: Record = serde_json::from_str(line).map_err(|e| bad(format!("not a run record: {e}")))?;
         if r.index >= runs || !in_shard(r.index) {
             return Err(bad(format!(
@@ -435,10 +413,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<usize, StoreError> {
     let mut all: std::collections::BTreeMap<u64, Record> = Default::default();
     for d in dirs {
         let mpath = d.join(MANIFEST);
-        let l = Loaded::read(&mpath)?.ok_or_else(|| StoreError::Io {
-            path: mpath.clone(),
-            msg: "no such file: not a sweep's output directory".into(),
-        })?;
+        let l = Loaded::read(&mpath)?.ok_or_else(|| not_a_sweep(&mpath))?;
         if let Some(f) = &first {
             if l.file.digest.get_ref() != f.file.digest.get_ref() {
                 return Err(l.err(
@@ -446,7 +421,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<usize, StoreError> {
                     "digest",
                     format!(
                         "a shard of another plan than {}'s (plan {} here, {} there): merge shards of one plan",
-                        f.path.display(),
+                        f.src.path.display(),
                         l.file.plan,
                         f.file.plan
                     ),
@@ -458,7 +433,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<usize, StoreError> {
                 return Err(l.err(
                     &l.file.columns,
                     "columns",
-                    format!("differs from {}", f.path.display()),
+                    format!("differs from {}", f.src.path.display()),
                 ));
             }
         }
@@ -496,11 +471,10 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<usize, StoreError> {
     m.shard = Shard::ALL.label();
     let missing: Vec<u64> = (0..m.runs).filter(|i| !all.contains_key(i)).take(6).collect();
     if !missing.is_empty() {
-        return Err(StoreError::Field {
-            path: first.path.clone(),
-            line: line_of(&first.text, first.file.runs.span().start),
-            key: "runs".into(),
-            msg: format!(
+        return Err(first.err(
+            &first.file.runs,
+            "runs",
+            format!(
                 "{} of the plan's {} runs are in these directories; missing runs {:?}{}: finish every shard first \
                  (rerun it: it resumes)",
                 all.len(),
@@ -508,7 +482,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<usize, StoreError> {
                 &missing[..missing.len().min(5)],
                 if missing.len() > 5 { " and more" } else { "" }
             ),
-        });
+        ));
     }
     std::fs::create_dir_all(out).map_err(io(out))?;
     write_text(
@@ -523,10 +497,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<usize, StoreError> {
 /// The records of a finished output directory (for reports), with its axis names.
 pub fn read_results(dir: &Path) -> Result<(Vec<String>, Vec<Record>), StoreError> {
     let mpath = dir.join(MANIFEST);
-    let l = Loaded::read(&mpath)?.ok_or_else(|| StoreError::Io {
-        path: mpath,
-        msg: "no such file: not a sweep's output directory".into(),
-    })?;
+    let l = Loaded::read(&mpath)?.ok_or_else(|| not_a_sweep(&mpath))?;
     let recs = read_journal(&dir.join(JOURNAL), *l.file.runs.get_ref(), |_| true, false)?;
     Ok((l.file.columns.get_ref().clone(), recs))
 }

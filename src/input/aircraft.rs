@@ -1,0 +1,434 @@
+//! The aircraft model file (`models/aircraft/<name>.toml`): its schema, read into an [`AircraftModel`]
+//! with its hinge model derived from the elevator's geometry.
+
+use std::path::Path;
+
+use serde::Deserialize;
+use toml::Spanned;
+
+use super::{InputError, Source};
+use crate::aero::hinge::{FeelComputer, HingeModel};
+use crate::aero::hinge_theory::ControlGeometry;
+use crate::aero::model::{AircraftModel, CertificationPart, ControlType, Propulsion};
+use crate::aero::Table1;
+
+type S<T> = Spanned<T>;
+/// A table as written: `[[x, y], ...]`, each row spanned so that a row with the wrong number of values is
+/// named by its line (a fixed-size `[f64; 2]` would silently drop a third value).
+type Rows = S<Vec<S<Vec<f64>>>>;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct File {
+    name: String,
+    geometry: Geometry,
+    mass: Mass,
+    propulsion: PropulsionFile,
+    aero: Aero,
+    elevator: Elevator,
+    hinge: Hinge,
+    stick: Stick,
+    feel_computer: Option<FeelComputerFile>,
+    certification: Certification,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FeelComputerFile {
+    breakout_n: S<f64>,
+    breakout_band_rad: S<f64>,
+    centering_n_per_rad: S<f64>,
+    q_feel_n_per_rad_pa: S<f64>,
+    mach_trim_start: S<f64>,
+    mach_trim_stick_rad_per_mach: S<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Geometry {
+    wing_area_m2: S<f64>,
+    chord_m: S<f64>,
+    span_m: S<f64>,
+    htail_arm_m: S<f64>,
+    htail_area_m2: S<f64>,
+    htail_span_m: S<f64>,
+    aero_ref_x_m: S<f64>,
+    aero_ref_z_m: S<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Mass {
+    mass_kg: S<f64>,
+    iyy_kg_m2: S<f64>,
+    cg_x_m: S<f64>,
+    cg_z_m: S<f64>,
+}
+
+#[derive(Deserialize, Clone, Copy, PartialEq)]
+#[serde(rename_all = "lowercase")]
+enum PropulsionKind {
+    Propeller,
+    Jet,
+}
+
+/// A propeller's or a jet's values, named by `kind` (each kind requires its own).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PropulsionFile {
+    kind: S<PropulsionKind>,
+    thrust_x_m: S<f64>,
+    thrust_z_m: S<f64>,
+    density_exponent: S<f64>,
+    max_power_w: Option<S<f64>>,
+    efficiency: Option<S<f64>>,
+    min_airspeed_m_s: Option<S<f64>>,
+    diameter_m: Option<S<f64>>,
+    max_thrust_n: Option<S<f64>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Aero {
+    cl_alpha: Rows,
+    cl_elevator_per_rad: S<f64>,
+    cl_q_per_rad: S<f64>,
+    cl_alphadot_per_rad: S<f64>,
+    cd0: S<f64>,
+    cd_alpha: Rows,
+    cd_induced_per_cl2: S<f64>,
+    cd_elevator_abs_per_rad: S<f64>,
+    cd_mach: Option<Rows>,
+    cm0: S<f64>,
+    cm_alpha_per_rad: S<f64>,
+    cm_q_per_rad: S<f64>,
+    cm_alphadot_per_rad: S<f64>,
+    cm_elevator_per_rad: Rows,
+    elevator_in_slipstream: bool,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Elevator {
+    min_rad: S<f64>,
+    max_rad: S<f64>,
+    chord_ratio: S<f64>,
+    balance_ratio: S<f64>,
+    tab_chord_ratio: S<f64>,
+    tab_span_ratio: S<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Hinge {
+    ch0: S<f64>,
+    viscous_factor: S<f64>,
+    tab_min_rad: S<f64>,
+    tab_max_rad: S<f64>,
+    tail_dynamic_pressure_ratio: S<f64>,
+    downwash_gradient: S<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Stick {
+    elevator_per_stick_rad_per_rad: S<f64>,
+    arm_m: S<f64>,
+    force_feedback_ratio: S<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Certification {
+    part: CertificationPart,
+    control: ControlType,
+    max_weight_kg: S<f64>,
+    limit_load_factor: S<f64>,
+}
+
+/// A table of `[x, y]` rows: every row exactly two values (a row is named by its line and number).
+fn table(src: &Source, v: &Rows, field: &str) -> Result<Table1, InputError> {
+    let mut rows = Vec::with_capacity(v.get_ref().len());
+    for (k, r) in v.get_ref().iter().enumerate() {
+        match r.get_ref().as_slice() {
+            &[x, y] => rows.push([x, y]),
+            other => {
+                let n = other.len();
+                let s = if n == 1 { "" } else { "s" };
+                let msg = format!("row {} has {n} value{s}, a table row is [x, y] (2 values)", k + 1);
+                return Err(src.err(r, field, msg));
+            }
+        }
+    }
+    Table1::new(&rows).map_err(|m| src.err(v, field, m))
+}
+
+/// The `section.key` of every line whose comment carries the `[EST]` tag, in file order.
+fn estimated_keys(text: &str) -> Vec<String> {
+    let mut section = String::new();
+    let mut keys = Vec::new();
+    for line in text.lines() {
+        let (code, comment) = line.split_once('#').unwrap_or((line, ""));
+        let code = code.trim();
+        if code.starts_with('[') && !code.starts_with("[[") {
+            section = code.trim_matches(|c| c == '[' || c == ']').trim().to_string();
+        } else if let Some((key, _)) = code.split_once('=').filter(|_| comment.contains("[EST]")) {
+            let key = key.trim();
+            keys.push(match section.as_str() {
+                "" => key.to_string(),
+                s => format!("{s}.{key}"),
+            });
+        }
+    }
+    keys
+}
+
+impl AircraftModel {
+    /// Read and check an aircraft model file.
+    pub fn load(path: &Path) -> Result<Self, InputError> {
+        let src = Source::read(path)?;
+        Self::from_toml(&src.text, path)
+    }
+
+    /// Check an aircraft model's text; `path` places its errors.
+    pub fn from_toml(text: &str, path: &Path) -> Result<Self, InputError> {
+        let src = Source::new(path, text);
+        let f: File = src.toml()?;
+        let n = |v: &S<f64>, field: &str, lo: f64, hi: f64| src.within(v, field, lo..=hi, "");
+        let (g, m, p, a, e, h, s, cert) = (
+            &f.geometry,
+            &f.mass,
+            &f.propulsion,
+            &f.aero,
+            &f.elevator,
+            &f.hinge,
+            &f.stick,
+            &f.certification,
+        );
+        let feel_computer = match &f.feel_computer {
+            None => None,
+            Some(fc) => Some(FeelComputer {
+                breakout_n: n(&fc.breakout_n, "feel_computer.breakout_n", 0.0, 500.0)?,
+                breakout_band_rad: n(
+                    &fc.breakout_band_rad,
+                    "feel_computer.breakout_band_rad",
+                    1e-4,
+                    0.2,
+                )?,
+                centering_n_per_rad: n(
+                    &fc.centering_n_per_rad,
+                    "feel_computer.centering_n_per_rad",
+                    0.0,
+                    1e5,
+                )?,
+                q_feel_n_per_rad_pa: n(
+                    &fc.q_feel_n_per_rad_pa,
+                    "feel_computer.q_feel_n_per_rad_pa",
+                    0.0,
+                    10.0,
+                )?,
+                mach_trim_start: n(&fc.mach_trim_start, "feel_computer.mach_trim_start", 0.0, 1.0)?,
+                mach_trim_stick_rad_per_mach: n(
+                    &fc.mach_trim_stick_rad_per_mach,
+                    "feel_computer.mach_trim_stick_rad_per_mach",
+                    0.0,
+                    5.0,
+                )?,
+            }),
+        };
+        // A value the propulsion kind requires: a missing one is named at the `kind` line.
+        let need = |v: &Option<S<f64>>, key: &str, lo: f64, hi: f64| {
+            let field = format!("propulsion.{key}");
+            match v {
+                Some(v) => n(v, &field, lo, hi),
+                None => {
+                    let kind = match *p.kind.get_ref() {
+                        PropulsionKind::Propeller => "propeller",
+                        PropulsionKind::Jet => "jet",
+                    };
+                    let msg = format!("required for propulsion kind \"{kind}\" (allowed range [{lo}, {hi}])");
+                    Err(src.err(&p.kind, &field, msg))
+                }
+            }
+        };
+        let propulsion = match p.kind.get_ref() {
+            PropulsionKind::Propeller => Propulsion::Propeller {
+                max_power_w: need(&p.max_power_w, "max_power_w", 1.0, 1e12)?,
+                efficiency: need(&p.efficiency, "efficiency", 0.05, 1.0)?,
+                min_airspeed_m_s: need(&p.min_airspeed_m_s, "min_airspeed_m_s", 0.1, 100.0)?,
+                diameter_m: need(&p.diameter_m, "diameter_m", 0.1, 10.0)?,
+            },
+            PropulsionKind::Jet => Propulsion::Jet {
+                max_thrust_n: need(&p.max_thrust_n, "max_thrust_n", 1.0, 1e12)?,
+            },
+        };
+        let htail_area_m2 = n(&g.htail_area_m2, "geometry.htail_area_m2", 0.01, 500.0)?;
+        let htail_span_m = n(&g.htail_span_m, "geometry.htail_span_m", 0.1, 50.0)?;
+        let elevator_geometry = ControlGeometry {
+            chord_ratio: n(&e.chord_ratio, "elevator.chord_ratio", 0.05, 0.6)?,
+            balance_ratio: n(&e.balance_ratio, "elevator.balance_ratio", 0.0, 0.6)?,
+            tab_chord_ratio: n(&e.tab_chord_ratio, "elevator.tab_chord_ratio", 0.0, 0.6)?,
+            tab_span_ratio: n(&e.tab_span_ratio, "elevator.tab_span_ratio", 0.0, 1.0)?,
+            tail_aspect_ratio: htail_span_m * htail_span_m / htail_area_m2,
+            viscous_factor: n(&h.viscous_factor, "hinge.viscous_factor", 0.05, 1.0)?,
+        };
+        let derived = elevator_geometry
+            .derivatives()
+            .map_err(|msg| src.err(&g.htail_span_m, "geometry.htail_span_m", msg))?;
+        let hinge = HingeModel {
+            elevator_area_m2: elevator_geometry.chord_ratio * htail_area_m2,
+            elevator_chord_m: elevator_geometry.chord_ratio * htail_area_m2 / htail_span_m,
+            ch0: n(&h.ch0, "hinge.ch0", -0.5, 0.5)?,
+            ch_alpha_per_rad: derived.ch_alpha_per_rad,
+            ch_elevator_per_rad: derived.ch_elevator_per_rad,
+            ch_tab_per_rad: derived.ch_tab_per_rad,
+            tab_min_rad: n(&h.tab_min_rad, "hinge.tab_min_rad", -1.0, 0.0)?,
+            tab_max_rad: n(&h.tab_max_rad, "hinge.tab_max_rad", 0.0, 1.0)?,
+            tail_dynamic_pressure_ratio: n(
+                &h.tail_dynamic_pressure_ratio,
+                "hinge.tail_dynamic_pressure_ratio",
+                0.3,
+                1.5,
+            )?,
+            downwash_gradient: n(&h.downwash_gradient, "hinge.downwash_gradient", 0.0, 0.9)?,
+            tail_arm_m: n(&g.htail_arm_m, "geometry.htail_arm_m", 0.1, 100.0)?,
+            elevator_per_stick_rad_per_rad: n(
+                &s.elevator_per_stick_rad_per_rad,
+                "stick.elevator_per_stick_rad_per_rad",
+                0.05,
+                20.0,
+            )?,
+            stick_arm_m: n(&s.arm_m, "stick.arm_m", 0.05, 2.0)?,
+            force_feedback_ratio: n(&s.force_feedback_ratio, "stick.force_feedback_ratio", 0.0, 1.0)?,
+            feel_computer,
+            elevator_min_rad: n(&e.min_rad, "elevator.min_rad", -1.0, 0.0)?,
+            elevator_max_rad: n(&e.max_rad, "elevator.max_rad", 0.0, 1.0)?,
+        };
+        if hinge.force_feedback_ratio < 1e-4 && hinge.feel_computer.is_none() {
+            let msg = format!(
+                "{} leaves the stick without feel: use a ratio in [1e-4, 1] (reversible or boosted controls) \
+                 or add a [feel_computer] section (powered controls)",
+                hinge.force_feedback_ratio
+            );
+            return Err(src.err(&s.force_feedback_ratio, "stick.force_feedback_ratio", msg));
+        }
+        let mass_kg = n(&m.mass_kg, "mass.mass_kg", 1.0, 1e6)?;
+        let max_weight_kg = n(&cert.max_weight_kg, "certification.max_weight_kg", 1.0, 1e6)?;
+        if mass_kg > max_weight_kg {
+            let msg = format!(
+                "{mass_kg} kg exceeds certification.max_weight_kg = {max_weight_kg} kg (allowed range [1, \
+                 max_weight_kg])"
+            );
+            return Err(src.err(&m.mass_kg, "mass.mass_kg", msg));
+        }
+        Ok(AircraftModel {
+            name: f.name.clone(),
+            path: path.to_path_buf(),
+            wing_area_m2: n(&g.wing_area_m2, "geometry.wing_area_m2", 0.1, 2000.0)?,
+            chord_m: n(&g.chord_m, "geometry.chord_m", 0.05, 50.0)?,
+            span_m: n(&g.span_m, "geometry.span_m", 0.1, 100.0)?,
+            htail_area_m2,
+            htail_span_m,
+            aero_ref_x_m: n(&g.aero_ref_x_m, "geometry.aero_ref_x_m", -100.0, 100.0)?,
+            aero_ref_z_m: n(&g.aero_ref_z_m, "geometry.aero_ref_z_m", -100.0, 100.0)?,
+            mass_kg,
+            iyy_kg_m2: n(&m.iyy_kg_m2, "mass.iyy_kg_m2", 0.01, 1e9)?,
+            cg_x_m: n(&m.cg_x_m, "mass.cg_x_m", -100.0, 100.0)?,
+            cg_z_m: n(&m.cg_z_m, "mass.cg_z_m", -100.0, 100.0)?,
+            propulsion,
+            thrust_x_m: n(&p.thrust_x_m, "propulsion.thrust_x_m", -100.0, 100.0)?,
+            thrust_z_m: n(&p.thrust_z_m, "propulsion.thrust_z_m", -100.0, 100.0)?,
+            density_exponent: n(&p.density_exponent, "propulsion.density_exponent", 0.0, 2.0)?,
+            cl_alpha: table(&src, &a.cl_alpha, "aero.cl_alpha")?,
+            cl_elevator_per_rad: n(&a.cl_elevator_per_rad, "aero.cl_elevator_per_rad", -5.0, 5.0)?,
+            cl_q_per_rad: n(&a.cl_q_per_rad, "aero.cl_q_per_rad", -50.0, 50.0)?,
+            cl_alphadot_per_rad: n(&a.cl_alphadot_per_rad, "aero.cl_alphadot_per_rad", -50.0, 50.0)?,
+            cd0: n(&a.cd0, "aero.cd0", 0.0, 1.0)?,
+            cd_alpha: table(&src, &a.cd_alpha, "aero.cd_alpha")?,
+            cd_induced_per_cl2: n(&a.cd_induced_per_cl2, "aero.cd_induced_per_cl2", 0.0, 1.0)?,
+            cd_elevator_abs_per_rad: n(
+                &a.cd_elevator_abs_per_rad,
+                "aero.cd_elevator_abs_per_rad",
+                0.0,
+                1.0,
+            )?,
+            cd_mach: match &a.cd_mach {
+                Some(t) => table(&src, t, "aero.cd_mach")?,
+                None => Table1::constant(0.0),
+            },
+            cm0: n(&a.cm0, "aero.cm0", -1.0, 1.0)?,
+            cm_alpha_per_rad: n(&a.cm_alpha_per_rad, "aero.cm_alpha_per_rad", -20.0, 20.0)?,
+            cm_q_per_rad: n(&a.cm_q_per_rad, "aero.cm_q_per_rad", -200.0, 0.0)?,
+            cm_alphadot_per_rad: n(&a.cm_alphadot_per_rad, "aero.cm_alphadot_per_rad", -200.0, 50.0)?,
+            cm_elevator_per_rad: table(&src, &a.cm_elevator_per_rad, "aero.cm_elevator_per_rad")?,
+            elevator_in_slipstream: a.elevator_in_slipstream,
+            elevator_geometry,
+            hinge,
+            part: cert.part,
+            control: cert.control,
+            max_weight_kg,
+            limit_load_factor: n(
+                &cert.limit_load_factor,
+                "certification.limit_load_factor",
+                1.5,
+                10.0,
+            )?,
+            estimates: estimated_keys(text),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::PathBuf;
+
+    fn c172p() -> (PathBuf, String) {
+        let path = AircraftModel::builtin_path("c172p");
+        let text = crate::input::text::read_text(&path).unwrap();
+        (path, text)
+    }
+
+    fn line_with(text: &str, needle: &str) -> usize {
+        text.lines().position(|l| l.contains(needle)).unwrap() + 1
+    }
+
+    #[test]
+    fn a_table_row_with_a_value_too_many_or_too_few_is_an_error_naming_its_line() {
+        let (path, text) = c172p();
+        AircraftModel::from_toml(&text, &path).unwrap();
+        for (row, n) in [("[0.0, 0.25, 1.0]", 3), ("[0.0]", 1)] {
+            let bad = text.replacen("[0.0, 0.25]", row, 1);
+            let e = AircraftModel::from_toml(&bad, Path::new("bad.toml"))
+                .unwrap_err()
+                .to_string();
+            let line = line_with(&bad, row);
+            assert!(
+                e.contains(&format!(
+                    "bad.toml:{line}: field `aero.cl_alpha`: row 2 has {n} value"
+                )),
+                "{e}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_missing_propulsion_value_names_the_kind_line() {
+        let (_, text) = c172p();
+        let bad: String = text
+            .lines()
+            .filter(|l| !l.starts_with("max_power_w"))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        let e = AircraftModel::from_toml(&bad, Path::new("bad.toml"))
+            .unwrap_err()
+            .to_string();
+        let line = line_with(&bad, "kind = \"propeller\"");
+        assert!(
+            e.contains(&format!(
+                "bad.toml:{line}: field `propulsion.max_power_w`: required"
+            )),
+            "{e}"
+        );
+    }
+}

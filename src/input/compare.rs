@@ -1,0 +1,264 @@
+//! The comparison scenario file (`scenarios/compare-*.toml`): its schema, read into a
+//! [`CompareScenario`] with the files it names loaded.
+
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+use toml::Spanned;
+
+use super::{InputError, Source};
+use crate::compare::{
+    feel_kinds, main_task, ActiveSection, CompareError, CompareScenario, FaultTest, FeelKind, Limits,
+    TargetLaw, TaskSection,
+};
+use crate::control::feel::{CentringSpring, FeelSprings};
+use crate::scenario::Scenario;
+
+type S<T> = Spanned<T>;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct File {
+    name: String,
+    #[serde(default, rename = "description")]
+    _description: String,
+    seed: u64,
+    systems: S<Vec<String>>,
+    base: S<PathBuf>,
+    device: DeviceFile,
+    springs: SpringsFile,
+    target: TargetFile,
+    task: TaskFile,
+    limits: LimitsFile,
+    fault_test: FaultTestFile,
+    active: Option<ActiveFile>,
+    #[serde(default)]
+    fault: Vec<super::faults::FaultTable>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DeviceFile {
+    coil_resistance_ohm: S<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SpringsFile {
+    file: S<PathBuf>,
+    damping_n_s_per_m: S<f64>,
+    qbar_pa: S<f64>,
+    hybrid_k_n_per_m: S<f64>,
+    hybrid_return_damping_n_s_per_m: S<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TargetFile {
+    breakout_n: S<f64>,
+    gradient_n_per_m: S<f64>,
+    max_force_n: S<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TaskFile {
+    sweep_amplitude_rad: S<f64>,
+    sweep_frequency_hz: S<f64>,
+    sweep_cycles: S<i64>,
+    release_angle_rad: S<f64>,
+    release_ramp_s: S<f64>,
+    release_hold_s: S<f64>,
+    release_observe_s: S<f64>,
+    recentre_band_rad: S<f64>,
+    breakout_ramp_n_per_s: S<f64>,
+    breakout_duration_s: S<f64>,
+    breakout_threshold_rad: S<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LimitsFile {
+    part23_stick_pitch_temporary_lbf: S<f64>,
+    pitch_prolonged_lbf: S<f64>,
+    part25_pitch_one_hand_lbf: S<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FaultTestFile {
+    start_s: S<f64>,
+    end_s: S<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ActiveFile {
+    max_force_n: S<f64>,
+    damping_n_s_per_m: S<f64>,
+}
+
+impl CompareScenario {
+    /// Read and check a comparison scenario and the files it names.
+    pub fn load(path: &Path) -> Result<Self, CompareError> {
+        Self::parse(&Source::read(path)?.text, path)
+    }
+
+    /// Check a comparison scenario's text; `path` places its errors and its relative paths.
+    pub fn parse(text: &str, path: &Path) -> Result<Self, CompareError> {
+        let src = Source::new(path, text);
+        let f: File = src.toml()?;
+        let w = |v: &S<f64>, field: &str, lo: f64, hi: f64, unit: &str| src.within(v, field, lo..=hi, unit);
+        let dir = path.parent().unwrap_or(Path::new("."));
+        let no_active = "`active` needs an `[active]` section (max_force_n, damping_n_s_per_m)";
+        let systems = if f.systems.get_ref().is_empty() {
+            Err(format!(
+                "no feel system listed; name at least one of: {}",
+                FeelKind::names()
+            ))
+        } else {
+            let names: Vec<&str> = f.systems.get_ref().iter().map(String::as_str).collect();
+            feel_kinds(&names).and_then(|k| match f.active {
+                None if k.contains(&FeelKind::Active) => Err(no_active.to_string()),
+                _ => Ok(k),
+            })
+        }
+        .map_err(|msg| src.err(&f.systems, "systems", msg))?;
+        let named = |at: &S<PathBuf>, field: &str, e: &dyn std::fmt::Display| {
+            let p = crate::builtin::resolve(dir, at.get_ref());
+            src.err(at, field, crate::builtin::hint_if_missing(&p, e.to_string()))
+        };
+        let base_path = crate::builtin::resolve(dir, f.base.get_ref());
+        let base = Scenario::load(&base_path).map_err(|e| named(&f.base, "base", &e))?;
+        let devices = crate::sim::Devices::load(&base)?;
+        let coil_resistance_ohm = w(
+            &f.device.coil_resistance_ohm,
+            "device.coil_resistance_ohm",
+            0.0,
+            1000.0,
+            "Ω",
+        )?;
+        let springs_path = crate::builtin::resolve(dir, f.springs.file.get_ref());
+        let springs =
+            FeelSprings::load(&springs_path).map_err(|e| named(&f.springs.file, "springs.file", &e))?;
+        let s = &f.springs;
+        let spring_damping_n_s_per_m = w(
+            &s.damping_n_s_per_m,
+            "springs.damping_n_s_per_m",
+            0.0,
+            1e5,
+            "N·s/m",
+        )?;
+        let qbar_pa = w(&s.qbar_pa, "springs.qbar_pa", 0.0, 1e6, "Pa")?;
+        let hybrid_k_n_per_m = w(&s.hybrid_k_n_per_m, "springs.hybrid_k_n_per_m", 0.0, 1e6, "N/m")?;
+        let hybrid_return_damping_n_s_per_m = w(
+            &s.hybrid_return_damping_n_s_per_m,
+            "springs.hybrid_return_damping_n_s_per_m",
+            0.0,
+            1e5,
+            "N·s/m",
+        )?;
+        let t = &f.target;
+        let target = TargetLaw {
+            breakout_n: w(&t.breakout_n, "target.breakout_n", 0.0, 250.0, "N")?,
+            gradient_n_per_m: w(&t.gradient_n_per_m, "target.gradient_n_per_m", 0.0, 1e6, "N/m")?,
+            max_force_n: w(&t.max_force_n, "target.max_force_n", 0.0, 250.0, "N")?,
+        };
+        let k = &f.task;
+        let task = TaskSection {
+            sweep_amplitude_rad: w(
+                &k.sweep_amplitude_rad,
+                "task.sweep_amplitude_rad",
+                0.0,
+                1.0,
+                "rad",
+            )?,
+            sweep_frequency_hz: w(&k.sweep_frequency_hz, "task.sweep_frequency_hz", 0.01, 20.0, "Hz")?,
+            sweep_cycles: src
+                .within_int(&k.sweep_cycles, "task.sweep_cycles", 2..=100)
+                .map_err(|e| InputError {
+                    msg: format!("{} (the first cycle is a run-in)", e.msg),
+                    ..e
+                })? as usize,
+            release_angle_rad: w(&k.release_angle_rad, "task.release_angle_rad", -1.0, 1.0, "rad")?,
+            release_ramp_s: w(&k.release_ramp_s, "task.release_ramp_s", 0.01, 60.0, "s")?,
+            release_hold_s: w(&k.release_hold_s, "task.release_hold_s", 0.0, 60.0, "s")?,
+            release_observe_s: w(&k.release_observe_s, "task.release_observe_s", 0.1, 60.0, "s")?,
+            recentre_band_rad: w(&k.recentre_band_rad, "task.recentre_band_rad", 1e-5, 0.5, "rad")?,
+            breakout_ramp_n_per_s: w(
+                &k.breakout_ramp_n_per_s,
+                "task.breakout_ramp_n_per_s",
+                0.1,
+                1000.0,
+                "N/s",
+            )?,
+            breakout_duration_s: w(&k.breakout_duration_s, "task.breakout_duration_s", 0.1, 60.0, "s")?,
+            breakout_threshold_rad: w(
+                &k.breakout_threshold_rad,
+                "task.breakout_threshold_rad",
+                1e-5,
+                0.5,
+                "rad",
+            )?,
+        };
+        let l = &f.limits;
+        let lbf = |v, field| w(v, field, 0.0, 500.0, "lbf");
+        let limits = Limits {
+            part23_stick_pitch_temporary_lbf: lbf(
+                &l.part23_stick_pitch_temporary_lbf,
+                "limits.part23_stick_pitch_temporary_lbf",
+            )?,
+            pitch_prolonged_lbf: lbf(&l.pitch_prolonged_lbf, "limits.pitch_prolonged_lbf")?,
+            part25_pitch_one_hand_lbf: lbf(&l.part25_pitch_one_hand_lbf, "limits.part25_pitch_one_hand_lbf")?,
+        };
+        let task_s = main_task(&task).duration_s();
+        let (start, end) = (&f.fault_test.start_s, &f.fault_test.end_s);
+        if let Some((key, msg)) =
+            super::faults::window_error(*start.get_ref(), *end.get_ref(), task_s, "task")
+        {
+            let at = if key == "start_s" { start } else { end };
+            return Err(src.err(at, &format!("fault_test.{key}"), msg).into());
+        }
+        let active = match &f.active {
+            Some(a) => Some(ActiveSection {
+                max_force_n: w(&a.max_force_n, "active.max_force_n", 0.0, 1e4, "N")?,
+                damping_n_s_per_m: w(
+                    &a.damping_n_s_per_m,
+                    "active.damping_n_s_per_m",
+                    0.0,
+                    1e5,
+                    "N·s/m",
+                )?,
+            }),
+            None => None,
+        };
+        let faults = super::faults::schedule(&src, &f.fault, task_s)?;
+        Ok(Self {
+            path: path.to_path_buf(),
+            name: f.name,
+            seed: f.seed,
+            systems,
+            rig: base.rig.clone(),
+            devices,
+            coil_resistance_ohm,
+            springs,
+            springs_path,
+            spring_damping_n_s_per_m,
+            qbar_pa,
+            hybrid_spring: CentringSpring {
+                k_n_per_m: hybrid_k_n_per_m,
+            },
+            hybrid_return_damping_n_s_per_m,
+            target,
+            base,
+            task,
+            limits,
+            fault_test: FaultTest {
+                start_s: *start.get_ref(),
+                end_s: *end.get_ref(),
+            },
+            active,
+            faults,
+        })
+    }
+}
