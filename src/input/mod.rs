@@ -11,6 +11,7 @@ pub mod faults;
 pub mod hand;
 pub mod reference;
 pub mod scenario;
+pub mod springs;
 pub mod text;
 
 use std::fmt;
