@@ -389,7 +389,7 @@ fn readable(records: &[Channels<'_>]) -> bool {
     !records.is_empty()
         && records
             .iter()
-            .all(|r| r.t.len() >= 64 && crate::measurement::uniform_interval(r.t).is_some())
+            .all(|r| r.t.len() >= 64 && crate::signal::uniform_interval(r.t).is_some())
 }
 
 /// The moving average that the displacement and force of every record in `records` (tests of one

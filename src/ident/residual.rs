@@ -483,7 +483,7 @@ pub fn white_noise_std_on(t: &[f64], y: &[f64]) -> f64 {
 /// it the variance 20σ², as `Δ³` has. (`Δ³` itself on a jittered grid does not cancel a smooth signal: a
 /// time off by a quarter of a sample leaves `v·dt/4`, at 1 kHz and 0.1 m/s 25 µm beside a 2 µm noise.)
 fn third_differences_on(t: &[f64], y: &[f64]) -> Vec<f64> {
-    if t.len() != y.len() || crate::measurement::uniform_interval(t).is_some() {
+    if t.len() != y.len() || crate::signal::uniform_interval(t).is_some() {
         return third_differences(y).collect();
     }
     t.windows(4)
