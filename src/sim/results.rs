@@ -53,7 +53,7 @@ pub struct Row {
     pub aero: Option<AeroRow>,
 }
 
-pub const CSV_COLUMNS: [&str; 24] = [
+pub(crate) const CSV_COLUMNS: [&str; 24] = [
     "t_s",
     "stick_angle_rad",
     "stick_rate_rad_s",
@@ -81,7 +81,7 @@ pub const CSV_COLUMNS: [&str; 24] = [
 ];
 
 /// Columns added when the scenario flies an aircraft.
-pub const AERO_COLUMNS: [&str; 13] = [
+pub(crate) const AERO_COLUMNS: [&str; 13] = [
     "qbar_pa",
     "elevator_rad",
     "hinge_moment_nm",
@@ -111,7 +111,7 @@ pub struct FlightInfo {
     pub estimates: Vec<String>,
 }
 
-pub fn mode_code(m: LoopMode) -> u8 {
+pub(crate) fn mode_code(m: LoopMode) -> u8 {
     match m {
         LoopMode::Holding => 0,
         LoopMode::Tracking => 1,
