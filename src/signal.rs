@@ -3,7 +3,7 @@
 //! filtered differentiator), the noise estimate, the moving average and the ADC quantiser.
 
 /// Median sample interval, s (1 with fewer than two samples).
-pub fn median_interval(t: &[f64]) -> f64 {
+pub(crate) fn median_interval(t: &[f64]) -> f64 {
     let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
     if d.is_empty() {
         return 1.0;
@@ -307,7 +307,7 @@ fn uneven_window_fit(t: &[f64], y: &[f64], order: usize, sd_y: f64, h: usize) ->
 }
 
 /// [`white_noise_std`] of a signal sampled at the times `t`, evenly or not.
-pub fn white_noise_std_on(t: &[f64], y: &[f64]) -> f64 {
+pub(crate) fn white_noise_std_on(t: &[f64], y: &[f64]) -> f64 {
     std_from_third_differences(third_differences_on(t, y))
 }
 
@@ -344,7 +344,7 @@ fn third_differences_on(t: &[f64], y: &[f64]) -> Vec<f64> {
 /// Robust standard deviation of the white noise on a sampled signal: third differences cancel a smooth
 /// signal (up to its third derivative × dt³) and multiply white noise variance by 20; the median absolute
 /// value (× 1.4826 for a Gaussian) ignores the few samples where the signal itself jumps.
-pub fn white_noise_std(y: &[f64]) -> f64 {
+pub(crate) fn white_noise_std(y: &[f64]) -> f64 {
     std_from_third_differences(third_differences(y).collect())
 }
 
@@ -364,7 +364,7 @@ fn std_from_third_differences(d: Vec<f64>) -> f64 {
 
 /// The `q`-quantile of `a` (the sample of rank `round((n − 1) q)`, by selection, not a full sort); `a` must
 /// not be empty.
-pub fn quantile(mut a: Vec<f64>, q: f64) -> f64 {
+pub(crate) fn quantile(mut a: Vec<f64>, q: f64) -> f64 {
     let k = ((a.len() - 1) as f64 * q).round() as usize;
     let (_, m, _) = a.select_nth_unstable_by(k, f64::total_cmp);
     *m
@@ -387,7 +387,7 @@ pub fn moving_average(f: &[f64], window: usize) -> Vec<f64> {
 }
 
 /// Uniform mid-tread quantiser over `[-range, range]` with `2^bits` levels, saturating at the range.
-pub fn quantise(value: f64, range: f64, bits: u32) -> f64 {
+pub(crate) fn quantise(value: f64, range: f64, bits: u32) -> f64 {
     let clipped = value.clamp(-range, range);
     if bits == 0 || bits >= 53 {
         return clipped;
@@ -399,7 +399,7 @@ pub fn quantise(value: f64, range: f64, bits: u32) -> f64 {
 /// First-order low-pass differentiator `v = s / (τ s + 1) · x`, discretised with the exact pole
 /// (`a = exp(-T/τ)`) on backward differences: `v_k = a v_{k-1} + (1 - a) (x_k - x_{k-1}) / T`.
 #[derive(Debug, Clone)]
-pub struct FilteredDifferentiator {
+pub(crate) struct FilteredDifferentiator {
     alpha: f64,
     dt_s: f64,
     last_x: Option<f64>,
@@ -407,7 +407,7 @@ pub struct FilteredDifferentiator {
 }
 
 impl FilteredDifferentiator {
-    pub fn new(cutoff_hz: f64, dt_s: f64) -> Self {
+    pub(crate) fn new(cutoff_hz: f64, dt_s: f64) -> Self {
         let tau = 1.0 / (2.0 * std::f64::consts::PI * cutoff_hz);
         Self {
             alpha: (-dt_s / tau).exp(),
@@ -417,7 +417,7 @@ impl FilteredDifferentiator {
         }
     }
 
-    pub fn update(&mut self, x: f64) -> f64 {
+    pub(crate) fn update(&mut self, x: f64) -> f64 {
         if let Some(x0) = self.last_x {
             let raw = (x - x0) / self.dt_s;
             self.v = self.alpha * self.v + (1.0 - self.alpha) * raw;

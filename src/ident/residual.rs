@@ -17,7 +17,7 @@ pub struct Region {
 
 /// How samples are binned by current: by the distinct command levels when there are few, else by ranges.
 #[derive(Debug, Clone, PartialEq)]
-pub enum CurrentBins {
+pub(crate) enum CurrentBins {
     Levels(Vec<f64>),
     Ranges(Vec<f64>),
 }
@@ -62,10 +62,6 @@ impl CurrentBins {
             CurrentBins::Levels(l) => l.len(),
             CurrentBins::Ranges(e) => e.len().saturating_sub(1).max(1),
         }
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
     }
 
     pub fn index(&self, i_a: f64) -> usize {
@@ -113,7 +109,7 @@ impl CurrentBins {
 }
 
 /// A number with two significant digits, for region labels.
-pub fn sig(x: f64) -> String {
+pub(crate) fn sig(x: f64) -> String {
     if x == 0.0 || !x.is_finite() {
         return "0".into();
     }
@@ -127,7 +123,7 @@ pub fn sig(x: f64) -> String {
 }
 
 /// Edges of |v| bins as fractions of the largest |v|: slow (near reversal) to fast.
-pub const V_EDGES_FRAC: [f64; 5] = [0.0, 0.05, 0.2, 0.5, 1.0];
+pub(crate) const V_EDGES_FRAC: [f64; 5] = [0.0, 0.05, 0.2, 0.5, 1.0];
 
 fn v_max(tests: &[Test]) -> f64 {
     tests
@@ -140,7 +136,7 @@ fn v_max(tests: &[Test]) -> f64 {
 /// The regions (|v| bin × current bin, and a part of each test's duration) that carry most of the squared
 /// residual, largest first, until they cover most of it.
 #[allow(clippy::needless_range_loop)] // several parallel per-sample arrays
-pub fn where_regions(tests: &[Test], pred: &[Vec<f64>]) -> Vec<Region> {
+pub(crate) fn where_regions(tests: &[Test], pred: &[Vec<f64>]) -> Vec<Region> {
     let cb = CurrentBins::of(tests);
     let vmax = v_max(tests);
     let edges: Vec<f64> = V_EDGES_FRAC.iter().map(|f| f * vmax).collect();
@@ -216,7 +212,7 @@ pub fn where_regions(tests: &[Test], pred: &[Vec<f64>]) -> Vec<Region> {
 }
 
 /// RMS residual over |v| bins (columns, `nv` equal bins up to the largest |v|) × current bins (rows).
-pub struct Heatmap {
+pub(crate) struct Heatmap {
     pub v_edges_m_s: Vec<f64>,
     pub current_labels: Vec<String>,
     /// `rms[current bin][v bin]`, N (NaN where there are no samples).
@@ -224,7 +220,7 @@ pub struct Heatmap {
 }
 
 #[allow(clippy::needless_range_loop)] // several parallel per-sample arrays
-pub fn heatmap(tests: &[Test], pred: &[Vec<f64>], nv: usize) -> Heatmap {
+pub(crate) fn heatmap(tests: &[Test], pred: &[Vec<f64>], nv: usize) -> Heatmap {
     let cb = CurrentBins::of(tests);
     let vmax = v_max(tests);
     let mut s = vec![vec![0.0; nv]; cb.len()];
@@ -260,7 +256,7 @@ pub fn heatmap(tests: &[Test], pred: &[Vec<f64>], nv: usize) -> Heatmap {
 /// These are the shapes the effect vocabulary describes; a candidate effect's evidence is which of them it
 /// removes from the held-out residual.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Signatures {
+pub(crate) struct Signatures {
     /// Mean residual × sign of acceleration at low |v|: force lagging velocity reversals (loops near v = 0).
     pub loop_near_zero_velocity: f64,
     /// Even-in-v mean residual (mean over v > 0 and v < 0) at the highest current minus at the lowest.
@@ -461,7 +457,7 @@ impl Corr {
 /// The measurement noise of the force, N (standard deviation), estimated from third differences of the
 /// measured force: `Δ³f` of white noise has variance 20σ², while a smooth force contributes little and the
 /// jumps at velocity reversals are rare enough that a median ignores them.
-pub fn noise_floor_n(tests: &[Test]) -> f64 {
+pub(crate) fn noise_floor_n(tests: &[Test]) -> f64 {
     let records: Vec<(Vec<f64>, &[f64])> = tests
         .iter()
         .map(|t| (t.inputs.iter().map(|i| i.t_s).collect(), t.f_n.as_slice()))
@@ -471,7 +467,7 @@ pub fn noise_floor_n(tests: &[Test]) -> f64 {
 
 /// How many noise standard deviations a velocity must be from zero for its sign to be known: a Gaussian
 /// error exceeds 4σ in one direction with probability 3·10⁻⁵.
-pub const DIRECTION_SIGMAS: f64 = 4.0;
+pub(crate) const DIRECTION_SIGMAS: f64 = 4.0;
 
 /// Weight of each sample of a test in a fit's loss and a held-out score: 0 where the velocity the model is
 /// given (measured or derived) is within [`DIRECTION_SIGMAS`] noise standard deviations of zero, 1 elsewhere.
@@ -520,7 +516,7 @@ fn sign_weights(t: &Test) -> Vec<f64> {
 /// which is still there at low frequencies (a slowly wandering error, as uncertain in sign near `v = 0`):
 /// it is the displacement's white noise times the differentiator's noise gain, the root-sum-square of its
 /// response to a unit impulse on the test's own time grid.
-pub fn velocity_noise_std(t: &Test) -> f64 {
+pub(crate) fn velocity_noise_std(t: &Test) -> f64 {
     if let Some(sd) = t.velocity_noise_m_s.as_ref().filter(|sd| !sd.is_empty()) {
         // Inside the test, where the centred window is used.
         return sd[sd.len() / 2];

@@ -11,7 +11,7 @@ use serde::Deserialize;
 use toml::Spanned;
 
 use crate::input::{InputError, Source as Text};
-use crate::scenario::{Origin, Override, Scenario, ScenarioError};
+use crate::scenario::{Origin, Override, Scenario};
 
 /// Most runs a plan may have (a typo in a grid multiplies).
 pub const MAX_RUNS: u64 = 10_000_000;
@@ -23,7 +23,7 @@ pub enum PlanError {
     Input(#[from] InputError),
     /// A run's scenario refused (an axis value out of its key's range, an unknown key).
     #[error("run {index}: {error}")]
-    Run { index: u64, error: ScenarioError },
+    Run { index: u64, error: InputError },
 }
 
 /// A parameter's value in a run, as its column holds it.
