@@ -8,7 +8,9 @@
 pub mod aircraft;
 pub mod compare;
 pub mod reference;
+pub mod sweep;
 pub mod text;
+pub mod urdf;
 
 use std::fmt;
 use std::ops::RangeInclusive;
