@@ -15,11 +15,11 @@ use std::path::Path;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use mrfeel::scenario::Scenario;
-use mrfeel::sim::{self, cli, Loop, Plant, RunOptions};
+use mrfeel::sim::{self, Loop, Plant, RunOptions};
 
 fn bench(c: &mut Criterion) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/paper-feel-loop.toml");
-    let (scn, device, _) = cli::load(&path).unwrap();
+    let (scn, device, _) = sim::load(&path).unwrap();
     let dt_s = 1.0 / scn.physics_rate_hz();
     let mut g = c.benchmark_group("sim_step_1khz");
     // Throughput of one step: 1 ms simulated. Criterion counts whole elements, so 1000 steps are timed as
@@ -27,7 +27,7 @@ fn bench(c: &mut Criterion) {
     let steps_per_iter = (1.0 / dt_s).round() as u64;
     g.throughput(Throughput::Elements(1));
     {
-        let mut lp = Loop::new(&scn, &device, cli::build_rig(&scn, &device.plant).unwrap()).unwrap();
+        let mut lp = Loop::new(&scn, &device, sim::build_rig(&scn, &device.plant).unwrap()).unwrap();
         g.bench_function("full_loop_1000_steps", |b| {
             b.iter(|| {
                 for _ in 0..steps_per_iter {
@@ -38,7 +38,7 @@ fn bench(c: &mut Criterion) {
     }
     {
         // Baseline: the rig step alone, driven by a 0.25 Hz push so it moves as in the scenario.
-        let mut rig = cli::build_rig(&scn, &device.plant).unwrap();
+        let mut rig = sim::build_rig(&scn, &device.plant).unwrap();
         let mut k = 0u64;
         g.bench_function("baseline_rig_1000_steps_only", |b| {
             b.iter(|| {
@@ -57,7 +57,7 @@ fn bench(c: &mut Criterion) {
     g.sample_size(10);
     g.throughput(Throughput::Elements(scn.duration_s.round() as u64));
     let whole = |scn: &Scenario| {
-        let rig = cli::build_rig(scn, &device.plant).unwrap();
+        let rig = sim::build_rig(scn, &device.plant).unwrap();
         sim::run(scn, &device, rig, RunOptions::default(), |_| {})
             .unwrap()
             .rows

@@ -480,7 +480,7 @@ fn a_q_feel_spring_named_in_a_flight_scenario_follows_the_aircrafts_dynamic_pres
     let springs =
         mrfeel::control::feel::FeelSprings::load(&path.parent().unwrap().join("../models/feel-springs.toml"))
             .unwrap();
-    let rig = mrfeel::sim::cli::build_rig(&scn, &device).unwrap();
+    let rig = mrfeel::sim::build_rig(&scn, &device).unwrap();
     let res = mrfeel::sim::run(
         &scn,
         &mrfeel::sim::Devices::same(device.clone()),

@@ -14,19 +14,19 @@ use mrfeel::control::LoopMode;
 use mrfeel::device::DeviceConfig;
 use mrfeel::scenario::Scenario;
 use mrfeel::sim::metrics::{correlation, FlightMetrics};
-use mrfeel::sim::{self, cli, Results, RunOptions};
+use mrfeel::sim::{self, Results, RunOptions};
 
 fn scenario_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios").join(name)
 }
 
 fn load(name: &str) -> (Scenario, sim::Devices) {
-    let (scn, device, _) = cli::load(&scenario_path(name)).unwrap_or_else(|e| panic!("{name}: {e:#}"));
+    let (scn, device, _) = sim::load(&scenario_path(name)).unwrap_or_else(|e| panic!("{name}: {e:#}"));
     (scn, device)
 }
 
 fn fly(scn: &Scenario, device: &sim::Devices) -> Results {
-    let rig = cli::build_rig(scn, &device.plant).unwrap_or_else(|e| panic!("{e:#}"));
+    let rig = sim::build_rig(scn, &device.plant).unwrap_or_else(|e| panic!("{e:#}"));
     sim::run(scn, device, rig, RunOptions::default(), |_| {}).unwrap_or_else(|e| panic!("{e}"))
 }
 
@@ -465,7 +465,7 @@ fn flight_scenario_errors_name_file_line_and_field() {
     // An unknown aircraft fails when the run opens it, naming the scenario and the model files it knows.
     let (mut s, d) = load("c172p-pitch-tracking.toml");
     s.aircraft.as_mut().unwrap().model = "no-such-plane".into();
-    let rig = cli::build_rig(&s, &d.plant).unwrap();
+    let rig = sim::build_rig(&s, &d.plant).unwrap();
     let e = sim::run(&s, &d, rig, RunOptions::default(), |_| {})
         .err()
         .map(|e| e.to_string())
@@ -483,7 +483,7 @@ fn flight_recording_reads_back_with_the_aircraft_beside_the_stick() {
     common::venv_python(); // before the flight: the read-back needs it
     let (mut s, d) = load("c172p-pitch-tracking.toml");
     s.duration_s = 4.0;
-    let rig = cli::build_rig(&s, &d.plant).unwrap();
+    let rig = sim::build_rig(&s, &d.plant).unwrap();
     let res = sim::run(
         &s,
         &d,
@@ -532,7 +532,7 @@ fn a_jsbsim_aircraft_folder_flies_as_the_named_aircraft() {
         p
     };
     let folder_scn = write("folder.toml", "jsbsim:aircraft/mycessna");
-    let e = match cli::load(&folder_scn) {
+    let e = match sim::load(&folder_scn) {
         Ok(_) => panic!("a folder without mrfeel.toml was accepted"),
         Err(e) => format!("{e:#}"),
     };
@@ -548,9 +548,9 @@ fn a_jsbsim_aircraft_folder_flies_as_the_named_aircraft() {
         folder.join("mrfeel.toml"),
     )
     .unwrap();
-    let (s_folder, d_folder, _) = cli::load(&folder_scn).unwrap_or_else(|e| panic!("{e:#}"));
+    let (s_folder, d_folder, _) = sim::load(&folder_scn).unwrap_or_else(|e| panic!("{e:#}"));
     let (s_named, d_named, _) =
-        cli::load(&write("named.toml", "jsbsim:c172p")).unwrap_or_else(|e| panic!("{e:#}"));
+        sim::load(&write("named.toml", "jsbsim:c172p")).unwrap_or_else(|e| panic!("{e:#}"));
     let (a, b) = (fly(&s_folder, &d_folder), fly(&s_named, &d_named));
     assert_eq!(a.rows.len(), b.rows.len());
     assert!(a.rows.len() > 3000, "{} rows", a.rows.len());

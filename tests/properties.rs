@@ -75,7 +75,7 @@ fn run_text(text: &str) -> Result<mrfeel::sim::Results, String> {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("s.toml");
     std::fs::write(&path, text).unwrap();
-    let (scn, devices, rig) = mrfeel::sim::cli::load(&path).map_err(|e| format!("{e:#}"))?;
+    let (scn, devices, rig) = mrfeel::sim::load(&path).map_err(|e| format!("{e:#}"))?;
     mrfeel::sim::run(&scn, &devices, rig, Default::default(), |_| {}).map_err(|e| format!("{e:#}"))
 }
 

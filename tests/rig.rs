@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use mrfeel::control::feel::{self, FeelSprings, FeelSystem};
+use mrfeel::control::feel::{self, FeelSprings, Spring};
 use mrfeel::device::{DeviceConfig, Registry};
 use mrfeel::rig::{Rig, RigConfig};
 
@@ -413,7 +413,7 @@ fn feel_springs() -> FeelSprings {
 }
 
 /// Step the rig with a feel element on the piston joint.
-fn step_feel(r: &mut Rig, f: &dyn FeelSystem, hand_n: f64) {
+fn step_feel(r: &mut Rig, f: &dyn Spring, hand_n: f64) {
     feel::apply(f, r);
     r.step(hand_n, 0.0);
 }
@@ -448,7 +448,7 @@ fn passive_feel_systems_never_inject_energy() {
     let springs = feel_springs();
     let mut q = springs.q_feel;
     q.set_dynamic_pressure(10_000.0);
-    let systems: [(&str, &dyn FeelSystem); 3] = [
+    let systems: [(&str, &dyn Spring); 3] = [
         ("centring", &springs.centring),
         ("variable gradient", &springs.variable_gradient),
         ("q-feel", &q),

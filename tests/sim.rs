@@ -17,12 +17,12 @@ fn scenario_path(name: &str) -> PathBuf {
 }
 
 fn load(name: &str) -> (Scenario, Devices) {
-    let (scn, device, _) = cli::load(&scenario_path(name)).unwrap_or_else(|e| panic!("{name}: {e:#}"));
+    let (scn, device, _) = sim::load(&scenario_path(name)).unwrap_or_else(|e| panic!("{name}: {e:#}"));
     (scn, device)
 }
 
 fn run(scn: &Scenario, device: &Devices, opts: RunOptions) -> Results {
-    let rig = cli::build_rig(scn, &device.plant).unwrap_or_else(|e| panic!("{e:#}"));
+    let rig = sim::build_rig(scn, &device.plant).unwrap_or_else(|e| panic!("{e:#}"));
     sim::run(scn, device, rig, opts, |_| {}).unwrap_or_else(|e| panic!("{e}"))
 }
 

@@ -1,28 +1,21 @@
-//! Feel systems compared on the same rig and linkage (issue 6): three spring feel units, the paper's MR
-//! damper under a force loop, and a hybrid MR damper + centring spring, all driven by the same pilot task;
-//! plus the same runs with faults in the loop's power and signal path ([`crate::faults`]).
+//! Feel systems compared on the same rig, linkage and pilot task: three spring feel units, the paper's MR
+//! damper under a force loop, the hybrid MR damper + centring spring and the active stick; plus the same
+//! runs with faults in the power and signal path ([`crate::faults`]).
 //!
-//! # Systems
 //! | name | force element on the piston joint | electrical path |
 //! |---|---|---|
-//! | `centring_spring` | Hanlon's centring spring + the feel unit's viscous damper | none |
+//! | `centring_spring` | Hanlon's centring spring + the unit's viscous damper | none |
 //! | `variable_gradient_spring` | Griffith's variable-gradient spring + damper | none |
 //! | `q_feel` | q-feel spring at the scenario's q̄ + damper | none |
 //! | `mr` | the paper's MR damper (Eq. 2–6), force loop on the load cell | DAQ → PI → driver → coil |
 //! | `mr_spring` | MR damper + a lighter centring spring (hybrid) | as `mr` |
+//! | `active` | a motor rendering the target by impedance control | DAQ → driver → motor |
 //!
-//! Every system runs in the same loop as `mrfeel run` ([`crate::sim::Loop`]), built from the `base`
-//! scenario (rig, device, load cell, laser, DAQ, the PID feel controller with feedforward, the pilot's
-//! hand), with the comparison's target as the feel law and the system as the scenario's feel system
-//! ([`crate::control::feel::FeelSystemConfig`]): the same component a user names in any scenario's
-//! `[feel_system]`. The springs are implicit joint springs on the piston; a spring feel unit has no MR
-//! damper: its damper is the device with the coil never energised (`fc0`, `fc_gain` 0, `C0` replaced by
-//! the unit's `damping_n_s_per_m`). The hybrid's controller gives the spring's share of the target to the
-//! spring and, at rest or returning, only a speed-proportional current
-//! ([`crate::control::Hybrid`]), so the spring can re-centre the stick.
-//!
-//! The pilot's task (sinusoidal motion, deflect–hold, let go; or a slow force ramp for the breakout) is
-//! fed to the hand sample by sample; letting go is a NaN command (hands off).
+//! Every system runs in the loop of `mrfeel run` ([`crate::sim::Loop`]) built from the `base` scenario,
+//! with the comparison's target as the feel law and the system as the scenario's feel system
+//! ([`crate::control::FeelSystem`]), the component any scenario's `[feel_system]` names. The pilot's task
+//! (sinusoidal motion, deflect–hold, let go; or a slow force ramp for the breakout) is fed to the hand
+//! sample by sample; letting go is a NaN command (hands off).
 
 pub mod cli;
 pub mod metrics;
@@ -83,8 +76,6 @@ pub enum CompareError {
     Faults(#[from] crate::faults::FaultError),
     #[error(transparent)]
     Device(#[from] crate::device::DeviceError),
-    #[error(transparent)]
-    Springs(#[from] crate::control::feel::FeelError),
     #[error(transparent)]
     Rig(#[from] crate::rig::RigError),
     #[error(transparent)]
@@ -200,24 +191,24 @@ pub struct CompareScenario {
 }
 
 impl CompareScenario {
-    /// The feel system `kind` as this comparison sets it up (the q-feel spring at the scenario's q̄).
-    pub fn feel_system(&self, kind: FeelKind) -> FeelSystemConfig {
-        if kind == FeelKind::Active {
-            // Checked on load: `[active]` is present whenever `active` can be run.
-            let a = self.active.unwrap_or(ActiveSection {
-                max_force_n: 0.0,
-                damping_n_s_per_m: 0.0,
-            });
-            return FeelSystemConfig::active(a.max_force_n, a.damping_n_s_per_m);
+    /// The feel system `kind` as this comparison sets it up (the q-feel spring at the scenario's q̄); the
+    /// active stick needs the file's `[active]` motor.
+    pub fn feel_system(&self, kind: FeelKind) -> Result<FeelSystemConfig, CompareError> {
+        match (kind, self.active) {
+            (FeelKind::Active, Some(a)) => Ok(FeelSystemConfig::active(a.max_force_n, a.damping_n_s_per_m)),
+            (FeelKind::Active, None) => Err(CompareError::Feel(format!(
+                "{}: `active` needs an `[active]` section (max_force_n, damping_n_s_per_m)",
+                self.path.display()
+            ))),
+            _ => Ok(FeelSystemConfig::from_springs(
+                kind,
+                &self.springs,
+                self.qbar_pa,
+                self.hybrid_spring,
+                self.spring_damping_n_s_per_m,
+                self.hybrid_return_damping_n_s_per_m,
+            )),
         }
-        FeelSystemConfig::from_springs(
-            kind,
-            &self.springs,
-            self.qbar_pa,
-            self.hybrid_spring,
-            self.spring_damping_n_s_per_m,
-            self.hybrid_return_damping_n_s_per_m,
-        )
     }
 
     /// The standard task: sinusoidal stick motion, then deflect–hold–let go.
@@ -443,15 +434,9 @@ pub fn run(
     task: &Task,
     faults: &FaultSchedule,
 ) -> Result<Trace, CompareError> {
-    if kind == FeelKind::Active && scn.active.is_none() {
-        return Err(CompareError::Feel(format!(
-            "{}: `active` needs an `[active]` section (max_force_n, damping_n_s_per_m)",
-            scn.path.display()
-        )));
-    }
+    let mut s = scn.base.with_feel_system(scn.feel_system(kind)?);
     let dt = 1.0 / scn.base.rig.physics_hz;
     let (pilot_task, samples) = pilot_command(task, dt)?;
-    let mut s = scn.base.with_feel_system(scn.feel_system(kind));
     s.name = format!("{}/{}", scn.name, kind.name());
     s.seed = scn.seed;
     s.duration_s = task.duration_s();
@@ -469,8 +454,8 @@ pub fn run(
     s.faults = faults.clone();
     s.aircraft = None;
     s.outer_loop = None;
-    let rig = crate::sim::cli::build_rig(&s, &scn.devices.plant)
-        .map_err(|e| CompareError::Feel(format!("{e:#}")))?;
+    let rig =
+        crate::sim::build_rig(&s, &scn.devices.plant).map_err(|e| CompareError::Feel(format!("{e:#}")))?;
     let lever = Plant::grip_arm_m(&rig);
     let mut lp = Loop::new(&s, &scn.devices, rig)?;
     let n = (task.duration_s() / dt).round() as usize;

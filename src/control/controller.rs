@@ -1,28 +1,20 @@
-//! The MR feel loop of the paper's Section 6: desired feel force (set point) against the load cell
-//! (measurement) through a PID to the coil current command, with the damper's passivity handled explicitly.
+//! The MR feel loop (the paper's Section 6): the desired feel force against the load cell through a PID to
+//! the coil current command, with the damper's passivity handled explicitly.
 //!
 //! Per DAQ tick, from the sensor sample only (never the true state):
-//! 1. `F* = law(t, x, v)` (see [`super::law`] for the law and why half of each cycle cannot be tracked);
-//! 2. direction `s = sgn v` when `|v| ≥ rest_speed`; at rest, the direction the pilot pushes, which is the
-//!    sign of the load-cell force when it exceeds `rest_force` (the damper's pre-yield reaction equals the
-//!    pilot's push); none if the pilot does not push;
-//! 3. `F*·s ≤ 0` (the law would need the stick to push, e.g. returning towards centre): 0 A, integrator
-//!    reset;
-//! 4. at rest (pushing in a direction the law resists, or not pushing at all): the damper holds the stick up
-//!    to its yield force, so the loop commands the static current for `|F*|` (feedforward only; the
-//!    integrator is frozen since the load cell reads the pilot's push, not a controllable force);
-//! 5. moving against the law: track in magnitude, `i = PID(|F*|, s·F_meas) + ff(|F*|, |v|)`, clipped to
-//!    0–14 A.
+//! 1. `F* = law(t, x, v)` ([`super::law`]: why half of each cycle cannot be tracked);
+//! 2. direction `s = sgn v` when `|v| ≥ rest_speed`; at rest, the sign of the load cell when it exceeds
+//!    `rest_force` (the pilot's push); none if the pilot does not push;
+//! 3. `F*·s ≤ 0` (the law would need the stick to push): 0 A, integrator reset;
+//! 4. at rest: the static (holding) current for `|F*|`, feedforward only, integrator frozen;
+//! 5. moving against the law: `i = PID(|F*|, s·F_meas) + ff(|F*|, |v|)`, clipped to the driver's range.
 //!
-//! The optional feedforward is the inverse of the controller's model of the damper
-//! ([`crate::device::ForceInverse`]: a device file or a fitted `PARAMS.json`, not the simulated plant):
-//! tracking asks it for the current that gives `|F*|` at the measured speed on the model's observed state
-//! (pre-yield branch, heating), holding for the current whose yield force is `|F*|`. Its force arrives
-//! through the model's coil and fluid lags of Eq. (6), so with feedforward the PID's set point is `|F*|`
-//! passed through the same two lags (a reference model): the feedback then corrects only what the
-//! feedforward gets wrong, instead of winding up on the lag itself and overshooting every step.
+//! The feedforward is the inverse of the controller's model of the damper ([`ForceInverse`], never the
+//! simulated plant). Its force arrives through the model's coil and fluid lags, so with feedforward the
+//! PID's set point is `|F*|` through the same lags (a reference model): the feedback corrects only what
+//! the feedforward gets wrong instead of winding up on the lag.
 
-use super::feel::{FeelSystem, SpringElement};
+use super::feel::{Spring, SpringElement};
 use super::law::{sgn, FeelLaw};
 use super::pid::Pid;
 use crate::device::lag::advance_two_lags;
@@ -40,6 +32,7 @@ pub enum LoopMode {
     Holding,
 }
 
+/// The loop's decision at one tick.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ControlOutput {
     pub desired_force_n: f64,
@@ -47,15 +40,16 @@ pub struct ControlOutput {
     pub mode: LoopMode,
 }
 
-/// The hybrid feel system (MR damper + centring spring on the same joint): the spring gives part of the
-/// feel force, the damper the rest on the way out; at rest and on the way back the coil gives only a
-/// speed-proportional current (virtual damping), so the spring can re-centre the stick.
+/// The hybrid (MR damper + centring spring on one joint): the spring gives part of the feel force, the
+/// damper the rest on the way out; at rest and on the way back the coil gives only virtual viscous
+/// damping, so the spring can re-centre the stick.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Hybrid {
     pub spring: SpringElement,
     pub return_damping_n_s_per_m: f64,
 }
 
+/// The feel loop's controller; see the module documentation.
 #[derive(Debug, Clone)]
 pub struct FeelController {
     pub law: FeelLaw,
@@ -73,6 +67,7 @@ pub struct FeelController {
 }
 
 impl FeelController {
+    /// A controller in the holding mode, no hybrid spring.
     pub fn new(
         law: FeelLaw,
         pid: Pid,
@@ -110,8 +105,7 @@ impl FeelController {
             inv.observe(s.sampled_t_s, s.x_m, s.v_m_s);
         }
         let inv = self.feedforward.as_ref();
-        // The fully yielded (holding) current for a force magnitude, in the direction the pilot pushes.
-        let hold = |force: f64| inv.map_or(0.0, |m| m.current_a(force, dir, 0.0, s.x_m, true));
+        let hold = |force: f64| inv.map_or(0.0, |m| m.holding_current_a(force, dir, s.x_m));
         // Hybrid: the spring's share of the force (it resists displacement from centre) is not the damper's.
         let spring_n = self
             .hybrid
@@ -122,14 +116,8 @@ impl FeelController {
             // Never hold against the spring: a speed-proportional yield force only.
             self.pid.reset();
             let c = self.hybrid.map_or(0.0, |h| h.return_damping_n_s_per_m);
-            let at_zero = inv.map_or(0.0, |m| m.force_n(0.0, 1.0, 0.0, s.x_m, true));
-            (
-                LoopMode::Released,
-                inv.map_or(0.0, |m| {
-                    m.current_a(at_zero + c * s.v_m_s.abs(), 1.0, 0.0, s.x_m, true)
-                })
-                .clamp(lo, hi),
-            )
+            let i = inv.map_or(0.0, |m| m.damping_current_a(c, s.v_m_s.abs(), s.x_m));
+            (LoopMode::Released, i.clamp(lo, hi))
         } else if dir == 0.0 {
             let f = self.law.holding_force_n(t_s, s.x_m);
             (LoopMode::Holding, hold(f).clamp(lo, hi))

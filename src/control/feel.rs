@@ -1,37 +1,23 @@
-//! Passive (spring) feel systems, as alternatives to the MR element on the same rig and linkage (issue 6).
+//! Passive feel springs on the piston joint (N along +x), the alternatives to the MR element on the same
+//! rig and linkage, and the feel system a scenario names ([`FeelKind`], [`FeelSystemConfig`]).
 //!
-//! Each is a force element on the piston's joint (N along +x), applied by [`apply`] through the rig's
-//! implicit joint-spring hook ([`Rig::set_external_spring`]): the springs a conventional feel unit would
-//! put on the same push rod.
+//! * [`CentringSpring`]: Hanlon et al. (U.S. Patent 8,056,432): `F = −k x`.
+//! * [`VariableGradientSpring`]: Griffith's feel unit (U.S. Patent 4,106,728): a spring through a nonlinear
+//!   linkage, stroke `s(x) = x (1 + a x² / (3 x_ref²))`, potential `U = ½ k s²`, `F = −k s s'`.
+//! * [`QFeelSpring`]: a q-feel unit, gradient `k0 + kq q̄` scheduled with dynamic pressure.
 //!
-//! * [`CentringSpring`]: the passive spring element of Hanlon et al. (U.S. Patent 8,056,432, 2011) that
-//!   "passively biased the control stick toward the null position": `F = −k x`.
-//! * [`VariableGradientSpring`]: Griffith's fail-safe feel unit (U.S. Patent 4,106,728, 1978): a spring
-//!   acting through a nonlinear linkage, so the force gradient felt at the stick rises with deflection.
-//!   Modelled by the linkage's spring stroke `s(x) = x (1 + a x² / (3 x_ref²))` (ratio
-//!   `s'(x) = 1 + a (x/x_ref)²`) and the potential `U = ½ k s(x)²`: `F = −k s s'`, conservative by
-//!   construction.
-//! * [`QFeelSpring`]: a q-feel unit, the spring gradient scheduled with dynamic pressure
-//!   `k(q) = k0 + kq q` (the classic bellows fed with pitot-static pressure difference).
-//!
-//! All three derive from a potential at a fixed flight condition, so they store and return energy but
-//! never inject it; the tests check that on the multibody rig.
-//!
-//! Parameters live in `models/feel-springs.toml` (estimates, with how they were made).
+//! All derive from a potential at a fixed flight condition: they store energy, never inject it.
 
-use std::path::Path;
-
-use serde::Deserialize;
-
+use crate::device::{Damper, DeviceConfig};
 use crate::rig::Rig;
 
-/// A passive feel element on the piston joint.
-pub trait FeelSystem {
-    /// Force on the piston along +x, N, at piston displacement `x_m` (+ = extension) from mid-stroke.
+/// A passive feel spring on the piston joint.
+pub trait Spring {
+    /// Force on the piston along +x, N, at displacement `x_m` from mid-stroke.
     fn force_on_piston_n(&self, x_m: f64) -> f64;
-    /// Energy stored in the element at `x_m`, J (its potential: `F = −dU/dx`).
+    /// Energy stored at `x_m`, J (`F = −dU/dx`).
     fn stored_energy_j(&self, x_m: f64) -> f64;
-    /// Local force gradient `−dF/dx`, N/m (what the pilot feels as stiffness, through the gearing).
+    /// Local gradient `−dF/dx`, N/m (the stiffness the pilot feels through the gearing).
     fn gradient_n_per_m(&self, x_m: f64) -> f64 {
         let h = 1e-7;
         -(self.force_on_piston_n(x_m + h) - self.force_on_piston_n(x_m - h)) / (2.0 * h)
@@ -39,14 +25,13 @@ pub trait FeelSystem {
 }
 
 /// Hanlon et al.'s centring spring: `F = −k x`.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CentringSpring {
     /// Stiffness at the piston, N/m.
     pub k_n_per_m: f64,
 }
 
-impl FeelSystem for CentringSpring {
+impl Spring for CentringSpring {
     fn force_on_piston_n(&self, x_m: f64) -> f64 {
         -self.k_n_per_m * x_m
     }
@@ -56,8 +41,7 @@ impl FeelSystem for CentringSpring {
 }
 
 /// Griffith's variable-gradient spring through a nonlinear linkage.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct VariableGradientSpring {
     /// Spring stiffness, N/m (the gradient at the centre).
     pub k_n_per_m: f64,
@@ -79,7 +63,7 @@ impl VariableGradientSpring {
     }
 }
 
-impl FeelSystem for VariableGradientSpring {
+impl Spring for VariableGradientSpring {
     fn force_on_piston_n(&self, x_m: f64) -> f64 {
         -self.k_n_per_m * self.spring_stroke_m(x_m) * self.ratio(x_m)
     }
@@ -88,16 +72,14 @@ impl FeelSystem for VariableGradientSpring {
     }
 }
 
-/// A q-feel spring: gradient `k0 + kq q`, with `q` the dynamic pressure set by the flight condition.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
+/// A q-feel spring: gradient `k0 + kq q̄`, with `q̄` set by the flight condition.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct QFeelSpring {
     /// Gradient at zero airspeed, N/m.
     pub k0_n_per_m: f64,
     /// Gradient per pascal of dynamic pressure, N/m/Pa.
     pub kq_n_per_m_per_pa: f64,
-    /// Present dynamic pressure, Pa (0 in the file; set from the flight condition).
-    #[serde(default)]
+    /// Present dynamic pressure, Pa (set from the flight condition).
     pub qbar_pa: f64,
 }
 
@@ -107,12 +89,13 @@ impl QFeelSpring {
         self.qbar_pa = qbar_pa.max(0.0);
     }
 
+    /// The present gradient, N/m.
     pub fn stiffness_n_per_m(&self) -> f64 {
         self.k0_n_per_m + self.kq_n_per_m_per_pa * self.qbar_pa
     }
 }
 
-impl FeelSystem for QFeelSpring {
+impl Spring for QFeelSpring {
     fn force_on_piston_n(&self, x_m: f64) -> f64 {
         -self.stiffness_n_per_m() * x_m
     }
@@ -121,7 +104,7 @@ impl FeelSystem for QFeelSpring {
     }
 }
 
-/// The feel systems a scenario can put on the rig (issue 6), in comparison-table order.
+/// The feel systems a scenario can put on the rig, in comparison-table order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum FeelKind {
     CentringSpring,
@@ -129,12 +112,13 @@ pub enum FeelKind {
     QFeel,
     Mr,
     MrSpring,
-    /// A motor-driven (active) stick rendering the feel law by impedance control: the upper bound on
-    /// fidelity, and the one system that can drive the stick (back-drive hazard).
+    /// A motor-driven stick rendering the law by impedance control: the upper bound on fidelity, and the
+    /// one system that can drive the stick (back-drive hazard).
     Active,
 }
 
 impl FeelKind {
+    /// Every kind, in comparison-table order.
     pub const ALL: [FeelKind; 6] = [
         FeelKind::CentringSpring,
         FeelKind::VariableGradientSpring,
@@ -144,6 +128,7 @@ impl FeelKind {
         FeelKind::Active,
     ];
 
+    /// The name in scenario files and on the command line.
     pub fn name(self) -> &'static str {
         match self {
             FeelKind::CentringSpring => "centring_spring",
@@ -155,6 +140,7 @@ impl FeelKind {
         }
     }
 
+    /// The kind of a name.
     pub fn from_name(s: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|k| k.name() == s)
     }
@@ -164,15 +150,14 @@ impl FeelKind {
         matches!(self, FeelKind::Mr | FeelKind::MrSpring)
     }
 
-    /// Whether the system has a driver and sensors a fault can act on (the MR systems and the active
-    /// stick; the spring units have none).
+    /// Whether the system has a driver and sensors a fault can act on (not the spring units).
     pub fn has_electrical_path(self) -> bool {
         self.has_coil() || self == FeelKind::Active
     }
 
     /// The names, for error messages.
     pub fn names() -> String {
-        Self::ALL.iter().map(|k| k.name()).collect::<Vec<_>>().join(", ")
+        Self::ALL.map(Self::name).join(", ")
     }
 }
 
@@ -185,7 +170,7 @@ pub enum SpringElement {
 }
 
 impl SpringElement {
-    fn inner(&self) -> &dyn FeelSystem {
+    fn inner(&self) -> &dyn Spring {
         match self {
             SpringElement::Centring(s) => s,
             SpringElement::VariableGradient(s) => s,
@@ -201,7 +186,7 @@ impl SpringElement {
     }
 }
 
-impl FeelSystem for SpringElement {
+impl Spring for SpringElement {
     fn force_on_piston_n(&self, x_m: f64) -> f64 {
         self.inner().force_on_piston_n(x_m)
     }
@@ -217,12 +202,11 @@ impl FeelSystem for SpringElement {
 #[derive(Debug, Clone, PartialEq)]
 pub struct FeelSystemConfig {
     pub kind: FeelKind,
-    /// The spring on the piston joint (spring units and the hybrid); `None` for the MR damper alone.
+    /// The spring on the piston joint (spring units and the hybrid).
     pub spring: Option<SpringElement>,
-    /// A spring unit's own viscous damper, N·s/m: it replaces the MR damper (no coil, no yield).
+    /// A spring unit's (or the active stick's) own viscous damping, N·s/m: it replaces the MR damper.
     pub unit_damping_n_s_per_m: f64,
-    /// Hybrid: the virtual viscous damping the MR damper gives at rest and on the way back, N·s/m (the
-    /// current follows the speed, so the yield vanishes at rest and the spring can re-centre).
+    /// Hybrid: the virtual viscous damping the MR damper gives at rest and on the way back, N·s/m.
     pub return_damping_n_s_per_m: f64,
     /// Whether a q-feel spring follows the flight's dynamic pressure (with an `[aircraft]`).
     pub q_from_aircraft: bool,
@@ -244,8 +228,8 @@ impl Default for FeelSystemConfig {
 }
 
 impl FeelSystemConfig {
-    /// The system `kind` with the springs of a feel-spring file: `qbar_pa` sets the q-feel spring's
-    /// dynamic pressure, `hybrid` the hybrid's centring spring.
+    /// The passive or MR system `kind` with the springs of a feel-spring file: `qbar_pa` sets the q-feel
+    /// spring's dynamic pressure, `hybrid` the hybrid's centring spring.
     pub fn from_springs(
         kind: FeelKind,
         springs: &FeelSprings,
@@ -272,13 +256,12 @@ impl FeelSystemConfig {
             spring,
             unit_damping_n_s_per_m,
             return_damping_n_s_per_m,
-            q_from_aircraft: false,
-            motor_max_force_n: 0.0,
+            ..Self::default()
         }
     }
 
-    /// The active stick: a motor with force limit `motor_max_force_n` (on the piston) and the actuator's
-    /// own viscous friction (motor back-EMF and gearbox).
+    /// The active stick: a motor with force limit `motor_max_force_n` on the piston and the actuator's own
+    /// viscous friction (back-EMF, gearbox).
     pub fn active(motor_max_force_n: f64, damping_n_s_per_m: f64) -> Self {
         Self {
             kind: FeelKind::Active,
@@ -287,16 +270,25 @@ impl FeelSystemConfig {
             ..Self::default()
         }
     }
+
+    /// The damper this system puts on the rig: the device's MR damper where the system drives its coil,
+    /// else the same body with no yield force and the unit's own viscous damping.
+    pub fn damper(&self, device: &DeviceConfig) -> Damper {
+        if self.kind.has_coil() {
+            device.damper()
+        } else {
+            device.viscous_damper(self.unit_damping_n_s_per_m)
+        }
+    }
 }
 
-/// Put the feel system on the rig's piston joint for the next step (call before each [`Rig::step`]).
+/// Put a spring on the rig's piston joint for the next step (call before each [`Rig::step`]).
 ///
-/// The element goes in as the rig's implicit joint spring, linearised at the present displacement `x`:
-/// stiffness `k = −dF/dx(x)` and rest point `x + F(x)/k`, so that `F(x⁺) ≈ F(x) − k (x⁺ − x)`. An explicit
-/// force `F(x)` held over the step would do `½ k Δx²` more work than the spring's energy drop each step
-/// (energy injection); the implicit tangent does `½ k Δx²` less (a tiny dissipation). An element with a
-/// non-positive local gradient is applied as an explicit force.
-pub fn apply(feel: &dyn FeelSystem, rig: &mut Rig) {
+/// The spring goes in as the rig's implicit joint spring, linearised at the present `x`: stiffness
+/// `k = −dF/dx(x)`, rest point `x + F(x)/k`. An explicit force held over the step would inject `½ k Δx²`
+/// per step; the implicit tangent dissipates as much instead. A non-positive gradient is applied as an
+/// explicit force.
+pub fn apply(feel: &dyn Spring, rig: &mut Rig) {
     let x = rig.state().piston_x_m;
     let f = feel.force_on_piston_n(x);
     let k = feel.gradient_n_per_m(x);
@@ -309,83 +301,13 @@ pub fn apply(feel: &dyn FeelSystem, rig: &mut Rig) {
     }
 }
 
-/// The three feel systems of `models/feel-springs.toml`.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
+/// The three springs of a feel-spring file (`models/feel-springs.toml`, read by
+/// [`crate::input::springs`]).
+#[derive(Debug, Clone, PartialEq)]
 pub struct FeelSprings {
     pub centring: CentringSpring,
     pub variable_gradient: VariableGradientSpring,
     pub q_feel: QFeelSpring,
-}
-
-/// Errors loading a feel-system file: file, line and field.
-#[derive(Debug, thiserror::Error)]
-pub enum FeelError {
-    #[error("{}: {msg}", path.display())]
-    Io { path: std::path::PathBuf, msg: String },
-    #[error("{}:{line}: {msg}", path.display())]
-    Parse {
-        path: std::path::PathBuf,
-        line: usize,
-        msg: String,
-    },
-    #[error("{}:{line}: field `{field}`: {msg}", path.display())]
-    Field {
-        path: std::path::PathBuf,
-        line: usize,
-        field: String,
-        msg: String,
-    },
-}
-
-impl FeelSprings {
-    pub fn load(path: &Path) -> Result<Self, FeelError> {
-        let text = crate::input::text::read_text(path).map_err(|msg| FeelError::Io {
-            path: path.to_path_buf(),
-            msg,
-        })?;
-        let f: FeelSprings = crate::input::text::parse_toml(&text).map_err(|e| FeelError::Parse {
-            path: path.to_path_buf(),
-            line: e.line,
-            msg: e.message(),
-        })?;
-        let checks = [
-            ("centring.k_n_per_m", f.centring.k_n_per_m, 0.0, 1e6),
-            (
-                "variable_gradient.k_n_per_m",
-                f.variable_gradient.k_n_per_m,
-                0.0,
-                1e6,
-            ),
-            (
-                "variable_gradient.nonlinearity",
-                f.variable_gradient.nonlinearity,
-                0.0,
-                100.0,
-            ),
-            (
-                "variable_gradient.x_ref_m",
-                f.variable_gradient.x_ref_m,
-                1e-4,
-                1.0,
-            ),
-            ("q_feel.k0_n_per_m", f.q_feel.k0_n_per_m, 0.0, 1e6),
-            ("q_feel.kq_n_per_m_per_pa", f.q_feel.kq_n_per_m_per_pa, 0.0, 1e3),
-            ("q_feel.qbar_pa", f.q_feel.qbar_pa, 0.0, 1e6),
-        ];
-        for (field, v, lo, hi) in checks {
-            if !(v.is_finite() && v >= lo && v <= hi) {
-                let (table, key) = field.split_once('.').unwrap_or(("", field));
-                return Err(FeelError::Field {
-                    path: path.to_path_buf(),
-                    line: crate::input::text::toml_key_line(&text, table, key),
-                    field: field.into(),
-                    msg: format!("{v} outside the allowed range [{lo}, {hi}]"),
-                });
-            }
-        }
-        Ok(f)
-    }
 }
 
 #[cfg(test)]

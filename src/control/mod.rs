@@ -1,11 +1,13 @@
-//! Control: feel laws, the PID and the MR feel loop (signals only: the loop sees sensor samples), and the
-//! passive spring feel systems it is compared with.
+//! Control: feel laws, the PID, the MR feel loop (it sees sensor samples only), the passive springs, and
+//! the feel system that puts one of them on the rig ([`FeelSystem`]).
 
 pub mod controller;
 pub mod feel;
 pub mod law;
 pub mod pid;
+pub mod system;
 
 pub use controller::{ControlOutput, FeelController, Hybrid, LoopMode};
 pub use law::FeelLaw;
 pub use pid::{AntiWindup, Pid, PidGains};
+pub use system::{FeelSystem, Motor};

@@ -207,6 +207,19 @@ impl ForceInverse {
         }
         0.5 * (a + b)
     }
+
+    /// The static inverse: the current whose fully yielded force at rest is `force_n` against a push in
+    /// direction `dir`, at `x_m`, A.
+    pub fn holding_current_a(&self, force_n: f64, dir: f64, x_m: f64) -> f64 {
+        self.current_a(force_n, dir, 0.0, x_m, true)
+    }
+
+    /// Virtual viscous damping: the current whose yield force exceeds the zero-current one by
+    /// `c_n_s_per_m · speed_m_s`, at `x_m`, A.
+    pub fn damping_current_a(&self, c_n_s_per_m: f64, speed_m_s: f64, x_m: f64) -> f64 {
+        let at_zero = self.force_n(0.0, 1.0, 0.0, x_m, true);
+        self.holding_current_a(at_zero + c_n_s_per_m * speed_m_s, 1.0, x_m)
+    }
 }
 
 impl DeviceConfig {

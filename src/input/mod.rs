@@ -8,6 +8,7 @@
 pub mod aircraft;
 pub mod compare;
 pub mod reference;
+pub mod springs;
 pub mod sweep;
 pub mod text;
 pub mod urdf;

@@ -8,7 +8,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 
 use super::response::{self, SweepPoint};
-use super::{run, Devices, Plant, Results, RunOptions};
+use super::{build_rig, run, Devices, Plant, Results, RunOptions};
 use crate::device::{DeviceConfig, Registry};
 use crate::scenario::Scenario;
 
@@ -98,21 +98,6 @@ pub fn input_files(path: &Path, scn: &Scenario, aircraft: Option<&str>) -> Vec<(
     files
 }
 
-/// Load the scenario's plant and controller model and build its rig.
-pub fn load(path: &Path) -> anyhow::Result<(Scenario, Devices, crate::rig::Rig)> {
-    let scn = Scenario::load(path)?;
-    let devices = devices_of(&scn)?;
-    let rig = build_rig(&scn, &devices.plant)?;
-    Ok((scn, devices, rig))
-}
-
-/// The plant a loaded scenario names and the model its controller believes ([`Devices::load`]).
-pub fn devices_of(scn: &Scenario) -> anyhow::Result<Devices> {
-    Ok(Devices::load(scn)?)
-}
-
-pub use super::build_rig;
-
 fn progress_bar(len: u64, msg: &str) -> ProgressBar {
     let pb = ProgressBar::with_draw_target(
         Some(len),
@@ -151,7 +136,7 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
     if let Some(p) = &args.device {
         scn.device_path = p.clone();
     }
-    let mut devices = devices_of(&scn)?;
+    let mut devices = Devices::load(&scn)?;
     if let Some(p) = &args.controller_model {
         devices.controller = DeviceConfig::load(p, &Registry::builtin()).context("--controller-model")?;
         devices.controller_is_plant = false;
@@ -215,12 +200,11 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
     }
     #[cfg(feature = "rerun")]
     match (&rec, &args.rerun) {
-        (Some(rec), _) => crate::viz::rerun_rig::log_run(rec, &res)?,
+        (Some(rec), _) => log_rerun(rec, &res)?,
         (None, Some(p)) => crate::outputs::write_whole(
             p,
             |tmp| -> anyhow::Result<()> {
-                let rec = crate::viz::rerun_rig::to_file(tmp)?;
-                crate::viz::rerun_rig::log_run(&rec, &res)?;
+                log_rerun(&crate::viz::rerun_rig::to_file(tmp)?, &res)?;
                 Ok(())
             },
             |e| anyhow::Error::new(e).context(format!("--rerun {}", p.display())),
@@ -270,6 +254,46 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// A run's row as its recording shows it.
+#[cfg(feature = "rerun")]
+fn rerun_sample(r: &super::Row) -> crate::viz::rerun_rig::Sample {
+    crate::viz::rerun_rig::Sample {
+        t_s: r.t_s,
+        series: [
+            r.desired_force_n,
+            r.load_cell_n,
+            r.load_cell_true_n,
+            r.damper_force_n,
+            r.current_a,
+            r.piston_x_m,
+            r.pilot_force_n,
+            r.stick_angle_rad,
+            r.dissipated_j,
+            f64::from(r.faults),
+        ],
+        aircraft: r.aero.map(|a| {
+            [
+                a.pitch_rad,
+                a.pitch_cmd_rad,
+                a.nz_g,
+                a.nz_cmd_g,
+                a.elevator_rad,
+                a.hinge_moment_nm,
+                a.qbar_pa,
+                a.stick_force_n,
+                a.stick_cmd_rad,
+            ]
+        }),
+    }
+}
+
+/// Log a run whose rows and frames are all in memory to a Rerun recording.
+#[cfg(feature = "rerun")]
+pub fn log_rerun(rec: &rerun::RecordingStream, res: &Results) -> Result<(), crate::viz::rerun_rig::VizError> {
+    let samples: Vec<_> = res.rows.iter().map(rerun_sample).collect();
+    crate::viz::rerun_rig::log_run(rec, &res.visuals, res.flight.is_some(), &samples, &res.frames)
 }
 
 /// `write_whole` of `path` where there is one; else `write` with no file.
@@ -338,7 +362,11 @@ fn run_streamed<P: Plant>(
                             }
                             #[cfg(feature = "rerun")]
                             if let Some(rec) = &file_rec {
-                                logger = Some(crate::viz::rerun_rig::RunLogger::new(rec, h)?);
+                                logger = Some(crate::viz::rerun_rig::RunLogger::new(
+                                    rec,
+                                    &h.visuals,
+                                    h.flight.is_some(),
+                                )?);
                             }
                             head = Some(h.clone());
                         }
@@ -355,7 +383,7 @@ fn run_streamed<P: Plant>(
                             }
                             #[cfg(feature = "rerun")]
                             if let Some(l) = logger.as_mut() {
-                                l.row(r)?;
+                                l.sample(&rerun_sample(r))?;
                             }
                         }
                     }
@@ -483,7 +511,7 @@ pub fn daq_sweep_cmd(args: &DaqSweepArgs, scn: Scenario) -> anyhow::Result<()> {
             );
         }
     }
-    let devices = devices_of(&scn)?;
+    let devices = Devices::load(&scn)?;
     let points = sweep(&scn, &devices, &args.rates)?;
     if let Some(dir) = &args.plot {
         response::plot(

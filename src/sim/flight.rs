@@ -1,4 +1,4 @@
-//! The aircraft in the loop (issue 5): the stick drives the elevator, the aircraft's stick force (from its
+//! The aircraft in the loop: the stick drives the elevator, the aircraft's stick force (from its
 //! hinge moment, or its feel computer for powered controls) is the feel target, and the pilot's outer
 //! loop on pitch attitude or load factor gives the hand its stick command.
 //!

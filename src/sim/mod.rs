@@ -1,20 +1,17 @@
 //! The multi-rate loop for one scenario: physics at the rig's rate, the DAQ (sensors, latency, zero-order
 //! hold) and the feel controller at the DAQ's rate, the pilot's hand at the physics rate.
 //!
-//! Per physics step `n` (time `t = n·dt`):
-//! 1. read the rig's true state;
-//! 2. if a DAQ tick is due: sample the load cell and the laser, push through the latency line, and run the
-//!    controller on the sample that comes out; its current command is then held (zero-order hold);
-//! 3. the hand reacts to its command and the grip's state: the hand force for this step;
-//! 4. record the row; step the rig with the hand force and the held current command.
+//! Per physics step (time `t = n·dt`):
+//! 1. read the rig's true state; with an `[aircraft]` ([`flight`]), step the aircraft when its frame is
+//!    due: its stick force through the linkage is the target of `feel.law = "aircraft"`, its outer loop
+//!    (`pilot.signal = "outer-loop"`) the hand's command;
+//! 2. on a DAQ tick: sample the load cell and the laser through the latency line and run the feel system
+//!    ([`FeelSystem`]) on the sample that comes out; its commands are held until the next tick;
+//! 3. the hand reacts to its command and the grip's state;
+//! 4. record the row; step the rig with the hand force, the coil command, the spring and the motor force.
 //!
-//! With an `[aircraft]` (issue 5), before 2.: the aircraft steps when its frame is due ([`flight`]); its
-//! stick force, mapped through the linkage to the piston, is the feel law's target (`feel.law =
-//! "aircraft"`), and the pilot's outer loop (`pilot.signal = "outer-loop"`) sets the hand's command.
-//!
-//! Faults (`[[fault]]`, [`crate::faults`]) act at their hooks: transducers → DAQ, DAQ → controller (a
-//! latency spike delays the samples the controller sees), driver → coil; every row carries the mask of
-//! the faults active at its time.
+//! Faults ([`crate::faults`]) act between transducers and DAQ, DAQ and controller (latency spikes), driver
+//! and coil or motor; every row carries the mask of the faults active at its time.
 
 pub mod cli;
 pub mod flight;
@@ -31,8 +28,8 @@ pub use results::{FlightInfo, Results, Row, Summary, SummaryAcc};
 
 use std::collections::VecDeque;
 
-use crate::control::feel::{FeelKind, FeelSystem, FeelSystemConfig, SpringElement};
-use crate::control::{FeelController, FeelLaw, Hybrid, LoopMode, Pid};
+use crate::control::feel::Spring;
+use crate::control::{FeelController, FeelLaw, FeelSystem, LoopMode, Pid};
 use crate::device::{DeviceConfig, ForceInverse};
 use crate::pilot::{Hand, Task};
 use crate::scenario::Scenario;
@@ -184,17 +181,17 @@ pub struct RunOptions {
 pub struct Loop<P: Plant> {
     pub plant: P,
     pub daq: Daq,
-    pub controller: FeelController,
+    /// The feel system on the rig: its controller, spring and actuators.
+    pub feel: FeelSystem,
     pub hand: Hand,
     scenario_command: crate::pilot::Signal,
     command_scale: f64,
     step_index: u64,
-    current_cmd_a: f64,
     desired_force_n: f64,
     measured_force_n: f64,
     mode: LoopMode,
     pilot_work_j: f64,
-    /// issue 6 hook: scheduled faults in the driver and sensor path (`crate::faults`).
+    /// Scheduled faults in the driver and sensor path.
     faults: crate::faults::FaultInjector,
     current_limit_a: f64,
     /// Samples out of the DAQ waiting for a latency spike to pass: (arrival time, sample).
@@ -203,13 +200,7 @@ pub struct Loop<P: Plant> {
     last_delivered_t_s: f64,
     /// The aircraft in the loop, if the scenario has one.
     pub flight: Option<Flight>,
-    /// The feel system (MR damper, spring unit, or hybrid) and its spring, if any.
-    feel_system: FeelSystemConfig,
-    spring: Option<SpringElement>,
-    /// Active stick: the motor force command (held between DAQ ticks), the force applied over the step
-    /// (after driver faults), N on the piston, and the motor's work so far, J.
-    motor_cmd_n: f64,
-    actuator_force_n: f64,
+    /// The motor's work on the piston so far, J.
     actuator_work_j: f64,
     scenario_path: std::path::PathBuf,
     scenario_lines: crate::scenario::KeyLines,
@@ -235,20 +226,13 @@ impl<P: Plant> Loop<P> {
         } else {
             None
         };
-        let mut controller = FeelController::new(
+        let controller = FeelController::new(
             scn.feel.clone(),
             Pid::new(scn.controller.gains),
             feedforward,
             scn.controller.rest_speed_m_s,
             scn.controller.rest_force_n,
         );
-        let fs = scn.feel_system.clone();
-        if fs.kind == FeelKind::MrSpring {
-            controller.hybrid = fs.spring.map(|spring| Hybrid {
-                spring,
-                return_damping_n_s_per_m: fs.return_damping_n_s_per_m,
-            });
-        }
         let command_scale = match scn.pilot.task {
             Task::Position => plant.grip_arm_m(),
             Task::Force => 1.0,
@@ -270,13 +254,12 @@ impl<P: Plant> Loop<P> {
             .any(|f| f.kind == crate::faults::FaultKind::LatencySpike);
         Ok(Self {
             daq: Daq::new(scn.sensors, scn.seed),
-            controller,
+            feel: FeelSystem::new(&scn.feel_system, controller),
             hand: Hand::new(scn.pilot.hand, scn.pilot.task),
             scenario_command: scn.pilot.command.clone(),
             command_scale,
             plant,
             step_index: 0,
-            current_cmd_a: 0.0,
             desired_force_n: 0.0,
             measured_force_n: 0.0,
             mode: LoopMode::Holding,
@@ -289,10 +272,6 @@ impl<P: Plant> Loop<P> {
             flight,
             scenario_path: scn.path.clone(),
             scenario_lines: scn.lines,
-            spring: fs.spring,
-            feel_system: fs,
-            motor_cmd_n: 0.0,
-            actuator_force_n: 0.0,
             actuator_work_j: 0.0,
         })
     }
@@ -329,42 +308,25 @@ impl<P: Plant> Loop<P> {
                 line: self.scenario_lines.aircraft_model,
                 error,
             })?;
-            if let FeelLaw::Target { .. } = self.controller.law {
+            if let FeelLaw::Target { .. } = self.feel.controller.law {
                 // Grip → piston by virtual work at the present linkage angle.
                 let force_n = f.stick_force_n() * self.plant.grip_arm_m()
                     / self.plant.gearing_m_per_rad(s.stick_angle_rad);
-                self.controller.law = FeelLaw::Target { force_n };
+                self.feel.controller.law = FeelLaw::Target { force_n };
             }
         }
         let aero = self.flight.as_ref().map(|f| f.row(t));
-        if let (Some(a), true) = (aero, self.feel_system.q_from_aircraft) {
-            if let Some(sp) = self.spring.as_mut() {
-                sp.set_dynamic_pressure(a.qbar_pa);
-            }
+        if let Some(a) = aero {
+            self.feel.set_dynamic_pressure(a.qbar_pa);
         }
         if self.daq.due(t) {
-            // issue 6 hook: sensor faults between the transducers and the DAQ.
             let load_cell_n = self.faults.load_cell_n(t, s.load_cell_n);
             let piston_x_m = self.faults.displacement_m(t, s.piston_x_m);
             let out = self.daq.acquire(t, load_cell_n, piston_x_m);
             if let Some(sample) = out.and_then(|x| self.deliver(t, x)) {
                 // The controller runs on the sample's own time: with the latency line this is the same as
                 // computing at the sampling instant and writing the command `latency_samples` ticks later.
-                let out = self
-                    .controller
-                    .update(sample.sampled_t_s, &sample, self.daq.period_s());
-                // Active stick: the motor renders the law by impedance control, pushing the piston with
-                // the force the pilot should feel, within its limit.
-                if self.feel_system.kind == FeelKind::Active {
-                    let m = self.feel_system.motor_max_force_n;
-                    self.motor_cmd_n = (-out.desired_force_n).clamp(-m, m);
-                }
-                // A spring feel unit (or the active stick) has no coil: the loop only logs its target.
-                self.current_cmd_a = if self.feel_system.kind.has_coil() {
-                    out.current_cmd_a
-                } else {
-                    0.0
-                };
+                let out = self.feel.update(sample.sampled_t_s, &sample, self.daq.period_s());
                 self.desired_force_n = out.desired_force_n;
                 self.measured_force_n = sample.force_n;
                 self.mode = out.mode;
@@ -381,22 +343,15 @@ impl<P: Plant> Loop<P> {
         } else {
             self.hand.step(cmd, s.grip_x_m, s.grip_v_m_s, dt)
         };
-        // issue 6 hook: driver faults between the command and the coil.
-        let coil_cmd_a = if self.feel_system.kind.has_coil() {
-            self.faults
-                .coil_command_a(t, self.current_cmd_a, self.current_limit_a)
-        } else {
-            0.0 // no coil: nothing for a driver fault to drive
-        };
-        if self.feel_system.kind == FeelKind::Active {
-            // issue 6 hook: driver faults between the command and the motor.
-            self.actuator_force_n = self.faults.motor_force_n(
-                t,
-                self.motor_cmd_n,
-                self.actuator_force_n,
-                self.feel_system.motor_max_force_n,
-            );
+        // Driver faults between the commands and the coil or motor (no coil: nothing to drive).
+        let coil_cmd_a = self
+            .feel
+            .coil_command_a()
+            .map_or(0.0, |i| self.faults.coil_command_a(t, i, self.current_limit_a));
+        if let Some(m) = self.feel.motor.as_mut() {
+            m.force_n = self.faults.motor_force_n(t, m.cmd_n, m.force_n, m.max_force_n);
         }
+        let actuator_force_n = self.feel.motor_force_n();
         let row = Row {
             t_s: t,
             stick_angle_rad: s.stick_angle_rad,
@@ -406,7 +361,7 @@ impl<P: Plant> Loop<P> {
             load_cell_n: self.measured_force_n,
             load_cell_true_n: s.load_cell_n,
             desired_force_n: self.desired_force_n,
-            current_a: self.current_cmd_a,
+            current_a: self.feel.current_cmd_a(),
             pilot_force_n: hand_force,
             pilot_cmd: cmd,
             damper_force_n: s.damper_force_n,
@@ -419,21 +374,20 @@ impl<P: Plant> Loop<P> {
             faults: self.faults.schedule.active_mask(t),
             current_applied_a: coil_cmd_a,
             coil_current_a: s.coil_current_a,
-            spring_energy_j: self.spring.map_or(0.0, |sp| sp.stored_energy_j(s.piston_x_m)),
-            actuator_force_n: self.actuator_force_n,
+            spring_energy_j: self.feel.spring_energy_j(s.piston_x_m),
+            actuator_force_n,
             actuator_work_j: self.actuator_work_j,
             aero,
         };
         self.plant
-            .set_feel_spring(self.spring.as_ref().map(|sp| sp as &dyn FeelSystem));
-        if self.feel_system.kind == FeelKind::Active {
-            self.plant.set_actuator_force_n(self.actuator_force_n);
+            .set_feel_spring(self.feel.spring().map(|sp| sp as &dyn Spring));
+        if self.feel.motor.is_some() {
+            self.plant.set_actuator_force_n(actuator_force_n);
         }
         self.plant.step(hand_force, coil_cmd_a);
         let after = self.plant.state();
-        // The motor's force held over the step does F·Δx on the piston.
-        self.actuator_work_j += self.actuator_force_n * (after.piston_x_m - s.piston_x_m);
-        // Work of a force held over the step: F·Δx along the grip path (exact for the zero-order hold).
+        // Forces held over the step do F·Δx: the motor's on the piston, the hand's along the grip path.
+        self.actuator_work_j += actuator_force_n * (after.piston_x_m - s.piston_x_m);
         self.pilot_work_j += hand_force * (after.grip_x_m - s.grip_x_m);
         self.step_index += 1;
         if let Some(what) = diverged(&row, self.plant.stroke_half_m()) {
@@ -449,30 +403,51 @@ impl<P: Plant> Loop<P> {
     }
 }
 
-/// The scenario's rig with the device's damper, or for a spring feel unit (no MR element) the same
-/// damper with no coil and the unit's own viscous damping.
+/// The scenario's rig with the damper its feel system puts on it
+/// ([`crate::control::feel::FeelSystemConfig::damper`]), checked against the device's stroke.
 pub fn build_rig(scn: &Scenario, device: &DeviceConfig) -> anyhow::Result<crate::rig::Rig> {
     use anyhow::Context;
-    let fs = &scn.feel_system;
-    let damper = if fs.kind.has_coil() {
-        device.damper()
-    } else {
-        device.viscous_damper(fs.unit_damping_n_s_per_m)
-    };
-    let rig = crate::rig::Rig::new(&scn.rig, damper);
+    let rig = crate::rig::Rig::new(&scn.rig, scn.feel_system.damper(device));
     let rig = rig.and_then(|rig| match device.geometry {
         Some(g) => rig
             .check_device_stroke(g.stroke_half_m, || {
-                // The device file's line, read again only to name it in the error.
-                let line = crate::input::text::read_text(&device.path)
-                    .map(|t| crate::input::text::toml_key_line(&t, "geometry", "stroke_half_in"))
-                    .unwrap_or(1);
-                format!("`geometry.stroke_half_in` at {}:{line}", device.path.display())
+                format!(
+                    "`geometry.stroke_half_in` at {}:{}",
+                    device.path.display(),
+                    stroke_line(device)
+                )
             })
             .map(|()| rig),
         None => Ok(rig),
     });
     rig.with_context(|| format!("rig of scenario {}", scn.path.display()))
+}
+
+/// The line of a device file's `geometry.stroke_half_in` (1 where it cannot be read again).
+fn stroke_line(device: &DeviceConfig) -> usize {
+    #[derive(serde::Deserialize)]
+    struct File {
+        geometry: Geometry,
+    }
+    #[derive(serde::Deserialize)]
+    struct Geometry {
+        stroke_half_in: toml::Spanned<f64>,
+    }
+    let src = crate::input::Source::read(&device.path);
+    src.ok()
+        .and_then(|src| {
+            let f = src.toml::<File>().ok()?;
+            Some(src.line_of(f.geometry.stroke_half_in.span().start))
+        })
+        .unwrap_or(1)
+}
+
+/// Load a scenario, the plant it names with the model its controller believes, and build its rig.
+pub fn load(path: &std::path::Path) -> anyhow::Result<(Scenario, Devices, crate::rig::Rig)> {
+    let scn = Scenario::load(path)?;
+    let devices = Devices::load(&scn)?;
+    let rig = build_rig(&scn, &devices.plant)?;
+    Ok((scn, devices, rig))
 }
 
 /// What a run hands to its outputs as it goes ([`run_streaming`]).

@@ -1,7 +1,7 @@
 //! What the loop needs from the mechanical rig, as a trait: the rapier multibody [`Rig`] implements it;
 //! tests may plug in an independent reduced model.
 
-use crate::control::feel::{self, FeelSystem};
+use crate::control::feel::{self, Spring};
 use crate::rig::{BodyPose, LinkVisuals, Rig};
 
 /// The rig's true state after a step (the loop logs it; the controller never sees it).
@@ -49,7 +49,7 @@ pub trait Plant {
     /// Stick travel stops, rad (min, max).
     fn stick_limits_rad(&self) -> (f64, f64);
     /// Put a spring feel element on the piston joint for the next step (`None`: none).
-    fn set_feel_spring(&mut self, spring: Option<&dyn FeelSystem>);
+    fn set_feel_spring(&mut self, spring: Option<&dyn Spring>);
     /// An actuator's force on the piston along +x for the next step, N (the active stick's motor; call
     /// after [`Plant::set_feel_spring`], which clears it).
     fn set_actuator_force_n(&mut self, force_n: f64);
@@ -115,7 +115,7 @@ impl Plant for Rig {
         self.set_external_force_n(force_n);
     }
 
-    fn set_feel_spring(&mut self, spring: Option<&dyn FeelSystem>) {
+    fn set_feel_spring(&mut self, spring: Option<&dyn Spring>) {
         match spring {
             Some(f) => feel::apply(f, self),
             None => {

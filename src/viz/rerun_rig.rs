@@ -9,13 +9,11 @@
 //! - `forces/hand`: the pilot's hand force at the grip, along the grip path (+ = pull, aft);
 //!   `forces/damper`: the fluid's force on the piston, `−Fd` along x (it opposes the piston's motion);
 //!   `forces/load_cell`: the push rod's force on the piston along x; all three 1 mm per newton;
-//! - `signals/force/{desired,load_cell,load_cell_true,damper}` (N), `signals/current/command` (A),
-//!   `signals/stroke/piston_x` (m), `signals/pilot/force` (N), `signals/stick/angle` (rad),
-//!   `signals/energy/dissipated` (J), `signals/faults/mask`: one value per physics step, the same samples as
-//!   the CSV's columns;
-//! - with an aircraft: `aircraft` (a simple airframe of boxes beside the stick, rotated by the pitch
-//!   attitude at each frame) and `signals/aircraft/{pitch,pitch_cmd,nz,nz_cmd,elevator,hinge_moment,qbar,
-//!   stick_force,stick_cmd}`, also one value per physics step.
+//! - [`SERIES`]: one value per physics step, the same samples as the run's CSV columns;
+//! - with an aircraft: `aircraft` (an airframe of boxes beside the stick, rotated by the pitch attitude at
+//!   each frame) and [`AIRCRAFT_SERIES`], one value per physics step.
+//!
+//! The recording takes plain data ([`Sample`], poses, visuals), not the simulation's types.
 
 use std::path::Path;
 
@@ -26,7 +24,6 @@ use rerun::blueprint::{
 use rerun::{RecordingStream, RecordingStreamResult, TimeColumn};
 
 use crate::rig::{BodyPose, LinkVisuals, VisualShape};
-use crate::sim::Results;
 
 /// Metres of arrow per newton of force.
 const ARROW_M_PER_N: f32 = 1e-3;
@@ -34,6 +31,7 @@ const ARROW_M_PER_N: f32 = 1e-3;
 /// Where the aircraft shape sits beside the stick, m (rig frame: x aft, z up).
 const AIRCRAFT_AT_M: [f32; 3] = [0.0, 0.6, 0.3];
 
+/// A recording that could not be made.
 #[derive(Debug, thiserror::Error)]
 pub enum VizError {
     #[error("rerun: {0}")]
@@ -78,23 +76,69 @@ pub fn spawn_on_port(port: u16) -> Result<RecordingStream, VizError> {
         .map_err(|e| VizError::Spawn(e.to_string()))
 }
 
-/// Log one run whose rows and frames are all in memory ([`RunLogger`]).
-pub fn log_run(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
-    let mut log = RunLogger::new(rec, res)?;
-    let dt = if res.rows.len() > 1 {
-        res.rows[1].t_s - res.rows[0].t_s
+/// The time series of a recording, one entity path each.
+pub const SERIES: [&str; 10] = [
+    "signals/force/desired",
+    "signals/force/load_cell",
+    "signals/force/load_cell_true",
+    "signals/force/damper",
+    "signals/current/command",
+    "signals/stroke/piston_x",
+    "signals/pilot/force",
+    "signals/stick/angle",
+    "signals/energy/dissipated",
+    "signals/faults/mask",
+];
+/// The aircraft's time series.
+pub const AIRCRAFT_SERIES: [&str; 9] = [
+    "signals/aircraft/pitch",
+    "signals/aircraft/pitch_cmd",
+    "signals/aircraft/nz",
+    "signals/aircraft/nz_cmd",
+    "signals/aircraft/elevator",
+    "signals/aircraft/hinge_moment",
+    "signals/aircraft/qbar",
+    "signals/aircraft/stick_force",
+    "signals/aircraft/stick_cmd",
+];
+/// Where the arrows' forces are in [`Sample::series`]: true load cell, damper, pilot's hand (N).
+const LOAD_CELL_TRUE: usize = 2;
+const DAMPER: usize = 3;
+const PILOT: usize = 6;
+
+/// One physics step as a recording shows it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sample {
+    pub t_s: f64,
+    /// The values of [`SERIES`], in order (SI units as the paths say).
+    pub series: [f64; 10],
+    /// The values of [`AIRCRAFT_SERIES`], in order, when the run flies (the first is the pitch, rad).
+    pub aircraft: Option<[f64; 9]>,
+}
+
+/// Log one run whose samples and frames are all in memory ([`RunLogger`]).
+pub fn log_run(
+    rec: &RecordingStream,
+    visuals: &[LinkVisuals],
+    flight: bool,
+    samples: &[Sample],
+    frames: &[(f64, Vec<BodyPose>)],
+) -> Result<(), VizError> {
+    let mut log = RunLogger::new(rec, visuals, flight)?;
+    let dt = if samples.len() > 1 {
+        samples[1].t_s - samples[0].t_s
     } else {
         1.0
     };
-    let mut frames = res.frames.iter().peekable();
-    for (k, row) in res.rows.iter().enumerate() {
-        // Each frame before the row of its step, as a run hands them over.
+    let mut frames = frames.iter().peekable();
+    for (k, sample) in samples.iter().enumerate() {
+        // Each frame before the sample of its step, as a run hands them over.
         while let Some((t, poses)) =
-            frames.next_if(|(t, _)| ((t / dt).round() as usize).min(res.rows.len() - 1) <= k)
+            frames.next_if(|(t, _)| ((t / dt).round() as usize).min(samples.len() - 1) <= k)
         {
             log.frame(*t, poses);
         }
-        log.row(row)?;
+        log.sample(sample)?;
     }
     log.finish()
 }
@@ -138,57 +182,31 @@ pub fn blueprint(flight: bool) -> Blueprint {
 /// Rows logged per batch of time series: memory is bounded by the batch, not the run's length.
 const ROWS_PER_BATCH: usize = 4096;
 
-type Col = (&'static str, fn(&crate::sim::Row) -> f64);
-const SERIES: [Col; 10] = [
-    ("signals/force/desired", |r| r.desired_force_n),
-    ("signals/force/load_cell", |r| r.load_cell_n),
-    ("signals/force/load_cell_true", |r| r.load_cell_true_n),
-    ("signals/force/damper", |r| r.damper_force_n),
-    ("signals/current/command", |r| r.current_a),
-    ("signals/stroke/piston_x", |r| r.piston_x_m),
-    ("signals/pilot/force", |r| r.pilot_force_n),
-    ("signals/stick/angle", |r| r.stick_angle_rad),
-    ("signals/energy/dissipated", |r| r.dissipated_j),
-    ("signals/faults/mask", |r| f64::from(r.faults)),
-];
-type AeroCol = (&'static str, fn(&crate::sim::AeroRow) -> f64);
-const AERO_SERIES: [AeroCol; 9] = [
-    ("signals/aircraft/pitch", |a| a.pitch_rad),
-    ("signals/aircraft/pitch_cmd", |a| a.pitch_cmd_rad),
-    ("signals/aircraft/nz", |a| a.nz_g),
-    ("signals/aircraft/nz_cmd", |a| a.nz_cmd_g),
-    ("signals/aircraft/elevator", |a| a.elevator_rad),
-    ("signals/aircraft/hinge_moment", |a| a.hinge_moment_nm),
-    ("signals/aircraft/qbar", |a| a.qbar_pa),
-    ("signals/aircraft/stick_force", |a| a.stick_force_n),
-    ("signals/aircraft/stick_cmd", |a| a.stick_cmd_rad),
-];
-
-/// A run's recording made as the run goes ([`crate::sim::run_streaming`]): the blueprint, up axis and
-/// static shapes at the start, each frame's poses with the force arrows of its step's row, and the time
-/// series in batches of `ROWS_PER_BATCH` rows, so that memory does not grow with the run.
+/// A run's recording made as the run goes: the blueprint, up axis and static shapes at the start, each
+/// frame's poses with the force arrows of its step's sample, and the time series in batches of
+/// `ROWS_PER_BATCH` samples, so that memory does not grow with the run.
 pub struct RunLogger<'a> {
     rec: &'a RecordingStream,
     aero: bool,
     grip: Option<(String, [f64; 3])>,
-    batch: Vec<crate::sim::Row>,
+    batch: Vec<Sample>,
     /// A frame waiting for the row of its step (the arrows show that row's forces).
     pending: Option<(f64, Vec<BodyPose>)>,
 }
 
 impl<'a> RunLogger<'a> {
-    /// Start the recording of the run whose facts `head` holds (its shapes, whether it flies).
-    pub fn new(rec: &'a RecordingStream, head: &Results) -> Result<Self, VizError> {
-        blueprint(head.flight.is_some())
+    /// Start the recording of a run on the rig of `visuals`, with an aircraft where `flight`.
+    pub fn new(rec: &'a RecordingStream, visuals: &[LinkVisuals], flight: bool) -> Result<Self, VizError> {
+        blueprint(flight)
             .send(rec, BlueprintActivation::default())
             .map_err(err)?;
         rec.log_static("/", &rerun::ViewCoordinates::RIGHT_HAND_Z_UP())
             .map_err(err)?;
-        log_shapes(rec, head)?;
+        log_shapes(rec, visuals, flight)?;
         Ok(Self {
             rec,
-            aero: head.flight.is_some(),
-            grip: grip_of(&head.visuals),
+            aero: flight,
+            grip: grip_of(visuals),
             batch: Vec::with_capacity(ROWS_PER_BATCH),
             pending: None,
         })
@@ -199,11 +217,12 @@ impl<'a> RunLogger<'a> {
         self.pending = Some((t, poses.to_vec()));
     }
 
-    pub fn row(&mut self, row: &crate::sim::Row) -> Result<(), VizError> {
+    /// One physics step's sample (with the arrows of a frame waiting for it).
+    pub fn sample(&mut self, sample: &Sample) -> Result<(), VizError> {
         if let Some((t, poses)) = self.pending.take() {
-            log_frame(self.rec, t, &poses, row, self.grip.as_ref())?;
+            log_frame(self.rec, t, &poses, sample, self.grip.as_ref())?;
         }
-        self.batch.push(*row);
+        self.batch.push(*sample);
         if self.batch.len() == ROWS_PER_BATCH {
             self.send_batch()?;
         }
@@ -216,12 +235,15 @@ impl<'a> RunLogger<'a> {
         }
         let rows = std::mem::take(&mut self.batch);
         let times = || TimeColumn::new_duration_secs("time", rows.iter().map(|r| r.t_s));
-        for (path, f) in SERIES {
-            self.send(path, times(), rows.iter().map(f).collect())?;
+        for (k, path) in SERIES.into_iter().enumerate() {
+            self.send(path, times(), rows.iter().map(|r| r.series[k]).collect())?;
         }
         if self.aero {
-            for (path, f) in AERO_SERIES {
-                let v = rows.iter().map(|r| r.aero.map_or(f64::NAN, |a| f(&a))).collect();
+            for (k, path) in AIRCRAFT_SERIES.into_iter().enumerate() {
+                let v = rows
+                    .iter()
+                    .map(|r| r.aircraft.map_or(f64::NAN, |a| a[k]))
+                    .collect();
                 self.send(path, times(), v)?;
             }
         }
@@ -299,9 +321,9 @@ pub fn log_link_poses(rec: &RecordingStream, prefix: &str, poses: &[BodyPose]) -
 }
 
 /// The static shapes of a run: the links' visuals and, when it flies, the airframe.
-fn log_shapes(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
-    log_link_visuals(rec, "rig", &res.visuals).map_err(err)?;
-    if res.flight.is_some() {
+fn log_shapes(rec: &RecordingStream, visuals: &[LinkVisuals], flight: bool) -> Result<(), VizError> {
+    log_link_visuals(rec, "rig", visuals).map_err(err)?;
+    if flight {
         // Airframe: fuselage, wing, tailplane and fin boxes, nose towards −x (forward), 1:20 scale.
         rec.log_static(
             "aircraft/shape",
@@ -325,14 +347,14 @@ fn log_shapes(rec: &RecordingStream, res: &Results) -> Result<(), VizError> {
     Ok(())
 }
 
-/// One drawing frame at time `t`: the links' poses; the forces of `row` (its step's row) as arrows: the
+/// One drawing frame at time `t`: the links' poses; the forces of `row` (its step's sample) as arrows: the
 /// load cell's and the damper's at the piston along x, the pilot's hand at the grip along its path; and
 /// the aircraft's attitude.
 fn log_frame(
     rec: &RecordingStream,
     t: f64,
     poses: &[BodyPose],
-    row: &crate::sim::Row,
+    row: &Sample,
     grip: Option<&(String, [f64; 3])>,
 ) -> Result<(), VizError> {
     rec.set_duration_secs("time", t);
@@ -342,12 +364,12 @@ fn log_frame(
         let along_x = |f_n: f64| [[(f_n * f64::from(ARROW_M_PER_N)) as f32, 0.0, 0.0]];
         rec.log(
             "forces/load_cell",
-            &rerun::Arrows3D::from_vectors(along_x(row.load_cell_true_n)).with_origins(at),
+            &rerun::Arrows3D::from_vectors(along_x(row.series[LOAD_CELL_TRUE])).with_origins(at),
         )
         .map_err(err)?;
         rec.log(
             "forces/damper",
-            &rerun::Arrows3D::from_vectors(along_x(-row.damper_force_n)).with_origins(at),
+            &rerun::Arrows3D::from_vectors(along_x(-row.series[DAMPER])).with_origins(at),
         )
         .map_err(err)?;
     }
@@ -357,7 +379,7 @@ fn log_frame(
             let (origin, dir) = in_world(
                 pose,
                 *offset,
-                [row.pilot_force_n * f64::from(ARROW_M_PER_N), 0.0, 0.0],
+                [row.series[PILOT] * f64::from(ARROW_M_PER_N), 0.0, 0.0],
             );
             rec.log(
                 "forces/hand",
@@ -366,9 +388,9 @@ fn log_frame(
             .map_err(err)?;
         }
     }
-    if let Some(a) = row.aero {
+    if let Some(a) = row.aircraft {
         // Nose-up pitch θ turns the nose (−x) towards +z: a rotation by θ about +y.
-        let h = (a.pitch_rad * 0.5) as f32;
+        let h = (a[0] * 0.5) as f32;
         rec.log(
             "aircraft",
             &rerun::Transform3D::from_translation_rotation(
