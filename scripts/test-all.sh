@@ -8,8 +8,19 @@
 #   4. a sweep on a real local Ray cluster against the same sweep in one process, byte for byte.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
-echo "== Python environment (.venv: jsbsim, rerun-sdk)"
-py="$(bash scripts/python-env.sh)"
+# The Python environment downloads while cargo compiles: one waits on the network, the other on the CPU.
+echo "== Python environment (.venv) in the background; cargo builds the tests"
+env_out="$(mktemp)"
+env_err="$(mktemp)"
+bash scripts/python-env.sh >"$env_out" 2>"$env_err" &
+env_pid=$!
+cargo test --locked --no-run
+if ! wait "$env_pid"; then
+    cat "$env_err" >&2
+    exit 1
+fi
+cat "$env_err" >&2
+py="$(cat "$env_out")"
 echo "== JSBSim reference tables regenerate bit for bit"
 "$py" python/jsbsim_reference.py --check
 echo "== cargo test"

@@ -12,13 +12,13 @@ use std::path::{Component, Path, PathBuf};
 use std::sync::OnceLock;
 
 /// The first component of a built-in file's path.
-pub const ROOT: &str = "<built-in>";
+pub(crate) const ROOT: &str = "<built-in>";
 
 /// The environment variable naming the data directory (the `--data-dir` flag sets the same).
-pub const DATA_ENV: &str = "MRFEEL_DATA";
+pub(crate) const DATA_ENV: &str = "MRFEEL_DATA";
 
 /// The paper's device (`models/paper-device.toml`).
-pub const PAPER_DEVICE: &str = include_str!("../models/paper-device.toml");
+pub(crate) const PAPER_DEVICE: &str = include_str!("../models/paper-device.toml");
 
 /// Each built-in file: its path in the repository and its text.
 const FILES: &[(&str, &str)] = &[
@@ -120,7 +120,7 @@ fn repo_path(path: &Path) -> Option<&str> {
 }
 
 /// Whether `path` is a built-in file's path.
-pub fn is_builtin(path: &Path) -> bool {
+pub(crate) fn is_builtin(path: &Path) -> bool {
     repo_path(path).is_some()
 }
 
@@ -131,7 +131,7 @@ pub fn text(path: &Path) -> Option<&'static str> {
 }
 
 /// The built-in file whose file name is `name` (`stick-rig.urdf`, `paper-device.toml`).
-pub fn by_file_name(name: &str) -> Option<PathBuf> {
+pub(crate) fn by_file_name(name: &str) -> Option<PathBuf> {
     FILES
         .iter()
         .find(|(p, _)| Path::new(p).file_name().and_then(|n| n.to_str()) == Some(name))
@@ -139,7 +139,7 @@ pub fn by_file_name(name: &str) -> Option<PathBuf> {
 }
 
 /// The file names of the built-in models, rig and scenarios, for messages that list them.
-pub fn file_names() -> Vec<&'static str> {
+pub(crate) fn file_names() -> Vec<&'static str> {
     FILES
         .iter()
         .filter(|(p, _)| !p.starts_with("python/"))
@@ -210,7 +210,7 @@ pub fn resolve(dir: &Path, named: &Path) -> PathBuf {
 }
 
 /// `msg`, an error about the file `path` a scenario names, with [`not_found_hint`] when the file is not there.
-pub fn hint_if_missing(path: &Path, msg: String) -> String {
+pub(crate) fn hint_if_missing(path: &Path, msg: String) -> String {
     if is_builtin(path) || path.exists() {
         msg
     } else {
@@ -219,7 +219,7 @@ pub fn hint_if_missing(path: &Path, msg: String) -> String {
 }
 
 /// What to do about a file a scenario names that is not found.
-pub fn not_found_hint() -> String {
+pub(crate) fn not_found_hint() -> String {
     format!(
         "a relative path is read beside the file that names it, then in the data directory (--data-dir or \
          {DATA_ENV}{}); give a path that exists, set the data directory to a folder that holds the file, or \
@@ -234,7 +234,7 @@ pub fn not_found_hint() -> String {
 
 /// Names of the built-in aircraft models (`737`, `c172p`), and of those in the data directory's
 /// `models/aircraft/` or `aircraft/`, sorted.
-pub fn aircraft_names() -> Vec<String> {
+pub(crate) fn aircraft_names() -> Vec<String> {
     let mut names: Vec<String> = FILES
         .iter()
         .filter_map(|(p, _)| {

@@ -16,6 +16,7 @@ pub mod prelude;
 pub mod rig;
 pub mod scenario;
 pub mod sensors;
+pub mod signal;
 pub mod sim;
 pub(crate) mod spikes;
 pub mod sweep;

@@ -237,7 +237,7 @@ fn remove_stale_partials(dir: &Path) {
 /// (`/dev/null`, a named pipe) is written directly: it is a stream, not a file to replace. Within an
 /// [`OutputSet`] the rename waits for the set's commit. `io_error` turns a failure to make, flush or rename
 /// the temporary file into the caller's error.
-pub fn write_whole<T, E>(
+pub(crate) fn write_whole<T, E>(
     path: &Path,
     write: impl FnOnce(&Path) -> Result<T, E>,
     io_error: impl Fn(std::io::Error) -> E,
@@ -341,7 +341,7 @@ impl OutputSet {
 
 /// Commit the outputs staged so far by this thread's open [`OutputSet`], if one is open: what a command
 /// prints on stdout ([`crate::outln`]) comes after the files it reports.
-pub fn commit_open_set() -> std::io::Result<()> {
+pub(crate) fn commit_open_set() -> std::io::Result<()> {
     let staged = SET.with_borrow_mut(|s| s.as_mut().map(std::mem::take).unwrap_or_default());
     commit(staged)
 }
@@ -441,13 +441,13 @@ fn finish_killed_set(journal: &Path) {
 /// inode (so a hard link, a symlink or `a/../b` spelling is the same file), otherwise the canonical path of
 /// its nearest existing ancestor with the rest appended.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub enum FileId {
+pub(crate) enum FileId {
     Inode(u64, u64),
     Path(PathBuf),
 }
 
 /// The [`FileId`] of `path`.
-pub fn file_id(path: &Path) -> FileId {
+pub(crate) fn file_id(path: &Path) -> FileId {
     #[cfg(unix)]
     if let Ok(m) = std::fs::metadata(path) {
         use std::os::unix::fs::MetadataExt;

@@ -14,7 +14,8 @@ pub use crate::ident::report::{DiagnoseJson, FitJson};
 pub use crate::ident::timing::{TimingChoice, TimingDecision};
 pub use crate::ident::validate::Figures;
 pub use crate::ident::{AcquisitionChoice, IdentError, Test};
-pub use crate::measurement::{Measurement, MeasurementError};
+pub use crate::input::InputError;
+pub use crate::measurement::Measurement;
 pub use crate::scenario::{Origin, Override, Scenario};
 pub use crate::sim::Results;
 
@@ -200,13 +201,8 @@ pub fn model_in(spec: &str, registry: &Registry, current_limit_a: f64) -> anyhow
 pub fn require(tests: &[Test], n: usize) -> anyhow::Result<()> {
     for t in tests {
         if t.len() < 2 * n {
-            return Err(MeasurementError::TooFewSamples {
-                path: t.path.clone(),
-                found: t.len(),
-                need: 2 * n,
-                what: format!("a fit or validation of a model of {n} parameters"),
-            }
-            .into());
+            let what = format!("a fit or validation of a model of {n} parameters");
+            return Err(crate::measurement::too_few_samples(&t.path, t.len(), 2 * n, &what).into());
         }
     }
     Ok(())

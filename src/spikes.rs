@@ -9,11 +9,11 @@ const HALF_WINDOW: usize = 3;
 /// How many spreads ([`spread`]) a sample must lie from its neighbours' median to be a spike. A real
 /// signal moves by at most its whole range from one sample to the next (a current step, a force reversal),
 /// which is a few spreads at most for any drive (1 for a sine).
-pub const SPIKE_FACTOR: f64 = 1e3;
+pub(crate) const SPIKE_FACTOR: f64 = 1e3;
 
 /// One sample that looks like a spike.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Spike {
+pub(crate) struct Spike {
     /// Index of the sample in its column.
     pub index: usize,
     pub value: f64,
@@ -37,7 +37,7 @@ fn spread(values: &[f64]) -> Option<f64> {
 
 /// The samples of `values` (a column in time order) that lie more than `factor` spreads from the median
 /// of the [`HALF_WINDOW`] samples each side of them (themselves excluded), largest first.
-pub fn spikes(values: &[f64], factor: f64) -> Vec<Spike> {
+pub(crate) fn spikes(values: &[f64], factor: f64) -> Vec<Spike> {
     if values.len() < 2 * HALF_WINDOW + 1 {
         return Vec::new();
     }

@@ -1073,7 +1073,10 @@ fn a_toml_value_of_the_wrong_type_is_named_and_bare_cr_line_endings_are_explaine
     let line = text.lines().position(|l| l.starts_with("duration_s")).unwrap() + 1;
     refused(
         &mrfeel(&["run", &s(&typed)]),
-        &[&format!("typed.toml:{line}: `duration_s`: "), "expected f64"],
+        &[
+            &format!("typed.toml:{line}: field `duration_s`: "),
+            "expected f64",
+        ],
     );
     let cr = d.path().join("cr.toml");
     std::fs::write(&cr, text.replace('\n', "\r")).unwrap();
@@ -1093,7 +1096,7 @@ fn a_toml_value_of_the_wrong_type_is_named_and_bare_cr_line_endings_are_explaine
     .unwrap();
     refused(
         &mrfeel(&["run", &s(&crlf)]),
-        &[&format!("crlf.toml:{line}: `duration_s`: ")],
+        &[&format!("crlf.toml:{line}: field `duration_s`: ")],
     );
 }
 
@@ -1244,6 +1247,9 @@ fn a_rig_written_with_dotted_keys_runs_as_its_table() {
     let line = bad.lines().position(|l| l.starts_with("rig.physics_hz")).unwrap() + 1;
     refused(
         &mrfeel(&["run", &s(&slow)]),
-        &[&format!("slow.toml:{line}: `rig.physics_hz`"), "[100, 100000]"],
+        &[
+            &format!("slow.toml:{line}: field `rig.physics_hz`"),
+            "[100, 100000]",
+        ],
     );
 }

@@ -328,7 +328,7 @@ fn a_fault_table_error_names_the_line_of_its_key_however_the_header_is_spelled()
     refused(
         &run(dir.path(), &scn, &[]),
         &[&format!(
-            "scn.toml:{line}: [[fault]] #2: `kind`: `coil_shorted` is not one of"
+            "scn.toml:{line}: field `fault.2.kind`: `coil_shorted` is not one of"
         )],
     );
 }
@@ -344,7 +344,7 @@ fn a_fault_that_ends_where_it_starts_is_refused() {
     let line = line_of(&text, "end_s = 2.0");
     refused(
         &run(dir.path(), &scn, &[]),
-        &[&format!("scn.toml:{line}: [[fault]] #1: `end_s`: "), "never act"],
+        &[&format!("scn.toml:{line}: field `fault.1.end_s`: "), "never act"],
     );
 }
 
@@ -424,7 +424,7 @@ fn a_missing_file_named_by_a_scenario_names_the_scenario_line_and_key() {
         let line = line_of(&text, "nope.toml");
         refused(
             &run(dir.path(), &scn, &[]),
-            &[&format!("scn.toml:{line}: `{key}`: "), "nope.toml"],
+            &[&format!("scn.toml:{line}: field `{key}`: "), "nope.toml"],
         );
     }
 }
@@ -442,7 +442,7 @@ fn a_bad_pilot_model_file_names_both_files() {
     refused(
         &run(dir.path(), &scn, &[]),
         &[
-            &format!("scn.toml:{}: `pilot.model`: ", line_of(&text, "hand.toml")),
+            &format!("scn.toml:{}: field `pilot.model`: ", line_of(&text, "hand.toml")),
             &format!("hand.toml:{}: unknown field `mas_kg`", line_of(&bad, "mas_kg")),
         ],
     );
@@ -461,7 +461,10 @@ fn an_aircraft_name_is_never_a_path() {
     refused(
         &run(dir.path(), &scn, &[]),
         &[
-            &format!("scn.toml:{}: `aircraft.model`: ", line_of(&text, "../../c172p")),
+            &format!(
+                "scn.toml:{}: field `aircraft.model`: ",
+                line_of(&text, "../../c172p")
+            ),
             "not a model name",
         ],
     );
@@ -591,7 +594,7 @@ fn a_scenario_file_that_is_a_device_or_a_directory_is_refused_at_its_key() {
         let line = line_of(&text, &format!("file = \"{to}\""));
         refused(
             &run(dir.path(), &scn, &[]),
-            &[&format!("scn.toml:{line}: `device.file`"), says],
+            &[&format!("scn.toml:{line}: field `device.file`"), says],
         );
     }
 }

@@ -192,7 +192,7 @@ fn a_copied_binary_runs_a_copied_scenario_anywhere() {
     let msg = text(&missing);
     assert_eq!(missing.status.code(), Some(1), "{msg}");
     for needle in [
-        format!("missing.toml:{line}: `device.file`"),
+        format!("missing.toml:{line}: field `device.file`"),
         "my-device.toml".into(),
         "--data-dir".into(),
         "paper-device.toml".into(),

@@ -627,7 +627,7 @@ fn run_set_changes_the_physics_its_key_names() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
     assert!(
-        err.contains("--set feel.gradient_n_per_mm=900: `feel.gradient_n_per_mm`: unknown field"),
+        err.contains("--set feel.gradient_n_per_mm=900: field `feel.gradient_n_per_mm`: unknown field"),
         "{err}"
     );
 }

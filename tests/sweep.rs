@@ -237,7 +237,7 @@ fn bad_axes_shards_and_merges_are_refused_at_their_line() {
     );
     refused(
         &["sweep", p.to_str().unwrap(), "--out", o],
-        &["unknown.toml:7: `feel.gradient_n_per_mm`", "unknown field"],
+        &["unknown.toml:7: field `feel.gradient_n_per_mm`", "unknown field"],
     );
     // A value outside the key's range, on its own line of a list.
     let p = write(
@@ -247,7 +247,7 @@ fn bad_axes_shards_and_merges_are_refused_at_their_line() {
     refused(
         &["sweep", p.to_str().unwrap(), "--out", o],
         &[
-            "range.toml:9: `aircraft.airspeed_m_s`",
+            "range.toml:9: field `aircraft.airspeed_m_s`",
             "value 5 outside the allowed range [10, 300]",
         ],
     );

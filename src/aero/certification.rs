@@ -23,7 +23,7 @@ use super::AeroError;
 use crate::units::{G0_M_S2, LBF_TO_N};
 
 /// Knot to m/s (exact: 1852 m per nautical mile).
-pub const KT_TO_M_S: f64 = 1852.0 / 3600.0;
+pub(crate) const KT_TO_M_S: f64 = 1852.0 / 3600.0;
 
 /// Pitch-force limits of one certification basis, N.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -88,7 +88,7 @@ impl CertificationBasis {
         }
     }
 
-    pub fn for_model(m: &AircraftModel) -> Self {
+    pub(crate) fn for_model(m: &AircraftModel) -> Self {
         Self::new(m.part, m.control, m.max_weight_kg)
     }
 }
@@ -198,7 +198,7 @@ impl FeelAssessment {
     }
 
     /// Position of the stick force per g in the allowed band: 0 at the minimum, 1 at the maximum.
-    pub fn band_position(&self) -> f64 {
+    pub(crate) fn band_position(&self) -> f64 {
         let (lo, hi) = self.allowed_per_g_n;
         (self.stick_force_per_g_n - lo) / (hi - lo)
     }
@@ -235,7 +235,7 @@ impl FeelAssessment {
 
 /// MIL-F-8785C Table V, centre stick, Level 1: (minimum, maximum) stick force per g, N/g, for the
 /// airplane's `n/α` (g per radian) and limit load factor `n_L`.
-pub fn mil_f_8785c_stick_level1_per_g_n(n_alpha_per_rad: f64, n_limit: f64) -> (f64, f64) {
+pub(crate) fn mil_f_8785c_stick_level1_per_g_n(n_alpha_per_rad: f64, n_limit: f64) -> (f64, f64) {
     let max_lbf = (240.0 / n_alpha_per_rad).min(28.0).max(56.0 / (n_limit - 1.0));
     let min_lbf = (21.0 / (n_limit - 1.0)).max(3.0);
     (min_lbf * LBF_TO_N, max_lbf * LBF_TO_N)

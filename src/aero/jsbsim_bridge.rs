@@ -22,7 +22,8 @@ use super::backend::{with_hinge, AircraftBackend};
 use super::{AeroError, AircraftModel, AircraftState, HingeModel};
 
 /// How to install the Python side, quoted in every error.
-pub const INSTALL_HINT: &str = "in an mrfeel checkout, `bash scripts/python-env.sh` creates .venv with the \
+pub(crate) const INSTALL_HINT: &str =
+    "in an mrfeel checkout, `bash scripts/python-env.sh` creates .venv with the \
      pinned jsbsim; elsewhere, `python3 -m pip install jsbsim==1.3.3` into a Python named by MRFEEL_PYTHON";
 
 /// Start-up (interpreter + `import jsbsim`) and trim may take a while on a loaded machine.
@@ -34,7 +35,7 @@ const STEP_TIMEOUT: Duration = Duration::from_secs(20);
 const N_FIELDS: usize = 16;
 
 /// The environment variable naming the bridge's Python interpreter.
-pub const PYTHON_ENV: &str = "MRFEEL_PYTHON";
+pub(crate) const PYTHON_ENV: &str = "MRFEEL_PYTHON";
 
 /// The Python interpreter for the bridge and where it was found ([the module's order](self)).
 pub fn python() -> (PathBuf, String) {
@@ -83,13 +84,13 @@ fn write_scripts() -> std::io::Result<(tempfile::TempDir, PathBuf)> {
 
 /// Round-trip statistics of the `step` requests (request written → reply parsed), µs.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct RoundTrip {
+pub(crate) struct RoundTrip {
     pub count: u64,
     pub mean_us: f64,
     pub max_us: f64,
 }
 
-pub struct JsbsimBridge {
+pub(crate) struct JsbsimBridge {
     label: String,
     name: String,
     hinge: HingeModel,
@@ -193,11 +194,6 @@ impl JsbsimBridge {
             return Err(b.error(format!("unexpected first line from the bridge: {hello:?}")));
         }
         Ok(b)
-    }
-
-    /// Round-trip statistics of the `step` requests so far.
-    pub fn round_trip(&self) -> RoundTrip {
-        self.rt
     }
 
     fn error(&self, why: String) -> AeroError {

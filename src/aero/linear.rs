@@ -23,7 +23,7 @@ use crate::pilot::attitude::{CrossoverDesign, CrossoverDesignError, CrossoverPil
 
 /// Linear longitudinal model about a flight state (see the module docs).
 #[derive(Debug, Clone, PartialEq)]
-pub struct LinearLongitudinal {
+pub(crate) struct LinearLongitudinal {
     /// State matrix over `[Δu, Δw, q, Δθ]`, SI (1/s and m/s² per rad).
     pub a: Matrix4<f64>,
     /// Input column per radian of elevator (positive trailing edge down).
@@ -70,7 +70,7 @@ impl LinearLongitudinal {
 
     /// Frequency response from the elevator (rad, trailing edge down) to the output at `omega_rad_s`:
     /// pitch in rad/rad, load factor in g/rad.
-    pub fn elevator_response(&self, output: PilotLoop, omega_rad_s: f64) -> Complex<f64> {
+    pub(crate) fn elevator_response(&self, output: PilotLoop, omega_rad_s: f64) -> Complex<f64> {
         let jw = Complex::new(0.0, omega_rad_s);
         let m = Matrix4::<Complex<f64>>::identity() * jw - self.a.map(|v| Complex::new(v, 0.0));
         let b = self.b.map(|v| Complex::new(v, 0.0));
@@ -89,7 +89,7 @@ impl LinearLongitudinal {
 
     /// Frequency response from the stick (rad, aft positive) to the output: the controlled element
     /// `Y_c(jω)` of the pilot's loop, pitch in rad per stick rad, load factor in g per stick rad.
-    pub fn stick_response(&self, output: PilotLoop, omega_rad_s: f64) -> Complex<f64> {
+    pub(crate) fn stick_response(&self, output: PilotLoop, omega_rad_s: f64) -> Complex<f64> {
         self.elevator_response(output, omega_rad_s) * self.elevator_per_stick
     }
 }

@@ -192,25 +192,10 @@ impl Aircraft {
         &self.state
     }
 
-    /// Set the trim tab (rad); the stick force changes, the flight path does not.
-    pub fn set_tab_rad(&mut self, tab_rad: f64) {
-        self.tab_rad = tab_rad.clamp(self.model.hinge.tab_min_rad, self.model.hinge.tab_max_rad);
-        self.refresh();
-    }
-
-    /// Move the feel computer's column neutral (the pilot re-trims a powered elevator), stick rad
-    /// positive aft; no effect without a feel computer.
-    pub fn set_feel_trim_rad(&mut self, feel_trim_rad: f64) {
-        if self.model.hinge.feel_computer.is_some() {
-            self.feel_trim_rad = feel_trim_rad;
-            self.refresh();
-        }
-    }
-
     /// Stick force, N (pull positive), to hold a steady symmetric pull-up at load factor `nz_g`
     /// through the bottom of the manoeuvre at the given speed and altitude, with the tab and throttle
     /// left where the 1-g trim put them (the manoeuvre of 14 CFR 23.155 and stick force per g).
-    pub fn pull_up_stick_force_n(
+    pub(crate) fn pull_up_stick_force_n(
         &self,
         airspeed_m_s: f64,
         altitude_m: f64,
@@ -260,7 +245,12 @@ impl Aircraft {
     }
 
     /// Stick force per g, N/g: the secant between 1 g and `nz_g` of [`Self::pull_up_stick_force_n`].
-    pub fn stick_force_per_g(&self, airspeed_m_s: f64, altitude_m: f64, nz_g: f64) -> Result<f64, AeroError> {
+    pub(crate) fn stick_force_per_g(
+        &self,
+        airspeed_m_s: f64,
+        altitude_m: f64,
+        nz_g: f64,
+    ) -> Result<f64, AeroError> {
         Ok(self.pull_up_stick_force_n(airspeed_m_s, altitude_m, nz_g)? / (nz_g - 1.0))
     }
 
@@ -294,7 +284,7 @@ impl Aircraft {
     }
 
     /// Small-perturbation model about the current state and controls (see [`super::linear`]).
-    pub fn linearise(&self) -> super::linear::LinearLongitudinal {
+    pub(crate) fn linearise(&self) -> super::linear::LinearLongitudinal {
         super::linear::LinearLongitudinal::about(self)
     }
 
@@ -558,7 +548,7 @@ impl Aircraft {
 /// Dynamic pressure in a propeller's fully developed slipstream, Pa: momentum theory gives the
 /// induced velocity at the disc `v_i = (-u + sqrt(u|u| + 2T/(rho A))) / 2` and the slipstream
 /// `u + 2 v_i` (as JSBSim's FGPropeller and the c172p's `qbar-induced-psf`).
-pub fn slipstream_qbar_pa(u_m_s: f64, thrust_n: f64, rho_kg_m3: f64, diameter_m: f64) -> f64 {
+pub(crate) fn slipstream_qbar_pa(u_m_s: f64, thrust_n: f64, rho_kg_m3: f64, diameter_m: f64) -> f64 {
     let area = std::f64::consts::PI * diameter_m * diameter_m / 4.0;
     let s = u_m_s * u_m_s.abs() + 2.0 * thrust_n / (rho_kg_m3 * area);
     let vi = if s > 0.0 {

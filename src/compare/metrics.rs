@@ -89,7 +89,7 @@ pub fn slope(pts: impl Iterator<Item = (f64, f64)> + Clone) -> f64 {
 }
 
 /// Phase (rad) of the fundamental at `freq_hz` of samples `(t, y)` (over whole cycles).
-pub fn fundamental_phase(pts: impl Iterator<Item = (f64, f64)>, freq_hz: f64) -> f64 {
+pub(crate) fn fundamental_phase(pts: impl Iterator<Item = (f64, f64)>, freq_hz: f64) -> f64 {
     let w = 2.0 * std::f64::consts::PI * freq_hz;
     let (re, im) = pts.fold((0.0, 0.0), |(re, im), (t, y)| {
         (re + y * (w * t).sin(), im + y * (w * t).cos())
@@ -129,7 +129,7 @@ fn let_go(tr: &Trace) -> Option<(usize, f64)> {
 }
 
 /// (offset at the end, |rad|; time to stay inside `band_rad`, s, NaN if never).
-pub fn recentring(tr: &Trace, band_rad: f64) -> (f64, f64) {
+pub(crate) fn recentring(tr: &Trace, band_rad: f64) -> (f64, f64) {
     let Some((i0, _)) = let_go(tr) else {
         return (f64::NAN, f64::NAN);
     };

@@ -73,13 +73,9 @@ pub enum CompareError {
     #[error("feel systems: {0}")]
     Feel(String),
     #[error(transparent)]
-    Faults(#[from] crate::faults::FaultError),
-    #[error(transparent)]
     Device(#[from] crate::device::DeviceError),
     #[error(transparent)]
     Rig(#[from] crate::rig::RigError),
-    #[error(transparent)]
-    Scenario(#[from] crate::scenario::ScenarioError),
     #[error(transparent)]
     Sim(#[from] crate::sim::SimError),
 }

@@ -11,8 +11,9 @@ use serde::{Deserialize, Serialize};
 use super::model::{Damper, Model, ModelSpec, Registry, PAPER_CURRENT_LIMIT_A};
 use super::params::ParamValue;
 use super::DeviceError;
-use crate::input::text::{line_of, short_number as num};
-use crate::measurement::CommandTiming;
+use crate::input::params::{current_limit, CommandTiming, Param, ParamsJson};
+use crate::input::text::short_number as num;
+use crate::input::{InputError, Source};
 use crate::units::IN_TO_M;
 
 /// Table 1 geometry of the paper's device, in SI units (converted once from inches on load).
@@ -54,10 +55,7 @@ impl DeviceConfig {
     /// by the extension in any case, or where there is none of the two (a pipe: `--params <(…)`) by the
     /// text: a JSON object opens with `{`, which no TOML document does.
     pub fn load(path: &Path, registry: &Registry) -> Result<Self, DeviceError> {
-        let text = crate::input::text::read_text(path).map_err(|msg| DeviceError::Io {
-            path: path.to_path_buf(),
-            msg,
-        })?;
+        let text = crate::input::text::read_text(path).map_err(|msg| InputError::file(path, msg))?;
         let ext = path
             .extension()
             .and_then(|e| e.to_str())
@@ -110,638 +108,175 @@ impl DeviceConfig {
         self.model.param_index(name).map(|k| self.params[k])
     }
 
+    /// Read a device file's text (`models/*.toml`).
     pub fn from_toml(text: &str, path: &Path, registry: &Registry) -> Result<Self, DeviceError> {
-        let file: TomlDevice = crate::input::text::parse_toml(text).map_err(|e| {
-            // A missing key is reported with the span of the table that lacks it; a value of the wrong
-            // type by the key of its line (toml's message does not name it).
-            match e.field {
-                Some(field) => field_err(path, e.line, &field, e.msg),
-                None => DeviceError::Parse {
-                    path: path.to_path_buf(),
-                    line: e.line,
-                    msg: e.msg,
-                },
-            }
-        })?;
-        let at = |v: &toml::Spanned<f64>| (*v.get_ref(), line_of(text, v.span().start));
+        let src = Source::new(path, text);
+        let file: TomlDevice = src.toml()?;
         let limit = match &file.driver.current_limit_a {
-            Some(v) => {
-                let (limit, line) = at(v);
-                check_current_limit(limit, path, line, "driver.current_limit_a")?
-            }
+            Some(v) => current_limit(*v.get_ref()).map_err(|m| src.err(v, "driver.current_limit_a", m))?,
             None => PAPER_CURRENT_LIMIT_A,
         };
         let supply_limit_a = match &file.driver.supply_limit_a {
             Some(v) => {
-                let (supply, line) = at(v);
                 let field = "driver.supply_limit_a";
-                positive(supply, "A", path, line, field)?;
+                let supply = positive(v, "A", &src, field)?;
                 if supply < limit {
-                    return Err(field_err(
-                        path,
-                        line,
-                        field,
-                        format!(
-                            "value {} A is below the driver's saturation current_limit_a = {} A: the \
-                             driver saturates at a current the supply can give (the paper's 14 A from a 17 A \
-                             supply), so the supply's limit is at least the saturation",
-                            num(supply),
-                            num(limit)
-                        ),
-                    ));
+                    return Err(src
+                        .err(
+                            v,
+                            field,
+                            format!(
+                                "value {} A is below the driver's saturation current_limit_a = {} A: the driver \
+                                 saturates at a current the supply can give (the paper's 14 A from a 17 A \
+                                 supply), so the supply's limit is at least the saturation",
+                                num(supply),
+                                num(limit)
+                            ),
+                        )
+                        .into());
                 }
                 Some(supply)
             }
             None => None,
         };
-        let model_line = line_of(text, file.model.span().start);
         // Effect files the spec names (`bingham+drag.toml`) are read relative to this file.
         let mut registry = registry.clone();
+        let model_err = |e: DeviceError| DeviceError::from(src.err(&file.model, "model", e.to_string()));
         let spec_text = super::formula::resolve_spec(file.model.get_ref(), &mut registry, path.parent())
-            .map_err(|e| field_err(path, model_line, "model", e.to_string()))?;
-        let spec =
-            ModelSpec::parse(&spec_text).map_err(|e| field_err(path, model_line, "model", e.to_string()))?;
-        let model = Model::new(&spec, &registry, limit)
-            .map_err(|e| field_err(path, model_line, "model", e.to_string()))?;
-        let params_line = line_of(text, file.params.span().start);
-        let values: BTreeMap<String, ParamIn> = file
+            .map_err(model_err)?;
+        let model = ModelSpec::parse(&spec_text)
+            .and_then(|spec| Model::new(&spec, &registry, limit))
+            .map_err(model_err)?;
+        let params_line = src.line_of(file.params.span().start);
+        let values: Vec<Param> = file
             .params
-            .into_inner()
-            .into_iter()
-            .map(|(k, v)| {
-                let (value, line) = at(&v);
-                (
-                    k,
-                    ParamIn {
-                        value,
-                        std_err: None,
-                        line,
-                        unit: None,
-                    },
-                )
+            .get_ref()
+            .iter()
+            .map(|(name, v)| Param {
+                name: name.clone(),
+                line: src.line_of(v.span().start),
+                value: *v.get_ref(),
+                std_err: None,
+                unit: None,
             })
             .collect();
         let params = assign_params(&model, &values, path, params_line)?;
-        check_force(&model, &params, &values, path, params_line)?;
         let geometry = match &file.geometry {
-            Some(g) => Some(g.check(path, text)?),
+            Some(g) => Some(g.check(&src)?),
             None => None,
         };
         let load_cell_range_n = match &file.load_cell {
-            Some(l) => {
-                let (range, line) = at(&l.range_n);
-                Some(positive(range, "N", path, line, "load_cell.range_n")?)
-            }
+            Some(l) => Some(positive(&l.range_n, "N", &src, "load_cell.range_n")?),
             None => None,
         };
         Ok(Self {
-            std_errs: vec![None; params.len()],
-            model: Arc::new(model),
-            params,
             supply_limit_a,
             geometry,
             load_cell_range_n,
-            command_timing: CommandTiming::AfterSample,
-            acquisition_window_periods: None,
-            path: path.to_path_buf(),
+            ..Self::from_model(model, params, path.to_path_buf())
         })
     }
 
-    /// Read a `PARAMS.json` (the model-discovery contract's parameter file): the keys `model` and `params`
-    /// (each parameter an object with `value`, and optionally `std_err` and `unit`), and the optional
-    /// `current_limit_a` (default: the paper's 14 A), `command_timing` (default: `after-sample`, what files
-    /// saved without the key meant) and `acquisition_window_periods` (default: none). Any other key, a key given twice, a unit other than the parameter's
-    /// and a value of the wrong type are errors that name the line and the key. A leading UTF-8 byte-order
-    /// mark is skipped, as the CSV and TOML readers do.
+    /// Read a `PARAMS.json` ([`ParamsJson`]: the model, its parameters and what the fit recorded beside
+    /// them), its parameters checked against the model: every error names its line and key.
     pub fn from_json(text: &str, path: &Path, registry: &Registry) -> Result<Self, DeviceError> {
-        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-        if text.trim().is_empty() {
-            return Err(DeviceError::Parse {
-                path: path.to_path_buf(),
-                line: 1,
-                msg: "empty file: a parameter file is a JSON object {\"model\": …, \"params\": {…}}".into(),
-            });
-        }
-        let root: serde_json::Value = serde_json::from_str(text).map_err(|e| json_err(&e, text, path))?;
-        let keys = JsonKeys::scan(text);
-        if let Some((key, line, first)) = keys.duplicate() {
-            return Err(field_err(
-                path,
-                line,
-                &json_field(key),
-                format!("given twice (first at line {first}); each key may appear once"),
-            ));
-        }
-        let Some(top) = root.as_object() else {
-            return Err(DeviceError::Parse {
-                path: path.to_path_buf(),
-                line: 1,
-                msg: format!(
-                    "a parameter file is a JSON object {{\"model\": …, \"params\": {{…}}}}, not {}",
-                    json_kind(&root)
-                ),
-            });
-        };
-        let line = |key: &[&str]| keys.key(key).unwrap_or_else(|| keys.object(&[]));
-        for key in top.keys() {
-            if !TOP_KEYS.contains(&key.as_str()) {
-                return Err(field_err(
-                    path,
-                    line(&[key]),
-                    key,
-                    format!(
-                        "unknown key; a parameter file has the keys {}",
-                        TOP_KEYS.join(", ")
-                    ),
-                ));
-            }
-        }
-        let missing = |key: &str, what: &str| {
-            field_err(
-                path,
-                keys.object(&[]),
-                key,
-                format!("missing: a parameter file names {what}"),
-            )
-        };
-        let wrong = |key: &[&str], want: &str, v: &serde_json::Value| {
-            field_err(
-                path,
-                line(key),
-                &json_field(key),
-                format!("expected {want}, found {}", json_kind(v)),
-            )
-        };
-        let model_spec = match top.get("model") {
-            None => {
-                return Err(missing(
-                    "model",
-                    "its model (`\"model\": \"bingham+hysteresis\"`)",
-                ))
-            }
-            Some(serde_json::Value::String(s)) => s,
-            Some(v) => {
-                return Err(wrong(
-                    &["model"],
-                    "a model spec string such as \"bingham+hysteresis\"",
-                    v,
-                ))
-            }
-        };
-        let limit = match top.get("current_limit_a") {
-            None => PAPER_CURRENT_LIMIT_A,
-            Some(v) => {
-                let Some(limit) = v.as_f64() else {
-                    return Err(wrong(&["current_limit_a"], "a number of amperes", v));
-                };
-                check_current_limit(limit, path, line(&["current_limit_a"]), "current_limit_a")?
-            }
-        };
-        let command_timing = match top.get("command_timing") {
-            None => CommandTiming::AfterSample,
-            Some(serde_json::Value::String(name)) => {
-                <CommandTiming as clap::ValueEnum>::from_str(name, false).map_err(|_| {
-                    field_err(
-                        path,
-                        line(&["command_timing"]),
-                        "command_timing",
-                        format!(
-                        "`{name}` is not a command timing: `after-sample` (a command acts after the sample \
-                             it is logged with) or `at-sample` (in force at it)"
-                    ),
-                    )
-                })?
-            }
-            Some(v) => return Err(wrong(&["command_timing"], "\"after-sample\" or \"at-sample\"", v)),
-        };
-        // How the fit's tests shared its loss: a record of how the parameters (and their standard errors) were
-        // found; the model runs the same either way.
-        match top.get("weighting") {
-            None => {}
-            Some(serde_json::Value::String(name)) if name == "tests" || name == "samples" => {}
-            Some(serde_json::Value::String(name)) => {
-                return Err(field_err(
-                    path,
-                    line(&["weighting"]),
-                    "weighting",
-                    format!("`{name}` is not a weighting: expected \"tests\" or \"samples\""),
-                ))
-            }
-            Some(v) => return Err(wrong(&["weighting"], "\"tests\" or \"samples\"", v)),
-        }
-        let acquisition_window_periods = match top.get("acquisition_window_periods") {
-            None => None,
-            Some(v) => match v.as_f64() {
-                Some(share) if share > 0.0 && share < 1.0 => Some(share),
-                Some(share) => {
-                    return Err(field_err(
-                        path,
-                        line(&["acquisition_window_periods"]),
-                        "acquisition_window_periods",
-                        format!("value {share} is not a share of the drive period between 0 and 1"),
-                    ))
-                }
-                None => {
-                    return Err(wrong(
-                        &["acquisition_window_periods"],
-                        "a share of the drive period between 0 and 1",
-                        v,
-                    ))
-                }
-            },
-        };
-        let model = Model::from_spec(model_spec, registry, limit)
-            .map_err(|e| field_err(path, line(&["model"]), "model", e.to_string()))?;
-        let params_obj = match top.get("params") {
-            None => {
-                return Err(missing(
-                    "params",
-                    "its parameters (`\"params\": {\"te_s\": {\"value\": …}}`)",
-                ))
-            }
-            Some(serde_json::Value::Object(m)) => m,
-            Some(v) => return Err(wrong(&["params"], "an object of parameters", v)),
-        };
-        let mut values = BTreeMap::new();
-        for (name, entry) in params_obj {
-            let at = |sub: &str| line(&["params", name, sub]);
-            let here = line(&["params", name]);
-            let Some(obj) = entry.as_object() else {
-                return Err(wrong(
-                    &["params", name],
-                    "an object such as {\"value\": 0.01, \"std_err\": null, \"unit\": \"s\"}",
-                    entry,
-                ));
-            };
-            for key in obj.keys() {
-                if !PARAM_KEYS.contains(&key.as_str()) {
-                    return Err(field_err(
-                        path,
-                        line(&["params", name, key]),
-                        &format!("{name}.{key}"),
-                        format!("unknown key; a parameter has the keys {}", PARAM_KEYS.join(", ")),
-                    ));
-                }
-            }
-            let value = match obj.get("value") {
-                None => {
-                    return Err(field_err(
-                        path,
-                        here,
-                        &format!("{name}.value"),
-                        "missing: every parameter has a value".to_string(),
-                    ))
-                }
-                Some(v) => v
-                    .as_f64()
-                    .ok_or_else(|| wrong(&["params", name, "value"], "a number", v))?,
-            };
-            let std_err = match obj.get("std_err") {
-                None | Some(serde_json::Value::Null) => None,
-                Some(v) => {
-                    let e = v
-                        .as_f64()
-                        .ok_or_else(|| wrong(&["params", name, "std_err"], "a number or null", v))?;
-                    // A spread is not negative; `fit` writes null where it has none.
-                    if e < 0.0 {
-                        return Err(field_err(
-                            path,
-                            at("std_err"),
-                            &format!("{name}.std_err"),
-                            format!("value {e} is negative: a standard error is ≥ 0 (null where unknown)"),
-                        ));
-                    }
-                    Some(e)
-                }
-            };
-            let unit = match obj.get("unit") {
-                None => None,
-                Some(serde_json::Value::String(u)) => Some((u.clone(), at("unit"))),
-                Some(v) => return Err(wrong(&["params", name, "unit"], "a unit string", v)),
-            };
-            values.insert(
-                name.clone(),
-                ParamIn {
-                    value,
-                    std_err,
-                    line: here,
-                    unit,
-                },
-            );
-        }
-        let params_line = line(&["params"]);
-        let params = assign_params(&model, &values, path, params_line)?;
-        check_force(&model, &params, &values, path, params_line)?;
+        let file = ParamsJson::parse(&Source::new(path, text))?;
+        let limit = file.current_limit_a.map_or(PAPER_CURRENT_LIMIT_A, |l| l.value);
+        let model = Model::from_spec(&file.model.value, registry, limit)
+            .map_err(|e| InputError::field(path, file.model.line, "model", e.to_string()))?;
+        let params = assign_params(&model, &file.params.value, path, file.params.line)?;
         let std_errs = model
             .param_specs()
             .iter()
-            .map(|spec| values.get(spec.name).and_then(|p| p.std_err))
+            .map(|spec| {
+                file.params
+                    .value
+                    .iter()
+                    .find(|p| p.name == spec.name)
+                    .and_then(|p| p.std_err)
+            })
             .collect();
         Ok(Self {
             std_errs,
-            model: Arc::new(model),
-            params,
-            supply_limit_a: None,
-            geometry: None,
-            load_cell_range_n: None,
-            command_timing,
-            acquisition_window_periods,
-            path: path.to_path_buf(),
+            command_timing: file.command_timing,
+            acquisition_window_periods: file.acquisition_window_periods,
+            ..Self::from_model(model, params, path.to_path_buf())
         })
-    }
-}
-
-/// The keys of a `PARAMS.json`, and of each of its parameters.
-const TOP_KEYS: [&str; 6] = [
-    "model",
-    "current_limit_a",
-    "command_timing",
-    "acquisition_window_periods",
-    "weighting",
-    "params",
-];
-const PARAM_KEYS: [&str; 3] = ["value", "std_err", "unit"];
-
-/// One parameter value as a file gives it: the line it is on, and the unit it is said to be in (JSON).
-struct ParamIn {
-    value: f64,
-    std_err: Option<f64>,
-    line: usize,
-    unit: Option<(String, usize)>,
-}
-
-fn field_err(path: &Path, line: usize, field: &str, msg: String) -> DeviceError {
-    DeviceError::Field {
-        path: path.to_path_buf(),
-        line,
-        field: field.to_string(),
-        msg,
     }
 }
 
 /// A value that must be a positive, finite number of `unit`.
-fn positive(v: f64, unit: &str, path: &Path, line: usize, field: &str) -> Result<f64, DeviceError> {
-    if v.is_finite() && v > 0.0 {
-        Ok(v)
-    } else {
-        Err(field_err(
-            path,
-            line,
+fn positive(v: &toml::Spanned<f64>, unit: &str, src: &Source, field: &str) -> Result<f64, InputError> {
+    let x = *v.get_ref();
+    match x.is_finite() && x > 0.0 {
+        true => Ok(x),
+        false => Err(src.err(
+            v,
             field,
-            format!("value {} {unit}: must be a positive, finite number", num(v)),
-        ))
-    }
-}
-
-/// The driver's saturation: the command is limited to ±limit, so the limit is a positive number of amperes.
-fn check_current_limit(limit: f64, path: &Path, line: usize, field: &str) -> Result<f64, DeviceError> {
-    if limit.is_finite() && limit > 0.0 {
-        Ok(limit)
-    } else {
-        Err(field_err(
-            path,
-            line,
-            field,
-            format!(
-                "value {} A: the driver's saturation limits the coil current command to ±current_limit_a, \
-                 so it must be a positive, finite number of amperes (the paper's driver: 14 A)",
-                num(limit)
-            ),
-        ))
-    }
-}
-
-/// A JSON syntax error at its line, without serde_json's own " at line L column C" (the line leads the
-/// error already), naming the key whose value it is in where there is one (not for a file that ends early).
-fn json_err(e: &serde_json::Error, text: &str, path: &Path) -> DeviceError {
-    let s = e.to_string();
-    let msg = match s.rfind(" at line ") {
-        Some(k) => format!("{} (column {})", &s[..k], e.column()),
-        None => s,
-    };
-    let line = e.line().max(1);
-    let key = match e.classify() {
-        serde_json::error::Category::Eof => None,
-        // After the closing brace no key is at fault: the file goes on past its object.
-        _ if msg.starts_with("trailing characters") => None,
-        _ => {
-            // The byte the reader stopped at: its line's start plus the column.
-            let start: usize = text.split_inclusive('\n').take(line - 1).map(str::len).sum();
-            let mut end = (start + e.column()).min(text.len());
-            while !text.is_char_boundary(end) {
-                end -= 1;
-            }
-            JsonKeys::scan(&text[..end]).keys.pop().map(|(p, _)| p)
-        }
-    };
-    match key {
-        Some(key) => field_err(path, line, &json_field(&key), msg),
-        None => DeviceError::Parse {
-            path: path.to_path_buf(),
-            line,
-            msg,
-        },
-    }
-}
-
-/// The field a JSON key path names in a message: `te_s.unit` for `params.te_s.unit` (parameters are named
-/// as in a device file), the top-level keys as they are.
-fn json_field<S: AsRef<str>>(path: &[S]) -> String {
-    let parts: Vec<&str> = path.iter().map(AsRef::as_ref).collect();
-    match parts.as_slice() {
-        ["params", rest @ ..] if !rest.is_empty() => rest.join("."),
-        all => all.join("."),
-    }
-}
-
-fn json_kind(v: &serde_json::Value) -> &'static str {
-    match v {
-        serde_json::Value::Null => "null",
-        serde_json::Value::Bool(_) => "a boolean",
-        serde_json::Value::Number(_) => "a number",
-        serde_json::Value::String(_) => "a string",
-        serde_json::Value::Array(_) => "an array",
-        serde_json::Value::Object(_) => "an object",
-    }
-}
-
-/// Where the keys of a JSON text are: each key's path (the keys and array indices above it, then itself)
-/// with the line it starts on, in text order, and the line each object opens on. It reads text that
-/// `serde_json` has accepted (on other text it gives some lines, never a panic).
-struct JsonKeys {
-    keys: Vec<(Vec<String>, usize)>,
-    objects: Vec<(Vec<String>, usize)>,
-}
-
-impl JsonKeys {
-    fn scan(text: &str) -> Self {
-        enum Frame {
-            Object { key: Option<String>, want_key: bool },
-            Array { index: usize },
-        }
-        fn here(stack: &[Frame]) -> Vec<String> {
-            stack
-                .iter()
-                .filter_map(|f| match f {
-                    Frame::Object { key, .. } => key.clone(),
-                    Frame::Array { index } => Some(index.to_string()),
-                })
-                .collect()
-        }
-        let b = text.as_bytes();
-        let (mut keys, mut objects) = (Vec::new(), Vec::new());
-        let mut stack: Vec<Frame> = Vec::new();
-        let (mut i, mut line) = (0usize, 1usize);
-        while i < b.len() {
-            match b[i] {
-                b'\n' => line += 1,
-                b'"' => {
-                    let (start, start_line) = (i, line);
-                    i += 1;
-                    while i < b.len() && b[i] != b'"' {
-                        if b[i] == b'\\' {
-                            i += 1;
-                        } else if b[i] == b'\n' {
-                            line += 1;
-                        }
-                        i += 1;
-                    }
-                    let end = (i + 1).min(b.len());
-                    if let Some(Frame::Object { key, want_key }) = stack.last_mut() {
-                        if *want_key {
-                            let raw = text.get(start..end).unwrap_or_default();
-                            let name = serde_json::from_str::<String>(raw)
-                                .unwrap_or_else(|_| raw.trim_matches('"').to_string());
-                            *key = Some(name);
-                            *want_key = false;
-                            keys.push((here(&stack), start_line));
-                        }
-                    }
-                }
-                b'{' => {
-                    objects.push((here(&stack), line));
-                    stack.push(Frame::Object {
-                        key: None,
-                        want_key: true,
-                    });
-                }
-                b'[' => stack.push(Frame::Array { index: 0 }),
-                b'}' | b']' => {
-                    stack.pop();
-                }
-                b',' => match stack.last_mut() {
-                    Some(Frame::Object { want_key, .. }) => *want_key = true,
-                    Some(Frame::Array { index }) => *index += 1,
-                    None => {}
-                },
-                _ => {}
-            }
-            i += 1;
-        }
-        Self { keys, objects }
-    }
-
-    /// Line of the first occurrence of a key.
-    fn key(&self, path: &[&str]) -> Option<usize> {
-        self.keys
-            .iter()
-            .find(|(p, _)| p.iter().map(String::as_str).eq(path.iter().copied()))
-            .map(|(_, l)| *l)
-    }
-
-    /// Line on which the object at `path` opens (1 when there is none).
-    fn object(&self, path: &[&str]) -> usize {
-        self.objects
-            .iter()
-            .find(|(p, _)| p.iter().map(String::as_str).eq(path.iter().copied()))
-            .map_or(1, |(_, l)| *l)
-    }
-
-    /// The first key given twice in the same object: its path, its second line and its first line.
-    fn duplicate(&self) -> Option<(&[String], usize, usize)> {
-        let mut seen: BTreeMap<&[String], usize> = BTreeMap::new();
-        for (p, line) in &self.keys {
-            if let Some(first) = seen.insert(p.as_slice(), *line) {
-                return Some((p.as_slice(), *line, first));
-            }
-        }
-        None
+            format!("value {} {unit}: must be a positive, finite number", num(x)),
+        )),
     }
 }
 
 /// Match named values to the model's parameters: every parameter present (or one whose absence has a
-/// meaning, [`ParamSpec::absent`](super::ParamSpec::absent)), no unknown name, in the parameter's unit where a unit is given, inside
-/// bounds. A missing parameter is reported at `section_line`, the line of the table or object that lacks it.
+/// meaning, [`ParamSpec::absent`](super::ParamSpec::absent)), no unknown name, in the parameter's unit
+/// where a unit is given, inside bounds, and a usable force ([`check_force`]). A missing parameter is
+/// reported at `section_line`, the line of the table or object that lacks it.
 fn assign_params(
     model: &Model,
-    values: &BTreeMap<String, ParamIn>,
+    values: &[Param],
     path: &Path,
     section_line: usize,
-) -> Result<Vec<f64>, DeviceError> {
-    for (name, p) in values {
-        let Some(k) = model.param_index(name) else {
-            return Err(field_err(
-                path,
-                p.line,
-                name,
-                format!(
-                    "unknown parameter for model `{}`; its parameters are: {}",
-                    model.name(),
-                    model
-                        .param_specs()
-                        .iter()
-                        .map(|p| p.name)
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ),
-            ));
+) -> Result<Vec<f64>, InputError> {
+    let specs = model.param_specs();
+    for p in values {
+        let Some(k) = model.param_index(&p.name) else {
+            let names: Vec<&str> = specs.iter().map(|p| p.name).collect();
+            let msg = format!(
+                "unknown parameter for model `{}`; its parameters are: {}",
+                model.name(),
+                names.join(", ")
+            );
+            return Err(InputError::field(path, p.line, &p.name, msg));
         };
-        let spec = &model.param_specs()[k];
-        if let Some((unit, line)) = &p.unit {
-            if unit != spec.unit {
-                return Err(field_err(
-                    path,
-                    *line,
-                    &format!("{name}.unit"),
-                    format!(
-                        "unit \"{unit}\" is not the parameter's: {name} is in \"{}\" (values are read in that \
-                         unit only; convert the value)",
-                        spec.unit
-                    ),
-                ));
-            }
+        let spec = &specs[k];
+        if let Some(unit) = p.unit.as_ref().filter(|u| u.value != spec.unit) {
+            let msg = format!(
+                "unit \"{}\" is not the parameter's: {} is in \"{}\" (values are read in that unit only; convert \
+                 the value)",
+                unit.value, p.name, spec.unit
+            );
+            return Err(InputError::field(
+                path,
+                unit.line,
+                format!("{}.unit", p.name),
+                msg,
+            ));
         }
     }
     let mut out = Vec::with_capacity(model.n_params());
-    for spec in model.param_specs() {
-        let (v, line) = match (values.get(spec.name), spec.absent) {
+    for spec in specs {
+        let (v, line) = match (values.iter().find(|p| p.name == spec.name), spec.absent) {
             (Some(p), _) => (p.value, p.line),
             (None, Some(v)) => (v, section_line),
             (None, None) => {
-                return Err(field_err(
-                    path,
-                    section_line,
-                    spec.name,
-                    format!("missing parameter ({}, {})", spec.unit, spec.doc),
-                ))
+                let msg = format!("missing parameter ({}, {})", spec.unit, spec.doc);
+                return Err(InputError::field(path, section_line, spec.name, msg));
             }
         };
         if !v.is_finite() || v < spec.lower || v > spec.upper {
-            return Err(field_err(
-                path,
-                line,
-                spec.name,
-                format!(
-                    "value {} outside the allowed range [{}, {}] {}",
-                    num(v),
-                    spec.lower,
-                    spec.upper,
-                    spec.unit
-                ),
-            ));
+            let msg = format!(
+                "value {} outside the allowed range [{}, {}] {}",
+                num(v),
+                spec.lower,
+                spec.upper,
+                spec.unit
+            );
+            return Err(InputError::field(path, line, spec.name, msg));
         }
         out.push(v);
     }
+    check_force(model, &out, values, path, section_line)?;
     Ok(out)
 }
 
@@ -751,10 +286,10 @@ fn assign_params(
 fn check_force(
     model: &Model,
     params: &[f64],
-    values: &BTreeMap<String, ParamIn>,
+    values: &[Param],
     path: &Path,
     section_line: usize,
-) -> Result<(), DeviceError> {
+) -> Result<(), InputError> {
     let Some((inp, f)) = model.unusable_force(params) else {
         return Ok(());
     };
@@ -772,31 +307,28 @@ fn check_force(
         let mut q = params.to_vec();
         q[k] = spec.clamp(0.0);
         if q[k] != params[k] && model.unusable_force(&q).is_none() {
-            let line = values.get(spec.name).map_or(section_line, |p| p.line);
-            return Err(field_err(
-                path,
-                line,
-                spec.name,
-                format!(
-                    "value {} {} gives {at}; correct the value or refit",
-                    num(params[k]),
-                    spec.unit
-                ),
-            ));
+            let line = values
+                .iter()
+                .find(|p| p.name == spec.name)
+                .map_or(section_line, |p| p.line);
+            let msg = format!(
+                "value {} {} gives {at}; correct the value or refit",
+                num(params[k]),
+                spec.unit
+            );
+            return Err(InputError::field(path, line, spec.name, msg));
         }
     }
-    let all = specs
+    let all: Vec<String> = specs
         .iter()
         .zip(params)
         .map(|(s, v)| format!("{} = {}", s.name, num(*v)))
-        .collect::<Vec<_>>()
-        .join(", ");
-    Err(field_err(
-        path,
-        section_line,
-        "params",
-        format!("these parameters ({all}) give {at}; correct them or refit"),
-    ))
+        .collect();
+    let msg = format!(
+        "these parameters ({}) give {at}; correct them or refit",
+        all.join(", ")
+    );
+    Err(InputError::field(path, section_line, "params", msg))
 }
 
 #[derive(Deserialize)]
@@ -832,11 +364,8 @@ struct TomlGeometry {
 impl TomlGeometry {
     /// Every dimension a positive length, and the parts fit together: the piston in the bore, the bore in the
     /// tube's outside, the full stroke in the cylinder.
-    fn check(&self, path: &Path, text: &str) -> Result<Geometry, DeviceError> {
-        let line = |v: &toml::Spanned<f64>| line_of(text, v.span().start);
-        let len = |v: &toml::Spanned<f64>, name: &str| {
-            positive(*v.get_ref(), "in", path, line(v), &format!("geometry.{name}"))
-        };
+    fn check(&self, src: &Source) -> Result<Geometry, InputError> {
+        let len = |v: &toml::Spanned<f64>, name: &str| positive(v, "in", src, &format!("geometry.{name}"));
         let piston = len(&self.piston_diameter_in, "piston_diameter_in")?;
         let rod = len(&self.piston_rod_length_in, "piston_rod_length_in")?;
         let id = len(&self.cylinder_id_in, "cylinder_id_in")?;
@@ -844,7 +373,7 @@ impl TomlGeometry {
         let cyl_len = len(&self.cylinder_length_in, "cylinder_length_in")?;
         let stroke = len(&self.stroke_half_in, "stroke_half_in")?;
         let clash = |v: &toml::Spanned<f64>, name: &str, why: String| {
-            Err(field_err(path, line(v), &format!("geometry.{name}"), why))
+            Err(src.err(v, &format!("geometry.{name}"), why))
         };
         if piston > id {
             return clash(
@@ -970,32 +499,6 @@ impl ParamsFile {
 mod tests {
     use super::*;
 
-    /// The key scanner finds each key's line by its path, objects' opening lines, and keys given twice in
-    /// the same object only (the same name in two objects is no duplicate); escaped quotes and keys inside
-    /// string values do not confuse it.
-    #[test]
-    fn json_keys_are_found_at_their_lines_by_path() {
-        let text =
-            "{\n  \"a\": \"not \\\"b\\\": a key\",\n  \"p\": {\n    \"x\": {\"value\": 1},\n    \"y\": \
-                    [ {\"value\": 2}, {\"value\": 3} ]\n  }\n}";
-        let k = JsonKeys::scan(text);
-        assert_eq!(k.key(&["a"]), Some(2));
-        assert_eq!(k.key(&["b"]), None);
-        assert_eq!(k.key(&["p"]), Some(3));
-        assert_eq!(k.key(&["p", "x", "value"]), Some(4));
-        assert_eq!(k.key(&["p", "y", "1", "value"]), Some(5));
-        assert_eq!(k.object(&[]), 1);
-        assert_eq!(k.object(&["p"]), 3);
-        assert_eq!(k.duplicate(), None);
-        let twice = JsonKeys::scan("{\"p\": {\"x\": 1,\n \"y\": 2,\n \"x\": 3}}");
-        let (path, line, first) = twice.duplicate().expect("x twice");
-        assert_eq!((path.join("."), line, first), ("p.x".to_string(), 3, 1));
-        // Text serde_json would refuse: some lines, no panic.
-        for bad in ["{\"a", "}}]]", "{\"a\": \"\\", "\""] {
-            let _ = JsonKeys::scan(bad);
-        }
-    }
-
     /// A saved parameter file reads back as the numbers written, to the bit: `validate` runs the fitted
     /// model unchanged. serde_json's fast float parser reads some shortest decimals one unit in the last
     /// place off (3991.6813567412532 as 3991.681356741253, found by a probe of `fit --save` on the real
@@ -1044,9 +547,9 @@ mod tests {
         let registry = Registry::builtin();
         let text = "{\"model\": \"bingham\",\n \"params\": {\n  \"fc0_n\": {\"value\": 1.0,\n   \"std_err\": -0.5}\n}}";
         match DeviceConfig::from_json(text, Path::new("p.json"), &registry) {
-            Err(DeviceError::Field { line, field, msg, .. }) => {
-                assert_eq!((line, field.as_str()), (4, "fc0_n.std_err"));
-                assert!(msg.contains("negative"), "{msg}");
+            Err(DeviceError::Input(e)) => {
+                assert_eq!((e.line, e.field.as_deref()), (Some(4), Some("fc0_n.std_err")));
+                assert!(e.msg.contains("negative"), "{e}");
             }
             other => panic!("{other:?}"),
         }
@@ -1060,9 +563,9 @@ mod tests {
         let text =
             "{\"model\": \"bingham\",\n \"params\": {\"te_s\": {\"value\": 0.01, \"unit\": \"s\"}}}\nx\n";
         match DeviceConfig::from_json(text, Path::new("p.json"), &registry) {
-            Err(DeviceError::Parse { line, msg, .. }) => {
-                assert_eq!(line, 3);
-                assert!(msg.contains("trailing characters"), "{msg}");
+            Err(DeviceError::Input(e)) => {
+                assert_eq!((e.line, e.field.as_deref()), (Some(3), None));
+                assert!(e.msg.contains("trailing characters"), "{e}");
             }
             other => panic!("{other:?}"),
         }
@@ -1075,7 +578,7 @@ mod tests {
         let json = |t: &str| DeviceConfig::from_json(t, Path::new("p.json"), &registry).unwrap_err();
         let toml = |t: &str| DeviceConfig::from_toml(t, Path::new("d.toml"), &registry).unwrap_err();
         let line = |e: DeviceError| match e {
-            DeviceError::Parse { line, .. } | DeviceError::Field { line, .. } => line,
+            DeviceError::Input(e) => e.line.expect("a line"),
             other => panic!("{other}"),
         };
         for e in [
@@ -1092,7 +595,7 @@ mod tests {
             assert!(line(e) >= 1);
         }
         match json("{\"model\": \"bingham\",\n \"params\": {\n}}") {
-            DeviceError::Field { line, field, .. } => assert_eq!((line, field.as_str()), (2, "fc0_n")),
+            DeviceError::Input(e) => assert_eq!((e.line, e.field.as_deref()), (Some(2), Some("fc0_n"))),
             other => panic!("{other}"),
         }
     }
@@ -1126,9 +629,9 @@ mod tests {
         assert_eq!(old.param("hyst_gamma_share"), Some(0.0));
         assert_eq!(old.param("hyst_x_yield_m"), Some(0.0003));
         match DeviceConfig::from_json(&file(""), path, &registry) {
-            Err(DeviceError::Field { field, msg, .. }) => {
-                assert_eq!(field, "hyst_x_yield_m");
-                assert!(msg.contains("missing"), "{msg}");
+            Err(DeviceError::Input(e)) => {
+                assert_eq!(e.field.as_deref(), Some("hyst_x_yield_m"));
+                assert!(e.msg.contains("missing"), "{e}");
             }
             other => panic!("a file without the yield displacement: {other:?}"),
         }

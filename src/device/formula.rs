@@ -26,7 +26,7 @@ use super::effect::{Effect, EffectStage, Inputs, Stage, Step};
 use super::model::Registry;
 use super::params::{DataStats, ParamSpec};
 use super::DeviceError;
-use crate::input::text::line_of;
+use crate::input::{InputError, Source};
 
 /// A signal a formula may read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -490,33 +490,18 @@ impl FormulaEffect {
 
     /// Load an effect file; errors name the file, the line and the field.
     pub fn load(path: &Path) -> Result<Self, DeviceError> {
-        let text = crate::input::text::read_text(path).map_err(|msg| DeviceError::Io {
-            path: path.to_path_buf(),
-            msg,
-        })?;
-        Self::from_toml(&text, path)
+        Ok(Self::from_source(&Source::read(path)?)?)
     }
 
     /// Parse an effect file's text (`path` for messages).
     pub fn from_toml(text: &str, path: &Path) -> Result<Self, DeviceError> {
-        let file: EffectFile = crate::input::text::parse_toml(text).map_err(|e| match e.field {
-            Some(field) => DeviceError::Field {
-                path: path.to_path_buf(),
-                line: e.line,
-                field,
-                msg: e.msg,
-            },
-            None => DeviceError::Parse {
-                path: path.to_path_buf(),
-                line: e.line,
-                msg: e.msg,
-            },
-        })?;
-        let field = |span: std::ops::Range<usize>, field: &str, msg: String| DeviceError::Field {
-            path: path.to_path_buf(),
-            line: line_of(text, span.start),
-            field: field.to_string(),
-            msg,
+        Ok(Self::from_source(&Source::new(path, text))?)
+    }
+
+    fn from_source(src: &Source) -> Result<Self, InputError> {
+        let file: EffectFile = src.toml()?;
+        let field = |span: std::ops::Range<usize>, field: &str, msg: String| {
+            InputError::field(&src.path, src.line_of(span.start), field, msg)
         };
         let mut params = Vec::new();
         for (name, p) in &file.params {
@@ -816,19 +801,14 @@ mod tests {
         ];
         for (text, line, fld, msg) in cases {
             match FormulaEffect::from_toml(&text, path) {
-                Err(DeviceError::Field {
-                    line: l,
-                    field,
-                    msg: m,
-                    ..
-                }) => {
+                Err(DeviceError::Input(e)) => {
+                    let (l, m) = (e.line.unwrap_or(0), &e.msg);
                     assert_eq!(l, line, "{text}: {m}");
-                    assert!(field.contains(fld) || m.contains(fld), "{field}: {m}");
+                    match &e.field {
+                        Some(field) => assert!(field.contains(fld) || m.contains(fld), "{field}: {m}"),
+                        None => assert!(m.contains(fld), "{m}"),
+                    }
                     assert!(m.contains(msg), "{m}");
-                }
-                Err(DeviceError::Parse { line: l, msg: m, .. }) => {
-                    assert_eq!(l, line, "{m}");
-                    assert!(m.contains(msg) && m.contains(fld), "{m}");
                 }
                 other => panic!("{text}: {other:?}"),
             }

@@ -15,8 +15,6 @@ pub mod model;
 pub mod params;
 pub mod spencer;
 
-use std::path::PathBuf;
-
 pub use config::{DeviceConfig, Geometry, ParamsFile};
 pub use effect::{Effect, EffectStage, Inputs, Stage, Step};
 pub use inverse::ForceInverse;
@@ -32,15 +30,7 @@ pub enum DeviceError {
     UnknownEffect { name: String, known: String },
     #[error("model `{spec}`: {why}")]
     BadSpec { spec: String, why: String },
-    #[error("{}: {msg}", path.display())]
-    Io { path: PathBuf, msg: String },
-    #[error("{}:{line}: {msg}", path.display())]
-    Parse { path: PathBuf, line: usize, msg: String },
-    #[error("{}:{line}: field `{field}`: {msg}", path.display())]
-    Field {
-        path: PathBuf,
-        line: usize,
-        field: String,
-        msg: String,
-    },
+    /// A device, parameter or effect file refused.
+    #[error(transparent)]
+    Input(#[from] crate::input::InputError),
 }

@@ -29,17 +29,17 @@ use super::bingham::saturate;
 use super::effect::{Inputs, Stage, Step};
 use super::params::{DataStats, ParamSpec};
 
-pub const ALPHA_A: usize = 0;
-pub const ALPHA_B: usize = 1;
-pub const C0A: usize = 2;
-pub const C0B: usize = 3;
-pub const C1A: usize = 4;
-pub const C1B: usize = 5;
-pub const K0: usize = 6;
-pub const K1: usize = 7;
-pub const X0: usize = 8;
-pub const BETA: usize = 9;
-pub const GAMMA: usize = 10;
+pub(crate) const ALPHA_A: usize = 0;
+pub(crate) const ALPHA_B: usize = 1;
+pub(crate) const C0A: usize = 2;
+pub(crate) const C0B: usize = 3;
+pub(crate) const C1A: usize = 4;
+pub(crate) const C1B: usize = 5;
+pub(crate) const K0: usize = 6;
+pub(crate) const K1: usize = 7;
+pub(crate) const X0: usize = 8;
+pub(crate) const BETA: usize = 9;
+pub(crate) const GAMMA: usize = 10;
 pub const A: usize = 11;
 pub const N: usize = 12;
 pub const TAU: usize = 13;
@@ -136,21 +136,22 @@ pub const PARAMS: [ParamSpec; 14] = [
 
 /// States: the filtered command `u` (A), the internal displacement `y` (m) and the evolutionary variable
 /// `z` (m).
-pub const N_STATES: usize = 3;
+pub(crate) const N_STATES: usize = 3;
 
 /// Parameters the states depend on: all but `k1` and `x0`, which only add a force.
-pub const STATE_PARAMS: [usize; 12] = [ALPHA_A, ALPHA_B, C0A, C0B, C1A, C1B, K0, BETA, GAMMA, A, N, TAU];
+pub(crate) const STATE_PARAMS: [usize; 12] =
+    [ALPHA_A, ALPHA_B, C0A, C0B, C1A, C1B, K0, BETA, GAMMA, A, N, TAU];
 /// The parameters the force is linear in with the states held: `k1` (and `k1 x0` with it).
-pub const LINEAR_GAINS: [usize; 1] = [K1];
+pub(crate) const LINEAR_GAINS: [usize; 1] = [K1];
 /// The command filter's time constant: it acts only where the command changes.
-pub const LAG_PARAMS: [usize; 1] = [TAU];
+pub(crate) const LAG_PARAMS: [usize; 1] = [TAU];
 
 /// Most RK4 substeps in one sample interval: enough for `λ h` = 4096 (10⁷ s⁻¹ at 3 kHz); parameters
 /// stiffer than that give a force the fit rejects as unusable.
 const MAX_SUBSTEPS: usize = 4096;
 
 /// The bound of `|z|`, `(A/(β+γ))^(1/n)`, or 1 m where `β + γ = 0` (no bound; the direction is then `z`).
-pub fn z_scale(p: &[f64]) -> f64 {
+pub(crate) fn z_scale(p: &[f64]) -> f64 {
     let bg = p[BETA] + p[GAMMA];
     if bg > 0.0 && p[A] > 0.0 {
         let s = (p[A] / bg).powf(1.0 / p[N]);
@@ -184,7 +185,7 @@ fn gains(p: &[f64], u: f64) -> (f64, f64, f64) {
 
 /// States at the first sample: the filter settled at the first command, `y = x` (the k0 spring relaxed),
 /// and `z` at its bound in the direction of motion (0 at rest), as after a long stroke that way.
-pub fn init_states(p: &[f64], s: &mut [f64], first: &Inputs, limit_a: f64) {
+pub(crate) fn init_states(p: &[f64], s: &mut [f64], first: &Inputs, limit_a: f64) {
     s[0] = saturate(first.current_cmd_a, limit_a);
     s[1] = first.x_m;
     s[2] = super::bingham::sgn(first.v_m_s) * z_scale(p);

@@ -44,7 +44,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use crate::device::Inputs;
 
 /// Comb frequencies checked per candidate window (the first ones, up to the Nyquist frequency).
-pub const NULLS: usize = 8;
+pub(crate) const NULLS: usize = 8;
 /// The depth of one comb frequency on white noise (`null_depth`: the least of three ordinates against
 /// the band's 20th percentile), measured over 2,731 of them in records of 450–8,000 samples: mean, decades.
 const NOISE_MEAN: f64 = 0.04;
@@ -54,18 +54,18 @@ const NOISE_SD: f64 = 0.64;
 /// their `M` values (tests × channels × comb frequencies): `NOISE_MEAN − Z · NOISE_SD / √M` (−0.92 decades
 /// for one test of eight comb frequencies, −1.88 for one of two). On white noise the deepest comb of any
 /// candidate window, in one channel of 200 records, lay 5.4 spreads below.
-pub const COMB_SIGMAS: f64 = 6.0;
+pub(crate) const COMB_SIGMAS: f64 = 6.0;
 /// ... and each channel on its own this many: the motion and the force went through one filter.
-pub const CHANNEL_SIGMAS: f64 = 2.0;
+pub(crate) const CHANNEL_SIGMAS: f64 = 2.0;
 /// ... with at least this share of each channel's comb frequencies below their band's noise level (white
 /// noise: about 45 %).
-pub const BELOW_SHARE: f64 = 2.0 / 3.0;
+pub(crate) const BELOW_SHARE: f64 = 2.0 / 3.0;
 /// ... and at least this share of the comb frequencies tried left to count in it (not beside a line).
-pub const COUNTED_SHARE: f64 = 0.75;
+pub(crate) const COUNTED_SHARE: f64 = 0.75;
 /// A window predicted from other tests ([`window_law`]) is confirmed when both channels' combs together
 /// lie this many noise spreads below white noise's mean (one window tested, not the best of many: 3 of
 /// 800 tries passed on white noise, `tests::white_noise_rarely_confirms_a_predicted_window`).
-pub const CONFIRM_SIGMAS: f64 = 3.0;
+pub(crate) const CONFIRM_SIGMAS: f64 = 3.0;
 /// One comb frequency's depth counts down to this many decades (and up to one above): a single
 /// near-empty bin of white noise must not pass for a comb.
 const DEPTH_CLAMP: f64 = 2.5;
@@ -212,7 +212,7 @@ fn null_depth(p: &[f64], l: usize, window: usize, k: usize, harmonics: Option<f6
 
 /// Depths of comb frequencies, summed (over comb frequencies, records and channels).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Tally {
+pub(crate) struct Tally {
     /// Summed depth of the comb frequencies counted, decades.
     pub depth: f64,
     /// Comb frequencies counted (not left out by `null_depth`).
@@ -235,7 +235,7 @@ impl Tally {
 /// One channel's comb for one window (and, pooled, over records and channels): a [`Tally`] for each of
 /// its first [`NULLS`] comb frequencies.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Comb {
+pub(crate) struct Comb {
     /// `at[k − 1]`: the `k`-th comb frequency, `k/window` cycles per sample.
     pub at: [Tally; NULLS],
 }
@@ -254,7 +254,7 @@ impl Comb {
 
     /// Over the comb frequencies `k` that are not multiples of `m`: for a window `m` times another, the
     /// zeros that the other window's average does not have.
-    pub fn except_multiples_of(&self, m: usize) -> Tally {
+    pub(crate) fn except_multiples_of(&self, m: usize) -> Tally {
         let mut t = Tally::default();
         for (k, a) in self.at.iter().enumerate() {
             if (k + 1) % m != 0 {
@@ -267,7 +267,11 @@ impl Comb {
 
 /// The comb of every candidate window that `keep` accepts (2 to a 25th of the record, so that a band can
 /// keep `MIN_BAND_BINS` bins) in one channel's periodogram.
-pub fn comb_depths(y: &[f64], harmonics: Option<f64>, keep: impl Fn(usize) -> bool) -> Vec<(usize, Comb)> {
+pub(crate) fn comb_depths(
+    y: &[f64],
+    harmonics: Option<f64>,
+    keep: impl Fn(usize) -> bool,
+) -> Vec<(usize, Comb)> {
     if y.len() < 64 {
         return Vec::new();
     }
@@ -293,7 +297,7 @@ pub fn comb_depths(y: &[f64], harmonics: Option<f64>, keep: impl Fn(usize) -> bo
 
 /// One test's channels, as [`detect_moving_average`] reads them.
 #[derive(Debug, Clone, Copy)]
-pub struct Channels<'a> {
+pub(crate) struct Channels<'a> {
     pub t: &'a [f64],
     /// Displacement.
     pub x: &'a [f64],
@@ -389,7 +393,7 @@ fn readable(records: &[Channels<'_>]) -> bool {
     !records.is_empty()
         && records
             .iter()
-            .all(|r| r.t.len() >= 64 && crate::measurement::uniform_interval(r.t).is_some())
+            .all(|r| r.t.len() >= 64 && crate::signal::uniform_interval(r.t).is_some())
 }
 
 /// The moving average that the displacement and force of every record in `records` (tests of one
@@ -403,7 +407,7 @@ fn readable(records: &[Channels<'_>]) -> bool {
 /// so its evidence replaces the displacement's and is never added to it. The displacement must show the
 /// comb on its own in every case; a velocity differenced over `N` samples (a rig's smoothing
 /// differentiator, the comb of an `N`-sample average of its own) or from a transducer is no witness.
-pub fn detect_moving_average(records: &[Channels<'_>]) -> Option<MovingAverage> {
+pub(crate) fn detect_moving_average(records: &[Channels<'_>]) -> Option<MovingAverage> {
     if !readable(records) {
         return None;
     }
@@ -453,7 +457,7 @@ pub fn detect_moving_average(records: &[Channels<'_>]) -> Option<MovingAverage> 
 /// [`window_law`]), with the witnesses [`detect_moving_average`] asks for but at [`CONFIRM_SIGMAS`]
 /// together: one hypothesis tested, not the best of every window a record allows, so the bar of the
 /// search is not needed (its 6 spreads stand for the deepest of some hundred windows of white noise).
-pub fn confirm_moving_average(records: &[Channels<'_>], window: usize) -> Option<MovingAverage> {
+pub(crate) fn confirm_moving_average(records: &[Channels<'_>], window: usize) -> Option<MovingAverage> {
     if !readable(records) || window < 2 {
         return None;
     }
@@ -473,7 +477,7 @@ pub fn confirm_moving_average(records: &[Channels<'_>], window: usize) -> Option
 /// that filters each test over a fixed share of its period (the UTFSM tests: a tenth) is then known to
 /// do so, and a test of another protocol whose own comb is too short to show it alone can be checked
 /// for the window that share predicts ([`confirm_moving_average`]).
-pub fn window_law(found: &[(usize, f64, f64)]) -> Option<f64> {
+pub(crate) fn window_law(found: &[(usize, f64, f64)]) -> Option<f64> {
     if found.len() < 2 {
         return None;
     }
@@ -512,7 +516,7 @@ const V: usize = 2;
 
 /// Period of the strongest spectral line of `x` (mean removed, Hann window, the peak placed between bins by a
 /// parabola through the log magnitudes: a tenth of a bin or better), s; NaN for fewer than 8 samples.
-pub fn dominant_period(x: &[f64], dt: f64) -> f64 {
+pub(crate) fn dominant_period(x: &[f64], dt: f64) -> f64 {
     let n = x.len();
     if n < 8 {
         return f64::NAN;
@@ -556,7 +560,7 @@ pub fn moving_average(f: &[f64], window: usize) -> Vec<f64> {
 /// `c` = 0.01 (the penalty reaches the data's weight at the filter's first zero, and at the fundamental of
 /// a test whose window is a tenth of its period it is 10⁻⁶ of it), solved by a banded Cholesky
 /// factorisation (half-bandwidth `max(window − 1, 2)`).
-pub fn deconvolve_moving_average(y: &[f64], window: usize) -> Vec<f64> {
+pub(crate) fn deconvolve_moving_average(y: &[f64], window: usize) -> Vec<f64> {
     let n = y.len();
     if window <= 1 || n == 0 {
         return y.to_vec();

@@ -29,7 +29,7 @@ use crate::device::{Inputs, Model};
 
 /// One candidate force term of the library.
 #[derive(Debug, Clone)]
-pub struct LibraryTerm {
+pub(crate) struct LibraryTerm {
     /// The term as a formula over the features (no parameters), e.g. `v*abs(v)`.
     pub feature: String,
     /// Unit of the coefficient that multiplies it into newtons.
@@ -401,7 +401,7 @@ pub(crate) fn strongest_family(
 }
 
 /// The library terms of a discovered effect (its formula is `c1 * term1 + c2 * term2 …`).
-pub fn features_of(effect: &FormulaEffect) -> Vec<String> {
+pub(crate) fn features_of(effect: &FormulaEffect) -> Vec<String> {
     effect
         .formula()
         .split(" + ")
@@ -436,8 +436,6 @@ pub struct Verdict {
     pub floor_nrmse: f64,
     /// Share of the held-out residual's mean square the regressor predicts out of sample (pooled over folds).
     pub predictable_share: f64,
-    /// The same in each fold.
-    pub fold_shares: Vec<f64>,
     /// Signals whose features alone predict part of it, strongest first, with their shares.
     pub correlates_with: Vec<(String, f64)>,
     /// Structure is left (the residual is not noise).
@@ -448,7 +446,7 @@ pub struct Verdict {
 
 /// Smallest share of the held-out residual's mean square that must be predictable out of sample, in every
 /// fold, for it to be called structure: below it, what a regressor with ~150 inputs finds in noise.
-pub const MIN_PREDICTABLE_SHARE: f64 = 0.05;
+pub(crate) const MIN_PREDICTABLE_SHARE: f64 = 0.05;
 
 /// Most samples the verdict's regressor uses (every k-th sample beyond): its figures are shares, which a
 /// regular subsample of 20 000 measures to about a percent.
@@ -758,9 +756,6 @@ pub(crate) fn verdict(
     let all_cols: Vec<usize> = (0..p).collect();
     let sse = sse_with(&all_cols);
     let predictable_share = share(&sse);
-    let fold_shares: Vec<f64> = (0..nf)
-        .map(|f| 1.0 - sse[f] / rr[f].max(f64::MIN_POSITIVE))
-        .collect();
     let mut correlates_with: Vec<(String, f64)> = groups
         .iter()
         .map(|g| (g.name.clone(), share(&sse_with(&g.cols))))
@@ -772,7 +767,6 @@ pub(crate) fn verdict(
         heldout_nrmse,
         floor_nrmse,
         predictable_share,
-        fold_shares,
         correlates_with,
         structure,
         where_: Vec::new(),

@@ -110,7 +110,7 @@ impl Weighting {
 /// The weight of each sample's residual in the loss (its square multiplies the squared residual): the
 /// counted samples of [`direction_weights`] (1, or 0 where the velocity's sign is unknown), scaled per test
 /// as `weighting` says over the samples of `spans`.
-pub fn loss_weights(tests: &[Test], spans: &[Span], weighting: Weighting) -> Vec<Vec<f64>> {
+pub(crate) fn loss_weights(tests: &[Test], spans: &[Span], weighting: Weighting) -> Vec<Vec<f64>> {
     let mut weights: Vec<Vec<f64>> = tests.par_iter().map(direction_weights).collect();
     if weighting == Weighting::Samples {
         return weights;
@@ -210,7 +210,7 @@ impl FitResult {
 
 /// Smooth map from the unconstrained search variable `z` to a bounded parameter `p`.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Transform {
+pub(crate) enum Transform {
     Free,
     /// `p = lo + e^z`
     Lower(f64),
@@ -221,7 +221,7 @@ pub enum Transform {
 }
 
 impl Transform {
-    pub fn for_bounds(lo: f64, hi: f64) -> Self {
+    pub(crate) fn for_bounds(lo: f64, hi: f64) -> Self {
         match (lo.is_finite(), hi.is_finite()) {
             (true, true) => Transform::Both(lo, hi),
             (true, false) => Transform::Lower(lo),
@@ -253,7 +253,7 @@ impl Transform {
     }
 
     /// `dp/dz`.
-    pub fn dp_dz(&self, z: f64) -> f64 {
+    pub(crate) fn dp_dz(&self, z: f64) -> f64 {
         match *self {
             Transform::Free => 1.0,
             Transform::Lower(_) => z.exp(),

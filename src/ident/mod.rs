@@ -27,7 +27,8 @@ use rayon::prelude::*;
 
 use crate::device::params::TestSignals;
 use crate::device::{DataStats, DeviceError, Inputs};
-use crate::measurement::{Measurement, MeasurementError};
+use crate::input::InputError;
+use crate::measurement::Measurement;
 
 pub use diagnose::{diagnose, DiagnoseOptions, Diagnosis};
 pub use fit::{fit, FitOptions, FitResult};
@@ -37,7 +38,7 @@ pub use validate::{evaluate, Figures};
 #[derive(Debug, thiserror::Error)]
 pub enum IdentError {
     #[error(transparent)]
-    Measurement(#[from] MeasurementError),
+    Input(#[from] InputError),
     #[error(transparent)]
     Device(#[from] DeviceError),
     #[error("no measurement files given")]
@@ -159,7 +160,7 @@ fn confirm_filter(ms: &[&Measurement], window: usize) -> Option<acquisition::Mov
 /// current command of the first sample over the lead-in.
 pub fn drive_of(m: &Measurement, filter: acquisition::MovingAverage) -> Option<acquisition::Drive> {
     let lead = filter.window - 1;
-    let dt = crate::measurement::uniform_interval(&m.t_s)?;
+    let dt = crate::signal::uniform_interval(&m.t_s)?;
     let x = acquisition::deconvolve_moving_average(&m.x_m, filter.window);
     let t: Vec<f64> = (0..x.len())
         .map(|k| {
@@ -225,7 +226,7 @@ pub fn inputs_and_velocity_noise(m: &Measurement) -> (Vec<Inputs>, Option<Vec<f6
     }
     // On an uneven grid (a jittered clock, lost samples) the same local fits in the samples' own times;
     // `dt` only sizes the route choice below.
-    let dt = crate::measurement::median_interval(&m.t_s);
+    let dt = crate::signal::median_interval(&m.t_s);
     if dt.is_nan() || dt <= 0.0 {
         return (inputs, None);
     }
@@ -360,7 +361,7 @@ pub fn widest_unbiased_derivative(
     if sd_y.is_nan() || sd_y <= 0.0 || t.len() != n || fallback.len() != n {
         return (fallback.to_vec(), None);
     }
-    let limit = GAP_INTERVALS * crate::measurement::median_interval(t);
+    let limit = GAP_INTERVALS * crate::signal::median_interval(t);
     let starts: Vec<usize> = std::iter::once(0)
         .chain((1..n).filter(|&k| t[k] - t[k - 1] > limit))
         .chain(std::iter::once(n))
@@ -400,7 +401,7 @@ fn derivative_of_one_piece(
     if n <= 20 {
         return (fallback.to_vec(), None);
     }
-    let even = crate::measurement::uniform_interval(t);
+    let even = crate::signal::uniform_interval(t);
     // Every window tried has 2h + 1 ≤ n samples: h = 5 with n > 20, the wider ones with n > 4h.
     let apply = |h: usize| -> WindowFit {
         match even {
@@ -762,7 +763,7 @@ pub fn acquisition_note(tests: &[Test]) -> Vec<String> {
         .filter(|t| {
             t.drive.is_none() && {
                 let times: Vec<f64> = t.inputs.iter().map(|i| i.t_s).collect();
-                crate::measurement::uniform_interval(&times).is_none()
+                crate::signal::uniform_interval(&times).is_none()
             }
         })
         .map(|t| t.name.as_str())
@@ -818,7 +819,7 @@ impl ProtocolKey {
 }
 
 fn protocol_key(m: &Measurement) -> ProtocolKey {
-    let interval = crate::measurement::uniform_interval(&m.t_s);
+    let interval = crate::signal::uniform_interval(&m.t_s);
     let period = interval.map_or(f64::NAN, |dt| acquisition::dominant_period(&m.x_m, dt));
     ProtocolKey { interval, period }
 }
@@ -1088,7 +1089,7 @@ mod tests {
     fn derivatives_on_a_jittered_clock_are_as_good_as_on_an_even_one() {
         for (seed, f_hz) in [(0u64, 0.4), (1, 1.0), (2, 2.5)] {
             let m = jittered_sine_without_velocity(0.02, f_hz, 1000.0, 5000, 200 + seed);
-            assert!(crate::measurement::uniform_interval(&m.t_s).is_none());
+            assert!(crate::signal::uniform_interval(&m.t_s).is_none());
             check_sine_derivatives(&m, 0.02, f_hz, 0..5000);
         }
     }

@@ -16,7 +16,7 @@ pub struct Region {
 
 /// How samples are binned by current: by the distinct command levels when there are few, else by ranges.
 #[derive(Debug, Clone, PartialEq)]
-pub enum CurrentBins {
+pub(crate) enum CurrentBins {
     Levels(Vec<f64>),
     Ranges(Vec<f64>),
 }
@@ -61,10 +61,6 @@ impl CurrentBins {
             CurrentBins::Levels(l) => l.len(),
             CurrentBins::Ranges(e) => e.len().saturating_sub(1).max(1),
         }
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
     }
 
     pub fn index(&self, i_a: f64) -> usize {
@@ -112,7 +108,7 @@ impl CurrentBins {
 }
 
 /// A number with two significant digits, for region labels.
-pub fn sig(x: f64) -> String {
+pub(crate) fn sig(x: f64) -> String {
     if x == 0.0 || !x.is_finite() {
         return "0".into();
     }
@@ -126,7 +122,7 @@ pub fn sig(x: f64) -> String {
 }
 
 /// Edges of |v| bins as fractions of the largest |v|: slow (near reversal) to fast.
-pub const V_EDGES_FRAC: [f64; 5] = [0.0, 0.05, 0.2, 0.5, 1.0];
+pub(crate) const V_EDGES_FRAC: [f64; 5] = [0.0, 0.05, 0.2, 0.5, 1.0];
 
 fn v_max(tests: &[Test]) -> f64 {
     tests
@@ -139,7 +135,7 @@ fn v_max(tests: &[Test]) -> f64 {
 /// The regions (|v| bin × current bin, and a part of each test's duration) that carry most of the squared
 /// residual, largest first, until they cover most of it.
 #[allow(clippy::needless_range_loop)] // several parallel per-sample arrays
-pub fn where_regions(tests: &[Test], pred: &[Vec<f64>]) -> Vec<Region> {
+pub(crate) fn where_regions(tests: &[Test], pred: &[Vec<f64>]) -> Vec<Region> {
     let cb = CurrentBins::of(tests);
     let vmax = v_max(tests);
     let edges: Vec<f64> = V_EDGES_FRAC.iter().map(|f| f * vmax).collect();
@@ -215,7 +211,7 @@ pub fn where_regions(tests: &[Test], pred: &[Vec<f64>]) -> Vec<Region> {
 }
 
 /// RMS residual over |v| bins (columns, `nv` equal bins up to the largest |v|) × current bins (rows).
-pub struct Heatmap {
+pub(crate) struct Heatmap {
     pub v_edges_m_s: Vec<f64>,
     pub current_labels: Vec<String>,
     /// `rms[current bin][v bin]`, N (NaN where there are no samples).
@@ -223,7 +219,7 @@ pub struct Heatmap {
 }
 
 #[allow(clippy::needless_range_loop)] // several parallel per-sample arrays
-pub fn heatmap(tests: &[Test], pred: &[Vec<f64>], nv: usize) -> Heatmap {
+pub(crate) fn heatmap(tests: &[Test], pred: &[Vec<f64>], nv: usize) -> Heatmap {
     let cb = CurrentBins::of(tests);
     let vmax = v_max(tests);
     let mut s = vec![vec![0.0; nv]; cb.len()];
@@ -259,7 +255,7 @@ pub fn heatmap(tests: &[Test], pred: &[Vec<f64>], nv: usize) -> Heatmap {
 /// These are the shapes the effect vocabulary describes; a candidate effect's evidence is which of them it
 /// removes from the held-out residual.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Signatures {
+pub(crate) struct Signatures {
     /// Mean residual × sign of acceleration at low |v|: force lagging velocity reversals (loops near v = 0).
     pub loop_near_zero_velocity: f64,
     /// Even-in-v mean residual (mean over v > 0 and v < 0) at the highest current minus at the lowest.
@@ -460,7 +456,7 @@ impl Corr {
 /// The measurement noise of the force, N (standard deviation), estimated from third differences of the
 /// measured force: `Δ³f` of white noise has variance 20σ², while a smooth force contributes little and the
 /// jumps at velocity reversals are rare enough that a median ignores them.
-pub fn noise_floor_n(tests: &[Test]) -> f64 {
+pub(crate) fn noise_floor_n(tests: &[Test]) -> f64 {
     std_from_third_differences(
         tests
             .iter()
@@ -473,7 +469,7 @@ pub fn noise_floor_n(tests: &[Test]) -> f64 {
 }
 
 /// [`white_noise_std`] of a signal sampled at the times `t`, evenly or not.
-pub fn white_noise_std_on(t: &[f64], y: &[f64]) -> f64 {
+pub(crate) fn white_noise_std_on(t: &[f64], y: &[f64]) -> f64 {
     std_from_third_differences(third_differences_on(t, y))
 }
 
@@ -483,7 +479,7 @@ pub fn white_noise_std_on(t: &[f64], y: &[f64]) -> f64 {
 /// it the variance 20σ², as `Δ³` has. (`Δ³` itself on a jittered grid does not cancel a smooth signal: a
 /// time off by a quarter of a sample leaves `v·dt/4`, at 1 kHz and 0.1 m/s 25 µm beside a 2 µm noise.)
 fn third_differences_on(t: &[f64], y: &[f64]) -> Vec<f64> {
-    if t.len() != y.len() || crate::measurement::uniform_interval(t).is_some() {
+    if t.len() != y.len() || crate::signal::uniform_interval(t).is_some() {
         return third_differences(y).collect();
     }
     t.windows(4)
@@ -502,7 +498,7 @@ fn third_differences_on(t: &[f64], y: &[f64]) -> Vec<f64> {
 /// Robust standard deviation of the white noise on a sampled signal: third differences cancel a smooth
 /// signal (up to its third derivative × dt³) and multiply white noise variance by 20; the median absolute
 /// value (× 1.4826 for a Gaussian) ignores the few samples where the signal itself jumps.
-pub fn white_noise_std(y: &[f64]) -> f64 {
+pub(crate) fn white_noise_std(y: &[f64]) -> f64 {
     std_from_third_differences(third_differences(y).collect())
 }
 
@@ -522,7 +518,7 @@ fn std_from_third_differences(d: Vec<f64>) -> f64 {
 
 /// The `q`-quantile of `a` (the sample of rank `round((n − 1) q)`, by selection, not a full sort); `a` must
 /// not be empty.
-pub fn quantile(mut a: Vec<f64>, q: f64) -> f64 {
+pub(crate) fn quantile(mut a: Vec<f64>, q: f64) -> f64 {
     let k = ((a.len() - 1) as f64 * q).round() as usize;
     let (_, m, _) = a.select_nth_unstable_by(k, f64::total_cmp);
     *m
@@ -530,7 +526,7 @@ pub fn quantile(mut a: Vec<f64>, q: f64) -> f64 {
 
 /// How many noise standard deviations a velocity must be from zero for its sign to be known: a Gaussian
 /// error exceeds 4σ in one direction with probability 3·10⁻⁵.
-pub const DIRECTION_SIGMAS: f64 = 4.0;
+pub(crate) const DIRECTION_SIGMAS: f64 = 4.0;
 
 /// Weight of each sample of a test in a fit's loss and a held-out score: 0 where the velocity the model is
 /// given (measured or derived) is within [`DIRECTION_SIGMAS`] noise standard deviations of zero, 1 elsewhere.
@@ -579,7 +575,7 @@ fn sign_weights(t: &Test) -> Vec<f64> {
 /// which is still there at low frequencies (a slowly wandering error, as uncertain in sign near `v = 0`):
 /// it is the displacement's white noise times the differentiator's noise gain, the root-sum-square of its
 /// response to a unit impulse on the test's own time grid.
-pub fn velocity_noise_std(t: &Test) -> f64 {
+pub(crate) fn velocity_noise_std(t: &Test) -> f64 {
     if let Some(sd) = t.velocity_noise_m_s.as_ref().filter(|sd| !sd.is_empty()) {
         // Inside the test, where the centred window is used.
         return sd[sd.len() / 2];

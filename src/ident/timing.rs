@@ -23,7 +23,17 @@
 use super::fit::{all_spans, fit, FitOptions, FitResult};
 use super::Test;
 use crate::device::{Inputs, Model};
-pub use crate::measurement::CommandTiming;
+pub use crate::input::params::CommandTiming;
+
+impl CommandTiming {
+    /// In words, for reports.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Self::AfterSample => "each logged current command acts after its own sample",
+            Self::AtSample => "each logged current command is already in force at its own sample",
+        }
+    }
+}
 
 /// What the command line asks for: a reading, or `auto` (decided by the data).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]

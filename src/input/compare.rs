@@ -12,7 +12,6 @@ use crate::compare::{
     TargetLaw, TaskSection,
 };
 use crate::control::feel::{CentringSpring, FeelSprings};
-use crate::faults::FaultSchedule;
 use crate::scenario::Scenario;
 
 type S<T> = Spanned<T>;
@@ -33,9 +32,8 @@ struct File {
     limits: LimitsFile,
     fault_test: FaultTestFile,
     active: Option<ActiveFile>,
-    /// `[[fault]]` tables, read by [`FaultSchedule::from_scenario_text`].
-    #[serde(default, rename = "fault")]
-    _fault: Option<toml::Value>,
+    #[serde(default)]
+    fault: Vec<super::faults::FaultTable>,
 }
 
 #[derive(Deserialize)]
@@ -216,7 +214,7 @@ impl CompareScenario {
         let task_s = main_task(&task).duration_s();
         let (start, end) = (&f.fault_test.start_s, &f.fault_test.end_s);
         if let Some((key, msg)) =
-            crate::faults::window_error(*start.get_ref(), *end.get_ref(), task_s, "task")
+            super::faults::window_error(*start.get_ref(), *end.get_ref(), task_s, "task")
         {
             let at = if key == "start_s" { start } else { end };
             return Err(src.err(at, &format!("fault_test.{key}"), msg).into());
@@ -234,7 +232,7 @@ impl CompareScenario {
             }),
             None => None,
         };
-        let faults = FaultSchedule::from_scenario_text(text, path, task_s)?;
+        let faults = super::faults::schedule(&src, &f.fault, task_s)?;
         Ok(Self {
             path: path.to_path_buf(),
             name: f.name,

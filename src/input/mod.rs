@@ -7,7 +7,13 @@
 
 pub mod aircraft;
 pub mod compare;
+pub mod faults;
+pub mod hand;
+pub mod json;
+pub mod measurement;
+pub mod params;
 pub mod reference;
+pub mod scenario;
 pub mod springs;
 pub mod sweep;
 pub mod text;
@@ -17,6 +23,7 @@ use std::fmt;
 use std::ops::RangeInclusive;
 use std::path::{Path, PathBuf};
 
+use serde::de::{DeserializeOwned, IntoDeserializer};
 use toml::Spanned;
 
 /// An input refused: the file, where in it (line, field) when that is known, and why.
@@ -172,6 +179,36 @@ impl Source {
         ))
     }
 
+    /// The variant a spanned name chose, or an error at its line naming `field` and the names allowed.
+    pub fn variant<E: Clone>(&self, v: &Spanned<Variant<E>>, field: &str) -> Result<E, InputError> {
+        v.get_ref().chosen.clone().map_err(|msg| self.err(v, field, msg))
+    }
+
+    /// The file this one names at `at` (`field`), found as [`crate::builtin::resolve`] finds it: a built-in
+    /// file or a regular file that exists (files named are read once per run of a comparison or a sweep,
+    /// which a pipe cannot give twice).
+    pub fn named_file<T>(&self, at: &Spanned<T>, field: &str, named: &Path) -> Result<PathBuf, InputError> {
+        use text::NotAFile;
+        let file = crate::builtin::resolve(self.path.parent().unwrap_or(Path::new(".")), named);
+        if crate::builtin::is_builtin(&file) {
+            return Ok(file);
+        }
+        let msg = match std::fs::metadata(&file).map(|m| NotAFile::of(&m)) {
+            Ok(None) => return Ok(file),
+            Ok(Some(NotAFile::Directory)) => format!("{}: a directory, not a file", file.display()),
+            Ok(Some(kind)) => format!(
+                "{}: not a regular file ({}); this file is read once per run, so it must be one",
+                file.display(),
+                kind.noun()
+            ),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                format!("{}: {e}; {}", file.display(), crate::builtin::not_found_hint())
+            }
+            Err(e) => format!("{}: {e}", file.display()),
+        };
+        Err(self.err(at, field, msg))
+    }
+
     /// A path written in the file, relative to the file's folder (absolute paths kept).
     pub fn relative(&self, written: &Path) -> PathBuf {
         match self.path.parent() {
@@ -180,6 +217,51 @@ impl Source {
         }
     }
 }
+
+/// A name that chooses a variant of `E` (a serde enum of unit variants), read without failing so that the
+/// check refuses an unknown name at its key's line, dotted key and all ([`Source::variant`]).
+#[derive(Debug, Clone)]
+pub struct Variant<E> {
+    name: String,
+    chosen: Result<E, String>,
+}
+
+impl<E> Variant<E> {
+    /// The name as written.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+}
+
+impl<'de, E: DeserializeOwned> serde::Deserialize<'de> for Variant<E> {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let name = <String as serde::Deserialize>::deserialize(d)?;
+        let de: serde::de::value::StrDeserializer<NotOneOf> = name.as_str().into_deserializer();
+        let chosen = E::deserialize(de).map_err(|e| e.0);
+        Ok(Self { name, chosen })
+    }
+}
+
+/// Why a name is not a variant: `` `x` is not one of: a, b ``.
+#[derive(Debug)]
+struct NotOneOf(String);
+
+impl serde::de::Error for NotOneOf {
+    fn custom<T: fmt::Display>(msg: T) -> Self {
+        Self(msg.to_string())
+    }
+    fn unknown_variant(name: &str, names: &'static [&'static str]) -> Self {
+        Self(format!("`{name}` is not one of: {}", names.join(", ")))
+    }
+}
+
+impl fmt::Display for NotOneOf {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for NotOneOf {}
 
 #[cfg(test)]
 mod tests {

@@ -30,7 +30,8 @@ pub struct HandConfig {
 }
 
 /// What the pilot is asked to do.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Task {
     /// Follow a grip position (m along the grip path).
     Position,

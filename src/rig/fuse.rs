@@ -24,7 +24,7 @@ pub struct Fused {
 
 impl Fused {
     /// Body link and offset of an original link.
-    pub fn body_of(&self, link: &str) -> Option<(&str, Frame)> {
+    pub(crate) fn body_of(&self, link: &str) -> Option<(&str, Frame)> {
         self.link_in_body
             .iter()
             .find(|(n, _, _)| n == link)
@@ -33,7 +33,7 @@ impl Fused {
 }
 
 /// Fold every `fixed` joint of `robot` (a tree; checked by the loader) into its parent link.
-pub fn fuse_fixed(robot: &urdf_rs::Robot) -> Fused {
+pub(crate) fn fuse_fixed(robot: &urdf_rs::Robot) -> Fused {
     let parent_joint = |link: &str| robot.joints.iter().find(|j| j.child.link == link);
     // Body of each link: climb fixed joints, composing their origins.
     let link_in_body: Vec<(String, String, Frame)> = robot

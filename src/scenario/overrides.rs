@@ -12,8 +12,9 @@ use std::path::{Path, PathBuf};
 
 use toml_edit::{DocumentMut, ImDocument, Item, TableLike};
 
-use super::{Scenario, ScenarioError};
+use super::Scenario;
 use crate::input::text::line_of;
+use crate::input::{InputError, Source};
 
 /// Where an override was written, for its errors.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -46,6 +47,7 @@ pub struct Override {
 }
 
 impl Override {
+    /// `key` set to `value`, written at `origin`.
     pub fn set(key: &str, value: toml::Value, origin: Origin) -> Self {
         Self {
             key: key.to_string(),
@@ -81,13 +83,13 @@ const PATH_KEYS: [&str; 5] = [
 impl Scenario {
     /// The scenario at `path` with `overrides` applied in order, checked as a whole: the one public entry
     /// for a scenario changed by key (sweeps, `--set`, the Python bindings).
-    pub fn load_with(path: &Path, overrides: &[Override]) -> Result<Self, ScenarioError> {
-        let text = super::read(path)?;
-        Self::parse_with(&text, path, overrides)
+    pub fn load_with(path: &Path, overrides: &[Override]) -> Result<Self, InputError> {
+        let src = Source::read(path)?;
+        Self::parse_with(&src.text, path, overrides)
     }
 
     /// [`Scenario::load_with`] of a scenario text already read from `path`.
-    pub fn parse_with(text: &str, path: &Path, overrides: &[Override]) -> Result<Self, ScenarioError> {
+    pub fn parse_with(text: &str, path: &Path, overrides: &[Override]) -> Result<Self, InputError> {
         if overrides.is_empty() {
             return Self::parse(text, path);
         }
@@ -105,22 +107,22 @@ struct Edited {
     inserted: Vec<usize>,
 }
 
-fn field_err(o: &Override, msg: impl Into<String>) -> ScenarioError {
-    ScenarioError::Override {
-        origin: o.origin.clone(),
-        key: o.key.clone(),
-        msg: msg.into(),
+/// An error at the place the override was written, naming its key.
+fn field_err(o: &Override, msg: impl Into<String>) -> InputError {
+    match &o.origin {
+        Origin::File { path, line } => InputError::field(path, *line, &o.key, msg),
+        Origin::Argument(arg) => InputError {
+            field: Some(o.key.clone()),
+            ..InputError::file(arg, msg)
+        },
     }
 }
 
-fn edit(text: &str, path: &Path, overrides: &[Override]) -> Result<Edited, ScenarioError> {
-    let mut doc: DocumentMut = text
-        .parse()
-        .map_err(|e: toml_edit::TomlError| ScenarioError::Parse {
-            path: path.to_path_buf(),
-            line: e.span().map_or(1, |s| line_of(text, s.start)),
-            msg: e.message().trim().to_string(),
-        })?;
+fn edit(text: &str, path: &Path, overrides: &[Override]) -> Result<Edited, InputError> {
+    let mut doc: DocumentMut = text.parse().map_err(|e: toml_edit::TomlError| {
+        let line = e.span().map_or(1, |s| line_of(text, s.start));
+        InputError::line(path, line, e.message().trim())
+    })?;
     let mut added = Vec::new();
     for o in overrides {
         let value = o.value.as_ref().map(|v| resolve_path(o, v)).transpose()?;
@@ -128,13 +130,12 @@ fn edit(text: &str, path: &Path, overrides: &[Override]) -> Result<Edited, Scena
         added.push(!was_there && o.value.is_some());
     }
     let text = doc.to_string();
-    let spans = ImDocument::parse(text.as_str()).map_err(|e| ScenarioError::Parse {
-        path: path.to_path_buf(),
-        line: 1,
-        msg: format!(
+    let spans = ImDocument::parse(text.as_str()).map_err(|e| {
+        let msg = format!(
             "the scenario with its overrides is not TOML: {}",
             e.message().trim()
-        ),
+        );
+        InputError::line(path, 1, msg)
     })?;
     let mut lines = Vec::new();
     let mut inserted = Vec::new();
@@ -161,53 +162,23 @@ fn edit(text: &str, path: &Path, overrides: &[Override]) -> Result<Edited, Scena
 impl Edited {
     /// An error of the edited scenario, placed: at the override whose line or key it names, else at the
     /// scenario file's own line (lines the overrides added taken out) with the overrides named.
-    fn place(&self, mut e: ScenarioError, overrides: &[Override]) -> ScenarioError {
-        let (line, key, msg) = match &e {
-            ScenarioError::Parse { line, msg, .. } => (*line, None, msg.clone()),
-            ScenarioError::Field { line, key, msg, .. } => (*line, Some(key.clone()), msg.clone()),
-            ScenarioError::Faults(crate::faults::FaultError::Parse { line, msg, .. }) => {
-                (*line, None, msg.clone())
-            }
-            ScenarioError::Faults(crate::faults::FaultError::Field {
-                line,
-                key,
-                msg,
-                index,
-                ..
-            }) => (*line, Some(format!("fault.{index}.{key}")), msg.clone()),
-            _ => return e,
-        };
+    fn place(&self, mut e: InputError, overrides: &[Override]) -> InputError {
+        let Some(line) = e.line else { return e };
         // The last override that wrote the line or the key: it is the value the scenario was given.
         let by_line = overrides
             .iter()
             .zip(&self.lines)
             .rev()
-            .find(|(_, r)| r.contains(&line))
-            .map(|(o, _)| o);
+            .find(|(_, r)| r.contains(&line));
         let by_key = || {
-            key.as_ref().and_then(|k| {
-                overrides
-                    .iter()
-                    .rev()
-                    .find(|o| &o.key == k || k.starts_with(&format!("{}.", o.key)))
-            })
+            let field = e.field.as_deref()?;
+            let within = |o: &&Override| field == o.key || field.starts_with(&format!("{}.", o.key));
+            overrides.iter().rev().find(within)
         };
-        if let Some(o) = by_line.or_else(by_key) {
-            // The parser's message names the key already where it is the override's own.
-            let msg = msg
-                .strip_prefix(&format!("`{}`: ", o.key.rsplit('.').next().unwrap_or(&o.key)))
-                .unwrap_or(&msg)
-                .to_string();
-            return field_err(o, msg);
+        if let Some(o) = by_line.map(|(o, _)| o).or_else(by_key) {
+            return field_err(o, e.msg);
         }
-        let shift = self.inserted.iter().filter(|&&l| l < line).count();
-        match &mut e {
-            ScenarioError::Parse { line, .. }
-            | ScenarioError::Field { line, .. }
-            | ScenarioError::Faults(crate::faults::FaultError::Parse { line, .. })
-            | ScenarioError::Faults(crate::faults::FaultError::Field { line, .. }) => *line -= shift,
-            _ => {}
-        }
+        e.line = Some(line - self.inserted.iter().filter(|&&l| l < line).count());
         let named: Vec<String> = overrides
             .iter()
             .map(|o| match &o.value {
@@ -215,17 +186,15 @@ impl Edited {
                 None => format!("{} `{}` removed", o.origin, o.key),
             })
             .collect();
-        ScenarioError::Overridden {
-            error: Box::new(e),
-            overrides: named.join("; "),
-        }
+        e.msg = format!("{} (with the overrides {})", e.msg, named.join("; "));
+        e
     }
 }
 
 /// A path value made absolute against the directory of the file it was written in (or the working
 /// directory), so that the scenario, which reads paths relative to itself, reads the one meant. A path
 /// with no file there is left as written, for the scenario's own search (data directory, built-in files).
-fn resolve_path(o: &Override, v: &toml::Value) -> Result<toml::Value, ScenarioError> {
+fn resolve_path(o: &Override, v: &toml::Value) -> Result<toml::Value, InputError> {
     if !PATH_KEYS.contains(&o.key.as_str()) {
         return Ok(v.clone());
     }
@@ -256,7 +225,7 @@ fn find<'a>(root: &'a Item, key: &str) -> Option<&'a Item> {
 }
 
 /// Write one override into the document; `true` if the key was there before.
-fn apply(doc: &mut DocumentMut, o: &Override, value: Option<&toml::Value>) -> Result<bool, ScenarioError> {
+fn apply(doc: &mut DocumentMut, o: &Override, value: Option<&toml::Value>) -> Result<bool, InputError> {
     let parts: Vec<&str> = o.key.split('.').collect();
     if parts.iter().any(|p| p.is_empty()) {
         return Err(field_err(
@@ -314,7 +283,7 @@ fn set_in(
     o: &Override,
     key: &str,
     value: Option<&toml::Value>,
-) -> Result<bool, ScenarioError> {
+) -> Result<bool, InputError> {
     let Some(value) = value else {
         return Ok(table.remove(key).is_some());
     };
@@ -426,7 +395,7 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(
-            e.starts_with("plan.toml:7: `feel.gradient_n_per_mm`: unknown field"),
+            e.starts_with("plan.toml:7: field `feel.gradient_n_per_mm`: unknown field"),
             "{e}"
         );
         let e = Scenario::load_with(
@@ -437,7 +406,7 @@ mod tests {
         .to_string();
         assert!(
             e.starts_with(
-                "plan.toml:9: `aircraft.airspeed_m_s`: value 5 outside the allowed range [10, 300]"
+                "plan.toml:9: field `aircraft.airspeed_m_s`: value 5 outside the allowed range [10, 300]"
             ),
             "{e}"
         );
@@ -448,7 +417,7 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(
-            e.starts_with("plan.toml:2: `controller.kp_a_per_n`: invalid type"),
+            e.starts_with("plan.toml:2: field `controller.kp_a_per_n`: invalid type"),
             "{e}"
         );
     }
@@ -473,7 +442,7 @@ mod tests {
         ];
         let e = Scenario::load_with(&base(), &ov).unwrap_err().to_string();
         let want = format!(
-            "{}:{daq_line}: `daq.sample_rate_hz`: value 1000 outside",
+            "{}:{daq_line}: field `daq.sample_rate_hz`: value 1000 outside",
             base().display()
         );
         assert!(e.starts_with(&want), "{e}\nwanted {want}");
@@ -523,7 +492,7 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(
-            e.starts_with("--set feel.law=springy: `feel.law`: `springy` is not one of"),
+            e.starts_with("--set feel.law=springy: field `feel.law`: `springy` is not one of"),
             "{e}"
         );
     }
@@ -589,6 +558,6 @@ mod tests {
         )
         .unwrap_err()
         .to_string();
-        assert!(e.starts_with("plan.toml:6: `fault`"), "{e}");
+        assert!(e.starts_with("plan.toml:6: field `fault`"), "{e}");
     }
 }

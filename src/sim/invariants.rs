@@ -9,12 +9,12 @@ use crate::scenario::Scenario;
 /// Largest |energy residual| of a run (pilot and motor work against the change of kinetic, potential and
 /// spring energy plus the energy dissipated, relative to the work done): the rig's shipped scenarios close
 /// it within 1 %; a physics step too coarse for the motion leaves tens of per cent.
-pub const ENERGY_RESIDUAL_TOLERANCE: f64 = 0.05;
+pub(crate) const ENERGY_RESIDUAL_TOLERANCE: f64 = 0.05;
 
 /// Imbalance, J, below which the energy balance is not judged whatever the work done: a stick held at rest
 /// by the damper's yield force does microjoules of work, against which the integrator's rounding is a large
 /// share but no error (a millijoule is 10 N over 0.1 mm).
-pub const ENERGY_FLOOR_J: f64 = 1e-3;
+pub(crate) const ENERGY_FLOOR_J: f64 = 1e-3;
 
 /// Physics steps per period of the pilot's command below which the command, rather than the physics rate,
 /// is named as the likely cause: the hand's work over a step is `F·Δx` with `F` held, exact only when the
@@ -111,7 +111,7 @@ fn not_finite(r: &Row) -> Option<(&'static str, f64)> {
 
 /// The invariants checked row by row as a run goes ([`Checker::push`]) and over the whole run at its end
 /// ([`Checker::finish`]), so that a run streamed to its outputs keeps no rows.
-pub struct Checker<'a> {
+pub(crate) struct Checker<'a> {
     scn: &'a Scenario,
     first: Option<Row>,
     /// The first time the running energy imbalance exceeded the tolerance of the work done so far.

@@ -27,10 +27,10 @@ use crate::control::LoopMode;
 use crate::viz::plot::{save_charts, Chart, PlotError, Series};
 
 /// Length of the trailing mean the settling time is measured on, s (see the module doc).
-pub const SETTLING_AVERAGE_S: f64 = 1e-3;
+pub(crate) const SETTLING_AVERAGE_S: f64 = 1e-3;
 
 #[derive(Debug, Clone, Copy, Serialize, PartialEq)]
-pub struct StepResponse {
+pub(crate) struct StepResponse {
     pub t_step_s: f64,
     pub from_n: f64,
     pub to_n: f64,
@@ -42,7 +42,7 @@ pub struct StepResponse {
 }
 
 /// Responses to every valid step of a `ForceSteps` law in a run.
-pub fn step_responses(res: &Results, law: &FeelLaw) -> Vec<StepResponse> {
+pub(crate) fn step_responses(res: &Results, law: &FeelLaw) -> Vec<StepResponse> {
     let FeelLaw::ForceSteps { period_s, .. } = *law else {
         return Vec::new();
     };
@@ -139,7 +139,7 @@ pub struct SweepPoint {
     pub tracking_nrmse: Option<f64>,
 }
 
-pub fn summarise(rate_hz: f64, steps: &[StepResponse], res: &Results) -> SweepPoint {
+pub(crate) fn summarise(rate_hz: f64, steps: &[StepResponse], res: &Results) -> SweepPoint {
     let n = steps.len() as f64;
     let any = !steps.is_empty();
     let settled: Vec<f64> = steps.iter().filter_map(|s| s.settling_s).collect();

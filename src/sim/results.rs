@@ -53,7 +53,7 @@ pub struct Row {
     pub aero: Option<AeroRow>,
 }
 
-pub const CSV_COLUMNS: [&str; 24] = [
+pub(crate) const CSV_COLUMNS: [&str; 24] = [
     "t_s",
     "stick_angle_rad",
     "stick_rate_rad_s",
@@ -81,7 +81,7 @@ pub const CSV_COLUMNS: [&str; 24] = [
 ];
 
 /// Columns added when the scenario flies an aircraft.
-pub const AERO_COLUMNS: [&str; 13] = [
+pub(crate) const AERO_COLUMNS: [&str; 13] = [
     "qbar_pa",
     "elevator_rad",
     "hinge_moment_nm",
@@ -111,7 +111,7 @@ pub struct FlightInfo {
     pub estimates: Vec<String>,
 }
 
-pub fn mode_code(m: LoopMode) -> u8 {
+pub(crate) fn mode_code(m: LoopMode) -> u8 {
     match m {
         LoopMode::Holding => 0,
         LoopMode::Tracking => 1,
@@ -261,7 +261,7 @@ impl Results {
     }
 
     /// The CSV's metadata block and header ([`Results::write_csv`]), from the run's facts alone (no rows).
-    pub fn write_csv_head(&self, mut w: impl Write) -> std::io::Result<()> {
+    pub(crate) fn write_csv_head(&self, mut w: impl Write) -> std::io::Result<()> {
         writeln!(w, "# source: mrfeel run")?;
         writeln!(w, "# scenario: {}", self.scenario)?;
         writeln!(
@@ -299,7 +299,7 @@ impl Results {
     }
 
     /// One row of the CSV ([`Results::write_csv`]).
-    pub fn write_csv_row(&self, mut w: impl Write, r: &Row) -> std::io::Result<()> {
+    pub(crate) fn write_csv_row(&self, mut w: impl Write, r: &Row) -> std::io::Result<()> {
         let aero = self.flight.is_some();
         {
             for (k, v) in r.values().iter().enumerate() {

@@ -29,14 +29,14 @@ pub type Level = u8;
 
 /// Stick-force-per-g bounds of one Level, N/g.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PerGBounds {
+pub(crate) struct PerGBounds {
     pub min_n_per_g: f64,
     pub max_n_per_g: f64,
 }
 
 /// MIL-F-8785C Table V for a centre stick: the bounds of Levels 1, 2 and 3, N/g, for limit load factor
 /// `n_limit` (g) and acceleration sensitivity `n_per_alpha` (g/rad).
-pub fn centre_stick_per_g_bounds(n_limit: f64, n_per_alpha: f64) -> [PerGBounds; 3] {
+pub(crate) fn centre_stick_per_g_bounds(n_limit: f64, n_per_alpha: f64) -> [PerGBounds; 3] {
     let dn = n_limit - 1.0;
     let b = |min_lbf: f64, max_lbf: f64| PerGBounds {
         min_n_per_g: min_lbf * LBF_TO_N,
@@ -56,7 +56,7 @@ pub fn centre_stick_per_g_bounds(n_limit: f64, n_per_alpha: f64) -> [PerGBounds;
 }
 
 /// The best Level whose bounds hold `per_g_n` (N/g), 4 if none does.
-pub fn per_g_level(per_g_n: f64, bounds: &[PerGBounds; 3]) -> Level {
+pub(crate) fn per_g_level(per_g_n: f64, bounds: &[PerGBounds; 3]) -> Level {
     bounds
         .iter()
         .position(|b| (b.min_n_per_g..=b.max_n_per_g).contains(&per_g_n))
@@ -65,13 +65,13 @@ pub fn per_g_level(per_g_n: f64, bounds: &[PerGBounds; 3]) -> Level {
 
 /// Temporary and prolonged force limits of a basis, N: (temporary, prolonged). A stick under Part 23
 /// takes its one stick value (60 lbf); under Part 25 the one-hand value (a stick is flown one-handed).
-pub fn force_limits(basis: &CertificationBasis) -> (f64, f64) {
+pub(crate) fn force_limits(basis: &CertificationBasis) -> (f64, f64) {
     (basis.short_term_one_hand_n, basis.long_term_n)
 }
 
 /// Largest mean |force| over any window of `window_s` (the force held for a prolonged application), N;
 /// `None` when the run is shorter than the window. `t` and `f` are samples at increasing times.
-pub fn prolonged_force_n(t: &[f64], f: &[f64], window_s: f64) -> Option<f64> {
+pub(crate) fn prolonged_force_n(t: &[f64], f: &[f64], window_s: f64) -> Option<f64> {
     let n = t.len().min(f.len());
     if n < 2 || t[n - 1] - t[0] < window_s {
         return None;
@@ -96,16 +96,13 @@ pub fn prolonged_force_n(t: &[f64], f: &[f64], window_s: f64) -> Option<f64> {
 }
 
 /// Part 60 force tolerance at a reference force, N: ±10 lbf or ±10 % of it, whichever is larger.
-pub fn part60_force_tolerance_n(reference_n: f64) -> f64 {
+pub(crate) fn part60_force_tolerance_n(reference_n: f64) -> f64 {
     (10.0 * LBF_TO_N).max(0.1 * reference_n.abs())
 }
 
-/// Part 60 breakout tolerance, N (±2 lbf).
-pub const PART60_BREAKOUT_TOLERANCE_N: f64 = 2.0 * LBF_TO_N;
-
 /// Largest |felt − reference| over the samples, as a ratio of the Part 60 tolerance at each sample: at most
 /// 1 meets the test. `None` without samples.
-pub fn part60_force_ratio(felt_n: &[f64], reference_n: &[f64]) -> Option<f64> {
+pub(crate) fn part60_force_ratio(felt_n: &[f64], reference_n: &[f64]) -> Option<f64> {
     felt_n
         .iter()
         .zip(reference_n)
@@ -194,6 +191,5 @@ mod tests {
         // 30 N off at 100 N is within (0.674), 70 N off at 600 N is not (1.167).
         let r = part60_force_ratio(&[130.0, 530.0], &[100.0, 600.0]).unwrap();
         assert!((r - 70.0 / 60.0).abs() < 1e-9, "{r}");
-        assert!((PART60_BREAKOUT_TOLERANCE_N - 8.896).abs() < 1e-3);
     }
 }

@@ -8,7 +8,7 @@
 //! order depends only on the plan and the runs' results, so shards merged equal one process to the byte.
 
 pub mod cli;
-pub mod hq;
+pub(crate) mod hq;
 pub mod outcome;
 pub mod plan;
 pub mod report;

@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 
 use crate::input::InputError;
-use crate::scenario::{Origin, Override, Scenario, ScenarioError};
+use crate::scenario::{Origin, Override, Scenario};
 use rand::{Rng, RngCore, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -20,7 +20,7 @@ pub enum PlanError {
     Input(#[from] InputError),
     /// A run's scenario refused (an axis value out of its key's range, an unknown key).
     #[error("run {index}: {error}")]
-    Run { index: u64, error: ScenarioError },
+    Run { index: u64, error: InputError },
 }
 
 /// A parameter's value in a run, as its column holds it.

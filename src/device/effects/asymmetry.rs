@@ -30,13 +30,13 @@ use crate::device::params::{DataStats, ParamSpec};
 
 /// Direction-dependent yield force, see the module documentation.
 #[derive(Debug, Clone, Copy, Default)]
-pub struct Asymmetry;
+pub(crate) struct Asymmetry;
 
 /// Index of the parameter in the effect's slice.
-pub const FRACTION: usize = 0;
+pub(crate) const FRACTION: usize = 0;
 
 /// Index of the share of the asymmetry that follows the direction of motion.
-pub const MOTION_SHARE: usize = 1;
+pub(crate) const MOTION_SHARE: usize = 1;
 
 const PARAMS: [ParamSpec; 2] = [
     ParamSpec::new(

@@ -24,11 +24,11 @@ use super::Scales;
 
 /// Damping rising with current, see the module documentation.
 #[derive(Debug, Clone, Copy, Default)]
-pub struct CurrentViscosity;
+pub(crate) struct CurrentViscosity;
 
 /// Indices of the parameters in the effect's slice.
-pub const C1: usize = 0;
-pub const EXPONENT: usize = 1;
+pub(crate) const C1: usize = 0;
+pub(crate) const EXPONENT: usize = 1;
 
 const PARAMS: [ParamSpec; 2] = [
     ParamSpec::new(

@@ -60,13 +60,13 @@ use super::Scales;
 /// Pre-yield hysteresis (Spencer et al. 1997 reduced: a normalised Bouc–Wen element in series with a viscous
 /// pre-yield dashpot), see the module documentation.
 #[derive(Debug, Clone, Copy, Default)]
-pub struct Hysteresis;
+pub(crate) struct Hysteresis;
 
 /// Indices of the parameters in the effect's slice.
-pub const X_YIELD: usize = 0;
-pub const V_YIELD: usize = 1;
-pub const KNEE: usize = 2;
-pub const GAMMA_SHARE: usize = 3;
+pub(crate) const X_YIELD: usize = 0;
+pub(crate) const V_YIELD: usize = 1;
+pub(crate) const KNEE: usize = 2;
+pub(crate) const GAMMA_SHARE: usize = 3;
 
 const PARAMS: [ParamSpec; 4] = [
     ParamSpec::new(
@@ -118,7 +118,7 @@ const PARAMS: [ParamSpec; 4] = [
 ];
 
 /// `v/v_y` limited to [-1, 1]: the direction at a steady velocity (`sgn v` when `v_y = 0`).
-pub fn steady_direction(v_m_s: f64, v_yield_m_s: f64) -> f64 {
+pub(crate) fn steady_direction(v_m_s: f64, v_yield_m_s: f64) -> f64 {
     if v_yield_m_s > 0.0 {
         (v_m_s / v_yield_m_s).clamp(-1.0, 1.0)
     } else {
@@ -128,7 +128,7 @@ pub fn steady_direction(v_m_s: f64, v_yield_m_s: f64) -> f64 {
 
 /// One exact step of the Dahl law `dz/dx = (sgn dx − z)/x_y` over a monotone increment `dx` (the `v_y = 0`
 /// case of [`step`]; rate independent).
-pub fn dahl_step(z: f64, dx_m: f64, x_yield_m: f64) -> f64 {
+pub(crate) fn dahl_step(z: f64, dx_m: f64, x_yield_m: f64) -> f64 {
     if dx_m == 0.0 {
         return z;
     }
@@ -271,7 +271,15 @@ fn reciprocal(n: usize) -> f64 {
 /// One step of the full law over a sample (velocity held at `dx/dt`; see the module documentation).
 /// Continuous in every parameter; within 3e-4 of the closed form [`step`] for the Dahl shape (unit test
 /// `the_dahl_shape_follows_its_closed_form`).
-pub fn shaped_step(z: f64, dx_m: f64, dt_s: f64, x_yield_m: f64, v_yield_m_s: f64, knee: f64, g: f64) -> f64 {
+pub(crate) fn shaped_step(
+    z: f64,
+    dx_m: f64,
+    dt_s: f64,
+    x_yield_m: f64,
+    v_yield_m_s: f64,
+    knee: f64,
+    g: f64,
+) -> f64 {
     let dt_s = if dt_s.is_finite() { dt_s.max(0.0) } else { 0.0 };
     if x_yield_m <= 0.0 {
         return step(z, dx_m, dt_s, x_yield_m, v_yield_m_s);

@@ -14,10 +14,10 @@ use super::Scales;
 
 /// Moving mass, see the module documentation.
 #[derive(Debug, Clone, Copy, Default)]
-pub struct Inertia;
+pub(crate) struct Inertia;
 
 /// Index of the parameter in the effect's slice.
-pub const MASS: usize = 0;
+pub(crate) const MASS: usize = 0;
 
 const PARAMS: [ParamSpec; 1] = [ParamSpec::new(
     "inertia_mass_kg",

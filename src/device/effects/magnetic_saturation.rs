@@ -24,10 +24,10 @@ use super::Scales;
 
 /// Yield force saturating with current, see the module documentation.
 #[derive(Debug, Clone, Copy, Default)]
-pub struct MagneticSaturation;
+pub(crate) struct MagneticSaturation;
 
 /// Index of the parameter in the effect's slice.
-pub const I_SAT: usize = 0;
+pub(crate) const I_SAT: usize = 0;
 
 const PARAMS: [ParamSpec; 1] = [ParamSpec::new(
     "sat_current_a",

@@ -25,16 +25,16 @@ pub mod thermal_drift;
 use super::model::Registry;
 use super::params::DataStats;
 
-pub use asymmetry::Asymmetry;
-pub use current_viscosity::CurrentViscosity;
-pub use hysteresis::Hysteresis;
-pub use inertia::Inertia;
-pub use magnetic_saturation::MagneticSaturation;
-pub use stiffness::Stiffness;
-pub use thermal_drift::ThermalDrift;
+pub(crate) use asymmetry::Asymmetry;
+pub(crate) use current_viscosity::CurrentViscosity;
+pub(crate) use hysteresis::Hysteresis;
+pub(crate) use inertia::Inertia;
+pub(crate) use magnetic_saturation::MagneticSaturation;
+pub(crate) use stiffness::Stiffness;
+pub(crate) use thermal_drift::ThermalDrift;
 
 /// Register every effect of the canonical vocabulary.
-pub fn register_builtin(r: &mut Registry) {
+pub(crate) fn register_builtin(r: &mut Registry) {
     r.register(Hysteresis)
         .register(Asymmetry)
         .register(MagneticSaturation)

@@ -25,12 +25,12 @@ use super::Scales;
 
 /// Spring with preload over the whole stroke, see the module documentation.
 #[derive(Debug, Clone, Copy, Default)]
-pub struct Stiffness;
+pub(crate) struct Stiffness;
 
 /// Indices of the parameters in the effect's slice.
 pub const K: usize = 0;
-pub const PRELOAD: usize = 1;
-pub const K3: usize = 2;
+pub(crate) const PRELOAD: usize = 1;
+pub(crate) const K3: usize = 2;
 
 const PARAMS: [ParamSpec; 3] = [
     ParamSpec::new(

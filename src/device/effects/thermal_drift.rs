@@ -26,10 +26,10 @@ use super::Scales;
 
 /// Yield force falling with dissipated heat, see the module documentation.
 #[derive(Debug, Clone, Copy, Default)]
-pub struct ThermalDrift;
+pub(crate) struct ThermalDrift;
 
 /// Indices of the parameters in the effect's slice.
-pub const ENERGY: usize = 0;
+pub(crate) const ENERGY: usize = 0;
 pub const TAU: usize = 1;
 
 const PARAMS: [ParamSpec; 2] = [
@@ -53,12 +53,12 @@ const PARAMS: [ParamSpec; 2] = [
 ];
 
 /// Relative yield force at stored heat `e_j`.
-pub fn yield_factor(e_j: f64, energy_j: f64) -> f64 {
+pub(crate) fn yield_factor(e_j: f64, energy_j: f64) -> f64 {
     (1.0 - e_j.max(0.0) / energy_j).max(0.0)
 }
 
 /// Exact step of `dE/dt = P − E/τ` with `P` held over `dt`.
-pub fn heat_step(e_j: f64, power_w: f64, tau_s: f64, dt_s: f64) -> f64 {
+pub(crate) fn heat_step(e_j: f64, power_w: f64, tau_s: f64, dt_s: f64) -> f64 {
     let steady = power_w * tau_s;
     steady + (e_j - steady) * (-dt_s / tau_s).exp()
 }

@@ -1,0 +1,860 @@
+//! Scenario files (`scenarios/*.toml`), read into a checked [`Scenario`]: every key typed, every number in
+//! its range, every variant's keys required or refused, the files it names found, each error at its line.
+
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+use toml::Spanned;
+
+use super::faults::FaultTable;
+use super::{InputError, Source, Variant};
+use crate::control::feel::{CentringSpring, FeelKind, FeelSprings, FeelSystemConfig};
+use crate::control::{AntiWindup, FeelLaw, PidGains};
+use crate::pilot::attitude::{CrossoverPilotConfig, PilotLoop, Schedule};
+use crate::pilot::{Signal, Task};
+use crate::rig::{RigConfig, RigRoles};
+use crate::scenario::{
+    AircraftConfig, ControllerConfig, KeyLines, OuterLoopConfig, PilotConfig, PilotDesign, Scenario,
+    MAX_PHYSICS_STEPS,
+};
+use crate::sensors::{DaqConfig, LaserConfig, LoadCellConfig, SensorsConfig};
+
+type Num = Spanned<f64>;
+type Opt = Option<Spanned<f64>>;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct File {
+    name: String,
+    #[serde(default, rename = "description")]
+    _description: String,
+    duration_s: Num,
+    seed: Spanned<i64>,
+    rig: RigSection,
+    device: DeviceSection,
+    load_cell: LoadCellSection,
+    laser: LaserSection,
+    daq: DaqSection,
+    controller: ControllerSection,
+    feel: FeelSection,
+    pilot: PilotSection,
+    #[serde(default)]
+    fault: Vec<FaultTable>,
+    aircraft: Option<AircraftSection>,
+    outer_loop: Option<OuterLoopSection>,
+    feel_system: Option<FeelSystemSection>,
+}
+
+/// [`RigConfig`] with the places of the keys a scenario's errors name (the table itself has no span when
+/// written with dotted keys, `rig.urdf = …`).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RigSection {
+    urdf: Spanned<PathBuf>,
+    physics_hz: Opt,
+    gravity: Option<bool>,
+    solver_iterations: Option<usize>,
+    pgs_iterations: Option<usize>,
+    stop_natural_hz: Option<f64>,
+    fuse_fixed_links: Option<bool>,
+    planar_loop_rows: Option<bool>,
+    roles: Option<RigRoles>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DeviceSection {
+    file: Spanned<PathBuf>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LoadCellSection {
+    range_n: Num,
+    gain: Num,
+    offset_n: Num,
+    noise_rms_n: Num,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LaserSection {
+    range_m: Num,
+    noise_rms_m: Num,
+    velocity_cutoff_hz: Num,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DaqSection {
+    sample_rate_hz: Num,
+    latency_samples: Spanned<i64>,
+    adc_bits: Spanned<i64>,
+}
+
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+enum AntiWindupName {
+    None,
+    Clamping,
+    BackCalculation,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ControllerSection {
+    kp_a_per_n: Num,
+    ki_a_per_n_s: Num,
+    kd_a_s_per_n: Num,
+    derivative_filter_s: Num,
+    anti_windup: Spanned<Variant<AntiWindupName>>,
+    tracking_time_s: Opt,
+    feedforward: bool,
+    rest_speed_m_s: Num,
+    rest_force_n: Num,
+    current_min_a: Num,
+    current_max_a: Num,
+    /// The model the controller believes (a device file or a `PARAMS.json`); the plant's if absent.
+    model: Option<Spanned<PathBuf>>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+enum LawName {
+    Spring,
+    ForceSteps,
+    Aircraft,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+enum SignalName {
+    Hold,
+    Step,
+    Ramp,
+    Sine,
+    Triangle,
+    Random,
+    OuterLoop,
+}
+
+impl SignalName {
+    /// The keys the signal takes (a command value without its unit suffix).
+    fn keys(self) -> &'static [&'static str] {
+        match self {
+            Self::Hold => &["value"],
+            Self::Step => &["initial", "final", "at_s"],
+            Self::Ramp => &["from", "to", "start_s", "ramp_duration_s"],
+            Self::Sine | Self::Triangle => &["offset", "amplitude", "frequency_hz"],
+            Self::Random => &["offset", "rms", "cutoff_hz"],
+            Self::OuterLoop => &[],
+        }
+    }
+}
+
+/// A section whose variant (chosen by one of its `fixed` fields) takes some of its optional numbers
+/// (`keys`), listed by `keys()` so that those of another variant are refused.
+macro_rules! keyed_section {
+    ($(#[$doc:meta])* $name:ident { $($fixed:ident: $ty:ty),* } $($key:ident),*) => {
+        $(#[$doc])*
+        #[derive(Deserialize)]
+        #[serde(deny_unknown_fields)]
+        struct $name {
+            $($fixed: $ty,)*
+            $($key: Opt,)*
+        }
+
+        impl $name {
+            /// Every optional number as written.
+            fn keys(&self) -> Vec<(&'static str, Option<&Num>)> {
+                vec![$((stringify!($key), self.$key.as_ref())),*]
+            }
+        }
+    };
+}
+
+keyed_section!(
+    /// `[pilot]`: a command value's key ends in the task's unit (`_rad`, `_n`).
+    PilotSection { model: Spanned<PathBuf>, task: Spanned<Variant<Task>>, signal: Spanned<Variant<SignalName>> }
+    value_rad, value_n, initial_rad, initial_n, final_rad, final_n, from_rad, from_n, to_rad, to_n,
+    offset_rad, offset_n, amplitude_rad, amplitude_n, rms_rad, rms_n, at_s, start_s, ramp_duration_s,
+    frequency_hz, cutoff_hz
+);
+
+keyed_section!(
+    FeelSection { law: Spanned<Variant<LawName>> }
+    breakout_n, gradient_n_per_m, damping_n_s_per_m, max_force_n, low_n, high_n, start_s, period_s
+);
+
+keyed_section!(
+    FeelSystemSection { kind: Spanned<String>, springs: Option<Spanned<PathBuf>> }
+    damping_n_s_per_m, qbar_pa, hybrid_k_n_per_m, return_damping_n_s_per_m, motor_max_force_n
+);
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AircraftSection {
+    model: Spanned<String>,
+    airspeed_m_s: Num,
+    altitude_m: Num,
+    rate_hz: Opt,
+    throttle: Option<Spanned<Vec<Point>>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct OuterLoopSection {
+    #[serde(rename = "loop")]
+    loop_kind: Spanned<Variant<PilotLoop>>,
+    gain: Opt,
+    lead_s: Opt,
+    lag_s: Opt,
+    delay_s: Num,
+    integral_per_s: Opt,
+    crossover_rad_s: Opt,
+    stick_lag_s: Opt,
+    /// `[[t_s, value], ...]`: pitch in degrees relative to trim, or load factor in g.
+    command: Spanned<Vec<Point>>,
+}
+
+/// A point `[t_s, value]` of a schedule: exactly two numbers (serde's `[f64; 2]` would read the first two
+/// of a longer array and drop the rest).
+#[derive(Clone, Copy)]
+struct Point(f64, f64);
+
+impl<'de> Deserialize<'de> for Point {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Two;
+        impl<'de> serde::de::Visitor<'de> for Two {
+            type Value = Point;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a point [t_s, value] of two numbers")
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Point, A::Error> {
+                use serde::de::Error;
+                let t = seq
+                    .next_element()?
+                    .ok_or_else(|| A::Error::invalid_length(0, &self))?;
+                let v = seq
+                    .next_element()?
+                    .ok_or_else(|| A::Error::invalid_length(1, &self))?;
+                let mut n = 2;
+                while seq.next_element::<serde::de::IgnoredAny>()?.is_some() {
+                    n += 1;
+                }
+                if n > 2 {
+                    return Err(A::Error::invalid_length(n, &self));
+                }
+                Ok(Point(t, v))
+            }
+        }
+        d.deserialize_seq(Two)
+    }
+}
+
+/// Checks of a section's keys against the file they are in.
+struct Check<'a>(&'a Source);
+
+impl Check<'_> {
+    fn num(&self, v: &Num, field: &str, lo: f64, hi: f64, unit: &str) -> Result<f64, InputError> {
+        self.0.within(v, field, lo..=hi, unit)
+    }
+
+    fn int(&self, v: &Spanned<i64>, field: &str, lo: i64, hi: i64) -> Result<i64, InputError> {
+        self.0.within_int(v, field, lo..=hi)
+    }
+
+    /// A key the variant chosen at `by` (named `name`) requires.
+    #[allow(clippy::too_many_arguments)]
+    fn need<T>(
+        &self,
+        v: &Opt,
+        field: &str,
+        by: &Spanned<T>,
+        name: &str,
+        lo: f64,
+        hi: f64,
+        unit: &str,
+    ) -> Result<f64, InputError> {
+        match v {
+            Some(v) => self.num(v, field, lo, hi, unit),
+            None => Err(self.0.err(by, field, format!("required by {name}"))),
+        }
+    }
+
+    /// The first key in the file, among `keys` (`section.key`), that is given but not in `used`.
+    fn unused(
+        &self,
+        section: &str,
+        keys: &[(&str, Option<&Num>)],
+        used: &[&str],
+        msg: &str,
+    ) -> Result<(), InputError> {
+        let first = keys
+            .iter()
+            .filter_map(|&(k, v)| v.map(|v| (k, v)))
+            .filter(|(k, _)| !used.contains(k))
+            .min_by_key(|(_, v)| v.span().start);
+        match first {
+            Some((k, v)) => Err(self.0.err(v, &format!("{section}.{k}"), msg)),
+            None => Ok(()),
+        }
+    }
+
+    /// A piecewise-linear schedule: at least one point, times finite and increasing, values in `[lo, hi]`.
+    fn schedule(
+        &self,
+        pts: &Spanned<Vec<Point>>,
+        field: &str,
+        lo: f64,
+        hi: f64,
+        unit: &str,
+    ) -> Result<Schedule, InputError> {
+        let p = pts.get_ref();
+        if p.is_empty() {
+            return Err(self.0.err(pts, field, "needs at least one [t_s, value] point"));
+        }
+        for (i, q) in p.iter().enumerate() {
+            if !(q.1.is_finite() && (lo..=hi).contains(&q.1)) {
+                let msg = format!(
+                    "point {i}: value {} outside the allowed range [{lo}, {hi}] {unit}",
+                    q.1
+                );
+                return Err(self.0.err(pts, field, msg.trim_end()));
+            }
+            if !q.0.is_finite() || (i > 0 && q.0 <= p[i - 1].0) {
+                return Err(self.0.err(
+                    pts,
+                    field,
+                    format!("point {i}: times must be finite and increasing"),
+                ));
+            }
+        }
+        Ok(Schedule {
+            points: p.iter().map(|q| (q.0, q.1)).collect(),
+        })
+    }
+}
+
+/// The scenario in `src`, checked.
+pub fn scenario(src: &Source) -> Result<Scenario, InputError> {
+    let f: File = src.toml()?;
+    let c = Check(src);
+    let line = |at: &Spanned<PathBuf>| src.line_of(at.span().start);
+    let mut rig = RigConfig::new(src.named_file(&f.rig.urdf, "rig.urdf", f.rig.urdf.get_ref())?);
+    let device_path = src.named_file(&f.device.file, "device.file", f.device.file.get_ref())?;
+    let controller_model_path = match &f.controller.model {
+        Some(m) => Some(src.named_file(m, "controller.model", m.get_ref())?),
+        None => None,
+    };
+    if let Some(hz) = &f.rig.physics_hz {
+        rig.physics_hz = c.num(hz, "rig.physics_hz", 100.0, 100_000.0, "Hz")?;
+    }
+    let r = &f.rig;
+    rig.gravity = r.gravity.unwrap_or(rig.gravity);
+    rig.solver_iterations = r.solver_iterations.unwrap_or(rig.solver_iterations);
+    rig.pgs_iterations = r.pgs_iterations.unwrap_or(rig.pgs_iterations);
+    rig.stop_natural_hz = r.stop_natural_hz.unwrap_or(rig.stop_natural_hz);
+    rig.fuse_fixed_links = r.fuse_fixed_links.unwrap_or(rig.fuse_fixed_links);
+    rig.planar_loop_rows = r.planar_loop_rows.unwrap_or(rig.planar_loop_rows);
+    rig.roles = r.roles.clone().unwrap_or(rig.roles);
+    let physics_hz = rig.physics_hz;
+
+    let duration_s = c.num(&f.duration_s, "duration_s", 1e-3, 3600.0, "s")?;
+    let steps = duration_s * physics_hz;
+    if steps > MAX_PHYSICS_STEPS {
+        let msg = format!(
+            "{duration_s} s at rig.physics_hz = {physics_hz} Hz is {steps:.0} physics steps: at most \
+             {MAX_PHYSICS_STEPS:e} (a run keeps a row of ~300 bytes per step: 3 GB); shorten the run or lower \
+             the physics rate"
+        );
+        return Err(src.err(&f.duration_s, "duration_s", msg));
+    }
+    let seed = c.int(&f.seed, "seed", 0, i64::MAX)? as u64;
+
+    let (lc, la, daq) = (&f.load_cell, &f.laser, &f.daq);
+    let sensors = SensorsConfig {
+        load_cell: LoadCellConfig {
+            range_n: c.num(&lc.range_n, "load_cell.range_n", 1.0, 1e5, "N")?,
+            gain: c.num(&lc.gain, "load_cell.gain", 0.5, 2.0, "")?,
+            offset_n: c.num(&lc.offset_n, "load_cell.offset_n", -50.0, 50.0, "N")?,
+            noise_rms_n: c.num(&lc.noise_rms_n, "load_cell.noise_rms_n", 0.0, 50.0, "N")?,
+        },
+        laser: LaserConfig {
+            range_m: c.num(&la.range_m, "laser.range_m", 1e-3, 1.0, "m")?,
+            noise_rms_m: c.num(&la.noise_rms_m, "laser.noise_rms_m", 0.0, 1e-2, "m")?,
+            velocity_cutoff_hz: c.num(&la.velocity_cutoff_hz, "laser.velocity_cutoff_hz", 0.1, 1e4, "Hz")?,
+        },
+        daq: DaqConfig {
+            sample_rate_hz: c.num(
+                &daq.sample_rate_hz,
+                "daq.sample_rate_hz",
+                1.0,
+                physics_hz,
+                "Hz (at most rig.physics_hz)",
+            )?,
+            latency_samples: c.int(&daq.latency_samples, "daq.latency_samples", 0, 1000)? as usize,
+            adc_bits: c.int(&daq.adc_bits, "daq.adc_bits", 0, 32)? as u32,
+        },
+    };
+
+    let k = &f.controller;
+    let anti_windup = match src.variant(&k.anti_windup, "controller.anti_windup")? {
+        AntiWindupName::None => AntiWindup::None,
+        AntiWindupName::Clamping => AntiWindup::Clamping,
+        AntiWindupName::BackCalculation => AntiWindup::BackCalculation {
+            tracking_time_s: c.need(
+                &k.tracking_time_s,
+                "controller.tracking_time_s",
+                &k.anti_windup,
+                "anti_windup = \"back-calculation\"",
+                1e-5,
+                10.0,
+                "s",
+            )?,
+        },
+    };
+    let out_min = c.num(&k.current_min_a, "controller.current_min_a", 0.0, 14.0, "A")?;
+    let out_max = c.num(
+        &k.current_max_a,
+        "controller.current_max_a",
+        out_min,
+        14.0,
+        "A (the driver saturates at 14 A)",
+    )?;
+    let controller = ControllerConfig {
+        gains: PidGains {
+            kp: c.num(&k.kp_a_per_n, "controller.kp_a_per_n", 0.0, 10.0, "A/N")?,
+            ki: c.num(&k.ki_a_per_n_s, "controller.ki_a_per_n_s", 0.0, 1000.0, "A/(N·s)")?,
+            kd: c.num(&k.kd_a_s_per_n, "controller.kd_a_s_per_n", 0.0, 1.0, "A·s/N")?,
+            derivative_filter_s: c.num(
+                &k.derivative_filter_s,
+                "controller.derivative_filter_s",
+                0.0,
+                1.0,
+                "s",
+            )?,
+            out_min,
+            out_max,
+            anti_windup,
+        },
+        feedforward: k.feedforward,
+        rest_speed_m_s: c.num(&k.rest_speed_m_s, "controller.rest_speed_m_s", 0.0, 1.0, "m/s")?,
+        rest_force_n: c.num(&k.rest_force_n, "controller.rest_force_n", 0.0, 250.0, "N")?,
+    };
+
+    let feel = feel_law(&c, &f.feel, duration_s, f.aircraft.is_some())?;
+    let aircraft = f
+        .aircraft
+        .as_ref()
+        .map(|a| aircraft(&c, a, physics_hz))
+        .transpose()?;
+    let outer_loop = f.outer_loop.as_ref().map(|o| outer_loop(&c, o)).transpose()?;
+    let (feel_system, springs_path) = match &f.feel_system {
+        Some(fs) => feel_system(&c, fs, aircraft.is_some())?,
+        None => (FeelSystemConfig::default(), None),
+    };
+    let signal = src.variant(&f.pilot.signal, "pilot.signal")?;
+    match (&f.outer_loop, signal == SignalName::OuterLoop) {
+        (Some(o), false) => {
+            let msg = "an `[outer_loop]` section needs `pilot.signal = \"outer-loop\"`";
+            return Err(src.err(&o.loop_kind, "outer_loop", msg));
+        }
+        (None, true) => {
+            let msg = "`outer-loop` needs an `[outer_loop]` section (the pilot's loop on the aircraft)";
+            return Err(src.err(&f.pilot.signal, "pilot.signal", msg));
+        }
+        (Some(o), true) if aircraft.is_none() => {
+            let msg = "the pilot's outer loop needs an `[aircraft]` section to fly";
+            return Err(src.err(&o.loop_kind, "outer_loop", msg));
+        }
+        (Some(_), true) if src.variant(&f.pilot.task, "pilot.task")? != Task::Position => {
+            let msg = "the outer loop commands a stick angle: `pilot.task` must be \"position\"";
+            return Err(src.err(&f.pilot.task, "pilot.task", msg));
+        }
+        _ => {}
+    }
+    let pilot = pilot(&c, &f.pilot, signal, duration_s, 1.0 / physics_hz, seed)?;
+    let p = &f.pilot;
+    let lines = KeyLines {
+        // A key not written: a line of its table (a required key's).
+        physics_hz: f
+            .rig
+            .physics_hz
+            .as_ref()
+            .map_or(line(&f.rig.urdf), |v| src.line_of(v.span().start)),
+        airspeed: f
+            .aircraft
+            .as_ref()
+            .map_or(1, |a| src.line_of(a.airspeed_m_s.span().start)),
+        aircraft_model: f
+            .aircraft
+            .as_ref()
+            .map_or(1, |a| src.line_of(a.model.span().start)),
+        feel_law: src.line_of(f.feel.law.span().start),
+        pilot_frequency: src.line_of(
+            p.frequency_hz
+                .as_ref()
+                .map_or(p.signal.span(), |v| v.span())
+                .start,
+        ),
+        device_file: line(&f.device.file),
+        controller_model: line(f.controller.model.as_ref().unwrap_or(&f.device.file)),
+    };
+    Ok(Scenario {
+        path: src.path.clone(),
+        lines,
+        name: f.name,
+        duration_s,
+        seed,
+        rig,
+        device_path,
+        controller_model_path,
+        sensors,
+        controller,
+        feel,
+        pilot,
+        faults: super::faults::schedule(src, &f.fault, duration_s)?,
+        aircraft,
+        outer_loop,
+        feel_system,
+        springs_path,
+    })
+}
+
+fn feel_law(c: &Check, fl: &FeelSection, duration_s: f64, has_aircraft: bool) -> Result<FeelLaw, InputError> {
+    let name = c.0.variant(&fl.law, "feel.law")?;
+    let by = &format!("`{}`", fl.law.get_ref().name());
+    let need = |v: &Opt, key: &str, lo: f64, hi: f64, unit: &str| {
+        c.need(v, &format!("feel.{key}"), &fl.law, by, lo, hi, unit)
+    };
+    let law = match name {
+        LawName::Spring => FeelLaw::Spring {
+            breakout_n: need(&fl.breakout_n, "breakout_n", 0.0, 250.0, "N")?,
+            gradient_n_per_m: need(&fl.gradient_n_per_m, "gradient_n_per_m", 0.0, 1e6, "N/m")?,
+            damping_n_s_per_m: need(&fl.damping_n_s_per_m, "damping_n_s_per_m", 0.0, 1e5, "N·s/m")?,
+            max_force_n: need(&fl.max_force_n, "max_force_n", 0.0, 250.0, "N")?,
+        },
+        LawName::ForceSteps => FeelLaw::ForceSteps {
+            low_n: need(&fl.low_n, "low_n", 0.0, 250.0, "N")?,
+            high_n: need(&fl.high_n, "high_n", 0.0, 250.0, "N")?,
+            start_s: need(&fl.start_s, "start_s", 0.0, duration_s, "s (within duration_s)")?,
+            period_s: need(&fl.period_s, "period_s", 1e-3, 3600.0, "s")?,
+        },
+        LawName::Aircraft if !has_aircraft => {
+            let msg = "`aircraft` needs an `[aircraft]` section (the aircraft whose stick force is felt)";
+            return Err(c.0.err(&fl.law, "feel.law", msg));
+        }
+        LawName::Aircraft => FeelLaw::Target { force_n: 0.0 },
+    };
+    let used: &[&str] = match name {
+        LawName::Spring => &[
+            "breakout_n",
+            "gradient_n_per_m",
+            "damping_n_s_per_m",
+            "max_force_n",
+        ],
+        LawName::ForceSteps => &["low_n", "high_n", "start_s", "period_s"],
+        LawName::Aircraft => &[],
+    };
+    c.unused("feel", &fl.keys(), used, &format!("not used by {by}"))?;
+    Ok(law)
+}
+
+fn feel_system(
+    c: &Check,
+    fs: &FeelSystemSection,
+    has_aircraft: bool,
+) -> Result<(FeelSystemConfig, Option<PathBuf>), InputError> {
+    let src = c.0;
+    let kind = FeelKind::from_name(fs.kind.get_ref()).ok_or_else(|| {
+        let msg = format!("`{}` is not one of: {}", fs.kind.get_ref(), FeelKind::names());
+        src.err(&fs.kind, "feel_system.kind", msg)
+    })?;
+    let by = format!("`{}`", kind.name());
+    let need = |v: &Opt, key: &str, hi: f64, unit: &str| {
+        c.need(v, &format!("feel_system.{key}"), &fs.kind, &by, 0.0, hi, unit)
+    };
+    // The keys each kind takes; any other is refused.
+    let used: &[&str] = match kind {
+        FeelKind::Active => &["motor_max_force_n", "damping_n_s_per_m"],
+        FeelKind::Mr => &[],
+        FeelKind::MrSpring => &["springs", "hybrid_k_n_per_m", "return_damping_n_s_per_m"],
+        FeelKind::QFeel => &["springs", "damping_n_s_per_m", "qbar_pa"],
+        FeelKind::CentringSpring | FeelKind::VariableGradientSpring => &["springs", "damping_n_s_per_m"],
+    };
+    if let Some(p) = fs.springs.as_ref().filter(|_| !used.contains(&"springs")) {
+        return Err(src.err(p, "feel_system.springs", format!("not used by {by}")));
+    }
+    c.unused("feel_system", &fs.keys(), used, &format!("not used by {by}"))?;
+    if kind == FeelKind::Active {
+        let config = FeelSystemConfig::active(
+            need(&fs.motor_max_force_n, "motor_max_force_n", 1e4, "N")?,
+            need(&fs.damping_n_s_per_m, "damping_n_s_per_m", 1e5, "N·s/m")?,
+        );
+        return Ok((config, None));
+    }
+    let Some(p) = &fs.springs else {
+        if kind == FeelKind::Mr {
+            return Ok((FeelSystemConfig::default(), None));
+        }
+        let msg = format!("required by {by} (a feel-spring file such as models/feel-springs.toml)");
+        return Err(src.err(&fs.kind, "feel_system.springs", msg));
+    };
+    let path = src.named_file(p, "feel_system.springs", p.get_ref())?;
+    let springs = FeelSprings::load(&path).map_err(|e| src.err(p, "feel_system.springs", e.to_string()))?;
+    let damping = if kind.has_coil() {
+        0.0
+    } else {
+        need(&fs.damping_n_s_per_m, "damping_n_s_per_m", 1e5, "N·s/m")?
+    };
+    let (q_from_aircraft, qbar) = match (&fs.qbar_pa, kind) {
+        (Some(q), _) => (false, c.num(q, "feel_system.qbar_pa", 0.0, 1e6, "Pa")?),
+        (None, FeelKind::QFeel) if has_aircraft => (true, 0.0),
+        (None, FeelKind::QFeel) => {
+            let msg = "required by `q_feel` without an `[aircraft]` (whose dynamic pressure it would follow)";
+            return Err(src.err(&fs.kind, "feel_system.qbar_pa", msg));
+        }
+        (None, _) => (false, 0.0),
+    };
+    let (hybrid_k, ret) = if kind == FeelKind::MrSpring {
+        (
+            need(&fs.hybrid_k_n_per_m, "hybrid_k_n_per_m", 1e6, "N/m")?,
+            need(
+                &fs.return_damping_n_s_per_m,
+                "return_damping_n_s_per_m",
+                1e5,
+                "N·s/m",
+            )?,
+        )
+    } else {
+        (0.0, 0.0)
+    };
+    let hybrid = CentringSpring { k_n_per_m: hybrid_k };
+    let mut config = FeelSystemConfig::from_springs(kind, &springs, qbar, hybrid, damping, ret);
+    config.q_from_aircraft = q_from_aircraft;
+    Ok((config, Some(path)))
+}
+
+fn aircraft(c: &Check, a: &AircraftSection, physics_hz: f64) -> Result<AircraftConfig, InputError> {
+    let src = c.0;
+    let throttle = match &a.throttle {
+        None => Schedule {
+            points: vec![(0.0, 1.0)],
+        },
+        Some(pts) => c.schedule(pts, "aircraft.throttle", 0.0, 3.0, "(ratio of the trim throttle)")?,
+    };
+    let model = match a.model.get_ref().split_once(':') {
+        // A JSBSim aircraft folder is found as the scenario's other files are (beside it first).
+        Some(("jsbsim", name)) if crate::aero::backend::jsbsim_folder(name).is_some() => {
+            let dir = src.path.parent().unwrap_or(Path::new("."));
+            format!(
+                "jsbsim:{}",
+                crate::builtin::resolve(dir, Path::new(name)).display()
+            )
+        }
+        _ => a.model.get_ref().clone(),
+    };
+    let file = match model.split_once(':') {
+        Some(("jsbsim", name)) => crate::aero::backend::model_file(name),
+        Some((other, _)) => {
+            let msg = format!("unknown backend `{other}` (use `<name>` or `jsbsim:<name>`)");
+            return Err(src.err(&a.model, "aircraft.model", msg));
+        }
+        None => crate::aero::AircraftModel::builtin(&model),
+    };
+    file.map_err(|e| src.err(&a.model, "aircraft.model", e.to_string()))?;
+    Ok(AircraftConfig {
+        model,
+        airspeed_m_s: c.num(&a.airspeed_m_s, "aircraft.airspeed_m_s", 10.0, 300.0, "m/s")?,
+        altitude_m: c.num(&a.altitude_m, "aircraft.altitude_m", 0.0, 11_000.0, "m")?,
+        rate_hz: match &a.rate_hz {
+            Some(r) => c.num(
+                r,
+                "aircraft.rate_hz",
+                10.0,
+                physics_hz,
+                "Hz (at most rig.physics_hz)",
+            )?,
+            None => 120.0_f64.min(physics_hz),
+        },
+        throttle,
+    })
+}
+
+fn outer_loop(c: &Check, o: &OuterLoopSection) -> Result<OuterLoopConfig, InputError> {
+    let src = c.0;
+    let loop_kind = src.variant(&o.loop_kind, "outer_loop.loop")?;
+    let opt = |v: &Opt, key: &str, hi: f64, unit: &str| {
+        v.as_ref().map_or(Ok(0.0), |v| c.num(v, key, 0.0, hi, unit))
+    };
+    let delay_s = c.num(&o.delay_s, "outer_loop.delay_s", 0.0, 1.0, "s")?;
+    let pilot = match (&o.gain, &o.crossover_rad_s) {
+        (Some(gain), None) => {
+            if let Some(v) = &o.stick_lag_s {
+                let msg = "only with `crossover_rad_s` (an adapted pilot)";
+                return Err(src.err(v, "outer_loop.stick_lag_s", msg));
+            }
+            PilotDesign::Given(CrossoverPilotConfig {
+                gain: c.num(
+                    gain,
+                    "outer_loop.gain",
+                    0.0,
+                    100.0,
+                    "stick rad per rad (or per g)",
+                )?,
+                lead_s: opt(&o.lead_s, "outer_loop.lead_s", 10.0, "s")?,
+                lag_s: opt(&o.lag_s, "outer_loop.lag_s", 100.0, "s")?,
+                delay_s,
+                integral_per_s: opt(
+                    &o.integral_per_s,
+                    "outer_loop.integral_per_s",
+                    100.0,
+                    "stick rad per (unit·s)",
+                )?,
+                stick_min_rad: f64::NEG_INFINITY,
+                stick_max_rad: f64::INFINITY,
+            })
+        }
+        (None, Some(wc)) => {
+            let keys = [
+                ("lead_s", o.lead_s.as_ref()),
+                ("lag_s", o.lag_s.as_ref()),
+                ("integral_per_s", o.integral_per_s.as_ref()),
+            ];
+            let msg = "the adapted pilot (`crossover_rad_s`) chooses its own equalisation; give `gain` instead to set it";
+            c.unused("outer_loop", &keys, &[], msg)?;
+            let by = "`crossover_rad_s` (the lag from stick command to stick, s)";
+            PilotDesign::Adapted {
+                crossover_rad_s: c.num(wc, "outer_loop.crossover_rad_s", 0.1, 10.0, "rad/s")?,
+                delay_s,
+                stick_lag_s: c.need(&o.stick_lag_s, "outer_loop.stick_lag_s", wc, by, 0.0, 10.0, "s")?,
+            }
+        }
+        (Some(g), Some(_)) => {
+            let msg =
+                "give either `gain` (a pilot with given gains) or `crossover_rad_s` (adapted), not both";
+            return Err(src.err(g, "outer_loop.gain", msg));
+        }
+        (None, None) => {
+            let msg = "needs `gain` (given gains) or `crossover_rad_s` (a pilot adapted to the aircraft)";
+            return Err(src.err(&o.loop_kind, "outer_loop.gain", msg));
+        }
+    };
+    let command = match loop_kind {
+        PilotLoop::Pitch => {
+            let s = c.schedule(&o.command, "outer_loop.command", -30.0, 30.0, "deg")?;
+            Schedule {
+                points: s.points.iter().map(|&(t, v)| (t, v.to_radians())).collect(),
+            }
+        }
+        PilotLoop::LoadFactor => c.schedule(&o.command, "outer_loop.command", -1.0, 4.0, "g")?,
+    };
+    Ok(OuterLoopConfig {
+        loop_kind,
+        pilot,
+        command,
+    })
+}
+
+fn pilot(
+    c: &Check,
+    p: &PilotSection,
+    signal: SignalName,
+    duration_s: f64,
+    dt_s: f64,
+    seed: u64,
+) -> Result<PilotConfig, InputError> {
+    let src = c.0;
+    let hand_path = src.named_file(&p.model, "pilot.model", p.model.get_ref())?;
+    let hand = super::hand::load(&hand_path).map_err(|e| src.err(&p.model, "pilot.model", e.to_string()))?;
+    let task = src.variant(&p.task, "pilot.task")?;
+    let by = format!("signal = \"{}\"", p.signal.get_ref().name());
+    // Command values carry the task's unit: `_rad` (stick angle) for position, `_n` (grip force) for force.
+    let (unit, lim, other) = match task {
+        Task::Position => ("rad", 1.0, "n"),
+        Task::Force => ("n", 250.0, "rad"),
+    };
+    let keys = p.keys();
+    let get = |key: String| keys.iter().find(|(k, _)| *k == key).and_then(|(_, v)| *v);
+    let val = |name: &str| -> Result<Option<f64>, InputError> {
+        if let Some(t) = get(format!("{name}_{other}")) {
+            let msg = format!("a {} task takes `{name}_{unit}`", p.task.get_ref().name());
+            return Err(src.err(t, &format!("pilot.{name}_{other}"), msg));
+        }
+        get(format!("{name}_{unit}"))
+            .map(|v| c.num(v, &format!("pilot.{name}_{unit}"), -lim, lim, unit))
+            .transpose()
+    };
+    let need = |name: &str| -> Result<f64, InputError> {
+        val(name)?.ok_or_else(|| {
+            src.err(
+                &p.signal,
+                &format!("pilot.{name}_{unit}"),
+                format!("required by {by}"),
+            )
+        })
+    };
+    let need_t = |v: &Opt, key: &str, lo: f64, hi: f64, u: &str| c.need(v, key, &p.signal, &by, lo, hi, u);
+    let command = match signal {
+        SignalName::Hold => Signal::Hold {
+            value: need("value")?,
+        },
+        SignalName::Step => Signal::Step {
+            initial: need("initial")?,
+            last: need("final")?,
+            at_s: need_t(&p.at_s, "pilot.at_s", 0.0, duration_s, "s")?,
+        },
+        SignalName::Ramp => Signal::Ramp {
+            from: need("from")?,
+            to: need("to")?,
+            start_s: need_t(&p.start_s, "pilot.start_s", 0.0, duration_s, "s")?,
+            duration_s: need_t(&p.ramp_duration_s, "pilot.ramp_duration_s", 1e-3, 3600.0, "s")?,
+        },
+        SignalName::Sine => Signal::Sine {
+            offset: val("offset")?.unwrap_or(0.0),
+            amplitude: need("amplitude")?,
+            frequency_hz: need_t(&p.frequency_hz, "pilot.frequency_hz", 1e-3, 100.0, "Hz")?,
+        },
+        SignalName::Triangle => Signal::Triangle {
+            offset: val("offset")?.unwrap_or(0.0),
+            amplitude: need("amplitude")?,
+            frequency_hz: need_t(&p.frequency_hz, "pilot.frequency_hz", 1e-3, 100.0, "Hz")?,
+        },
+        SignalName::Random => Signal::random(
+            val("offset")?.unwrap_or(0.0),
+            need("rms")?,
+            need_t(&p.cutoff_hz, "pilot.cutoff_hz", 1e-3, 100.0, "Hz")?,
+            duration_s,
+            dt_s,
+            seed ^ 0x005e_ed0f_9170,
+        ),
+        // The stick command comes from `[outer_loop]`.
+        SignalName::OuterLoop => Signal::Hold { value: 0.0 },
+    };
+    // Keys of another signal are refused (the first one in the file is named).
+    let used = signal.keys();
+    let given: Vec<(&str, Option<&Num>)> = keys
+        .iter()
+        .filter(|(k, _)| {
+            let base = k
+                .strip_suffix("_rad")
+                .or_else(|| k.strip_suffix("_n"))
+                .unwrap_or(k);
+            !used.contains(&base)
+        })
+        .copied()
+        .collect();
+    c.unused(
+        "pilot",
+        &given,
+        &[],
+        &format!("not used by {by} (it takes: {})", used.join(", ")),
+    )?;
+    Ok(PilotConfig {
+        hand_path,
+        hand,
+        task,
+        command,
+    })
+}
