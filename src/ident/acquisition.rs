@@ -30,7 +30,7 @@
 //!    motion's second difference leaves what lies well inside the filter's pass band as it was and holds
 //!    the noise gain at the first zero to 5.
 //! 3. The model is driven by that motion from `N − 1` samples before the record ([`Drive`]), and its force
-//!    goes through the same moving average ([`moving_average`]) before it is compared with the file.
+//!    goes through the same moving average ([`crate::signal::moving_average`]) before it is compared with the file.
 //!
 //! Whether the filter was causal or centred does not matter for a test at constant current: a centred one
 //! makes the reconstructed motion `(N − 1)/2` samples early, the model's force is early by as much, and the
@@ -539,22 +539,6 @@ pub(crate) fn dominant_period(x: &[f64], dt: f64) -> f64 {
     n as f64 * dt / (best as f64 + shift)
 }
 
-/// The causal moving average of `window` samples over `f` (which starts `window − 1` samples before the
-/// first output): `f.len() − window + 1` values.
-pub fn moving_average(f: &[f64], window: usize) -> Vec<f64> {
-    if window <= 1 {
-        return f.to_vec();
-    }
-    let mut out = Vec::with_capacity(f.len().saturating_sub(window - 1));
-    let mut sum: f64 = f[..window - 1].iter().sum();
-    for k in window - 1..f.len() {
-        sum += f[k];
-        out.push(sum / window as f64);
-        sum -= f[k + 1 - window];
-    }
-    out
-}
-
 /// The signal `u` (`y.len() + window − 1` samples, the first `window − 1` before `y`'s first) whose causal
 /// moving average of `window` samples is `y`: `min |A u − y|² + μ |Δ²u|²`, `μ = c (N/2π)⁴` with
 /// `c` = 0.01 (the penalty reaches the data's weight at the filter's first zero, and at the fundamental of
@@ -647,6 +631,7 @@ pub(crate) fn deconvolve_moving_average(y: &[f64], window: usize) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::signal::moving_average;
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};
 

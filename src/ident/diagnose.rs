@@ -29,11 +29,12 @@ use rayon::prelude::*;
 
 use super::discover::{lagged_current, library, propose_term, readable, verdict, Scales, Verdict};
 use super::fit::{fit, span_stats, FitOptions, Span};
-use super::residual::{direction_weights, noise_floor_n, quantile, where_regions, Region, Signatures};
+use super::residual::{direction_weights, noise_floor_n, where_regions, Region, Signatures};
 use super::validate::{evaluate, Figures};
 use super::{IdentError, Test};
 use crate::device::formula::FormulaEffect;
 use crate::device::{Effect, Model, ModelSpec, Registry};
+use crate::signal::quantile;
 
 /// Settings of a diagnosis.
 #[derive(Debug, Clone)]
