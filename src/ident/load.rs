@@ -83,26 +83,12 @@ pub fn inputs_of(m: &Measurement) -> Vec<Inputs> {
 
 /// [`inputs_of`], and the noise standard deviation of the velocity when it was derived here.
 ///
-/// Velocity: a file without a velocity channel is read with the measurement module's 7-sample
-/// differentiator, whose noise gain grows as the sample rate rises (at 2 kHz a 2 µm displacement noise gives
-/// 2 mm/s, which the damping `C0` turns into force noise as large as a quiet load cell's, and near reversals
-/// into wrong directions of the yield force). Here it is derived again with the widest window that leaves
-/// the signal unbent ([`widest_unbiased_derivative`]).
-///
-/// Acceleration: a derivative multiplies noise by ~0.5/dt, so the acceleration from a noisy
-/// velocity transducer over the measurement module's 7-sample differentiator can be mostly noise, which
-/// hides the `inertia` effect (errors in the variables attenuate its fit and leave `m·noise` in the
-/// residual). Two choices, both made from the data:
-/// - the route: the measured velocity differentiated once, or the displacement twice, whichever gives the
-///   smaller noise (each raw signal's white noise estimated by [`residual::white_noise_std_on`], carried
-///   through the differentiator's weights);
-/// - the window of the local quintic fit that differentiates ([`widest_unbiased_derivative`]): widened
-///   until a widening changes the result significantly more than the noise it removes would (bias).
-///
-/// All of it on the file's own time grid, even or not (the format does not require a constant rate). With
-/// the measurement module's 7-sample derivatives on an uneven grid instead: on a clock jittered by
-/// ±¼ sample, with the velocity derived from the displacement, a hidden 3 kg mass was not found at all
-/// (held out 11.6× the noise floor; `python/independent_truth.py` output resampled unevenly).
+/// A missing velocity is derived from the displacement, and the displacement smoothed, by the widest
+/// local quintic that leaves the signal unbent ([`widest_unbiased_derivative`]): the file reader's
+/// 7-sample differentiator is too noisy at high sample rates. A missing acceleration comes from the
+/// measured velocity once or the displacement twice, whichever route is quieter (each signal's white noise
+/// carried through the differentiator's weights): a noisy acceleration hides `inertia` (errors in the
+/// variables). Everything on the file's own time grid, even or not (`docs/ident.md`).
 pub fn inputs_and_velocity_noise(m: &Measurement) -> (Vec<Inputs>, Option<Vec<f64>>) {
     let mut inputs = m.inputs();
     if m.len() < 32 {
@@ -126,11 +112,8 @@ pub fn inputs_and_velocity_noise(m: &Measurement) -> (Vec<Inputs>, Option<Vec<f6
             v_noise = sd_v;
         }
     }
-    // The displacement itself, smoothed by the same rule (the quintic's value at each sample): the
-    // hysteresis law integrates the path `|dx|` sample by sample, and white noise on `x` rectified there
-    // is travel the piston never made, which relaxes the state at every sample near a reversal (2 µm of
-    // noise at 1 kHz bent the fitted Bouc-Wen shape and left 2.4x the noise floor on data that the same
-    // shape fits to the floor when `x` is clean).
+    // The displacement smoothed by the same rule: the hysteresis law integrates the path `|dx|`, and noise
+    // on `x` rectified there is travel the piston never made.
     let (x_smooth, sd_smooth) = widest_unbiased_derivative(t, &m.x_m, 0, sd_x, &m.x_m);
     if sd_smooth.is_some() {
         for (i, x) in inputs.iter_mut().zip(x_smooth) {
