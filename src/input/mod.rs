@@ -15,7 +15,9 @@ pub mod params;
 pub mod reference;
 pub mod scenario;
 pub mod springs;
+pub mod sweep;
 pub mod text;
+pub mod urdf;
 
 use std::fmt;
 use std::ops::RangeInclusive;
