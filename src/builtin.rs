@@ -5,8 +5,8 @@
 //! A file a scenario names is looked for, in order: relative to the scenario's folder (an absolute path as
 //! given); in the data directory (`--data-dir` or `MRFEEL_DATA`), where one is set; then, for a relative
 //! path, among the built-in files by its file name. A built-in file has the path `<built-in>/models/…`,
-//! which every reader of this crate reads through [`crate::input::text::read_bytes`] and which error
-//! messages name with its lines like any other file.
+//! which every reader of this crate reads and error messages name with its lines like
+//! any other file.
 
 use std::path::{Component, Path, PathBuf};
 use std::sync::OnceLock;
@@ -18,7 +18,7 @@ pub(crate) const ROOT: &str = "<built-in>";
 pub(crate) const DATA_ENV: &str = "MRFEEL_DATA";
 
 /// The paper's device (`models/paper-device.toml`).
-pub(crate) const PAPER_DEVICE: &str = include_str!("../models/paper-device.toml");
+pub const PAPER_DEVICE: &str = include_str!("../models/paper-device.toml");
 
 /// Each built-in file: its path in the repository and its text.
 const FILES: &[(&str, &str)] = &[
