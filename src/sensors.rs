@@ -12,6 +12,8 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
+use crate::signal::{quantise, FilteredDifferentiator};
+
 /// Load cell: `reading = gain · F + offset + noise`, clipped at ±`range_n`.
 ///
 /// `gain` and `offset_n` are the residual calibration errors after the dead-weight calibration the paper
@@ -119,47 +121,6 @@ pub fn check_channel(
         ));
     }
     Ok(())
-}
-
-/// Uniform mid-tread quantiser over `[-range, range]` with `2^bits` levels, saturating at the range.
-pub fn quantise(value: f64, range: f64, bits: u32) -> f64 {
-    let clipped = value.clamp(-range, range);
-    if bits == 0 || bits >= 53 {
-        return clipped;
-    }
-    let lsb = 2.0 * range / (2f64.powi(bits as i32));
-    (clipped / lsb).round() * lsb
-}
-
-/// First-order low-pass differentiator `v = s / (τ s + 1) · x`, discretised with the exact pole
-/// (`a = exp(-T/τ)`) on backward differences: `v_k = a v_{k-1} + (1 - a) (x_k - x_{k-1}) / T`.
-#[derive(Debug, Clone)]
-pub struct FilteredDifferentiator {
-    alpha: f64,
-    dt_s: f64,
-    last_x: Option<f64>,
-    v: f64,
-}
-
-impl FilteredDifferentiator {
-    pub fn new(cutoff_hz: f64, dt_s: f64) -> Self {
-        let tau = 1.0 / (2.0 * std::f64::consts::PI * cutoff_hz);
-        Self {
-            alpha: (-dt_s / tau).exp(),
-            dt_s,
-            last_x: None,
-            v: 0.0,
-        }
-    }
-
-    pub fn update(&mut self, x: f64) -> f64 {
-        if let Some(x0) = self.last_x {
-            let raw = (x - x0) / self.dt_s;
-            self.v = self.alpha * self.v + (1.0 - self.alpha) * raw;
-        }
-        self.last_x = Some(x);
-        self.v
-    }
 }
 
 /// Load cell + laser + DAQ, with their own seeded noise. Call [`Daq::due`] every physics step and
@@ -323,24 +284,6 @@ mod tests {
         let sd = (xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n as f64).sqrt();
         assert!((mean - (1.02 * 50.0 - 0.3)).abs() < 0.02, "mean {mean}");
         assert!((sd - 0.5).abs() < 0.02, "sd {sd}");
-    }
-
-    #[test]
-    fn differentiator_recovers_a_ramp_rate_and_lags_by_its_time_constant() {
-        let dt = 1e-3;
-        let mut f = FilteredDifferentiator::new(20.0, dt);
-        let rate = 0.05;
-        let mut v = 0.0;
-        let mut t63 = None;
-        for k in 0..400 {
-            v = f.update(rate * k as f64 * dt);
-            if t63.is_none() && v >= 0.632 * rate {
-                t63 = Some(k as f64 * dt);
-            }
-        }
-        assert!((v - rate).abs() < 1e-9 * rate.max(1.0));
-        let tau = 1.0 / (2.0 * std::f64::consts::PI * 20.0);
-        assert!((t63.unwrap() - tau).abs() < 1.5 * dt, "t63 {:?} tau {tau}", t63);
     }
 
     #[test]

@@ -15,10 +15,10 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
 use mrfeel::device::{Inputs, Model, Registry};
-use mrfeel::ident::acquisition::moving_average;
 use mrfeel::ident::fit::{all_spans, fit, FitOptions, Span};
 use mrfeel::ident::{tests_from, AcquisitionChoice, Test};
 use mrfeel::measurement::Measurement;
+use mrfeel::signal::moving_average;
 
 const MODEL: &str = "bingham+hysteresis";
 /// fc0, fc_gain, c0, te, tm, x_y, v_y, knee, gamma share: the scale of the UTFSM damper.

@@ -1,40 +1,18 @@
-//! The acquisition chain: a moving-average filter that the data went through before it was logged, found in
-//! the data and put into the comparison.
+//! The acquisition chain: a moving average that the data went through before it was logged, found in the
+//! data and put into the comparison (`docs/explanation/diagnosis.md`, "Reading the data as it was logged").
+//! A model driven by filtered motion bends its pre-yield branch to match the filter's smear, which does not
+//! carry over to another amplitude or frequency; so:
 //!
-//! Why: a test rig's software often smooths its channels before it writes them. A causal moving average of
-//! `N` samples on the force and the displacement (the UTFSM tests in `data/` were filtered so by their
-//! source: a tenth of the drive period on both channels, the velocity then differenced from the filtered
-//! displacement) smears the force's turn at every reversal over `N` samples and delays both channels by
-//! `(N − 1)/2` samples. A damper model driven by the filtered motion then has to bend its pre-yield branch to
-//! match a smear that belongs to the filter, and the bend does not carry over to a test at another
-//! amplitude or frequency: the window is a fixed share of the period, so in displacement it scales with the
-//! amplitude. The model is compared with such data as the measurement chain saw it instead:
-//!
-//! 1. [`detect_moving_average`]: the filter leaves a comb of zeros in the spectrum of both channels, at
-//!    every multiple of `fs/N`. For each candidate window the periodogram at its first (up to [`NULLS`])
-//!    comb frequencies is compared with the noise level of the band around each (`null_depth`), pooled
-//!    over the tests of one protocol (one clock, one drive period: they went through one chain). Both
-//!    channels together must show it far beyond what white noise does ([`COMB_SIGMAS`]), and each on its
-//!    own clearly ([`CHANNEL_SIGMAS`]) with most of its comb frequencies below the noise ([`BELOW_SHARE`]).
-//!    A damper's force has lines at the odd harmonics and gaps at the even ones, which must not pass for a
-//!    comb: the periodogram's window has low sidelobes, and a band counts only where it is noise
-//!    (`MIN_ROUGHNESS`) and no line in it is strong enough to leak through the sidelobes
-//!    (`LINE_TO_NOISE`). A measured velocity that is the first difference of the filtered displacement
-//!    (`is_first_difference`) may stand in for the displacement where it shows the comb more clearly
-//!    (a finer rounding of the same motion). Near the drive's harmonics the force is no witness at all
-//!    (`HARMONIC_GUARD_BINS`); where that leaves it nothing, the displacement alone must show the comb as
-//!    strongly as both channels together otherwise would. White noise gives no window (200 unfiltered tests in
-//!    `tests::white_noise_shows_no_comb`), nor do the hidden-effect sweeps' data sets.
+//! 1. [`detect_moving_average`]: the filter's comb of zeros at multiples of `fs/N`, pooled over the tests
+//!    of one protocol, must show in both channels together far beyond white noise ([`COMB_SIGMAS`]) and in
+//!    each clearly ([`CHANNEL_SIGMAS`], [`BELOW_SHARE`]); bands with a damper's harmonic lines are no
+//!    witness (`MIN_ROUGHNESS`, `LINE_TO_NOISE`, `HARMONIC_GUARD_BINS`). White noise gives no window
+//!    (`tests::white_noise_shows_no_comb`).
 //! 2. [`deconvolve_moving_average`]: the motion before the filter, by regularised least squares, with the
-//!    `N − 1` samples before the record that the first filtered samples averaged. The penalty on the
-//!    motion's second difference leaves what lies well inside the filter's pass band as it was and holds
-//!    the noise gain at the first zero to 5.
-//! 3. The model is driven by that motion from `N − 1` samples before the record ([`Drive`]), and its force
-//!    goes through the same moving average ([`moving_average`]) before it is compared with the file.
-//!
-//! Whether the filter was causal or centred does not matter for a test at constant current: a centred one
-//! makes the reconstructed motion `(N − 1)/2` samples early, the model's force is early by as much, and the
-//! causal average put back on it lands where the centred one did.
+//!    `N − 1` samples before the record.
+//! 3. The model is driven by that motion ([`Drive`]) and its force goes through the same average
+//!    ([`crate::signal::moving_average`]) before it is compared. Causal or centred makes no difference at
+//!    constant current: both shifts cancel.
 
 use rustfft::num_complex::Complex;
 use rustfft::FftPlanner;
@@ -539,22 +517,6 @@ pub(crate) fn dominant_period(x: &[f64], dt: f64) -> f64 {
     n as f64 * dt / (best as f64 + shift)
 }
 
-/// The causal moving average of `window` samples over `f` (which starts `window − 1` samples before the
-/// first output): `f.len() − window + 1` values.
-pub fn moving_average(f: &[f64], window: usize) -> Vec<f64> {
-    if window <= 1 {
-        return f.to_vec();
-    }
-    let mut out = Vec::with_capacity(f.len().saturating_sub(window - 1));
-    let mut sum: f64 = f[..window - 1].iter().sum();
-    for k in window - 1..f.len() {
-        sum += f[k];
-        out.push(sum / window as f64);
-        sum -= f[k + 1 - window];
-    }
-    out
-}
-
 /// The signal `u` (`y.len() + window − 1` samples, the first `window − 1` before `y`'s first) whose causal
 /// moving average of `window` samples is `y`: `min |A u − y|² + μ |Δ²u|²`, `μ = c (N/2π)⁴` with
 /// `c` = 0.01 (the penalty reaches the data's weight at the filter's first zero, and at the fundamental of
@@ -647,6 +609,7 @@ pub(crate) fn deconvolve_moving_average(y: &[f64], window: usize) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::signal::moving_average;
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};
 

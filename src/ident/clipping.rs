@@ -44,7 +44,7 @@ pub fn clips(y: &[f64]) -> Vec<Clip> {
     if !step.is_finite() {
         return Vec::new(); // constant
     }
-    let resolution = step.max(super::residual::white_noise_std(y));
+    let resolution = step.max(crate::signal::white_noise_std(y));
     let top = y.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let bottom = y.iter().copied().fold(f64::INFINITY, f64::min);
     let mut out = Vec::new();

@@ -1,26 +1,14 @@
-//! Naming the missing effect: every registered effect not in the model is added in turn, fitted, and
-//! judged by the error it removes on data its fit never saw; the best significant one is kept and the
-//! search repeats until no candidate helps significantly (trying pairs when no effect alone does, see
-//! below); a final backward pass drops any kept effect the others make redundant.
+//! Naming the missing effect (`docs/explanation/diagnosis.md`): every registered effect not in the model is
+//! added in turn, fitted, and judged by the error it removes on data its fit never saw (folds of test
+//! groups, or time blocks of one test); the best significant one is kept and the search repeats; a final
+//! backward pass drops any kept effect the others make redundant.
 //!
-//! Held-out error: with two or more tests, folds are test groups (leave one group out; k-fold over groups
-//! when there are many); with one test, contiguous time blocks (blocked cross-validation: the test is still
-//! integrated from its start, but only the training blocks count in the fit and only the held-out block in
-//! the score).
-//!
-//! Significance: a candidate counts only when (a) it lowers the held-out error in every fold, (b) it removes
-//! at least [`DiagnoseOptions::min_gain`] of the held-out mean-square error, and (c) at least
-//! [`DiagnoseOptions::min_excess_removed`] of the part of it above the measurement noise floor (estimated
-//! from the data, see [`super::residual::noise_floor_n`]); nothing is added once the held-out error is
-//! within [`DiagnoseOptions::floor_ratio`] of the noise floor. A model that is already right leaves only
-//! noise, which no effect removes consistently across folds.
-//!
-//! Pairs: two effects can be separable only together (a spring `k x` and a moving mass `m a = −m ω² x` on
-//! tests of one frequency each: either alone, fitted on some groups, takes the other's part there and
-//! mispredicts the rest). When no effect alone is significant, each of the (at most two) effects that pass
-//! (b) and (c) but fail a fold is tried again with every other effect beside it; a pair counts when it is
-//! significant by the same rule and also removes (b) and (c) of the error each of its effects alone
-//! leaves, so an effect cannot ride along. The backward pass removes a pair only as a whole.
+//! Significance: a candidate lowers the held-out error in every fold and removes at least
+//! [`DiagnoseOptions::min_gain`] of it and [`DiagnoseOptions::min_excess_removed`] of its part above the
+//! noise floor ([`super::residual::noise_floor_n`]); the search ends within [`DiagnoseOptions::floor_ratio`]
+//! of that floor. When no effect alone passes, the (at most two) that pass all but a fold are tried beside
+//! every other effect: a pair counts when it is significant and also removes as much of the error each of
+//! its effects alone leaves; the backward pass removes a pair only as a whole.
 
 use std::collections::BTreeMap;
 
@@ -29,11 +17,12 @@ use rayon::prelude::*;
 
 use super::discover::{lagged_current, library, propose_term, readable, verdict, Scales, Verdict};
 use super::fit::{fit, span_stats, FitOptions, Span};
-use super::residual::{direction_weights, noise_floor_n, quantile, where_regions, Region, Signatures};
+use super::residual::{direction_weights, noise_floor_n, where_regions, Region, Signatures};
 use super::validate::{evaluate, Figures};
 use super::{IdentError, Test};
 use crate::device::formula::FormulaEffect;
 use crate::device::{Effect, Model, ModelSpec, Registry};
+use crate::signal::quantile;
 
 /// Settings of a diagnosis.
 #[derive(Debug, Clone)]

@@ -22,10 +22,11 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::diagnose::Fold;
-use super::residual::{direction_weights, quantile};
+use super::residual::direction_weights;
 use super::Test;
 use crate::device::formula::{Formula, FormulaEffect, FormulaParam};
 use crate::device::{Inputs, Model};
+use crate::signal::quantile;
 
 /// One candidate force term of the library.
 #[derive(Debug, Clone)]

@@ -5,6 +5,7 @@
 use serde::Serialize;
 
 use super::Test;
+use crate::signal::{smooth_derivative, white_noise_std_on};
 
 /// A region of the operating space and its part of the squared error.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -457,71 +458,11 @@ impl Corr {
 /// measured force: `Δ³f` of white noise has variance 20σ², while a smooth force contributes little and the
 /// jumps at velocity reversals are rare enough that a median ignores them.
 pub(crate) fn noise_floor_n(tests: &[Test]) -> f64 {
-    std_from_third_differences(
-        tests
-            .iter()
-            .flat_map(|t| {
-                let ts: Vec<f64> = t.inputs.iter().map(|i| i.t_s).collect();
-                third_differences_on(&ts, &t.f_n)
-            })
-            .collect(),
-    )
-}
-
-/// [`white_noise_std`] of a signal sampled at the times `t`, evenly or not.
-pub(crate) fn white_noise_std_on(t: &[f64], y: &[f64]) -> f64 {
-    std_from_third_differences(third_differences_on(t, y))
-}
-
-/// `|Δ³y|` at every window of four samples, on any time grid: on an even grid exactly
-/// [`third_differences`]; on an uneven one the third divided difference (the combination of four samples
-/// that cancels every quadratic, whatever their spacing), scaled so that white noise of variance σ² gives
-/// it the variance 20σ², as `Δ³` has. (`Δ³` itself on a jittered grid does not cancel a smooth signal: a
-/// time off by a quarter of a sample leaves `v·dt/4`, at 1 kHz and 0.1 m/s 25 µm beside a 2 µm noise.)
-fn third_differences_on(t: &[f64], y: &[f64]) -> Vec<f64> {
-    if t.len() != y.len() || crate::signal::uniform_interval(t).is_some() {
-        return third_differences(y).collect();
-    }
-    t.windows(4)
-        .zip(y.windows(4))
-        .filter_map(|(t, y)| {
-            let w: [f64; 4] = std::array::from_fn(|j| {
-                1.0 / (0..4).filter(|&m| m != j).map(|m| t[j] - t[m]).product::<f64>()
-            });
-            let norm = w.iter().map(|w| w * w).sum::<f64>().sqrt();
-            let d = w.iter().zip(y).map(|(w, y)| w * y).sum::<f64>();
-            (norm.is_finite() && norm > 0.0).then(|| (d / norm).abs() * 20f64.sqrt())
-        })
-        .collect()
-}
-
-/// Robust standard deviation of the white noise on a sampled signal: third differences cancel a smooth
-/// signal (up to its third derivative × dt³) and multiply white noise variance by 20; the median absolute
-/// value (× 1.4826 for a Gaussian) ignores the few samples where the signal itself jumps.
-pub(crate) fn white_noise_std(y: &[f64]) -> f64 {
-    std_from_third_differences(third_differences(y).collect())
-}
-
-/// `|Δ³y|` at every window of four samples.
-fn third_differences(y: &[f64]) -> impl Iterator<Item = f64> + '_ {
-    y.windows(4)
-        .map(|w| (w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]).abs())
-}
-
-/// White-noise standard deviation from `|Δ³|` values: their median × 1.4826 / √20 (0 with none).
-fn std_from_third_differences(d: Vec<f64>) -> f64 {
-    if d.is_empty() {
-        return 0.0;
-    }
-    1.4826 * quantile(d, 0.5) / 20f64.sqrt()
-}
-
-/// The `q`-quantile of `a` (the sample of rank `round((n − 1) q)`, by selection, not a full sort); `a` must
-/// not be empty.
-pub(crate) fn quantile(mut a: Vec<f64>, q: f64) -> f64 {
-    let k = ((a.len() - 1) as f64 * q).round() as usize;
-    let (_, m, _) = a.select_nth_unstable_by(k, f64::total_cmp);
-    *m
+    let records: Vec<(Vec<f64>, &[f64])> = tests
+        .iter()
+        .map(|t| (t.inputs.iter().map(|i| i.t_s).collect(), t.f_n.as_slice()))
+        .collect();
+    crate::signal::pooled_white_noise_std(&records)
 }
 
 /// How many noise standard deviations a velocity must be from zero for its sign to be known: a Gaussian
@@ -570,8 +511,8 @@ fn sign_weights(t: &Test) -> Vec<f64> {
 
 /// Standard deviation of the noise in the velocity a test's model is given: [`Test::velocity_noise_m_s`]
 /// when the velocity was derived with a known differentiator; else a measured velocity carries its
-/// transducer's white noise ([`white_noise_std`]). A velocity derived from the displacement
-/// ([`crate::measurement::smooth_derivative`]) is smooth, so differences of it do not show its noise,
+/// transducer's white noise ([`crate::signal::white_noise_std`]). A velocity derived from the displacement
+/// ([`smooth_derivative`]) is smooth, so differences of it do not show its noise,
 /// which is still there at low frequencies (a slowly wandering error, as uncertain in sign near `v = 0`):
 /// it is the displacement's white noise times the differentiator's noise gain, the root-sum-square of its
 /// response to a unit impulse on the test's own time grid.
@@ -596,7 +537,7 @@ pub(crate) fn velocity_noise_std(t: &Test) -> f64 {
     let ts: Vec<f64> = t.inputs[lo..lo + w].iter().map(|i| i.t_s).collect();
     let mut pulse = vec![0.0; w];
     pulse[w / 2] = 1.0;
-    let gain = crate::measurement::smooth_derivative(&ts, &pulse)
+    let gain = smooth_derivative(&ts, &pulse)
         .iter()
         .map(|d| d * d)
         .sum::<f64>()
@@ -680,33 +621,5 @@ mod tests {
         assert_eq!(sig(14.0), "14");
         assert_eq!(sig(0.5), "0.5");
         assert_eq!(sig(1234.0), "1234");
-    }
-
-    /// On a clock jittered by up to ¼ sample the third divided differences still cancel a smooth signal:
-    /// the 2 µm noise on a 20 mm 1 Hz sine at 1 kHz is estimated within 10 %, where plain third differences,
-    /// which take the samples as evenly spaced, see the jitter as noise (several times the truth).
-    #[test]
-    fn white_noise_on_a_jittered_clock() {
-        use rand::Rng;
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
-        let nd = Normal::new(0.0, 2e-6).unwrap();
-        let w = std::f64::consts::TAU;
-        let t: Vec<f64> = (0..5000)
-            .map(|k| (k as f64 + rng.random_range(-0.25..0.25)) * 1e-3)
-            .collect();
-        let x: Vec<f64> = t
-            .iter()
-            .map(|t| 0.02 * (w * t).sin() + nd.sample(&mut rng))
-            .collect();
-        let on_grid = white_noise_std_on(&t, &x);
-        assert!(
-            (on_grid / 2e-6 - 1.0).abs() < 0.1,
-            "estimated {on_grid} m, truth 2e-6 m"
-        );
-        let as_even = white_noise_std(&x);
-        assert!(as_even > 3.0 * 2e-6, "plain third differences: {as_even} m");
-        // On an even grid both are the same estimate.
-        let te: Vec<f64> = (0..5000).map(|k| k as f64 * 1e-3).collect();
-        assert_eq!(white_noise_std_on(&te, &x), white_noise_std(&x));
     }
 }

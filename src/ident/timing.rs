@@ -1,24 +1,14 @@
 //! When a logged current command takes effect: after its own sample, or at it.
 //!
-//! A measurement row pairs the sensors read at `t_k` with the command `i_a` logged at `t_k`. Two rigs log
-//! that pair differently, and nothing in the file says which:
-//! - **after its sample** ([`CommandTiming::AfterSample`], the default): a DAQ loop reads the sensors, then
-//!   writes the command, so the command of row `k` acts over `(t_k, t_{k+1}]` and the force of row `k` was
-//!   made under the previous one. The paper's rig closes its PID loop this way, and `mrfeel mts` writes its
-//!   files so;
-//! - **at its sample** ([`CommandTiming::AtSample`]): a programmed step logged at the sample where it is
-//!   already in force (a test program that switches the current at `t_k`, or a generator that forms the
-//!   force at `t_k` from the current at `t_k`): the command of row `k` acted over `(t_{k−1}, t_k]`.
+//! A row pairs the sensors read at `t_k` with the command logged at `t_k`, and nothing in the file says how:
+//! - **after its sample** ([`CommandTiming::AfterSample`], the default): a DAQ loop reads, then writes, so
+//!   the command of row `k` acts over `(t_k, t_{k+1}]` (the paper's rig, `mrfeel mts`);
+//! - **at its sample** ([`CommandTiming::AtSample`]): a programmed step logged where it is already in force;
+//!   the command of row `k` acted over `(t_{k−1}, t_k]`.
 //!
-//! Through the coil's and the fluid's lags (Eq. 3–4) the two differ by one sample of the step response,
-//! which the fitted time constants mostly absorb. Where the device has no lag of its own, each current step
-//! read the wrong way leaves one sample off by the whole change of the yield force: on synthetic data whose
-//! current steps inside each file (`python/independent_truth.py` with `STEPS=1`) a right model ended at 2.2×
-//! the noise floor, with a spike at every step. Where the command never changes inside a test (the real
-//! damper's files, most MTS tests) the two readings are the same model, and nothing is decided.
-//!
-//! `auto` decides by the data: the model is fitted both ways and the reading with the smaller sum of
-//! squares is kept (one more fit, only where some test's command changes).
+//! Where the device has no lag of its own, each current step read the wrong way leaves one sample off by the
+//! whole change of the yield force; where the command never changes inside a test both readings are one
+//! model. `auto` fits both ways where some test's command changes and keeps the smaller sum of squares.
 
 use super::fit::{all_spans, fit, FitOptions, FitResult};
 use super::Test;

@@ -1,56 +1,16 @@
-//! Pre-yield hysteresis: the direction function `sgn v` of Eq. (2) becomes an internal state `z` in [-1, 1]
-//! that follows the piston through an elastic-plastic element in series with a viscous pre-yield dashpot.
+//! Pre-yield hysteresis: the direction `sgn v` of Eq. (2) becomes a state `z` in [-1, 1] that follows the
+//! piston through a normalised Bouc–Wen element in series with a viscous pre-yield dashpot (Spencer, Dyke,
+//! Sain & Carlson 1997, reduced to its pre-yield core). With the slip velocity `w = v − v_y z`:
 //!
-//! Physics: below its yield stress the MR fluid in the gap (and the seals) deforms elastically, and it also
-//! creeps: a slow viscous flow passes the valve before the field-induced structure yields. After a reversal
-//! the force therefore does not jump from `-Fy` to `+Fy` as Eq. (2) says; it travels back along a pre-yield
-//! branch whose width depends on how fast the piston turns. In a force–velocity plot this is the loop around
-//! `v = 0`, wider at higher frequency; the force lags the velocity reversal.
+//! `dz/dt = (w − (1 − g) |w| sgn(z) ψ(|z|) − g w ψ(|z|)) / x_y`, `ψ(q) = q (1 − κ + κ q)`, `F = Fy · z + …`
 //!
-//! Equation: the phenomenological model of Spencer, Dyke, Sain & Carlson 1997 (J. Eng. Mech. 123(3),
-//! 230–238, Fig. 4), reduced to its pre-yield core. There a Bouc–Wen element (force `α z`) in parallel with
-//! the dashpot `c0` is in series with the dashpot `c1`. Here the Bouc–Wen element is normalised so that
-//! `|z| ≤ 1` (`A = 1`, `β + γ = 1`, the yield displacement `x_y` in place of `1/A`), its force is the base's
-//! yield force `Fy = α` of Eq. (2)/(6), the parallel `c0` is the base's `C0`, the accumulator spring `k1` is
-//! left to the `stiffness` effect, and the series dashpot is written `c1 = Fy / v_y` (Spencer's `c1` also
-//! grows linearly with current). With the element's slip velocity `w = v − v_y z`:
-//!
-//! `dz/dt = (w − (1 − g) |w| sgn(z) ψ(|z|) − g w ψ(|z|)) / x_y`,   force `F = Fy · z + C0 v + …`
-//!
-//! where `ψ(q) = q (1 − κ + κ q)` stands for Bouc–Wen's `|z|^n`: `κ = 0` is `n = 1` and `κ = 1` is `n = 2`
-//! exactly (values between and beyond bend the knee between and past them), and `g = γ/(β + γ)` sets how
-//! the force leaves the old branch after a reversal: `g = 0` with `κ = 0` is the Dahl 1968 law (`β = 1`,
-//! `γ = 0`), `g = ½` Spencer et al.'s `γ = β`, whose return is linear in the displacement.
-//!
-//! - `x_y` = `hyst_x_yield_m`, the elastic pre-yield displacement: for the Dahl shape and `v_y = 0` the
-//!   force crosses zero `x_y ln 2` after a reversal and reaches 90 % of the yield force after
-//!   `x_y ln 20 ≈ 3 x_y`.
-//! - `v_y` = `hyst_v_yield_m_s`, the viscous pre-yield velocity: the force is `Fy · clamp(v/v_y, −1, 1)` at a
-//!   steady speed, so below `v_y` the damper is a dashpot of `Fy/v_y` (the pre-yield slope in a
-//!   force–velocity plot) and at a standstill the force relaxes towards zero. The shape does not change
-//!   this steady branch, only the way to it.
-//! - `κ` = `hyst_knee`: how sharply the force levels off at the yield force after a reversal.
-//! - `g` = `hyst_gamma_share`: how the force leaves the old branch after a reversal (faster for smaller `g`).
-//!
-//! Limits: `x_y → 0` gives the bi-viscous Bingham model; `v_y = 0` the (normalised) Bouc–Wen model; both,
-//! Eq. (2). `κ = g = 0` is the Dahl element that `hysteresis` was before its shape was fitted:
-//! a parameter file without `hyst_knee` or `hyst_gamma_share` describes that model and is read so.
-//!
-//! Why a shape: with the shape fixed at Dahl's, the model left 7–10× the noise floor on data from a
-//! Bouc–Wen `n = 2` truth (`tests/independent_truth.rs`, `python/independent_truth.py`), and that leftover
-//! hid a second, weaker effect beside hysteresis (heating on multisine tests) or was taken up by a wrong one
-//! (a mass).
-//!
-//! Integration ([`shaped_step`]): over a sample the velocity is held at the measured `dx/dt` and the law is
-//! integrated by classical Runge–Kutta in sub-steps of at most half a yield displacement of slip travel
-//! (the sub-step count blended across its whole numbers, so the force is continuous in every parameter, as
-//! the fit's finite-difference Jacobian needs), and `|z|` is kept at most 1. Where a sample's travel exceeds
-//! 16 yield displacements the state is within `e^-16` of its steady value and is set to it. [`step`] is
-//! the closed-form solution for the Dahl shape, against which the integration is tested.
-//!
-//! Evidence (UTFSM MR damper, 15 tests; `docs/hysteresis.md`, `python/prototype_hysteresis.py`): adding this
-//! form with the Dahl shape to `bingham` brings the leave-one-group-out NRMSE from 0.29 to 0.13 (Dahl alone
-//! 0.20, viscous pre-yield alone 0.20).
+//! `x_y` (`hyst_x_yield_m`) is the elastic pre-yield displacement, `v_y` (`hyst_v_yield_m_s`) the viscous
+//! pre-yield velocity (a dashpot `Fy/v_y` below it), `κ` (`hyst_knee`) the knee (0: Bouc–Wen `n = 1`, 1:
+//! `n = 2`), `g` (`hyst_gamma_share`) the return after a reversal (0 with `κ = 0`: Dahl; ½: Spencer's
+//! `γ = β`). `x_y → 0` gives the bi-viscous Bingham model, `v_y = 0` Bouc–Wen; a parameter file without the
+//! shape keys describes the Dahl shape. [`shaped_step`] integrates by Runge–Kutta in sub-steps of at most
+//! half a yield displacement (their count blended so the force is continuous in every parameter, as the
+//! fit's Jacobian needs); [`step`] is the Dahl shape's closed form. Choice and evidence: `docs/hysteresis.md`.
 
 use crate::device::effect::{Effect, EffectStage, Inputs, Stage, Step};
 use crate::device::params::{DataStats, ParamSpec};
