@@ -362,7 +362,7 @@ fn urdf(cases: u32) {
         "models/stick-rig.urdf",
         "r.urdf",
         |p| {
-            mrfeel::rig::urdf::UrdfModel::load(p)
+            mrfeel::input::urdf::UrdfModel::load(p)
                 .map(drop)
                 .map_err(|e| format!("{e:#}"))
         },

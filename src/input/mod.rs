@@ -15,7 +15,9 @@ pub(crate) mod params;
 pub mod reference;
 pub(crate) mod scenario;
 pub(crate) mod springs;
+pub mod sweep;
 pub mod text;
+pub mod urdf;
 
 use std::fmt;
 use std::ops::RangeInclusive;

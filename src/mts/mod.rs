@@ -367,7 +367,6 @@ impl MtsTest {
             ));
         }
         if self.physics_hz < self.sample_rate_hz {
-            // It used to be raised to the sample rate without a word.
             return Err(cfg_err(
                 "physics_hz",
                 format!(

@@ -23,7 +23,6 @@ pub mod damper_joint;
 pub mod frames;
 pub mod fuse;
 pub mod linkage;
-pub mod urdf;
 
 use std::path::{Path, PathBuf};
 
@@ -35,11 +34,11 @@ use rapier3d_urdf::{UrdfLoaderOptions, UrdfMultibodyOptions, UrdfRobot};
 use serde::Deserialize;
 
 use crate::device::{Damper, Inputs};
+use crate::input::urdf::{self, UrdfModel};
 use crate::units::G0_M_S2;
 use damper_joint::DamperJoint;
 use frames::{neutral_frames, Frame, V3};
 pub use linkage::Linkage;
-use urdf::UrdfModel;
 
 /// Errors building the rig: its URDF refused (file, line, element), or its configuration out of range.
 #[derive(Debug, thiserror::Error)]
@@ -256,8 +255,8 @@ pub struct RigState {
     pub fluid_current_a: f64,
     /// Hand force at the grip (tangential, + = aft), N.
     pub hand_force_n: f64,
-    /// External force elements on the piston (issue 6 feel springs: explicit force + implicit spring at the
-    /// end of the step), N along +x.
+    /// External force elements on the piston (feel springs: explicit force + implicit spring at the end of
+    /// the step), N along +x.
     pub external_force_n: f64,
     /// Work done by the hand since the start, J.
     pub hand_work_j: f64,
@@ -347,48 +346,56 @@ impl Rig {
         let piston_j = model.joint(&roles.piston_joint)?;
         let loop_j = model.loop_joint(&roles.load_cell_joint)?;
         if !matches!(stick_j.joint_type, urdf_rs::JointType::Revolute) {
-            return Err(model.field_error(
-                "joint",
-                &stick_j.name,
-                "type",
-                "the stick joint must be `revolute` (with stops)",
-            ));
+            return Err(model
+                .field_error(
+                    "joint",
+                    &stick_j.name,
+                    "type",
+                    "the stick joint must be `revolute` (with stops)",
+                )
+                .into());
         }
         if !matches!(piston_j.joint_type, urdf_rs::JointType::Prismatic) {
-            return Err(model.field_error(
-                "joint",
-                &piston_j.name,
-                "type",
-                "the piston joint must be `prismatic`",
-            ));
+            return Err(model
+                .field_error(
+                    "joint",
+                    &piston_j.name,
+                    "type",
+                    "the piston joint must be `prismatic`",
+                )
+                .into());
         }
         let stick_limits = (stick_j.limit.lower, stick_j.limit.upper);
         if !(stick_limits.0 < 0.0 && stick_limits.1 > 0.0) {
-            return Err(model.field_error(
-                "joint",
-                &stick_j.name,
-                "limit",
-                format!(
-                    "stops [{}, {}] rad must bracket the neutral angle 0",
-                    stick_limits.0, stick_limits.1
-                ),
-            ));
+            return Err(model
+                .field_error(
+                    "joint",
+                    &stick_j.name,
+                    "limit",
+                    format!(
+                        "stops [{}, {}] rad must bracket the neutral angle 0",
+                        stick_limits.0, stick_limits.1
+                    ),
+                )
+                .into());
         }
         let stroke_limits = (piston_j.limit.lower, piston_j.limit.upper);
         if !(stroke_limits.0 < 0.0 && stroke_limits.1 > 0.0) {
-            return Err(model.field_error(
-                "joint",
-                &piston_j.name,
-                "limit",
-                format!(
-                    "stroke [{}, {}] m must bracket mid-stroke 0",
-                    stroke_limits.0, stroke_limits.1
-                ),
-            ));
+            return Err(model
+                .field_error(
+                    "joint",
+                    &piston_j.name,
+                    "limit",
+                    format!(
+                        "stroke [{}, {}] m must bracket mid-stroke 0",
+                        stroke_limits.0, stroke_limits.1
+                    ),
+                )
+                .into());
         }
         for (j, element) in [(stick_j, "joint"), (piston_j, "joint"), (loop_j, "loop_joint")] {
             if V3::from_array(j.axis.xyz.0).norm() < 1e-9 {
-                return Err(model.field_error(element, &j.name, "axis", "zero axis"));
+                return Err(model.field_error(element, &j.name, "axis", "zero axis").into());
             }
         }
 
@@ -419,15 +426,17 @@ impl Rig {
                 )
             })?;
         if rod_joint.parent.link != stick_link {
-            return Err(model.field_error(
-                "loop_joint",
-                &loop_j.name,
-                "child",
-                format!(
-                    "`{rod_link}` must hang on the stick `{stick_link}` (it hangs on `{}`)",
-                    rod_joint.parent.link
-                ),
-            ));
+            return Err(model
+                .field_error(
+                    "loop_joint",
+                    &loop_j.name,
+                    "child",
+                    format!(
+                        "`{rod_link}` must hang on the stick `{stick_link}` (it hangs on `{}`)",
+                        rod_joint.parent.link
+                    ),
+                )
+                .into());
         }
         let clevis = frame_of(&rod_link).p;
         let pin = frame_of(&loop_j.parent.link).apply(V3::from_array(loop_j.origin.xyz.0));
@@ -449,42 +458,32 @@ impl Rig {
                 break;
             };
             if !matches!(j.joint_type, urdf_rs::JointType::Fixed) {
-                return Err(model.field_error(
-                    "joint",
-                    &j.name,
-                    "type",
-                    format!("the cylinder must be fixed to the base; `{}` moves it", j.name),
-                ));
+                return Err(model
+                    .field_error(
+                        "joint",
+                        &j.name,
+                        "type",
+                        format!("the cylinder must be fixed to the base; `{}` moves it", j.name),
+                    )
+                    .into());
             }
             link = j.parent.link.clone();
         }
 
         // The piston group: the piston link and every link fixed to it (the load cell).
-        let mut group = vec![piston_j.child.link.clone()];
-        loop {
-            let before = group.len();
-            for j in &model.robot.joints {
-                if matches!(j.joint_type, urdf_rs::JointType::Fixed)
-                    && group.contains(&j.parent.link)
-                    && !group.contains(&j.child.link)
-                {
-                    group.push(j.child.link.clone());
-                }
-            }
-            if group.len() == before {
-                break;
-            }
-        }
-        if !group.contains(&loop_j.parent.link) {
-            return Err(model.field_error(
-                "loop_joint",
-                &loop_j.name,
-                "parent",
-                format!(
-                    "`{}` must be fixed to the piston `{}`",
-                    loop_j.parent.link, piston_j.child.link
-                ),
-            ));
+        let group = model.fixed_group(&piston_j.child.link);
+        if !group.contains(&loop_j.parent.link.as_str()) {
+            return Err(model
+                .field_error(
+                    "loop_joint",
+                    &loop_j.name,
+                    "parent",
+                    format!(
+                        "`{}` must be fixed to the piston `{}`",
+                        loop_j.parent.link, piston_j.child.link
+                    ),
+                )
+                .into());
         }
         let piston_group_mass_kg: f64 = group
             .iter()
@@ -511,12 +510,14 @@ impl Rig {
         let r_perp = r - linkage.pivot_axis * r.dot(linkage.pivot_axis);
         let grip_lever_m = r_perp.norm();
         if grip_lever_m < 1e-6 {
-            return Err(model.field_error(
-                "link",
-                &stick_link,
-                "visual grip/origin",
-                "the grip lies on the pivot axis",
-            ));
+            return Err(model
+                .field_error(
+                    "link",
+                    &stick_link,
+                    "visual grip/origin",
+                    "the grip lies on the pivot axis",
+                )
+                .into());
         }
 
         // Rapier world from the tree.
@@ -626,12 +627,14 @@ impl Rig {
         let (load_cell_body, load_cell_offset) = body_of(&loop_j.parent.link)?;
         let (rod_body, rod_offset) = body_of(&rod_link)?;
         if rod_offset != Frame::IDENTITY {
-            return Err(model.field_error(
-                "loop_joint",
-                &loop_j.name,
-                "child",
-                format!("`{rod_link}` must be a moving link (it is fixed to its parent)"),
-            ));
+            return Err(model
+                .field_error(
+                    "loop_joint",
+                    &loop_j.name,
+                    "child",
+                    format!("`{rod_link}` must be a moving link (it is fixed to its parent)"),
+                )
+                .into());
         }
         let stick_joint = joint_of(&stick_j.name)?;
         let piston_joint = joint_of(&piston_j.name)?;
@@ -718,12 +721,14 @@ impl Rig {
             urdf_rs::JointType::Spherical => JointAxesMask::LOCKED_SPHERICAL_AXES,
             urdf_rs::JointType::Fixed => JointAxesMask::LOCKED_FIXED_AXES,
             _ => {
-                return Err(model.field_error(
-                    "loop_joint",
-                    &loop_j.name,
-                    "type",
-                    "a loop joint must be revolute, continuous, spherical or fixed",
-                ))
+                return Err(model
+                    .field_error(
+                        "loop_joint",
+                        &loop_j.name,
+                        "type",
+                        "a loop joint must be revolute, continuous, spherical or fixed",
+                    )
+                    .into())
             }
         };
         let joint = GenericJointBuilder::new(locked)
@@ -1024,13 +1029,13 @@ impl Rig {
         &self.damper
     }
 
-    /// Hook for passive feel systems (issue 6): an extra force on the piston along +x, N, computed by the
+    /// For passive feel systems: an extra force on the piston along +x, N, computed by the
     /// caller (e.g. from [`Rig::state`]) and held for the following steps until set again.
     pub fn set_external_force_n(&mut self, force_n: f64) {
         self.external_force_n = force_n;
     }
 
-    /// Hook for spring feel systems (issue 6): a linear spring on the piston joint, `F = −k (x − rest)`
+    /// For spring feel systems: a linear spring on the piston joint, `F = −k (x − rest)`
     /// along +x, integrated implicitly by the multibody (backward Euler: it can store and return energy
     /// but never inject it, whatever `k` and the step). Held until set again; `k = 0` removes it. A
     /// nonlinear spring is applied as its tangent at the present displacement (see
@@ -1079,12 +1084,14 @@ fn check_stops_agree(
     for k in 0..=n {
         let t = lo + (hi - lo) * k as f64 / n as f64;
         let Some(x) = linkage.piston_x_m(t) else {
-            return Err(model.field_error(
-                "joint",
-                &stick_j.name,
-                "limit",
-                format!("at {t:.4} rad the push rod cannot reach the piston's line"),
-            ));
+            return Err(model
+                .field_error(
+                    "joint",
+                    &stick_j.name,
+                    "limit",
+                    format!("at {t:.4} rad the push rod cannot reach the piston's line"),
+                )
+                .into());
         };
         if x <= piston_j.limit.lower || x >= piston_j.limit.upper {
             return Err(model.field_error(
@@ -1096,7 +1103,7 @@ fn check_stops_agree(
                      (joint `{}`): the stops would fight",
                     piston_j.limit.lower, piston_j.limit.upper, piston_j.name
                 ),
-            ));
+            ).into());
         }
     }
     Ok(())

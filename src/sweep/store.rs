@@ -11,7 +11,8 @@ use toml::Spanned;
 
 use super::outcome::{Cell, Outcome};
 use super::plan::{Param, Plan};
-use crate::input::{InputError, Source};
+use crate::input::sweep::Loaded;
+use crate::input::InputError;
 
 /// A sweep directory refused (its manifest or journal, as `InputError`), a write that failed, or a
 /// `--shard` argument refused.
@@ -110,34 +111,7 @@ struct Manifest {
     numeric: Vec<bool>,
 }
 
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct ManifestFile {
-    name: String,
-    plan: String,
-    digest: Spanned<String>,
-    runs: Spanned<u64>,
-    shard: Spanned<String>,
-    columns: Spanned<Vec<String>>,
-    numeric: Vec<bool>,
-}
-
-/// What a directory's manifest says, and where.
-struct Loaded {
-    src: Source,
-    file: ManifestFile,
-}
-
 impl Loaded {
-    fn read(path: &Path) -> Result<Option<Self>, StoreError> {
-        if !path.exists() {
-            return Ok(None);
-        }
-        let src = Source::read(path)?;
-        let file = src.toml()?;
-        Ok(Some(Self { src, file }))
-    }
-
     fn err<T>(&self, at: &Spanned<T>, key: &str, msg: String) -> StoreError {
         self.src.err(at, key, msg).into()
     }

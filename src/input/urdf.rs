@@ -1,16 +1,13 @@
-//! Reading the rig's URDF: the kinematic tree (for `rapier3d-urdf`), the loop-closing joints
-//! (`<loop_joint>`, an mrfeel extension that standard URDF parsers ignore), link visuals for Rerun, and
-//! errors that name the file, the line and the element.
+//! The rig's URDF: the kinematic tree (for `rapier3d-urdf`), the loop-closing joints (`<loop_joint>`, an
+//! mrfeel extension that standard URDF parsers ignore) and link visuals, with errors that name the line.
 //!
-//! The text is first read here with every element's and attribute's line (`scan_xml`, on quick-xml) and checked
-//! against what `urdf-rs` reads (required attributes, numbers, 3-vectors, joint types; unknown
-//! attributes and elements inside links and joints are errors, not silently dropped), and link and joint
-//! names must be unique: `urdf-rs` itself reports no position.
+//! `urdf-rs` reports no position, so the text is first read with every element's and attribute's line
+//! (`scan_xml`, on quick-xml) and checked against what `urdf-rs` reads: required attributes, numbers,
+//! vectors, joint types, unique names; unknown attributes and elements are errors, not silently dropped.
 
 use std::path::{Path, PathBuf};
 
-use super::RigError;
-use crate::input::{InputError, Source};
+use super::{InputError, Source};
 
 /// A parsed rig description.
 #[derive(Debug, Clone)]
@@ -26,27 +23,24 @@ pub struct UrdfModel {
 
 impl UrdfModel {
     /// Read and parse a URDF file with its loop joints.
-    pub fn load(path: &Path) -> Result<Self, RigError> {
+    pub fn load(path: &Path) -> Result<Self, InputError> {
         Self::parse(&Source::read(path)?.text, path)
     }
 
     /// Parse URDF text; `path` is used for messages and to resolve nothing else.
-    pub fn parse(text: &str, path: &Path) -> Result<Self, RigError> {
-        let xml = scan_xml(text).map_err(|(line, msg)| {
-            RigError::from(urdf_error(path, line, format!("not a valid URDF (XML): {msg}")))
-        })?;
-        check_schema(&xml).map_err(|(line, field, msg)| {
-            RigError::from(urdf_error(path, line, format!("{field}: {msg}")))
-        })?;
+    pub fn parse(text: &str, path: &Path) -> Result<Self, InputError> {
+        let xml = scan_xml(text)
+            .map_err(|(line, msg)| urdf_error(path, line, format!("not a valid URDF (XML): {msg}")))?;
+        check_schema(&xml).map_err(|(line, field, msg)| urdf_error(path, line, format!("{field}: {msg}")))?;
         // What the checks above let through, `urdf-rs` reads; should it not, the line its XML reader names
         // (`Line: N`, e.g. for `--` inside a comment, which quick-xml lets pass), else the <robot> line.
         let robot = urdf_rs::read_from_string(text).map_err(|e| {
             let msg = e.to_string();
-            RigError::from(urdf_error(
+            urdf_error(
                 path,
                 line_in_message(&msg).unwrap_or(xml.line),
                 format!("not a valid URDF: {msg}"),
-            ))
+            )
         })?;
         // The loop joints read as ordinary joints once their tag is renamed; those whose names are not
         // in the tree are the loop joints.
@@ -54,14 +48,14 @@ impl UrdfModel {
             .replace("<loop_joint", "<joint")
             .replace("</loop_joint>", "</joint>");
         let all = urdf_rs::read_from_string(&renamed).map_err(|e| {
-            RigError::from(urdf_error(
+            urdf_error(
                 path,
                 xml.children
                     .iter()
                     .find(|c| c.name == "loop_joint")
                     .map_or(xml.line, |c| c.line),
                 format!("a <loop_joint> element is not a valid joint: {e}"),
-            ))
+            )
         })?;
         let loop_names: Vec<&str> = xml
             .children
@@ -85,13 +79,13 @@ impl UrdfModel {
     }
 
     /// 1-based line of `<element name="name"` (a child of `<robot>`), or 0 when there is none.
-    pub fn line_of(&self, element: &str, name: &str) -> usize {
+    pub(crate) fn line_of(&self, element: &str, name: &str) -> usize {
         self.element(element, name).map_or(0, |e| e.line)
     }
 
     /// 1-based line of the first nested element along `path` (`["inertial", "mass"]`) in `<element
     /// name="name">`, or of the element itself where the path stops.
-    pub fn line_in(&self, element: &str, name: &str, path: &[&str]) -> usize {
+    pub(crate) fn line_in(&self, element: &str, name: &str, path: &[&str]) -> usize {
         let Some(mut e) = self.element(element, name) else {
             return 0;
         };
@@ -112,17 +106,23 @@ impl UrdfModel {
     }
 
     /// An error about a field of a named element.
-    pub fn field_error(&self, element: &str, name: &str, field: &str, msg: impl Into<String>) -> RigError {
-        RigError::from(urdf_error(
+    pub(crate) fn field_error(
+        &self,
+        element: &str,
+        name: &str,
+        field: &str,
+        msg: impl Into<String>,
+    ) -> InputError {
+        urdf_error(
             &self.path,
             self.line_of(element, name),
             format!("{element} `{name}`: {field}: {}", msg.into()),
-        ))
+        )
     }
 
-    pub fn link(&self, name: &str) -> Result<&urdf_rs::Link, RigError> {
+    pub(crate) fn link(&self, name: &str) -> Result<&urdf_rs::Link, InputError> {
         self.robot.links.iter().find(|l| l.name == name).ok_or_else(|| {
-            RigError::from(urdf_error(
+            urdf_error(
                 &self.path,
                 0,
                 format!(
@@ -134,13 +134,13 @@ impl UrdfModel {
                         .collect::<Vec<_>>()
                         .join(", ")
                 ),
-            ))
+            )
         })
     }
 
-    pub fn joint(&self, name: &str) -> Result<&urdf_rs::Joint, RigError> {
+    pub(crate) fn joint(&self, name: &str) -> Result<&urdf_rs::Joint, InputError> {
         self.robot.joints.iter().find(|j| j.name == name).ok_or_else(|| {
-            RigError::from(urdf_error(
+            urdf_error(
                 &self.path,
                 0,
                 format!(
@@ -152,13 +152,13 @@ impl UrdfModel {
                         .collect::<Vec<_>>()
                         .join(", ")
                 ),
-            ))
+            )
         })
     }
 
-    pub fn loop_joint(&self, name: &str) -> Result<&urdf_rs::Joint, RigError> {
+    pub(crate) fn loop_joint(&self, name: &str) -> Result<&urdf_rs::Joint, InputError> {
         self.loops.iter().find(|j| j.name == name).ok_or_else(|| {
-            RigError::from(urdf_error(
+            urdf_error(
                 &self.path,
                 0,
                 format!(
@@ -169,13 +169,13 @@ impl UrdfModel {
                         .collect::<Vec<_>>()
                         .join(", ")
                 ),
-            ))
+            )
         })
     }
 
     /// Every joint's parent and child exist, every link has at most one parent joint, and masses and
     /// inertias are physical.
-    fn check_tree(&self) -> Result<(), RigError> {
+    fn check_tree(&self) -> Result<(), InputError> {
         for j in self.robot.joints.iter().chain(&self.loops) {
             let element = if self.loops.iter().any(|l| l.name == j.name) {
                 "loop_joint"
@@ -240,21 +240,7 @@ impl UrdfModel {
             if matches!(j.joint_type, urdf_rs::JointType::Fixed) {
                 continue;
             }
-            let mut group = vec![j.child.link.as_str()];
-            loop {
-                let before = group.len();
-                for f in &self.robot.joints {
-                    if matches!(f.joint_type, urdf_rs::JointType::Fixed)
-                        && group.contains(&f.parent.link.as_str())
-                        && !group.contains(&f.child.link.as_str())
-                    {
-                        group.push(&f.child.link);
-                    }
-                }
-                if group.len() == before {
-                    break;
-                }
-            }
+            let group = self.fixed_group(&j.child.link);
             let mass: f64 = self
                 .robot
                 .links
@@ -282,18 +268,37 @@ impl UrdfModel {
         Ok(())
     }
 
+    /// `link` and every link joined to it, below it, by fixed joints: one rigid body.
+    pub(crate) fn fixed_group<'a>(&'a self, link: &'a str) -> Vec<&'a str> {
+        let mut group = vec![link];
+        let mut k = 0;
+        while k < group.len() {
+            for j in &self.robot.joints {
+                let (parent, child) = (j.parent.link.as_str(), j.child.link.as_str());
+                if matches!(j.joint_type, urdf_rs::JointType::Fixed)
+                    && parent == group[k]
+                    && !group.contains(&child)
+                {
+                    group.push(child);
+                }
+            }
+            k += 1;
+        }
+        group
+    }
+
     /// An error about the mass of a link, at the line of its `<mass>` (of the link without one).
-    fn mass_error(&self, link: &str, msg: String) -> RigError {
+    fn mass_error(&self, link: &str, msg: String) -> InputError {
         self.inertial_error(link, "mass", "inertial/mass", msg)
     }
 
     /// An error about `<inertial><child>` of a link, at the line of that element.
-    fn inertial_error(&self, link: &str, child: &str, field: &str, msg: String) -> RigError {
-        RigError::from(urdf_error(
+    fn inertial_error(&self, link: &str, child: &str, field: &str, msg: String) -> InputError {
+        urdf_error(
             &self.path,
             self.line_in("link", link, &["inertial", child]),
             format!("link `{link}`: {field}: {msg}"),
-        ))
+        )
     }
 }
 
@@ -840,7 +845,7 @@ fn check_value(kind: Val, v: &str) -> Result<(), String> {
 
 /// Rotation of a URDF `rpy` (fixed-axis roll, pitch, yaw: `Rz(yaw) Ry(pitch) Rx(roll)`) as a unit
 /// quaternion `[x, y, z, w]`.
-pub fn rpy_to_quat_xyzw(rpy: [f64; 3]) -> [f64; 4] {
+pub(crate) fn rpy_to_quat_xyzw(rpy: [f64; 3]) -> [f64; 4] {
     let (sr, cr) = (rpy[0] / 2.0).sin_cos();
     let (sp, cp) = (rpy[1] / 2.0).sin_cos();
     let (sy, cy) = (rpy[2] / 2.0).sin_cos();
