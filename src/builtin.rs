@@ -5,8 +5,8 @@
 //! A file a scenario names is looked for, in order: relative to the scenario's folder (an absolute path as
 //! given); in the data directory (`--data-dir` or `MRFEEL_DATA`), where one is set; then, for a relative
 //! path, among the built-in files by its file name. A built-in file has the path `<built-in>/models/…`,
-//! which every reader of this crate reads through [`crate::input::text::read_bytes`] and which error
-//! messages name with its lines like any other file.
+//! which every reader of this crate reads and error messages name with its lines like
+//! any other file.
 
 use std::path::{Component, Path, PathBuf};
 use std::sync::OnceLock;

@@ -1,6 +1,6 @@
 //! Faults in the feel loop's power and signal path: what can break between the DAQ and the damper, when,
-//! and what each does to the signals. A scenario schedules them in `[[fault]]` tables
-//! ([`crate::input::faults`]); a [`FaultInjector`] applies them at three hooks of the loop:
+//! and what each does to the signals. A scenario schedules them in `[[fault]]` tables; a
+//! `FaultInjector` applies them at three hooks of the loop:
 //!
 //! | kind | hook | effect |
 //! |---|---|---|
@@ -12,7 +12,7 @@
 //! | `displacement_dropout` | laser → DAQ | the DAQ holds the last valid position (the differentiated velocity falls to 0) |
 //! | `latency_spike` | DAQ → controller | the controller sees samples `extra_latency_s` older than normal |
 //!
-//! The active stick's motor driver has the same two driver faults ([`FaultInjector::motor_force_n`]): open
+//! The active stick's motor driver has the same two driver faults (`FaultInjector::motor_force_n`): open
 //! gives no force, stuck gives full force in the direction it was pushing. Passive spring feel systems have
 //! none of these paths: a fault scheduled for them changes nothing, which is the point of the comparison.
 
@@ -25,12 +25,19 @@ use serde::Deserialize;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum FaultKind {
+    /// The coil carries no current (the active stick's motor no force).
     CoilOpen,
+    /// The driver gives its full-scale current (force) whatever the command.
     DriverStuck,
+    /// The load-cell reading freezes at its value when the fault starts.
     LoadCellStuck,
+    /// The load-cell reading is 0 N.
     LoadCellZero,
+    /// Gaussian noise on the load-cell reading.
     LoadCellNoisy,
+    /// The DAQ holds the last valid position.
     DisplacementDropout,
+    /// The controller sees older samples.
     LatencySpike,
 }
 
@@ -67,16 +74,19 @@ impl FaultKind {
 
 /// Default RMS of `load_cell_noisy`, N (an ESTIMATE: a loose shield or ground loop on a strain-gauge
 /// bridge, 4 % of the cell's 250 N range).
-pub const DEFAULT_NOISE_RMS_N: f64 = 10.0;
+const DEFAULT_NOISE_RMS_N: f64 = 10.0;
 /// Default extra delay of `latency_spike`, s (an ESTIMATE: a 50 ms stall of a non-real-time host, the
 /// order of a Windows/LabVIEW scheduling hiccup).
-pub const DEFAULT_EXTRA_LATENCY_S: f64 = 0.05;
+const DEFAULT_EXTRA_LATENCY_S: f64 = 0.05;
 
 /// One scheduled fault, active on `start_s ≤ t < end_s`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Fault {
+    /// What breaks.
     pub kind: FaultKind,
+    /// Start, s.
     pub start_s: f64,
+    /// End, s.
     pub end_s: f64,
     /// `load_cell_noisy`: noise RMS, N.
     pub noise_rms_n: f64,
@@ -105,6 +115,7 @@ impl Fault {
 /// The faults of a run.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct FaultSchedule {
+    /// The faults, in file order.
     pub faults: Vec<Fault>,
 }
 
@@ -125,7 +136,7 @@ impl FaultSchedule {
     }
 
     /// Bit set of the kinds active at `t_s` (bit `k` = `FaultKind::ALL[k]`), for result columns.
-    pub fn active_mask(&self, t_s: f64) -> u8 {
+    pub(crate) fn active_mask(&self, t_s: f64) -> u8 {
         self.faults
             .iter()
             .filter(|f| f.active(t_s))
@@ -151,8 +162,8 @@ pub fn mask_names(mask: u8) -> String {
 /// Applies a schedule to the signals at the hooks (see the module table). Seeded: the same schedule and
 /// seed give the same noise.
 #[derive(Debug, Clone)]
-pub struct FaultInjector {
-    pub schedule: FaultSchedule,
+pub(crate) struct FaultInjector {
+    pub(crate) schedule: FaultSchedule,
     rng: ChaCha8Rng,
     held_force_n: Option<f64>,
     last_force_n: f64,
@@ -161,7 +172,7 @@ pub struct FaultInjector {
 
 impl FaultInjector {
     /// An injector of `schedule`, its noise seeded by `seed`.
-    pub fn new(schedule: FaultSchedule, seed: u64) -> Self {
+    pub(crate) fn new(schedule: FaultSchedule, seed: u64) -> Self {
         Self {
             schedule,
             rng: ChaCha8Rng::seed_from_u64(seed ^ 0xfa_017),
@@ -173,7 +184,7 @@ impl FaultInjector {
 
     /// Hook driver → coil: the current command the coil actually receives, A (`limit_a`: the driver's
     /// full scale).
-    pub fn coil_command_a(&self, t_s: f64, cmd_a: f64, limit_a: f64) -> f64 {
+    pub(crate) fn coil_command_a(&self, t_s: f64, cmd_a: f64, limit_a: f64) -> f64 {
         if self.schedule.active(FaultKind::CoilOpen, t_s).is_some() {
             0.0
         } else if self.schedule.active(FaultKind::DriverStuck, t_s).is_some() {
@@ -186,7 +197,7 @@ impl FaultInjector {
     /// Hook driver → motor (the active stick): the force the motor actually gives, N, from the commanded
     /// one; `last_n` is the force it gave over the previous step, `limit_n` its full scale. An open driver
     /// gives nothing; a stuck one gives full force in the direction it was pushing.
-    pub fn motor_force_n(&self, t_s: f64, cmd_n: f64, last_n: f64, limit_n: f64) -> f64 {
+    pub(crate) fn motor_force_n(&self, t_s: f64, cmd_n: f64, last_n: f64, limit_n: f64) -> f64 {
         if self.schedule.active(FaultKind::CoilOpen, t_s).is_some() {
             0.0
         } else if self.schedule.active(FaultKind::DriverStuck, t_s).is_some() {
@@ -198,7 +209,7 @@ impl FaultInjector {
     }
 
     /// Hook load cell → DAQ: the reading the DAQ digitises, N, from the healthy reading.
-    pub fn load_cell_n(&mut self, t_s: f64, reading_n: f64) -> f64 {
+    pub(crate) fn load_cell_n(&mut self, t_s: f64, reading_n: f64) -> f64 {
         let out = if self.schedule.active(FaultKind::LoadCellZero, t_s).is_some() {
             0.0
         } else if self.schedule.active(FaultKind::LoadCellStuck, t_s).is_some() {
@@ -218,7 +229,7 @@ impl FaultInjector {
     }
 
     /// Hook laser → DAQ: the position the DAQ sees, m (held at the last valid value during a dropout).
-    pub fn displacement_m(&mut self, t_s: f64, x_m: f64) -> f64 {
+    pub(crate) fn displacement_m(&mut self, t_s: f64, x_m: f64) -> f64 {
         if self
             .schedule
             .active(FaultKind::DisplacementDropout, t_s)
@@ -232,7 +243,7 @@ impl FaultInjector {
     }
 
     /// Hook DAQ → controller: extra delay of the samples the controller sees, s.
-    pub fn extra_latency_s(&self, t_s: f64) -> f64 {
+    pub(crate) fn extra_latency_s(&self, t_s: f64) -> f64 {
         self.schedule
             .active(FaultKind::LatencySpike, t_s)
             .map(|f| f.extra_latency_s)

@@ -1,5 +1,5 @@
 //! Test-rig measurements in the project's CSV format (`docs/spec/measurement-format.md`): the signals of
-//! one test in SI units, read by [`crate::input::measurement`] and written back.
+//! one test in SI units, read by `input::measurement` and written back.
 //!
 //! Required columns: `t_s`, `x_m`, `i_a`, `f_n`; optional `v_m_s` (derived from `x_m` with a smoothing
 //! differentiator when absent), `i_meas_a`, `a_m_s2`, `temp_c`; any other column is kept as text. The
@@ -10,19 +10,19 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use crate::device::Inputs;
-pub use crate::input::measurement::{measurement_files, read_all, MEASUREMENT_LIMIT_BYTES};
+pub use crate::input::measurement::{measurement_files, read_all};
 use crate::input::InputError;
 pub use crate::signal::{smooth_derivative, uniform_interval};
 
 /// Columns every test must have.
-pub const REQUIRED: [&str; 4] = ["t_s", "x_m", "i_a", "f_n"];
+pub(crate) const REQUIRED: [&str; 4] = ["t_s", "x_m", "i_a", "f_n"];
 /// Optional columns the tool understands.
-pub const OPTIONAL: [&str; 4] = ["v_m_s", "i_meas_a", "a_m_s2", "temp_c"];
+pub(crate) const OPTIONAL: [&str; 4] = ["v_m_s", "i_meas_a", "a_m_s2", "temp_c"];
 
 /// Largest magnitude a measured value may have (any column, its own unit): the model's force limit.
 /// Beyond it a sum of squares overflows and a fit's figures are not numbers; no instrument reads such a
 /// value.
-pub const MAGNITUDE_LIMIT: f64 = crate::device::model::FORCE_LIMIT_N;
+pub(crate) const MAGNITUDE_LIMIT: f64 = crate::device::model::FORCE_LIMIT_N;
 
 /// A column beyond the format's, kept as written (trimmed, unquoted). One string per column, the fields
 /// separated by NUL (which no input holds), so that thousands of such columns take about the file's own
@@ -159,7 +159,7 @@ impl Measurement {
     }
 
     /// A measurement from columns in memory (SI units), checked as a file's columns are: each as long as
-    /// `t_s`, every value a finite number within [`MAGNITUDE_LIMIT`], the time strictly increasing. `name`
+    /// `t_s`, every value a finite number within `MAGNITUDE_LIMIT` (the model's force limit), the time strictly increasing. `name`
     /// stands for the file name; `v_m_s` is derived from `x_m` when not given; errors name the column and
     /// the 0-based sample, and [`Measurement::lines`] holds 1-based sample numbers.
     pub fn from_columns(
@@ -225,7 +225,7 @@ impl Measurement {
 
     /// Write in the measurement format, numbers in their shortest exact form (a file reads back to the
     /// same `f64` values). The velocity column is written only when measured.
-    pub fn to_csv_string(&self) -> String {
+    pub(crate) fn to_csv_string(&self) -> String {
         let mut s = String::new();
         for (k, v) in &self.meta {
             let _ = writeln!(s, "# {k}: {v}");
@@ -277,7 +277,7 @@ impl Measurement {
 }
 
 /// The refusal of a record with `found` samples where `what` needs `need`.
-pub fn too_few_samples(path: &Path, found: usize, need: usize, what: &str) -> InputError {
+pub(crate) fn too_few_samples(path: &Path, found: usize, need: usize, what: &str) -> InputError {
     InputError::file(
         path,
         format!("{found} samples, fewer than the {need} that {what} needs"),
@@ -298,9 +298,8 @@ fn csv_field(s: &str) -> String {
 mod tests {
     use super::*;
 
-    /// A directory's measurement files are found whatever the case of their extension (`.CSV` files were
-    /// skipped without a word), other files and hidden ones (a killed run's temporary output) are not, and
-    /// they come sorted by name.
+    /// A directory's measurement files are found whatever the case of their extension, other files and
+    /// hidden ones (a killed run's temporary output) are not, and they come sorted by name.
     #[test]
     fn a_directory_gives_its_csv_files_in_any_case() {
         let d = tempfile::tempdir().unwrap();
@@ -323,7 +322,7 @@ mod tests {
     }
 
     /// A `.csv` entry of a data directory that is not a file (a named pipe, a broken link, a directory) is
-    /// an error naming it: it was skipped without a word, and the run went on with a test fewer.
+    /// an error naming it, not skipped.
     #[test]
     #[cfg(unix)]
     fn a_csv_entry_that_is_no_file_is_named_not_skipped() {

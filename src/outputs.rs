@@ -7,7 +7,9 @@ use std::path::{Component, Path, PathBuf};
 /// creates if need be and writes files into.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub enum Kind {
+    /// A file.
     File,
+    /// A directory.
     Dir,
 }
 
@@ -227,16 +229,12 @@ fn remove_stale_partials(dir: &Path) {
     }
 }
 
-/// Write the file `path` whole or not at all. `write` writes a temporary file beside it (`new_partial`,
-/// the path it is given), which is flushed to the disk and renamed over `path` only once `write` has
-/// succeeded, and the directory then flushed too: a failure (a full disk, a plot or a recording that cannot
-/// be made) or a crash leaves an existing file as it was, and a run killed half way leaves a temporary
-/// file that the next run writing into that directory removes. Several runs writing one path at once each
-/// rename their own complete file, the last one staying. A replaced file keeps its permissions; a symbolic
-/// link is followed and the file it points to replaced. An output that exists and is not a regular file
-/// (`/dev/null`, a named pipe) is written directly: it is a stream, not a file to replace. Within an
-/// [`OutputSet`] the rename waits for the set's commit. `io_error` turns a failure to make, flush or rename
-/// the temporary file into the caller's error.
+/// Write the file `path` whole or not at all: `write` fills a temporary file beside it (the path it is
+/// given), flushed and renamed over `path` only once `write` succeeds; a failure or a crash leaves the old
+/// file, and the next run into that directory removes a killed run's leftover. Links are followed (the
+/// file replaced keeps its permissions); a stream (`/dev/null`, a pipe) is written directly. In an
+/// [`OutputSet`] the rename waits for its commit. `io_error` turns a failure to make, flush or rename the
+/// temporary file into `E`.
 pub fn write_whole<T, E>(
     path: &Path,
     write: impl FnOnce(&Path) -> Result<T, E>,
@@ -301,14 +299,10 @@ thread_local! {
     static SET: std::cell::RefCell<Option<Vec<Staged>>> = const { std::cell::RefCell::new(None) };
 }
 
-/// A command's several outputs written as one set: while a set is open on a thread, each
-/// [`write_whole`] there writes and flushes its temporary file but does not rename it; [`OutputSet::commit`]
-/// then renames them all, and dropping the set uncommitted removes them (a command that fails writes
-/// nothing). A commit of several files first writes a journal (`.mrfeel-set-XXXXXXXXXX.json`, the pairs of
-/// temporary file and target) into each target's directory, flushed and locked while the run lives, then
-/// renames, then removes the journals: a run killed between two renames leaves its journal, and the next
-/// run writing into one of those directories finishes the renames before anything else, so that the set is
-/// never left part new, part old.
+/// A command's outputs written as one set: while a set is open on a thread, [`write_whole`] stages its
+/// flushed temporary file; [`OutputSet::commit`] renames them all and dropping the set uncommitted removes
+/// them. A commit of several files journals the renames (`.mrfeel-set-*.json` in each target's directory,
+/// locked while the run lives) so that the next run finishes a killed one's set: never part new, part old.
 pub struct OutputSet(());
 
 impl OutputSet {

@@ -26,6 +26,7 @@ use crate::ident::validate::evaluate;
 /// Measurements prepared for the models, and what was found about their acquisition chain.
 #[derive(Debug, Clone)]
 pub struct Data {
+    /// The tests, ready for the models.
     pub tests: Vec<Test>,
     /// The share of the drive period that the acquisition filter spanned, where one was found (saved in
     /// PARAMS.json: `acquisition_window_periods`).
@@ -161,7 +162,9 @@ pub struct FitSetup {
     pub model: String,
     /// Driver saturation of the current command, A (`None`: 14 A, or the largest command in the data).
     pub current_limit_a: Option<f64>,
+    /// How the tests share the loss.
     pub weighting: Weighting,
+    /// When the logged current commands took effect (or decide from the data).
     pub command_timing: TimingChoice,
 }
 
@@ -192,7 +195,7 @@ pub fn model(spec: &str, current_limit_a: f64) -> anyhow::Result<Model> {
 }
 
 /// The model `spec` with the effects of `registry` (the built-ins plus data-defined effects).
-pub fn model_in(spec: &str, registry: &Registry, current_limit_a: f64) -> anyhow::Result<Model> {
+fn model_in(spec: &str, registry: &Registry, current_limit_a: f64) -> anyhow::Result<Model> {
     let spec = ModelSpec::parse(if spec.trim().is_empty() { "bingham" } else { spec })?;
     Ok(Model::new(&spec, registry, current_limit_a)?)
 }
@@ -225,12 +228,17 @@ pub fn fit_model_in(tests: &[Test], setup: &FitSetup, registry: &Registry) -> an
 /// A fitted model and what it was fitted on.
 #[derive(Debug)]
 pub struct Fitted {
+    /// The model fitted.
     pub model: Model,
+    /// Its parameters, standard errors and figures.
     pub result: FitResult,
+    /// The command timing decided for the data.
     pub timing: TimingDecision,
     /// The tests as the model reads them (their current commands retimed as decided).
     pub tests: Vec<Test>,
+    /// [`Data::window_periods`] of the data fitted.
     pub window_periods: Option<f64>,
+    /// How the tests shared the loss.
     pub weighting: Weighting,
 }
 
@@ -307,8 +315,11 @@ pub fn predict(cfg: &DeviceConfig, m: &Measurement) -> Vec<f64> {
 pub struct DiagnoseSetup {
     /// The model to start from (empty: `bingham`).
     pub model: String,
+    /// Driver saturation of the current command, A (`None`: the default for the data).
     pub current_limit_a: Option<f64>,
+    /// How the tests share the loss.
     pub weighting: Weighting,
+    /// When the logged current commands took effect (or decide from the data).
     pub command_timing: TimingChoice,
     /// Draw progress bars on stderr.
     pub progress: bool,
@@ -319,7 +330,9 @@ pub struct DiagnoseSetup {
 pub struct Diagnosed {
     /// The tests as read (command timing decided on the starting model).
     pub tests: Vec<Test>,
+    /// The effects found, step by step.
     pub diagnosis: Diagnosis,
+    /// The command timing decided on the starting model.
     pub timing: TimingDecision,
     /// The final model fitted on every test, as PARAMS.json (no standard errors: the diagnosis's fits skip
     /// them).

@@ -1,7 +1,7 @@
 //! Scenario files (`scenarios/*.toml`): one headless run of the stick rig, wiring the rig ([`RigConfig`]),
 //! the device (a device file or a fitted `PARAMS.json`), the sensors and DAQ, the feel loop's controller and
 //! law, the pilot (hand model and task), faults, and optionally an aircraft, the pilot's outer loop on it
-//! and the feel system. The file is read and checked by [`crate::input::scenario`]; paths in it are
+//! and the feel system. The file is read and checked by `input::scenario`; paths in it are
 //! relative to it.
 
 use std::path::{Path, PathBuf};
@@ -21,17 +21,24 @@ pub use overrides::{Origin, Override};
 /// The controller section, validated.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ControllerConfig {
+    /// PID gains on the force error.
     pub gains: PidGains,
+    /// Whether the law's static inverse feeds the coil command forward.
     pub feedforward: bool,
+    /// Below this stick speed, m/s, the stick is at rest.
     pub rest_speed_m_s: f64,
+    /// Below this grip force, N, the stick is at rest.
     pub rest_force_n: f64,
 }
 
 /// `[pilot]`: the hand model and its task.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PilotConfig {
+    /// The hand model's file.
     pub hand_path: PathBuf,
+    /// The hand model.
     pub hand: HandConfig,
+    /// Position or force task.
     pub task: Task,
     /// Command in stick angle (rad) for a position task, grip force (N) for a force task.
     pub command: Signal,
@@ -42,8 +49,9 @@ pub struct PilotConfig {
 pub struct AircraftConfig {
     /// `"c172p"`, `"737"` (embedded Rust model) or `"jsbsim:c172p"`, `"jsbsim:737"` (live JSBSim).
     pub model: String,
-    /// Trim: true airspeed, m/s, and altitude, m.
+    /// Trim true airspeed, m/s.
     pub airspeed_m_s: f64,
+    /// Trim altitude, m.
     pub altitude_m: f64,
     /// Aircraft frame rate, Hz (JSBSim's 120 Hz by default; at most the physics rate).
     pub rate_hz: f64,
@@ -55,6 +63,7 @@ pub struct AircraftConfig {
 /// hand's stick-angle command (`pilot.signal = "outer-loop"`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct OuterLoopConfig {
+    /// Pitch attitude or load factor.
     pub loop_kind: PilotLoop,
     /// The crossover pilot, given or adapted to the aircraft; stick limits are set from the rig.
     pub pilot: PilotDesign,
@@ -73,15 +82,18 @@ pub enum PilotDesign {
     /// the lag from the pilot's stick command to the stick (hand and feel), part of the controlled element
     /// (`crate::aero::linear::adapted_pilot`).
     Adapted {
+        /// Open-loop crossover, rad/s.
         crossover_rad_s: f64,
+        /// Effective pilot delay, s.
         delay_s: f64,
+        /// Lag from stick command to stick, s.
         stick_lag_s: f64,
     },
 }
 
 /// Most physics steps a run may take ([`Scenario::load`] refuses more): each keeps a row of the results, so
 /// this bounds the memory at about 3 GB.
-pub const MAX_PHYSICS_STEPS: f64 = 1e7;
+pub(crate) const MAX_PHYSICS_STEPS: f64 = 1e7;
 
 /// Lines of the scenario's keys that a run's own errors name (a trim with no solution, an integration that
 /// blows up); a key not written: a line of its table, 1 without the table.
@@ -106,21 +118,30 @@ pub struct KeyLines {
 /// A validated scenario.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scenario {
+    /// The scenario file.
     pub path: PathBuf,
     /// Where the keys a run's errors name are in the file.
     pub lines: KeyLines,
+    /// The scenario's name.
     pub name: String,
+    /// Simulated time, s.
     pub duration_s: f64,
+    /// Seed of every random draw of the run.
     pub seed: u64,
     /// The rig's settings, with the URDF path resolved against the scenario's directory.
     pub rig: RigConfig,
+    /// The plant's device file (or `PARAMS.json`).
     pub device_path: PathBuf,
     /// The model the feel controller believes (`[controller] model`): a device file or a fitted
     /// `PARAMS.json`; `None`: the plant's own device file.
     pub controller_model_path: Option<PathBuf>,
+    /// Sensors and DAQ.
     pub sensors: SensorsConfig,
+    /// The feel loop's controller.
     pub controller: ControllerConfig,
+    /// The feel law: the force the stick should give.
     pub feel: FeelLaw,
+    /// The pilot's hand and task.
     pub pilot: PilotConfig,
     /// Scheduled faults (`[[fault]]` tables).
     pub faults: crate::faults::FaultSchedule,
@@ -147,7 +168,6 @@ impl Scenario {
     }
 
     /// The physics rate, Hz.
-
     pub fn physics_rate_hz(&self) -> f64 {
         self.rig.physics_hz
     }

@@ -19,10 +19,15 @@ use crate::units::IN_TO_M;
 /// Table 1 geometry of the paper's device, in SI units (converted once from inches on load).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Geometry {
+    /// Piston diameter, m.
     pub piston_diameter_m: f64,
+    /// Piston rod length, m.
     pub piston_rod_length_m: f64,
+    /// Cylinder inner diameter, m.
     pub cylinder_id_m: f64,
+    /// Cylinder outer diameter, m.
     pub cylinder_od_m: f64,
+    /// Cylinder length, m.
     pub cylinder_length_m: f64,
     /// Half stroke: the piston travels ±`stroke_half_m` from mid-stroke.
     pub stroke_half_m: f64,
@@ -31,11 +36,15 @@ pub struct Geometry {
 /// A loaded device: model, parameter values, driver limits, geometry.
 #[derive(Debug, Clone)]
 pub struct DeviceConfig {
+    /// The force model.
     pub model: Arc<Model>,
+    /// Its parameter values, in the model's order.
     pub params: Vec<f64>,
     /// The supply's limit, A, above the driver's saturation (the paper's 17 A), where known.
     pub supply_limit_a: Option<f64>,
+    /// The device's geometry, where the file gives it.
     pub geometry: Option<Geometry>,
+    /// The load cell's range, N, where the file gives it.
     pub load_cell_range_n: Option<f64>,
     /// When the logged current commands of the data the parameters were fitted to took effect (a
     /// `PARAMS.json`'s `command_timing`; after their sample for device files).
@@ -47,6 +56,7 @@ pub struct DeviceConfig {
     /// Each parameter's standard error as a `PARAMS.json` saved it (in the model's parameter order; all
     /// `None` for a device file).
     pub std_errs: Vec<Option<f64>>,
+    /// The file read (named in messages).
     pub path: PathBuf,
 }
 
@@ -79,7 +89,7 @@ impl DeviceConfig {
 
     /// A model fitted to data, with its parameters (`path` names it in messages): no geometry, no
     /// load-cell range, the driver's limit of the model.
-    pub fn from_model(model: Model, params: Vec<f64>, path: PathBuf) -> Self {
+    pub(crate) fn from_model(model: Model, params: Vec<f64>, path: PathBuf) -> Self {
         Self {
             std_errs: vec![None; params.len()],
             model: Arc::new(model),
@@ -95,7 +105,7 @@ impl DeviceConfig {
 
     /// The same damper with no MR yield force (none at zero current, none from the field) and damping
     /// `c0_n_s_per_m`: a spring feel unit's own viscous damper on the same rig.
-    pub fn viscous_damper(&self, c0_n_s_per_m: f64) -> Damper {
+    pub(crate) fn viscous_damper(&self, c0_n_s_per_m: f64) -> Damper {
         let mut p = self.params.clone();
         p[super::bingham::FC0] = 0.0;
         p[super::bingham::FC_GAIN] = 0.0;
@@ -419,6 +429,7 @@ struct TomlLoadCell {
 /// `PARAMS.json` as written by `mrfeel fit --save` and read by `mrfeel validate --params`.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct ParamsFile {
+    /// The model's spec (`bingham+hysteresis`).
     pub model: String,
     /// Driver saturation the model was fitted with, A.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -437,6 +448,7 @@ pub struct ParamsFile {
     /// the same either way.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub weighting: Option<String>,
+    /// Each parameter's value (and standard error), by name.
     pub params: BTreeMap<String, ParamValue>,
 }
 
@@ -541,7 +553,7 @@ mod tests {
         );
     }
 
-    /// A negative standard error is refused at its line (it was read as given).
+    /// A negative standard error is refused at its line.
     #[test]
     fn a_negative_standard_error_is_refused_at_its_line() {
         let registry = Registry::builtin();

@@ -66,30 +66,20 @@ impl ForceInverse {
         })
     }
 
-    /// The model's spec (`bingham+hysteresis`).
-    pub fn model_name(&self) -> String {
-        self.model.name()
-    }
-
     /// The coil (Eq. 3) and fluid (Eq. 4) time constants, s: the force a command asks for arrives through
     /// them.
-    pub fn lags_s(&self) -> (f64, f64) {
+    pub(crate) fn lags_s(&self) -> (f64, f64) {
         (self.params[bingham::TE], self.params[bingham::TM])
     }
 
-    /// The driver's saturation the model assumes, A.
-    pub fn current_limit_a(&self) -> f64 {
-        self.model.current_limit_a
-    }
-
     /// Record the command sent to the driver after this sample (held until the next).
-    pub fn commanded(&mut self, current_a: f64) {
+    pub(crate) fn commanded(&mut self, current_a: f64) {
         self.last_cmd_a = current_a;
     }
 
     /// Advance the predicted state to a new sensor sample (time, position, filtered velocity). Models
     /// without effect states have nothing to predict: the call does nothing.
-    pub fn observe(&mut self, t_s: f64, x_m: f64, v_m_s: f64) {
+    pub(crate) fn observe(&mut self, t_s: f64, x_m: f64, v_m_s: f64) {
         if !self.model.has_effect_states() {
             return;
         }
@@ -142,7 +132,7 @@ impl ForceInverse {
     /// The force against the motion, N, that the damper gives in direction `dir` (±1) at `speed_m_s` and
     /// displacement `x_m`, with the lags settled at `current_a`: on the observed state, or with
     /// `yielded` fully yielded in direction `dir`.
-    pub fn force_n(&self, current_a: f64, dir: f64, speed_m_s: f64, x_m: f64, yielded: bool) -> f64 {
+    pub(crate) fn force_n(&self, current_a: f64, dir: f64, speed_m_s: f64, x_m: f64, yielded: bool) -> f64 {
         let inp = Inputs {
             t_s: self.last.map_or(0.0, |l| l.t_s),
             x_m,
@@ -170,7 +160,7 @@ impl ForceInverse {
     /// saturation the force is extrapolated along the chord from 0 to the limit, so a feedback can see
     /// how far out of reach the force is; 0 where no current raises the force (a current that would only
     /// add to a force on the wrong side).
-    pub fn current_a(&self, force_n: f64, dir: f64, speed_m_s: f64, x_m: f64, yielded: bool) -> f64 {
+    pub(crate) fn current_a(&self, force_n: f64, dir: f64, speed_m_s: f64, x_m: f64, yielded: bool) -> f64 {
         let dir = if dir < 0.0 { -1.0 } else { 1.0 };
         let g = |i: f64| self.force_n(i, dir, speed_m_s, x_m, yielded) - force_n;
         let limit = self.model.current_limit_a;
@@ -210,13 +200,13 @@ impl ForceInverse {
 
     /// The static inverse: the current whose fully yielded force at rest is `force_n` against a push in
     /// direction `dir`, at `x_m`, A.
-    pub fn holding_current_a(&self, force_n: f64, dir: f64, x_m: f64) -> f64 {
+    pub(crate) fn holding_current_a(&self, force_n: f64, dir: f64, x_m: f64) -> f64 {
         self.current_a(force_n, dir, 0.0, x_m, true)
     }
 
     /// Virtual viscous damping: the current whose yield force exceeds the zero-current one by
     /// `c_n_s_per_m · speed_m_s`, at `x_m`, A.
-    pub fn damping_current_a(&self, c_n_s_per_m: f64, speed_m_s: f64, x_m: f64) -> f64 {
+    pub(crate) fn damping_current_a(&self, c_n_s_per_m: f64, speed_m_s: f64, x_m: f64) -> f64 {
         let at_zero = self.force_n(0.0, 1.0, 0.0, x_m, true);
         self.holding_current_a(at_zero + c_n_s_per_m * speed_m_s, 1.0, x_m)
     }

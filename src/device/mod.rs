@@ -24,12 +24,30 @@ pub use params::{DataStats, ParamSpec, ParamValue};
 /// Errors from building or loading a device model.
 #[derive(Debug, thiserror::Error)]
 pub enum DeviceError {
+    /// A model spec names a base model that does not exist.
     #[error("model `{spec}`: unknown base model `{base}` (base models: `bingham`, `spencer`)")]
-    UnknownBase { spec: String, base: String },
+    UnknownBase {
+        /// The spec as given.
+        spec: String,
+        /// The base it names.
+        base: String,
+    },
+    /// An effect name not in the registry.
     #[error("unknown effect `{name}` (known effects: {known}; an effect saved by `diagnose --save-effect` is given with `--effects FILE.toml`)")]
-    UnknownEffect { name: String, known: String },
+    UnknownEffect {
+        /// The name given.
+        name: String,
+        /// The names known, for the message.
+        known: String,
+    },
+    /// A model spec that cannot be built.
     #[error("model `{spec}`: {why}")]
-    BadSpec { spec: String, why: String },
+    BadSpec {
+        /// The spec as given.
+        spec: String,
+        /// Why not.
+        why: String,
+    },
     /// A device, parameter or effect file refused.
     #[error(transparent)]
     Input(#[from] crate::input::InputError),

@@ -7,14 +7,14 @@
 
 pub mod aircraft;
 pub mod compare;
-pub mod faults;
-pub mod hand;
-pub mod json;
-pub mod measurement;
-pub mod params;
+pub(crate) mod faults;
+pub(crate) mod hand;
+pub(crate) mod json;
+pub(crate) mod measurement;
+pub(crate) mod params;
 pub mod reference;
-pub mod scenario;
-pub mod springs;
+pub(crate) mod scenario;
+pub(crate) mod springs;
 pub mod sweep;
 pub mod text;
 pub mod urdf;
@@ -29,11 +29,13 @@ use toml::Spanned;
 /// An input refused: the file, where in it (line, field) when that is known, and why.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct InputError {
+    /// The file refused.
     pub path: PathBuf,
     /// 1-based line.
     pub line: Option<usize>,
     /// The key or column, as written in the file (dotted for a nested key: `rig.physics_hz`).
     pub field: Option<String>,
+    /// Why it is refused.
     pub msg: String,
 }
 
@@ -95,7 +97,9 @@ impl std::error::Error for InputError {}
 /// A text input file: its path (for errors) and its text (for lines).
 #[derive(Debug, Clone)]
 pub struct Source {
+    /// Where the text was read from.
     pub path: PathBuf,
+    /// The whole text.
     pub text: String,
 }
 
@@ -158,7 +162,7 @@ impl Source {
     }
 
     /// An integer checked to lie in `range`.
-    pub fn within_int(
+    pub(crate) fn within_int(
         &self,
         v: &Spanned<i64>,
         field: &str,
@@ -180,14 +184,19 @@ impl Source {
     }
 
     /// The variant a spanned name chose, or an error at its line naming `field` and the names allowed.
-    pub fn variant<E: Clone>(&self, v: &Spanned<Variant<E>>, field: &str) -> Result<E, InputError> {
+    pub(crate) fn variant<E: Clone>(&self, v: &Spanned<Variant<E>>, field: &str) -> Result<E, InputError> {
         v.get_ref().chosen.clone().map_err(|msg| self.err(v, field, msg))
     }
 
     /// The file this one names at `at` (`field`), found as [`crate::builtin::resolve`] finds it: a built-in
     /// file or a regular file that exists (files named are read once per run of a comparison or a sweep,
     /// which a pipe cannot give twice).
-    pub fn named_file<T>(&self, at: &Spanned<T>, field: &str, named: &Path) -> Result<PathBuf, InputError> {
+    pub(crate) fn named_file<T>(
+        &self,
+        at: &Spanned<T>,
+        field: &str,
+        named: &Path,
+    ) -> Result<PathBuf, InputError> {
         use text::NotAFile;
         let file = crate::builtin::resolve(self.path.parent().unwrap_or(Path::new(".")), named);
         if crate::builtin::is_builtin(&file) {
@@ -221,14 +230,14 @@ impl Source {
 /// A name that chooses a variant of `E` (a serde enum of unit variants), read without failing so that the
 /// check refuses an unknown name at its key's line, dotted key and all ([`Source::variant`]).
 #[derive(Debug, Clone)]
-pub struct Variant<E> {
+pub(crate) struct Variant<E> {
     name: String,
     chosen: Result<E, String>,
 }
 
 impl<E> Variant<E> {
     /// The name as written.
-    pub fn name(&self) -> &str {
+    pub(crate) fn name(&self) -> &str {
         &self.name
     }
 }

@@ -9,35 +9,11 @@ pub fn line_of(text: &str, offset: usize) -> usize {
         + 1
 }
 
-/// 1-based line of `key = ...` inside `[table]` of a TOML text (`table` empty: the top level, before any
-/// table), or of `table.key = ...` at the top level (dotted keys); where the key is not written on a line
-/// of its own, the table's header line, or 1.
-pub fn toml_key_line(text: &str, table: &str, key: &str) -> usize {
-    let mut in_table = table.is_empty();
-    let mut top = true;
-    let mut header = 1;
-    let dotted = format!("{table}.{key}");
-    let sets = |t: &str, k: &str| t.strip_prefix(k).is_some_and(|r| r.trim_start().starts_with('='));
-    for (k, l) in text.lines().enumerate() {
-        let t = l.trim();
-        if t.starts_with('[') {
-            top = false;
-            in_table = t.trim_matches(|c| c == '[' || c == ']').trim() == table;
-            if in_table {
-                header = k + 1;
-            }
-        } else if (in_table && sets(t, key)) || (top && !table.is_empty() && sets(t, &dotted)) {
-            return k + 1;
-        }
-    }
-    header
-}
-
 /// Parse a TOML text, every error placed in it ([`TomlError`]). A number the parser would read as another
 /// is refused first: a decimal with a non-zero digit below the smallest double (`1e-400`), which TOML
 /// parsers read as 0 without a word, so that the error a range check then gives ("value 0") would not name
 /// the number written.
-pub fn parse_toml<T: serde::de::DeserializeOwned>(text: &str) -> Result<T, TomlError> {
+pub(crate) fn parse_toml<T: serde::de::DeserializeOwned>(text: &str) -> Result<T, TomlError> {
     check_numbers(text)?;
     toml::from_str(text).map_err(|e| TomlError::new(text, &e))
 }
@@ -81,19 +57,19 @@ fn check_numbers(text: &str) -> Result<(), TomlError> {
 
 /// A TOML parser's error placed in its file, for a `file:line: …` message.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct TomlError {
+pub(crate) struct TomlError {
     /// The line of the error's span (1 where the parser gives none).
-    pub line: usize,
+    pub(crate) line: usize,
     /// The key that line sets, where the parser's message names no field: a value of the wrong type
     /// (`duration_s = "12"`: ``invalid type: string "12", expected f64``) is then named by its key.
-    pub field: Option<String>,
+    pub(crate) field: Option<String>,
     /// The parser's message; for a file whose lines end in a bare carriage return, which TOML does not
     /// allow (and for which the parser's message can be empty), what to do about it.
-    pub msg: String,
+    pub(crate) msg: String,
 }
 
 impl TomlError {
-    pub fn new(text: &str, e: &toml::de::Error) -> Self {
+    pub(crate) fn new(text: &str, e: &toml::de::Error) -> Self {
         if let Some(cr) = text
             .match_indices('\r')
             .find(|(at, _)| text.as_bytes().get(at + 1) != Some(&b'\n'))
@@ -125,9 +101,10 @@ impl TomlError {
         Self { line, field, msg }
     }
 
+    #[cfg(test)]
     /// The message with the field named where the parser's does not name it: `` `duration_s`: invalid
     /// type: … ``.
-    pub fn message(&self) -> String {
+    pub(crate) fn message(&self) -> String {
         match &self.field {
             Some(f) => format!("`{f}`: {}", self.msg),
             None => self.msg.clone(),
@@ -185,15 +162,15 @@ fn toml_key_at(text: &str, offset: usize) -> Option<String> {
 /// Where a text's first byte that is not UTF-8 is: 1-based line and column (in characters, as an editor
 /// shows it), and the byte.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct NotUtf8 {
-    pub line: usize,
-    pub column: usize,
-    pub byte: u8,
+pub(crate) struct NotUtf8 {
+    pub(crate) line: usize,
+    pub(crate) column: usize,
+    pub(crate) byte: u8,
 }
 
 impl NotUtf8 {
     /// What is wrong at the line, without the line: `column C: byte 0xNN is not UTF-8 text (…)`.
-    pub fn what(&self) -> String {
+    pub(crate) fn what(&self) -> String {
         format!(
             "column {}: byte 0x{:02x} is not UTF-8 text (a binary file, or another encoding?)",
             self.column, self.byte
@@ -208,7 +185,7 @@ impl std::fmt::Display for NotUtf8 {
 }
 
 /// `bytes` as text, or where its first byte that is not UTF-8 is.
-pub fn decode(bytes: &[u8]) -> Result<&str, NotUtf8> {
+pub(crate) fn decode(bytes: &[u8]) -> Result<&str, NotUtf8> {
     std::str::from_utf8(bytes).map_err(|e| {
         let at = e.valid_up_to();
         // The bytes before `at` are valid UTF-8.
@@ -267,7 +244,7 @@ pub fn printable(message: &str, max: usize) -> String {
 
 /// A number for people, to `digits` significant digits: plain between 0.001 and a million (`62.6440`,
 /// `0.0108469`), in exponent form beyond (`1.00e-6`, `2.50e8`); 0 as `0`.
-pub fn significant(v: f64, digits: usize) -> String {
+pub(crate) fn significant(v: f64, digits: usize) -> String {
     let digits = digits.max(1);
     let a = v.abs();
     if !v.is_finite() || a == 0.0 {
@@ -283,7 +260,7 @@ pub fn significant(v: f64, digits: usize) -> String {
 
 /// What a path is when it is not a regular file (links followed), for messages that say so.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum NotAFile {
+pub(crate) enum NotAFile {
     Directory,
     NamedPipe,
     /// A character or block device (`/dev/zero`, a disk, a terminal).
@@ -294,7 +271,7 @@ pub enum NotAFile {
 
 impl NotAFile {
     /// `None` for a regular file.
-    pub fn of(meta: &std::fs::Metadata) -> Option<Self> {
+    pub(crate) fn of(meta: &std::fs::Metadata) -> Option<Self> {
         let kind = meta.file_type();
         if kind.is_file() {
             return None;
@@ -319,7 +296,7 @@ impl NotAFile {
     }
 
     /// `a named pipe`, `a device`, …
-    pub fn noun(self) -> &'static str {
+    pub(crate) fn noun(self) -> &'static str {
         match self {
             Self::Directory => "a directory",
             Self::NamedPipe => "a named pipe",
@@ -332,14 +309,14 @@ impl NotAFile {
 
 /// Largest text input (a scenario, device, parameter, pilot, spring, aircraft or URDF file) read, bytes:
 /// the largest of them in this repository is under 100 KiB.
-pub const TEXT_LIMIT_BYTES: u64 = 64 << 20;
+pub(crate) const TEXT_LIMIT_BYTES: u64 = 64 << 20;
 
 /// Read an input file whole, refusing what no input of this tool can be: a device (`/dev/zero`, a disk,
 /// a terminal), or more than `limit` bytes (a stream that never ends, such as `yes |`), so that a wrong
 /// path is an error and not a read until memory runs out. A pipe (`/dev/stdin`, `<(…)`) is read as a
 /// file. An error reading it is the system's message. A built-in file's path ([`crate::builtin`]) reads
 /// as that file.
-pub fn read_bytes(path: &std::path::Path, limit: u64) -> Result<Vec<u8>, String> {
+pub(crate) fn read_bytes(path: &std::path::Path, limit: u64) -> Result<Vec<u8>, String> {
     use std::io::Read;
     if let Some(text) = crate::builtin::text(path) {
         return Ok(text.as_bytes().to_vec());
@@ -369,9 +346,9 @@ pub fn read_bytes(path: &std::path::Path, limit: u64) -> Result<Vec<u8>, String>
     Ok(bytes)
 }
 
-/// Read a text input file ([`read_bytes`], at most [`TEXT_LIMIT_BYTES`]). A file that is not UTF-8 (a
-/// binary file, another encoding) names the line and column of its first invalid byte ([`decode`]), which
-/// `std::fs::read_to_string` does not ("stream did not contain valid UTF-8").
+/// Read a text input file (a built-in file by its path; a device, or more than 64 MiB, refused). A file
+/// that is not UTF-8 names the line and column of its first invalid byte, which
+/// `std::fs::read_to_string` does not.
 pub fn read_text(path: &std::path::Path) -> Result<String, String> {
     let bytes = read_bytes(path, TEXT_LIMIT_BYTES)?;
     String::from_utf8(bytes).map_err(|e| match decode(e.as_bytes()) {
@@ -499,26 +476,10 @@ mod tests {
     }
 
     #[test]
-    fn offsets_and_keys_are_found_at_their_lines() {
+    fn offsets_are_found_at_their_lines() {
         assert_eq!(line_of(TEXT, 0), 1);
         assert_eq!(line_of(TEXT, TEXT.find("file =").unwrap()), 4);
         assert_eq!(line_of(TEXT, usize::MAX), TEXT.lines().count() + 1);
-        assert_eq!(toml_key_line(TEXT, "", "base"), 1);
-        assert_eq!(toml_key_line(TEXT, "springs", "file"), 4);
-        assert_eq!(toml_key_line(TEXT, "springs", "files_extra"), 5);
-        assert_eq!(toml_key_line(TEXT, "faults", "kind"), 7);
-        // Not written: the table's header, or the first line without one.
-        assert_eq!(toml_key_line(TEXT, "springs", "damping"), 3);
-        assert_eq!(toml_key_line(TEXT, "nowhere", "x"), 1);
-        // Dotted at the top level.
-        assert_eq!(
-            toml_key_line("a = 1\nrig.physics_hz = 2.0\n[x]\n", "rig", "physics_hz"),
-            2
-        );
-        assert_eq!(
-            toml_key_line("a = 1\n[x]\nrig.physics_hz = 2.0\n", "rig", "physics_hz"),
-            1
-        );
     }
 
     #[test]

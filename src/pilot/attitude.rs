@@ -70,8 +70,9 @@ pub struct CrossoverPilotConfig {
     pub delay_s: f64,
     /// Integral (trim) gain K_i, stick rad per (error unit · s).
     pub integral_per_s: f64,
-    /// Stick command limits, rad relative to trim.
+    /// Lower stick command limit, rad relative to trim.
     pub stick_min_rad: f64,
+    /// Upper stick command limit, rad relative to trim.
     pub stick_max_rad: f64,
 }
 
@@ -103,7 +104,7 @@ impl CrossoverDesign {
     }
 
     /// Phase margin of the ideal crossover model, `π/2 − ω_c τ_e`, rad.
-    pub fn ideal_phase_margin_rad(&self) -> f64 {
+    pub(crate) fn ideal_phase_margin_rad(&self) -> f64 {
         std::f64::consts::FRAC_PI_2 - self.crossover_rad_s * self.delay_s
     }
 }
@@ -226,32 +227,6 @@ impl CrossoverPilotConfig {
     }
 }
 
-/// Crossover frequency of an open loop `L(jω)`: the first ω in `[lo, hi]` (rad/s) where `|L|` falls
-/// through 1, from a log-spaced scan (200 points per decade) refined by bisection; `None` if it
-/// does not cross there.
-pub fn crossover_frequency(open_loop: impl Fn(f64) -> Complex<f64>, lo: f64, hi: f64) -> Option<f64> {
-    let n = ((hi / lo).log10() * 200.0).ceil().max(1.0) as usize;
-    let g = |w: f64| open_loop(w).norm().ln();
-    let mut w0 = lo;
-    for k in 1..=n {
-        let w1 = lo * (hi / lo).powf(k as f64 / n as f64);
-        if g(w0) >= 0.0 && g(w1) < 0.0 {
-            let (mut a, mut b) = (w0, w1);
-            for _ in 0..60 {
-                let m = (a * b).sqrt();
-                if g(m) >= 0.0 {
-                    a = m;
-                } else {
-                    b = m;
-                }
-            }
-            return Some((a * b).sqrt());
-        }
-        w0 = w1;
-    }
-    None
-}
-
 /// The pilot, stepped at a fixed rate `dt_s`.
 #[derive(Debug, Clone)]
 pub struct CrossoverPilot {
@@ -266,6 +241,7 @@ pub struct CrossoverPilot {
 }
 
 impl CrossoverPilot {
+    /// A pilot of `cfg` stepped every `dt_s`, its delay rounded to whole steps.
     pub fn new(cfg: CrossoverPilotConfig, dt_s: f64) -> Self {
         let n = (cfg.delay_s / dt_s).round() as usize;
         Self {
@@ -279,13 +255,9 @@ impl CrossoverPilot {
         }
     }
 
+    /// The pilot's parameters.
     pub fn config(&self) -> &CrossoverPilotConfig {
         &self.cfg
-    }
-
-    /// Effective delay as realised (a whole number of steps), s.
-    pub fn realised_delay_s(&self) -> f64 {
-        self.delay.len() as f64 * self.dt_s
     }
 
     /// One step with the present error (command − measured, rad or g); returns the stick angle
@@ -349,6 +321,7 @@ impl PursuitPilot {
         }
     }
 
+    /// The pilot's parameters.
     pub fn config(&self) -> &CrossoverPilotConfig {
         self.pilot.config()
     }
@@ -375,10 +348,12 @@ impl PursuitPilot {
 /// point).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Schedule {
+    /// `(t_s, value)` points, in time order.
     pub points: Vec<(f64, f64)>,
 }
 
 impl Schedule {
+    /// The value at `t_s`.
     pub fn value(&self, t_s: f64) -> f64 {
         let p = &self.points;
         match p.iter().position(|&(t, _)| t > t_s) {
@@ -404,6 +379,32 @@ impl Schedule {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Crossover frequency of an open loop `L(jω)`: the first ω in `[lo, hi]` (rad/s) where `|L|` falls
+    /// through 1, from a log-spaced scan (200 points per decade) refined by bisection; `None` if it
+    /// does not cross there.
+    fn crossover_frequency(open_loop: impl Fn(f64) -> Complex<f64>, lo: f64, hi: f64) -> Option<f64> {
+        let n = ((hi / lo).log10() * 200.0).ceil().max(1.0) as usize;
+        let g = |w: f64| open_loop(w).norm().ln();
+        let mut w0 = lo;
+        for k in 1..=n {
+            let w1 = lo * (hi / lo).powf(k as f64 / n as f64);
+            if g(w0) >= 0.0 && g(w1) < 0.0 {
+                let (mut a, mut b) = (w0, w1);
+                for _ in 0..60 {
+                    let m = (a * b).sqrt();
+                    if g(m) >= 0.0 {
+                        a = m;
+                    } else {
+                        b = m;
+                    }
+                }
+                return Some((a * b).sqrt());
+            }
+            w0 = w1;
+        }
+        None
+    }
 
     fn cfg() -> CrossoverPilotConfig {
         CrossoverPilotConfig {

@@ -20,12 +20,19 @@ pub use signal::Signal;
 /// The arm model's parameters (see `models/pilot-hand.toml`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HandConfig {
+    /// Hand and arm mass at the grip, kg.
     pub mass_kg: f64,
+    /// Arm stiffness `k`, N/m.
     pub stiffness_n_per_m: f64,
+    /// Arm damping `c`, N·s/m.
     pub damping_n_s_per_m: f64,
+    /// Neuromuscular activation lag `τ`, s.
     pub activation_tau_s: f64,
+    /// Palm stiffness `k_g`, N/m.
     pub grip_stiffness_n_per_m: f64,
+    /// Palm damping `c_g`, N·s/m.
     pub grip_damping_n_s_per_m: f64,
+    /// Gain `g` of the slow voluntary position correction, 1/s.
     pub tracking_gain_per_s: f64,
 }
 
@@ -39,9 +46,12 @@ pub enum Task {
     Force,
 }
 
+/// The hand and arm at the grip, stepped with the physics.
 #[derive(Debug, Clone)]
 pub struct Hand {
+    /// The arm model's parameters.
     pub cfg: HandConfig,
+    /// Position or force task.
     pub task: Task,
     x_h: f64,
     v_h: f64,
@@ -52,6 +62,7 @@ pub struct Hand {
 }
 
 impl Hand {
+    /// A hand at rest, gripping from the first step.
     pub fn new(cfg: HandConfig, task: Task) -> Self {
         Self {
             cfg,
@@ -65,15 +76,10 @@ impl Hand {
         }
     }
 
-    /// Hand position along the grip path, m.
     /// Hands off the stick: no force; the next [`Hand::step`] grips again from the grip's state then.
     pub fn release(&mut self) {
         self.started = false;
         self.z = 0.0;
-    }
-
-    pub fn position_m(&self) -> f64 {
-        self.x_h
     }
 
     /// The force the hand applies to the grip now, N (held over the next physics step).

@@ -7,43 +7,65 @@ use rand_distr::{Distribution, StandardNormal};
 /// A command signal in the pilot's units (stick angle in rad for position tasks, N for force tasks).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Signal {
+    /// A constant.
     Hold {
+        /// The value held.
         value: f64,
     },
+    /// `initial`, then `last` from `at_s`.
     Step {
+        /// Value before the step.
         initial: f64,
+        /// Value from the step on.
         last: f64,
+        /// Time of the step, s.
         at_s: f64,
     },
     /// Linear from `from` to `to` over `[start_s, start_s + duration_s]`, held before and after.
     Ramp {
+        /// Start value.
         from: f64,
+        /// End value.
         to: f64,
+        /// Start time, s.
         start_s: f64,
+        /// Ramp time, s.
         duration_s: f64,
     },
+    /// `offset + amplitude sin(2π f t)`.
     Sine {
+        /// Mean value.
         offset: f64,
+        /// Peak deviation from `offset`.
         amplitude: f64,
+        /// Frequency, Hz.
         frequency_hz: f64,
     },
     /// Symmetric triangle starting at `offset` and rising first, peak `offset ± amplitude`.
     Triangle {
+        /// Start and mean value.
         offset: f64,
+        /// Peak deviation from `offset`.
         amplitude: f64,
+        /// Frequency, Hz.
         frequency_hz: f64,
     },
     /// Seeded white noise through two cascaded first-order low-passes at `cutoff_hz`, scaled to `rms`
     /// around `offset`; precomputed on the physics grid `dt_s`.
     Random {
+        /// Mean value.
         offset: f64,
+        /// The filtered noise, one sample per step.
         samples: Vec<f64>,
+        /// Grid step, s.
         dt_s: f64,
     },
     /// A command given sample by sample on the physics grid `dt_s` (the nearest sample; the last one
     /// after the end). A NaN sample means hands off the stick.
     Sampled {
+        /// One value per step.
         samples: Vec<f64>,
+        /// Grid step, s.
         dt_s: f64,
     },
 }
@@ -79,6 +101,7 @@ impl Signal {
         }
     }
 
+    /// The command at `t_s`.
     pub fn value(&self, t_s: f64) -> f64 {
         match self {
             Signal::Hold { value } => *value,

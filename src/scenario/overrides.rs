@@ -20,7 +20,12 @@ use crate::input::{InputError, Source};
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Origin {
     /// A line of a file (a sweep plan). Relative paths given as values are relative to its directory.
-    File { path: PathBuf, line: usize },
+    File {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+    },
     /// A command-line argument or a call (`--set feel.x=1`); relative paths given as values are relative to
     /// the working directory.
     Argument(String),
@@ -43,6 +48,7 @@ pub struct Override {
     pub key: String,
     /// `None` removes the key (a pilot with given gains made adaptive drops `outer_loop.gain`).
     pub value: Option<toml::Value>,
+    /// Where it was written, for its errors.
     pub origin: Origin,
 }
 
@@ -89,7 +95,7 @@ impl Scenario {
     }
 
     /// [`Scenario::load_with`] of a scenario text already read from `path`.
-    pub fn parse_with(text: &str, path: &Path, overrides: &[Override]) -> Result<Self, InputError> {
+    pub(crate) fn parse_with(text: &str, path: &Path, overrides: &[Override]) -> Result<Self, InputError> {
         if overrides.is_empty() {
             return Self::parse(text, path);
         }
