@@ -1,16 +1,12 @@
-//! The damper as a feel controller believes it: a model with its parameters (a device file or a fitted
-//! `PARAMS.json`, which need not be the simulated plant), an observer that predicts the model's internal
-//! states from the sensor samples, and the inverse that gives the coil current for a wanted force.
+//! The damper as a feel controller believes it (a device file or a fitted `PARAMS.json`, not necessarily
+//! the plant): an observer of the model's internal states and the inverse that gives the coil current for
+//! a wanted force.
 //!
-//! The inverse asks the model itself (the same [`Model::eval`] the plant and the fitter step) for the
-//! force the damper gives against the motion at a candidate current with the coil and fluid lags settled
-//! there, and solves for the current by regula falsi (Illinois): one step for a force affine in the
-//! current (the Bingham base, hysteresis, thermal scaling), a few for a saturating yield map.
-//!
-//! Tracking uses the observed state: for a model with internal states (hysteresis, heating) the state is
-//! advanced from sample to sample by the measured (filtered) motion and the currents the controller
-//! commanded, never read from the plant. Holding uses the fully yielded force (the damper holds up to its
-//! yield force), with the observed states of effects other than the direction function.
+//! The inverse asks the model itself ([`Model::eval`], as the plant and the fitter do) for the force at a
+//! candidate current with the coil and fluid lags settled, and solves for the current by regula falsi
+//! (Illinois): one step for a force affine in the current, a few for a saturating yield map. States
+//! (hysteresis, heating) advance on the measured motion and the commanded currents, never the plant's;
+//! holding uses the fully yielded force.
 
 use std::sync::Arc;
 

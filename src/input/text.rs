@@ -311,11 +311,9 @@ impl NotAFile {
 /// the largest of them in this repository is under 100 KiB.
 pub(crate) const TEXT_LIMIT_BYTES: u64 = 64 << 20;
 
-/// Read an input file whole, refusing what no input of this tool can be: a device (`/dev/zero`, a disk,
-/// a terminal), or more than `limit` bytes (a stream that never ends, such as `yes |`), so that a wrong
-/// path is an error and not a read until memory runs out. A pipe (`/dev/stdin`, `<(…)`) is read as a
-/// file. An error reading it is the system's message. A built-in file's path ([`crate::builtin`]) reads
-/// as that file.
+/// Read an input file whole (a built-in file by its path, a pipe as a file), refusing a device
+/// (`/dev/zero`, a disk) or more than `limit` bytes (`yes |`): a wrong path is an error, not a read until
+/// memory runs out.
 pub(crate) fn read_bytes(path: &std::path::Path, limit: u64) -> Result<Vec<u8>, String> {
     use std::io::Read;
     if let Some(text) = crate::builtin::text(path) {

@@ -1,48 +1,32 @@
-//! The pilot's outer loop: a compensatory tracking pilot on pitch attitude or load factor that moves
-//! the stick through the hand.
+//! The pilot's outer loop: a compensatory tracking pilot on pitch attitude or load factor whose output is
+//! a **stick angle** (rad, + aft) relative to trim, the hand model's position command. A pitch (or load
+//! factor) below its command asks for a pull.
 //!
-//! McRuer's quasi-linear pilot (McRuer, D. T. and Jex, H. R., "A Review of Quasi-Linear Pilot Models",
-//! IEEE Trans. Human Factors in Electronics HFE-8(3), 231–249, 1967, Eq. for the "precision model"):
+//! McRuer's quasi-linear pilot (McRuer & Jex, "A Review of Quasi-Linear Pilot Models", IEEE Trans. HFE-8(3),
+//! 1967, precision model), with a slow trimming integral `K_i ∫ e` (corner `K_i/K_p` well below ω_c) that
+//! removes the steady error a pure gain leaves against the phugoid:
 //!
 //! ```text
 //! Y_p(s) = K_p e^{-τ_e s} (T_L s + 1) / (T_I s + 1)
 //! ```
 //!
-//! with the effective time delay τ_e ≈ 0.2–0.3 s (transport delay plus the high-frequency neuromuscular
-//! lag; McRuer & Jex report 0.2–0.4 s, decreasing with the task's demand), the lead T_L and lag T_I
-//! chosen by the pilot so that the open loop `Y_p Y_c` looks like `ω_c e^{-τ_e s} / s` around the
-//! crossover ω_c (the *crossover model*; for an attitude-type plant `K/s` a pure gain, for `K/s²` a lead).
-//! Pitch-attitude crossover frequencies of 2–4 rad/s are typical of fighter/transport tracking tasks
-//! (McRuer, Graham, Krendel, Reisener, AFFDL-TR-65-15, 1965). Here, in addition, a slow integral of
-//! the error (`K_i ∫ e`), the pilot's own low-frequency trimming, removes the steady error a pure gain
-//! leaves against the phugoid; it is small (its corner `K_i/K_p` well below ω_c).
-//!
-//! The output is a **stick angle** (rad, + aft) relative to the trimmed stick — the hand model's
-//! position command. Error signs: a pitch (or load factor) below its command asks for a pull.
-//!
 //! ## Adapting the pilot to the aircraft (crossover model)
 //!
-//! McRuer's crossover model (McRuer, D. T. and Krendel, E. S., *Mathematical Models of Human Pilot
-//! Behavior*, AGARDograph AG-188, 1974, §2 and the "verbal adjustment rules"; McRuer & Jex 1967): near
-//! the crossover frequency the pilot adapts so that the open loop is
+//! Near crossover the pilot adapts so that, whatever the controlled element `Y_c` (McRuer & Krendel,
+//! AGARDograph AG-188, 1974, §2),
 //!
 //! ```text
 //! Y_p(jω) Y_c(jω) ≈ ω_c e^{−jωτ_e} / (jω)          (|Y_p Y_c| = 1 at ω = ω_c)
 //! ```
 //!
-//! whatever the controlled element `Y_c`: a pure gain for `Y_c = K/s`, a lead for `K/s²`, a lag
-//! (towards an integrator) for `Y_c = K`. [`CrossoverPilotConfig::adapted`] does that from `Y_c(jω)`
-//! by matching the crossover model at ω_c as a complex number: the pilot's equalisation supplies the
-//! phase `φ = −90° − arg Y_c(jω_c)` (delay aside), a lead `T_L = tan φ / ω_c` when φ > 0, and when
-//! φ < 0 a lag realised as proportional + integral `K_p (1 + ω_i/s)`, `ω_i = ω_c tan(−φ)` (the same
-//! phase at ω_c as a lag, but it keeps rising below crossover: the pilot integrates against a
-//! position-type element and leaves no steady error; on a first-order element `K/(Ts + 1)` it puts
-//! ω_i = 1/T, cancelling the pole: the loop is exactly `ω_c e^{−sτ}/s`). |φ| is capped (71.6° by
-//! default: a pilot's lead has a finite corner); within ±5° the pilot is a pure gain with a slow
-//! trimming integral a decade below crossover (`K_i = 0.1 ω_c K_p` by default). The gain `K_p` then
-//! puts `|Y_p(jω_c) Y_c(jω_c)| = 1`. The crossover frequency and the delay are the pilot's
-//! parameters: ω_c ≈ 2–4 rad/s and τ_e ≈ 0.1–0.3 s for pitch tracking (McRuer & Krendel 1974); the
-//! model's phase margin is `π/2 − ω_c τ_e`, so ω_c τ_e < π/2 is required.
+//! [`CrossoverPilotConfig::adapted`] matches this at ω_c as a complex number: the equalisation supplies
+//! `φ = −90° − arg Y_c(jω_c)` (delay aside), a lead `T_L = tan φ / ω_c` when φ > 0, and when φ < 0 a
+//! proportional + integral `K_p (1 + ω_i/s)`, `ω_i = ω_c tan(−φ)` (a lag's phase at ω_c that keeps rising
+//! below it: no steady error on a position-type element; on `K/(Ts + 1)` it cancels the pole). |φ| is
+//! capped (71.6° by default: a lead has a finite corner); within ±5° the pilot is a gain with a trimming
+//! integral a decade below crossover (`K_i = 0.1 ω_c K_p`). `K_p` then puts `|Y_p Y_c| = 1` at ω_c.
+//! Typical pitch tracking: ω_c ≈ 2–4 rad/s, τ_e ≈ 0.1–0.3 s; the phase margin `π/2 − ω_c τ_e` requires
+//! ω_c τ_e < π/2.
 
 use nalgebra::Complex;
 use serde::Deserialize;
@@ -295,12 +279,9 @@ impl CrossoverPilot {
     }
 }
 
-/// A pursuit / precognitive pilot (McRuer & Krendel 1974, the "successive organisation of
-/// perception": when the pilot sees the command itself, not only the error, a feedforward path
-/// `Y_ff ≈ 1/Y_c` at low frequency joins the compensatory loop; when the pilot also knows the command
-/// ahead, as in a briefed manoeuvre, the feedforward anticipates it). The stick is the crossover
-/// pilot's output on the error plus `feedforward × command`, the latter perceived through the same
-/// delay τ. For a load-factor task the feedforward is the aircraft's stick per g
+/// A pursuit pilot (McRuer & Krendel 1974: a pilot who sees the command, not only the error, adds a
+/// feedforward `Y_ff ≈ 1/Y_c`): the crossover pilot's output on the error plus `feedforward × command`,
+/// both through the delay τ. For a load-factor task the feedforward is the aircraft's stick per g
 /// (`Aircraft::stick_per_g_rad`); with 0 it is the compensatory [`CrossoverPilot`].
 #[derive(Debug, Clone)]
 pub struct PursuitPilot {
