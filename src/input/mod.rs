@@ -141,7 +141,7 @@ impl Source {
 
     /// A number checked to lie in `range` (`unit` for the message): a value outside, or not finite, names
     /// its line and field with the allowed range.
-    pub fn within(
+    pub(crate) fn within(
         &self,
         v: &Spanned<f64>,
         field: &str,
@@ -219,7 +219,7 @@ impl Source {
     }
 
     /// A path written in the file, relative to the file's folder (absolute paths kept).
-    pub fn relative(&self, written: &Path) -> PathBuf {
+    pub(crate) fn relative(&self, written: &Path) -> PathBuf {
         match self.path.parent() {
             Some(dir) if written.is_relative() => dir.join(written),
             _ => written.to_path_buf(),
