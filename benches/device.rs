@@ -29,7 +29,7 @@ fn inputs() -> Vec<Inputs> {
 
 fn bench(c: &mut Criterion) {
     let dev = DeviceConfig::from_toml(
-        mrfeel::mts::cli::PAPER_DEVICE_TOML,
+        mrfeel::builtin::PAPER_DEVICE,
         Path::new("models/paper-device.toml"),
         &Registry::builtin(),
     )

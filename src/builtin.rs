@@ -20,6 +20,9 @@ pub(crate) const DATA_ENV: &str = "MRFEEL_DATA";
 /// The paper's device (`models/paper-device.toml`).
 pub const PAPER_DEVICE: &str = include_str!("../models/paper-device.toml");
 
+/// The paper's Section 4 measurements of that device: (current A, steady force N).
+pub const PAPER_POINTS: [(f64, f64); 3] = [(2.2, 10.0), (5.0, 25.0), (14.0, 70.0)];
+
 /// Each built-in file: its path in the repository and its text.
 const FILES: &[(&str, &str)] = &[
     ("models/stick-rig.urdf", include_str!("../models/stick-rig.urdf")),

@@ -1,5 +1,7 @@
 //! The `mrfeel` command line: parse, call the library, print. All work is in the library.
 
+mod cli;
+
 use std::path::PathBuf;
 
 use mrfeel::outputs::{check_outputs, Kind, Output};
@@ -23,46 +25,43 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Virtual MTS machine: drive the damper with a displacement protocol and record the force (CSV).
-    Mts(mrfeel::mts::cli::MtsArgs),
+    Mts(cli::mts::MtsArgs),
     /// Run a scenario headless: the stick rig, its feel loop and pilot, and the aircraft if it has one
     /// (CSV, Rerun recording, summary).
-    Run(mrfeel::sim::cli::RunArgs),
+    Run(cli::sim::RunArgs),
     /// Force response time of the feel loop against the DAQ sample rate.
-    DaqSweep(mrfeel::sim::cli::DaqSweepArgs),
+    DaqSweep(cli::sim::DaqSweepArgs),
     /// Compare feel systems (springs, MR damper, hybrid) on the same rig and pilot task, with faults.
-    Compare(mrfeel::compare::cli::CompareArgs),
+    Compare(cli::compare::CompareArgs),
     /// Fit a model (`bingham+effect+...`) to measured tests, jointly, each from its own start.
-    Fit(mrfeel::ident::cli::FitArgs),
+    Fit(cli::ident::FitArgs),
     /// Run a saved model unchanged on other tests and report its error (no refit).
-    Validate(mrfeel::ident::cli::ValidateArgs),
+    Validate(cli::ident::ValidateArgs),
     /// Find where a model fails and name the missing effects by the held-out error they remove.
-    Diagnose(mrfeel::ident::cli::DiagnoseArgs),
+    Diagnose(cli::ident::DiagnoseArgs),
     /// The force of a saved model (or a device file) on your own motion and current (measurement CSV).
-    Simulate(mrfeel::ident::cli::SimulateArgs),
+    Simulate(cli::ident::SimulateArgs),
     /// Discovery to feel: diagnose rig data, fit each stage, and run a scenario with each as the feel
     /// controller's model against the same plant.
-    LoopStudy(mrfeel::sim::cli::LoopStudyArgs),
+    LoopStudy(cli::sim::LoopStudyArgs),
     /// Sweep a scenario over a plan's axes (in parallel, in shards, resumable) with handling-qualities
     /// verdicts per run; `sweep merge` joins shards.
-    Sweep(mrfeel::sweep::cli::SweepArgs),
+    Sweep(cli::sweep::SweepArgs),
 }
 
 /// A command with the scenario it runs read, once, before anything else: a scenario given as a pipe
 /// (`mrfeel run /dev/stdin`) cannot be read a second time.
 enum Job {
-    Mts(mrfeel::mts::cli::MtsArgs),
-    Run(mrfeel::sim::cli::RunArgs, Box<mrfeel::scenario::Scenario>),
-    DaqSweep(mrfeel::sim::cli::DaqSweepArgs, Box<mrfeel::scenario::Scenario>),
-    Compare(
-        mrfeel::compare::cli::CompareArgs,
-        Box<mrfeel::compare::CompareScenario>,
-    ),
-    Fit(mrfeel::ident::cli::FitArgs),
-    Validate(mrfeel::ident::cli::ValidateArgs),
-    Diagnose(mrfeel::ident::cli::DiagnoseArgs),
-    Simulate(mrfeel::ident::cli::SimulateArgs),
-    LoopStudy(mrfeel::sim::cli::LoopStudyArgs, Box<mrfeel::scenario::Scenario>),
-    Sweep(mrfeel::sweep::cli::SweepArgs),
+    Mts(cli::mts::MtsArgs),
+    Run(cli::sim::RunArgs, Box<mrfeel::scenario::Scenario>),
+    DaqSweep(cli::sim::DaqSweepArgs, Box<mrfeel::scenario::Scenario>),
+    Compare(cli::compare::CompareArgs, Box<mrfeel::compare::CompareScenario>),
+    Fit(cli::ident::FitArgs),
+    Validate(cli::ident::ValidateArgs),
+    Diagnose(cli::ident::DiagnoseArgs),
+    Simulate(cli::ident::SimulateArgs),
+    LoopStudy(cli::sim::LoopStudyArgs, Box<mrfeel::scenario::Scenario>),
+    Sweep(cli::sweep::SweepArgs),
 }
 
 impl Job {
@@ -96,16 +95,16 @@ impl Job {
 
     fn run(self) -> anyhow::Result<()> {
         match self {
-            Job::Mts(a) => mrfeel::mts::cli::run(a),
-            Job::Run(a, scn) => mrfeel::sim::cli::run_cmd(&a, *scn),
-            Job::DaqSweep(a, scn) => mrfeel::sim::cli::daq_sweep_cmd(&a, *scn),
-            Job::Compare(a, scn) => mrfeel::compare::cli::run_cmd(a, *scn),
-            Job::Fit(a) => mrfeel::ident::cli::run_fit(&a),
-            Job::Validate(a) => mrfeel::ident::cli::run_validate(&a),
-            Job::Diagnose(a) => mrfeel::ident::cli::run_diagnose(&a),
-            Job::Simulate(a) => mrfeel::ident::cli::run_simulate(&a),
-            Job::LoopStudy(a, scn) => mrfeel::sim::cli::loop_study_cmd(&a, *scn),
-            Job::Sweep(a) => mrfeel::sweep::cli::run_cmd(&a),
+            Job::Mts(a) => cli::mts::run(a),
+            Job::Run(a, scn) => cli::sim::run_cmd(&a, *scn),
+            Job::DaqSweep(a, scn) => cli::sim::daq_sweep_cmd(&a, *scn),
+            Job::Compare(a, scn) => cli::compare::run_cmd(a, *scn),
+            Job::Fit(a) => cli::ident::run_fit(&a),
+            Job::Validate(a) => cli::ident::run_validate(&a),
+            Job::Diagnose(a) => cli::ident::run_diagnose(&a),
+            Job::Simulate(a) => cli::ident::run_simulate(&a),
+            Job::LoopStudy(a, scn) => cli::sim::loop_study_cmd(&a, *scn),
+            Job::Sweep(a) => cli::sweep::run_cmd(&a),
         }
     }
 
@@ -170,13 +169,13 @@ impl Job {
         match self {
             Job::Mts(a) => a.device.iter().map(|p| ("device file", p.clone())).collect(),
             Job::Run(a, scn) => {
-                let mut v = mrfeel::sim::cli::input_files(&a.scenario, scn, a.aircraft.as_deref());
+                let mut v = cli::sim::input_files(&a.scenario, scn, a.aircraft.as_deref());
                 v.extend(a.device.iter().map(|p| ("device file", p.clone())));
                 v.extend(a.controller_model.iter().map(|p| ("controller model", p.clone())));
                 v
             }
-            Job::DaqSweep(a, scn) => mrfeel::sim::cli::input_files(&a.scenario, scn, None),
-            Job::Compare(a, scn) => mrfeel::compare::cli::input_files(&a.scenario, scn),
+            Job::DaqSweep(a, scn) => cli::sim::input_files(&a.scenario, scn, None),
+            Job::Compare(a, scn) => cli::compare::input_files(&a.scenario, scn),
             Job::Fit(a) => data(&a.data),
             Job::Validate(a) => {
                 let mut v = data(&a.data);
@@ -189,7 +188,7 @@ impl Job {
                 ("params file", a.params.clone()),
             ],
             Job::LoopStudy(a, scn) => {
-                let mut v = mrfeel::sim::cli::input_files(&a.scenario, scn, None);
+                let mut v = cli::sim::input_files(&a.scenario, scn, None);
                 v.extend(data(&a.data));
                 v.extend(a.device.iter().map(|p| ("device file", p.clone())));
                 v

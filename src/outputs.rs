@@ -335,6 +335,7 @@ impl OutputSet {
 
 /// Commit the outputs staged so far by this thread's open [`OutputSet`], if one is open: what a command
 /// prints on stdout ([`crate::outln`]) comes after the files it reports.
+#[doc(hidden)]
 pub fn commit_open_set() -> std::io::Result<()> {
     let staged = SET.with_borrow_mut(|s| s.as_mut().map(std::mem::take).unwrap_or_default());
     commit(staged)

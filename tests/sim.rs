@@ -9,7 +9,7 @@ use std::sync::OnceLock;
 use mrfeel::control::{FeelLaw, LoopMode};
 use mrfeel::pilot::{Signal, Task};
 use mrfeel::scenario::Scenario;
-use mrfeel::sim::{self, cli, Devices, Results, RunOptions};
+use mrfeel::sim::{self, Devices, Results, RunOptions};
 use mrfeel::units::IN_TO_M;
 
 fn scenario_path(name: &str) -> PathBuf {
@@ -169,7 +169,7 @@ fn stick_at_rest_below_the_yield_force_does_not_creep() {
 #[test]
 fn response_time_grows_by_the_daq_latency_as_the_rate_falls() {
     let (scn, device) = load("response-time.toml");
-    let pts = cli::sweep(&scn, &device, &[100.0, 5000.0]).unwrap();
+    let pts = sim::response::sweep(&scn, &device, &[100.0, 5000.0], || {}).unwrap();
     let (slow, fast) = (&pts[0], &pts[1]);
     eprintln!("{}", sim::response::markdown_table(&pts));
     assert!(slow.steps >= 5 && fast.steps >= 5, "{pts:?}");
@@ -197,7 +197,7 @@ fn response_time_grows_by_the_daq_latency_as_the_rate_falls() {
 #[test]
 fn a_rate_that_measures_no_step_reports_no_times() {
     let (scn, device) = load("response-time.toml");
-    let pts = cli::sweep(&scn, &device, &[1.0]).unwrap();
+    let pts = sim::response::sweep(&scn, &device, &[1.0], || {}).unwrap();
     let p = &pts[0];
     assert_eq!(p.steps, 0, "{p:?}");
     assert_eq!(
@@ -393,7 +393,7 @@ fn two_lag_settling_s(te: f64, tm: f64) -> f64 {
 #[test]
 fn force_settles_as_fast_as_the_coil_and_fluid_lags_allow_and_later_at_a_slow_daq() {
     let (scn, device) = load("response-time.toml");
-    let pts = cli::sweep(&scn, &device, &[100.0, 5000.0]).unwrap();
+    let pts = sim::response::sweep(&scn, &device, &[100.0, 5000.0], || {}).unwrap();
     eprintln!("{}", sim::response::markdown_table(&pts));
     let (slow, fast) = (&pts[0], &pts[1]);
     assert!(slow.steps >= 5 && fast.steps >= 5, "{pts:?}");

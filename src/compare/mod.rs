@@ -17,18 +17,18 @@
 //! (sinusoidal motion, deflect–hold, let go; or a slow force ramp for the breakout) is fed to the hand
 //! sample by sample; letting go is a NaN command (hands off).
 
-pub mod cli;
 pub mod metrics;
 
 use std::path::PathBuf;
 
 use crate::control::feel::{CentringSpring, FeelSprings, FeelSystemConfig};
 use crate::control::FeelLaw;
-use crate::faults::FaultSchedule;
+use crate::faults::{Fault, FaultKind, FaultSchedule};
 use crate::pilot::Signal;
 use crate::rig::RigConfig;
 use crate::scenario::Scenario;
 use crate::sim::{Loop, Plant};
+use metrics::{fault_metrics, system_metrics, FaultRow, SystemMetrics};
 
 pub use crate::control::feel::FeelKind;
 
@@ -500,4 +500,59 @@ pub fn run(
         dt_s: dt,
         rows,
     })
+}
+
+/// A comparison's results: per system its metrics and its task and breakout traces; per fault run its row
+/// and trace.
+pub struct Comparison {
+    pub systems: Vec<(FeelKind, SystemMetrics, Trace, Trace)>,
+    pub faults: Vec<(FaultRow, Trace)>,
+}
+
+/// Run the comparison (and the fault runs when `with_faults`); `progress` gets (done, total).
+pub fn compare(
+    scn: &CompareScenario,
+    systems: &[FeelKind],
+    with_faults: bool,
+    mut progress: impl FnMut(usize, usize),
+) -> anyhow::Result<Comparison> {
+    let main_task = scn.main_task();
+    let total = systems.len() * (2 + if with_faults { 1 + FaultKind::ALL.len() } else { 0 });
+    let mut done = 0;
+    let mut out = Comparison {
+        systems: Vec::new(),
+        faults: Vec::new(),
+    };
+    for &k in systems {
+        let main = run(scn, k, &main_task, &scn.faults)?;
+        let brk = run(scn, k, &scn.breakout_task(), &scn.faults)?;
+        done += 2;
+        progress(done, total);
+        let m = system_metrics(scn, &main, &brk);
+        if with_faults {
+            let healthy = if scn.faults.is_empty() {
+                main.clone()
+            } else {
+                run(scn, k, &main_task, &FaultSchedule::none())?
+            };
+            done += 1;
+            for f in FaultKind::ALL {
+                let (a, b) = (scn.fault_test.start_s, scn.fault_test.end_s);
+                let tr = run(scn, k, &main_task, &FaultSchedule::single(Fault::new(f, a, b)))?;
+                let fm = fault_metrics(scn, &tr, &healthy, a, b);
+                out.faults.push((
+                    FaultRow {
+                        system: k,
+                        fault: f,
+                        m: fm,
+                    },
+                    tr,
+                ));
+                done += 1;
+                progress(done, total);
+            }
+        }
+        out.systems.push((k, m, main, brk));
+    }
+    Ok(out)
 }

@@ -216,6 +216,23 @@ impl DeviceConfig {
             .ok()
             .map(|inv| inv.force_n(current_a, 1.0, 0.0, 0.0, true))
     }
+
+    /// The force the damper holds at rest at mid-stroke with `current_a` settled, fully yielded one way, N:
+    /// the ceiling of the feel it can render. [`DeviceConfig::yield_force_n`] where the inverse applies;
+    /// another base (`spencer`) from its own states after a long stroke that way.
+    pub fn ceiling_force_n(&self, current_a: f64) -> f64 {
+        self.yield_force_n(current_a).unwrap_or_else(|| {
+            let inp = Inputs {
+                t_s: 0.0,
+                x_m: 0.0,
+                v_m_s: f64::MIN_POSITIVE,
+                a_m_s2: 0.0,
+                current_cmd_a: current_a,
+            };
+            let s = self.model.init_state(&self.params, &inp);
+            self.model.eval(&self.params, &s, &inp).force_n(0.0)
+        })
+    }
 }
 
 #[cfg(test)]
@@ -296,5 +313,33 @@ mod tests {
             "{e}"
         );
         assert_eq!(d.yield_force_n(14.0), None);
+    }
+
+    /// The ceiling of a Spencer model is its own yielded force at rest, `c1/(c0+c1)·α(i)·z_max` plus the
+    /// accumulator spring `k1·(0 − x0)` (the force with the k0 spring relaxed), growing with the current.
+    #[test]
+    fn a_spencer_ceiling_is_its_yielded_force_at_rest() {
+        use super::super::spencer;
+        let m = Model::from_spec("spencer", &Registry::builtin(), 14.0).unwrap();
+        let p = spencer::SPENCER_1997.to_vec();
+        let d = DeviceConfig::from_model(m, p.clone(), "s.json".into());
+        let by_hand = |i: f64| {
+            use spencer::{ALPHA_A, ALPHA_B, C0A, C0B, C1A, C1B, K1, X0};
+            let (alpha, c0, c1) = (
+                p[ALPHA_A] + p[ALPHA_B] * i,
+                p[C0A] + p[C0B] * i,
+                p[C1A] + p[C1B] * i,
+            );
+            c1 / (c0 + c1) * alpha * spencer::z_scale(&p) + p[K1] * (0.0 - p[X0])
+        };
+        for i in [0.0, 5.0, 14.0] {
+            let got = d.ceiling_force_n(i);
+            assert!(
+                (got - by_hand(i)).abs() <= 1e-9 * by_hand(i).abs().max(1.0),
+                "{i} A: {got} vs {}",
+                by_hand(i)
+            );
+        }
+        assert!(d.ceiling_force_n(14.0) > d.ceiling_force_n(0.0));
     }
 }

@@ -69,7 +69,7 @@ pub fn all_spans(tests: &[Test]) -> Vec<Span> {
 /// test's worth of evidence on it, not one per sample. The generalised least-squares weight of a test
 /// with such a shared error, `1/(σ²_noise + n·σ²_test)`, tends to `1/n` per sample as `n` grows: each test
 /// counts once. Where the tests have as many counted samples the two losses are the same.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Weighting {
     /// Each test counts once: its squared residuals are weighted by `N / (T·n)`, where `n` is its number
     /// of counted samples, `N` that of all the tests and `T` the number of tests (the weights add up to
@@ -81,6 +81,10 @@ pub enum Weighting {
 }
 
 impl Weighting {
+    /// Every weighting, in the order the command line lists them.
+    pub const ALL: [Weighting; 2] = [Weighting::Tests, Weighting::Samples];
+
+    /// The weighting's name on the command line and in reports.
     pub fn as_str(self) -> &'static str {
         match self {
             Weighting::Tests => "tests",
@@ -97,13 +101,23 @@ impl Weighting {
         while let Some(a) = it.next() {
             if a == "--weighting" {
                 let name = it.next().ok_or("--weighting needs a value: tests or samples")?;
-                weighting = <Weighting as clap::ValueEnum>::from_str(&name, false)
-                    .map_err(|_| format!("--weighting {name}: expected tests or samples"))?;
+                weighting = name.parse().map_err(|e| format!("--weighting {e}"))?;
             } else {
                 rest.push(a);
             }
         }
         Ok((weighting, rest))
+    }
+}
+
+impl std::str::FromStr for Weighting {
+    type Err = String;
+
+    fn from_str(name: &str) -> Result<Self, String> {
+        Self::ALL
+            .into_iter()
+            .find(|w| w.as_str() == name)
+            .ok_or_else(|| format!("{name}: expected tests or samples"))
     }
 }
 

@@ -7,7 +7,6 @@
 //! and diagnosed exactly like the built-in ones.
 
 pub mod acquisition;
-pub mod cli;
 pub mod clipping;
 pub mod diagnose;
 pub mod discover;

@@ -194,7 +194,7 @@ fn panels_by_current(
 }
 
 /// Measured vs model plots and residual maps for one model on some tests. Returns the files written.
-pub(crate) fn plot_model(
+pub fn plot_model(
     dir: &Path,
     tests: &[Test],
     pred: &[Vec<f64>],
@@ -396,7 +396,7 @@ fn draw_residual_time<DB: DrawingBackend>(
 
 /// Plots of a diagnosis: the base model's fit and residual maps, the final model's, the first-step
 /// candidate ranking and the held-out error falling step by step.
-pub(crate) fn plot_diagnosis(dir: &Path, tests: &[Test], d: &Diagnosis) -> Result<Vec<PathBuf>, IdentError> {
+pub fn plot_diagnosis(dir: &Path, tests: &[Test], d: &Diagnosis) -> Result<Vec<PathBuf>, IdentError> {
     let mut out = plot_model(dir, tests, &d.base_pred, &d.base_model, "base")?;
     if d.final_model != d.base_model {
         out.extend(plot_model(dir, tests, &d.final_pred, &d.final_model, "final")?);

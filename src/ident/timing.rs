@@ -26,12 +26,37 @@ impl CommandTiming {
 }
 
 /// What the command line asks for: a reading, or `auto` (decided by the data).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum TimingChoice {
     #[default]
     Auto,
     AfterSample,
     AtSample,
+}
+
+impl TimingChoice {
+    /// Every choice, in the order the command line lists them.
+    pub const ALL: [TimingChoice; 3] = [Self::Auto, Self::AfterSample, Self::AtSample];
+
+    /// The choice's name on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Auto => "auto",
+            Self::AfterSample => CommandTiming::AfterSample.as_str(),
+            Self::AtSample => CommandTiming::AtSample.as_str(),
+        }
+    }
+}
+
+impl std::str::FromStr for TimingChoice {
+    type Err = String;
+
+    fn from_str(name: &str) -> Result<Self, String> {
+        Self::ALL
+            .into_iter()
+            .find(|c| c.as_str() == name)
+            .ok_or_else(|| format!("{name}: expected auto, after-sample or at-sample"))
+    }
 }
 
 /// Whether the current command is the same, to the bit, at every sample of `inputs`: the lags (Eq. 3–4)

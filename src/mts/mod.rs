@@ -18,8 +18,6 @@ use crate::device::params::TestSignals;
 use crate::device::{Damper, DataStats, Inputs, Model, ModelSpec, Registry, Step};
 use crate::measurement::{Measurement, MAGNITUDE_LIMIT};
 
-pub mod cli;
-
 /// Errors configuring a virtual test.
 #[derive(Debug, thiserror::Error)]
 pub enum MtsError {
@@ -615,7 +613,7 @@ mod tests {
 
     fn paper() -> DeviceConfig {
         DeviceConfig::from_toml(
-            cli::PAPER_DEVICE_TOML,
+            crate::builtin::PAPER_DEVICE,
             Path::new("paper-device.toml"),
             &Registry::builtin(),
         )
@@ -666,7 +664,7 @@ mod tests {
             "velocity must stay constant"
         );
         let f = steady(&m, t.block_s(), 4, 0.3);
-        for ((i, paper_n), got) in cli::PAPER_POINTS.iter().zip(&f) {
+        for ((i, paper_n), got) in crate::builtin::PAPER_POINTS.iter().zip(&f) {
             assert!(
                 (got - paper_n).abs() <= 0.10 * paper_n,
                 "{i} A: {got:.2} N vs paper {paper_n} N ± 10 %"

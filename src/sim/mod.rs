@@ -13,7 +13,6 @@
 //! Faults ([`crate::faults`]) act between transducers and DAQ, DAQ and controller (latency spikes), driver
 //! and coil or motor; every row carries the mask of the faults active at its time.
 
-pub mod cli;
 pub mod flight;
 pub mod invariants;
 pub mod loop_study;
@@ -24,6 +23,8 @@ pub mod results;
 
 pub use flight::{AeroRow, Flight};
 pub use plant::{Plant, PlantState};
+#[cfg(feature = "rerun")]
+pub use results::{log_rerun, rerun_sample};
 pub use results::{FlightInfo, Results, Row, Summary, SummaryAcc};
 
 use std::collections::VecDeque;
@@ -500,11 +501,7 @@ pub fn run_streaming<P: Plant, E: From<SimError>>(
             Vec::new()
         },
         frames: Vec::new(),
-        // A plant the inverse refuses (`spencer`) has no Bingham yield force to name: no ceiling.
-        feel_ceiling_n: devices
-            .plant
-            .yield_force_n(scn.controller.gains.out_max)
-            .unwrap_or(0.0),
+        feel_ceiling_n: devices.plant.ceiling_force_n(scn.controller.gains.out_max),
         controller_model: devices.controller_label(),
         grip_arm_m: lp.plant.grip_arm_m(),
         gearing_at_centre_m_per_rad: lp.plant.gearing_m_per_rad(0.0),

@@ -19,11 +19,14 @@
 
 use std::path::Path;
 
+use rayon::prelude::*;
 use serde::Serialize;
 
 use super::results::Results;
+use super::{Devices, RunOptions};
 use crate::control::FeelLaw;
 use crate::control::LoopMode;
+use crate::scenario::Scenario;
 use crate::viz::plot::{save_charts, Chart, PlotError, Series};
 
 /// Length of the trailing mean the settling time is measured on, s (see the module doc).
@@ -195,4 +198,41 @@ pub fn plot(points: &[SweepPoint], dir: &Path, title: &str) -> Result<Vec<std::p
         .with(Series::points("rise 10–90 %, max", per(|p| p.max_rise_ms)))
         .with(Series::line("settling ±5 %, mean", per(|p| p.mean_settling_ms)));
     save_charts(&[chart], 1, dir, "daq-sweep")
+}
+
+/// Run the scenario at each DAQ rate (in parallel, results in order) and measure the step responses;
+/// `done` is called as each rate finishes.
+pub fn sweep(
+    scn: &Scenario,
+    devices: &Devices,
+    rates: &[f64],
+    done: impl Fn() + Sync,
+) -> anyhow::Result<Vec<SweepPoint>> {
+    // The scenario's own fault first: a sweep of a scenario that is not a step test has no rate to try.
+    anyhow::ensure!(
+        matches!(scn.feel, crate::control::FeelLaw::ForceSteps { .. }),
+        "{}:{}: `feel.law`: daq-sweep needs `feel.law = \"force-steps\"` (a step test of the feel loop)",
+        scn.path.display(),
+        scn.lines.feel_law
+    );
+    for &r in rates {
+        anyhow::ensure!(
+            r > 0.0 && r <= scn.physics_rate_hz(),
+            "--rates: DAQ rate {r} Hz is outside (0, {}] Hz, the scenario's physics rate ({}:{}: `rig.physics_hz`)",
+            scn.physics_rate_hz(),
+            scn.path.display(),
+            scn.lines.physics_hz
+        );
+    }
+    rates
+        .par_iter()
+        .map(|&rate| {
+            let s = scn.with_daq_rate(rate);
+            let rig = super::build_rig(&s, &devices.plant)?;
+            let res = super::run(&s, devices, rig, RunOptions::default(), |_| {})?;
+            let steps = step_responses(&res, &s.feel);
+            done();
+            Ok(summarise(rate, &steps, &res))
+        })
+        .collect()
 }

@@ -261,7 +261,7 @@ impl Results {
     }
 
     /// The CSV's metadata block and header ([`Results::write_csv`]), from the run's facts alone (no rows).
-    pub(crate) fn write_csv_head(&self, mut w: impl Write) -> std::io::Result<()> {
+    pub fn write_csv_head(&self, mut w: impl Write) -> std::io::Result<()> {
         writeln!(w, "# source: mrfeel run")?;
         writeln!(w, "# scenario: {}", self.scenario)?;
         writeln!(
@@ -299,7 +299,7 @@ impl Results {
     }
 
     /// One row of the CSV ([`Results::write_csv`]).
-    pub(crate) fn write_csv_row(&self, mut w: impl Write, r: &Row) -> std::io::Result<()> {
+    pub fn write_csv_row(&self, mut w: impl Write, r: &Row) -> std::io::Result<()> {
         let aero = self.flight.is_some();
         {
             for (k, v) in r.values().iter().enumerate() {
@@ -473,4 +473,44 @@ impl std::fmt::Display for Summary {
                 .map_or("none: no work done".into(), |e| format!("{:.3} %", 100.0 * e))
         )
     }
+}
+
+/// A run's row as its recording shows it.
+#[cfg(feature = "rerun")]
+pub fn rerun_sample(r: &Row) -> crate::viz::rerun_rig::Sample {
+    crate::viz::rerun_rig::Sample {
+        t_s: r.t_s,
+        series: [
+            r.desired_force_n,
+            r.load_cell_n,
+            r.load_cell_true_n,
+            r.damper_force_n,
+            r.current_a,
+            r.piston_x_m,
+            r.pilot_force_n,
+            r.stick_angle_rad,
+            r.dissipated_j,
+            f64::from(r.faults),
+        ],
+        aircraft: r.aero.map(|a| {
+            [
+                a.pitch_rad,
+                a.pitch_cmd_rad,
+                a.nz_g,
+                a.nz_cmd_g,
+                a.elevator_rad,
+                a.hinge_moment_nm,
+                a.qbar_pa,
+                a.stick_force_n,
+                a.stick_cmd_rad,
+            ]
+        }),
+    }
+}
+
+/// Log a run whose rows and frames are all in memory to a Rerun recording.
+#[cfg(feature = "rerun")]
+pub fn log_rerun(rec: &rerun::RecordingStream, res: &Results) -> Result<(), crate::viz::rerun_rig::VizError> {
+    let samples: Vec<_> = res.rows.iter().map(rerun_sample).collect();
+    crate::viz::rerun_rig::log_run(rec, &res.visuals, res.flight.is_some(), &samples, &res.frames)
 }

@@ -7,7 +7,6 @@
 //! `results.arrow` (one row per run, by index), `report.md` and the maps. Every file but the journal's
 //! order depends only on the plan and the runs' results, so shards merged equal one process to the byte.
 
-pub mod cli;
 pub(crate) mod hq;
 pub mod outcome;
 pub mod plan;

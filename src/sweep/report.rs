@@ -52,7 +52,7 @@ pub fn groups(columns: &[String], records: &[Record], by: Option<&str>) -> BTree
 }
 
 /// The summary as a Markdown table.
-pub(crate) fn summary_table(columns: &[String], records: &[Record], by: Option<&str>) -> String {
+pub fn summary_table(columns: &[String], records: &[Record], by: Option<&str>) -> String {
     let mut s = format!(
         "| {} | runs | failed | Level 1 | Level 2 | Level 3 | worse | no Level | FAR temporary ok | FAR prolonged ok | Part 60 ok |\n",
         by.unwrap_or("group")
@@ -78,7 +78,7 @@ pub(crate) fn summary_table(columns: &[String], records: &[Record], by: Option<&
 }
 
 /// The axis to group a summary by: the first axis whose values are names (feel systems, pilots), if any.
-pub(crate) fn group_axis<'a>(columns: &'a [String], records: &[Record]) -> Option<&'a str> {
+pub fn group_axis<'a>(columns: &'a [String], records: &[Record]) -> Option<&'a str> {
     let first = records.first()?;
     columns
         .iter()
@@ -165,7 +165,7 @@ type MapCell = (bool, Option<u8>);
 
 /// Maps of the stick-force-per-g Level over (x, y), one panel per combination of the facet axes; where
 /// other axes vary, a cell shows the worst Level of its runs. Written to `DIR/map-level.png` and `.svg`.
-pub(crate) fn maps(
+pub fn maps(
     dir: &Path,
     spec: &MapSpec,
     columns: &[String],

@@ -44,7 +44,7 @@ pub fn record_and_read_back(res: &mrfeel::sim::Results) -> (bool, String) {
     res.write_csv(std::fs::File::create(&csv).unwrap()).unwrap();
     {
         let rec = mrfeel::viz::rerun_rig::to_file(&rrd).unwrap();
-        mrfeel::sim::cli::log_rerun(&rec, res).unwrap();
+        mrfeel::sim::log_rerun(&rec, res).unwrap();
     }
     rerun_readback(&rrd, &csv)
 }

@@ -6,15 +6,15 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 
-use super::diagnose::DiagnoseOptions;
-use super::fit::Weighting;
-use super::report::{diagnose_table, DiagnoseJson, FitJson};
-use super::timing::{CommandTiming, TimingChoice, TimingDecision};
-use super::{AcquisitionChoice, Test};
-use crate::device::formula::{register_file, resolve_spec, FormulaEffect};
-use crate::device::{DeviceConfig, ParamsFile, Registry};
-use crate::measurement::Measurement;
-use crate::prelude;
+use mrfeel::device::formula::{register_file, resolve_spec, FormulaEffect};
+use mrfeel::device::{DeviceConfig, ParamsFile, Registry};
+use mrfeel::ident::diagnose::DiagnoseOptions;
+use mrfeel::ident::fit::Weighting;
+use mrfeel::ident::report::{diagnose_table, DiagnoseJson, FitJson};
+use mrfeel::ident::timing::{CommandTiming, TimingChoice, TimingDecision};
+use mrfeel::ident::{AcquisitionChoice, Test};
+use mrfeel::measurement::Measurement;
+use mrfeel::prelude;
 
 /// `--acquisition`, shared by `fit`, `validate` and `diagnose`.
 #[derive(clap::Args, Debug, Clone)]
@@ -61,7 +61,7 @@ pub struct WeightingArg {
     /// and logging rate: a measured damper's tests each have their own force scale, an error every
     /// sample of the test shares) or `samples` (every sample counts once, the plain sum of squares). The
     /// reported figures are over samples either way.
-    #[arg(long, value_enum, default_value_t = Weighting::Tests)]
+    #[arg(long, default_value = "tests", value_parser = super::named(&Weighting::ALL, Weighting::as_str))]
     pub weighting: Weighting,
 }
 
@@ -101,7 +101,7 @@ pub struct FitArgs {
     /// When each logged current command takes effect: `after-sample` (a DAQ that reads the sensors, then
     /// writes the command), `at-sample` (already in force at the sample it is logged with), or `auto`: where
     /// some test's command changes, the model is fitted both ways and the smaller error kept.
-    #[arg(long, value_enum, default_value_t = TimingChoice::Auto)]
+    #[arg(long, default_value = "auto", value_parser = super::named(&TimingChoice::ALL, TimingChoice::as_str))]
     pub command_timing: TimingChoice,
 }
 
@@ -184,7 +184,7 @@ pub struct DiagnoseArgs {
     /// When each logged current command takes effect: `after-sample` (a DAQ that reads the sensors, then
     /// writes the command), `at-sample` (already in force at the sample it is logged with), or `auto`: where
     /// some test's command changes, the starting model is fitted both ways and the smaller error kept.
-    #[arg(long, value_enum, default_value_t = TimingChoice::Auto)]
+    #[arg(long, default_value = "auto", value_parser = super::named(&TimingChoice::ALL, TimingChoice::as_str))]
     pub command_timing: TimingChoice,
 }
 
@@ -203,7 +203,7 @@ fn load_and_tell(
 /// What reading the data noticed (clipped channels, acquisition filters, …), on stderr.
 fn tell(data: &prelude::Data) {
     for line in &data.notes {
-        crate::noteln!("{line}");
+        mrfeel::noteln!("{line}");
     }
 }
 
@@ -241,7 +241,7 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
     let tests = &data.tests;
     let n: usize = tests.iter().map(Test::len).sum();
     let opts = setup.options();
-    crate::noteln!(
+    mrfeel::noteln!(
         "fitting {} ({} parameters) to {} tests, {n} samples{}",
         model.name(),
         model.n_params(),
@@ -252,7 +252,7 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
     let fitted = prelude::fit(model, data, &setup);
     let (fr, timing) = (&fitted.result, &fitted.timing);
     note_timing(timing);
-    crate::noteln!(
+    mrfeel::noteln!(
         "fitted in {:.2} s ({}{} simulations of the data: {} evaluations and {} Jacobian columns; {} more \
          columns assembled on kept states; {})",
         t0.elapsed().as_secs_f64(),
@@ -268,35 +268,36 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
         fr.termination
     );
     let pred = fitted.predictions();
-    let (_, total) = super::validate::figures(&pred, &fitted.tests);
+    let (_, total) = mrfeel::ident::validate::figures(&pred, &fitted.tests);
     let mut numbers: Vec<(String, f64)> = Vec::new();
     for ((spec, p), se) in fitted.model.param_specs().iter().zip(&fr.params).zip(&fr.std_err) {
         numbers.push((spec.name.to_string(), *p));
         numbers.extend(se.map(|se| (format!("std_err of {}", spec.name), se)));
     }
     numbers.extend([("rmse_n".into(), total.rmse_n()), ("nrmse".into(), total.nrmse())]);
-    super::validate::check_finite("fit", &numbers, &fitted.tests, &pred).map_err(anyhow::Error::msg)?;
+    mrfeel::ident::validate::check_finite("fit", &numbers, &fitted.tests, &pred)
+        .map_err(anyhow::Error::msg)?;
     let out = fitted.report(&pred);
     if let Some(path) = &a.save {
         fitted
             .params_file()
             .write(path)
             .with_context(|| format!("writing {}", path.display()))?;
-        crate::noteln!("saved {}", path.display());
+        mrfeel::noteln!("saved {}", path.display());
     }
     let (model, tests) = (&fitted.model, &fitted.tests);
     if a.heldout {
         // The diagnosis's folds; each fold fitted as `fit` fits (tolerance, standard errors).
         let (folds, how) = DiagnoseOptions::default().folds(tests);
         let bar = indicatif::ProgressBar::hidden();
-        let cv = super::diagnose::cross_validate(model, tests, &folds, None, &opts, &bar);
-        crate::noteln!(
+        let cv = mrfeel::ident::diagnose::cross_validate(model, tests, &folds, None, &opts, &bar);
+        mrfeel::noteln!(
             "held-out NRMSE {:.4} (RMSE {:.3} N), {how}",
             cv.heldout_nrmse(),
             cv.total.rmse_n()
         );
         for (f, fig) in folds.iter().zip(&cv.per_fold) {
-            crate::noteln!("  {:<32} held-out NRMSE {:.4}", f.label, fig.nrmse());
+            mrfeel::noteln!("  {:<32} held-out NRMSE {:.4}", f.label, fig.nrmse());
         }
     }
     outputs(
@@ -314,7 +315,7 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
 /// or where at-sample was asked for.
 fn note_timing(timing: &TimingDecision) {
     if timing.fits.is_some() || timing.timing == CommandTiming::AtSample {
-        crate::noteln!("{}", timing.note());
+        mrfeel::noteln!("{}", timing.note());
     }
 }
 
@@ -329,20 +330,20 @@ fn outputs(
 ) -> anyhow::Result<()> {
     // The files first, stdout last: a run that fails to write prints no result.
     if let Some(dir) = plot {
-        let files = super::plots::plot_model(dir, tests, pred, &out.model, "")?;
-        crate::noteln!("wrote {} plot files into {}", files.len(), dir.display());
+        let files = mrfeel::ident::plots::plot_model(dir, tests, pred, &out.model, "")?;
+        mrfeel::noteln!("wrote {} plot files into {}", files.len(), dir.display());
     }
     #[cfg(not(feature = "rerun"))]
     let _ = rerun; // refused before the command runs (main.rs)
     #[cfg(feature = "rerun")]
     if let Some(path) = rerun {
-        super::rerun_log::record(path, tests, &[(&out.model, pred)])?;
-        crate::noteln!("wrote Rerun recording {}", path.display());
+        mrfeel::ident::rerun_log::record(path, tests, &[(&out.model, pred)])?;
+        mrfeel::noteln!("wrote Rerun recording {}", path.display());
     }
     if json {
-        crate::outln!("{}", serde_json::to_string_pretty(out)?)?;
+        mrfeel::outln!("{}", serde_json::to_string_pretty(out)?)?;
     } else {
-        crate::out!("{}", out.table(title))?;
+        mrfeel::out!("{}", out.table(title))?;
     }
     Ok(())
 }
@@ -359,8 +360,8 @@ pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
         fits: None,
     });
     let (tests, pred, out) = prelude::validate(&cfg, data)?;
-    let (_, total) = super::validate::figures(&pred, &tests);
-    super::validate::check_finite(
+    let (_, total) = mrfeel::ident::validate::figures(&pred, &tests);
+    mrfeel::ident::validate::check_finite(
         "validate",
         &[("rmse_n".into(), total.rmse_n()), ("nrmse".into(), total.nrmse())],
         &tests,
@@ -395,7 +396,7 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
         progress: std::io::stderr().is_terminal(),
     };
     if let Some(w) = weighting_note(&data.tests, setup.weighting) {
-        crate::noteln!("diagnose: in every fit {w}");
+        mrfeel::noteln!("diagnose: in every fit {w}");
     }
     let t0 = std::time::Instant::now();
     let prelude::Diagnosed {
@@ -417,12 +418,13 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
             .enumerate()
             .map(|(k, v)| (format!("final parameter {}", k + 1), *v)),
     );
-    super::validate::check_finite("diagnose", &numbers, &tests, &d.final_pred).map_err(anyhow::Error::msg)?;
-    crate::noteln!("diagnosed in {:.1} s", t0.elapsed().as_secs_f64());
+    mrfeel::ident::validate::check_finite("diagnose", &numbers, &tests, &d.final_pred)
+        .map_err(anyhow::Error::msg)?;
+    mrfeel::noteln!("diagnosed in {:.1} s", t0.elapsed().as_secs_f64());
     // The files first, stdout last: a run that fails to write prints no result.
     if let Some(dir) = &a.plot {
-        let files = super::plots::plot_diagnosis(dir, &tests, &d)?;
-        crate::noteln!("wrote {} plot files into {}", files.len(), dir.display());
+        let files = mrfeel::ident::plots::plot_diagnosis(dir, &tests, &d)?;
+        mrfeel::noteln!("wrote {} plot files into {}", files.len(), dir.display());
     }
     #[cfg(feature = "rerun")]
     if let Some(path) = &a.rerun {
@@ -433,14 +435,14 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
         // The final model's held-out prediction: its residual is what the verdict judged.
         let heldout = format!("{} held out", d.final_model);
         models.push((&heldout, &d.final_oof));
-        let words = super::report::verdict_words(&d);
-        super::rerun_log::record_with_notes(path, &tests, &models, Some(words.trim()))?;
-        crate::noteln!("wrote Rerun recording {}", path.display());
+        let words = mrfeel::ident::report::verdict_words(&d);
+        mrfeel::ident::rerun_log::record_with_notes(path, &tests, &models, Some(words.trim()))?;
+        mrfeel::noteln!("wrote Rerun recording {}", path.display());
     }
     if let Some(path) = &a.save_effect {
         let name = effect_name_of(path)?;
         let found: Vec<FormulaEffect> = d.discovered.iter().map(|t| t.effect.clone()).collect();
-        let Some(effect) = super::discover::merged(&name, &found) else {
+        let Some(effect) = mrfeel::ident::discover::merged(&name, &found) else {
             anyhow::bail!(
                 "--save-effect {}: the diagnosis added no term beyond the vocabulary, so there is no effect to \
                  write",
@@ -448,7 +450,7 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
             );
         };
         std::fs::write(path, effect.to_toml()).with_context(|| format!("writing {}", path.display()))?;
-        crate::noteln!(
+        mrfeel::noteln!(
             "saved the discovered effect `{name}` = {} in {} (use: --effects {} --model {}+{name})",
             effect.formula(),
             path.display(),
@@ -457,9 +459,9 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
         );
     }
     if a.json {
-        crate::outln!("{}", serde_json::to_string_pretty(&DiagnoseJson::new(&d))?)?;
+        mrfeel::outln!("{}", serde_json::to_string_pretty(&DiagnoseJson::new(&d))?)?;
     } else {
-        crate::out!("{}", diagnose_table(&d))?;
+        mrfeel::out!("{}", diagnose_table(&d))?;
     }
     Ok(())
 }
@@ -476,7 +478,10 @@ fn write_beside(path: &std::path::Path, ms: &[Measurement], pred: &[Vec<f64>]) -
             } else {
                 path.join(m.path.file_name().unwrap_or_default())
             };
-            Ok((target, super::simulate::beside(m, p).map_err(anyhow::Error::msg)?))
+            Ok((
+                target,
+                mrfeel::ident::simulate::beside(m, p).map_err(anyhow::Error::msg)?,
+            ))
         })
         .collect::<anyhow::Result<_>>()?;
     if ms.len() > 1 {
@@ -485,9 +490,9 @@ fn write_beside(path: &std::path::Path, ms: &[Measurement], pred: &[Vec<f64>]) -
     for (target, m) in &files {
         m.write(target)?;
     }
-    crate::noteln!(
+    mrfeel::noteln!(
         "wrote the model's force beside the measured one (column `{}`) into {}",
-        super::simulate::MODEL_COLUMN,
+        mrfeel::ident::simulate::MODEL_COLUMN,
         path.display()
     );
     Ok(())
@@ -509,9 +514,9 @@ pub fn run_simulate(a: &SimulateArgs) -> anyhow::Result<()> {
             m.t_s[k]
         );
     }
-    let out = super::simulate::prediction(&m, force, &cfg).map_err(anyhow::Error::msg)?;
+    let out = mrfeel::ident::simulate::prediction(&m, force, &cfg).map_err(anyhow::Error::msg)?;
     out.write(&a.out)?;
-    crate::noteln!(
+    mrfeel::noteln!(
         "wrote the force of {} ({}) on the {} samples of {} into {}",
         cfg.model.name(),
         a.params.display(),

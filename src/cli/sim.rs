@@ -1,16 +1,15 @@
 //! The `run` and `daq-sweep` subcommands.
 
-use std::io::{IsTerminal, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use rayon::prelude::*;
+use indicatif::ProgressBar;
 
-use super::response::{self, SweepPoint};
-use super::{build_rig, run, Devices, Plant, Results, RunOptions};
-use crate::device::{DeviceConfig, Registry};
-use crate::scenario::Scenario;
+use mrfeel::device::{DeviceConfig, Registry};
+use mrfeel::scenario::Scenario;
+use mrfeel::sim::response;
+use mrfeel::sim::{build_rig, run, Devices, Plant, Results, RunOptions};
 
 /// `mrfeel run SCENARIO`: run a stick-rig scenario headless.
 #[derive(Debug, clap::Args)]
@@ -62,7 +61,7 @@ impl RunArgs {
         let overrides = self
             .set
             .iter()
-            .map(|a| crate::scenario::Override::parse_argument(a))
+            .map(|a| mrfeel::scenario::Override::parse_argument(a))
             .collect::<Result<Vec<_>, _>>()
             .map_err(anyhow::Error::msg)?;
         Ok(Scenario::load_with(&self.scenario, &overrides)?)
@@ -98,20 +97,9 @@ pub fn input_files(path: &Path, scn: &Scenario, aircraft: Option<&str>) -> Vec<(
     files
 }
 
+/// A run's progress bar, named after its scenario.
 fn progress_bar(len: u64, msg: &str) -> ProgressBar {
-    let pb = ProgressBar::with_draw_target(
-        Some(len),
-        if std::io::stderr().is_terminal() {
-            ProgressDrawTarget::stderr()
-        } else {
-            ProgressDrawTarget::hidden()
-        },
-    );
-    if let Ok(style) =
-        ProgressStyle::with_template("{msg} [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}")
-    {
-        pb.set_style(style.progress_chars("=> "));
-    }
+    let pb = super::progress_bar(len, "{msg} [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}");
     pb.set_message(msg.to_string());
     pb
 }
@@ -122,7 +110,7 @@ pub fn run_with_progress<P: Plant>(
     devices: &Devices,
     plant: P,
     opts: RunOptions,
-) -> Result<Results, super::SimError> {
+) -> Result<Results, mrfeel::sim::SimError> {
     let pb = progress_bar(1000, &scn.name);
     let res = run(scn, devices, plant, opts, |f| {
         pb.set_position((f * 1000.0) as u64)
@@ -155,7 +143,7 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
     // so that a run that fails leaves no file behind.
     #[cfg(feature = "rerun")]
     let rec = if args.spawn {
-        Some(crate::viz::rerun_rig::spawn_on_port(args.spawn_port)?)
+        Some(mrfeel::viz::rerun_rig::spawn_on_port(args.spawn_port)?)
     } else {
         None
     };
@@ -171,14 +159,14 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
     if streamed && args.plot.is_none() && scn.aircraft.is_none() {
         let summary = run_streamed(args, &scn, &devices, rig, opts)?;
         if args.json {
-            crate::outln!("{}", serde_json::to_string_pretty(&summary)?)?;
+            mrfeel::outln!("{}", serde_json::to_string_pretty(&summary)?)?;
         } else {
-            crate::outln!("{summary}")?;
+            mrfeel::outln!("{summary}")?;
             if let Some(p) = &args.out {
-                crate::outln!("  results: {}", p.display())?;
+                mrfeel::outln!("  results: {}", p.display())?;
             }
             if let Some(p) = &args.rerun {
-                crate::outln!("  recording: {} (open with `rerun {}`)", p.display(), p.display())?;
+                mrfeel::outln!("  recording: {} (open with `rerun {}`)", p.display(), p.display())?;
             }
         }
         return Ok(());
@@ -186,7 +174,7 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
     let res = run_with_progress(&scn, &devices, rig, opts)?;
     if let Some(path) = &args.out {
         let writing = || format!("writing {}", path.display());
-        crate::outputs::write_whole(
+        mrfeel::outputs::write_whole(
             path,
             |tmp| -> anyhow::Result<()> {
                 let f = std::fs::File::create(tmp).with_context(|| format!("creating {}", path.display()))?;
@@ -200,11 +188,11 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
     }
     #[cfg(feature = "rerun")]
     match (&rec, &args.rerun) {
-        (Some(rec), _) => log_rerun(rec, &res)?,
-        (None, Some(p)) => crate::outputs::write_whole(
+        (Some(rec), _) => mrfeel::sim::log_rerun(rec, &res)?,
+        (None, Some(p)) => mrfeel::outputs::write_whole(
             p,
             |tmp| -> anyhow::Result<()> {
-                log_rerun(&crate::viz::rerun_rig::to_file(tmp)?, &res)?;
+                mrfeel::sim::log_rerun(&mrfeel::viz::rerun_rig::to_file(tmp)?, &res)?;
                 Ok(())
             },
             |e| anyhow::Error::new(e).context(format!("--rerun {}", p.display())),
@@ -215,25 +203,25 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
         Some(dir) => run_plots(&res, dir)?,
         None => Vec::new(),
     };
-    if let (Some(dir), Some(chart)) = (&args.plot, super::flight::stick_force_per_g_chart(&res)?) {
+    if let (Some(dir), Some(chart)) = (&args.plot, mrfeel::sim::flight::stick_force_per_g_chart(&res)?) {
         let name = format!("{}-stick-force-per-g", scn.name);
         plotted.extend(
-            crate::viz::plot::save_charts(&[chart], 1, dir, &name)
+            mrfeel::viz::plot::save_charts(&[chart], 1, dir, &name)
                 .with_context(|| format!("--plot {}", dir.display()))?,
         );
     }
     let summary = res.summary();
-    let flight = super::metrics::FlightMetrics::of(&res, &scn);
+    let flight = mrfeel::sim::metrics::FlightMetrics::of(&res, &scn);
     if args.json {
-        let v = crate::prelude::run_summary(&res, &scn)?;
-        crate::outln!("{}", serde_json::to_string_pretty(&v)?)?;
+        let v = mrfeel::prelude::run_summary(&res, &scn)?;
+        mrfeel::outln!("{}", serde_json::to_string_pretty(&v)?)?;
     } else {
-        crate::outln!("{summary}")?;
+        mrfeel::outln!("{summary}")?;
         if let Some(m) = &flight {
-            crate::outln!("{m}")?;
+            mrfeel::outln!("{m}")?;
         }
         if let Some(f) = &res.flight {
-            crate::outln!(
+            mrfeel::outln!(
                 "  aircraft {}: {} parameters are estimates ([EST] in its model file, no source): {}",
                 f.aircraft,
                 f.estimates.len(),
@@ -241,59 +229,19 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
             )?;
         }
         if let Some(p) = &args.out {
-            crate::outln!("  results: {}", p.display())?;
+            mrfeel::outln!("  results: {}", p.display())?;
         }
         if let Some(p) = &args.rerun {
-            crate::outln!("  recording: {} (open with `rerun {}`)", p.display(), p.display())?;
+            mrfeel::outln!("  recording: {} (open with `rerun {}`)", p.display(), p.display())?;
         }
         for p in plotted
             .iter()
             .filter(|p| p.extension().is_some_and(|e| e == "png"))
         {
-            crate::outln!("  plot: {} and its .svg", p.display())?;
+            mrfeel::outln!("  plot: {} and its .svg", p.display())?;
         }
     }
     Ok(())
-}
-
-/// A run's row as its recording shows it.
-#[cfg(feature = "rerun")]
-fn rerun_sample(r: &super::Row) -> crate::viz::rerun_rig::Sample {
-    crate::viz::rerun_rig::Sample {
-        t_s: r.t_s,
-        series: [
-            r.desired_force_n,
-            r.load_cell_n,
-            r.load_cell_true_n,
-            r.damper_force_n,
-            r.current_a,
-            r.piston_x_m,
-            r.pilot_force_n,
-            r.stick_angle_rad,
-            r.dissipated_j,
-            f64::from(r.faults),
-        ],
-        aircraft: r.aero.map(|a| {
-            [
-                a.pitch_rad,
-                a.pitch_cmd_rad,
-                a.nz_g,
-                a.nz_cmd_g,
-                a.elevator_rad,
-                a.hinge_moment_nm,
-                a.qbar_pa,
-                a.stick_force_n,
-                a.stick_cmd_rad,
-            ]
-        }),
-    }
-}
-
-/// Log a run whose rows and frames are all in memory to a Rerun recording.
-#[cfg(feature = "rerun")]
-pub fn log_rerun(rec: &rerun::RecordingStream, res: &Results) -> Result<(), crate::viz::rerun_rig::VizError> {
-    let samples: Vec<_> = res.rows.iter().map(rerun_sample).collect();
-    crate::viz::rerun_rig::log_run(rec, &res.visuals, res.flight.is_some(), &samples, &res.frames)
 }
 
 /// `write_whole` of `path` where there is one; else `write` with no file.
@@ -303,7 +251,7 @@ fn maybe_whole<T>(
     write: impl FnOnce(Option<&Path>) -> anyhow::Result<T>,
 ) -> anyhow::Result<T> {
     match path {
-        Some(p) => crate::outputs::write_whole(
+        Some(p) => mrfeel::outputs::write_whole(
             p,
             |tmp| write(Some(tmp)),
             |e| anyhow::Error::new(e).context(format!("{what} {}", p.display())),
@@ -313,14 +261,14 @@ fn maybe_whole<T>(
 }
 
 /// A run whose rows go to its CSV (`--out`) and its recording (`--rerun FILE`) as they are made
-/// ([`super::run_streaming`]), none kept; each file is whole or not written. Returns the run's summary.
+/// ([`mrfeel::sim::run_streaming`]), none kept; each file is whole or not written. Returns the run's summary.
 fn run_streamed<P: Plant>(
     args: &RunArgs,
     scn: &Scenario,
     devices: &Devices,
     plant: P,
     opts: RunOptions,
-) -> anyhow::Result<super::Summary> {
+) -> anyhow::Result<mrfeel::sim::Summary> {
     #[cfg(feature = "rerun")]
     let rrd = args.rerun.as_deref();
     #[cfg(not(feature = "rerun"))]
@@ -342,13 +290,13 @@ fn run_streamed<P: Plant>(
             };
             #[cfg(feature = "rerun")]
             let file_rec = match _rrd_tmp {
-                Some(p) => Some(crate::viz::rerun_rig::to_file(p)?),
+                Some(p) => Some(mrfeel::viz::rerun_rig::to_file(p)?),
                 None => None,
             };
             #[cfg(feature = "rerun")]
-            let mut logger: Option<crate::viz::rerun_rig::RunLogger<'_>> = None;
+            let mut logger: Option<mrfeel::viz::rerun_rig::RunLogger<'_>> = None;
             let mut head: Option<Results> = None;
-            let (_, summary) = super::run_streaming(
+            let (_, summary) = mrfeel::sim::run_streaming(
                 scn,
                 devices,
                 plant,
@@ -356,13 +304,13 @@ fn run_streamed<P: Plant>(
                 |f| pb.set_position((f * 1000.0) as u64),
                 |e| -> anyhow::Result<()> {
                     match e {
-                        super::Event::Start(h) => {
+                        mrfeel::sim::Event::Start(h) => {
                             if let Some(w) = csv.as_mut() {
                                 h.write_csv_head(w).with_context(writing)?;
                             }
                             #[cfg(feature = "rerun")]
                             if let Some(rec) = &file_rec {
-                                logger = Some(crate::viz::rerun_rig::RunLogger::new(
+                                logger = Some(mrfeel::viz::rerun_rig::RunLogger::new(
                                     rec,
                                     &h.visuals,
                                     h.flight.is_some(),
@@ -370,20 +318,20 @@ fn run_streamed<P: Plant>(
                             }
                             head = Some(h.clone());
                         }
-                        super::Event::Frame(_t, _poses) =>
+                        mrfeel::sim::Event::Frame(_t, _poses) =>
                         {
                             #[cfg(feature = "rerun")]
                             if let Some(l) = logger.as_mut() {
                                 l.frame(_t, _poses);
                             }
                         }
-                        super::Event::Row(r) => {
+                        mrfeel::sim::Event::Row(r) => {
                             if let (Some(w), Some(h)) = (csv.as_mut(), &head) {
                                 h.write_csv_row(w, r).with_context(writing)?;
                             }
                             #[cfg(feature = "rerun")]
                             if let Some(l) = logger.as_mut() {
-                                l.sample(&rerun_sample(r))?;
+                                l.sample(&mrfeel::sim::rerun_sample(r))?;
                             }
                         }
                     }
@@ -407,11 +355,11 @@ fn run_streamed<P: Plant>(
 
 /// The run drawn for `run --plot DIR`: `DIR/run.png` and `DIR/run.svg`.
 pub fn run_plots(res: &Results, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
-    use crate::viz::plot::{save_charts, Chart, Series};
+    use mrfeel::viz::plot::{save_charts, Chart, Series};
     // At most about 4000 points a series: enough for the eye, small files.
     let every = res.rows.len().div_ceil(4000).max(1);
     let rows: Vec<_> = res.rows.iter().step_by(every).collect();
-    let series = |name: &str, f: &dyn Fn(&super::Row) -> (f64, f64)| {
+    let series = |name: &str, f: &dyn Fn(&mrfeel::sim::Row) -> (f64, f64)| {
         Series::line(name, rows.iter().map(|r| f(r)).collect())
     };
     // Fault windows: spans of the rows where some fault is active.
@@ -466,40 +414,6 @@ pub fn run_plots(res: &Results, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     save_charts(&charts, 2, dir, "run").with_context(|| format!("--plot {}", dir.display()))
 }
 
-/// Run the scenario at each DAQ rate (in parallel, results in order) and measure the step responses.
-pub fn sweep(scn: &Scenario, devices: &Devices, rates: &[f64]) -> anyhow::Result<Vec<SweepPoint>> {
-    // The scenario's own fault first: a sweep of a scenario that is not a step test has no rate to try.
-    anyhow::ensure!(
-        matches!(scn.feel, crate::control::FeelLaw::ForceSteps { .. }),
-        "{}:{}: `feel.law`: daq-sweep needs `feel.law = \"force-steps\"` (a step test of the feel loop)",
-        scn.path.display(),
-        scn.lines.feel_law
-    );
-    for &r in rates {
-        anyhow::ensure!(
-            r > 0.0 && r <= scn.physics_rate_hz(),
-            "--rates: DAQ rate {r} Hz is outside (0, {}] Hz, the scenario's physics rate ({}:{}: `rig.physics_hz`)",
-            scn.physics_rate_hz(),
-            scn.path.display(),
-            scn.lines.physics_hz
-        );
-    }
-    let pb = progress_bar(rates.len() as u64, "daq-sweep");
-    let out: anyhow::Result<Vec<SweepPoint>> = rates
-        .par_iter()
-        .map(|&rate| {
-            let s = scn.with_daq_rate(rate);
-            let rig = build_rig(&s, &devices.plant)?;
-            let res = run(&s, devices, rig, RunOptions::default(), |_| {})?;
-            let steps = response::step_responses(&res, &s.feel);
-            pb.inc(1);
-            Ok(response::summarise(rate, &steps, &res))
-        })
-        .collect();
-    pb.finish_and_clear();
-    out
-}
-
 /// `mrfeel daq-sweep` of the scenario loaded from `args.scenario`.
 pub fn daq_sweep_cmd(args: &DaqSweepArgs, scn: Scenario) -> anyhow::Result<()> {
     for (k, r) in args.rates.iter().enumerate() {
@@ -512,7 +426,10 @@ pub fn daq_sweep_cmd(args: &DaqSweepArgs, scn: Scenario) -> anyhow::Result<()> {
         }
     }
     let devices = Devices::load(&scn)?;
-    let points = sweep(&scn, &devices, &args.rates)?;
+    let pb = progress_bar(args.rates.len() as u64, "daq-sweep");
+    let points = response::sweep(&scn, &devices, &args.rates, || pb.inc(1));
+    pb.finish_and_clear();
+    let points = points?;
     if let Some(dir) = &args.plot {
         response::plot(
             &points,
@@ -521,11 +438,11 @@ pub fn daq_sweep_cmd(args: &DaqSweepArgs, scn: Scenario) -> anyhow::Result<()> {
         )?;
     }
     if args.json {
-        crate::outln!("{}", serde_json::to_string_pretty(&points)?)?;
+        mrfeel::outln!("{}", serde_json::to_string_pretty(&points)?)?;
     } else {
-        crate::out!("{}", response::markdown_table(&points))?;
+        mrfeel::out!("{}", response::markdown_table(&points))?;
         if let Some(dir) = &args.plot {
-            crate::outln!(
+            mrfeel::outln!(
                 "plots: {}/daq-sweep.png, {}/daq-sweep.svg",
                 dir.display(),
                 dir.display()
@@ -565,51 +482,51 @@ pub fn loop_study_cmd(args: &LoopStudyArgs, mut scn: Scenario) -> anyhow::Result
     }
     let plant = Devices::load(&scn)?.plant;
     let registry = Registry::builtin();
-    let tests = crate::ident::load_tests(&args.data)?;
+    let tests = mrfeel::ident::load_tests(&args.data)?;
     let limit = args
         .current_limit_a
-        .unwrap_or_else(|| crate::ident::default_current_limit_a(&tests));
+        .unwrap_or_else(|| mrfeel::ident::default_current_limit_a(&tests));
     anyhow::ensure!(
         limit.is_finite() && limit > 0.0,
         "--current-limit-a {limit}: a positive number of amperes"
     );
-    crate::noteln!(
+    mrfeel::noteln!(
         "loop-study: diagnosing {} tests and fitting each stage",
         tests.len()
     );
-    let stages = super::loop_study::stages_from_data(&tests, limit, &registry)?;
-    crate::noteln!(
+    let stages = mrfeel::sim::loop_study::stages_from_data(&tests, limit, &registry)?;
+    mrfeel::noteln!(
         "loop-study: running {} with {} controller models",
         scn.name,
         stages.len()
     );
-    let runs = super::loop_study::run_stages(&scn, &plant, &stages)?;
+    let runs = mrfeel::sim::loop_study::run_stages(&scn, &plant, &stages)?;
     let figs: Vec<_> = runs.into_iter().map(|(f, _)| f).collect();
     if let Some(dir) = &args.plot {
-        super::loop_study::plot(
+        mrfeel::sim::loop_study::plot(
             &figs,
             dir,
             &format!("Feel error by discovery stage ({})", scn.name),
         )?;
     }
     if args.json {
-        crate::outln!("{}", serde_json::to_string_pretty(&figs)?)?;
+        mrfeel::outln!("{}", serde_json::to_string_pretty(&figs)?)?;
     } else {
-        crate::outln!(
+        mrfeel::outln!(
             "loop-study {}: plant {} ({}), controller model by discovery stage",
             scn.name,
             plant.model.name(),
             plant.path.display()
         )?;
-        crate::out!("{}", super::loop_study::markdown_table(&figs))?;
-        crate::outln!(
+        mrfeel::out!("{}", mrfeel::sim::loop_study::markdown_table(&figs))?;
+        mrfeel::outln!(
             "where renderable: the resisting samples whose desired force lies between the plant's force at 0 A \
              and {:.0} % of its force at the driver's limit, at the sample's speed (the plant's model, not the \
              controller's)",
-            100.0 * super::loop_study::RENDERABLE_SHARE
+            100.0 * mrfeel::sim::loop_study::RENDERABLE_SHARE
         )?;
         if let Some(dir) = &args.plot {
-            crate::outln!(
+            mrfeel::outln!(
                 "plots: {}/loop-study.png, {}/loop-study.svg",
                 dir.display(),
                 dir.display()

@@ -1,14 +1,11 @@
 //! The `sweep` subcommand: `mrfeel sweep PLAN --out DIR [--jobs N] [--shard K/N]` and
 //! `mrfeel sweep merge DIR... --out OUT`.
 
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-
-use super::plan::Plan;
-use super::store::{self, Shard, Store};
-use super::{report, Record};
+use mrfeel::sweep::plan::Plan;
+use mrfeel::sweep::store::{self, Shard, Store};
+use mrfeel::sweep::{report, Record};
 
 /// `mrfeel sweep`.
 #[derive(Debug, clap::Args)]
@@ -58,27 +55,11 @@ impl SweepArgs {
     }
 }
 
-fn progress_bar(len: u64, done: u64) -> ProgressBar {
-    let target = if std::io::stderr().is_terminal() {
-        ProgressDrawTarget::stderr()
-    } else {
-        ProgressDrawTarget::hidden()
-    };
-    let pb = ProgressBar::with_draw_target(Some(len), target);
-    if let Ok(style) =
-        ProgressStyle::with_template("sweep [{bar:40}] {pos}/{len} runs {elapsed_precise} eta {eta}")
-    {
-        pb.set_style(style.progress_chars("=> "));
-    }
-    pb.set_position(done);
-    pb
-}
-
 /// `mrfeel sweep ...`.
 pub fn run_cmd(args: &SweepArgs) -> anyhow::Result<()> {
     if let Some(SweepCommand::Merge(m)) = &args.command {
         let n = store::merge(&m.dirs, &m.out)?;
-        crate::outln!("merged {n} runs into {}", m.out.display())?;
+        mrfeel::outln!("merged {n} runs into {}", m.out.display())?;
         return finish(&m.out, None);
     }
     let (Some(plan_path), Some(out)) = (&args.plan, &args.out) else {
@@ -95,10 +76,14 @@ pub fn run_cmd(args: &SweepArgs) -> anyhow::Result<()> {
     let already = store.done.len() as u64;
     let jobs = args.jobs.unwrap_or_else(rayon::current_num_threads);
     anyhow::ensure!(jobs >= 1, "--jobs 0: give at least 1");
-    let pb = progress_bar(total, already);
-    let records = super::execute(&plan, store, shard, jobs, &|_| pb.inc(1))?;
+    let pb = super::progress_bar(
+        total,
+        "sweep [{bar:40}] {pos}/{len} runs {elapsed_precise} eta {eta}",
+    );
+    pb.set_position(already);
+    let records = mrfeel::sweep::execute(&plan, store, shard, jobs, &|_| pb.inc(1))?;
     pb.finish_and_clear();
-    crate::outln!(
+    mrfeel::outln!(
         "{}: {} runs ({} resumed from {}), shard {}",
         plan.name,
         records.len(),
@@ -113,7 +98,7 @@ pub fn run_cmd(args: &SweepArgs) -> anyhow::Result<()> {
     if shard == Shard::ALL {
         finish(out, Some(&plan))
     } else {
-        crate::outln!("  merge the shards with: mrfeel sweep merge DIR... --out OUT")?;
+        mrfeel::outln!("  merge the shards with: mrfeel sweep merge DIR... --out OUT")?;
         Ok(())
     }
 }
@@ -129,20 +114,20 @@ fn finish(dir: &Path, plan: Option<&Plan>) -> anyhow::Result<()> {
     let text = report::report(&name, &columns, &records, &maps);
     std::fs::write(dir.join("report.md"), &text)?;
     print_summary(&columns, &records)?;
-    crate::outln!(
+    mrfeel::outln!(
         "  results: {}, {}; report: {}",
         dir.join(store::RESULTS_CSV).display(),
         dir.join(store::RESULTS_ARROW).display(),
         dir.join("report.md").display()
     )?;
     for m in &maps {
-        crate::outln!("  map: {}", m.display())?;
+        mrfeel::outln!("  map: {}", m.display())?;
     }
     Ok(())
 }
 
 fn print_summary(columns: &[String], records: &[Record]) -> anyhow::Result<()> {
     let by = report::group_axis(columns, records);
-    crate::out!("{}", report::summary_table(columns, records, by))?;
+    mrfeel::out!("{}", report::summary_table(columns, records, by))?;
     Ok(())
 }

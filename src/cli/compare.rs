@@ -1,16 +1,12 @@
 //! `mrfeel compare SCENARIO [--feel a,b] [--json] [--plot DIR] [--rerun FILE.rrd] [--faults]`.
 
 use std::collections::BTreeMap;
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-
-use super::metrics::{fault_metrics, system_metrics, FaultRow, SystemMetrics};
-use super::{run, CompareScenario, FeelKind, Trace};
-use crate::faults::{Fault, FaultKind, FaultSchedule};
-use crate::viz::plot::{save_charts, Chart, Series};
+use mrfeel::compare::{CompareScenario, Comparison, Trace};
+use mrfeel::faults::FaultKind;
+use mrfeel::viz::plot::{save_charts, Chart, Series};
 
 #[derive(Debug, clap::Args)]
 pub struct CompareArgs {
@@ -36,7 +32,7 @@ pub struct CompareArgs {
 
 /// Every file `mrfeel compare` of the comparison scenario `path` reads, each with what it is, which no
 /// output may overwrite: the comparison scenario, its base scenario and the files that names
-/// ([`crate::scenario::Scenario::named_files`]), and its feel-spring file. `scn` is the comparison as
+/// ([`mrfeel::scenario::Scenario::named_files`]), and its feel-spring file. `scn` is the comparison as
 /// loaded from `path` (once: a file read from a pipe cannot be read again).
 pub fn input_files(path: &Path, scn: &CompareScenario) -> Vec<(&'static str, PathBuf)> {
     let mut files = vec![("comparison scenario", path.to_path_buf())];
@@ -44,60 +40,6 @@ pub fn input_files(path: &Path, scn: &CompareScenario) -> Vec<(&'static str, Pat
     files.extend(scn.base.named_files());
     files.push(("feel-spring file", scn.springs_path.clone()));
     files
-}
-
-/// Everything `mrfeel compare` computes.
-pub struct Comparison {
-    pub systems: Vec<(FeelKind, SystemMetrics, Trace, Trace)>,
-    pub faults: Vec<(FaultRow, Trace)>,
-}
-
-/// Run the comparison (and the fault runs when `with_faults`); `progress` gets (done, total).
-pub fn compare(
-    scn: &CompareScenario,
-    systems: &[FeelKind],
-    with_faults: bool,
-    mut progress: impl FnMut(usize, usize),
-) -> anyhow::Result<Comparison> {
-    let main_task = scn.main_task();
-    let total = systems.len() * (2 + if with_faults { 1 + FaultKind::ALL.len() } else { 0 });
-    let mut done = 0;
-    let mut out = Comparison {
-        systems: Vec::new(),
-        faults: Vec::new(),
-    };
-    for &k in systems {
-        let main = run(scn, k, &main_task, &scn.faults)?;
-        let brk = run(scn, k, &scn.breakout_task(), &scn.faults)?;
-        done += 2;
-        progress(done, total);
-        let m = system_metrics(scn, &main, &brk);
-        if with_faults {
-            let healthy = if scn.faults.is_empty() {
-                main.clone()
-            } else {
-                run(scn, k, &main_task, &FaultSchedule::none())?
-            };
-            done += 1;
-            for f in FaultKind::ALL {
-                let (a, b) = (scn.fault_test.start_s, scn.fault_test.end_s);
-                let tr = run(scn, k, &main_task, &FaultSchedule::single(Fault::new(f, a, b)))?;
-                let fm = fault_metrics(scn, &tr, &healthy, a, b);
-                out.faults.push((
-                    FaultRow {
-                        system: k,
-                        fault: f,
-                        m: fm,
-                    },
-                    tr,
-                ));
-                done += 1;
-                progress(done, total);
-            }
-        }
-        out.systems.push((k, m, main, brk));
-    }
-    Ok(out)
 }
 
 fn fmt(v: f64, prec: usize) -> String {
@@ -296,12 +238,12 @@ fn plots(c: &Comparison, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     Ok(files)
 }
 
-/// Write the recording `path` whole or not at all ([`crate::outputs::write_whole`]).
+/// Write the recording `path` whole or not at all ([`mrfeel::outputs::write_whole`]).
 #[cfg(feature = "rerun")]
 fn rerun_log(c: &Comparison, path: &Path) -> anyhow::Result<()> {
     // Rerun's errors repeat their sources in their own text: report the text once, not its chain.
     let once = |e: &dyn std::fmt::Display| anyhow::anyhow!("--rerun {}: {e}", path.display());
-    crate::outputs::write_whole(path, |tmp| rerun_log_into(c, tmp, once), |e| once(&e))
+    mrfeel::outputs::write_whole(path, |tmp| rerun_log_into(c, tmp, once), |e| once(&e))
 }
 
 #[cfg(feature = "rerun")]
@@ -315,7 +257,7 @@ fn rerun_log_into(
         .map_err(|e| once(&e))?;
     let log = |prefix: String, tr: &Trace| -> anyhow::Result<()> {
         let times: Vec<f64> = tr.rows.iter().map(|r| r.t_s).collect();
-        type Col = (&'static str, fn(&super::Row) -> f64);
+        type Col = (&'static str, fn(&mrfeel::compare::Row) -> f64);
         let cols: [Col; 6] = [
             ("stick_angle_deg", |r| r.theta_rad.to_degrees()),
             ("grip_force_n", |r| r.hand_force_n),
@@ -355,7 +297,7 @@ fn rerun_log_into(
 pub fn run_cmd(a: CompareArgs, scn: CompareScenario) -> anyhow::Result<()> {
     let dropped = scn.base.faults.faults.len();
     if dropped > 0 {
-        crate::noteln!(
+        mrfeel::noteln!(
             "compare: the {dropped} [[fault]] table(s) of the base scenario {} are not used: a comparison runs \
              the faults of its own file ({}) and, with --faults, each fault of its [fault_test] in turn",
             scn.base.path.display(),
@@ -363,23 +305,16 @@ pub fn run_cmd(a: CompareArgs, scn: CompareScenario) -> anyhow::Result<()> {
         );
     }
     let systems = match &a.feel {
-        Some(list) => super::parse_feel_list(list).map_err(|e| match e {
-            super::CompareError::Feel(msg) => anyhow::anyhow!("--feel {list}: {msg} (nothing was run)"),
+        Some(list) => mrfeel::compare::parse_feel_list(list).map_err(|e| match e {
+            mrfeel::compare::CompareError::Feel(msg) => {
+                anyhow::anyhow!("--feel {list}: {msg} (nothing was run)")
+            }
             e => e.into(),
         })?,
         None => scn.systems.clone(),
     };
-    let bar = ProgressBar::new(1);
-    bar.set_draw_target(if std::io::stderr().is_terminal() {
-        ProgressDrawTarget::stderr()
-    } else {
-        ProgressDrawTarget::hidden()
-    });
-    bar.set_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} runs {elapsed}")
-            .unwrap_or(ProgressStyle::default_bar()),
-    );
-    let c = compare(&scn, &systems, a.faults, |done, total| {
+    let bar = super::progress_bar(1, "{bar:40} {pos}/{len} runs {elapsed}");
+    let c = mrfeel::compare::compare(&scn, &systems, a.faults, |done, total| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
     })?;
@@ -391,7 +326,7 @@ pub fn run_cmd(a: CompareArgs, scn: CompareScenario) -> anyhow::Result<()> {
             .iter()
             .map(|f| format!("{} {}–{} s", f.kind.name(), f.start_s, f.end_s))
             .collect();
-        crate::noteln!("scheduled faults (in every run): {}", names.join(", "));
+        mrfeel::noteln!("scheduled faults (in every run): {}", names.join(", "));
     }
     let mut text = comparison_table(&scn, &c);
     if a.faults {
@@ -401,19 +336,19 @@ pub fn run_cmd(a: CompareArgs, scn: CompareScenario) -> anyhow::Result<()> {
     // The files first, stdout last: a run that fails to write prints no result.
     if let Some(dir) = &a.plot {
         for f in plots(&c, dir)? {
-            crate::noteln!("wrote {}", f.display());
+            mrfeel::noteln!("wrote {}", f.display());
         }
     }
     #[cfg(feature = "rerun")]
     if let Some(p) = &a.rerun {
         rerun_log(&c, p)?;
-        crate::noteln!("wrote {}", p.display());
+        mrfeel::noteln!("wrote {}", p.display());
     }
     if a.json {
-        crate::note!("{text}");
-        crate::outln!("{}", serde_json::to_string_pretty(&to_json(&scn, &c))?)?;
+        mrfeel::note!("{text}");
+        mrfeel::outln!("{}", serde_json::to_string_pretty(&to_json(&scn, &c))?)?;
     } else {
-        crate::out!("{text}")?;
+        mrfeel::out!("{text}")?;
     }
     Ok(())
 }

@@ -5,16 +5,10 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 
-use super::{with_hidden_effects, MtsTest, Protocol, SensorSpec};
-use crate::device::{DeviceConfig, Registry};
-use crate::measurement::Measurement;
-use crate::viz::plot::{save_charts, Chart, Series};
-
-/// The paper's device, built in ([`crate::builtin`]) so that `mrfeel mts` works from any directory.
-pub const PAPER_DEVICE_TOML: &str = crate::builtin::PAPER_DEVICE;
-
-/// The paper's Section 4 measurements: (current A, force N).
-pub const PAPER_POINTS: [(f64, f64); 3] = [(2.2, 10.0), (5.0, 25.0), (14.0, 70.0)];
+use mrfeel::device::{DeviceConfig, Registry};
+use mrfeel::measurement::Measurement;
+use mrfeel::mts::{with_hidden_effects, MtsTest, Protocol, SensorSpec};
+use mrfeel::viz::plot::{save_charts, Chart, Series};
 
 #[derive(Args, Debug, Clone)]
 pub struct MtsArgs {
@@ -93,7 +87,7 @@ pub fn load_device(path: Option<&Path>, registry: &Registry) -> Result<DeviceCon
     Ok(match path {
         Some(p) => DeviceConfig::load(p, registry)?,
         None => DeviceConfig::from_toml(
-            PAPER_DEVICE_TOML,
+            mrfeel::builtin::PAPER_DEVICE,
             Path::new("<built-in>/models/paper-device.toml"),
             registry,
         )?,
@@ -160,7 +154,7 @@ fn check_sensor_options(a: &MtsArgs, range_n: f64) -> Result<()> {
         ("velocity", a.velocity_noise_m_s, 1.0, "--velocity-noise-m-s"),
     ];
     for (channel, noise, range, noise_option) in channels {
-        if let Err(e) = crate::sensors::check_channel(channel, noise, range, a.adc_bits) {
+        if let Err(e) = mrfeel::sensors::check_channel(channel, noise, range, a.adc_bits) {
             let option = match e.field {
                 "noise_rms" => noise_option,
                 "range" => "--load-cell-range-n",
@@ -175,9 +169,9 @@ fn check_sensor_options(a: &MtsArgs, range_n: f64) -> Result<()> {
 /// Refuse a record that does not say what happened: a channel that saturated at its sensor's range (its
 /// readings clipped: the load cell's, and the displacement's or the velocity's, whose noise can push them
 /// there), or a force that quantised to zero at every sample, which the measurement reader then refuses.
-fn check_record(m: &crate::measurement::Measurement, test: &MtsTest) -> Result<()> {
+fn check_record(m: &mrfeel::measurement::Measurement, test: &MtsTest) -> Result<()> {
     let clipped = |y: &[f64], range: f64| y.iter().filter(|v| v.abs() >= range * 0.999).count();
-    let short = crate::input::text::short_number;
+    let short = mrfeel::input::text::short_number;
     let range_n = short(test.load_cell.range);
     let n = clipped(&m.f_n, test.load_cell.range);
     if n > 0 {
@@ -212,7 +206,7 @@ fn check_record(m: &crate::measurement::Measurement, test: &MtsTest) -> Result<(
 
 pub fn run(a: MtsArgs) -> Result<()> {
     if let Some(path) = &a.save_device {
-        crate::device::ParamsFile::check_path("--save-device", path).map_err(anyhow::Error::msg)?;
+        mrfeel::device::ParamsFile::check_path("--save-device", path).map_err(anyhow::Error::msg)?;
     }
     let registry = Registry::builtin();
     let overrides = parse_set(&a.set)?;
@@ -264,12 +258,12 @@ pub fn run(a: MtsArgs) -> Result<()> {
     check_record(&m, &test)?;
     m.write(&a.out)?;
     if let Some(path) = &a.save_device {
-        crate::device::ParamsFile::new(damper.model(), damper.params(), None)
+        mrfeel::device::ParamsFile::new(damper.model(), damper.params(), None)
             .write(path)
             .with_context(|| format!("writing {}", path.display()))?;
-        crate::noteln!("saved the simulated device to {}", path.display());
+        mrfeel::noteln!("saved the simulated device to {}", path.display());
     }
-    crate::noteln!(
+    mrfeel::noteln!(
         "wrote {} samples of `{}` to {}",
         m.len(),
         damper.model().name(),
@@ -279,7 +273,7 @@ pub fn run(a: MtsArgs) -> Result<()> {
     if let Some(dir) = &a.plot {
         let files = plot_test(&m, &test, dir)?;
         for f in files {
-            crate::noteln!("plot: {}", f.display());
+            mrfeel::noteln!("plot: {}", f.display());
         }
     }
     print_summary(&m, &test)?;
@@ -311,19 +305,19 @@ pub fn steady_force_per_block(m: &Measurement, test: &MtsTest) -> Vec<(f64, f64,
 }
 
 fn print_summary(m: &Measurement, test: &MtsTest) -> std::io::Result<()> {
-    crate::outln!(
+    mrfeel::outln!(
         "{:>10}  {:>16}  {:>16}",
         "current_a",
         "force_n (steady)",
         "paper (Sec. 4)"
     )?;
     for (i, f, _) in steady_force_per_block(m, test) {
-        let paper = PAPER_POINTS
+        let paper = mrfeel::builtin::PAPER_POINTS
             .iter()
             .find(|(pi, _)| (pi - i).abs() < 1e-9)
             .map(|(_, pf)| format!("{pf:.0} N"))
             .unwrap_or_else(|| "-".into());
-        crate::outln!("{i:>10.2}  {f:>16.2}  {paper:>16}")?;
+        mrfeel::outln!("{i:>10.2}  {f:>16.2}  {paper:>16}")?;
     }
     Ok(())
 }
@@ -363,7 +357,7 @@ pub fn plot_test(m: &Measurement, test: &MtsTest, dir: &Path) -> Result<Vec<Path
     }
     let vmax = m.v_m_s.iter().fold(0.0f64, |a, v| a.max(v.abs())) * 1e3;
     let mut named = false;
-    for (i, f) in PAPER_POINTS {
+    for (i, f) in mrfeel::builtin::PAPER_POINTS {
         if test.currents_a.iter().any(|c| (c - i).abs() < 1e-9) {
             let name = if named {
                 String::new()
