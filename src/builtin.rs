@@ -161,7 +161,7 @@ fn within(path: &Path) -> PathBuf {
 /// Where a file named `named` in a file in the folder `dir` is ([the module's order](self)). When it is
 /// nowhere, the path relative to `dir`, so that the caller's error names the path as written; add
 /// [`not_found_hint`] to it.
-pub fn resolve(dir: &Path, named: &Path) -> PathBuf {
+pub(crate) fn resolve(dir: &Path, named: &Path) -> PathBuf {
     let direct = dir.join(named);
     if direct.starts_with(ROOT) {
         // A built-in file naming another (a built-in scenario's `../models/…`).

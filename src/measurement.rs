@@ -112,7 +112,7 @@ impl Measurement {
     }
 
     /// Acceleration: measured where the file has it, else the smoothing second derivative of `x_m`.
-    pub fn acceleration(&self) -> Vec<f64> {
+    pub(crate) fn acceleration(&self) -> Vec<f64> {
         match &self.a_m_s2 {
             Some(a) => a.clone(),
             None => smooth_derivative(&self.t_s, &self.v_m_s),

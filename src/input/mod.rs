@@ -141,7 +141,7 @@ impl Source {
 
     /// A number checked to lie in `range` (`unit` for the message): a value outside, or not finite, names
     /// its line and field with the allowed range.
-    pub fn within(
+    pub(crate) fn within(
         &self,
         v: &Spanned<f64>,
         field: &str,
@@ -216,14 +216,6 @@ impl Source {
             Err(e) => format!("{}: {e}", file.display()),
         };
         Err(self.err(at, field, msg))
-    }
-
-    /// A path written in the file, relative to the file's folder (absolute paths kept).
-    pub fn relative(&self, written: &Path) -> PathBuf {
-        match self.path.parent() {
-            Some(dir) if written.is_relative() => dir.join(written),
-            _ => written.to_path_buf(),
-        }
     }
 }
 
@@ -311,12 +303,5 @@ mod tests {
         let e = src.toml::<File>().unwrap_err();
         assert_eq!(e.line, Some(5), "{e}");
         assert!(e.msg.contains("physics_hx"), "{e}");
-    }
-
-    #[test]
-    fn relative_paths_are_read_from_the_files_folder() {
-        let src = Source::new("a/b/scn.toml", "");
-        assert_eq!(src.relative(Path::new("d.toml")), Path::new("a/b/d.toml"));
-        assert_eq!(src.relative(Path::new("/x/d.toml")), Path::new("/x/d.toml"));
     }
 }

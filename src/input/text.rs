@@ -213,7 +213,7 @@ pub fn short_number(v: f64) -> String {
 /// Text from an input for a message: control characters escaped (`\u{1b}`: a terminal's escape codes are
 /// shown, not obeyed; line breaks too, so that the quote stays on its line) and at most `max` characters,
 /// the middle left out and counted (a 5 MB field does not make a 5 MB message).
-pub fn quoted(s: &str, max: usize) -> String {
+pub(crate) fn quoted(s: &str, max: usize) -> String {
     let escape = |c: char| -> String {
         if c.is_control() {
             c.escape_default().collect()
@@ -232,7 +232,7 @@ pub fn quoted(s: &str, max: usize) -> String {
     format!("{start}…[{} characters left out]…{end}", n - head - tail)
 }
 
-/// A whole message for the terminal: each line [`quoted`] to at most `max` characters, the line breaks
+/// A whole message for the terminal: each line quoted (control characters escaped) to at most `max` characters, the line breaks
 /// kept.
 pub fn printable(message: &str, max: usize) -> String {
     message

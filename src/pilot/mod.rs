@@ -77,7 +77,7 @@ impl Hand {
     }
 
     /// Hands off the stick: no force; the next [`Hand::step`] grips again from the grip's state then.
-    pub fn release(&mut self) {
+    pub(crate) fn release(&mut self) {
         self.started = false;
         self.z = 0.0;
     }
