@@ -95,13 +95,9 @@ fn from_json<'py>(py: Python<'py>, text: &str) -> PyResult<Bound<'py, PyAny>> {
 }
 
 /// `s` as one of the values of a command-line option (`weighting`, `command_timing`).
-fn choice<T: clap::ValueEnum>(what: &str, s: &str) -> PyResult<T> {
-    T::from_str(s, false).map_err(|_| {
-        let names: Vec<String> = T::value_variants()
-            .iter()
-            .filter_map(|v| v.to_possible_value())
-            .map(|p| p.get_name().to_string())
-            .collect();
+fn choice<T: Copy>(what: &str, s: &str, all: &[T], name: fn(T) -> &'static str) -> PyResult<T> {
+    all.iter().copied().find(|&v| name(v) == s).ok_or_else(|| {
+        let names: Vec<&str> = all.iter().map(|&v| name(v)).collect();
         Error::new_err(format!("{what} `{s}`: expected one of {}", names.join(", ")))
     })
 }
@@ -393,8 +389,13 @@ impl PyModel {
         let setup = FitSetup {
             model: slf.spec.clone(),
             current_limit_a: slf.current_limit_a,
-            weighting: self::choice::<Weighting>("weighting", weighting)?,
-            command_timing: self::choice::<TimingChoice>("command_timing", command_timing)?,
+            weighting: self::choice("weighting", weighting, &Weighting::ALL, Weighting::as_str)?,
+            command_timing: self::choice(
+                "command_timing",
+                command_timing,
+                &TimingChoice::ALL,
+                TimingChoice::as_str,
+            )?,
         };
         let (file, report) = work(py, move || {
             let data = prelude::prepare(&ms, acq, None)?;
@@ -569,8 +570,13 @@ fn diagnose<'py>(
     let setup = prelude::DiagnoseSetup {
         model: model.to_string(),
         current_limit_a,
-        weighting: choice::<Weighting>("weighting", weighting)?,
-        command_timing: choice::<TimingChoice>("command_timing", command_timing)?,
+        weighting: choice("weighting", weighting, &Weighting::ALL, Weighting::as_str)?,
+        command_timing: choice(
+            "command_timing",
+            command_timing,
+            &TimingChoice::ALL,
+            TimingChoice::as_str,
+        )?,
         progress: false,
     };
     work(py, move || {
