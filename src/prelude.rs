@@ -83,16 +83,7 @@ fn prepare_unchecked(
     if ms.is_empty() {
         return Err(IdentError::NoData.into());
     }
-    if let Some(m) = ms.iter().find(|m| m.f_n.iter().all(|&f| f == 0.0)) {
-        anyhow::bail!(
-            "{}:{}-{}: column `f_n` is zero in every one of the {} samples: no force was measured (a load cell \
-             not connected?), and the error figures, relative to the rms measured force, have no value",
-            m.path.display(),
-            m.lines.first().copied().unwrap_or(0),
-            m.lines.last().copied().unwrap_or(0),
-            m.len()
-        );
-    }
+    crate::ident::load::refuse_zero_force(ms)?;
     let (tests, window_periods) = match acquisition {
         AcquisitionChoice::Auto => crate::ident::tests_predicting(ms, share),
         _ => (crate::ident::tests_with(ms, acquisition)?, None),

@@ -84,7 +84,7 @@ pub fn inputs_of(m: &Measurement) -> Vec<Inputs> {
 /// [`inputs_of`], and the noise standard deviation of the velocity when it was derived here.
 ///
 /// A missing velocity is derived from the displacement, and the displacement smoothed, by the widest
-/// local quintic that leaves the signal unbent ([`widest_unbiased_derivative`]): the file reader's
+/// local quintic that leaves the signal unbent (`widest_unbiased_derivative`): the file reader's
 /// 7-sample differentiator is too noisy at high sample rates. A missing acceleration comes from the
 /// measured velocity once or the displacement twice, whichever route is quieter (each signal's white noise
 /// carried through the differentiator's weights): a noisy acceleration hides `inertia` (errors in the
@@ -171,29 +171,36 @@ pub fn load_tests(paths: &[PathBuf]) -> Result<Vec<Test>, IdentError> {
         return Err(IdentError::NoData);
     }
     let ms = crate::measurement::read_all(paths)?;
-    if let Some(m) = ms.iter().find(|m| m.f_n.iter().all(|&f| f == 0.0)) {
-        return Err(IdentError::Other(format!(
+    refuse_zero_force(&ms)?;
+    Ok(tests_from(&ms))
+}
+
+/// A measurement whose force column is zero throughout measured no force: every error figure, relative to
+/// the rms measured force, would have no value.
+pub(crate) fn refuse_zero_force(ms: &[Measurement]) -> Result<(), IdentError> {
+    match ms.iter().find(|m| m.f_n.iter().all(|&f| f == 0.0)) {
+        Some(m) => Err(IdentError::Other(format!(
             "{}:{}-{}: column `f_n` is zero in every one of the {} samples: no force was measured (a load cell \
              not connected?), and the error figures, relative to the rms measured force, have no value",
             m.path.display(),
             m.lines.first().copied().unwrap_or(0),
             m.lines.last().copied().unwrap_or(0),
             m.len()
-        )));
+        ))),
+        None => Ok(()),
     }
-    Ok(tests_from(&ms))
 }
 
 /// The tests of measurements read together. Tests of one protocol (one clock, one drive period) went
-/// through one acquisition chain: their spectra are pooled to find its filter ([`filter_of`]), and each
+/// through one acquisition chain: their spectra are pooled to find its filter (`filter_of`), and each
 /// test is read with the protocol's filter.
 pub fn tests_from(ms: &[Measurement]) -> Vec<Test> {
     tests_predicting(ms, None).0
 }
 
 /// [`tests_from`], and where a protocol's tests do not show a filter themselves, the window that a share
-/// of the drive period predicts for them is checked in their spectra ([`acquisition::confirm_moving_average`]):
-/// the share found across the protocols that do show theirs ([`acquisition::window_law`]), else `share`
+/// of the drive period predicts for them is checked in their spectra (`acquisition::confirm_moving_average`):
+/// the share found across the protocols that do show theirs (`acquisition::window_law`), else `share`
 /// (one saved with a model, `PARAMS.json`'s `acquisition_window_periods`). Returns the tests and the share
 /// found in these measurements, if any.
 pub fn tests_predicting(ms: &[Measurement], share: Option<f64>) -> (Vec<Test>, Option<f64>) {

@@ -11,7 +11,7 @@ pub mod clipping;
 pub mod diagnose;
 pub mod discover;
 pub mod fit;
-mod load;
+pub(crate) mod load;
 pub mod plots;
 pub mod report;
 #[cfg(feature = "rerun")]
@@ -54,7 +54,7 @@ pub struct Test {
     pub path: PathBuf,
     /// File name, for tables and plots.
     pub name: String,
-    /// Cross-validation group: tests of one group are held out together (see [`load::group_of`]).
+    /// Cross-validation group: tests of one group are held out together (see `load::group_of`).
     pub group: String,
     pub inputs: Vec<Inputs>,
     pub f_n: Vec<f64>,
@@ -62,7 +62,7 @@ pub struct Test {
     /// Noise standard deviation, at each sample, of a velocity derived here from the displacement (the
     /// displacement's noise through the differentiator used at that sample, see [`inputs_of`]: the centred
     /// window inside, the noisier off-centre ones at the ends), m/s; `None`: estimated from the data by
-    /// [`residual::velocity_noise_std`].
+    /// `residual::velocity_noise_std`.
     pub velocity_noise_m_s: Option<Vec<f64>>,
     /// When the file's displacement and force went through a moving average before they were logged: the
     /// motion before it, which drives the model, and the window the model's force goes through before it
