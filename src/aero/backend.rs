@@ -1,5 +1,5 @@
 //! Aircraft backends behind one trait: the embedded Rust model ([`Embedded`], the default, no Python)
-//! and the live JSBSim co-simulation ([`super::jsbsim_bridge::JsbsimBridge`], a Python subprocess).
+//! and the live JSBSim co-simulation (`super::jsbsim_bridge::JsbsimBridge`, a Python subprocess).
 //!
 //! A scenario names its backend with one string: `"c172p"` (embedded, `models/aircraft/c172p.toml`),
 //! `"jsbsim:c172p"` (live JSBSim 1.3.3). Both report the same [`AircraftState`]; the hinge moment and

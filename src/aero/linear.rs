@@ -95,7 +95,7 @@ impl LinearLongitudinal {
 }
 
 /// McRuer's crossover pilot adapted to `aircraft` about its present (trimmed) state for the loop
-/// `output`: the controlled element is the linearised stick response ([`LinearLongitudinal`]) times
+/// `output`: the controlled element is the linearised stick response (`LinearLongitudinal`) times
 /// a first-order lag `1/(stick_lag_s s + 1)` between the pilot's stick command and the stick: the
 /// hand's activation lag alone (0.1 s, `models/pilot-hand.toml`) when the stick moves freely, or the
 /// lag measured on the rig (stick command → stick angle; ≈ 1 s for the c172p pitch task with the

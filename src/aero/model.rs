@@ -123,7 +123,7 @@ impl AircraftModel {
         crate::builtin::aircraft(name).unwrap_or_else(|| PathBuf::from(format!("{name}.toml")))
     }
 
-    /// Names of the aircraft models there are ([`crate::builtin::aircraft_names`]).
+    /// Names of the aircraft models there are (`crate::builtin::aircraft_names`).
     pub fn builtin_names() -> Vec<String> {
         crate::builtin::aircraft_names()
     }

@@ -302,7 +302,7 @@ pub fn apply(feel: &dyn Spring, rig: &mut Rig) {
 }
 
 /// The three springs of a feel-spring file (`models/feel-springs.toml`, read by
-/// [`crate::input::springs`]).
+/// `input::springs`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct FeelSprings {
     pub centring: CentringSpring,

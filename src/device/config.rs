@@ -187,7 +187,7 @@ impl DeviceConfig {
         })
     }
 
-    /// Read a `PARAMS.json` ([`ParamsJson`]: the model, its parameters and what the fit recorded beside
+    /// Read a `PARAMS.json` (`ParamsJson`: the model, its parameters and what the fit recorded beside
     /// them), its parameters checked against the model: every error names its line and key.
     pub fn from_json(text: &str, path: &Path, registry: &Registry) -> Result<Self, DeviceError> {
         let file = ParamsJson::parse(&Source::new(path, text))?;

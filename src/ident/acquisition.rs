@@ -3,12 +3,12 @@
 //! A model driven by filtered motion bends its pre-yield branch to match the filter's smear, which does not
 //! carry over to another amplitude or frequency; so:
 //!
-//! 1. [`detect_moving_average`]: the filter's comb of zeros at multiples of `fs/N`, pooled over the tests
-//!    of one protocol, must show in both channels together far beyond white noise ([`COMB_SIGMAS`]) and in
-//!    each clearly ([`CHANNEL_SIGMAS`], [`BELOW_SHARE`]); bands with a damper's harmonic lines are no
+//! 1. `detect_moving_average`: the filter's comb of zeros at multiples of `fs/N`, pooled over the tests
+//!    of one protocol, must show in both channels together far beyond white noise (`COMB_SIGMAS`) and in
+//!    each clearly (`CHANNEL_SIGMAS`, `BELOW_SHARE`); bands with a damper's harmonic lines are no
 //!    witness (`MIN_ROUGHNESS`, `LINE_TO_NOISE`, `HARMONIC_GUARD_BINS`). White noise gives no window
 //!    (`tests::white_noise_shows_no_comb`).
-//! 2. [`deconvolve_moving_average`]: the motion before the filter, by regularised least squares, with the
+//! 2. `deconvolve_moving_average`: the motion before the filter, by regularised least squares, with the
 //!    `N − 1` samples before the record.
 //! 3. The model is driven by that motion ([`Drive`]) and its force goes through the same average
 //!    ([`crate::signal::moving_average`]) before it is compared. Causal or centred makes no difference at
@@ -76,8 +76,8 @@ pub struct MovingAverage {
     /// Mean depth of the comb below the noise of its bands, over the records, the comb frequencies counted
     /// and the channels that witness it, decades (negative).
     pub mean_depth: f64,
-    /// Whether the window was predicted from other tests and confirmed ([`confirm_moving_average`]),
-    /// rather than found among every window the records allow ([`detect_moving_average`]).
+    /// Whether the window was predicted from other tests and confirmed (`confirm_moving_average`),
+    /// rather than found among every window the records allow (`detect_moving_average`).
     pub predicted: bool,
 }
 

@@ -5,7 +5,7 @@
 //!
 //! Significance: a candidate lowers the held-out error in every fold and removes at least
 //! [`DiagnoseOptions::min_gain`] of it and [`DiagnoseOptions::min_excess_removed`] of its part above the
-//! noise floor ([`super::residual::noise_floor_n`]); the search ends within [`DiagnoseOptions::floor_ratio`]
+//! noise floor (`super::residual::noise_floor_n`); the search ends within [`DiagnoseOptions::floor_ratio`]
 //! of that floor. When no effect alone passes, the (at most two) that pass all but a fold are tried beside
 //! every other effect: a pair counts when it is significant and also removes as much of the error each of
 //! its effects alone leaves; the backward pass removes a pair only as a whole.

@@ -470,7 +470,7 @@ pub(crate) fn noise_floor_n(tests: &[Test]) -> f64 {
 pub(crate) const DIRECTION_SIGMAS: f64 = 4.0;
 
 /// Weight of each sample of a test in a fit's loss and a held-out score: 0 where the velocity the model is
-/// given (measured or derived) is within [`DIRECTION_SIGMAS`] noise standard deviations of zero, 1 elsewhere.
+/// given (measured or derived) is within `DIRECTION_SIGMAS` noise standard deviations of zero, 1 elsewhere.
 ///
 /// Why: every model of the vocabulary takes the direction of the yield force from the sign of the velocity
 /// (Eq. 2) or from the displacement (hysteresis). Where the measured velocity is closer to zero than its
@@ -480,7 +480,7 @@ pub(crate) const DIRECTION_SIGMAS: f64 = 4.0;
 /// correct model with noisy velocity, and any effect that happens to soften the reversal (hysteresis driven
 /// by displacement, inertia) removes part of them consistently and looks significant. Taken out, the
 /// residual of a correct model is the load-cell noise again. The noise of the velocity is estimated from
-/// the data ([`velocity_noise_std`]), so noise-free velocity loses almost no samples.
+/// the data (`velocity_noise_std`), so noise-free velocity loses almost no samples.
 ///
 /// Samples where the force channel is stuck at a rail ([`super::clipping`]) weigh 0 too.
 pub fn direction_weights(t: &Test) -> Vec<f64> {

@@ -194,7 +194,7 @@ impl<'a> Checker<'a> {
     }
 }
 
-/// Check a finished run of `scn` ([`Checker`]).
+/// Check a finished run of `scn` (`Checker`).
 pub fn check(res: &Results, scn: &Scenario) -> Result<(), SimError> {
     let mut c = Checker::new(scn);
     for r in &res.rows {

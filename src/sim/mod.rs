@@ -463,7 +463,7 @@ pub enum Event<'a> {
 
 /// Run a scenario on a plant to its end, handing every row and drawing frame to `sink` as it is made and
 /// keeping none: memory stays bounded whatever the run's length. Every row is checked
-/// ([`invariants::Checker`]) before it is handed on, and the whole run at its end. Returns the run's facts
+/// (`invariants::Checker`) before it is handed on, and the whole run at its end. Returns the run's facts
 /// (no rows, no frames; the flight's round-trip times filled in) and its summary. `progress` is called with
 /// the fraction done.
 pub fn run_streaming<P: Plant, E: From<SimError>>(

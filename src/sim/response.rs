@@ -8,7 +8,7 @@
 //! - settling time: from `t_k` to the last sample outside `F∞ ± 5 % |F1 − F0|` within the step's window,
 //!   where `F∞` is the final value (the mean over the last fifth of the window: the textbook definition;
 //!   the loop tracks the *measured* force, so the load cell's calibration residual puts `F∞` a few tenths
-//!   of a newton off `F1`), on the force averaged over the last [`SETTLING_AVERAGE_S`] (a 1 ms mean: the
+//!   of a newton off `F1`), on the force averaged over the last `SETTLING_AVERAGE_S` (a 1 ms mean: the
 //!   rig's true load-cell force carries a ≈0.35 N RMS ripple at 4–5 kHz, the solver's step-to-step
 //!   alternation at 10 kHz physics, which would otherwise decide when a ±1.5 N band is last left).
 //!

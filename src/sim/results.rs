@@ -320,7 +320,7 @@ impl Results {
 }
 
 impl Results {
-    /// The CSV's columns ([`Results::write_csv`]), by name: [`CSV_COLUMNS`], then [`AERO_COLUMNS`] when the
+    /// The CSV's columns ([`Results::write_csv`]), by name: `CSV_COLUMNS`, then `AERO_COLUMNS` when the
     /// scenario flies an aircraft. The same values the CSV holds (it prints these numbers).
     pub fn columns(&self) -> Vec<(&'static str, Vec<f64>)> {
         let mut cols: Vec<(&'static str, Vec<f64>)> = CSV_COLUMNS

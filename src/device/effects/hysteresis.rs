@@ -8,7 +8,7 @@
 //! pre-yield velocity (a dashpot `Fy/v_y` below it), `κ` (`hyst_knee`) the knee (0: Bouc–Wen `n = 1`, 1:
 //! `n = 2`), `g` (`hyst_gamma_share`) the return after a reversal (0 with `κ = 0`: Dahl; ½: Spencer's
 //! `γ = β`). `x_y → 0` gives the bi-viscous Bingham model, `v_y = 0` Bouc–Wen; a parameter file without the
-//! shape keys describes the Dahl shape. [`shaped_step`] integrates by Runge–Kutta in sub-steps of at most
+//! shape keys describes the Dahl shape. `shaped_step` integrates by Runge–Kutta in sub-steps of at most
 //! half a yield displacement (their count blended so the force is continuous in every parameter, as the
 //! fit's Jacobian needs); [`step`] is the Dahl shape's closed form. Choice and evidence: `docs/hysteresis.md`.
 
