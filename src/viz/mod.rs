@@ -1,4 +1,5 @@
 //! Read-only views of results: static plots and Rerun recordings.
+#![warn(missing_docs)]
 
 pub mod plot;
 #[cfg(feature = "rerun")]
