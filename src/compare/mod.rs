@@ -3,7 +3,6 @@
 //! the power and signal path ([`crate::faults`]). Every system runs in the loop of `mrfeel run`
 //! ([`crate::sim::Loop`]) as the scenario's [`crate::control::FeelSystem`]; the pilot's task is fed to the
 //! hand sample by sample, letting go a NaN command.
-#![warn(missing_docs)]
 
 pub mod metrics;
 

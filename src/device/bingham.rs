@@ -10,6 +10,7 @@ use super::params::{DataStats, ParamSpec};
 /// Index of each base parameter in the parameter vector.
 pub(crate) const FC0: usize = 0;
 pub(crate) const FC_GAIN: usize = 1;
+/// Index of the viscous damping `C0`.
 pub const C0: usize = 2;
 pub(crate) const TE: usize = 3;
 pub(crate) const TM: usize = 4;

@@ -9,6 +9,7 @@ use super::params::{DataStats, ParamSpec};
 /// Signals at one sample.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Inputs {
+    /// Time since the test's start, s.
     pub t_s: f64,
     /// Piston displacement from mid-stroke, m (positive = extension).
     pub x_m: f64,
@@ -66,6 +67,7 @@ pub enum EffectStage {
 /// Increment between this sample and the next, for advancing internal states.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Step {
+    /// Step length, s.
     pub dt_s: f64,
     /// Displacement increment over the step, m (measured where available; `v dt` otherwise).
     pub dx_m: f64,

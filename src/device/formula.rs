@@ -179,6 +179,7 @@ impl Formula {
         })
     }
 
+    /// The formula as written.
     pub fn text(&self) -> &str {
         &self.text
     }
@@ -362,12 +363,17 @@ fn arguments(ch: &[Node<DefaultNumericTypes>]) -> Vec<&Node<DefaultNumericTypes>
 /// One parameter of a data-defined effect.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FormulaParam {
+    /// Name, as the formula writes it.
     pub name: String,
+    /// Unit, for messages and files.
     pub unit: String,
+    /// Lower bound of a fit.
     pub lower: f64,
+    /// Upper bound of a fit.
     pub upper: f64,
     /// Starting value of a fit.
     pub guess: f64,
+    /// What it means.
     pub doc: String,
 }
 
@@ -438,6 +444,7 @@ impl FormulaEffect {
         })
     }
 
+    /// The formula as written.
     pub fn formula(&self) -> &str {
         self.formula.text()
     }
@@ -455,6 +462,7 @@ impl FormulaEffect {
         e
     }
 
+    /// The physical family it resembles (empty when none).
     pub fn resembles(&self) -> &str {
         &self.resembles
     }

@@ -1,5 +1,4 @@
 //! A composed model: the Bingham base plus named effects, with its parameter and state layout.
-#![warn(missing_docs)]
 
 use std::collections::BTreeMap;
 use std::sync::Arc;

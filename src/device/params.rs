@@ -1,5 +1,4 @@
 //! Named, unit-carrying model parameters.
-#![warn(missing_docs)]
 
 use serde::{Deserialize, Serialize};
 

@@ -20,8 +20,11 @@ pub(crate) const K1: usize = 7;
 pub(crate) const X0: usize = 8;
 pub(crate) const BETA: usize = 9;
 pub(crate) const GAMMA: usize = 10;
+/// Index of the Bouc–Wen `A`.
 pub const A: usize = 11;
+/// Index of the Bouc–Wen exponent `n`.
 pub const N: usize = 12;
+/// Index of the command filter's time constant `1/η`.
 pub const TAU: usize = 13;
 
 /// Parameters, in vector order (SI; the 1997 paper's are in cm and V).

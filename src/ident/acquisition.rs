@@ -76,12 +76,14 @@ pub struct MovingAverage {
 /// filter from `window − 1` samples before the record on, and the window the model's force goes through.
 #[derive(Debug, Clone)]
 pub struct Drive {
+    /// The moving average found.
     pub filter: MovingAverage,
     /// `window − 1` lead-in samples, then one per sample of the test.
     pub inputs: Vec<Inputs>,
 }
 
 impl Drive {
+    /// Its window, samples.
     pub fn window(&self) -> usize {
         self.filter.window
     }

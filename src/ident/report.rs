@@ -1,5 +1,4 @@
 //! The contract's JSON outputs (`docs/spec/model-discovery.md`) and the human-readable tables.
-#![warn(missing_docs)]
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;

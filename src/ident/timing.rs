@@ -30,8 +30,11 @@ impl CommandTiming {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum TimingChoice {
     #[default]
+    /// Fit both ways where a command changes, keep the smaller error.
     Auto,
+    /// Every command after its sample.
     AfterSample,
+    /// Every command at its sample.
     AtSample,
 }
 
@@ -92,6 +95,7 @@ pub(crate) fn retimed(mut tests: Vec<Test>, timing: CommandTiming) -> Vec<Test> 
 /// The reading chosen, with the two fits that chose it when `auto` had to decide.
 #[derive(Debug, Clone)]
 pub struct TimingDecision {
+    /// The reading chosen.
     pub timing: CommandTiming,
     /// `(after-sample fit, at-sample fit)` of the deciding model on every sample, when they were made.
     pub fits: Option<(FitResult, FitResult)>,

@@ -6,7 +6,6 @@
 //! the damper), so the recorded force is the damper force, computed by [`crate::device`] — the same code the
 //! fitter and the stick rig use. Its output is a [`Measurement`] in the project's CSV format, so it feeds
 //! straight back into `mrfeel fit`.
-#![warn(missing_docs)]
 
 use std::collections::BTreeMap;
 use std::f64::consts::PI;

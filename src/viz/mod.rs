@@ -1,5 +1,4 @@
 //! Read-only views of results: static plots and Rerun recordings.
-#![warn(missing_docs)]
 
 pub mod plot;
 #[cfg(feature = "rerun")]

@@ -2,6 +2,7 @@
 //! newton), time series of the run's signals (`SERIES`, `AIRCRAFT_SERIES`), and a default blueprint with
 //! the 3D rig beside the plots. Entity layout: `docs/sim.md`. It takes plain data ([`Sample`], poses,
 //! visuals), not the simulation's types.
+#![warn(missing_docs)]
 
 use std::path::Path;
 
@@ -23,7 +24,9 @@ const AIRCRAFT_AT_M: [f32; 3] = [0.0, 0.6, 0.3];
 #[derive(Debug, thiserror::Error)]
 pub enum VizError {
     #[error("rerun: {0}")]
+    /// The Rerun SDK failed.
     Rerun(String),
+    /// No viewer could be started.
     #[error(
         "could not spawn a Rerun viewer ({0}); install one with `pip install rerun-sdk==0.36.3` (then `rerun` is on PATH) or `cargo install rerun-cli --version 0.36.3 --locked`, or write a file with --rerun out.rrd and open it later"
     )]
@@ -97,6 +100,7 @@ const PILOT: usize = 6;
 /// One physics step as a recording shows it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sample {
+    /// Time since the run's start, s.
     pub t_s: f64,
     /// The values of [`SERIES`], in order (SI units as the paths say).
     pub series: [f64; 10],

@@ -13,6 +13,7 @@ pub(crate) struct ThermalDrift;
 
 /// Indices of the parameters in the effect's slice.
 pub(crate) const ENERGY: usize = 0;
+/// Index of the cooling time constant `thermal_tau_s`.
 pub const TAU: usize = 1;
 
 const PARAMS: [ParamSpec; 2] = [
