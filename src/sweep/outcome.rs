@@ -43,7 +43,7 @@ pub struct Outcome {
     /// rad.
     pub stick_per_g_rad: Option<f64>,
     /// Stick force per g the feel system holds in that steady pull-up, N/g (breakout excluded): the
-    /// MIL-F-8785C quantity, from the feel system's design ([`super::steady`]).
+    /// MIL-F-8785C quantity, from the feel system's design (`sweep::steady`).
     pub stick_force_per_g_n: Option<f64>,
     /// The same deflection per g times the force–deflection gradient the feel rendered in the run (the
     /// outward samples' least-squares line), N/g.
