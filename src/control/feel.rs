@@ -53,7 +53,7 @@ pub struct VariableGradientSpring {
 
 impl VariableGradientSpring {
     /// Spring stroke through the linkage, m.
-    pub fn spring_stroke_m(&self, x_m: f64) -> f64 {
+    pub(crate) fn spring_stroke_m(&self, x_m: f64) -> f64 {
         x_m * (1.0 + self.nonlinearity * x_m * x_m / (3.0 * self.x_ref_m * self.x_ref_m))
     }
 

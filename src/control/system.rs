@@ -73,7 +73,7 @@ impl FeelSystem {
     }
 
     /// The coil current command held now, A; `None` for a system without a coil.
-    pub fn coil_command_a(&self) -> Option<f64> {
+    pub(crate) fn coil_command_a(&self) -> Option<f64> {
         self.coil.then_some(self.current_cmd_a)
     }
 
@@ -83,7 +83,7 @@ impl FeelSystem {
     }
 
     /// The motor's force over the present step, N (0 without a motor).
-    pub fn motor_force_n(&self) -> f64 {
+    pub(crate) fn motor_force_n(&self) -> f64 {
         self.motor.map_or(0.0, |m| m.force_n)
     }
 

@@ -147,7 +147,7 @@ impl Flight {
     }
 
     /// Whether the pilot's outer loop sets the stick command.
-    pub fn has_outer_loop(&self) -> bool {
+    pub(crate) fn has_outer_loop(&self) -> bool {
         self.outer.is_some()
     }
 

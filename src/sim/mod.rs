@@ -157,7 +157,7 @@ impl Devices {
     }
 
     /// What the controller believes, for the run's summary: its model and file.
-    pub fn controller_label(&self) -> String {
+    pub(crate) fn controller_label(&self) -> String {
         let own = if self.controller_is_plant {
             " (the plant's file)"
         } else {
