@@ -345,7 +345,8 @@ pub fn stick_force_per_g_chart(res: &super::Results) -> Result<Option<crate::viz
     Ok(Some(chart))
 }
 
-/// [`stick_force_per_g_chart`] of a fly-by-wire aircraft: the flown samples, the designed law and the
+/// [`stick_force_per_g_chart`] of a fly-by-wire aircraft: the flown samples (the hand's force on the grip,
+/// which its stick's force sensor hands to the FCS), the designed law and the
 /// MIL-F-8785C Table V Level 1 boundaries at its design condition.
 fn fly_by_wire_chart(
     res: &super::Results,
@@ -357,8 +358,7 @@ fn fly_by_wire_chart(
         .rows
         .iter()
         .step_by(10)
-        .filter_map(|x| x.aero)
-        .map(|x| (x.nz_g, x.stick_force_n))
+        .filter_map(|x| x.aero.map(|a| (a.nz_g, x.pilot_force_n)))
         .collect();
     let nz_flown = flown.iter().map(|p| p.0).fold(1.0, f64::max);
     let n_top = (nz_flown + 0.5).max(2.0).min(fbw.limit_load_factor);
@@ -372,7 +372,7 @@ fn fly_by_wire_chart(
         "load factor n_z (g)",
         "stick force at the grip (N, pull +)",
     )
-    .with(Series::points("flown", flown))
+    .with(Series::points("flown: the hand's force (the FCS's input)", flown))
     .with(Series::line(
         format!(
             "designed: {:.1} N breakout + {:.1} N/g",
