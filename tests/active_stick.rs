@@ -247,3 +247,38 @@ fn a_bad_value_or_loop_rate_names_the_file_line_and_field() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_comparison_naming_the_motor_file_refuses_the_ideal_sources_keys_and_a_wrong_file() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/compare-feel.toml");
+    let text = std::fs::read_to_string(path).unwrap();
+    let model = "model = \"../models/active-stick.toml\"";
+    assert!(text.contains(model));
+    let err = |t: &str| {
+        CompareScenario::parse(t, Path::new(path))
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default()
+    };
+    let t = text.replacen(model, &format!("{model}\nmax_force_n = 150.0"), 1);
+    let line = t
+        .lines()
+        .position(|l| l.starts_with("max_force_n = 150"))
+        .unwrap()
+        + 1;
+    let e = err(&t);
+    assert!(
+        e.contains(&format!("compare-feel.toml:{line}: field `active.max_force_n`"))
+            && e.contains("not used with `active.model`"),
+        "{e}"
+    );
+    // A device file where the motor file belongs: refused at `active.model`, naming what is missing.
+    let t = text.replacen(model, "model = \"../models/paper-device.toml\"", 1);
+    let line = t.lines().position(|l| l.starts_with("model = ")).unwrap() + 1;
+    let e = err(&t);
+    assert!(
+        e.contains(&format!("compare-feel.toml:{line}: field `active.model`"))
+            && e.contains("paper-device.toml"),
+        "{e}"
+    );
+}
