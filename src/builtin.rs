@@ -36,6 +36,10 @@ const FILES: &[(&str, &str)] = &[
         include_str!("../models/pilot-bench-actuator.toml"),
     ),
     (
+        "models/active-stick.toml",
+        include_str!("../models/active-stick.toml"),
+    ),
+    (
         "models/feel-springs.toml",
         include_str!("../models/feel-springs.toml"),
     ),

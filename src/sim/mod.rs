@@ -356,8 +356,15 @@ impl<P: Plant> Loop<P> {
             .feel
             .coil_command_a()
             .map_or(0.0, |i| self.faults.coil_command_a(t, i, self.current_limit_a));
-        if let Some(m) = self.feel.motor.as_mut() {
-            m.force_n = self.faults.motor_force_n(t, m.cmd_n, m.force_n, m.max_force_n);
+        if self.feel.motor.is_some() {
+            // The active stick's grip sensor measures the hand; its motor acts on the push rod.
+            let rod = crate::control::active::RodState {
+                grip_force_n: hand_force,
+                grip_to_rod: self.plant.grip_arm_m() / self.plant.gearing_m_per_rad(s.stick_angle_rad),
+                x_m: s.piston_x_m,
+                v_m_s: s.piston_v_m_s,
+            };
+            self.feel.step_motor(t, dt, &rod, &self.faults);
         }
         self.hand_force_n = hand_force;
         let actuator_force_n = self.feel.motor_force_n();
