@@ -36,6 +36,10 @@ const FILES: &[(&str, &str)] = &[
         include_str!("../models/pilot-bench-actuator.toml"),
     ),
     (
+        "models/active-stick.toml",
+        include_str!("../models/active-stick.toml"),
+    ),
+    (
         "models/feel-springs.toml",
         include_str!("../models/feel-springs.toml"),
     ),
@@ -51,6 +55,11 @@ const FILES: &[(&str, &str)] = &[
         "models/aircraft/T37.toml",
         include_str!("../models/aircraft/T37.toml"),
     ),
+    (
+        "models/aircraft/f16.toml",
+        include_str!("../models/aircraft/f16.toml"),
+    ),
+    ("models/sidestick.urdf", include_str!("../models/sidestick.urdf")),
     (
         "scenarios/paper-feel-loop.toml",
         include_str!("../scenarios/paper-feel-loop.toml"),
@@ -78,6 +87,10 @@ const FILES: &[(&str, &str)] = &[
     (
         "scenarios/T37-pullup.toml",
         include_str!("../scenarios/T37-pullup.toml"),
+    ),
+    (
+        "scenarios/f16-pullup.toml",
+        include_str!("../scenarios/f16-pullup.toml"),
     ),
     (
         "python/jsbsim_bridge.py",

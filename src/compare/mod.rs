@@ -74,6 +74,9 @@ pub struct ActiveSection {
     pub max_force_n: f64,
     /// The actuator's own viscous friction (back-EMF, gearbox), N·s/m.
     pub damping_n_s_per_m: f64,
+    /// The modelled stick (`model = FILE`: motor, current loop, grip sensor, admittance loop); `None`: an
+    /// ideal force source of `max_force_n`.
+    pub model: Option<crate::control::active::ActiveStickConfig>,
 }
 
 /// The feel target, at the piston (force along +x): `F* = breakout·sgn x + gradient·x`, clipped.
@@ -178,9 +181,12 @@ impl CompareScenario {
     /// active stick needs the file's `[active]` motor.
     pub fn feel_system(&self, kind: FeelKind) -> Result<FeelSystemConfig, CompareError> {
         match (kind, self.active) {
-            (FeelKind::Active, Some(a)) => Ok(FeelSystemConfig::active(a.max_force_n, a.damping_n_s_per_m)),
+            (FeelKind::Active, Some(a)) => Ok(match a.model {
+                Some(m) => FeelSystemConfig::active_stick(m),
+                None => FeelSystemConfig::active(a.max_force_n, a.damping_n_s_per_m),
+            }),
             (FeelKind::Active, None) => Err(CompareError::Feel(format!(
-                "{}: `active` needs an `[active]` section (max_force_n, damping_n_s_per_m)",
+                "{}: `active` needs an `[active]` section (model, or max_force_n and damping_n_s_per_m)",
                 self.path.display()
             ))),
             _ => Ok(FeelSystemConfig::from_springs(

@@ -12,7 +12,9 @@
 //! The feedforward is the inverse of the controller's model of the damper ([`ForceInverse`], never the
 //! simulated plant). Its force arrives through the model's coil and fluid lags, so with feedforward the
 //! PID's set point is `|F*|` through the same lags (a reference model): the feedback corrects only what
-//! the feedforward gets wrong instead of winding up on the lag.
+//! the feedforward gets wrong instead of winding up on the lag. A target set from outside the loop (the
+//! aircraft's stick force) is led by its filtered rate times the lags and the sample period, so that its
+//! force arrives on time.
 
 use super::feel::{Spring, SpringElement};
 use super::law::{sgn, FeelLaw};
@@ -64,7 +66,13 @@ pub struct FeelController {
     last_mode: LoopMode,
     /// Reference-model states (coil, fluid) of the desired force magnitude, N.
     reference: (f64, f64),
+    /// A target set from outside the loop (`FeelLaw::Target`): its last value, N, and its filtered rate,
+    /// N/s, by which the feedforward leads it through the coil and fluid lags.
+    target: (Option<f64>, f64),
 }
+
+/// Time constant of the filter on a target's rate, s.
+const TARGET_RATE_FILTER_S: f64 = 0.01;
 
 impl FeelController {
     /// A controller in the holding mode, no hybrid spring.
@@ -84,6 +92,7 @@ impl FeelController {
             hybrid: None,
             last_mode: LoopMode::Holding,
             reference: (0.0, 0.0),
+            target: (None, 0.0),
         }
     }
 
@@ -101,6 +110,13 @@ impl FeelController {
             0.0
         };
         let desired = self.law.force_n(t_s, s.x_m, s.v_m_s, dir);
+        if let FeelLaw::Target { .. } = self.law {
+            let (last, rate) = &mut self.target;
+            if let Some(f0) = *last {
+                *rate += ((desired - f0) / dt_s - *rate) * dt_s / (TARGET_RATE_FILTER_S + dt_s);
+            }
+            *last = Some(desired);
+        }
         if let Some(inv) = self.feedforward.as_mut() {
             inv.observe(s.sampled_t_s, s.x_m, s.v_m_s);
         }
@@ -132,23 +148,23 @@ impl FeelController {
                 self.pid.restart_derivative();
                 self.reference = (measured, measured);
             }
+            // A target's force leads through the lags (and the sample's delay) by its rate; the reference
+            // model then follows the target itself.
+            let lead = |m: &ForceInverse| {
+                let (te_s, tm_s) = m.lags_s();
+                (desired.abs() + dir * self.target.1 * (te_s + tm_s + dt_s)).max(0.0)
+            };
             let setpoint = match inv {
                 Some(m) => {
                     let (te_s, tm_s) = m.lags_s();
-                    self.reference = advance_two_lags(
-                        self.reference.0,
-                        self.reference.1,
-                        desired.abs(),
-                        te_s,
-                        tm_s,
-                        dt_s,
-                    );
+                    self.reference =
+                        advance_two_lags(self.reference.0, self.reference.1, lead(m), te_s, tm_s, dt_s);
                     self.reference.1
                 }
                 None => desired.abs(),
             };
             let ff = inv.map_or(0.0, |m| {
-                m.current_a(damper_share(desired), dir, s.v_m_s.abs(), s.x_m, false)
+                m.current_a(damper_share(lead(m)), dir, s.v_m_s.abs(), s.x_m, false)
             });
             let u = self.pid.update(setpoint, measured, ff, dt_s);
             (LoopMode::Tracking, u)

@@ -53,7 +53,7 @@ pub struct VariableGradientSpring {
 
 impl VariableGradientSpring {
     /// Spring stroke through the linkage, m.
-    pub fn spring_stroke_m(&self, x_m: f64) -> f64 {
+    pub(crate) fn spring_stroke_m(&self, x_m: f64) -> f64 {
         x_m * (1.0 + self.nonlinearity * x_m * x_m / (3.0 * self.x_ref_m * self.x_ref_m))
     }
 
@@ -212,6 +212,8 @@ pub struct FeelSystemConfig {
     pub q_from_aircraft: bool,
     /// Active stick: the motor's force limit on the piston, N.
     pub motor_max_force_n: f64,
+    /// Active stick: its motor, driver, sensor and admittance loop; `None`: an ideal clamped force source.
+    pub active_stick: Option<super::active::ActiveStickConfig>,
 }
 
 impl Default for FeelSystemConfig {
@@ -223,6 +225,7 @@ impl Default for FeelSystemConfig {
             return_damping_n_s_per_m: 0.0,
             q_from_aircraft: false,
             motor_max_force_n: 0.0,
+            active_stick: None,
         }
     }
 }
@@ -268,6 +271,14 @@ impl FeelSystemConfig {
             unit_damping_n_s_per_m: damping_n_s_per_m,
             motor_max_force_n,
             ..Self::default()
+        }
+    }
+
+    /// The active stick `stick` models: its force limit and its rotor's friction at the push rod.
+    pub fn active_stick(stick: super::active::ActiveStickConfig) -> Self {
+        Self {
+            active_stick: Some(stick),
+            ..Self::active(stick.max_force_n(), stick.rod_damping_n_s_per_m())
         }
     }
 

@@ -62,7 +62,7 @@ impl FeelLaw {
 
     /// The force magnitude to hold the stick with at rest (where the direction of the next motion is
     /// unknown and the damper's yield force acts either way).
-    pub fn holding_force_n(&self, t_s: f64, x_m: f64) -> f64 {
+    pub(crate) fn holding_force_n(&self, t_s: f64, x_m: f64) -> f64 {
         match self {
             FeelLaw::Spring { .. } => self.force_n(t_s, x_m, 0.0, 0.0).abs(),
             FeelLaw::ForceSteps { .. } => self.step_level_n(t_s),
@@ -71,7 +71,7 @@ impl FeelLaw {
     }
 
     /// For `ForceSteps`, the magnitude at `t_s`; for other laws 0.
-    pub fn step_level_n(&self, t_s: f64) -> f64 {
+    pub(crate) fn step_level_n(&self, t_s: f64) -> f64 {
         match *self {
             FeelLaw::ForceSteps {
                 low_n,
@@ -92,7 +92,7 @@ impl FeelLaw {
     }
 
     /// Step times of a `ForceSteps` law within `[0, t_end_s)`.
-    pub fn step_times_s(&self, t_end_s: f64) -> Vec<f64> {
+    pub(crate) fn step_times_s(&self, t_end_s: f64) -> Vec<f64> {
         match *self {
             FeelLaw::ForceSteps {
                 start_s, period_s, ..

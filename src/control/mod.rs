@@ -1,6 +1,7 @@
 //! Control: feel laws, the PID, the MR feel loop (it sees sensor samples only), the passive springs, and
 //! the feel system that puts one of them on the rig ([`FeelSystem`]).
 
+pub mod active;
 pub mod controller;
 pub mod feel;
 pub mod law;

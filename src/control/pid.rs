@@ -65,7 +65,7 @@ impl Pid {
     }
 
     /// Forget the derivative's memory (after the loop was idle) without touching the integrator.
-    pub fn restart_derivative(&mut self) {
+    pub(crate) fn restart_derivative(&mut self) {
         self.last_meas = None;
         self.deriv = 0.0;
     }

@@ -2,6 +2,7 @@
 //! the MR coil's current command, the active stick's motor force, the spring on the piston joint — for
 //! every [`FeelKind`], so that the loop driving it never asks which kind it is.
 
+use super::active::{ActiveStick, RodState};
 use super::controller::{ControlOutput, FeelController, Hybrid};
 use super::feel::{FeelKind, FeelSystemConfig, Spring, SpringElement};
 use crate::sensors::DaqSample;
@@ -30,6 +31,9 @@ pub struct FeelSystem {
     current_cmd_a: f64,
     /// The active stick's motor.
     pub motor: Option<Motor>,
+    /// The modelled active stick (motor, current loop, grip sensor, admittance loop); without it the
+    /// motor is an ideal clamped force source commanded at the DAQ's ticks.
+    pub stick: Option<ActiveStick>,
 }
 
 impl FeelSystem {
@@ -57,7 +61,24 @@ impl FeelSystem {
                 cmd_n: 0.0,
                 force_n: 0.0,
             }),
+            stick: config.active_stick.map(|c| ActiveStick::new(c, 1)),
         }
+    }
+
+    /// The motor's force for the physics step from `t_s` (after driver faults), N on the piston: the
+    /// modelled stick runs its loops over the step on `rod`; the ideal source gives its held command.
+    pub(crate) fn step_motor(
+        &mut self,
+        t_s: f64,
+        dt_s: f64,
+        rod: &RodState,
+        faults: &crate::faults::FaultInjector,
+    ) {
+        let Some(m) = self.motor.as_mut() else { return };
+        m.force_n = match self.stick.as_mut() {
+            Some(s) => s.step(t_s, dt_s, &self.controller.law, rod, &faults.schedule),
+            None => faults.motor_force_n(t_s, m.cmd_n, m.force_n, m.max_force_n),
+        };
     }
 
     /// One DAQ tick on `sample` at the controller's clock `t_s`: the loop's decision; the coil and motor
@@ -73,7 +94,7 @@ impl FeelSystem {
     }
 
     /// The coil current command held now, A; `None` for a system without a coil.
-    pub fn coil_command_a(&self) -> Option<f64> {
+    pub(crate) fn coil_command_a(&self) -> Option<f64> {
         self.coil.then_some(self.current_cmd_a)
     }
 
@@ -83,7 +104,7 @@ impl FeelSystem {
     }
 
     /// The motor's force over the present step, N (0 without a motor).
-    pub fn motor_force_n(&self) -> f64 {
+    pub(crate) fn motor_force_n(&self) -> f64 {
         self.motor.map_or(0.0, |m| m.force_n)
     }
 

@@ -220,7 +220,7 @@ impl DeviceConfig {
     /// The force the damper holds at rest at mid-stroke with `current_a` settled, fully yielded one way, N:
     /// the ceiling of the feel it can render. [`DeviceConfig::yield_force_n`] where the inverse applies;
     /// another base (`spencer`) from its own states after a long stroke that way.
-    pub fn ceiling_force_n(&self, current_a: f64) -> f64 {
+    pub(crate) fn ceiling_force_n(&self, current_a: f64) -> f64 {
         self.yield_force_n(current_a).unwrap_or_else(|| {
             let inp = Inputs {
                 t_s: 0.0,

@@ -94,8 +94,11 @@ struct FaultTestFile {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct ActiveFile {
-    max_force_n: S<f64>,
-    damping_n_s_per_m: S<f64>,
+    /// An active-stick file (`models/active-stick.toml`): the modelled stick.
+    model: Option<S<PathBuf>>,
+    /// The ideal force source's limit and friction (without `model`).
+    max_force_n: Option<S<f64>>,
+    damping_n_s_per_m: Option<S<f64>>,
 }
 
 impl CompareScenario {
@@ -110,7 +113,7 @@ impl CompareScenario {
         let f: File = src.toml()?;
         let w = |v: &S<f64>, field: &str, lo: f64, hi: f64, unit: &str| src.within(v, field, lo..=hi, unit);
         let dir = path.parent().unwrap_or(Path::new("."));
-        let no_active = "`active` needs an `[active]` section (max_force_n, damping_n_s_per_m)";
+        let no_active = "`active` needs an `[active]` section (model, or max_force_n and damping_n_s_per_m)";
         let systems = if f.systems.get_ref().is_empty() {
             Err(format!(
                 "no feel system listed; name at least one of: {}",
@@ -220,15 +223,40 @@ impl CompareScenario {
             return Err(src.err(at, &format!("fault_test.{key}"), msg).into());
         }
         let active = match &f.active {
-            Some(a) => Some(ActiveSection {
-                max_force_n: w(&a.max_force_n, "active.max_force_n", 0.0, 1e4, "N")?,
-                damping_n_s_per_m: w(
-                    &a.damping_n_s_per_m,
-                    "active.damping_n_s_per_m",
-                    0.0,
-                    1e5,
-                    "N·s/m",
-                )?,
+            Some(a) => Some(match &a.model {
+                Some(p) => {
+                    let ideal = [
+                        ("max_force_n", &a.max_force_n),
+                        ("damping_n_s_per_m", &a.damping_n_s_per_m),
+                    ];
+                    if let Some((key, Some(v))) = ideal.into_iter().find(|(_, v)| v.is_some()) {
+                        let msg = "not used with `active.model` (the motor file gives the force limit and the friction)";
+                        return Err(src.err(v, &format!("active.{key}"), msg).into());
+                    }
+                    let path = src.named_file(p, "active.model", p.get_ref())?;
+                    let m = crate::control::active::ActiveStickConfig::load(&path)
+                        .map_err(|e| src.err(p, "active.model", e.to_string()))?;
+                    ActiveSection {
+                        max_force_n: m.max_force_n(),
+                        damping_n_s_per_m: m.rod_damping_n_s_per_m(),
+                        model: Some(m),
+                    }
+                }
+                None => {
+                    let need = |v: &Option<S<f64>>, key: &str, hi: f64, unit: &str| match v {
+                        Some(v) => w(v, &format!("active.{key}"), 0.0, hi, unit),
+                        None => Err(src.err(
+                            &f.systems,
+                            &format!("active.{key}"),
+                            "required without `active.model`",
+                        )),
+                    };
+                    ActiveSection {
+                        max_force_n: need(&a.max_force_n, "max_force_n", 1e4, "N")?,
+                        damping_n_s_per_m: need(&a.damping_n_s_per_m, "damping_n_s_per_m", 1e5, "N·s/m")?,
+                        model: None,
+                    }
+                }
             }),
             None => None,
         };

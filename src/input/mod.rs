@@ -11,6 +11,7 @@ pub(crate) mod faults;
 pub(crate) mod hand;
 pub(crate) mod json;
 pub(crate) mod measurement;
+pub(crate) mod motor;
 pub(crate) mod params;
 pub mod reference;
 pub(crate) mod scenario;
