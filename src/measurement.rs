@@ -488,12 +488,6 @@ mod tests {
         let back = Measurement::parse(m.to_csv_string().as_bytes(), Path::new("back.csv")).unwrap();
         assert_eq!(back.extra, m.extra);
         assert_eq!(back.f_n, m.f_n);
-        // The spec's own columns stay strict, also the optional ones.
-        let e = err("t_s,x_m,i_a,f_n,temp_c,note_x\n0,0,1,2,hot,ok\n");
-        assert!(
-            e.contains("test.csv:2") && e.contains("`temp_c`") && e.contains("not a number"),
-            "{e}"
-        );
     }
 
     /// A quoted field may hold a line break (valid CSV): kept in its text column, the rows after it on
@@ -514,16 +508,10 @@ mod tests {
         assert_eq!(back.extra, m.extra);
     }
 
+    /// Beyond the refusals of `tests/bad_input_files.rs`: NaN, an empty rate, a rate given twice.
     #[test]
     fn malformed_or_non_positive_sample_rate_names_line_and_key() {
-        for (v, why) in [
-            ("abc", "not a number"),
-            ("-200", "must be > 0"),
-            ("0", "must be > 0"),
-            ("inf", "not a finite"),
-            ("NaN", "not a finite"),
-            ("", "not a number"),
-        ] {
+        for (v, why) in [("NaN", "not a finite"), ("", "not a number")] {
             let e = err(&format!(
                 "# source: x\n# sample_rate_hz: {v}\nt_s,x_m,i_a,f_n\n0,0,0,0\n"
             ));
@@ -546,12 +534,6 @@ mod tests {
 
     #[test]
     fn declared_rate_must_agree_with_the_time_column() {
-        // Times in milliseconds under a 1 kHz declaration: a sample every 1 "s".
-        let e = err("# sample_rate_hz: 1000\nt_s,x_m,i_a,f_n\n0,0,0,0\n1,0,0,0\n2,0,0,0\n");
-        assert!(
-            e.contains("test.csv:1") && e.contains("`sample_rate_hz`") && e.contains("`t_s`"),
-            "{e}"
-        );
         // 3 kHz written with 4 decimals (intervals 0.0003 and 0.0004): agrees within the rounding.
         let mut rows = String::from("# sample_rate_hz: 3000\nt_s,x_m,i_a,f_n\n");
         for k in 0..30 {

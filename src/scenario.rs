@@ -211,7 +211,7 @@ impl Scenario {
     }
 
     /// The same scenario with another DAQ rate (for the DAQ-rate sweep).
-    pub fn with_daq_rate(&self, rate_hz: f64) -> Self {
+    pub(crate) fn with_daq_rate(&self, rate_hz: f64) -> Self {
         let mut s = self.clone();
         s.sensors.daq.sample_rate_hz = rate_hz;
         s

@@ -3,7 +3,8 @@
 //!
 //! - every run either succeeds with finite results that keep the invariants, the feel system passive, or
 //!   fails with an error that names the scenario's file, line and key;
-//! - the rig's results converge as the physics step shrinks, at first order (ignored: a draw breaks it);
+//! - the rig's mechanics converge at first order as the physics step shrinks, and the closed loop, whose
+//!   sampled decisions have no order of convergence, is converged at its default 1 kHz step;
 //! - the damper alone is passive (`F·v ≥ 0`) for any device and protocol;
 //! - a fit of data made by a known model recovers its parameters within twice their standard errors in
 //!   most draws (nominal coverage 95 %; tested at least 85 %; the two lags as a pair).
@@ -176,22 +177,66 @@ fn every_run_is_finite_and_passive_or_fails_naming_the_setting(cases: u32) {
     .unwrap();
 }
 
-/// The piston's path at the DAQ's sample times of a run at `physics_hz`, noise off.
-fn piston_path(edits: &[(&'static str, &'static str, String)], physics_hz: f64) -> Vec<f64> {
-    let mut e = edits.to_vec();
-    e.push(("rig", "physics_hz", format!("{physics_hz:?}")));
-    let res = run_text(&paper_loop_text(&e)).unwrap();
-    let every = (physics_hz / 500.0).round() as usize;
-    res.rows.iter().step_by(every).map(|r| r.piston_x_m).collect()
+/// RMS difference of two paths over their common length.
+fn rms_diff(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len());
+    (a[..n].iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / n as f64).sqrt()
 }
 
-/// The rig's results converge as the physics step shrinks, at first order (the multibody's semi-implicit
-/// Euler step with the damper's force held over it): the RMS difference of the piston's path from a run
-/// at 8 kHz falls at least 1.5× for each halving of the step from 1 kHz to 4 kHz (2× for first order).
-#[test]
-#[ignore = "fails: in one draw (0.0586 rad, 0.707 Hz, 632 N/m) the piston path differs from the 8 kHz run by 15, 11 and 15 µm at 1, 2 and 4 kHz: no order of convergence holds there yet"]
-fn the_rig_converges_at_first_order_as_the_physics_step_shrinks() {
-    let mut r = runner(3);
+/// The rig's mechanics (the multibody's semi-implicit Euler step with the damper as an implicit yield
+/// element) under a prescribed hand force and coil current, gravity off, the stick clear of its stops:
+/// every piston path (at 500 Hz) from 1 kHz up lies within 0.5 % of the stroke (254 µm RMS) of an 8 kHz
+/// run (measured: up to 133 µm), and where the 1 kHz path is more than 50 µm off, halving the step cuts
+/// the difference at least 1.5× (first order gives 2.33× against that reference). Below about 20 µm the
+/// difference stops shrinking: against 16 kHz it stays at 10 to 18 µm at 8 kHz whether the solver makes
+/// 3 or 30 Gauss-Seidel sweeps, so no order is claimed there (rapier's single precision is the suspect).
+fn the_rig_converges_at_first_order(cases: u32) {
+    let device = root().join("models/paper-device.toml");
+    let device = mrfeel::device::DeviceConfig::load(&device, &Registry::builtin()).unwrap();
+    let mut r = runner(cases);
+    let strategy = (6.0..14.0f64, 0.7..3.0f64, 3.0..6.0f64, 0.0..0.9f64);
+    r.run(&strategy, |(hand_n, f_hz, i0_a, i1)| {
+        let path = |hz: f64| {
+            let mut cfg = mrfeel::rig::RigConfig::new(root().join("models/stick-rig.urdf"));
+            cfg.physics_hz = hz;
+            cfg.gravity = false;
+            let mut rig = mrfeel::rig::Rig::new(&cfg, device.damper()).unwrap();
+            let every = (hz / 500.0).round() as usize;
+            let mut out = Vec::new();
+            for k in 0..hz as usize {
+                let t = k as f64 / hz;
+                if k % every == 0 {
+                    out.push(rig.state().piston_x_m);
+                }
+                let w = 2.0 * std::f64::consts::PI * f_hz * t;
+                rig.step(hand_n * w.sin(), i0_a * (1.0 + i1 * (0.5 * w).sin()));
+            }
+            (out, rig.stroke_limit_m())
+        };
+        let (fine, stroke) = path(8000.0);
+        let travel = fine.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+        prop_assume!(travel > 2e-3 && travel < 0.8 * stroke);
+        let e: Vec<f64> = [1000.0, 2000.0, 4000.0]
+            .iter()
+            .map(|&h| rms_diff(&path(h).0, &fine))
+            .collect();
+        prop_assert!(
+            (e[0] < 50e-6 || e[0] > 1.5 * e[1]) && e.iter().all(|&d| d < 254e-6),
+            "{e:?}"
+        );
+        Ok(())
+    })
+    .unwrap();
+}
+
+/// The closed feel loop samples its sensors, quantises them and switches its rest mode at the DAQ's
+/// instants, so a difference far below one ADC step can change one decision and its effect does not
+/// shrink with the physics step: the loop's path has no order of convergence, but the default 1 kHz
+/// step must already be converged for what a user reads. Its piston path stays within 0.5 % of the
+/// stroke (254 µm RMS; measured up to 75 µm) of an 8 kHz run, and its force tracking error within 20 % (or 0.2 N) of the
+/// 8 kHz run's (the largest difference measured: 12 %, 2.59 against 2.92 N).
+fn the_closed_loop_at_1_khz_agrees_with_8_khz(cases: u32) {
+    let mut r = runner(cases);
     let strategy = (0.05..0.25f64, 0.2..1.0f64, 500.0..2000.0f64);
     r.run(&strategy, |(amp, freq, grad)| {
         let edits = vec![
@@ -203,21 +248,21 @@ fn the_rig_converges_at_first_order_as_the_physics_step_shrinks() {
             ("load_cell", "noise_rms_n", "0.0".into()),
             ("laser", "noise_rms_m", "0.0".into()),
         ];
-        let fine = piston_path(&edits, 8000.0);
-        let err = |hz: f64| {
-            let p = piston_path(&edits, hz);
-            let n = p.len().min(fine.len());
-            (p[..n]
-                .iter()
-                .zip(&fine)
-                .map(|(a, b)| (a - b).powi(2))
-                .sum::<f64>()
-                / n as f64)
-                .sqrt()
+        let run = |hz: f64| {
+            let mut e = edits.clone();
+            e.push(("rig", "physics_hz", format!("{hz:?}")));
+            let res = run_text(&paper_loop_text(&e)).unwrap();
+            let every = (hz / 500.0).round() as usize;
+            let path: Vec<f64> = res.rows.iter().step_by(every).map(|r| r.piston_x_m).collect();
+            (path, res.summary().tracking_rmse_n.unwrap())
         };
-        let e: Vec<f64> = [1000.0, 2000.0, 4000.0].iter().map(|&h| err(h)).collect();
-        eprintln!("RMS piston path difference from 8 kHz at 1, 2, 4 kHz: {e:?} m");
-        prop_assert!(e[0] > 1.5 * e[1] && e[1] > 1.5 * e[2], "{e:?}");
+        let ((coarse, err_1k), (fine, err_8k)) = (run(1000.0), run(8000.0));
+        let e = rms_diff(&coarse, &fine);
+        prop_assert!(e < 254e-6, "RMS piston path difference 1 kHz vs 8 kHz: {e:e} m");
+        prop_assert!(
+            (err_1k - err_8k).abs() < (0.2 * err_8k).max(0.2),
+            "force tracking error {err_1k} N at 1 kHz against {err_8k} N at 8 kHz"
+        );
         Ok(())
     })
     .unwrap();
@@ -354,6 +399,16 @@ fn every_random_run_keeps_the_invariants_or_names_the_setting() {
 }
 
 #[test]
+fn the_rig_mechanics_converge_at_first_order() {
+    the_rig_converges_at_first_order(cases(4));
+}
+
+#[test]
+fn the_closed_loop_is_converged_at_its_default_step() {
+    the_closed_loop_at_1_khz_agrees_with_8_khz(cases(4));
+}
+
+#[test]
 fn the_damper_alone_is_passive() {
     the_damper_is_passive_for_any_device_and_protocol(cases(64));
 }
@@ -370,4 +425,6 @@ fn larger_sweep_of_every_property() {
     every_run_is_finite_and_passive_or_fails_naming_the_setting(cases(200));
     the_damper_is_passive_for_any_device_and_protocol(cases(1000));
     a_fit_recovers_a_known_device_within_its_standard_errors(cases(64));
+    the_rig_converges_at_first_order(cases(32));
+    the_closed_loop_at_1_khz_agrees_with_8_khz(cases(32));
 }

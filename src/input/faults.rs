@@ -18,7 +18,7 @@ use crate::faults::{Fault, FaultKind, FaultSchedule};
 /// One `[[fault]]` table as written.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct FaultTable {
+pub(crate) struct FaultTable {
     kind: Spanned<Variant<FaultKind>>,
     start_s: Spanned<f64>,
     end_s: Spanned<f64>,

@@ -21,7 +21,7 @@ pub struct Object {
 
 /// One key of an object, with its line and its value.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Entry {
+pub(crate) struct Entry {
     pub key: String,
     pub line: usize,
     pub value: Node,
@@ -29,7 +29,7 @@ pub struct Entry {
 
 /// A value: an object with its lines, or any other JSON value.
 #[derive(Debug, Clone, PartialEq)]
-pub enum Node {
+pub(crate) enum Node {
     Object(Object),
     Value(Value),
 }

@@ -11,7 +11,7 @@ use crate::measurement::{Measurement, TextColumn, MAGNITUDE_LIMIT, OPTIONAL, REQ
 
 /// Largest measurement file read, bytes: `mrfeel mts` writes at most 10⁷ samples of at most about 110
 /// bytes each (1.1 GB).
-pub const MEASUREMENT_LIMIT_BYTES: u64 = 2 << 30;
+pub(crate) const MEASUREMENT_LIMIT_BYTES: u64 = 2 << 30;
 
 /// The metadata key the spec defines for the sampling rate.
 pub(crate) const RATE_KEY: &str = "sample_rate_hz";

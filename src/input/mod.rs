@@ -134,9 +134,14 @@ impl Source {
         text::line_of(&self.text, offset)
     }
 
+    /// 1-based line of a span's start.
+    pub(crate) fn line_at(&self, span: std::ops::Range<usize>) -> usize {
+        self.line_of(span.start)
+    }
+
     /// An error at a spanned value's line, naming `field`.
     pub fn err<T>(&self, at: &Spanned<T>, field: &str, msg: impl Into<String>) -> InputError {
-        InputError::field(&self.path, self.line_of(at.span().start), field, msg)
+        InputError::field(&self.path, self.line_at(at.span()), field, msg)
     }
 
     /// A number checked to lie in `range` (`unit` for the message): a value outside, or not finite, names

@@ -54,7 +54,7 @@ pub struct At<T> {
 /// A `PARAMS.json` as read: every key known, of its type and in its range, each with its line. What the
 /// parameters must be for the model (names, units, bounds) is checked where the model is built.
 #[derive(Debug, Clone, PartialEq)]
-pub struct ParamsJson {
+pub(crate) struct ParamsJson {
     /// The model spec (`bingham+hysteresis`).
     pub model: At<String>,
     /// The driver's saturation, A, positive.

@@ -252,105 +252,146 @@ impl<'de> Deserialize<'de> for Point {
     }
 }
 
-/// Checks of a section's keys against the file they are in.
-struct Check<'a>(&'a Source);
+/// Each number's allowed range and unit, by its key. A range that depends on another key (at most the
+/// physics rate, within the run) is checked where that key is known.
+const RANGES: &[(&str, f64, f64, &str)] = &[
+    ("rig.physics_hz", 100.0, 100_000.0, "Hz"),
+    ("duration_s", 1e-3, 3600.0, "s"),
+    ("load_cell.range_n", 1.0, 1e5, "N"),
+    ("load_cell.gain", 0.5, 2.0, ""),
+    ("load_cell.offset_n", -50.0, 50.0, "N"),
+    ("load_cell.noise_rms_n", 0.0, 50.0, "N"),
+    ("laser.range_m", 1e-3, 1.0, "m"),
+    ("laser.noise_rms_m", 0.0, 1e-2, "m"),
+    ("laser.velocity_cutoff_hz", 0.1, 1e4, "Hz"),
+    ("controller.tracking_time_s", 1e-5, 10.0, "s"),
+    ("controller.current_min_a", 0.0, 14.0, "A"),
+    ("controller.kp_a_per_n", 0.0, 10.0, "A/N"),
+    ("controller.ki_a_per_n_s", 0.0, 1000.0, "A/(N·s)"),
+    ("controller.kd_a_s_per_n", 0.0, 1.0, "A·s/N"),
+    ("controller.derivative_filter_s", 0.0, 1.0, "s"),
+    ("controller.rest_speed_m_s", 0.0, 1.0, "m/s"),
+    ("controller.rest_force_n", 0.0, 250.0, "N"),
+    ("feel.breakout_n", 0.0, 250.0, "N"),
+    ("feel.gradient_n_per_m", 0.0, 1e6, "N/m"),
+    ("feel.damping_n_s_per_m", 0.0, 1e5, "N·s/m"),
+    ("feel.max_force_n", 0.0, 250.0, "N"),
+    ("feel.low_n", 0.0, 250.0, "N"),
+    ("feel.high_n", 0.0, 250.0, "N"),
+    ("feel.period_s", 1e-3, 3600.0, "s"),
+    ("feel_system.motor_max_force_n", 0.0, 1e4, "N"),
+    ("feel_system.damping_n_s_per_m", 0.0, 1e5, "N·s/m"),
+    ("feel_system.qbar_pa", 0.0, 1e6, "Pa"),
+    ("feel_system.hybrid_k_n_per_m", 0.0, 1e6, "N/m"),
+    ("feel_system.return_damping_n_s_per_m", 0.0, 1e5, "N·s/m"),
+    ("aircraft.airspeed_m_s", 10.0, 300.0, "m/s"),
+    ("aircraft.altitude_m", 0.0, 11_000.0, "m"),
+    ("outer_loop.delay_s", 0.0, 1.0, "s"),
+    ("outer_loop.gain", 0.0, 100.0, "stick rad per rad (or per g)"),
+    ("outer_loop.lead_s", 0.0, 10.0, "s"),
+    ("outer_loop.lag_s", 0.0, 100.0, "s"),
+    ("outer_loop.integral_per_s", 0.0, 100.0, "stick rad per (unit·s)"),
+    ("outer_loop.crossover_rad_s", 0.1, 10.0, "rad/s"),
+    ("outer_loop.stick_lag_s", 0.0, 10.0, "s"),
+    ("pilot.ramp_duration_s", 1e-3, 3600.0, "s"),
+    ("pilot.frequency_hz", 1e-3, 100.0, "Hz"),
+    ("pilot.cutoff_hz", 1e-3, 100.0, "Hz"),
+];
 
-impl Check<'_> {
-    fn num(&self, v: &Num, field: &str, lo: f64, hi: f64, unit: &str) -> Result<f64, InputError> {
-        self.0.within(v, field, lo..=hi, unit)
+/// `v` checked against the range [`RANGES`] declares for `field`.
+fn num(src: &Source, v: &Num, field: &str) -> Result<f64, InputError> {
+    let &(_, lo, hi, unit) = RANGES.iter().find(|r| r.0 == field).expect("a declared range");
+    src.within(v, field, lo..=hi, unit)
+}
+
+/// A key that the variant chosen at `by` (named `name`) requires.
+fn given<'a, T>(
+    src: &Source,
+    v: &'a Opt,
+    field: &str,
+    by: &Spanned<T>,
+    name: &str,
+) -> Result<&'a Num, InputError> {
+    v.as_ref()
+        .ok_or_else(|| src.err(by, field, format!("required by {name}")))
+}
+
+/// A number that the variant chosen at `by` (named `name`) requires, in its declared range.
+fn need<T>(src: &Source, v: &Opt, field: &str, by: &Spanned<T>, name: &str) -> Result<f64, InputError> {
+    num(src, given(src, v, field, by, name)?, field)
+}
+
+/// An optional number in its declared range, 0 when absent.
+fn opt(src: &Source, v: &Opt, field: &str) -> Result<f64, InputError> {
+    v.as_ref().map_or(Ok(0.0), |v| num(src, v, field))
+}
+
+/// Refuses the first key in the file, among `keys` (`section.key`), that is given but not in `used`.
+fn unused(
+    src: &Source,
+    section: &str,
+    keys: &[(&str, Option<&Num>)],
+    used: &[&str],
+    msg: &str,
+) -> Result<(), InputError> {
+    let first = keys
+        .iter()
+        .filter_map(|&(k, v)| v.map(|v| (k, v)))
+        .filter(|(k, _)| !used.contains(k))
+        .min_by_key(|(_, v)| v.span().start);
+    match first {
+        Some((k, v)) => Err(src.err(v, &format!("{section}.{k}"), msg)),
+        None => Ok(()),
     }
+}
 
-    fn int(&self, v: &Spanned<i64>, field: &str, lo: i64, hi: i64) -> Result<i64, InputError> {
-        self.0.within_int(v, field, lo..=hi)
+/// A piecewise-linear schedule: at least one point, times finite and increasing, values in `[lo, hi]`.
+fn schedule(
+    src: &Source,
+    pts: &Spanned<Vec<Point>>,
+    field: &str,
+    lo: f64,
+    hi: f64,
+    unit: &str,
+) -> Result<Schedule, InputError> {
+    let p = pts.get_ref();
+    if p.is_empty() {
+        return Err(src.err(pts, field, "needs at least one [t_s, value] point"));
     }
-
-    /// A key the variant chosen at `by` (named `name`) requires.
-    #[allow(clippy::too_many_arguments)]
-    fn need<T>(
-        &self,
-        v: &Opt,
-        field: &str,
-        by: &Spanned<T>,
-        name: &str,
-        lo: f64,
-        hi: f64,
-        unit: &str,
-    ) -> Result<f64, InputError> {
-        match v {
-            Some(v) => self.num(v, field, lo, hi, unit),
-            None => Err(self.0.err(by, field, format!("required by {name}"))),
+    for (i, q) in p.iter().enumerate() {
+        if !(q.1.is_finite() && (lo..=hi).contains(&q.1)) {
+            let msg = format!(
+                "point {i}: value {} outside the allowed range [{lo}, {hi}] {unit}",
+                q.1
+            );
+            return Err(src.err(pts, field, msg.trim_end()));
+        }
+        if !q.0.is_finite() || (i > 0 && q.0 <= p[i - 1].0) {
+            return Err(src.err(
+                pts,
+                field,
+                format!("point {i}: times must be finite and increasing"),
+            ));
         }
     }
-
-    /// The first key in the file, among `keys` (`section.key`), that is given but not in `used`.
-    fn unused(
-        &self,
-        section: &str,
-        keys: &[(&str, Option<&Num>)],
-        used: &[&str],
-        msg: &str,
-    ) -> Result<(), InputError> {
-        let first = keys
-            .iter()
-            .filter_map(|&(k, v)| v.map(|v| (k, v)))
-            .filter(|(k, _)| !used.contains(k))
-            .min_by_key(|(_, v)| v.span().start);
-        match first {
-            Some((k, v)) => Err(self.0.err(v, &format!("{section}.{k}"), msg)),
-            None => Ok(()),
-        }
-    }
-
-    /// A piecewise-linear schedule: at least one point, times finite and increasing, values in `[lo, hi]`.
-    fn schedule(
-        &self,
-        pts: &Spanned<Vec<Point>>,
-        field: &str,
-        lo: f64,
-        hi: f64,
-        unit: &str,
-    ) -> Result<Schedule, InputError> {
-        let p = pts.get_ref();
-        if p.is_empty() {
-            return Err(self.0.err(pts, field, "needs at least one [t_s, value] point"));
-        }
-        for (i, q) in p.iter().enumerate() {
-            if !(q.1.is_finite() && (lo..=hi).contains(&q.1)) {
-                let msg = format!(
-                    "point {i}: value {} outside the allowed range [{lo}, {hi}] {unit}",
-                    q.1
-                );
-                return Err(self.0.err(pts, field, msg.trim_end()));
-            }
-            if !q.0.is_finite() || (i > 0 && q.0 <= p[i - 1].0) {
-                return Err(self.0.err(
-                    pts,
-                    field,
-                    format!("point {i}: times must be finite and increasing"),
-                ));
-            }
-        }
-        Ok(Schedule {
-            points: p.iter().map(|q| (q.0, q.1)).collect(),
-        })
-    }
+    Ok(Schedule {
+        points: p.iter().map(|q| (q.0, q.1)).collect(),
+    })
 }
 
 /// The scenario in `src`, checked.
 pub fn scenario(src: &Source) -> Result<Scenario, InputError> {
     let f: File = src.toml()?;
-    let c = Check(src);
-    let line = |at: &Spanned<PathBuf>| src.line_of(at.span().start);
     let mut rig = RigConfig::new(src.named_file(&f.rig.urdf, "rig.urdf", f.rig.urdf.get_ref())?);
     let device_path = src.named_file(&f.device.file, "device.file", f.device.file.get_ref())?;
     let controller_model_path = match &f.controller.model {
         Some(m) => Some(src.named_file(m, "controller.model", m.get_ref())?),
         None => None,
     };
-    if let Some(hz) = &f.rig.physics_hz {
-        rig.physics_hz = c.num(hz, "rig.physics_hz", 100.0, 100_000.0, "Hz")?;
-    }
     let r = &f.rig;
+    if let Some(hz) = &r.physics_hz {
+        rig.physics_hz = num(src, hz, "rig.physics_hz")?;
+    }
     rig.gravity = r.gravity.unwrap_or(rig.gravity);
     rig.solver_iterations = r.solver_iterations.unwrap_or(rig.solver_iterations);
     rig.pgs_iterations = r.pgs_iterations.unwrap_or(rig.pgs_iterations);
@@ -360,7 +401,7 @@ pub fn scenario(src: &Source) -> Result<Scenario, InputError> {
     rig.roles = r.roles.clone().unwrap_or(rig.roles);
     let physics_hz = rig.physics_hz;
 
-    let duration_s = c.num(&f.duration_s, "duration_s", 1e-3, 3600.0, "s")?;
+    let duration_s = num(src, &f.duration_s, "duration_s")?;
     let steps = duration_s * physics_hz;
     if steps > MAX_PHYSICS_STEPS {
         let msg = format!(
@@ -370,31 +411,31 @@ pub fn scenario(src: &Source) -> Result<Scenario, InputError> {
         );
         return Err(src.err(&f.duration_s, "duration_s", msg));
     }
-    let seed = c.int(&f.seed, "seed", 0, i64::MAX)? as u64;
+    let seed = src.within_int(&f.seed, "seed", 0..=i64::MAX)? as u64;
 
     let (lc, la, daq) = (&f.load_cell, &f.laser, &f.daq);
+    let at_most_physics = "Hz (at most rig.physics_hz)";
     let sensors = SensorsConfig {
         load_cell: LoadCellConfig {
-            range_n: c.num(&lc.range_n, "load_cell.range_n", 1.0, 1e5, "N")?,
-            gain: c.num(&lc.gain, "load_cell.gain", 0.5, 2.0, "")?,
-            offset_n: c.num(&lc.offset_n, "load_cell.offset_n", -50.0, 50.0, "N")?,
-            noise_rms_n: c.num(&lc.noise_rms_n, "load_cell.noise_rms_n", 0.0, 50.0, "N")?,
+            range_n: num(src, &lc.range_n, "load_cell.range_n")?,
+            gain: num(src, &lc.gain, "load_cell.gain")?,
+            offset_n: num(src, &lc.offset_n, "load_cell.offset_n")?,
+            noise_rms_n: num(src, &lc.noise_rms_n, "load_cell.noise_rms_n")?,
         },
         laser: LaserConfig {
-            range_m: c.num(&la.range_m, "laser.range_m", 1e-3, 1.0, "m")?,
-            noise_rms_m: c.num(&la.noise_rms_m, "laser.noise_rms_m", 0.0, 1e-2, "m")?,
-            velocity_cutoff_hz: c.num(&la.velocity_cutoff_hz, "laser.velocity_cutoff_hz", 0.1, 1e4, "Hz")?,
+            range_m: num(src, &la.range_m, "laser.range_m")?,
+            noise_rms_m: num(src, &la.noise_rms_m, "laser.noise_rms_m")?,
+            velocity_cutoff_hz: num(src, &la.velocity_cutoff_hz, "laser.velocity_cutoff_hz")?,
         },
         daq: DaqConfig {
-            sample_rate_hz: c.num(
+            sample_rate_hz: src.within(
                 &daq.sample_rate_hz,
                 "daq.sample_rate_hz",
-                1.0,
-                physics_hz,
-                "Hz (at most rig.physics_hz)",
+                1.0..=physics_hz,
+                at_most_physics,
             )?,
-            latency_samples: c.int(&daq.latency_samples, "daq.latency_samples", 0, 1000)? as usize,
-            adc_bits: c.int(&daq.adc_bits, "daq.adc_bits", 0, 32)? as u32,
+            latency_samples: src.within_int(&daq.latency_samples, "daq.latency_samples", 0..=1000)? as usize,
+            adc_bits: src.within_int(&daq.adc_bits, "daq.adc_bits", 0..=32)? as u32,
         },
     };
 
@@ -403,55 +444,47 @@ pub fn scenario(src: &Source) -> Result<Scenario, InputError> {
         AntiWindupName::None => AntiWindup::None,
         AntiWindupName::Clamping => AntiWindup::Clamping,
         AntiWindupName::BackCalculation => AntiWindup::BackCalculation {
-            tracking_time_s: c.need(
+            tracking_time_s: need(
+                src,
                 &k.tracking_time_s,
                 "controller.tracking_time_s",
                 &k.anti_windup,
                 "anti_windup = \"back-calculation\"",
-                1e-5,
-                10.0,
-                "s",
             )?,
         },
     };
-    let out_min = c.num(&k.current_min_a, "controller.current_min_a", 0.0, 14.0, "A")?;
-    let out_max = c.num(
+    let out_min = num(src, &k.current_min_a, "controller.current_min_a")?;
+    let saturation = "A (the driver saturates at 14 A)";
+    let out_max = src.within(
         &k.current_max_a,
         "controller.current_max_a",
-        out_min,
-        14.0,
-        "A (the driver saturates at 14 A)",
+        out_min..=14.0,
+        saturation,
     )?;
     let controller = ControllerConfig {
         gains: PidGains {
-            kp: c.num(&k.kp_a_per_n, "controller.kp_a_per_n", 0.0, 10.0, "A/N")?,
-            ki: c.num(&k.ki_a_per_n_s, "controller.ki_a_per_n_s", 0.0, 1000.0, "A/(N·s)")?,
-            kd: c.num(&k.kd_a_s_per_n, "controller.kd_a_s_per_n", 0.0, 1.0, "A·s/N")?,
-            derivative_filter_s: c.num(
-                &k.derivative_filter_s,
-                "controller.derivative_filter_s",
-                0.0,
-                1.0,
-                "s",
-            )?,
+            kp: num(src, &k.kp_a_per_n, "controller.kp_a_per_n")?,
+            ki: num(src, &k.ki_a_per_n_s, "controller.ki_a_per_n_s")?,
+            kd: num(src, &k.kd_a_s_per_n, "controller.kd_a_s_per_n")?,
+            derivative_filter_s: num(src, &k.derivative_filter_s, "controller.derivative_filter_s")?,
             out_min,
             out_max,
             anti_windup,
         },
         feedforward: k.feedforward,
-        rest_speed_m_s: c.num(&k.rest_speed_m_s, "controller.rest_speed_m_s", 0.0, 1.0, "m/s")?,
-        rest_force_n: c.num(&k.rest_force_n, "controller.rest_force_n", 0.0, 250.0, "N")?,
+        rest_speed_m_s: num(src, &k.rest_speed_m_s, "controller.rest_speed_m_s")?,
+        rest_force_n: num(src, &k.rest_force_n, "controller.rest_force_n")?,
     };
 
-    let feel = feel_law(&c, &f.feel, duration_s, f.aircraft.is_some())?;
+    let feel = feel_law(src, &f.feel, duration_s, f.aircraft.is_some())?;
     let aircraft = f
         .aircraft
         .as_ref()
-        .map(|a| aircraft(&c, a, physics_hz))
+        .map(|a| aircraft(src, a, physics_hz))
         .transpose()?;
-    let outer_loop = f.outer_loop.as_ref().map(|o| outer_loop(&c, o)).transpose()?;
+    let outer_loop = f.outer_loop.as_ref().map(|o| outer_loop(src, o)).transpose()?;
     let (feel_system, springs_path) = match &f.feel_system {
-        Some(fs) => feel_system(&c, fs, aircraft.is_some())?,
+        Some(fs) => feel_system(src, fs, aircraft.is_some())?,
         None => (FeelSystemConfig::default(), None),
     };
     let signal = src.variant(&f.pilot.signal, "pilot.signal")?;
@@ -474,32 +507,17 @@ pub fn scenario(src: &Source) -> Result<Scenario, InputError> {
         }
         _ => {}
     }
-    let pilot = pilot(&c, &f.pilot, signal, duration_s, 1.0 / physics_hz, seed)?;
-    let p = &f.pilot;
+    let pilot = pilot(src, &f.pilot, signal, duration_s, 1.0 / physics_hz, seed)?;
+    let (p, a) = (&f.pilot, f.aircraft.as_ref());
+    // A key not written: a line of its table (a required key's).
     let lines = KeyLines {
-        // A key not written: a line of its table (a required key's).
-        physics_hz: f
-            .rig
-            .physics_hz
-            .as_ref()
-            .map_or(line(&f.rig.urdf), |v| src.line_of(v.span().start)),
-        airspeed: f
-            .aircraft
-            .as_ref()
-            .map_or(1, |a| src.line_of(a.airspeed_m_s.span().start)),
-        aircraft_model: f
-            .aircraft
-            .as_ref()
-            .map_or(1, |a| src.line_of(a.model.span().start)),
-        feel_law: src.line_of(f.feel.law.span().start),
-        pilot_frequency: src.line_of(
-            p.frequency_hz
-                .as_ref()
-                .map_or(p.signal.span(), |v| v.span())
-                .start,
-        ),
-        device_file: line(&f.device.file),
-        controller_model: line(f.controller.model.as_ref().unwrap_or(&f.device.file)),
+        physics_hz: src.line_at(r.physics_hz.as_ref().map_or(r.urdf.span(), |v| v.span())),
+        airspeed: a.map_or(1, |a| src.line_at(a.airspeed_m_s.span())),
+        aircraft_model: a.map_or(1, |a| src.line_at(a.model.span())),
+        feel_law: src.line_at(f.feel.law.span()),
+        pilot_frequency: src.line_at(p.frequency_hz.as_ref().map_or(p.signal.span(), |v| v.span())),
+        device_file: src.line_at(f.device.file.span()),
+        controller_model: src.line_at(f.controller.model.as_ref().unwrap_or(&f.device.file).span()),
     };
     Ok(Scenario {
         path: src.path.clone(),
@@ -522,59 +540,65 @@ pub fn scenario(src: &Source) -> Result<Scenario, InputError> {
     })
 }
 
-fn feel_law(c: &Check, fl: &FeelSection, duration_s: f64, has_aircraft: bool) -> Result<FeelLaw, InputError> {
-    let name = c.0.variant(&fl.law, "feel.law")?;
+fn feel_law(
+    src: &Source,
+    fl: &FeelSection,
+    duration_s: f64,
+    has_aircraft: bool,
+) -> Result<FeelLaw, InputError> {
+    let name = src.variant(&fl.law, "feel.law")?;
     let by = &format!("`{}`", fl.law.get_ref().name());
-    let need = |v: &Opt, key: &str, lo: f64, hi: f64, unit: &str| {
-        c.need(v, &format!("feel.{key}"), &fl.law, by, lo, hi, unit)
-    };
-    let law = match name {
-        LawName::Spring => FeelLaw::Spring {
-            breakout_n: need(&fl.breakout_n, "breakout_n", 0.0, 250.0, "N")?,
-            gradient_n_per_m: need(&fl.gradient_n_per_m, "gradient_n_per_m", 0.0, 1e6, "N/m")?,
-            damping_n_s_per_m: need(&fl.damping_n_s_per_m, "damping_n_s_per_m", 0.0, 1e5, "N·s/m")?,
-            max_force_n: need(&fl.max_force_n, "max_force_n", 0.0, 250.0, "N")?,
-        },
-        LawName::ForceSteps => FeelLaw::ForceSteps {
-            low_n: need(&fl.low_n, "low_n", 0.0, 250.0, "N")?,
-            high_n: need(&fl.high_n, "high_n", 0.0, 250.0, "N")?,
-            start_s: need(&fl.start_s, "start_s", 0.0, duration_s, "s (within duration_s)")?,
-            period_s: need(&fl.period_s, "period_s", 1e-3, 3600.0, "s")?,
-        },
+    let need = |v: &Opt, key: &str| need(src, v, &format!("feel.{key}"), &fl.law, by);
+    let (law, used): (_, &[&str]) = match name {
+        LawName::Spring => (
+            FeelLaw::Spring {
+                breakout_n: need(&fl.breakout_n, "breakout_n")?,
+                gradient_n_per_m: need(&fl.gradient_n_per_m, "gradient_n_per_m")?,
+                damping_n_s_per_m: need(&fl.damping_n_s_per_m, "damping_n_s_per_m")?,
+                max_force_n: need(&fl.max_force_n, "max_force_n")?,
+            },
+            &[
+                "breakout_n",
+                "gradient_n_per_m",
+                "damping_n_s_per_m",
+                "max_force_n",
+            ],
+        ),
+        LawName::ForceSteps => (
+            FeelLaw::ForceSteps {
+                low_n: need(&fl.low_n, "low_n")?,
+                high_n: need(&fl.high_n, "high_n")?,
+                start_s: src.within(
+                    given(src, &fl.start_s, "feel.start_s", &fl.law, by)?,
+                    "feel.start_s",
+                    0.0..=duration_s,
+                    "s (within duration_s)",
+                )?,
+                period_s: need(&fl.period_s, "period_s")?,
+            },
+            &["low_n", "high_n", "start_s", "period_s"],
+        ),
         LawName::Aircraft if !has_aircraft => {
             let msg = "`aircraft` needs an `[aircraft]` section (the aircraft whose stick force is felt)";
-            return Err(c.0.err(&fl.law, "feel.law", msg));
+            return Err(src.err(&fl.law, "feel.law", msg));
         }
-        LawName::Aircraft => FeelLaw::Target { force_n: 0.0 },
+        LawName::Aircraft => (FeelLaw::Target { force_n: 0.0 }, &[]),
     };
-    let used: &[&str] = match name {
-        LawName::Spring => &[
-            "breakout_n",
-            "gradient_n_per_m",
-            "damping_n_s_per_m",
-            "max_force_n",
-        ],
-        LawName::ForceSteps => &["low_n", "high_n", "start_s", "period_s"],
-        LawName::Aircraft => &[],
-    };
-    c.unused("feel", &fl.keys(), used, &format!("not used by {by}"))?;
+    unused(src, "feel", &fl.keys(), used, &format!("not used by {by}"))?;
     Ok(law)
 }
 
 fn feel_system(
-    c: &Check,
+    src: &Source,
     fs: &FeelSystemSection,
     has_aircraft: bool,
 ) -> Result<(FeelSystemConfig, Option<PathBuf>), InputError> {
-    let src = c.0;
     let kind = FeelKind::from_name(fs.kind.get_ref()).ok_or_else(|| {
         let msg = format!("`{}` is not one of: {}", fs.kind.get_ref(), FeelKind::names());
         src.err(&fs.kind, "feel_system.kind", msg)
     })?;
     let by = format!("`{}`", kind.name());
-    let need = |v: &Opt, key: &str, hi: f64, unit: &str| {
-        c.need(v, &format!("feel_system.{key}"), &fs.kind, &by, 0.0, hi, unit)
-    };
+    let need = |v: &Opt, key: &str| need(src, v, &format!("feel_system.{key}"), &fs.kind, &by);
     // The keys each kind takes; any other is refused.
     let used: &[&str] = match kind {
         FeelKind::Active => &["motor_max_force_n", "damping_n_s_per_m"],
@@ -586,12 +610,10 @@ fn feel_system(
     if let Some(p) = fs.springs.as_ref().filter(|_| !used.contains(&"springs")) {
         return Err(src.err(p, "feel_system.springs", format!("not used by {by}")));
     }
-    c.unused("feel_system", &fs.keys(), used, &format!("not used by {by}"))?;
+    unused(src, "feel_system", &fs.keys(), used, &format!("not used by {by}"))?;
     if kind == FeelKind::Active {
-        let config = FeelSystemConfig::active(
-            need(&fs.motor_max_force_n, "motor_max_force_n", 1e4, "N")?,
-            need(&fs.damping_n_s_per_m, "damping_n_s_per_m", 1e5, "N·s/m")?,
-        );
+        let max_force = need(&fs.motor_max_force_n, "motor_max_force_n")?;
+        let config = FeelSystemConfig::active(max_force, need(&fs.damping_n_s_per_m, "damping_n_s_per_m")?);
         return Ok((config, None));
     }
     let Some(p) = &fs.springs else {
@@ -603,13 +625,12 @@ fn feel_system(
     };
     let path = src.named_file(p, "feel_system.springs", p.get_ref())?;
     let springs = FeelSprings::load(&path).map_err(|e| src.err(p, "feel_system.springs", e.to_string()))?;
-    let damping = if kind.has_coil() {
-        0.0
-    } else {
-        need(&fs.damping_n_s_per_m, "damping_n_s_per_m", 1e5, "N·s/m")?
+    let damping = match kind.has_coil() {
+        true => 0.0,
+        false => need(&fs.damping_n_s_per_m, "damping_n_s_per_m")?,
     };
     let (q_from_aircraft, qbar) = match (&fs.qbar_pa, kind) {
-        (Some(q), _) => (false, c.num(q, "feel_system.qbar_pa", 0.0, 1e6, "Pa")?),
+        (Some(q), _) => (false, num(src, q, "feel_system.qbar_pa")?),
         (None, FeelKind::QFeel) if has_aircraft => (true, 0.0),
         (None, FeelKind::QFeel) => {
             let msg = "required by `q_feel` without an `[aircraft]` (whose dynamic pressure it would follow)";
@@ -617,18 +638,12 @@ fn feel_system(
         }
         (None, _) => (false, 0.0),
     };
-    let (hybrid_k, ret) = if kind == FeelKind::MrSpring {
-        (
-            need(&fs.hybrid_k_n_per_m, "hybrid_k_n_per_m", 1e6, "N/m")?,
-            need(
-                &fs.return_damping_n_s_per_m,
-                "return_damping_n_s_per_m",
-                1e5,
-                "N·s/m",
-            )?,
-        )
-    } else {
-        (0.0, 0.0)
+    let (hybrid_k, ret) = match kind {
+        FeelKind::MrSpring => (
+            need(&fs.hybrid_k_n_per_m, "hybrid_k_n_per_m")?,
+            need(&fs.return_damping_n_s_per_m, "return_damping_n_s_per_m")?,
+        ),
+        _ => (0.0, 0.0),
     };
     let hybrid = CentringSpring { k_n_per_m: hybrid_k };
     let mut config = FeelSystemConfig::from_springs(kind, &springs, qbar, hybrid, damping, ret);
@@ -636,13 +651,19 @@ fn feel_system(
     Ok((config, Some(path)))
 }
 
-fn aircraft(c: &Check, a: &AircraftSection, physics_hz: f64) -> Result<AircraftConfig, InputError> {
-    let src = c.0;
+fn aircraft(src: &Source, a: &AircraftSection, physics_hz: f64) -> Result<AircraftConfig, InputError> {
     let throttle = match &a.throttle {
         None => Schedule {
             points: vec![(0.0, 1.0)],
         },
-        Some(pts) => c.schedule(pts, "aircraft.throttle", 0.0, 3.0, "(ratio of the trim throttle)")?,
+        Some(pts) => schedule(
+            src,
+            pts,
+            "aircraft.throttle",
+            0.0,
+            3.0,
+            "(ratio of the trim throttle)",
+        )?,
     };
     let model = match a.model.get_ref().split_once(':') {
         // A JSBSim aircraft folder is found as the scenario's other files are (beside it first).
@@ -666,14 +687,13 @@ fn aircraft(c: &Check, a: &AircraftSection, physics_hz: f64) -> Result<AircraftC
     file.map_err(|e| src.err(&a.model, "aircraft.model", e.to_string()))?;
     Ok(AircraftConfig {
         model,
-        airspeed_m_s: c.num(&a.airspeed_m_s, "aircraft.airspeed_m_s", 10.0, 300.0, "m/s")?,
-        altitude_m: c.num(&a.altitude_m, "aircraft.altitude_m", 0.0, 11_000.0, "m")?,
+        airspeed_m_s: num(src, &a.airspeed_m_s, "aircraft.airspeed_m_s")?,
+        altitude_m: num(src, &a.altitude_m, "aircraft.altitude_m")?,
         rate_hz: match &a.rate_hz {
-            Some(r) => c.num(
+            Some(r) => src.within(
                 r,
                 "aircraft.rate_hz",
-                10.0,
-                physics_hz,
+                10.0..=physics_hz,
                 "Hz (at most rig.physics_hz)",
             )?,
             None => 120.0_f64.min(physics_hz),
@@ -682,13 +702,9 @@ fn aircraft(c: &Check, a: &AircraftSection, physics_hz: f64) -> Result<AircraftC
     })
 }
 
-fn outer_loop(c: &Check, o: &OuterLoopSection) -> Result<OuterLoopConfig, InputError> {
-    let src = c.0;
+fn outer_loop(src: &Source, o: &OuterLoopSection) -> Result<OuterLoopConfig, InputError> {
     let loop_kind = src.variant(&o.loop_kind, "outer_loop.loop")?;
-    let opt = |v: &Opt, key: &str, hi: f64, unit: &str| {
-        v.as_ref().map_or(Ok(0.0), |v| c.num(v, key, 0.0, hi, unit))
-    };
-    let delay_s = c.num(&o.delay_s, "outer_loop.delay_s", 0.0, 1.0, "s")?;
+    let delay_s = num(src, &o.delay_s, "outer_loop.delay_s")?;
     let pilot = match (&o.gain, &o.crossover_rad_s) {
         (Some(gain), None) => {
             if let Some(v) = &o.stick_lag_s {
@@ -696,22 +712,11 @@ fn outer_loop(c: &Check, o: &OuterLoopSection) -> Result<OuterLoopConfig, InputE
                 return Err(src.err(v, "outer_loop.stick_lag_s", msg));
             }
             PilotDesign::Given(CrossoverPilotConfig {
-                gain: c.num(
-                    gain,
-                    "outer_loop.gain",
-                    0.0,
-                    100.0,
-                    "stick rad per rad (or per g)",
-                )?,
-                lead_s: opt(&o.lead_s, "outer_loop.lead_s", 10.0, "s")?,
-                lag_s: opt(&o.lag_s, "outer_loop.lag_s", 100.0, "s")?,
+                gain: num(src, gain, "outer_loop.gain")?,
+                lead_s: opt(src, &o.lead_s, "outer_loop.lead_s")?,
+                lag_s: opt(src, &o.lag_s, "outer_loop.lag_s")?,
                 delay_s,
-                integral_per_s: opt(
-                    &o.integral_per_s,
-                    "outer_loop.integral_per_s",
-                    100.0,
-                    "stick rad per (unit·s)",
-                )?,
+                integral_per_s: opt(src, &o.integral_per_s, "outer_loop.integral_per_s")?,
                 stick_min_rad: f64::NEG_INFINITY,
                 stick_max_rad: f64::INFINITY,
             })
@@ -723,12 +728,12 @@ fn outer_loop(c: &Check, o: &OuterLoopSection) -> Result<OuterLoopConfig, InputE
                 ("integral_per_s", o.integral_per_s.as_ref()),
             ];
             let msg = "the adapted pilot (`crossover_rad_s`) chooses its own equalisation; give `gain` instead to set it";
-            c.unused("outer_loop", &keys, &[], msg)?;
+            unused(src, "outer_loop", &keys, &[], msg)?;
             let by = "`crossover_rad_s` (the lag from stick command to stick, s)";
             PilotDesign::Adapted {
-                crossover_rad_s: c.num(wc, "outer_loop.crossover_rad_s", 0.1, 10.0, "rad/s")?,
+                crossover_rad_s: num(src, wc, "outer_loop.crossover_rad_s")?,
                 delay_s,
-                stick_lag_s: c.need(&o.stick_lag_s, "outer_loop.stick_lag_s", wc, by, 0.0, 10.0, "s")?,
+                stick_lag_s: need(src, &o.stick_lag_s, "outer_loop.stick_lag_s", wc, by)?,
             }
         }
         (Some(g), Some(_)) => {
@@ -743,12 +748,12 @@ fn outer_loop(c: &Check, o: &OuterLoopSection) -> Result<OuterLoopConfig, InputE
     };
     let command = match loop_kind {
         PilotLoop::Pitch => {
-            let s = c.schedule(&o.command, "outer_loop.command", -30.0, 30.0, "deg")?;
+            let s = schedule(src, &o.command, "outer_loop.command", -30.0, 30.0, "deg")?;
             Schedule {
                 points: s.points.iter().map(|&(t, v)| (t, v.to_radians())).collect(),
             }
         }
-        PilotLoop::LoadFactor => c.schedule(&o.command, "outer_loop.command", -1.0, 4.0, "g")?,
+        PilotLoop::LoadFactor => schedule(src, &o.command, "outer_loop.command", -1.0, 4.0, "g")?,
     };
     Ok(OuterLoopConfig {
         loop_kind,
@@ -758,14 +763,13 @@ fn outer_loop(c: &Check, o: &OuterLoopSection) -> Result<OuterLoopConfig, InputE
 }
 
 fn pilot(
-    c: &Check,
+    src: &Source,
     p: &PilotSection,
     signal: SignalName,
     duration_s: f64,
     dt_s: f64,
     seed: u64,
 ) -> Result<PilotConfig, InputError> {
-    let src = c.0;
     let hand_path = src.named_file(&p.model, "pilot.model", p.model.get_ref())?;
     let hand = super::hand::load(&hand_path).map_err(|e| src.err(&p.model, "pilot.model", e.to_string()))?;
     let task = src.variant(&p.task, "pilot.task")?;
@@ -783,48 +787,46 @@ fn pilot(
             return Err(src.err(t, &format!("pilot.{name}_{other}"), msg));
         }
         get(format!("{name}_{unit}"))
-            .map(|v| c.num(v, &format!("pilot.{name}_{unit}"), -lim, lim, unit))
+            .map(|v| src.within(v, &format!("pilot.{name}_{unit}"), -lim..=lim, unit))
             .transpose()
     };
-    let need = |name: &str| -> Result<f64, InputError> {
-        val(name)?.ok_or_else(|| {
-            src.err(
-                &p.signal,
-                &format!("pilot.{name}_{unit}"),
-                format!("required by {by}"),
-            )
-        })
+    let need_v = |name: &str| -> Result<f64, InputError> {
+        let field = format!("pilot.{name}_{unit}");
+        val(name)?.ok_or_else(|| src.err(&p.signal, &field, format!("required by {by}")))
     };
-    let need_t = |v: &Opt, key: &str, lo: f64, hi: f64, u: &str| c.need(v, key, &p.signal, &by, lo, hi, u);
+    let need_t = |v: &Opt, key: &str| need(src, v, key, &p.signal, &by);
+    let within_run =
+        |v: &Opt, key: &str| src.within(given(src, v, key, &p.signal, &by)?, key, 0.0..=duration_s, "s");
+    let offset = || Ok::<_, InputError>(val("offset")?.unwrap_or(0.0));
     let command = match signal {
         SignalName::Hold => Signal::Hold {
-            value: need("value")?,
+            value: need_v("value")?,
         },
         SignalName::Step => Signal::Step {
-            initial: need("initial")?,
-            last: need("final")?,
-            at_s: need_t(&p.at_s, "pilot.at_s", 0.0, duration_s, "s")?,
+            initial: need_v("initial")?,
+            last: need_v("final")?,
+            at_s: within_run(&p.at_s, "pilot.at_s")?,
         },
         SignalName::Ramp => Signal::Ramp {
-            from: need("from")?,
-            to: need("to")?,
-            start_s: need_t(&p.start_s, "pilot.start_s", 0.0, duration_s, "s")?,
-            duration_s: need_t(&p.ramp_duration_s, "pilot.ramp_duration_s", 1e-3, 3600.0, "s")?,
+            from: need_v("from")?,
+            to: need_v("to")?,
+            start_s: within_run(&p.start_s, "pilot.start_s")?,
+            duration_s: need_t(&p.ramp_duration_s, "pilot.ramp_duration_s")?,
         },
         SignalName::Sine => Signal::Sine {
-            offset: val("offset")?.unwrap_or(0.0),
-            amplitude: need("amplitude")?,
-            frequency_hz: need_t(&p.frequency_hz, "pilot.frequency_hz", 1e-3, 100.0, "Hz")?,
+            offset: offset()?,
+            amplitude: need_v("amplitude")?,
+            frequency_hz: need_t(&p.frequency_hz, "pilot.frequency_hz")?,
         },
         SignalName::Triangle => Signal::Triangle {
-            offset: val("offset")?.unwrap_or(0.0),
-            amplitude: need("amplitude")?,
-            frequency_hz: need_t(&p.frequency_hz, "pilot.frequency_hz", 1e-3, 100.0, "Hz")?,
+            offset: offset()?,
+            amplitude: need_v("amplitude")?,
+            frequency_hz: need_t(&p.frequency_hz, "pilot.frequency_hz")?,
         },
         SignalName::Random => Signal::random(
-            val("offset")?.unwrap_or(0.0),
-            need("rms")?,
-            need_t(&p.cutoff_hz, "pilot.cutoff_hz", 1e-3, 100.0, "Hz")?,
+            offset()?,
+            need_v("rms")?,
+            need_t(&p.cutoff_hz, "pilot.cutoff_hz")?,
             duration_s,
             dt_s,
             seed ^ 0x005e_ed0f_9170,
@@ -834,23 +836,19 @@ fn pilot(
     };
     // Keys of another signal are refused (the first one in the file is named).
     let used = signal.keys();
+    let base = |k: &str| {
+        k.strip_suffix("_rad")
+            .or_else(|| k.strip_suffix("_n"))
+            .unwrap_or(k)
+            .to_string()
+    };
     let given: Vec<(&str, Option<&Num>)> = keys
         .iter()
-        .filter(|(k, _)| {
-            let base = k
-                .strip_suffix("_rad")
-                .or_else(|| k.strip_suffix("_n"))
-                .unwrap_or(k);
-            !used.contains(&base)
-        })
+        .filter(|(k, _)| !used.contains(&base(k).as_str()))
         .copied()
         .collect();
-    c.unused(
-        "pilot",
-        &given,
-        &[],
-        &format!("not used by {by} (it takes: {})", used.join(", ")),
-    )?;
+    let msg = format!("not used by {by} (it takes: {})", used.join(", "));
+    unused(src, "pilot", &given, &[], &msg)?;
     Ok(PilotConfig {
         hand_path,
         hand,

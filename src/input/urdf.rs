@@ -121,55 +121,30 @@ impl UrdfModel {
     }
 
     pub(crate) fn link(&self, name: &str) -> Result<&urdf_rs::Link, InputError> {
-        self.robot.links.iter().find(|l| l.name == name).ok_or_else(|| {
-            urdf_error(
-                &self.path,
-                0,
-                format!(
-                    "no link named `{name}` (links: {})",
-                    self.robot
-                        .links
-                        .iter()
-                        .map(|l| l.name.as_str())
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ),
-            )
-        })
+        self.named(&self.robot.links, name, "link", "links", |l| &l.name)
     }
 
     pub(crate) fn joint(&self, name: &str) -> Result<&urdf_rs::Joint, InputError> {
-        self.robot.joints.iter().find(|j| j.name == name).ok_or_else(|| {
-            urdf_error(
-                &self.path,
-                0,
-                format!(
-                    "no joint named `{name}` (joints: {})",
-                    self.robot
-                        .joints
-                        .iter()
-                        .map(|j| j.name.as_str())
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ),
-            )
-        })
+        self.named(&self.robot.joints, name, "joint", "joints", |j| &j.name)
     }
 
     pub(crate) fn loop_joint(&self, name: &str) -> Result<&urdf_rs::Joint, InputError> {
-        self.loops.iter().find(|j| j.name == name).ok_or_else(|| {
-            urdf_error(
-                &self.path,
-                0,
-                format!(
-                    "no <loop_joint> named `{name}` (loop joints: {})",
-                    self.loops
-                        .iter()
-                        .map(|j| j.name.as_str())
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ),
-            )
+        self.named(&self.loops, name, "<loop_joint>", "loop joints", |j| &j.name)
+    }
+
+    /// The item of `items` named `name`, or an error listing the names there are.
+    fn named<'a, T>(
+        &self,
+        items: &'a [T],
+        name: &str,
+        what: &str,
+        plural: &str,
+        name_of: impl Fn(&T) -> &String,
+    ) -> Result<&'a T, InputError> {
+        items.iter().find(|i| name_of(i) == name).ok_or_else(|| {
+            let all: Vec<&str> = items.iter().map(|i| name_of(i).as_str()).collect();
+            let msg = format!("no {what} named `{name}` ({plural}: {})", all.join(", "));
+            urdf_error(&self.path, 0, msg)
         })
     }
 
@@ -508,22 +483,51 @@ fn attribute_offset(raw: &str, key: &str) -> usize {
         .map_or(0, |(k, _)| k)
 }
 
-/// What an attribute must hold.
-#[derive(Clone, Copy)]
-enum Val {
-    Text,
-    Num,
-    /// A number ≥ 0 (a joint's losses: a negative one would feed energy in).
-    NonNeg,
-    Vec3,
-    Vec4,
-    JointType,
-}
+/// The attributes and children `urdf-rs` reads from an element, by its parent (`*`: any) and its name.
+/// Attributes are `name:kind` (`t` text, `n` a number, `+` a number ≥ 0 (a joint's loss: a negative one
+/// would feed energy in), `3`/`4` a vector of 3/4 numbers, `j` a joint type); children are names, `*` after
+/// one that may repeat; `!` marks what is required. Elements not listed are left to `urdf-rs`.
+const SCHEMA: &[(&str, &str, &str, &str)] = &[
+    ("robot", "link", "name:t!", "inertial visual* collision*"),
+    ("robot", "joint", "name:t! type:j!", JOINT_CHILDREN),
+    ("robot", "loop_joint", "name:t! type:j!", JOINT_CHILDREN),
+    ("robot", "material", "name:t!", "color texture"),
+    ("visual", "material", "name:t!", "color texture"),
+    ("link", "inertial", "", "origin mass! inertia!"),
+    ("link", "visual", "name:t", "origin geometry! material"),
+    ("link", "collision", "name:t", "origin geometry!"),
+    ("*", "origin", "xyz:3 rpy:3 quat_xyzw:4", ""),
+    ("inertial", "mass", "value:n!", ""),
+    (
+        "inertial",
+        "inertia",
+        "ixx:n! ixy:n! ixz:n! iyy:n! iyz:n! izz:n!",
+        "",
+    ),
+    ("*", "geometry", "", "box cylinder capsule sphere mesh"),
+    ("geometry", "box", "size:3!", ""),
+    ("geometry", "cylinder", "radius:n! length:n!", ""),
+    ("geometry", "capsule", "radius:n! length:n!", ""),
+    ("geometry", "sphere", "radius:n!", ""),
+    ("geometry", "mesh", "filename:t! scale:3", ""),
+    ("material", "color", "rgba:4!", ""),
+    ("material", "texture", "filename:t!", ""),
+    ("*", "parent", "link:t!", ""),
+    ("*", "child", "link:t!", ""),
+    ("*", "axis", "xyz:3!", ""),
+    ("*", "limit", "lower:n upper:n effort:n velocity:n!", ""),
+    ("*", "calibration", "rising:n falling:n", ""),
+    ("*", "dynamics", "damping:+ friction:+", ""),
+    ("*", "mimic", "joint:t! multiplier:n offset:n", ""),
+    (
+        "*",
+        "safety_controller",
+        "soft_lower_limit:n soft_upper_limit:n k_position:n k_velocity:n!",
+        "",
+    ),
+];
 
-/// An attribute of a URDF element: name, kind, required.
-type AttrSpec = (&'static str, Val, bool);
-/// A child element: name, at most one, required.
-type ChildSpec = (&'static str, bool, bool);
+const JOINT_CHILDREN: &str = "origin parent! child! axis limit calibration dynamics mimic safety_controller";
 
 const JOINT_TYPES: [&str; 7] = [
     "revolute",
@@ -535,131 +539,25 @@ const JOINT_TYPES: [&str; 7] = [
     "spherical",
 ];
 
-/// The attributes and children `urdf-rs` reads from an element (by its name and its parent's), `None`
-/// for an element this checker does not know (left to `urdf-rs`).
-fn schema(parent: &str, name: &str) -> Option<(&'static [AttrSpec], &'static [ChildSpec])> {
-    use Val::*;
-    const NO_CHILD: &[ChildSpec] = &[];
-    Some(match (parent, name) {
-        ("robot", "link") => (
-            &[("name", Text, true)],
-            &[
-                ("inertial", true, false),
-                ("visual", false, false),
-                ("collision", false, false),
-            ],
-        ),
-        ("robot", "joint") | ("robot", "loop_joint") => (
-            &[("name", Text, true), ("type", JointType, true)],
-            &[
-                ("origin", true, false),
-                ("parent", true, true),
-                ("child", true, true),
-                ("axis", true, false),
-                ("limit", true, false),
-                ("calibration", true, false),
-                ("dynamics", true, false),
-                ("mimic", true, false),
-                ("safety_controller", true, false),
-            ],
-        ),
-        ("robot", "material") | ("visual", "material") => (
-            &[("name", Text, true)],
-            &[("color", true, false), ("texture", true, false)],
-        ),
-        ("link", "inertial") => (
-            &[],
-            &[
-                ("origin", true, false),
-                ("mass", true, true),
-                ("inertia", true, true),
-            ],
-        ),
-        ("link", "visual") => (
-            &[("name", Text, false)],
-            &[
-                ("origin", true, false),
-                ("geometry", true, true),
-                ("material", true, false),
-            ],
-        ),
-        ("link", "collision") => (
-            &[("name", Text, false)],
-            &[("origin", true, false), ("geometry", true, true)],
-        ),
-        (_, "origin") => (
-            &[
-                ("xyz", Vec3, false),
-                ("rpy", Vec3, false),
-                ("quat_xyzw", Vec4, false),
-            ],
-            NO_CHILD,
-        ),
-        ("inertial", "mass") => (&[("value", Num, true)], NO_CHILD),
-        ("inertial", "inertia") => (
-            &[
-                ("ixx", Num, true),
-                ("ixy", Num, true),
-                ("ixz", Num, true),
-                ("iyy", Num, true),
-                ("iyz", Num, true),
-                ("izz", Num, true),
-            ],
-            NO_CHILD,
-        ),
-        (_, "geometry") => (
-            &[],
-            &[
-                ("box", true, false),
-                ("cylinder", true, false),
-                ("capsule", true, false),
-                ("sphere", true, false),
-                ("mesh", true, false),
-            ],
-        ),
-        ("geometry", "box") => (&[("size", Vec3, true)], NO_CHILD),
-        ("geometry", "cylinder") | ("geometry", "capsule") => {
-            (&[("radius", Num, true), ("length", Num, true)], NO_CHILD)
-        }
-        ("geometry", "sphere") => (&[("radius", Num, true)], NO_CHILD),
-        ("geometry", "mesh") => (&[("filename", Text, true), ("scale", Vec3, false)], NO_CHILD),
-        ("material", "color") => (&[("rgba", Vec4, true)], NO_CHILD),
-        ("material", "texture") => (&[("filename", Text, true)], NO_CHILD),
-        (_, "parent") | (_, "child") => (&[("link", Text, true)], NO_CHILD),
-        (_, "axis") => (&[("xyz", Vec3, true)], NO_CHILD),
-        (_, "limit") => (
-            &[
-                ("lower", Num, false),
-                ("upper", Num, false),
-                ("effort", Num, false),
-                ("velocity", Num, true),
-            ],
-            NO_CHILD,
-        ),
-        (_, "calibration") => (&[("rising", Num, false), ("falling", Num, false)], NO_CHILD),
-        (_, "dynamics") => (
-            &[("damping", NonNeg, false), ("friction", NonNeg, false)],
-            NO_CHILD,
-        ),
-        (_, "mimic") => (
-            &[
-                ("joint", Text, true),
-                ("multiplier", Num, false),
-                ("offset", Num, false),
-            ],
-            NO_CHILD,
-        ),
-        (_, "safety_controller") => (
-            &[
-                ("soft_lower_limit", Num, false),
-                ("soft_upper_limit", Num, false),
-                ("k_position", Num, false),
-                ("k_velocity", Num, true),
-            ],
-            NO_CHILD,
-        ),
-        _ => return None,
-    })
+/// An element's attributes (name, kind, required) and children (name, repeatable, required) by
+/// [`SCHEMA`], `None` for an element not listed.
+#[allow(clippy::type_complexity)]
+fn schema(
+    parent: &str,
+    name: &str,
+) -> Option<(Vec<(&'static str, char, bool)>, Vec<(&'static str, bool, bool)>)> {
+    let &(_, _, attrs, children) = SCHEMA
+        .iter()
+        .find(|s| (s.0 == parent || s.0 == "*") && s.1 == name)?;
+    let attrs = attrs.split_whitespace().map(|a| {
+        let (name, kind) = a.split_once(':').expect("name:kind");
+        (name, kind.chars().next().expect("a kind"), kind.ends_with('!'))
+    });
+    let children = children.split_whitespace().map(|c| {
+        let name = c.trim_end_matches(['!', '*']);
+        (name, c.contains('*'), c.ends_with('!'))
+    });
+    Some((attrs.collect(), children.collect()))
 }
 
 /// A finding of the checker: line, the element (`link `stick`: inertial/mass`), the message.
@@ -720,90 +618,69 @@ fn check_element(parent: &str, el: &XmlElement, owner: &str, path: &str) -> Resu
     let Some((attrs, children)) = schema(parent, &el.name) else {
         return Ok(());
     };
-    let here = if path.is_empty() {
-        owner.to_string()
-    } else {
-        format!("{owner}: {path}")
+    let here = match path {
+        "" => owner.to_string(),
+        _ => format!("{owner}: {path}"),
+    };
+    let allowed = |names: Vec<String>| match names.is_empty() {
+        true => "none".to_string(),
+        false => names.join(", "),
     };
     for a in &el.attrs {
         let Some(&(_, kind, _)) = attrs.iter().find(|(n, _, _)| *n == a.name) else {
-            // Attributes of the top-level elements other than these are left alone (`name`, `type` known).
-            let known: Vec<&str> = attrs.iter().map(|(n, _, _)| *n).collect();
+            let known = allowed(attrs.iter().map(|(n, _, _)| n.to_string()).collect());
             return Err((
                 a.line,
                 here,
-                format!(
-                    "unknown attribute `{}` (allowed: {})",
-                    a.name,
-                    if known.is_empty() {
-                        "none".to_string()
-                    } else {
-                        known.join(", ")
-                    }
-                ),
+                format!("unknown attribute `{}` (allowed: {known})", a.name),
             ));
         };
         check_value(kind, &a.value).map_err(|m| (a.line, here.clone(), format!("`{}`: {m}", a.name)))?;
     }
-    for &(name, _, required) in attrs {
-        if required && el.attr(name).is_none() {
-            return Err((el.line, here, format!("missing attribute `{name}`")));
-        }
+    if let Some((name, _, _)) = attrs
+        .iter()
+        .find(|(n, _, required)| *required && el.attr(n).is_none())
+    {
+        return Err((el.line, here, format!("missing attribute `{name}`")));
     }
     for c in &el.children {
-        let Some(&(_, single, _)) = children.iter().find(|(n, _, _)| *n == c.name) else {
-            let known: Vec<String> = children.iter().map(|(n, _, _)| format!("<{n}>")).collect();
+        let Some(&(_, repeats, _)) = children.iter().find(|(n, _, _)| *n == c.name) else {
+            let known = allowed(children.iter().map(|(n, _, _)| format!("<{n}>")).collect());
             return Err((
                 c.line,
                 here,
-                format!(
-                    "unknown element <{}> (allowed here: {})",
-                    c.name,
-                    if known.is_empty() {
-                        "none".to_string()
-                    } else {
-                        known.join(", ")
-                    }
-                ),
+                format!("unknown element <{}> (allowed here: {known})", c.name),
             ));
         };
-        if single {
-            if let Some(first) = el.children.iter().find(|d| d.name == c.name) {
-                if !std::ptr::eq(first, c) {
-                    return Err((
-                        c.line,
-                        here,
-                        format!(
-                            "a second <{}> (one allowed; the first is at line {})",
-                            c.name, first.line
-                        ),
-                    ));
-                }
-            }
+        let first = el.children.iter().find(|d| d.name == c.name).expect("c itself");
+        if !repeats && !std::ptr::eq(first, c) {
+            let msg = format!(
+                "a second <{}> (one allowed; the first is at line {})",
+                c.name, first.line
+            );
+            return Err((c.line, here, msg));
         }
-        let sub = if path.is_empty() {
-            c.name.clone()
-        } else {
-            format!("{path}/{}", c.name)
+        let sub = match path {
+            "" => c.name.clone(),
+            _ => format!("{path}/{}", c.name),
         };
         check_element(&el.name, c, owner, &sub)?;
     }
-    for &(name, _, required) in children {
-        if required && !el.children.iter().any(|c| c.name == name) {
-            return Err((el.line, here, format!("missing element <{name}>")));
-        }
+    if let Some((name, _, _)) = children
+        .iter()
+        .find(|(n, _, required)| *required && !el.children.iter().any(|c| c.name == *n))
+    {
+        return Err((el.line, here, format!("missing element <{name}>")));
     }
     if el.name == "geometry" && el.children.len() != 1 {
-        return Err((
-            el.line,
-            here,
-            "needs exactly one shape: <box>, <cylinder>, <capsule>, <sphere> or <mesh>".into(),
-        ));
+        let msg = "needs exactly one shape: <box>, <cylinder>, <capsule>, <sphere> or <mesh>";
+        return Err((el.line, here, msg.into()));
     }
     Ok(())
 }
 
-fn check_value(kind: Val, v: &str) -> Result<(), String> {
+/// Whether `v` is an attribute value of `kind` (see [`SCHEMA`]).
+fn check_value(kind: char, v: &str) -> Result<(), String> {
     let num = |s: &str| -> Result<f64, String> {
         match s.trim().parse::<f64>() {
             Ok(x) if x.is_finite() => Ok(x),
@@ -814,32 +691,27 @@ fn check_value(kind: Val, v: &str) -> Result<(), String> {
     let vector = |n: usize| -> Result<(), String> {
         let parts: Vec<&str> = v.split_whitespace().collect();
         if parts.len() != n {
-            return Err(format!(
-                "`{v}` has {} value{}, {n} expected (numbers separated by spaces)",
-                parts.len(),
-                if parts.len() == 1 { "" } else { "s" }
-            ));
+            let s = if parts.len() == 1 { "" } else { "s" };
+            let msg = format!(
+                "`{v}` has {} value{s}, {n} expected (numbers separated by spaces)",
+                parts.len()
+            );
+            return Err(msg);
         }
         parts.iter().try_for_each(|p| num(p).map(|_| ()))
     };
     match kind {
-        Val::Text => Ok(()),
-        Val::Num => num(v).map(|_| ()),
-        Val::NonNeg => match num(v)? {
+        'n' => num(v).map(|_| ()),
+        '+' => match num(v)? {
             x if x >= 0.0 => Ok(()),
             x => Err(format!(
                 "{x} must be ≥ 0 (a joint's loss: a negative one feeds energy into the rig)"
             )),
         },
-        Val::Vec3 => vector(3),
-        Val::Vec4 => vector(4),
-        Val::JointType => {
-            if JOINT_TYPES.contains(&v) {
-                Ok(())
-            } else {
-                Err(format!("`{v}` is not one of: {}", JOINT_TYPES.join(", ")))
-            }
-        }
+        '3' => vector(3),
+        '4' => vector(4),
+        'j' if !JOINT_TYPES.contains(&v) => Err(format!("`{v}` is not one of: {}", JOINT_TYPES.join(", "))),
+        _ => Ok(()),
     }
 }
 
@@ -929,36 +801,16 @@ mod tests {
 
     #[test]
     fn bad_values_name_the_line_element_and_attribute() {
-        let e = parse_err(&MINI.replacen(r#"<mass value="1"/>"#, r#"<mass value="heavy"/>"#, 1));
-        assert!(
-            e.contains("bad.urdf:3: link `a`: inertial/mass: `value`: `heavy` is not a number"),
-            "{e}"
-        );
-        let e = parse_err(&MINI.replace(r#"type="prismatic""#, r#"type="prismatik""#));
-        assert!(
-            e.contains("bad.urdf:8: joint `ac`: `type`: `prismatik` is not one of"),
-            "{e}"
-        );
         // An attribute on the next line of its tag, after a quoted `>`, is still found at its own line.
         let e = parse_err(&MINI.replace(
             r#"<joint name="ac" type="prismatic">"#,
             "<joint name=\"a>c\"\n    type=\"prismatik\">",
         ));
         assert!(e.contains("bad.urdf:9:") && e.contains("`prismatik`"), "{e}");
-        let e = parse_err(&MINI.replace(r#"<origin xyz="0.5 0 0"/>"#, r#"<origin xyz="0.5 0"/>"#));
-        assert!(
-            e.contains("bad.urdf:10: loop_joint `cb`: origin: `xyz`: `0.5 0` has 2 values, 3 expected"),
-            "{e}"
-        );
         // A value that urdf-rs would silently drop from a vector.
         let e = parse_err(&MINI.replacen(r#"<axis xyz="0 1 0"/>"#, r#"<axis xyz="0 one 0"/>"#, 1));
         assert!(
             e.contains("bad.urdf:6:") && e.contains("`one` is not a number"),
-            "{e}"
-        );
-        let e = parse_err(&MINI.replacen(r#"<mass value="1"/>"#, r#"<mass valu="1"/>"#, 1));
-        assert!(
-            e.contains("bad.urdf:3:") && e.contains("unknown attribute `valu` (allowed: value)"),
             "{e}"
         );
         let e = parse_err(&MINI.replacen(r#"<mass value="1"/>"#, r#"<mass/>"#, 1));
@@ -975,19 +827,9 @@ mod tests {
 
     #[test]
     fn malformed_xml_names_the_line() {
-        let e = parse_err(&MINI.replace("</loop_joint>", "</loop_jont>"));
-        assert!(
-            e.contains("bad.urdf:11:") && e.contains("does not close `<loop_joint>` opened at line 10"),
-            "{e}"
-        );
         let cut = &MINI[..MINI.find("<origin").unwrap() + 12];
         let e = parse_err(cut);
         assert!(e.contains("bad.urdf:10:") && e.contains("not closed"), "{e}");
-        let e = parse_err(&MINI.replace("</robot>", ""));
-        assert!(
-            e.contains("bad.urdf:2:") && e.contains("`<robot>` is never closed"),
-            "{e}"
-        );
         assert!(parse_err("").contains("bad.urdf:1:"));
         assert!(parse_err("hello").contains("bad.urdf:1:"));
         let e = parse_err("<?xml version=\"1.0\"?>\n<link name=\"a\"/>\n");
@@ -998,12 +840,7 @@ mod tests {
     }
 
     #[test]
-    fn duplicate_names_are_errors_at_the_second() {
-        let e = parse_err(&MINI.replacen(r#"<link name="b">"#, r#"<link name="a">"#, 1));
-        assert!(
-            e.contains("bad.urdf:4: link `a`: name: a second link named `a` (the first is at line 3)"),
-            "{e}"
-        );
+    fn a_loop_joint_may_not_repeat_a_joint_name() {
         let e = parse_err(&MINI.replace(r#"<loop_joint name="cb""#, r#"<loop_joint name="ab""#));
         assert!(
             e.contains("bad.urdf:10:") && e.contains("a second joint named `ab`") && e.contains("line 6"),
@@ -1011,23 +848,12 @@ mod tests {
         );
     }
 
+    /// The root is fixed to the world: it needs no mass (a moving massless link is refused:
+    /// `tests/bad_input_files.rs`).
     #[test]
-    fn a_moving_link_without_mass_is_an_error_a_fixed_one_is_not() {
-        let massless = |link: &str| {
-            MINI.replacen(
-                &format!(r#"<link name="{link}"><inertial><mass value="1"/>"#),
-                &format!(r#"<link name="{link}"><inertial><mass value="0"/>"#),
-                1,
-            )
-        };
-        let e = parse_err(&massless("b"));
-        assert!(
-            e.contains("bad.urdf:4: link `b`: inertial/mass: mass 0 kg")
-                && e.contains("joint `ab` (revolute)"),
-            "{e}"
-        );
-        // The root is fixed to the world: no mass needed.
-        UrdfModel::parse(&massless("a"), Path::new("ok.urdf")).unwrap();
+    fn a_massless_root_link_is_accepted() {
+        let massless = MINI.replacen(r#"<mass value="1"/>"#, r#"<mass value="0"/>"#, 1);
+        UrdfModel::parse(&massless, Path::new("ok.urdf")).unwrap();
     }
 
     #[test]

@@ -20,7 +20,7 @@ use crate::device::{Damper, EffectStage, Inputs, Stage, Step};
 
 /// What the rig applies on the piston DoF for one physics step.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct JointForce {
+pub(crate) struct JointForce {
     /// Bound of the implicit dry-friction (yield) constraint, N (≥ 0).
     pub friction_n: f64,
     /// Implicit viscous coefficient, N·s/m (≥ 0).
@@ -67,7 +67,7 @@ impl DamperJoint {
     }
 
     /// Evaluate the device at the step's start and split it into implicit and explicit parts.
-    pub fn begin_step(&mut self, inp: Inputs) -> JointForce {
+    pub(crate) fn begin_step(&mut self, inp: Inputs) -> JointForce {
         self.inp = inp;
         self.stage = self.damper.eval(&inp);
         let s = &self.stage;
@@ -86,18 +86,18 @@ impl DamperJoint {
     }
 
     /// Advance the device's states (coil and fluid lags, effect states) over the step.
-    pub fn end_step(&mut self, dt_s: f64, dx_m: f64) {
+    pub(crate) fn end_step(&mut self, dt_s: f64, dx_m: f64) {
         let (inp, stage) = (self.inp, self.stage);
         self.damper.advance(&inp, &stage, Step { dt_s, dx_m });
     }
 
     /// Coil current (Eq. 3 state), A.
-    pub fn coil_current_a(&self) -> f64 {
+    pub(crate) fn coil_current_a(&self) -> f64 {
         self.damper.coil_current_a()
     }
 
     /// Fluid excitation (Eq. 4 state), A.
-    pub fn fluid_current_a(&self) -> f64 {
+    pub(crate) fn fluid_current_a(&self) -> f64 {
         self.damper.fluid_excitation_a()
     }
 }

@@ -149,7 +149,7 @@ impl Frame {
 
 /// World frames of every link at neutral (all joint coordinates zero), composed from the root along the
 /// URDF tree. Links not reachable from the root keep the identity.
-pub fn neutral_frames(robot: &urdf_rs::Robot) -> Vec<(String, Frame)> {
+pub(crate) fn neutral_frames(robot: &urdf_rs::Robot) -> Vec<(String, Frame)> {
     let mut frames: Vec<(String, Frame)> = robot
         .links
         .iter()

@@ -13,7 +13,7 @@ use super::frames::{Frame, V3};
 
 /// The tree after folding fixed joints.
 #[derive(Debug, Clone)]
-pub struct Fused {
+pub(crate) struct Fused {
     /// Body links (the root and every child of a moving joint) with the combined inertials of their fixed
     /// descendants; the non-fixed joints, re-parented to the body links with composed origins.
     pub robot: urdf_rs::Robot,

@@ -44,7 +44,7 @@ impl Linkage {
     }
 
     /// Clevis position at stick angle `theta_rad` (right-handed about the pivot axis).
-    pub fn clevis_at(&self, theta_rad: f64) -> V3 {
+    pub(crate) fn clevis_at(&self, theta_rad: f64) -> V3 {
         self.pivot + (self.clevis - self.pivot).rotated_about(self.pivot_axis, theta_rad)
     }
 

@@ -21,7 +21,7 @@
 
 pub mod damper_joint;
 pub mod frames;
-pub mod fuse;
+pub(crate) mod fuse;
 pub mod linkage;
 
 use std::path::{Path, PathBuf};
@@ -346,52 +346,28 @@ impl Rig {
         let piston_j = model.joint(&roles.piston_joint)?;
         let loop_j = model.loop_joint(&roles.load_cell_joint)?;
         if !matches!(stick_j.joint_type, urdf_rs::JointType::Revolute) {
-            return Err(model
-                .field_error(
-                    "joint",
-                    &stick_j.name,
-                    "type",
-                    "the stick joint must be `revolute` (with stops)",
-                )
-                .into());
+            let msg = "the stick joint must be `revolute` (with stops)";
+            return Err(model.field_error("joint", &stick_j.name, "type", msg).into());
         }
         if !matches!(piston_j.joint_type, urdf_rs::JointType::Prismatic) {
-            return Err(model
-                .field_error(
-                    "joint",
-                    &piston_j.name,
-                    "type",
-                    "the piston joint must be `prismatic`",
-                )
-                .into());
+            let msg = "the piston joint must be `prismatic`";
+            return Err(model.field_error("joint", &piston_j.name, "type", msg).into());
         }
         let stick_limits = (stick_j.limit.lower, stick_j.limit.upper);
         if !(stick_limits.0 < 0.0 && stick_limits.1 > 0.0) {
-            return Err(model
-                .field_error(
-                    "joint",
-                    &stick_j.name,
-                    "limit",
-                    format!(
-                        "stops [{}, {}] rad must bracket the neutral angle 0",
-                        stick_limits.0, stick_limits.1
-                    ),
-                )
-                .into());
+            let msg = format!(
+                "stops [{}, {}] rad must bracket the neutral angle 0",
+                stick_limits.0, stick_limits.1
+            );
+            return Err(model.field_error("joint", &stick_j.name, "limit", msg).into());
         }
         let stroke_limits = (piston_j.limit.lower, piston_j.limit.upper);
         if !(stroke_limits.0 < 0.0 && stroke_limits.1 > 0.0) {
-            return Err(model
-                .field_error(
-                    "joint",
-                    &piston_j.name,
-                    "limit",
-                    format!(
-                        "stroke [{}, {}] m must bracket mid-stroke 0",
-                        stroke_limits.0, stroke_limits.1
-                    ),
-                )
-                .into());
+            let msg = format!(
+                "stroke [{}, {}] m must bracket mid-stroke 0",
+                stroke_limits.0, stroke_limits.1
+            );
+            return Err(model.field_error("joint", &piston_j.name, "limit", msg).into());
         }
         for (j, element) in [(stick_j, "joint"), (piston_j, "joint"), (loop_j, "loop_joint")] {
             if V3::from_array(j.axis.xyz.0).norm() < 1e-9 {
@@ -426,17 +402,11 @@ impl Rig {
                 )
             })?;
         if rod_joint.parent.link != stick_link {
-            return Err(model
-                .field_error(
-                    "loop_joint",
-                    &loop_j.name,
-                    "child",
-                    format!(
-                        "`{rod_link}` must hang on the stick `{stick_link}` (it hangs on `{}`)",
-                        rod_joint.parent.link
-                    ),
-                )
-                .into());
+            let msg = format!(
+                "`{rod_link}` must hang on the stick `{stick_link}` (it hangs on `{}`)",
+                rod_joint.parent.link
+            );
+            return Err(model.field_error("loop_joint", &loop_j.name, "child", msg).into());
         }
         let clevis = frame_of(&rod_link).p;
         let pin = frame_of(&loop_j.parent.link).apply(V3::from_array(loop_j.origin.xyz.0));
@@ -473,16 +443,12 @@ impl Rig {
         // The piston group: the piston link and every link fixed to it (the load cell).
         let group = model.fixed_group(&piston_j.child.link);
         if !group.contains(&loop_j.parent.link.as_str()) {
+            let msg = format!(
+                "`{}` must be fixed to the piston `{}`",
+                loop_j.parent.link, piston_j.child.link
+            );
             return Err(model
-                .field_error(
-                    "loop_joint",
-                    &loop_j.name,
-                    "parent",
-                    format!(
-                        "`{}` must be fixed to the piston `{}`",
-                        loop_j.parent.link, piston_j.child.link
-                    ),
-                )
+                .field_error("loop_joint", &loop_j.name, "parent", msg)
                 .into());
         }
         let piston_group_mass_kg: f64 = group
@@ -510,13 +476,9 @@ impl Rig {
         let r_perp = r - linkage.pivot_axis * r.dot(linkage.pivot_axis);
         let grip_lever_m = r_perp.norm();
         if grip_lever_m < 1e-6 {
+            let msg = "the grip lies on the pivot axis";
             return Err(model
-                .field_error(
-                    "link",
-                    &stick_link,
-                    "visual grip/origin",
-                    "the grip lies on the pivot axis",
-                )
+                .field_error("link", &stick_link, "visual grip/origin", msg)
                 .into());
         }
 
@@ -627,14 +589,8 @@ impl Rig {
         let (load_cell_body, load_cell_offset) = body_of(&loop_j.parent.link)?;
         let (rod_body, rod_offset) = body_of(&rod_link)?;
         if rod_offset != Frame::IDENTITY {
-            return Err(model
-                .field_error(
-                    "loop_joint",
-                    &loop_j.name,
-                    "child",
-                    format!("`{rod_link}` must be a moving link (it is fixed to its parent)"),
-                )
-                .into());
+            let msg = format!("`{rod_link}` must be a moving link (it is fixed to its parent)");
+            return Err(model.field_error("loop_joint", &loop_j.name, "child", msg).into());
         }
         let stick_joint = joint_of(&stick_j.name)?;
         let piston_joint = joint_of(&piston_j.name)?;
@@ -676,15 +632,10 @@ impl Rig {
         let pose2 = *world.bodies[rod_body].position();
         let o = &loop_j.origin;
         let origin = rapier3d::math::Pose::from_parts(
-            Vector::new(o.xyz[0] as f32, o.xyz[1] as f32, o.xyz[2] as f32),
+            f32v(V3::from_array(o.xyz.0)),
             quat(urdf::rpy_to_quat_xyzw(o.rpy.0)),
         );
-        let axis = Vector::new(
-            loop_j.axis.xyz[0] as f32,
-            loop_j.axis.xyz[1] as f32,
-            loop_j.axis.xyz[2] as f32,
-        )
-        .normalize();
+        let axis = f32v(V3::from_array(loop_j.axis.xyz.0)).normalize();
         let basis = rapier3d::math::Pose::from_rotation(GenericJoint::complete_ang_frame(axis));
         let frame1 = pose_f32(&load_cell_offset) * origin * basis;
         let frame2 = pose2.inverse() * pose1 * frame1;
@@ -739,11 +690,7 @@ impl Rig {
         let loop_joint = world.impulse_joints.insert(load_cell_body, rod_body, joint, true);
 
         let grip_in_body = stick_offset.apply(grip_local_f64);
-        let grip_local = Vector::new(
-            grip_in_body.x as f32,
-            grip_in_body.y as f32,
-            grip_in_body.z as f32,
-        );
+        let grip_local = f32v(grip_in_body);
         let visuals = model
             .robot
             .links
@@ -836,31 +783,16 @@ impl Rig {
             let rb = &mut self.world.bodies[self.piston_body];
             rb.reset_forces(false);
             rb.reset_torques(false);
-            rb.add_force(
-                Vector::new(
-                    (u.x * explicit_n) as f32,
-                    (u.y * explicit_n) as f32,
-                    (u.z * explicit_n) as f32,
-                ),
-                false,
-            );
+            rb.add_force(f32v(u * explicit_n), false);
         }
         {
             let rb = &mut self.world.bodies[self.stick_body];
             rb.reset_forces(false);
             rb.reset_torques(false);
             let grip = rb.position().transform_point(self.grip_local);
-            let pivot = Vector::new(
-                self.linkage.pivot.x as f32,
-                self.linkage.pivot.y as f32,
-                self.linkage.pivot.z as f32,
-            );
-            let k = Vector::new(
-                self.pivot_axis.x as f32,
-                self.pivot_axis.y as f32,
-                self.pivot_axis.z as f32,
-            );
-            let tangent = k.cross(grip - pivot).normalize_or_zero();
+            let tangent = f32v(self.pivot_axis)
+                .cross(grip - f32v(self.linkage.pivot))
+                .normalize_or_zero();
             rb.add_force_at_point(tangent * hand_force_n as f32, grip, false);
         }
 
@@ -982,7 +914,7 @@ impl Rig {
     /// `device` says: `file:line`, asked for only to name it in the error), within [`STROKE_TOLERANCE_M`].
     /// The rig's piston is the device's damper: a stroke in the device file that the URDF contradicts is an
     /// error naming both, not a value one of them silently overrides.
-    pub fn check_device_stroke(
+    pub(crate) fn check_device_stroke(
         &self,
         stroke_half_m: f64,
         device: impl FnOnce() -> String,
@@ -1031,7 +963,7 @@ impl Rig {
 
     /// For passive feel systems: an extra force on the piston along +x, N, computed by the
     /// caller (e.g. from [`Rig::state`]) and held for the following steps until set again.
-    pub fn set_external_force_n(&mut self, force_n: f64) {
+    pub(crate) fn set_external_force_n(&mut self, force_n: f64) {
         self.external_force_n = force_n;
     }
 
@@ -1040,7 +972,7 @@ impl Rig {
     /// but never inject it, whatever `k` and the step). Held until set again; `k = 0` removes it. A
     /// nonlinear spring is applied as its tangent at the present displacement (see
     /// `crate::control::feel::apply`).
-    pub fn set_external_spring(&mut self, stiffness_n_per_m: f64, rest_x_m: f64) {
+    pub(crate) fn set_external_spring(&mut self, stiffness_n_per_m: f64, rest_x_m: f64) {
         self.spring_k_n_per_m = stiffness_n_per_m.max(0.0);
         self.spring_rest_m = rest_x_m;
     }
@@ -1084,14 +1016,8 @@ fn check_stops_agree(
     for k in 0..=n {
         let t = lo + (hi - lo) * k as f64 / n as f64;
         let Some(x) = linkage.piston_x_m(t) else {
-            return Err(model
-                .field_error(
-                    "joint",
-                    &stick_j.name,
-                    "limit",
-                    format!("at {t:.4} rad the push rod cannot reach the piston's line"),
-                )
-                .into());
+            let msg = format!("at {t:.4} rad the push rod cannot reach the piston's line");
+            return Err(model.field_error("joint", &stick_j.name, "limit", msg).into());
         };
         if x <= piston_j.limit.lower || x >= piston_j.limit.upper {
             return Err(model.field_error(
@@ -1113,14 +1039,16 @@ fn check_stops_agree(
 fn pose_f32(f: &Frame) -> rapier3d::math::Pose {
     let r = &f.r;
     let m = rapier3d::math::Matrix::from_cols(
-        rapier3d::math::Vector::new(r[0][0] as f32, r[1][0] as f32, r[2][0] as f32),
-        rapier3d::math::Vector::new(r[0][1] as f32, r[1][1] as f32, r[2][1] as f32),
-        rapier3d::math::Vector::new(r[0][2] as f32, r[1][2] as f32, r[2][2] as f32),
+        Vector::new(r[0][0] as f32, r[1][0] as f32, r[2][0] as f32),
+        Vector::new(r[0][1] as f32, r[1][1] as f32, r[2][1] as f32),
+        Vector::new(r[0][2] as f32, r[1][2] as f32, r[2][2] as f32),
     );
-    rapier3d::math::Pose::from_parts(
-        Vector::new(f.p.x as f32, f.p.y as f32, f.p.z as f32),
-        rapier3d::math::Rotation::from_mat3(&m).normalize(),
-    )
+    rapier3d::math::Pose::from_parts(f32v(f.p), rapier3d::math::Rotation::from_mat3(&m).normalize())
+}
+
+/// A vector in rapier's f32.
+fn f32v(v: V3) -> Vector {
+    Vector::new(v.x as f32, v.y as f32, v.z as f32)
 }
 
 fn quat(q: [f64; 4]) -> rapier3d::math::Rotation {

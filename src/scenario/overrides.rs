@@ -365,10 +365,6 @@ mod tests {
         }
     }
 
-    fn num(v: f64) -> Option<toml::Value> {
-        Some(toml::Value::Float(v))
-    }
-
     #[test]
     fn overrides_change_only_their_keys() {
         let plain = Scenario::load(&base()).unwrap();
@@ -390,42 +386,20 @@ mod tests {
 
     #[test]
     fn an_unknown_key_or_a_value_out_of_range_is_refused_at_the_plan_line() {
-        let e = Scenario::load_with(
-            &base(),
-            &[Override::set(
-                "feel.gradient_n_per_mm",
-                num(900.0).unwrap(),
-                at(7),
-            )],
-        )
-        .unwrap_err()
-        .to_string();
-        assert!(
-            e.starts_with("plan.toml:7: field `feel.gradient_n_per_mm`: unknown field"),
-            "{e}"
-        );
-        let e = Scenario::load_with(
-            &base(),
-            &[Override::set("aircraft.airspeed_m_s", num(5.0).unwrap(), at(9))],
-        )
-        .unwrap_err()
-        .to_string();
-        assert!(
-            e.starts_with(
-                "plan.toml:9: field `aircraft.airspeed_m_s`: value 5 outside the allowed range [10, 300]"
+        for (key, value, line, want) in [
+            ("feel.gradient_n_per_mm", 900.0.into(), 7, "unknown field"),
+            (
+                "aircraft.airspeed_m_s",
+                5.0.into(),
+                9,
+                "value 5 outside the allowed range [10, 300]",
             ),
-            "{e}"
-        );
-        let e = Scenario::load_with(
-            &base(),
-            &[Override::set("controller.kp_a_per_n", "high".into(), at(2))],
-        )
-        .unwrap_err()
-        .to_string();
-        assert!(
-            e.starts_with("plan.toml:2: field `controller.kp_a_per_n`: invalid type"),
-            "{e}"
-        );
+            ("controller.kp_a_per_n", "high".into(), 2, "invalid type"),
+        ] {
+            let e = Scenario::load_with(&base(), &[Override::set(key, value, at(line))]).unwrap_err();
+            let want = format!("plan.toml:{line}: field `{key}`: {want}");
+            assert!(e.to_string().starts_with(&want), "{e}");
+        }
     }
 
     #[test]
@@ -444,7 +418,7 @@ mod tests {
                 toml::Value::Array(vec![toml::Value::Array(vec![0.0.into(), 1.0.into()])]),
                 at(3),
             ),
-            Override::set("rig.physics_hz", num(500.0).unwrap(), at(4)),
+            Override::set("rig.physics_hz", 500.0.into(), at(4)),
         ];
         let e = Scenario::load_with(&base(), &ov).unwrap_err().to_string();
         let want = format!(
@@ -458,30 +432,16 @@ mod tests {
     #[test]
     fn removed_keys_and_set_arguments() {
         // The given-gain pilot made adaptive: its gains removed, the crossover model's keys set.
-        let ov = [
-            Override {
-                key: "outer_loop.gain".into(),
-                value: None,
-                origin: at(1),
-            },
-            Override {
-                key: "outer_loop.lead_s".into(),
-                value: None,
-                origin: at(1),
-            },
-            Override {
-                key: "outer_loop.lag_s".into(),
-                value: None,
-                origin: at(1),
-            },
-            Override {
-                key: "outer_loop.integral_per_s".into(),
-                value: None,
-                origin: at(1),
-            },
-            Override::parse_argument("outer_loop.crossover_rad_s=1.5").unwrap(),
-            Override::parse_argument("outer_loop.stick_lag_s = 1").unwrap(),
-        ];
+        let removed = ["gain", "lead_s", "lag_s", "integral_per_s"].map(|k| Override {
+            key: format!("outer_loop.{k}"),
+            value: None,
+            origin: at(1),
+        });
+        let set = ["outer_loop.crossover_rad_s=1.5", "outer_loop.stick_lag_s = 1"];
+        let ov: Vec<_> = removed
+            .into_iter()
+            .chain(set.map(|a| Override::parse_argument(a).unwrap()))
+            .collect();
         let s = Scenario::load_with(&base(), &ov).unwrap();
         assert!(matches!(
             s.outer_loop.unwrap().pilot,
@@ -538,32 +498,19 @@ mod tests {
             t.insert("end_s".into(), 4.0.into());
             toml::Value::Table(t)
         };
-        let s = Scenario::load_with(
-            &base(),
-            &[Override::set(
-                "fault",
-                toml::Value::Array(vec![fault(2.0)]),
-                at(1),
-            )],
-        )
-        .unwrap();
-        assert_eq!(s.faults.faults.len(), 1);
+        let one = Override::set("fault", toml::Value::Array(vec![fault(2.0)]), at(1));
+        assert_eq!(
+            Scenario::load_with(&base(), &[one]).unwrap().faults.faults.len(),
+            1
+        );
         let two = [
             Override::set("fault", toml::Value::Array(vec![fault(2.0), fault(3.0)]), at(1)),
-            Override::set("fault.2.start_s", num(3.5).unwrap(), at(2)),
+            Override::set("fault.2.start_s", 3.5.into(), at(2)),
         ];
         let s = Scenario::load_with(&base(), &two).unwrap();
         assert_eq!(s.faults.faults[1].start_s, 3.5);
-        let e = Scenario::load_with(
-            &base(),
-            &[Override::set(
-                "fault",
-                toml::Value::Array(vec![fault(5.0)]),
-                at(6),
-            )],
-        )
-        .unwrap_err()
-        .to_string();
+        let late = Override::set("fault", toml::Value::Array(vec![fault(5.0)]), at(6));
+        let e = Scenario::load_with(&base(), &[late]).unwrap_err().to_string();
         assert!(e.starts_with("plan.toml:6: field `fault`"), "{e}");
     }
 }

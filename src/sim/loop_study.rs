@@ -74,11 +74,19 @@ impl Renderable {
         })
     }
 
+    /// The plant's force at zero current and at the driver's limit against a piston moving at `v_m_s` at
+    /// `x_m`, N.
+    fn range_n(&self, v_m_s: f64, x_m: f64) -> (f64, f64) {
+        let (dir, speed) = (v_m_s.signum(), v_m_s.abs());
+        (
+            self.plant.force_n(0.0, dir, speed, x_m, false),
+            self.plant.force_n(self.limit_a, dir, speed, x_m, false),
+        )
+    }
+
     /// Whether the plant can render `desired_n` against a piston moving at `v_m_s` at `x_m`.
     pub fn contains(&self, desired_n: f64, v_m_s: f64, x_m: f64) -> bool {
-        let (dir, speed) = (v_m_s.signum(), v_m_s.abs());
-        let lo = self.plant.force_n(0.0, dir, speed, x_m, false);
-        let hi = self.plant.force_n(self.limit_a, dir, speed, x_m, false);
+        let (lo, hi) = self.range_n(v_m_s, x_m);
         let f = desired_n.abs();
         f >= lo && f <= RENDERABLE_SHARE * hi
     }
@@ -87,11 +95,11 @@ impl Renderable {
     /// of `res` inside the band.
     pub fn error(&self, res: &Results) -> (usize, f64, f64) {
         let (mut se, mut sd, mut n) = (0.0, 0.0, 0usize);
-        for r in res.rows.iter().filter(|r| {
-            r.mode == LoopMode::Tracking
-                && r.desired_force_n * r.piston_v_m_s > 0.0
-                && self.contains(r.desired_force_n, r.piston_v_m_s, r.piston_x_m)
-        }) {
+        for r in res
+            .rows
+            .iter()
+            .filter(|r| resists(r) && self.contains(r.desired_force_n, r.piston_v_m_s, r.piston_x_m))
+        {
             se += (r.load_cell_true_n - r.desired_force_n).powi(2);
             sd += r.desired_force_n.powi(2);
             n += 1;
@@ -101,6 +109,25 @@ impl Renderable {
         }
         (n, (se / n as f64).sqrt(), (se / sd).sqrt())
     }
+
+    /// RMS over the resisting samples of `res` of how far the desired force lies outside the plant's range
+    /// at the sample's speed (0 A to the driver's limit, steady branch), N: the error no current removes
+    /// on that motion.
+    pub fn out_of_reach_n(&self, res: &Results) -> f64 {
+        let (mut se, mut n) = (0.0, 0usize);
+        for r in res.rows.iter().filter(|r| resists(r)) {
+            let (lo, hi) = self.range_n(r.piston_v_m_s, r.piston_x_m);
+            let f = r.desired_force_n.abs();
+            se += (f - hi).max(lo - f).max(0.0).powi(2);
+            n += 1;
+        }
+        (se / n.max(1) as f64).sqrt()
+    }
+}
+
+/// A row where the loop tracks a desired force that resists the motion.
+fn resists(r: &super::Row) -> bool {
+    r.mode == LoopMode::Tracking && r.desired_force_n * r.piston_v_m_s > 0.0
 }
 
 /// The diagnosis's stages on `tests` (base `bingham`, then each effect in the order it was added), each
@@ -174,15 +201,13 @@ pub fn figures(
     let s = res.summary();
     let (renderable_samples, renderable_rmse_n, renderable_nrmse) =
         Renderable::new(plant, scn.controller.gains.out_max)?.error(res);
-    let resisting =
-        |r: &&super::Row| r.mode == LoopMode::Tracking && r.desired_force_n * r.piston_v_m_s > 0.0;
     let band = BREAKOUT_BAND * res.stroke_half_m;
     let has_breakout = matches!(scn.feel, FeelLaw::Spring { breakout_n, .. } if breakout_n > 0.0);
     let (mut se, mut n) = (0.0, 0usize);
     for r in res
         .rows
         .iter()
-        .filter(resisting)
+        .filter(|r| resists(r))
         .filter(|r| r.piston_x_m.abs() < band)
     {
         se += (r.load_cell_true_n - r.desired_force_n).powi(2);
@@ -196,7 +221,7 @@ pub fn figures(
     // 2 lbf at the grip, on the piston: F_piston = F_grip · arm / gearing.
     let abs_tol_n = 2.0 * crate::units::LBF_TO_N * res.grip_arm_m / res.gearing_at_centre_m_per_rad;
     let (mut within, mut total) = (0usize, 0usize);
-    for r in res.rows.iter().filter(resisting) {
+    for r in res.rows.iter().filter(|r| resists(r)) {
         let tol = abs_tol_n.max(0.1 * r.desired_force_n.abs());
         within += usize::from((r.load_cell_true_n - r.desired_force_n).abs() <= tol);
         total += 1;
