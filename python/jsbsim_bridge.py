@@ -7,13 +7,18 @@ Protocol (one request line -> one reply line, ASCII, space separated, on stdin/s
     init <aircraft> <airspeed_m_s> <altitude_m> <dt_s>
                                                 -> "ok <STATE>"   (full trim in level flight, time 0)
     step <elevator_rad> <throttle_ratio>        -> "ok <STATE>"   (one JSBSim frame of dt_s)
+    cmd <command> <throttle_ratio>              -> "ok <STATE>"   (one frame; fly-by-wire: the stick's
+                                                   normalised pitch command to the FCS, pull +)
     quit                                        -> (exits 0)
     anything wrong                              -> "error <message>" (the bridge keeps running)
 
 STATE is the fields of STATE_FIELDS in that order (SI, Python repr, round-trip exact). The elevator is
 given in radians (positive trailing edge down, JSBSim's convention) and turned into
 `fcs/elevator-cmd-norm` through the aircraft's own "elevator-pos-rad" aerosurface_scale (read from its
-XML), with the pitch trim folded in; `throttle_ratio` scales the trim throttle of every engine.
+XML), with the pitch trim folded in; `throttle_ratio` scales the trim throttle of every engine. A
+fly-by-wire aircraft (FLY_BY_WIRE) is commanded through its flight control system instead: `cmd` writes
+`fcs/elevator-cmd-norm` (JSBSim's sign: negative = aft stick), the trim the FCS found stays in
+`fcs/pitch-trim-cmd-norm`.
 
 JSBSim writes its banner and reports to the C-level stdout; this script moves fd 1 to stderr before
 importing jsbsim and keeps a private duplicate of the original stdout for the protocol. The aircraft is
@@ -68,14 +73,17 @@ def main() -> int:
             elif words[0] == "init" and len(words) == 5:
                 fl = Live(jsbsim, ref, words[1], float(words[2]), float(words[3]), float(words[4]))
                 reply("ok " + fl.state())
-            elif words[0] == "step" and len(words) == 3:
+            elif words[0] in ("step", "cmd") and len(words) == 3:
                 if fl is None:
-                    reply("error step before init")
+                    reply(f"error {words[0]} before init")
                     continue
-                fl.step(float(words[1]), float(words[2]))
+                if words[0] == "step":
+                    fl.step(float(words[1]), float(words[2]))
+                else:
+                    fl.command(float(words[1]), float(words[2]))
                 reply("ok " + fl.state())
             else:
-                reply(f"error unknown request: {line.strip()!r} (expected init/step/quit)")
+                reply(f"error unknown request: {line.strip()!r} (expected init/step/cmd/quit)")
         except Exception as e:
             traceback.print_exc(file=sys.stderr)
             reply(f"error {type(e).__name__}: {e}")
@@ -95,6 +103,11 @@ def elevator_scale(xml_path: Path) -> tuple[float, float]:
     raise ValueError(f"{xml_path}: no aerosurface_scale with output fcs/elevator-pos-rad")
 
 
+# Fly-by-wire aircraft of JSBSim's package flown through their FCS (`cmd`); loaded from the package's
+# own folder (their XML opens no network port).
+FLY_BY_WIRE = {"f16"}
+
+
 class Live:
     def __init__(self, jsbsim, ref, aircraft: str, airspeed_m_s: float, altitude_m: float, dt_s: float):
         """`aircraft`: a name of the JSBSim package's aircraft, or the path of an aircraft folder holding
@@ -104,8 +117,11 @@ class Live:
             adir, name = folder.parent, folder.name
         elif aircraft in ref.AIRCRAFT:
             adir, name = ref.offline_aircraft_dir(jsbsim, aircraft), aircraft
+        elif aircraft in FLY_BY_WIRE:
+            adir, name = Path(jsbsim.get_default_root_dir()) / "aircraft", aircraft
         else:
-            raise ValueError(f"aircraft {aircraft!r} not supported (one of {sorted(ref.AIRCRAFT)}, or a folder path)")
+            known = sorted(set(ref.AIRCRAFT) | FLY_BY_WIRE)
+            raise ValueError(f"aircraft {aircraft!r} not supported (one of {known}, or a folder path)")
         self.fdm = jsbsim.FGFDMExec(root_dir=jsbsim.get_default_root_dir())
         f = self.fdm
         f.set_debug_level(0)
@@ -139,6 +155,14 @@ class Live:
         norm = elevator_rad / self.hi if elevator_rad >= 0.0 else elevator_rad / -self.lo
         norm = max(-1.0, min(1.0, norm))
         f["fcs/elevator-cmd-norm"] = norm - self.pitch_trim
+        for k in range(self.engines):
+            f[f"fcs/throttle-cmd-norm[{k}]"] = max(0.0, min(1.0, self.trim_throttle[k] * throttle_ratio))
+        f.run()
+
+    def command(self, command: float, throttle_ratio: float):
+        """One frame with the fly-by-wire stick command `command` in [-1, 1], pull (aft stick) positive."""
+        f = self.fdm
+        f["fcs/elevator-cmd-norm"] = -max(-1.0, min(1.0, command))
         for k in range(self.engines):
             f[f"fcs/throttle-cmd-norm[{k}]"] = max(0.0, min(1.0, self.trim_throttle[k] * throttle_ratio))
         f.run()

@@ -56,7 +56,8 @@ if step 7 "Feel design across the c172p's envelope: five feel systems x airspeed
 fi
 
 if step 8 "A pull-up in each aircraft: stick force against load factor, flown and steady, against its basis's band"; then
-    for scn in c172p-pullup T37-pullup 737-approach; do
+    # f16-pullup flies JSBSim live (the fly-by-wire F-16 has no embedded model): it needs .venv with jsbsim
+    for scn in c172p-pullup T37-pullup 737-approach f16-pullup; do
         "$mrfeel" run "scenarios/$scn.toml" --out "$out/flight/$scn.csv" --plot "$out/flight/$scn"
     done
 fi

@@ -2,7 +2,7 @@
 # A sweep run on a Ray cluster equals the same sweep run in one process, byte for byte. Starts a real local
 # Ray cluster (127.0.0.1 only, 2 CPUs, no dashboard, its own temporary directory), runs
 # scenarios/sweeps/paper-feel-small.toml through python/sweep_ray.py in 4 shards, runs it in one process,
-# compares results.csv, results.arrow and runs.jsonl, and stops the cluster (the `ray start --block` it
+# compares results.parquet, results.csv and runs.jsonl, and stops the cluster (the `ray start --block` it
 # started, by its process id), also on failure.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -29,7 +29,7 @@ plan=scenarios/sweeps/paper-feel-small.toml
 "$py" python/sweep_ray.py "$plan" --out "$tmp/ray-out" --address "127.0.0.1:$port" --shards 4 \
     --mrfeel "$mrfeel" --connect-timeout-s 120 >/dev/null
 "$mrfeel" sweep "$plan" --out "$tmp/local" --jobs 2 >/dev/null
-for f in results.csv results.arrow runs.jsonl; do
+for f in results.parquet results.csv runs.jsonl; do
     cmp "$tmp/local/$f" "$tmp/ray-out/$f"
 done
-echo "Ray sweep (4 shards on a local cluster) == one process: results.csv, results.arrow, runs.jsonl"
+echo "Ray sweep (4 shards on a local cluster) == one process: results.parquet, results.csv, runs.jsonl"

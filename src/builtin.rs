@@ -52,6 +52,11 @@ const FILES: &[(&str, &str)] = &[
         include_str!("../models/aircraft/T37.toml"),
     ),
     (
+        "models/aircraft/f16.toml",
+        include_str!("../models/aircraft/f16.toml"),
+    ),
+    ("models/sidestick.urdf", include_str!("../models/sidestick.urdf")),
+    (
         "scenarios/paper-feel-loop.toml",
         include_str!("../scenarios/paper-feel-loop.toml"),
     ),
@@ -78,6 +83,10 @@ const FILES: &[(&str, &str)] = &[
     (
         "scenarios/T37-pullup.toml",
         include_str!("../scenarios/T37-pullup.toml"),
+    ),
+    (
+        "scenarios/f16-pullup.toml",
+        include_str!("../scenarios/f16-pullup.toml"),
     ),
     (
         "python/jsbsim_bridge.py",

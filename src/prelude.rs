@@ -2,6 +2,7 @@
 //! lacks and run a scenario, each as one call. The command line (`fit`, `validate`, `diagnose`, `run`) and
 //! the Python bindings both call these, so a result is the same, to the bit, whichever way it was asked
 //! for; they differ only in how they show it.
+#![warn(missing_docs)]
 
 use std::path::{Path, PathBuf};
 

@@ -1,6 +1,7 @@
 //! Signal processing on sampled records, one of each: sample intervals, differentiators (the 7-sample
 //! smoother of a file's missing velocity, the widening local quintic of model discovery, the DAQ's
 //! filtered differentiator), the noise estimate, the moving average and the ADC quantiser.
+#![warn(missing_docs)]
 
 /// Median sample interval, s (1 with fewer than two samples).
 pub(crate) fn median_interval(t: &[f64]) -> f64 {

@@ -89,7 +89,7 @@ fn shards_merged_equal_one_process_on_any_number_of_workers() {
     args.extend(shards.iter().map(|d| d.display().to_string()));
     args.extend(["--out".into(), merged.display().to_string()]);
     ok(&mrfeel(&args));
-    for f in ["results.csv", "results.arrow", "runs.jsonl"] {
+    for f in ["results.parquet", "results.csv", "runs.jsonl"] {
         assert!(
             bytes(&one, f) == bytes(&merged, f),
             "{f} differs between one process and merged shards"
@@ -101,9 +101,33 @@ fn shards_merged_equal_one_process_on_any_number_of_workers() {
     assert_eq!(rows.len(), 12, "{csv}");
     let seeds: std::collections::BTreeSet<&str> = rows.iter().map(|r| r.split(',').nth(1).unwrap()).collect();
     assert_eq!(seeds.len(), 12);
-    // An Arrow IPC file: its magic at both ends.
-    let ipc = bytes(&one, "results.arrow");
-    assert!(ipc.starts_with(b"ARROW1") && ipc.ends_with(b"ARROW1"));
+    // A Parquet file with the CSV's columns and rows: read back, its index and seeds are the CSV's.
+    let pq = bytes(&one, "results.parquet");
+    assert!(pq.starts_with(b"PAR1") && pq.ends_with(b"PAR1"));
+    let reader = parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(
+        std::fs::File::open(one.join("results.parquet")).unwrap(),
+    )
+    .unwrap()
+    .build()
+    .unwrap();
+    let batches: Vec<_> = reader.map(|b| b.unwrap()).collect();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let schema = batches[0].schema();
+    let names: Vec<&str> = schema.fields().iter().map(|f| f.name().as_str()).collect();
+    assert_eq!(names, header);
+    assert_eq!(batches.iter().map(|b| b.num_rows()).sum::<usize>(), 12);
+    let col = |name: &str| -> Vec<String> {
+        let a = batches[0].column(header.iter().position(|h| *h == name).unwrap());
+        let a = a.as_any().downcast_ref::<arrow_array::UInt64Array>().unwrap();
+        a.values().iter().map(|v| v.to_string()).collect()
+    };
+    let csv_col = |k: usize| -> Vec<String> {
+        rows.iter()
+            .map(|r| r.split(',').nth(k).unwrap().to_string())
+            .collect()
+    };
+    assert_eq!(col("index"), csv_col(0));
+    assert_eq!(col("seed"), csv_col(1));
 }
 
 #[test]
@@ -188,7 +212,7 @@ fn a_killed_sweep_resumes_without_repeating_or_losing_a_run() {
         "2",
     ]));
     assert!(again.contains(&format!("12 runs ({kept} resumed")), "{again}");
-    for f in ["results.csv", "results.arrow", "runs.jsonl"] {
+    for f in ["results.parquet", "results.csv", "runs.jsonl"] {
         assert!(bytes(&whole, f) == bytes(&out, f), "{f} differs after the resume");
     }
     let idx: Vec<u64> = String::from_utf8(bytes(&out, "runs.jsonl"))

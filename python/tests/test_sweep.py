@@ -1,8 +1,8 @@
-"""A sweep's results file (Arrow IPC, Feather v2) is read by pandas as written: the CSV's rows and columns,
+"""A sweep's results file (Parquet) is read by pandas as written: the CSV's rows and columns,
 typed, with the physics of each run in its row."""
 
 import pandas as pd
-import pyarrow  # noqa: F401  (pandas reads Feather through it)
+import pyarrow  # noqa: F401  (pandas reads Parquet through it)
 
 from conftest import ROOT, cli
 
@@ -25,7 +25,7 @@ def test_pandas_reads_the_sweep_results_as_the_csv(tmp_path):
     plan.write_text(PLAN.format(scenario=ROOT / "scenarios" / "paper-feel-loop.toml"))
     out = tmp_path / "out"
     cli("sweep", plan, "--out", out, "--jobs", "1")
-    arrow = pd.read_feather(out / "results.arrow")
+    arrow = pd.read_parquet(out / "results.parquet")
     csv = pd.read_csv(out / "results.csv")
     assert list(arrow.columns) == list(csv.columns)
     assert len(arrow) == len(csv) == 2

@@ -9,6 +9,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use super::fbw::FlyByWire;
 use super::jsbsim_bridge::JsbsimBridge;
 use super::{AeroError, Aircraft, AircraftModel, AircraftState, HingeModel};
 
@@ -16,8 +17,12 @@ use super::{AeroError, Aircraft, AircraftModel, AircraftState, HingeModel};
 pub trait AircraftBackend {
     /// The scenario string that selected it (`"c172p"`, `"jsbsim:c172p"`).
     fn label(&self) -> &str;
-    /// The hinge and stick gearing used for the stick force.
-    fn hinge(&self) -> &HingeModel;
+    /// The hinge and stick gearing used for the stick force; `None` for a fly-by-wire aircraft.
+    fn hinge(&self) -> Option<&HingeModel>;
+    /// A fly-by-wire aircraft's stick (its designed feel and FCS command); `None` for the others.
+    fn fly_by_wire(&self) -> Option<&FlyByWire> {
+        None
+    }
     /// The model file's parameters marked `[EST]` (`section.key`): estimates without a source.
     fn estimates(&self) -> &[String];
     /// Level 1-g trim at a true airspeed and altitude; time restarts at 0. Sets the trim tab.
@@ -25,6 +30,14 @@ pub trait AircraftBackend {
     /// One step of `dt_s` (the `dt_s` given to [`AircraftBackend::trim`]) with the elevator (rad,
     /// positive trailing edge down) and the throttle as a ratio of the trim throttle held over it.
     fn step(&mut self, elevator_rad: f64, throttle_ratio: f64) -> Result<AircraftState, AeroError>;
+    /// One step of a fly-by-wire aircraft with its stick's normalised FCS command (pull +, in [-1, 1]).
+    fn step_command(&mut self, command: f64, throttle_ratio: f64) -> Result<AircraftState, AeroError> {
+        let _ = (command, throttle_ratio);
+        Err(AeroError::Refused {
+            what: format!("aircraft `{}`", self.label()),
+            why: "not fly-by-wire: its stick drives the elevator".into(),
+        })
+    }
     /// Round trips of the `step` requests for a co-simulation: (count, mean µs, max µs).
     fn round_trip_us(&self) -> Option<(u64, f64, f64)> {
         None
@@ -84,7 +97,12 @@ pub fn model_file(name: &str) -> Result<PathBuf, AeroError> {
 pub fn open(spec: &str) -> Result<Box<dyn AircraftBackend>, AeroError> {
     match spec.split_once(':') {
         Some(("jsbsim", name)) => {
-            let model = Arc::new(AircraftModel::load(&model_file(name)?)?);
+            let path = model_file(name)?;
+            if is_fly_by_wire_file(&path)? {
+                let fbw = FlyByWire::load(&path)?;
+                return Ok(Box::new(JsbsimBridge::spawn_fly_by_wire(name, fbw)?));
+            }
+            let model = Arc::new(AircraftModel::load(&path)?);
             Ok(Box::new(JsbsimBridge::spawn(name, model)?))
         }
         Some((other, _)) => Err(AeroError::Refused {
@@ -92,10 +110,25 @@ pub fn open(spec: &str) -> Result<Box<dyn AircraftBackend>, AeroError> {
             why: format!("unknown backend `{other}` (use `<name>` or `jsbsim:<name>`)"),
         }),
         None => {
+            if is_fly_by_wire_file(&AircraftModel::builtin(spec)?)? {
+                return Err(AeroError::Refused {
+                    what: format!("aircraft `{spec}`"),
+                    why: format!(
+                        "a fly-by-wire aircraft is flown live through its flight control system: `jsbsim:{spec}` \
+                         (no embedded model)"
+                    ),
+                });
+            }
             let model = Arc::new(AircraftModel::load_builtin(spec)?);
             Ok(Box::new(Embedded::new(spec, model)))
         }
     }
+}
+
+/// Whether the model file at `path` is a fly-by-wire aircraft's (`[fly_by_wire]`, [`FlyByWire`]).
+pub fn is_fly_by_wire_file(path: &Path) -> Result<bool, AeroError> {
+    let src = crate::input::Source::read(path)?;
+    Ok(crate::input::aircraft::is_fly_by_wire(&src.text))
 }
 
 /// The embedded nonlinear 3-DOF model ([`Aircraft`]).
@@ -126,8 +159,8 @@ impl AircraftBackend for Embedded {
         &self.label
     }
 
-    fn hinge(&self) -> &HingeModel {
-        self.aircraft.hinge()
+    fn hinge(&self) -> Option<&HingeModel> {
+        Some(self.aircraft.hinge())
     }
 
     fn estimates(&self) -> &[String] {
@@ -176,7 +209,7 @@ mod tests {
         for _ in 0..60 {
             s = b.step(-0.08, 1.0).unwrap();
         }
-        let filled = with_hinge(b.hinge(), s);
+        let filled = with_hinge(b.hinge().unwrap(), s);
         assert!(
             s.stick_force_n.abs() > 10.0,
             "a pulled elevator needs a pull: {}",

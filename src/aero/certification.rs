@@ -122,18 +122,7 @@ impl FeelAssessment {
         let m = aircraft.model();
         let basis = CertificationBasis::for_model(m);
         let n_lim = m.limit_load_factor;
-        // stick force per g between 1 g and 2 g, or 80 % of the way to the stall load factor
-        // when the wing cannot reach 2 g at this speed
-        let air = super::atmosphere::isa(altitude_m);
-        let cl_1g = m.mass_kg * G0_M_S2 / (0.5 * air.density_kg_m3 * airspeed_m_s.powi(2) * m.wing_area_m2);
-        let n_stall = m.cl_max() / cl_1g;
-        let n_ref = 2.0_f64.min(n_lim).min(1.0 + 0.8 * (n_stall - 1.0));
-        if n_ref <= 1.05 {
-            return Err(AeroError::Refused {
-                what: format!("{} at {airspeed_m_s} m/s, {altitude_m} m", m.name),
-                why: format!("too close to the stall for a pull-up (stall load factor {n_stall:.2})"),
-            });
-        }
+        let n_ref = per_g_load_factor(m, airspeed_m_s, altitude_m)?;
         let per_g = aircraft.stick_force_per_g(airspeed_m_s, altitude_m, n_ref)?;
         let (force_at_limit_n, extrapolated) =
             match aircraft.pull_up_stick_force_n(airspeed_m_s, altitude_m, n_lim) {
@@ -231,6 +220,27 @@ impl FeelAssessment {
             self.complies()
         )
     }
+}
+
+/// The load factor of the pull-up that measures stick force per g: 2 g, or 80 % of the way to the stall
+/// load factor when the wing cannot reach 2 g at this speed (never beyond the limit load factor); refused
+/// too close to the stall.
+pub(crate) fn per_g_load_factor(
+    m: &AircraftModel,
+    airspeed_m_s: f64,
+    altitude_m: f64,
+) -> Result<f64, AeroError> {
+    let air = super::atmosphere::isa(altitude_m);
+    let cl_1g = m.mass_kg * G0_M_S2 / (0.5 * air.density_kg_m3 * airspeed_m_s.powi(2) * m.wing_area_m2);
+    let n_stall = m.cl_max() / cl_1g;
+    let n_ref = 2.0_f64.min(m.limit_load_factor).min(1.0 + 0.8 * (n_stall - 1.0));
+    if n_ref <= 1.05 {
+        return Err(AeroError::Refused {
+            what: format!("{} at {airspeed_m_s} m/s, {altitude_m} m", m.name),
+            why: format!("too close to the stall for a pull-up (stall load factor {n_stall:.2})"),
+        });
+    }
+    Ok(n_ref)
 }
 
 /// MIL-F-8785C Table V, centre stick, Level 1: (minimum, maximum) stick force per g, N/g, for the

@@ -19,6 +19,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use super::backend::{with_hinge, AircraftBackend};
+use super::fbw::FlyByWire;
 use super::{AeroError, AircraftModel, AircraftState, HingeModel};
 
 /// How to install the Python side, quoted in every error.
@@ -93,7 +94,9 @@ pub(crate) struct RoundTrip {
 pub(crate) struct JsbsimBridge {
     label: String,
     name: String,
-    hinge: HingeModel,
+    /// The hinge and stick gearing of a mechanically linked elevator; `None` for a fly-by-wire aircraft.
+    hinge: Option<HingeModel>,
+    fbw: Option<FlyByWire>,
     estimates: Vec<String>,
     child: Child,
     stdin: Option<ChildStdin>,
@@ -112,6 +115,21 @@ impl JsbsimBridge {
     /// Start the bridge for aircraft `name` (JSBSim's folder name, `c172p`, `737`); the hinge and
     /// stick gearing come from the embedded model of the same name.
     pub fn spawn(name: &str, model: Arc<AircraftModel>) -> Result<Self, AeroError> {
+        Self::start(name, Some(model.hinge.clone()), None, model.estimates.clone())
+    }
+
+    /// Start the bridge for the fly-by-wire aircraft `name` (`f16`), commanded through its FCS.
+    pub fn spawn_fly_by_wire(name: &str, fbw: FlyByWire) -> Result<Self, AeroError> {
+        let estimates = fbw.estimates.clone();
+        Self::start(name, None, Some(fbw), estimates)
+    }
+
+    fn start(
+        name: &str,
+        hinge: Option<HingeModel>,
+        fbw: Option<FlyByWire>,
+        estimates: Vec<String>,
+    ) -> Result<Self, AeroError> {
         let (py, found) = python();
         let fail = |why: String| AeroError::Refused {
             what: format!("live JSBSim `jsbsim:{name}`"),
@@ -174,8 +192,9 @@ impl JsbsimBridge {
         let mut b = Self {
             label: format!("jsbsim:{name}"),
             name: name.to_string(),
-            hinge: model.hinge.clone(),
-            estimates: model.estimates.clone(),
+            hinge,
+            fbw,
+            estimates,
             child,
             stdin,
             lines: rx,
@@ -279,7 +298,10 @@ impl JsbsimBridge {
             feel_trim_rad: self.feel_trim_rad,
             ..AircraftState::default()
         };
-        Ok(with_hinge(&self.hinge, s))
+        Ok(match &self.hinge {
+            Some(h) => with_hinge(h, s),
+            None => s,
+        })
     }
 }
 
@@ -288,8 +310,12 @@ impl AircraftBackend for JsbsimBridge {
         &self.label
     }
 
-    fn hinge(&self) -> &HingeModel {
-        &self.hinge
+    fn hinge(&self) -> Option<&HingeModel> {
+        self.hinge.as_ref()
+    }
+
+    fn fly_by_wire(&self) -> Option<&FlyByWire> {
+        self.fbw.as_ref()
     }
 
     fn estimates(&self) -> &[String] {
@@ -301,9 +327,11 @@ impl AircraftBackend for JsbsimBridge {
             &format!("init {} {airspeed_m_s:?} {altitude_m:?} {dt_s:?}", self.name),
             START_TIMEOUT,
         )?;
-        let alpha_t = self.hinge.alpha_tail_rad(s.alpha_rad, s.q_rad_s, s.airspeed_m_s);
-        self.tab_rad = self
-            .hinge
+        let Some(hinge) = self.hinge.clone() else {
+            return Ok(s);
+        };
+        let alpha_t = hinge.alpha_tail_rad(s.alpha_rad, s.q_rad_s, s.airspeed_m_s);
+        self.tab_rad = hinge
             .trim_tab_rad(alpha_t, s.elevator_rad)
             .ok_or_else(|| AeroError::Trim {
                 aircraft: self.label.clone(),
@@ -312,12 +340,12 @@ impl AircraftBackend for JsbsimBridge {
                 nz_g: 1.0,
                 why: "the tab cannot zero the stick force at JSBSim's trim".into(),
             })?;
-        self.feel_trim_rad = match &self.hinge.feel_computer {
-            Some(fc) => fc.trim_rad(self.hinge.stick_from_elevator_rad(s.elevator_rad), s.mach),
+        self.feel_trim_rad = match &hinge.feel_computer {
+            Some(fc) => fc.trim_rad(hinge.stick_from_elevator_rad(s.elevator_rad), s.mach),
             None => 0.0,
         };
         Ok(with_hinge(
-            &self.hinge,
+            &hinge,
             AircraftState {
                 tab_rad: self.tab_rad,
                 feel_trim_rad: self.feel_trim_rad,
@@ -328,6 +356,10 @@ impl AircraftBackend for JsbsimBridge {
 
     fn step(&mut self, elevator_rad: f64, throttle_ratio: f64) -> Result<AircraftState, AeroError> {
         self.request(&format!("step {elevator_rad:?} {throttle_ratio:?}"), STEP_TIMEOUT)
+    }
+
+    fn step_command(&mut self, command: f64, throttle_ratio: f64) -> Result<AircraftState, AeroError> {
+        self.request(&format!("cmd {command:?} {throttle_ratio:?}"), STEP_TIMEOUT)
     }
 
     fn round_trip_us(&self) -> Option<(u64, f64, f64)> {

@@ -8,6 +8,7 @@
 //! - [`HingeModel`]: `H = qbar_t S_e c_e (Ch0 + Ch_alpha alpha_t + Ch_delta delta_e + Ch_tab delta_tab)`
 //!   and the stick force `F = H * gearing / arm * feedback` (pull = positive aft force).
 //! - [`certification`]: 14 CFR 23/25 control-force limits and where an aircraft sits.
+//! - [`FlyByWire`]: a fly-by-wire aircraft's stick: designed feel law and FCS command (JSBSim live only).
 //!
 //! Axes: body x forward, z down; pitch rate, pitch angle and angle of attack positive nose-up;
 //! elevator positive trailing edge down (JSBSim's convention: positive elevator pitches nose-down).
@@ -15,6 +16,7 @@
 pub mod atmosphere;
 pub mod backend;
 pub mod certification;
+pub mod fbw;
 pub mod hinge;
 pub mod hinge_theory;
 pub mod jsbsim_bridge;
@@ -24,6 +26,7 @@ pub mod model;
 pub mod table;
 
 pub use certification::{CertificationBasis, FeelAssessment};
+pub use fbw::FlyByWire;
 pub use hinge::HingeModel;
 pub use longitudinal::{Aircraft, AircraftState};
 pub use model::AircraftModel;

@@ -17,7 +17,7 @@ pub struct SweepArgs {
     #[arg(required = true)]
     pub plan: Option<PathBuf>,
     /// Output directory: `sweep.toml`, `runs.jsonl` (what a rerun skips), `results.csv`,
-    /// `results.arrow`, `report.md`, maps.
+    /// `results.parquet`, `report.md`, maps.
     #[arg(long, required = true)]
     pub out: Option<PathBuf>,
     /// Runs in parallel on this machine (threads; default: every core).
@@ -116,8 +116,8 @@ fn finish(dir: &Path, plan: Option<&Plan>) -> anyhow::Result<()> {
     print_summary(&columns, &records)?;
     mrfeel::outln!(
         "  results: {}, {}; report: {}",
+        dir.join(store::RESULTS_PARQUET).display(),
         dir.join(store::RESULTS_CSV).display(),
-        dir.join(store::RESULTS_ARROW).display(),
         dir.join("report.md").display()
     )?;
     for m in &maps {

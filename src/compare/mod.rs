@@ -1,21 +1,8 @@
-//! Feel systems compared on the same rig, linkage and pilot task: three spring feel units, the paper's MR
-//! damper under a force loop, the hybrid MR damper + centring spring and the active stick; plus the same
-//! runs with faults in the power and signal path ([`crate::faults`]).
-//!
-//! | name | force element on the piston joint | electrical path |
-//! |---|---|---|
-//! | `centring_spring` | Hanlon's centring spring + the unit's viscous damper | none |
-//! | `variable_gradient_spring` | Griffith's variable-gradient spring + damper | none |
-//! | `q_feel` | q-feel spring at the scenario's q̄ + damper | none |
-//! | `mr` | the paper's MR damper (Eq. 2–6), force loop on the load cell | DAQ → PI → driver → coil |
-//! | `mr_spring` | MR damper + a lighter centring spring (hybrid) | as `mr` |
-//! | `active` | a motor rendering the target by impedance control | DAQ → driver → motor |
-//!
-//! Every system runs in the loop of `mrfeel run` ([`crate::sim::Loop`]) built from the `base` scenario,
-//! with the comparison's target as the feel law and the system as the scenario's feel system
-//! ([`crate::control::FeelSystem`]), the component any scenario's `[feel_system]` names. The pilot's task
-//! (sinusoidal motion, deflect–hold, let go; or a slow force ramp for the breakout) is fed to the hand
-//! sample by sample; letting go is a NaN command (hands off).
+//! Feel systems compared on the same rig, linkage and pilot task (three spring feel units, the MR damper
+//! under a force loop, the hybrid and the active stick; table in `docs/feel.md`), with and without faults in
+//! the power and signal path ([`crate::faults`]). Every system runs in the loop of `mrfeel run`
+//! ([`crate::sim::Loop`]) as the scenario's [`crate::control::FeelSystem`]; the pilot's task is fed to the
+//! hand sample by sample, letting go a NaN command.
 
 pub mod metrics;
 
@@ -300,7 +287,7 @@ impl Task {
     }
 
     /// Segment index and time into it at `t_s` (the last segment past the end).
-    pub fn segment_at(&self, t_s: f64) -> (usize, f64) {
+    pub(crate) fn segment_at(&self, t_s: f64) -> (usize, f64) {
         let mut t0 = 0.0;
         for (k, s) in self.segments.iter().enumerate() {
             if t_s < t0 + s.duration_s() || k + 1 == self.segments.len() {

@@ -1,21 +1,23 @@
 //! The seed paper's base model: Bingham plastic force (Eq. 2) whose yield force follows the coil current
 //! through the coil's electrical lag (Eq. 3) and the fluid's lag (Eq. 4), i.e. Eq. (6), behind the current
 //! driver's saturation.
+#![warn(missing_docs)]
 
 use super::effect::{Inputs, Stage};
 use super::lag::advance_two_lags;
 use super::params::{DataStats, ParamSpec};
 
 /// Index of each base parameter in the parameter vector.
-pub const FC0: usize = 0;
-pub const FC_GAIN: usize = 1;
+pub(crate) const FC0: usize = 0;
+pub(crate) const FC_GAIN: usize = 1;
+/// Index of the viscous damping `C0`.
 pub const C0: usize = 2;
-pub const TE: usize = 3;
-pub const TM: usize = 4;
+pub(crate) const TE: usize = 3;
+pub(crate) const TM: usize = 4;
 
 /// The parameters Eq. (2) with Eq. (6)'s yield force is linear in: the zero-current yield force, the yield
 /// force per ampere and the damping.
-pub const LINEAR_GAINS: [usize; 3] = [FC0, FC_GAIN, C0];
+pub(crate) const LINEAR_GAINS: [usize; 3] = [FC0, FC_GAIN, C0];
 
 /// Base parameters, in vector order.
 ///
@@ -61,20 +63,20 @@ pub const PARAMS: [ParamSpec; 5] = [
 ];
 
 /// Number of base states: coil current (Eq. 3) and fluid excitation (Eq. 4), both in amperes.
-pub const N_STATES: usize = 2;
+pub(crate) const N_STATES: usize = 2;
 /// The parameters [`advance`] reads: the lags' time constants (the states are the lagged currents).
-pub const STATE_PARAMS: [usize; 2] = [TE, TM];
+pub(crate) const STATE_PARAMS: [usize; 2] = [TE, TM];
 
 /// The driver's saturation: the coil current command is limited to ±`limit_a` (the paper's driver
 /// saturates at 14 A; its supply could give 17 A). `limit_a` is positive ([`super::Model::new`] refuses any
 /// other); this never panics on another (its magnitude is taken, and a NaN limit leaves the command as it is).
-pub fn saturate(current_cmd_a: f64, limit_a: f64) -> f64 {
+pub(crate) fn saturate(current_cmd_a: f64, limit_a: f64) -> f64 {
     let l = limit_a.abs();
     current_cmd_a.max(-l).min(l)
 }
 
 /// Lag states at rest for a command held since long before the first sample.
-pub fn init_states(s: &mut [f64], current_cmd_a: f64, limit_a: f64) {
+pub(crate) fn init_states(s: &mut [f64], current_cmd_a: f64, limit_a: f64) {
     let u = saturate(current_cmd_a, limit_a);
     s[0] = u;
     s[1] = u;
@@ -105,7 +107,7 @@ pub fn advance(p: &[f64], s: &mut [f64], current_cmd_a: f64, limit_a: f64, dt_s:
 }
 
 /// `sgn` of Eq. (2), zero at zero velocity.
-pub fn sgn(v: f64) -> f64 {
+pub(crate) fn sgn(v: f64) -> f64 {
     if v > 0.0 {
         1.0
     } else if v < 0.0 {

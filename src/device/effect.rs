@@ -1,22 +1,15 @@
-//! The extension point: a physical effect that composes with the paper's Bingham base model.
-//!
-//! The damper force is assembled in stages (see [`Stage`]): the coil current, lagged by Eq. (3) and (4),
-//! sets a yield force; a direction function (`sgn v` in Eq. 2) gives it a sign; a viscous term `C0 v` and
-//! additive forces complete it:
-//!
-//! `F = yield_n · direction + damping_n_s_per_m · v + extra_n`.
-//!
-//! An effect changes one or more stages (hysteresis replaces the direction function by an internal state,
-//! magnetic saturation reshapes the yield force versus current, stiffness adds a force, …). Effects are
-//! applied in the order of their [`EffectStage`], so `bingham+a+b` and `bingham+b+a` are the same model.
-//! The fitter and the diagnosis only see the trait: a new effect is one `impl Effect` and one
-//! `Registry::register` call.
+//! The extension point: a physical effect that composes with the base model. The force is assembled in
+//! stages, `F = yield_n · direction + damping_n_s_per_m · v + extra_n`; effects apply in the order of their
+//! [`EffectStage`], so `bingham+a+b` is `bingham+b+a`. A new effect is one `impl Effect` and one
+//! `Registry::register` call (`docs/effects.md`).
+#![warn(missing_docs)]
 
 use super::params::{DataStats, ParamSpec};
 
 /// Signals at one sample.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Inputs {
+    /// Time since the test's start, s.
     pub t_s: f64,
     /// Piston displacement from mid-stroke, m (positive = extension).
     pub x_m: f64,
@@ -74,6 +67,7 @@ pub enum EffectStage {
 /// Increment between this sample and the next, for advancing internal states.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Step {
+    /// Step length, s.
     pub dt_s: f64,
     /// Displacement increment over the step, m (measured where available; `v dt` otherwise).
     pub dx_m: f64,

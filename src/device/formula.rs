@@ -1,20 +1,9 @@
-//! Data-defined effects: a force term written as a formula over named features, loaded from a TOML file
-//! (or built by the diagnosis's open term search) and registered beside the built-in effects.
-//!
-//! The term is additive: `F_extra = formula(x, v, a, i, t; parameters)`. Features:
-//!
-//! | feature | meaning | unit |
-//! |---|---|---|
-//! | `x` | piston displacement from mid-stroke | m |
-//! | `v` | piston velocity | m/s |
-//! | `a` | piston acceleration | m/s² |
-//! | `i` | effective excitation after the driver saturation and both lags (Eq. 3, 4) | A |
-//! | `t` | time since the test's start | s |
-//!
-//! Operators `+ - * / ^`, functions `abs sign tanh exp ln sqrt sin cos min max`, and the low-pass state
-//! `lp(expr, tau_s)`: `expr` through a first-order lag of time constant `tau_s` (a positive number, s),
-//! starting at `expr`'s first value. The formula is parsed by `evalexpr` and compiled into a small tree
-//! evaluated at every sample. File format: `docs/spec/model-discovery.md`.
+//! Data-defined effects: an additive force term `F_extra = formula(x, v, a, i, t; parameters)` loaded from
+//! a TOML file (or built by the diagnosis's open term search) and registered beside the built-in effects.
+//! The formula is parsed by `evalexpr` and compiled into a small tree evaluated at every sample; `lp(expr,
+//! tau_s)` is a first-order low-pass state. Features, functions and file format:
+//! `docs/spec/model-discovery.md`.
+#![warn(missing_docs)]
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -30,7 +19,7 @@ use crate::input::{InputError, Source};
 
 /// A signal a formula may read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Feature {
+pub(crate) enum Feature {
     X,
     V,
     A,
@@ -100,12 +89,12 @@ struct Signals {
 }
 
 impl Signals {
-    fn of(inp: &Inputs, stage: &Stage) -> Self {
+    fn at(inp: &Inputs, current_a: f64) -> Self {
         Self {
             x: inp.x_m,
             v: inp.v_m_s,
             a: inp.a_m_s2,
-            i: stage.current_a,
+            i: current_a,
             t: inp.t_s,
         }
     }
@@ -129,15 +118,7 @@ impl Expr {
                 let u = e.eval(p, s, sig);
                 match f {
                     Fn1::Abs => u.abs(),
-                    Fn1::Sign => {
-                        if u > 0.0 {
-                            1.0
-                        } else if u < 0.0 {
-                            -1.0
-                        } else {
-                            0.0
-                        }
-                    }
+                    Fn1::Sign => f64::from(u8::from(u > 0.0)) - f64::from(u8::from(u < 0.0)),
                     Fn1::Tanh => u.tanh(),
                     Fn1::Exp => u.exp(),
                     Fn1::Ln => u.ln(),
@@ -173,7 +154,7 @@ impl Expr {
 
 /// A formula compiled against its parameter names, with its low-pass states.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Formula {
+pub(crate) struct Formula {
     text: String,
     expr: Expr,
     /// Input and time constant of each low-pass state, in the order their indices were given (inner first).
@@ -198,12 +179,13 @@ impl Formula {
         })
     }
 
+    /// The formula as written.
     pub fn text(&self) -> &str {
         &self.text
     }
 
     /// Number of low-pass states.
-    pub fn n_states(&self) -> usize {
+    pub(crate) fn n_states(&self) -> usize {
         self.lowpass.len()
     }
 
@@ -214,35 +196,35 @@ impl Formula {
             .any(|(e, _)| e.reads(&|x| *x == Expr::Feature(Feature::I)))
     }
 
-    fn eval(&self, p: &[f64], s: &[f64], sig: &Signals) -> f64 {
-        self.expr.eval(p, s, sig)
+    /// Low-pass states at a test's first sample: each at its input's value.
+    fn init(&self, p: &[f64], s: &mut [f64], sig: &Signals) {
+        for k in 0..self.lowpass.len() {
+            s[k] = self.lowpass[k].0.eval(p, s, sig);
+        }
     }
+
+    /// Advance the low-pass states over `dt_s`, their inputs held (exact for a first-order lag).
+    fn advance(&self, p: &[f64], s: &mut [f64], sig: &Signals, dt_s: f64) {
+        for k in 0..self.lowpass.len() {
+            let (input, tau) = &self.lowpass[k];
+            let u = input.eval(p, s, sig);
+            s[k] += (1.0 - (-dt_s.max(0.0) / tau).exp()) * (u - s[k]);
+        }
+    }
+
     /// The formula (over features only, no parameters) at every sample of one test, its low-pass states
     /// run exactly as the effect runs them; `current_a` is the lagged current at each sample.
     pub fn series(&self, inputs: &[Inputs], current_a: &[f64]) -> Vec<f64> {
         let mut s = vec![0.0; self.lowpass.len()];
         let mut out = Vec::with_capacity(inputs.len());
         for (k, inp) in inputs.iter().enumerate() {
-            let sig = Signals {
-                x: inp.x_m,
-                v: inp.v_m_s,
-                a: inp.a_m_s2,
-                i: current_a[k],
-                t: inp.t_s,
-            };
+            let sig = Signals::at(inp, current_a[k]);
             if k == 0 {
-                for j in 0..s.len() {
-                    s[j] = self.lowpass[j].0.eval(&[], &s, &sig);
-                }
+                self.init(&[], &mut s, &sig);
             }
             out.push(self.expr.eval(&[], &s, &sig));
             if let Some(next) = inputs.get(k + 1) {
-                let dt = (next.t_s - inp.t_s).max(0.0);
-                for j in 0..s.len() {
-                    let (input, tau) = &self.lowpass[j];
-                    let u = input.eval(&[], &s, &sig);
-                    s[j] += (1.0 - (-dt / tau).exp()) * (u - s[j]);
-                }
+                self.advance(&[], &mut s, &sig, next.t_s - inp.t_s);
             }
         }
         out
@@ -381,12 +363,17 @@ fn arguments(ch: &[Node<DefaultNumericTypes>]) -> Vec<&Node<DefaultNumericTypes>
 /// One parameter of a data-defined effect.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FormulaParam {
+    /// Name, as the formula writes it.
     pub name: String,
+    /// Unit, for messages and files.
     pub unit: String,
+    /// Lower bound of a fit.
     pub lower: f64,
+    /// Upper bound of a fit.
     pub upper: f64,
     /// Starting value of a fit.
     pub guess: f64,
+    /// What it means.
     pub doc: String,
 }
 
@@ -457,12 +444,13 @@ impl FormulaEffect {
         })
     }
 
+    /// The formula as written.
     pub fn formula(&self) -> &str {
         self.formula.text()
     }
 
     /// The same effect with these parameter values as its starting values (clamped into the bounds).
-    pub fn with_values(&self, values: &[f64]) -> Self {
+    pub(crate) fn with_values(&self, values: &[f64]) -> Self {
         let mut e = self.clone();
         for (k, v) in values.iter().enumerate().take(e.declared.len()) {
             if v.is_finite() {
@@ -474,17 +462,18 @@ impl FormulaEffect {
         e
     }
 
+    /// The physical family it resembles (empty when none).
     pub fn resembles(&self) -> &str {
         &self.resembles
     }
 
     /// The same effect with another physical family named.
-    pub fn with_resembles(mut self, family: &str) -> Self {
+    pub(crate) fn with_resembles(mut self, family: &str) -> Self {
         self.resembles = family.to_string();
         self
     }
 
-    pub fn declared_params(&self) -> &[FormulaParam] {
+    pub(crate) fn declared_params(&self) -> &[FormulaParam] {
         &self.declared
     }
 
@@ -645,24 +634,16 @@ impl Effect for FormulaEffect {
     }
 
     fn init_states(&self, p: &[f64], s: &mut [f64], inp: &Inputs, stage: &Stage) {
-        let sig = Signals::of(inp, stage);
-        for k in 0..self.formula.lowpass.len() {
-            s[k] = self.formula.lowpass[k].0.eval(p, s, &sig);
-        }
+        self.formula.init(p, s, &Signals::at(inp, stage.current_a));
     }
 
     fn apply(&self, p: &[f64], s: &[f64], inp: &Inputs, stage: &mut Stage) {
-        let sig = Signals::of(inp, stage);
-        stage.extra_n += self.formula.eval(p, s, &sig);
+        stage.extra_n += self.formula.expr.eval(p, s, &Signals::at(inp, stage.current_a));
     }
 
     fn advance(&self, p: &[f64], s: &mut [f64], inp: &Inputs, stage: &Stage, _force_n: f64, step: Step) {
-        let sig = Signals::of(inp, stage);
-        for k in 0..self.formula.lowpass.len() {
-            let (input, tau) = &self.formula.lowpass[k];
-            let u = input.eval(p, s, &sig);
-            s[k] += (1.0 - (-step.dt_s.max(0.0) / tau).exp()) * (u - s[k]);
-        }
+        self.formula
+            .advance(p, s, &Signals::at(inp, stage.current_a), step.dt_s);
     }
 
     fn residual_signature(&self) -> &'static str {
@@ -671,7 +652,7 @@ impl Effect for FormulaEffect {
 }
 
 /// Does this model-spec part name an effect file rather than an effect?
-pub fn is_effect_file(part: &str) -> bool {
+pub(crate) fn is_effect_file(part: &str) -> bool {
     part.trim().ends_with(".toml")
 }
 

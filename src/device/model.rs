@@ -42,7 +42,7 @@ impl Base {
         }
     }
 
-    pub fn n_states(self) -> usize {
+    pub(crate) fn n_states(self) -> usize {
         match self {
             Base::Bingham => bingham::N_STATES,
             Base::Spencer => spencer::N_STATES,
@@ -50,7 +50,7 @@ impl Base {
     }
 
     /// Parameters the base's states depend on.
-    pub fn state_params(self) -> &'static [usize] {
+    pub(crate) fn state_params(self) -> &'static [usize] {
         match self {
             Base::Bingham => &bingham::STATE_PARAMS,
             Base::Spencer => &spencer::STATE_PARAMS,
@@ -58,7 +58,7 @@ impl Base {
     }
 
     /// Parameters that act only where the current command changes (the lags' time constants).
-    pub fn lag_params(self) -> &'static [usize] {
+    pub(crate) fn lag_params(self) -> &'static [usize] {
         match self {
             Base::Bingham => &bingham::STATE_PARAMS,
             Base::Spencer => &spencer::LAG_PARAMS,
@@ -66,7 +66,7 @@ impl Base {
     }
 
     /// Parameters the force is linear in (a fit's warm start solves for them first).
-    pub fn linear_gains(self) -> &'static [usize] {
+    pub(crate) fn linear_gains(self) -> &'static [usize] {
         match self {
             Base::Bingham => &bingham::LINEAR_GAINS,
             Base::Spencer => &spencer::LINEAR_GAINS,
@@ -75,7 +75,7 @@ impl Base {
 
     /// Whether an effect acting at `stage` composes with this base: the Spencer model has its own
     /// pre-yield (Bouc–Wen) state, so an effect that replaces the direction function does not.
-    pub fn admits(self, stage: EffectStage) -> bool {
+    pub(crate) fn admits(self, stage: EffectStage) -> bool {
         !(self == Base::Spencer && stage == EffectStage::Direction)
     }
 
@@ -114,12 +114,12 @@ pub const PAPER_CURRENT_LIMIT_A: f64 = 14.0;
 /// The largest damper force, N, a model may give anywhere in [`PROBE_ENVELOPE`]: not a physical limit but
 /// the one where numbers stop working. The sum of squared forces (or residuals) over 10⁸ samples of ±10¹⁵⁰ N
 /// is 10³⁰⁸, still below `f64::MAX` (1.8·10³⁰⁸); beyond it error figures become infinite and their ratios NaN.
-pub const FORCE_LIMIT_N: f64 = 1e150;
+pub(crate) const FORCE_LIMIT_N: f64 = 1e150;
 
 /// Where [`Model::unusable_force`] looks: piston speed, displacement from mid-stroke and acceleration up to
 /// (100 m/s, 10 m, 10⁴ m/s²), each far past any damper's (the paper's device: ±2 in of stroke, tested at
 /// 0.08 m/s), at zero current and at the driver's saturation either way.
-pub const PROBE_ENVELOPE: (f64, f64, f64) = (100.0, 10.0, 1e4);
+pub(crate) const PROBE_ENVELOPE: (f64, f64, f64) = (100.0, 10.0, 1e4);
 
 /// Effects that can be named in a model spec. [`Registry::builtin`] holds the canonical vocabulary.
 #[derive(Clone, Default)]
@@ -330,12 +330,12 @@ impl Model {
     }
 
     /// Indices of the base's parameters that act only where the current command changes.
-    pub fn lag_params(&self) -> &'static [usize] {
+    pub(crate) fn lag_params(&self) -> &'static [usize] {
         self.spec.base.lag_params()
     }
 
     /// Indices of the base's parameters the force is linear in.
-    pub fn linear_gains(&self) -> &'static [usize] {
+    pub(crate) fn linear_gains(&self) -> &'static [usize] {
         self.spec.base.linear_gains()
     }
 
@@ -351,7 +351,7 @@ impl Model {
         self.param_specs.len()
     }
 
-    pub fn n_states(&self) -> usize {
+    pub(crate) fn n_states(&self) -> usize {
         self.n_states
     }
 
@@ -424,7 +424,7 @@ impl Model {
     /// exceeds [`FORCE_LIMIT_N`], with that force; `None` when there is none. Parameters inside their bounds
     /// can still be absurd (a damping of 10³⁰⁰ N·s/m): this is what keeps them from giving infinite or NaN
     /// error figures.
-    pub fn unusable_force(&self, p: &[f64]) -> Option<(Inputs, f64)> {
+    pub(crate) fn unusable_force(&self, p: &[f64]) -> Option<(Inputs, f64)> {
         let (v_max, x_max, a_max) = PROBE_ENVELOPE;
         let limit = self.current_limit_a;
         let speeds = [0.0, 1e-3, -1e-3, 1.0, -1.0, v_max, -v_max];
@@ -452,7 +452,7 @@ impl Model {
     }
 
     /// States at the first sample of a test: lags at rest for the first command, effects initialised.
-    pub fn init_state(&self, p: &[f64], first: &Inputs) -> Vec<f64> {
+    pub(crate) fn init_state(&self, p: &[f64], first: &Inputs) -> Vec<f64> {
         let mut s = vec![0.0; self.n_states];
         let base = self.spec.base;
         base.init_states(p, &mut s, first, self.current_limit_a);
@@ -484,7 +484,7 @@ impl Model {
     /// [`Model::eval`] with the direction function set to `direction` (the fluid fully yielded that way):
     /// the effects that shape the direction ([`super::EffectStage::Direction`]) are skipped, the others
     /// apply as usual. A controller's holding force: the damper holds up to its yield force.
-    pub fn eval_yielded(&self, p: &[f64], s: &[f64], inp: &Inputs, direction: f64) -> Stage {
+    pub(crate) fn eval_yielded(&self, p: &[f64], s: &[f64], inp: &Inputs, direction: f64) -> Stage {
         let mut stage = bingham::stage(p, s, inp);
         stage.direction = direction;
         for &k in &self.apply_order {
@@ -498,7 +498,7 @@ impl Model {
     }
 
     /// Whether any effect keeps a state of its own (beyond the base model's coil and fluid lags).
-    pub fn has_effect_states(&self) -> bool {
+    pub(crate) fn has_effect_states(&self) -> bool {
         self.n_states > bingham::N_STATES
     }
 
@@ -519,13 +519,19 @@ impl Model {
     }
 
     /// Integrate one test from its own start and write the force at every sample into `out`.
-    pub fn simulate_into(&self, p: &[f64], inputs: &[Inputs], out: &mut [f64]) {
+    pub(crate) fn simulate_into(&self, p: &[f64], inputs: &[Inputs], out: &mut [f64]) {
         self.integrate(p, inputs, out, None);
     }
 
     /// [`Model::simulate_into`], also keeping the state at every sample in `states` (cleared first;
     /// [`Model::n_states`] values a sample, sample after sample) for [`Model::forces_on_states`].
-    pub fn simulate_recording(&self, p: &[f64], inputs: &[Inputs], out: &mut [f64], states: &mut Vec<f64>) {
+    pub(crate) fn simulate_recording(
+        &self,
+        p: &[f64],
+        inputs: &[Inputs],
+        out: &mut [f64],
+        states: &mut Vec<f64>,
+    ) {
         states.clear();
         states.reserve(inputs.len() * self.n_states);
         self.integrate(p, inputs, out, Some(states));
@@ -535,7 +541,7 @@ impl Model {
     /// constants and the parameters of effects with states, or every parameter when one of those effects
     /// reads the force. A parameter marked `false` acts on the force only through the sample's force
     /// assembly, so [`Model::forces_on_states`] gives the force it makes without a new integration.
-    pub fn state_params(&self) -> Vec<bool> {
+    pub(crate) fn state_params(&self) -> Vec<bool> {
         let stateful = || self.slots.iter().filter(|s| !s.states.is_empty());
         if stateful().any(|s| s.effect.states_read_the_force()) {
             return vec![true; self.n_params()];
@@ -553,7 +559,7 @@ impl Model {
     /// The force at every sample assembled from states kept by [`Model::simulate_recording`]: for parameters
     /// that differ from the recording's only where [`Model::state_params`] is `false`, the same numbers as
     /// [`Model::simulate_into`], at the cost of the force assembly alone.
-    pub fn forces_on_states(&self, p: &[f64], inputs: &[Inputs], states: &[f64], out: &mut [f64]) {
+    pub(crate) fn forces_on_states(&self, p: &[f64], inputs: &[Inputs], states: &[f64], out: &mut [f64]) {
         assert_eq!(inputs.len(), out.len());
         assert_eq!(states.len(), inputs.len() * self.n_states);
         for (k, inp) in inputs.iter().enumerate() {
@@ -663,7 +669,7 @@ impl Damper {
     }
 
     /// Fluid excitation (Eq. 4 state; the filtered command of the Spencer base), A.
-    pub fn fluid_excitation_a(&self) -> f64 {
+    pub(crate) fn fluid_excitation_a(&self) -> f64 {
         match self.model.base() {
             Base::Bingham => self.state.get(1).copied().unwrap_or(0.0),
             Base::Spencer => self.coil_current_a(),

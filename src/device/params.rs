@@ -89,7 +89,7 @@ pub struct DataStats {
 
 /// Signals of one test, borrowed, for [`DataStats::from_tests`].
 #[derive(Debug, Clone, Copy)]
-pub struct TestSignals<'a> {
+pub(crate) struct TestSignals<'a> {
     pub t_s: &'a [f64],
     pub x_m: &'a [f64],
     pub v_m_s: &'a [f64],
@@ -106,7 +106,7 @@ impl DataStats {
     /// (`f_rms_n`, `f_max_n`, the Bingham estimate) use only the samples that have a force, so a test
     /// without force yet (e.g. synthetic inputs before the truth model runs) gives kinematic statistics and
     /// no panic.
-    pub fn from_tests(tests: &[TestSignals<'_>]) -> Self {
+    pub(crate) fn from_tests(tests: &[TestSignals<'_>]) -> Self {
         let mut s = DataStats::default();
         let (mut n, mut f2, mut v2, mut isum) = (0usize, 0.0, 0.0, 0.0);
         let mut dts = Vec::new();

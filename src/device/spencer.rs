@@ -1,29 +1,9 @@
-//! The field's standard MR-damper model: the modified Bouc–Wen model of Spencer, Dyke, Sain and Carlson,
-//! *Phenomenological model for magnetorheological dampers*, J. Eng. Mech. 123(3), 1997 (Eq. 7–13 there):
-//!
-//! ```text
-//! F  = c1 ẏ + k1 (x − x0)
-//! ẏ  = [α z + c0 ẋ + k0 (x − y)] / (c0 + c1)
-//! ż  = −γ |ẋ − ẏ| z |z|^(n−1) − β (ẋ − ẏ) |z|^n + A (ẋ − ẏ)
-//! α  = αa + αb u,   c0 = c0a + c0b u,   c1 = c1a + c1b u
-//! u̇  = −η (u − i)
-//! ```
-//!
-//! `u` is the first-order filtered command (the paper's filtered voltage; here the current command behind
-//! the driver's saturation, with the time constant `τ = 1/η`, integrated exactly for a command held over a
-//! step), and the gains act on `|u|` as the Bingham base acts on the field magnitude. SI units throughout:
-//! `β`, `γ` in m⁻ⁿ, `A` and `n` dimensionless, `z` in metres.
-//!
-//! Force assembly ([`stage`]): with `r = c1/(c0 + c1)` and `zₛ` the bound of `z`, `(A/(β+γ))^(1/n)`,
-//! the force is `r α zₛ · (z/zₛ) + r c0 ẋ + r k0 (x − y) + k1 (x − x0)`: a yield force `r α zₛ`, a direction
-//! `z/zₛ` in [−1, 1], a damping `r c0` and an additive force, so effects that reshape the yield force,
-//! the damping or add a force compose with it as with the Bingham base.
-//!
-//! The `z` equation is stiff: near saturation its Jacobian is `n (β+γ) |ẋ − ẏ| |z|^(n−1)`, ~10⁴ s⁻¹ for
-//! the 1997 paper's device at 0.1 m/s, several times a 3 kHz sample rate. [`advance`] integrates `(y, z)`
-//! with classical Runge–Kutta on substeps whose number is set from that Jacobian bound at the start of the
-//! step (`h λ ≤ 1`, inside RK4's stability interval of 2.78): a function of the state and the inputs only,
-//! so the same inputs give the same bits on any thread.
+//! The modified Bouc–Wen model of Spencer, Dyke, Sain and Carlson (J. Eng. Mech. 123(3), 1997), the
+//! field's standard, as a second base model. Its force is assembled as a yield force `r α zₛ`, a direction
+//! `z/zₛ`, a damping `r c0` and an additive force, so effects compose with it as with the Bingham base; the
+//! stiff `z` equation is integrated by Runge–Kutta on substeps set from its Jacobian bound (deterministic on
+//! any thread). Equations and choices: `docs/explanation/damper-models.md`.
+#![warn(missing_docs)]
 
 use super::bingham::saturate;
 use super::effect::{Inputs, Stage, Step};
@@ -40,8 +20,11 @@ pub(crate) const K1: usize = 7;
 pub(crate) const X0: usize = 8;
 pub(crate) const BETA: usize = 9;
 pub(crate) const GAMMA: usize = 10;
+/// Index of the Bouc–Wen `A`.
 pub const A: usize = 11;
+/// Index of the Bouc–Wen exponent `n`.
 pub const N: usize = 12;
+/// Index of the command filter's time constant `1/η`.
 pub const TAU: usize = 13;
 
 /// Parameters, in vector order (SI; the 1997 paper's are in cm and V).

@@ -1,18 +1,9 @@
-//! The acquisition chain: a moving average that the data went through before it was logged, found in the
-//! data and put into the comparison (`docs/explanation/diagnosis.md`, "Reading the data as it was logged").
-//! A model driven by filtered motion bends its pre-yield branch to match the filter's smear, which does not
-//! carry over to another amplitude or frequency; so:
-//!
-//! 1. `detect_moving_average`: the filter's comb of zeros at multiples of `fs/N`, pooled over the tests
-//!    of one protocol, must show in both channels together far beyond white noise (`COMB_SIGMAS`) and in
-//!    each clearly (`CHANNEL_SIGMAS`, `BELOW_SHARE`); bands with a damper's harmonic lines are no
-//!    witness (`MIN_ROUGHNESS`, `LINE_TO_NOISE`, `HARMONIC_GUARD_BINS`). White noise gives no window
-//!    (`tests::white_noise_shows_no_comb`).
-//! 2. `deconvolve_moving_average`: the motion before the filter, by regularised least squares, with the
-//!    `N − 1` samples before the record.
-//! 3. The model is driven by that motion ([`Drive`]) and its force goes through the same average
-//!    ([`crate::signal::moving_average`]) before it is compared. Causal or centred makes no difference at
-//!    constant current: both shifts cancel.
+//! The acquisition chain: a moving average the data went through before it was logged, found from its comb
+//! of zeros pooled over a protocol's tests in the motion and the force together (`detect_moving_average`,
+//! thresholds below against white noise), undone on the motion by regularised least squares
+//! (`deconvolve_moving_average`), and applied to the model's force before it is compared ([`Drive`]).
+//! Why: `docs/explanation/diagnosis.md`, "Reading the data as it was logged".
+#![warn(missing_docs)]
 
 use rustfft::num_complex::Complex;
 use rustfft::FftPlanner;
@@ -85,12 +76,14 @@ pub struct MovingAverage {
 /// filter from `window − 1` samples before the record on, and the window the model's force goes through.
 #[derive(Debug, Clone)]
 pub struct Drive {
+    /// The moving average found.
     pub filter: MovingAverage,
     /// `window − 1` lead-in samples, then one per sample of the test.
     pub inputs: Vec<Inputs>,
 }
 
 impl Drive {
+    /// Its window, samples.
     pub fn window(&self) -> usize {
         self.filter.window
     }

@@ -1,6 +1,7 @@
 //! Reading measurements into [`Test`]s: the model's inputs estimated from each file (velocity and
 //! acceleration where the file has none, the displacement smoothed), and the acquisition chain (a moving
 //! average the files went through) found per protocol and undone.
+#![warn(missing_docs)]
 
 use std::path::PathBuf;
 
@@ -203,7 +204,7 @@ pub fn tests_from(ms: &[Measurement]) -> Vec<Test> {
 /// the share found across the protocols that do show theirs (`acquisition::window_law`), else `share`
 /// (one saved with a model, `PARAMS.json`'s `acquisition_window_periods`). Returns the tests and the share
 /// found in these measurements, if any.
-pub fn tests_predicting(ms: &[Measurement], share: Option<f64>) -> (Vec<Test>, Option<f64>) {
+pub(crate) fn tests_predicting(ms: &[Measurement], share: Option<f64>) -> (Vec<Test>, Option<f64>) {
     let mut protocols: Vec<(ProtocolKey, Vec<usize>)> = Vec::new();
     for (k, m) in ms.iter().enumerate() {
         let key = protocol_key(m);
@@ -325,7 +326,7 @@ pub fn tests_with(ms: &[Measurement], choice: AcquisitionChoice) -> Result<Vec<T
 /// Lines for a person: which tests were found logged through a moving average, and what is done about it
 /// (one line per window and clock, with the tests' groups), and which could not be searched for one (an
 /// uneven clock); empty when neither.
-pub fn acquisition_note(tests: &[Test]) -> Vec<String> {
+pub(crate) fn acquisition_note(tests: &[Test]) -> Vec<String> {
     let mut seen: Vec<(usize, f64, bool, Vec<String>, usize)> = Vec::new();
     for t in tests {
         let Some(d) = &t.drive else { continue };

@@ -29,9 +29,10 @@ use crate::measurement::Measurement;
 
 pub use diagnose::{diagnose, DiagnoseOptions, Diagnosis};
 pub use fit::{fit, FitOptions, FitResult};
+pub(crate) use load::{acquisition_note, tests_predicting};
 pub use load::{
-    acquisition_note, data_stats, default_current_limit_a, inputs_and_velocity_noise, inputs_of, load_tests,
-    tests_from, tests_predicting, tests_with, AcquisitionChoice,
+    data_stats, default_current_limit_a, inputs_and_velocity_noise, inputs_of, load_tests, tests_from,
+    tests_with, AcquisitionChoice,
 };
 pub use validate::{evaluate, Figures};
 

@@ -9,6 +9,7 @@
 //! Where the device has no lag of its own, each current step read the wrong way leaves one sample off by the
 //! whole change of the yield force; where the command never changes inside a test both readings are one
 //! model. `auto` fits both ways where some test's command changes and keeps the smaller sum of squares.
+#![warn(missing_docs)]
 
 use super::fit::{all_spans, fit, FitOptions, FitResult};
 use super::Test;
@@ -29,8 +30,11 @@ impl CommandTiming {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum TimingChoice {
     #[default]
+    /// Fit both ways where a command changes, keep the smaller error.
     Auto,
+    /// Every command after its sample.
     AfterSample,
+    /// Every command at its sample.
     AtSample,
 }
 
@@ -61,14 +65,14 @@ impl std::str::FromStr for TimingChoice {
 
 /// Whether the current command is the same, to the bit, at every sample of `inputs`: the lags (Eq. 3–4)
 /// then start settled on it and stay there, and both readings are the same model.
-pub fn command_never_changes(inputs: &[Inputs]) -> bool {
+pub(crate) fn command_never_changes(inputs: &[Inputs]) -> bool {
     inputs
         .iter()
         .all(|s| s.current_cmd_a.to_bits() == inputs[0].current_cmd_a.to_bits())
 }
 
 /// Whether any test's command changes from one sample to the next (only then do the readings differ).
-pub fn commands_change(tests: &[Test]) -> bool {
+pub(crate) fn commands_change(tests: &[Test]) -> bool {
     tests.iter().any(|t| !command_never_changes(&t.inputs))
 }
 
@@ -76,7 +80,7 @@ pub fn commands_change(tests: &[Test]) -> bool {
 /// reads them after their sample). At-sample: the model holds the command of row `k + 1` over
 /// `(t_k, t_{k+1}]`; the last row keeps its own, and the first sample's lags start settled at the command of
 /// row 1 (what is in force just after `t_0`).
-pub fn retimed(mut tests: Vec<Test>, timing: CommandTiming) -> Vec<Test> {
+pub(crate) fn retimed(mut tests: Vec<Test>, timing: CommandTiming) -> Vec<Test> {
     if timing == CommandTiming::AtSample {
         for t in &mut tests {
             let n = t.inputs.len();
@@ -91,6 +95,7 @@ pub fn retimed(mut tests: Vec<Test>, timing: CommandTiming) -> Vec<Test> {
 /// The reading chosen, with the two fits that chose it when `auto` had to decide.
 #[derive(Debug, Clone)]
 pub struct TimingDecision {
+    /// The reading chosen.
     pub timing: CommandTiming,
     /// `(after-sample fit, at-sample fit)` of the deciding model on every sample, when they were made.
     pub fits: Option<(FitResult, FitResult)>,
@@ -98,7 +103,7 @@ pub struct TimingDecision {
 
 impl TimingDecision {
     /// The deciding fit of the reading kept, if any.
-    pub fn kept_fit(&self) -> Option<&FitResult> {
+    pub(crate) fn kept_fit(&self) -> Option<&FitResult> {
         self.fits.as_ref().map(|(a, b)| match self.timing {
             CommandTiming::AfterSample => a,
             CommandTiming::AtSample => b,

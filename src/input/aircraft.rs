@@ -7,6 +7,7 @@ use serde::Deserialize;
 use toml::Spanned;
 
 use super::{InputError, Source};
+use crate::aero::fbw::{FlyByWire, BREAKOUT_RANGE_CLASS_IV_N};
 use crate::aero::hinge::{FeelComputer, HingeModel};
 use crate::aero::hinge_theory::ControlGeometry;
 use crate::aero::model::{AircraftModel, CertificationPart, ControlType, Propulsion};
@@ -373,6 +374,91 @@ impl AircraftModel {
                 1.5,
                 10.0,
             )?,
+            estimates: estimated_keys(text),
+        })
+    }
+}
+
+/// A fly-by-wire aircraft's model file: its stick and the condition its feel is designed at
+/// ([`crate::aero::fbw`]).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FbwFile {
+    name: String,
+    fly_by_wire: FbwStick,
+    design: FbwDesign,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FbwStick {
+    full_command_stick_rad: S<f64>,
+    breakout_n: S<f64>,
+    stick_force_per_g_n: S<f64>,
+    max_pull_n: S<f64>,
+    max_push_n: S<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FbwDesign {
+    airspeed_m_s: S<f64>,
+    altitude_m: S<f64>,
+    g_per_command: S<f64>,
+    n_alpha_per_rad: S<f64>,
+    limit_load_factor: S<f64>,
+}
+
+/// Whether a model file's text is a fly-by-wire aircraft's (it has a `[fly_by_wire]` section).
+pub fn is_fly_by_wire(text: &str) -> bool {
+    #[derive(Deserialize)]
+    struct Probe {
+        fly_by_wire: Option<toml::Value>,
+    }
+    crate::input::text::parse_toml::<Probe>(text)
+        .map(|p| p.fly_by_wire.is_some())
+        .unwrap_or(false)
+}
+
+impl FlyByWire {
+    /// Read and check a fly-by-wire aircraft's model file.
+    pub fn load(path: &Path) -> Result<Self, InputError> {
+        let src = Source::read(path)?;
+        Self::from_toml(&src.text, path)
+    }
+
+    /// Check a fly-by-wire aircraft's model text; `path` places its errors.
+    pub fn from_toml(text: &str, path: &Path) -> Result<Self, InputError> {
+        let src = Source::new(path, text);
+        let f: FbwFile = src.toml()?;
+        let n = |v: &S<f64>, field: &str, lo: f64, hi: f64, unit: &str| src.within(v, field, lo..=hi, unit);
+        let (s, d) = (&f.fly_by_wire, &f.design);
+        let (lo, hi) = BREAKOUT_RANGE_CLASS_IV_N;
+        Ok(FlyByWire {
+            name: f.name.clone(),
+            full_command_stick_rad: n(
+                &s.full_command_stick_rad,
+                "fly_by_wire.full_command_stick_rad",
+                1e-4,
+                1.0,
+                "rad",
+            )?,
+            // the design basis: MIL-F-8785C Table XII, pitch stick, Class IV
+            breakout_n: n(&s.breakout_n, "fly_by_wire.breakout_n", lo, hi, "N")?,
+            stick_force_per_g_n: n(
+                &s.stick_force_per_g_n,
+                "fly_by_wire.stick_force_per_g_n",
+                0.1,
+                500.0,
+                "N/g",
+            )?,
+            max_pull_n: n(&s.max_pull_n, "fly_by_wire.max_pull_n", 1.0, 2000.0, "N")?,
+            max_push_n: n(&s.max_push_n, "fly_by_wire.max_push_n", 1.0, 2000.0, "N")?,
+            airspeed_m_s: n(&d.airspeed_m_s, "design.airspeed_m_s", 1.0, 1000.0, "m/s")?,
+            altitude_m: n(&d.altitude_m, "design.altitude_m", -500.0, 30000.0, "m")?,
+            g_per_command: n(&d.g_per_command, "design.g_per_command", 0.1, 20.0, "g")?,
+            n_alpha_per_rad: n(&d.n_alpha_per_rad, "design.n_alpha_per_rad", 0.5, 200.0, "g/rad")?,
+            limit_load_factor: n(&d.limit_load_factor, "design.limit_load_factor", 1.5, 15.0, "g")?,
             estimates: estimated_keys(text),
         })
     }

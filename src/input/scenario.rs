@@ -501,10 +501,8 @@ pub fn scenario(src: &Source) -> Result<Scenario, InputError> {
             let msg = "the pilot's outer loop needs an `[aircraft]` section to fly";
             return Err(src.err(&o.loop_kind, "outer_loop", msg));
         }
-        (Some(_), true) if src.variant(&f.pilot.task, "pilot.task")? != Task::Position => {
-            let msg = "the outer loop commands a stick angle: `pilot.task` must be \"position\"";
-            return Err(src.err(&f.pilot.task, "pilot.task", msg));
-        }
+        // A force task's outer loop commands the grip force: only a fly-by-wire aircraft takes it, which is
+        // known once the aircraft is opened (`sim::Flight::open` refuses it on a mechanical stick).
         _ => {}
     }
     let pilot = pilot(src, &f.pilot, signal, duration_s, 1.0 / physics_hz, seed)?;

@@ -248,30 +248,15 @@ pub struct SensorSpec {
 }
 
 impl SensorSpec {
-    /// Least significant bit, in the sensor's unit.
-    pub fn lsb(&self) -> f64 {
-        if self.bits == 0 {
-            0.0
-        } else {
-            2.0 * self.range / (1u64 << self.bits) as f64
-        }
-    }
-
     /// A reading: add noise, saturate at the range, quantise to the ADC's LSB.
     pub fn read(&self, truth: f64, rng: &mut ChaCha8Rng) -> f64 {
         let mut y = truth;
         if self.noise_std > 0.0 {
-            // A zero std is excluded above, so the distribution is valid.
             y += Normal::new(0.0, self.noise_std)
                 .map(|n| n.sample(rng))
                 .unwrap_or(0.0);
         }
-        y = y.clamp(-self.range, self.range);
-        let lsb = self.lsb();
-        if lsb > 0.0 {
-            y = (y / lsb).round() * lsb;
-        }
-        y + 0.0 // no negative zero in the record
+        crate::signal::quantise(y, self.range, self.bits) + 0.0 // no negative zero in the record
     }
 }
 

@@ -1,32 +1,7 @@
-//! The pilot's outer loop: a compensatory tracking pilot on pitch attitude or load factor whose output is
-//! a **stick angle** (rad, + aft) relative to trim, the hand model's position command. A pitch (or load
-//! factor) below its command asks for a pull.
-//!
-//! McRuer's quasi-linear pilot (McRuer & Jex, "A Review of Quasi-Linear Pilot Models", IEEE Trans. HFE-8(3),
-//! 1967, precision model), with a slow trimming integral `K_i ∫ e` (corner `K_i/K_p` well below ω_c) that
-//! removes the steady error a pure gain leaves against the phugoid:
-//!
-//! ```text
-//! Y_p(s) = K_p e^{-τ_e s} (T_L s + 1) / (T_I s + 1)
-//! ```
-//!
-//! ## Adapting the pilot to the aircraft (crossover model)
-//!
-//! Near crossover the pilot adapts so that, whatever the controlled element `Y_c` (McRuer & Krendel,
-//! AGARDograph AG-188, 1974, §2),
-//!
-//! ```text
-//! Y_p(jω) Y_c(jω) ≈ ω_c e^{−jωτ_e} / (jω)          (|Y_p Y_c| = 1 at ω = ω_c)
-//! ```
-//!
-//! [`CrossoverPilotConfig::adapted`] matches this at ω_c as a complex number: the equalisation supplies
-//! `φ = −90° − arg Y_c(jω_c)` (delay aside), a lead `T_L = tan φ / ω_c` when φ > 0, and when φ < 0 a
-//! proportional + integral `K_p (1 + ω_i/s)`, `ω_i = ω_c tan(−φ)` (a lag's phase at ω_c that keeps rising
-//! below it: no steady error on a position-type element; on `K/(Ts + 1)` it cancels the pole). |φ| is
-//! capped (71.6° by default: a lead has a finite corner); within ±5° the pilot is a gain with a trimming
-//! integral a decade below crossover (`K_i = 0.1 ω_c K_p`). `K_p` then puts `|Y_p Y_c| = 1` at ω_c.
-//! Typical pitch tracking: ω_c ≈ 2–4 rad/s, τ_e ≈ 0.1–0.3 s; the phase margin `π/2 − ω_c τ_e` requires
-//! ω_c τ_e < π/2.
+//! The pilot's outer loop: McRuer's quasi-linear tracking pilot on pitch attitude or load factor,
+//! `Y_p(s) = K_p e^{-τ_e s} (T_L s + 1) / (T_I s + 1)` plus a slow trimming integral, whose output is a
+//! stick angle (rad, + aft) relative to trim, the hand model's position command. [`CrossoverPilotConfig::adapted`]
+//! fits it to the controlled element by the crossover model (`docs/explanation/pilot.md`).
 
 use nalgebra::Complex;
 use serde::Deserialize;
@@ -111,7 +86,7 @@ impl CrossoverPilotConfig {
     }
 
     /// [`Self::adapted`] with every design parameter given.
-    pub fn adapted_with(
+    pub(crate) fn adapted_with(
         yc: impl Fn(f64) -> Complex<f64>,
         d: &CrossoverDesign,
     ) -> Result<Self, CrossoverDesignError> {
@@ -213,7 +188,7 @@ impl CrossoverPilotConfig {
 
 /// The pilot, stepped at a fixed rate `dt_s`.
 #[derive(Debug, Clone)]
-pub struct CrossoverPilot {
+pub(crate) struct CrossoverPilot {
     cfg: CrossoverPilotConfig,
     dt_s: f64,
     delay: std::collections::VecDeque<f64>,

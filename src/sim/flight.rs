@@ -1,10 +1,14 @@
 //! The aircraft in the loop: the stick drives the elevator, the aircraft's stick force (from its
 //! hinge moment, or its feel computer for powered controls) is the feel target, and the pilot's outer
-//! loop on pitch attitude or load factor gives the hand its stick command.
+//! loop on pitch attitude or load factor gives the hand its stick command. A fly-by-wire aircraft
+//! ([`crate::aero::FlyByWire`]) has no hinge moment at the stick: the pilot's force on the grip commands
+//! its flight control system and the feel target is its designed feel law at the stick's position.
 //!
 //! Per physics step, when an aircraft frame is due (its own rate, JSBSim's 120 Hz by default):
 //! 1. elevator from the stick angle (the rig's neutral is the trimmed stick; the stick-to-elevator link is
-//!    mechanical, so it reads the stick itself, not the feel loop's sensors);
+//!    mechanical, so it reads the stick itself, not the feel loop's sensors), or for a fly-by-wire aircraft
+//!    the FCS command from the stick's own force sensor, the hand's force on the grip (again not the feel
+//!    loop's sensors);
 //! 2. one aircraft step (embedded Rust model or live JSBSim) with the scheduled throttle;
 //! 3. the pilot's outer loop compares attitude (or load factor) with its command and sets the stick
 //!    command the hand follows.
@@ -12,7 +16,7 @@
 //! Between frames the aircraft state, and so the stick force, is held (zero-order hold).
 
 use crate::aero::backend::{self, AircraftBackend};
-use crate::aero::{AeroError, AircraftState, HingeModel};
+use crate::aero::{AeroError, AircraftState, FlyByWire, HingeModel};
 use crate::pilot::attitude::{CrossoverPilot, CrossoverPilotConfig, PilotLoop, Schedule};
 use crate::scenario::{AircraftConfig, OuterLoopConfig, PilotDesign};
 
@@ -68,10 +72,18 @@ struct Outer {
     command: Schedule,
 }
 
+/// How the stick reaches the aircraft.
+enum Controls {
+    /// A mechanical link to the elevator; the stick force from the hinge moment (or a feel computer).
+    Hinge(HingeModel),
+    /// The stick's position commands the FCS; the stick force is the designed feel law.
+    FlyByWire(FlyByWire),
+}
+
 /// An aircraft stepped in lock-step with the rig.
 pub struct Flight {
     backend: Box<dyn AircraftBackend>,
-    hinge: HingeModel,
+    controls: Controls,
     pub trim: AircraftState,
     /// Stick angle of the trim (aircraft convention), rad: the rig's neutral.
     pub trim_stick_rad: f64,
@@ -85,32 +97,67 @@ pub struct Flight {
 }
 
 impl Flight {
-    /// Open the backend, trim it, and build the outer loop with the rig's stick limits.
+    /// Open the backend, trim it, and build the outer loop with the rig's stick limits. With
+    /// `force_task` the outer loop commands the hand's force on the grip (N): only on a fly-by-wire
+    /// aircraft, within its grip force limits.
     pub fn open(
         cfg: &AircraftConfig,
         outer: Option<&OuterLoopConfig>,
         stick_limits_rad: (f64, f64),
+        force_task: bool,
     ) -> Result<Self, AeroError> {
         let mut backend = backend::open(&cfg.model)?;
         let dt_s = 1.0 / cfg.rate_hz;
         let trim = backend.trim(cfg.airspeed_m_s, cfg.altitude_m, dt_s)?;
-        let hinge = backend.hinge().clone();
-        let trim_stick_rad = hinge.stick_from_elevator_rad(trim.elevator_rad);
+        let controls = match (backend.hinge(), backend.fly_by_wire()) {
+            (_, Some(f)) => Controls::FlyByWire(f.clone()),
+            (Some(h), None) => Controls::Hinge(h.clone()),
+            (None, None) => {
+                return Err(AeroError::Refused {
+                    what: format!("aircraft `{}`", cfg.model),
+                    why: "neither a hinge model nor a fly-by-wire stick".into(),
+                })
+            }
+        };
+        // The fly-by-wire stick's neutral is its trim: the FCS holds the trim itself.
+        let trim_stick_rad = match &controls {
+            Controls::Hinge(h) => h.stick_from_elevator_rad(trim.elevator_rad),
+            Controls::FlyByWire(_) => 0.0,
+        };
+        let refuse = |why: &str| AeroError::Refused {
+            what: format!("the outer loop on `{}`", cfg.model),
+            why: why.into(),
+        };
+        let limits = match (&controls, force_task) {
+            (Controls::FlyByWire(f), true) => (-f.max_push_n, f.max_pull_n),
+            (Controls::Hinge(_), true) => return Err(refuse(
+                "a force task (`pilot.task = \"force\"`) flies only a fly-by-wire aircraft, whose stick is \
+                     commanded by force; a mechanical stick is flown by position",
+            )),
+            (_, false) => stick_limits_rad,
+        };
         let outer = match outer {
             Some(o) => {
-                let cfg = match o.pilot {
-                    PilotDesign::Given(c) => c,
-                    PilotDesign::Adapted {
-                        crossover_rad_s,
-                        delay_s,
-                        stick_lag_s,
-                    } => adapted(cfg, o.loop_kind, crossover_rad_s, delay_s, stick_lag_s)?,
+                let cfg = match (o.pilot, &controls) {
+                    (PilotDesign::Given(c), _) => c,
+                    (PilotDesign::Adapted { .. }, Controls::FlyByWire(_)) => return Err(refuse(
+                        "the adapted pilot is designed on an embedded model, which a fly-by-wire aircraft \
+                             has not: give the pilot's `gain` (and `integral_per_s`)",
+                    )),
+                    (
+                        PilotDesign::Adapted {
+                            crossover_rad_s,
+                            delay_s,
+                            stick_lag_s,
+                        },
+                        _,
+                    ) => adapted(cfg, o.loop_kind, crossover_rad_s, delay_s, stick_lag_s)?,
                 };
                 Some(Outer {
                     pilot: CrossoverPilot::new(
                         CrossoverPilotConfig {
-                            stick_min_rad: stick_limits_rad.0,
-                            stick_max_rad: stick_limits_rad.1,
+                            stick_min_rad: limits.0,
+                            stick_max_rad: limits.1,
                             ..cfg
                         },
                         dt_s,
@@ -123,7 +170,7 @@ impl Flight {
         };
         Ok(Self {
             backend,
-            hinge,
+            controls,
             trim,
             trim_stick_rad,
             dt_s,
@@ -156,6 +203,14 @@ impl Flight {
         self.stick_cmd_rad
     }
 
+    /// A fly-by-wire aircraft's stick, if the aircraft is one.
+    pub fn fly_by_wire(&self) -> Option<&FlyByWire> {
+        match &self.controls {
+            Controls::FlyByWire(f) => Some(f),
+            Controls::Hinge(_) => None,
+        }
+    }
+
     /// The aircraft's stick force now (pull +), N at the grip.
     pub fn stick_force_n(&self) -> f64 {
         self.state.stick_force_n
@@ -178,15 +233,23 @@ impl Flight {
     }
 
     /// Advance the aircraft if a frame is due at `t_s`, with the rig's stick angle (rad, relative to the
-    /// trimmed stick).
-    pub fn update(&mut self, t_s: f64, stick_angle_rad: f64) -> Result<(), AeroError> {
+    /// trimmed stick) and the hand's force on the grip (N, pull +: a fly-by-wire stick's force sensor).
+    pub fn update(&mut self, t_s: f64, stick_angle_rad: f64, grip_force_n: f64) -> Result<(), AeroError> {
         if t_s + 1e-9 < self.next_t_s {
             return Ok(());
         }
-        let elevator = self
-            .hinge
-            .elevator_from_stick_rad(self.trim_stick_rad + stick_angle_rad);
-        self.state = self.backend.step(elevator, self.throttle.value(t_s))?;
+        let throttle = self.throttle.value(t_s);
+        self.state = match &self.controls {
+            Controls::Hinge(h) => {
+                let elevator = h.elevator_from_stick_rad(self.trim_stick_rad + stick_angle_rad);
+                self.backend.step(elevator, throttle)?
+            }
+            Controls::FlyByWire(f) => {
+                let mut s = self.backend.step_command(f.command(grip_force_n), throttle)?;
+                s.stick_force_n = f.stick_force_n(stick_angle_rad);
+                s
+            }
+        };
         let (pitch_cmd, nz_cmd) = self.commands(t_s);
         if let Some(o) = self.outer.as_mut() {
             let err = match o.kind {
@@ -235,6 +298,10 @@ pub fn stick_force_per_g_chart(res: &super::Results) -> Result<Option<crate::viz
     use crate::viz::plot::{Chart, Series};
     let Some(f) = &res.flight else { return Ok(None) };
     let name = f.aircraft.strip_prefix("jsbsim:").unwrap_or(&f.aircraft);
+    let file = crate::aero::backend::model_file(name)?;
+    if crate::aero::backend::is_fly_by_wire_file(&file)? {
+        return Ok(Some(fly_by_wire_chart(res, f, &FlyByWire::load(&file)?)));
+    }
     let a = crate::aero::Aircraft::new(std::sync::Arc::new(crate::aero::AircraftModel::load_builtin(
         name,
     )?));
@@ -276,4 +343,49 @@ pub fn stick_force_per_g_chart(res: &super::Results) -> Result<Option<crate::viz
         ns.iter().map(|&n| (n, hi * (n - 1.0))).collect(),
     ));
     Ok(Some(chart))
+}
+
+/// [`stick_force_per_g_chart`] of a fly-by-wire aircraft: the flown samples (the hand's force on the grip,
+/// which its stick's force sensor hands to the FCS), the designed law and the
+/// MIL-F-8785C Table V Level 1 boundaries at its design condition.
+fn fly_by_wire_chart(
+    res: &super::Results,
+    f: &super::FlightInfo,
+    fbw: &FlyByWire,
+) -> crate::viz::plot::Chart {
+    use crate::viz::plot::{Chart, Series};
+    let flown: Vec<(f64, f64)> = res
+        .rows
+        .iter()
+        .step_by(10)
+        .filter_map(|x| x.aero.map(|a| (a.nz_g, x.pilot_force_n)))
+        .collect();
+    let nz_flown = flown.iter().map(|p| p.0).fold(1.0, f64::max);
+    let n_top = (nz_flown + 0.5).max(2.0).min(fbw.limit_load_factor);
+    let ns: Vec<f64> = (0..=20).map(|k| 1.0 + (n_top - 1.0) * k as f64 / 20.0).collect();
+    let (lo, hi) = fbw.level1_per_g_n();
+    Chart::new(
+        format!(
+            "{} (fly-by-wire): stick force vs load factor, trim {:.0} m/s at {:.0} m",
+            f.aircraft, f.trim.airspeed_m_s, f.trim.altitude_m
+        ),
+        "load factor n_z (g)",
+        "stick force at the grip (N, pull +)",
+    )
+    .with(Series::points("flown: the hand's force (the FCS's input)", flown))
+    .with(Series::line(
+        format!(
+            "designed: {:.1} N breakout + {:.1} N/g",
+            fbw.breakout_n, fbw.stick_force_per_g_n
+        ),
+        ns.iter().map(|&n| (n, fbw.designed_force_n(n))).collect(),
+    ))
+    .with(Series::dashed(
+        format!("MIL-F-8785C Level 1: minimum {lo:.1} N/g"),
+        ns.iter().map(|&n| (n, lo * (n - 1.0))).collect(),
+    ))
+    .with(Series::dashed(
+        format!("MIL-F-8785C Level 1: maximum {hi:.1} N/g"),
+        ns.iter().map(|&n| (n, hi * (n - 1.0))).collect(),
+    ))
 }

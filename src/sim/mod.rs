@@ -192,6 +192,8 @@ pub struct Loop<P: Plant> {
     measured_force_n: f64,
     mode: LoopMode,
     pilot_work_j: f64,
+    /// The hand's force on the grip over the last step, N (a fly-by-wire stick's force sensor reads it).
+    hand_force_n: f64,
     /// Scheduled faults in the driver and sensor path.
     faults: crate::faults::FaultInjector,
     current_limit_a: f64,
@@ -241,7 +243,10 @@ impl<P: Plant> Loop<P> {
         let flight = scn
             .aircraft
             .as_ref()
-            .map(|a| Flight::open(a, scn.outer_loop.as_ref(), plant.stick_limits_rad()))
+            .map(|a| {
+                let force_task = scn.pilot.task == Task::Force;
+                Flight::open(a, scn.outer_loop.as_ref(), plant.stick_limits_rad(), force_task)
+            })
             .transpose()
             .map_err(|error| SimError::Aero {
                 scenario: scn.path.clone(),
@@ -265,6 +270,7 @@ impl<P: Plant> Loop<P> {
             measured_force_n: 0.0,
             mode: LoopMode::Holding,
             pilot_work_j: 0.0,
+            hand_force_n: 0.0,
             faults: crate::faults::FaultInjector::new(scn.faults.clone(), scn.seed),
             current_limit_a: devices.plant.model.current_limit_a,
             late: VecDeque::new(),
@@ -304,11 +310,12 @@ impl<P: Plant> Loop<P> {
         let t = self.step_index as f64 * dt;
         let s = self.plant.state();
         if let Some(f) = self.flight.as_mut() {
-            f.update(t, s.stick_angle_rad).map_err(|error| SimError::Aero {
-                scenario: self.scenario_path.clone(),
-                line: self.scenario_lines.aircraft_model,
-                error,
-            })?;
+            f.update(t, s.stick_angle_rad, self.hand_force_n)
+                .map_err(|error| SimError::Aero {
+                    scenario: self.scenario_path.clone(),
+                    line: self.scenario_lines.aircraft_model,
+                    error,
+                })?;
             if let FeelLaw::Target { .. } = self.feel.controller.law {
                 // Grip → piston by virtual work at the present linkage angle.
                 let force_n = f.stick_force_n() * self.plant.grip_arm_m()
@@ -352,6 +359,7 @@ impl<P: Plant> Loop<P> {
         if let Some(m) = self.feel.motor.as_mut() {
             m.force_n = self.faults.motor_force_n(t, m.cmd_n, m.force_n, m.max_force_n);
         }
+        self.hand_force_n = hand_force;
         let actuator_force_n = self.feel.motor_force_n();
         let row = Row {
             t_s: t,

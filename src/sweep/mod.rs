@@ -3,14 +3,15 @@
 //! handling-qualities verdicts per run.
 //!
 //! An output directory holds `sweep.toml` (which plan, which shard), `runs.jsonl` (one line per finished
-//! run, appended as runs finish: what a rerun skips), and when its runs are all done `results.csv`,
-//! `results.arrow` (one row per run, by index), `report.md` and the maps. Every file but the journal's
+//! run, appended as runs finish: what a rerun skips), and when its runs are all done `results.parquet`,
+//! `results.csv` (one row per run, by index), `report.md` and the maps. Every file but the journal's
 //! order depends only on the plan and the runs' results, so shards merged equal one process to the byte.
 
 pub(crate) mod hq;
 pub mod outcome;
 pub mod plan;
 pub mod report;
+pub(crate) mod steady;
 pub mod store;
 
 pub use outcome::Outcome;

@@ -4,8 +4,11 @@
 use serde::{Deserialize, Serialize};
 
 use super::hq;
+use super::steady::{steady_per_g, Lever};
 use crate::aero::certification::CertificationBasis;
 use crate::aero::model::{AircraftModel, CertificationPart, ControlType};
+use crate::aero::Aircraft;
+use crate::control::law::FeelLaw;
 use crate::scenario::Scenario;
 use crate::sim::Results;
 use crate::units::G0_M_S2;
@@ -36,13 +39,27 @@ pub struct Outcome {
     /// Largest |aircraft stick force| asked for at the grip, N.
     pub stick_force_peak_n: Option<f64>,
     pub current_max_a: Option<f64>,
-    /// Span of the load factor flown, g, and the felt pull force per g over it (least squares), N/g.
-    pub nz_span_g: Option<f64>,
+    /// Stick deflection per g of the aircraft's steady pull-up (1 g to `nz`: 2 g, or less near the stall),
+    /// rad.
+    pub stick_per_g_rad: Option<f64>,
+    /// Stick force per g the feel system holds in that steady pull-up, N/g (breakout excluded): the
+    /// MIL-F-8785C quantity, from the feel system's design (`sweep::steady`).
     pub stick_force_per_g_n: Option<f64>,
+    /// The same deflection per g times the force–deflection gradient the feel rendered in the run (the
+    /// outward samples' least-squares line), N/g.
+    pub stick_force_per_g_rendered_n: Option<f64>,
+    /// Span of the load factor flown, g, and the felt pull force per g over it (least squares over the
+    /// task, a dynamic figure, not the verdict's), N/g.
+    pub nz_span_g: Option<f64>,
+    pub stick_force_per_g_flown_n: Option<f64>,
     /// Acceleration sensitivity at trim, g/rad.
     pub n_per_alpha_g_per_rad: Option<f64>,
     /// Largest |felt − aircraft stick force| as a ratio of the Part 60 tolerance.
     pub part60_force_ratio: Option<f64>,
+    /// Breakout the pilot felt (the intercept at centre of the force–deflection line rendered moving out),
+    /// and the breakout of the feel target (the aircraft's feel unit, or the law's), N at the grip.
+    pub breakout_n: Option<f64>,
+    pub breakout_ref_n: Option<f64>,
     /// 14 CFR 23.143 / 25.143: peak within the temporary limit, prolonged within the prolonged limit.
     pub far_temporary_ok: Option<bool>,
     pub far_prolonged_ok: Option<bool>,
@@ -50,11 +67,13 @@ pub struct Outcome {
     pub per_g_level: Option<u8>,
     /// 14 CFR Part 60 force tolerance met throughout.
     pub part60_force_ok: Option<bool>,
+    /// 14 CFR Part 60 breakout tolerance (±2 lbf of the target's breakout) met.
+    pub part60_breakout_ok: Option<bool>,
     /// Why the run stopped, if it did (its figures are then empty).
     pub error: Option<String>,
 }
 
-/// A load-factor span below this gives no stick force per g (the slope would be noise), g.
+/// A load-factor span below this gives no flown stick force per g (the slope would be noise), g.
 const MIN_NZ_SPAN_G: f64 = 0.2;
 
 fn finite(x: f64) -> Option<f64> {
@@ -86,6 +105,26 @@ impl Outcome {
             None => CertificationBasis::new(CertificationPart::Part23, ControlType::Stick, 0.0),
         };
         let (temporary, prolonged_limit) = hq::force_limits(&basis);
+        let lever = Lever {
+            grip_arm_m: res.grip_arm_m,
+            gearing_m_per_rad: res.gearing_at_centre_m_per_rad,
+            mr_ceiling_n: res.feel_ceiling_n,
+        };
+        let to_grip = lever.gearing_m_per_rad / lever.grip_arm_m;
+        let theta: Vec<f64> = res.rows.iter().map(|r| r.stick_angle_rad).collect();
+        let rate: Vec<f64> = res.rows.iter().map(|r| r.stick_rate_rad_s).collect();
+        let line = hq::force_line(
+            &theta,
+            &rate,
+            &grip,
+            scn.controller.rest_speed_m_s / lever.gearing_m_per_rad,
+        );
+        let breakout_ref = match (&scn.feel, &model) {
+            (FeelLaw::Target { .. }, Some(m)) => Some(m.hinge.feel_computer.map_or(0.0, |fc| fc.breakout_n)),
+            (FeelLaw::Spring { breakout_n, .. }, _) => Some(breakout_n * to_grip),
+            _ => None,
+        };
+        let breakout = line.and_then(|l| finite(l.breakout_n));
         let mut o = Outcome {
             force_tracking_rmse_n: s.tracking_rmse_n.and_then(finite),
             force_tracking_nrmse: s.tracking_nrmse.and_then(finite),
@@ -97,8 +136,29 @@ impl Outcome {
             current_max_a: finite(s.current_max_a),
             far_temporary_ok: Some(peak <= temporary),
             far_prolonged_ok: prolonged.map(|p| p <= prolonged_limit),
+            breakout_n: breakout,
+            breakout_ref_n: breakout_ref,
+            part60_breakout_ok: breakout
+                .zip(breakout_ref)
+                .map(|(b, r)| (b - r).abs() <= hq::PART60_BREAKOUT_TOLERANCE_N),
             ..Self::default()
         };
+        if let (Some(m), Some(a)) = (&model, &scn.aircraft) {
+            let ac = Aircraft::new(std::sync::Arc::new(m.clone()));
+            if let Ok(st) = steady_per_g(
+                &scn.feel_system,
+                &scn.feel,
+                &lever,
+                &ac,
+                a.airspeed_m_s,
+                a.altitude_m,
+            ) {
+                o.stick_per_g_rad = finite(st.stick_per_g_rad);
+                o.stick_force_per_g_n = finite(st.per_g_n);
+                o.stick_force_per_g_rendered_n =
+                    line.and_then(|l| finite(l.gradient_n_per_rad * st.stick_per_g_rad.abs()));
+            }
+        }
         let aero: Vec<(f64, crate::sim::AeroRow)> = res
             .rows
             .iter()
@@ -122,11 +182,11 @@ impl Outcome {
             if nz_hi - nz_lo >= MIN_NZ_SPAN_G {
                 let per_g =
                     crate::compare::metrics::slope(aero.iter().zip(&felt).map(|((_, a), f)| (a.nz_g, *f)));
-                o.stick_force_per_g_n = finite(per_g);
-                if let (Some(g), Some(na)) = (o.stick_force_per_g_n, o.n_per_alpha_g_per_rad) {
-                    let bounds = hq::centre_stick_per_g_bounds(m.limit_load_factor, na);
-                    o.per_g_level = Some(hq::per_g_level(g, &bounds));
-                }
+                o.stick_force_per_g_flown_n = finite(per_g);
+            }
+            if let (Some(g), Some(na)) = (o.stick_force_per_g_n, o.n_per_alpha_g_per_rad) {
+                let bounds = hq::centre_stick_per_g_bounds(m.limit_load_factor, na);
+                o.per_g_level = Some(hq::per_g_level(g, &bounds));
             }
             o.part60_force_ratio = hq::part60_force_ratio(&felt, &target).and_then(finite);
             o.part60_force_ok = o.part60_force_ratio.map(|r| r <= 1.0);
@@ -146,14 +206,23 @@ impl Outcome {
             ("grip_force_prolonged_n", F(self.grip_force_prolonged_n)),
             ("stick_force_peak_n", F(self.stick_force_peak_n)),
             ("current_max_a", F(self.current_max_a)),
-            ("nz_span_g", F(self.nz_span_g)),
+            ("stick_per_g_rad", F(self.stick_per_g_rad)),
             ("stick_force_per_g_n", F(self.stick_force_per_g_n)),
+            (
+                "stick_force_per_g_rendered_n",
+                F(self.stick_force_per_g_rendered_n),
+            ),
+            ("nz_span_g", F(self.nz_span_g)),
+            ("stick_force_per_g_flown_n", F(self.stick_force_per_g_flown_n)),
             ("n_per_alpha_g_per_rad", F(self.n_per_alpha_g_per_rad)),
             ("part60_force_ratio", F(self.part60_force_ratio)),
+            ("breakout_n", F(self.breakout_n)),
+            ("breakout_ref_n", F(self.breakout_ref_n)),
             ("far_temporary_ok", B(self.far_temporary_ok)),
             ("far_prolonged_ok", B(self.far_prolonged_ok)),
             ("per_g_level", U(self.per_g_level)),
             ("part60_force_ok", B(self.part60_force_ok)),
+            ("part60_breakout_ok", B(self.part60_breakout_ok)),
             ("error", S(self.error.clone())),
         ]
     }

@@ -1,6 +1,6 @@
 //! A sweep's output directory: the manifest (`sweep.toml`: plan, digest, shard, columns), the journal of
 //! finished runs (`runs.jsonl`, appended line by line, so a killed sweep loses at most the line it was
-//! writing), and the results (`results.csv`, `results.arrow`) written from the journal sorted by index.
+//! writing), and the results (`results.parquet`, `results.csv`) written from the journal sorted by index.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -133,7 +133,7 @@ impl Loaded {
 pub const MANIFEST: &str = "sweep.toml";
 pub const JOURNAL: &str = "runs.jsonl";
 pub const RESULTS_CSV: &str = "results.csv";
-pub const RESULTS_ARROW: &str = "results.arrow";
+pub const RESULTS_PARQUET: &str = "results.parquet";
 
 /// An output directory open for a plan's shard: its journal to append to, and the runs it already has.
 pub struct Store {
@@ -209,7 +209,7 @@ impl Store {
         self.journal.flush().map_err(io(&p))
     }
 
-    /// Write the results of `records` (all of this shard's runs): the journal sorted, CSV and Arrow IPC.
+    /// Write the results of `records` (all of this shard's runs): the journal sorted, Parquet and CSV.
     pub fn finish(&self, records: &mut [Record]) -> Result<(), StoreError> {
         write_results(&self.dir, &self.manifest, records)
     }
@@ -274,8 +274,8 @@ fn write_results(dir: &Path, m: &Manifest, records: &mut [Record]) -> Result<(),
     }
     write_text(&dir.join(JOURNAL), &journal)?;
     write_bytes(&dir.join(RESULTS_CSV), &csv_bytes(m, records))?;
-    let p = dir.join(RESULTS_ARROW);
-    let bytes = arrow_bytes(m, records).map_err(|msg| StoreError::Io { path: p.clone(), msg })?;
+    let p = dir.join(RESULTS_PARQUET);
+    let bytes = parquet_bytes(m, records).map_err(|msg| StoreError::Io { path: p.clone(), msg })?;
     write_bytes(&p, &bytes)
 }
 
@@ -304,8 +304,8 @@ fn csv_bytes(m: &Manifest, records: &[Record]) -> Vec<u8> {
     w.into_inner().expect("writing to memory")
 }
 
-/// The results as an Arrow IPC file (one record batch).
-fn arrow_bytes(m: &Manifest, records: &[Record]) -> Result<Vec<u8>, String> {
+/// The results as a Parquet file (one row group, uncompressed): the same bytes for the same records.
+fn parquet_bytes(m: &Manifest, records: &[Record]) -> Result<Vec<u8>, String> {
     use arrow_array::{
         ArrayRef, BooleanArray, Float64Array, RecordBatch, StringArray, UInt64Array, UInt8Array,
     };
@@ -372,11 +372,14 @@ fn arrow_bytes(m: &Manifest, records: &[Record]) -> Result<Vec<u8>, String> {
     }
     let schema = Arc::new(Schema::new(fields));
     let batch = RecordBatch::try_new(schema.clone(), cols).map_err(|e| e.to_string())?;
+    let props = parquet::file::properties::WriterProperties::builder()
+        .set_compression(parquet::basic::Compression::UNCOMPRESSED)
+        .build();
     let mut buf = Vec::new();
-    let mut w = arrow_ipc::writer::FileWriter::try_new(&mut buf, &schema).map_err(|e| e.to_string())?;
+    let mut w =
+        parquet::arrow::ArrowWriter::try_new(&mut buf, schema, Some(props)).map_err(|e| e.to_string())?;
     w.write(&batch).map_err(|e| e.to_string())?;
-    w.finish().map_err(|e| e.to_string())?;
-    drop(w);
+    w.close().map_err(|e| e.to_string())?;
     Ok(buf)
 }
 

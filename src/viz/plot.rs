@@ -1,4 +1,4 @@
-//! Static plots (PNG and SVG) with plotters: line/point charts in a grid of panels, and heatmaps.
+//! Static plots (PNG and SVG) with plotters: line and point charts in a grid of panels.
 //!
 //! Every figure is written twice, `STEM.png` for a quick look and `STEM.svg` for reports. Text uses the
 //! bundled DejaVu Sans (registered once), so plots render the same on a machine with no fonts installed.
@@ -118,24 +118,11 @@ fn emptiest_corner(series: &[Series], xs: (f64, f64), ys: (f64, f64)) -> SeriesL
     }
 }
 
-/// A heatmap: values on a grid of `x_edges.len()-1` × `y_edges.len()-1` cells (`None` = no data).
-#[derive(Debug, Clone)]
-pub struct Heatmap {
-    pub title: String,
-    pub x_label: String,
-    pub y_label: String,
-    pub value_label: String,
-    pub x_edges: Vec<f64>,
-    pub y_edges: Vec<f64>,
-    /// `cells[ix][iy]`.
-    pub cells: Vec<Vec<Option<f64>>>,
-}
-
 const FONT: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
 static FONT_ONCE: Once = Once::new();
 
 /// Register the bundled font for plotters' text (idempotent; every module that draws text calls it).
-pub fn register_font() {
+pub(crate) fn register_font() {
     FONT_ONCE.call_once(|| {
         // The font is compiled in; registration can only fail on a corrupt build.
         let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
@@ -143,7 +130,7 @@ pub fn register_font() {
 }
 
 /// A colour per series index, distinguishable and colour-blind friendly (Okabe–Ito).
-pub fn palette(k: usize) -> RGBColor {
+pub(crate) fn palette(k: usize) -> RGBColor {
     const C: [RGBColor; 8] = [
         RGBColor(0, 114, 178),
         RGBColor(213, 94, 0),
@@ -157,25 +144,6 @@ pub fn palette(k: usize) -> RGBColor {
     C[k % C.len()]
 }
 
-/// A figure that can draw itself on any plotters backend.
-enum Figure<'a> {
-    Grid {
-        charts: &'a [Chart],
-        rows: usize,
-        cols: usize,
-    },
-    Heatmap(&'a Heatmap),
-}
-
-impl Figure<'_> {
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
-        match *self {
-            Figure::Grid { charts, rows, cols } => draw_grid(root, charts, rows, cols),
-            Figure::Heatmap(map) => draw_heatmap(root, map),
-        }
-    }
-}
-
 fn plot_error(path: &Path, msg: String) -> PlotError {
     PlotError {
         path: path.into(),
@@ -184,7 +152,14 @@ fn plot_error(path: &Path, msg: String) -> PlotError {
 }
 
 /// Draw a figure into `DIR/STEM.png` and `DIR/STEM.svg`.
-fn save_both(fig: Figure<'_>, size: (u32, u32), dir: &Path, stem: &str) -> Result<Vec<PathBuf>, PlotError> {
+fn save_both(
+    charts: &[Chart],
+    rows: usize,
+    cols: usize,
+    size: (u32, u32),
+    dir: &Path,
+    stem: &str,
+) -> Result<Vec<PathBuf>, PlotError> {
     register_font();
     std::fs::create_dir_all(dir).map_err(|e| PlotError {
         path: dir.into(),
@@ -197,7 +172,7 @@ fn save_both(fig: Figure<'_>, size: (u32, u32), dir: &Path, stem: &str) -> Resul
         &png,
         |tmp| {
             let root = BitMapBackend::new(tmp, size).into_drawing_area();
-            fig.draw(&root).map_err(|m| plot_error(&png, m))?;
+            draw_grid(&root, charts, rows, cols).map_err(|m| plot_error(&png, m))?;
             root.present().map_err(|e| plot_error(&png, e.to_string()))
         },
         |e| plot_error(&png, e.to_string()),
@@ -206,7 +181,7 @@ fn save_both(fig: Figure<'_>, size: (u32, u32), dir: &Path, stem: &str) -> Resul
         &svg,
         |tmp| {
             let root = SVGBackend::new(tmp, size).into_drawing_area();
-            fig.draw(&root).map_err(|m| plot_error(&svg, m))?;
+            draw_grid(&root, charts, rows, cols).map_err(|m| plot_error(&svg, m))?;
             root.present().map_err(|e| plot_error(&svg, e.to_string()))
         },
         |e| plot_error(&svg, e.to_string()),
@@ -219,12 +194,7 @@ pub fn save_charts(charts: &[Chart], cols: usize, dir: &Path, stem: &str) -> Res
     let cols = cols.max(1).min(charts.len().max(1));
     let rows = charts.len().div_ceil(cols).max(1);
     let size = (560 * cols as u32, 420 * rows as u32);
-    save_both(Figure::Grid { charts, rows, cols }, size, dir, stem)
-}
-
-/// Write a heatmap to `DIR/STEM.png` and `DIR/STEM.svg`.
-pub fn save_heatmap(map: &Heatmap, dir: &Path, stem: &str) -> Result<Vec<PathBuf>, PlotError> {
-    save_both(Figure::Heatmap(map), (760, 520), dir, stem)
+    save_both(charts, rows, cols, size, dir, stem)
 }
 
 fn bounds(points: impl Iterator<Item = f64>) -> (f64, f64) {
@@ -332,73 +302,9 @@ fn draw_chart<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, chart: &Chart) 
 
 /// The perceptual colour scale of every heat map (viridis: lightness rises steadily, readable in grey and
 /// by colour-blind readers), for `v` in [0, 1].
-pub fn colormap(v: f64) -> RGBColor {
+pub(crate) fn colormap(v: f64) -> RGBColor {
     use plotters::style::colors::colormaps::{ColorMap, ViridisRGB};
     ViridisRGB.get_color(v.clamp(0.0, 1.0))
-}
-
-fn draw_heatmap<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, map: &Heatmap) -> Result<(), String> {
-    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
-    root.fill(&WHITE).map_err(e)?;
-    let (main, legend) = root.split_horizontally(640);
-    let xs = (map.x_edges[0], *map.x_edges.last().unwrap_or(&1.0));
-    let ys = (map.y_edges[0], *map.y_edges.last().unwrap_or(&1.0));
-    let vmax = map
-        .cells
-        .iter()
-        .flatten()
-        .flatten()
-        .fold(0.0f64, |a, &b| a.max(b))
-        .max(1e-300);
-    let mut c = ChartBuilder::on(&main)
-        .caption(&map.title, ("sans-serif", 17))
-        .margin(10)
-        .x_label_area_size(38)
-        .y_label_area_size(62)
-        .build_cartesian_2d(xs.0..xs.1, ys.0..ys.1)
-        .map_err(e)?;
-    c.configure_mesh()
-        .x_desc(&map.x_label)
-        .y_desc(&map.y_label)
-        .label_style(("sans-serif", 13))
-        .disable_mesh()
-        .draw()
-        .map_err(e)?;
-    for (ix, col) in map.cells.iter().enumerate() {
-        for (iy, cell) in col.iter().enumerate() {
-            let Some(v) = cell else { continue };
-            let r = [
-                (map.x_edges[ix], map.y_edges[iy]),
-                (map.x_edges[ix + 1], map.y_edges[iy + 1]),
-            ];
-            c.draw_series(std::iter::once(Rectangle::new(r, colormap(v / vmax).filled())))
-                .map_err(e)?;
-        }
-    }
-    // Colour bar.
-    let steps = 50;
-    let mut bar = ChartBuilder::on(&legend)
-        .margin_top(40)
-        .margin_bottom(48)
-        .margin_right(50)
-        .y_label_area_size(0)
-        .right_y_label_area_size(45)
-        .caption(&map.value_label, ("sans-serif", 13))
-        .build_cartesian_2d(0.0..1.0, 0.0..vmax)
-        .map_err(e)?;
-    bar.configure_mesh()
-        .disable_x_axis()
-        .disable_mesh()
-        .label_style(("sans-serif", 12))
-        .draw()
-        .map_err(e)?;
-    bar.draw_series((0..steps).map(|k| {
-        let a = k as f64 / steps as f64 * vmax;
-        let b = (k + 1) as f64 / steps as f64 * vmax;
-        Rectangle::new([(0.0, a), (1.0, b)], colormap(a / vmax).filled())
-    }))
-    .map_err(e)?;
-    Ok(())
 }
 
 #[cfg(test)]

@@ -1,19 +1,8 @@
-//! Rerun recording of a stick-rig run: the rig's bodies moving in 3D with the forces on them as arrows,
-//! and time series of the desired vs measured force, the current command and the stroke, laid out by a
-//! default blueprint (the 3D rig beside the force and current plots).
-//!
-//! Entity layout (timeline `time`, duration in seconds; world frame of [`crate::rig`]: x aft, z up, set as
-//! the recording's view coordinates at `/`):
-//! - `rig/<link>`: the link's pose (`Transform3D` per frame, from the multibody);
-//!   `rig/<link>/visual_<k>`: its URDF visuals (static shapes posed in the link's frame);
-//! - `forces/hand`: the pilot's hand force at the grip, along the grip path (+ = pull, aft);
-//!   `forces/damper`: the fluid's force on the piston, `−Fd` along x (it opposes the piston's motion);
-//!   `forces/load_cell`: the push rod's force on the piston along x; all three 1 mm per newton;
-//! - [`SERIES`]: one value per physics step, the same samples as the run's CSV columns;
-//! - with an aircraft: `aircraft` (an airframe of boxes beside the stick, rotated by the pitch attitude at
-//!   each frame) and [`AIRCRAFT_SERIES`], one value per physics step.
-//!
-//! The recording takes plain data ([`Sample`], poses, visuals), not the simulation's types.
+//! Rerun recording of a stick-rig run: the rig's bodies in 3D with the forces on them as arrows (1 mm per
+//! newton), time series of the run's signals (`SERIES`, `AIRCRAFT_SERIES`), and a default blueprint with
+//! the 3D rig beside the plots. Entity layout: `docs/sim.md`. It takes plain data ([`Sample`], poses,
+//! visuals), not the simulation's types.
+#![warn(missing_docs)]
 
 use std::path::Path;
 
@@ -35,7 +24,9 @@ const AIRCRAFT_AT_M: [f32; 3] = [0.0, 0.6, 0.3];
 #[derive(Debug, thiserror::Error)]
 pub enum VizError {
     #[error("rerun: {0}")]
+    /// The Rerun SDK failed.
     Rerun(String),
+    /// No viewer could be started.
     #[error(
         "could not spawn a Rerun viewer ({0}); install one with `pip install rerun-sdk==0.36.3` (then `rerun` is on PATH) or `cargo install rerun-cli --version 0.36.3 --locked`, or write a file with --rerun out.rrd and open it later"
     )]
@@ -77,7 +68,7 @@ pub fn spawn_on_port(port: u16) -> Result<RecordingStream, VizError> {
 }
 
 /// The time series of a recording, one entity path each.
-pub const SERIES: [&str; 10] = [
+pub(crate) const SERIES: [&str; 10] = [
     "signals/force/desired",
     "signals/force/load_cell",
     "signals/force/load_cell_true",
@@ -90,7 +81,7 @@ pub const SERIES: [&str; 10] = [
     "signals/faults/mask",
 ];
 /// The aircraft's time series.
-pub const AIRCRAFT_SERIES: [&str; 9] = [
+pub(crate) const AIRCRAFT_SERIES: [&str; 9] = [
     "signals/aircraft/pitch",
     "signals/aircraft/pitch_cmd",
     "signals/aircraft/nz",
@@ -109,6 +100,7 @@ const PILOT: usize = 6;
 /// One physics step as a recording shows it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sample {
+    /// Time since the run's start, s.
     pub t_s: f64,
     /// The values of [`SERIES`], in order (SI units as the paths say).
     pub series: [f64; 10],
@@ -117,7 +109,7 @@ pub struct Sample {
 }
 
 /// Log one run whose samples and frames are all in memory ([`RunLogger`]).
-pub fn log_run(
+pub(crate) fn log_run(
     rec: &RecordingStream,
     visuals: &[LinkVisuals],
     flight: bool,
@@ -145,7 +137,7 @@ pub fn log_run(
 
 /// The layout a recording opens with: the 3D rig and its force arrows on the left; on the right the
 /// forces, the coil current and the stick (and with an aircraft its pitch and load factor) over time.
-pub fn blueprint(flight: bool) -> Blueprint {
+pub(crate) fn blueprint(flight: bool) -> Blueprint {
     let mut plots: Vec<ContainerLike> = vec![
         TimeSeriesView::new("force (N)")
             .with_origin("/signals/force")
@@ -273,7 +265,7 @@ impl<'a> RunLogger<'a> {
 
 /// Each link's visual shapes, static, under `PREFIX/<link>/visual_<k>`, posed in the link's frame (the
 /// link's own transform is logged over time by [`log_link_poses`]). Shared by run and flight recordings.
-pub fn log_link_visuals(
+pub(crate) fn log_link_visuals(
     rec: &RecordingStream,
     prefix: &str,
     visuals: &[LinkVisuals],
@@ -307,7 +299,11 @@ pub fn log_link_visuals(
 }
 
 /// The links' world poses at the recording's current time, under `PREFIX/<link>`.
-pub fn log_link_poses(rec: &RecordingStream, prefix: &str, poses: &[BodyPose]) -> RecordingStreamResult<()> {
+pub(crate) fn log_link_poses(
+    rec: &RecordingStream,
+    prefix: &str,
+    poses: &[BodyPose],
+) -> RecordingStreamResult<()> {
     for p in poses {
         rec.log(
             format!("{prefix}/{}", p.name),

@@ -1,29 +1,7 @@
-//! Direction-dependent yield force: the damper resists more one way than the other.
-//!
-//! Physics: a misaligned piston, a cylinder bore that is not uniform, or a seal whose lip drags more in one
-//! direction make the yield force depend on the direction of motion. The seed paper saw it on its MTS test:
-//! "a maximum of 70 N in positive direction and 100 N in negative direction for an input current of
-//! approximately 14 A", attributed to misalignment and bore imperfections (Section 4).
-//!
-//! Equation (an estimate of the simplest form consistent with that observation): the yield force is scaled
-//! by a direction `s`,
-//!
-//! `Fy,eff = Fy · (1 + a·s)`,  `s = d + w (sgn v − d)`,  so `F = Fy (1 + a s) d + C0 v + …`
-//!
-//! with `a` = `asym_fraction` in (−1, 1): on the yield branches `|F(+v)| / |F(−v)| = (1 + a)/(1 − a)` (after
-//! removing `C0 v`). The paper's 70 N / 100 N gives `a = (70 − 100)/(70 + 100) ≈ −0.18`. Being a fraction
-//! of the yield force, the direction difference `2 a Fy` grows linearly with the current, which separates it
-//! from a constant preload (see `stiffness`).
-//!
-//! Which direction: `d` is the direction function (`sgn v`, or the hysteresis state `z`), `w` =
-//! `asym_motion_share` in [0, 1]. Without hysteresis `d = sgn v` and `w` does nothing. With it the two differ
-//! for a few yield displacements after each reversal: an asymmetry of the fluid's path (a gap narrower on one
-//! side) follows the yield state, `w = 0`, and keeps the force continuous; a seal that drags more one way
-//! follows the sliding direction, `w = 1`, and switches the scale the moment the velocity changes sign while
-//! the fluid is still on its old branch. The data choose. Both independent truths of the test suite scale the
-//! yield by `sgn v` beside Bouc–Wen hysteresis; with `s = d` fixed that leaves 12–13× the
-//! noise floor after every hidden effect was named (multisine tests, `python/independent_truth.py`). A
-//! parameter file without `asym_motion_share` is the model it was saved with, `w = 0`.
+//! Direction-dependent yield force `Fy (1 + a·s)`, `s = d + w (sgn v − d)`: a misaligned piston, an uneven
+//! bore or a seal that drags more one way (the seed paper's 70 N against 100 N at 14 A). `d` is the direction
+//! function, `w` whether the scale follows the motion (a seal, 1) or the yield state (the fluid's path, 0).
+//! Physics and sources: `docs/explanation/damper-models.md`.
 
 use crate::device::effect::{Effect, EffectStage, Inputs, Stage};
 use crate::device::params::{DataStats, ParamSpec};

@@ -1,21 +1,6 @@
-//! Post-yield damping that rises with the coil current.
-//!
-//! Physics: in the post-yield (flow) regime the field-aligned particle chains keep breaking and re-forming,
-//! so the apparent plastic viscosity of an MR fluid grows with the field, not only the yield stress; a
-//! Bingham model with a constant `C0` (Eq. 2) then fits the slope of the force–velocity curve at one current
-//! and misses it at others.
-//!
-//! Equation (the current-dependent damping coefficient of Spencer et al. 1997, J. Eng. Mech. 123(3),
-//! `c0 = c0a + c0b u`, with `u` the filtered excitation; here the base's lagged excitation `h`):
-//!
-//! `C(h) = C0 + c1 · |h| · (|h| / 1 A)^(n−1)`,  `F = Fy d + C(h) v + …`
-//!
-//! with `c1` = `visc_c1_n_s_per_m_per_a` ≥ 0 (the increase per ampere at 1 A) and `n` = `visc_exponent`.
-//! `n = 1` is Spencer's linear law and where a fit starts. The exponent lets the rise be faster (the
-//! particles' dipole interaction, and with it the plastic viscosity, grows with the square of the field at
-//! low field) or slower (the field saturates in the steel at high current) than linear; data at two
-//! currents cannot tell it from 1, data at three or more can. `C0` stays the base's damping at zero
-//! current.
+//! Post-yield damping that rises with the coil current, `C(h) = C0 + c1 |h| (|h| / 1 A)^(n−1)` (Spencer et
+//! al. 1997's `c0 = c0a + c0b u` for `n = 1`): the plastic viscosity of an MR fluid grows with the field.
+//! Physics and sources: `docs/explanation/damper-models.md`.
 
 use crate::device::effect::{Effect, EffectStage, Inputs, Stage};
 use crate::device::params::{DataStats, ParamSpec};

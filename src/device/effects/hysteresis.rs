@@ -1,16 +1,8 @@
-//! Pre-yield hysteresis: the direction `sgn v` of Eq. (2) becomes a state `z` in [-1, 1] that follows the
-//! piston through a normalised Bouc–Wen element in series with a viscous pre-yield dashpot (Spencer, Dyke,
-//! Sain & Carlson 1997, reduced to its pre-yield core). With the slip velocity `w = v − v_y z`:
-//!
-//! `dz/dt = (w − (1 − g) |w| sgn(z) ψ(|z|) − g w ψ(|z|)) / x_y`, `ψ(q) = q (1 − κ + κ q)`, `F = Fy · z + …`
-//!
-//! `x_y` (`hyst_x_yield_m`) is the elastic pre-yield displacement, `v_y` (`hyst_v_yield_m_s`) the viscous
-//! pre-yield velocity (a dashpot `Fy/v_y` below it), `κ` (`hyst_knee`) the knee (0: Bouc–Wen `n = 1`, 1:
-//! `n = 2`), `g` (`hyst_gamma_share`) the return after a reversal (0 with `κ = 0`: Dahl; ½: Spencer's
-//! `γ = β`). `x_y → 0` gives the bi-viscous Bingham model, `v_y = 0` Bouc–Wen; a parameter file without the
-//! shape keys describes the Dahl shape. `shaped_step` integrates by Runge–Kutta in sub-steps of at most
-//! half a yield displacement (their count blended so the force is continuous in every parameter, as the
-//! fit's Jacobian needs); [`step`] is the Dahl shape's closed form. Choice and evidence: `docs/hysteresis.md`.
+//! Pre-yield hysteresis: the direction `sgn v` of Eq. (2) becomes a state `z` in [-1, 1], a normalised
+//! Bouc–Wen element (yield displacement `x_y`, knee `κ`, return share `g`) in series with a viscous
+//! pre-yield dashpot `Fy/v_y` (Spencer et al. 1997, reduced). `shaped_step` integrates it by Runge–Kutta
+//! in sub-steps blended so the force is continuous in every parameter; [`step`] is the Dahl shape's closed
+//! form. Equations: `docs/explanation/damper-models.md`; choice and evidence: `docs/hysteresis.md`.
 
 use crate::device::effect::{Effect, EffectStage, Inputs, Stage, Step};
 use crate::device::params::{DataStats, ParamSpec};

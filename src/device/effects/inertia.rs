@@ -1,11 +1,5 @@
-//! Inertia of the moving parts: piston, rod, and the fluid they push.
-//!
-//! Physics: the load cell measures the force that accelerates the moving mass as well as the damper's
-//! force (Newton's second law on piston and rod); at high frequency it dominates. The effective mass also
-//! includes the fluid accelerated through the gap, so it is a fitted, not a weighed, mass.
-//!
-//! Equation: `F_extra = m · a`, `m` = `inertia_mass_kg` ≥ 0, `a` the piston acceleration (measured, derived
-//! or from the multibody).
+//! Inertia of the moving parts: `F_extra = m a`, `m` the fitted mass of piston, rod and the fluid they
+//! push, `a` the piston acceleration.
 
 use crate::device::effect::{Effect, EffectStage, Inputs, Stage};
 use crate::device::params::{DataStats, ParamSpec};

@@ -1,21 +1,6 @@
-//! Magnetic saturation: the yield force stops growing in proportion to the coil current.
-//!
-//! Physics: the MR fluid's yield stress follows the magnetic induction in the gap, and both the fluid
-//! (particle magnetisation) and the steel of the magnetic circuit saturate, so beyond a few amperes each
-//! extra ampere adds less force. The paper's Eq. (6) maps current to yield force linearly (`bH kH`); it
-//! notes that "the device cannot supply more force after it reaches the saturation limit" (Section 4).
-//! A linear model fitted over a wide current range over-predicts at high current and under-predicts in the
-//! middle.
-//!
-//! Equation (the `tanh` saturation law used for MR yield stress versus field, e.g. Yang, Spencer, Carlson &
-//! Sain 2002, Smart Mater. Struct. 11, and for the magnetisation curve generally): the field-driven part of
-//! the yield force `k |h|` (Eq. 6) becomes
-//!
-//! `Fy = fc0 + k · i_sat · tanh(|h| / i_sat)`
-//!
-//! with `i_sat` = `sat_current_a`. Its slope at small current is the base's `fc_gain_n_per_a` and it tends
-//! to `fc0 + k i_sat`: the saturation force is not a second gain, and the linear model is the limit
-//! `i_sat → ∞`. The seal friction `fc0` does not saturate.
+//! Magnetic saturation: the field-driven yield force `k |h|` of Eq. (6) becomes `k i_sat tanh(|h| / i_sat)`,
+//! linear at small current and bounded at high current (fluid and steel saturate). Physics and sources:
+//! `docs/explanation/damper-models.md`.
 
 use crate::device::effect::{Effect, EffectStage, Inputs, Stage};
 use crate::device::params::{DataStats, ParamSpec};

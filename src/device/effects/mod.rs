@@ -1,18 +1,7 @@
-//! The effect library: one file per physical effect of the model-discovery vocabulary
-//! (`docs/spec/model-discovery.md`).
-//!
-//! | name | stage | parameters |
-//! |---|---|---|
-//! | [`magnetic_saturation`] | yield map | `sat_current_a` |
-//! | [`thermal_drift`] | yield scale | `thermal_energy_j`, `thermal_tau_s` |
-//! | [`hysteresis`] | direction | `hyst_x_yield_m`, `hyst_v_yield_m_s`, `hyst_knee`, `hyst_gamma_share` |
-//! | [`asymmetry`] | direction dependence | `asym_fraction` |
-//! | [`current_viscosity`] | damping | `visc_c1_n_s_per_m_per_a` |
-//! | [`stiffness`] | additive | `stiff_k_n_per_m`, `stiff_preload_n`, `stiff_k3_n_per_m3` |
-//! | [`inertia`] | additive | `inertia_mass_kg` |
-//!
-//! Every effect derives its initial guess and its "typical" strength (the hidden truth of synthetic tests)
-//! from [`DataStats`] through the scales below, never from numbers tuned to one data set.
+//! The effect library: one file per physical effect of the model-discovery vocabulary (table:
+//! `docs/effects.md`). Each derives its initial guess and its typical strength (the hidden truth of synthetic
+//! tests) from [`DataStats`] through `Scales`, never from numbers tuned to one data set.
+#![warn(missing_docs)]
 
 pub mod asymmetry;
 pub mod current_viscosity;

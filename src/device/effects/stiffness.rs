@@ -1,22 +1,6 @@
-//! Position-dependent force: a spring with preload acting over the whole stroke.
-//!
-//! Physics: a gas accumulator (pressurised volume compensating the rod's displacement), a foam insert
-//! soaked with fluid (the seed paper's device is built around a foam, Section 3), or a centring spring adds
-//! a force that depends on where the piston is, not on how fast it moves. Its preload is the force at
-//! mid-stroke (an accumulator's gas pressure on the rod area). Such springs stiffen towards the ends of the
-//! stroke (gas compressed polytropically, foam densifying, progressive coil springs): a cubic hardening term
-//! (Duffing) carries that, and is zero for a linear spring.
-//!
-//! Equation (the linear spring with preload, the `k1 (x − x0)` term of Spencer et al. 1997, J. Eng. Mech.
-//! 123(3), written with its force at mid-stroke, plus the cubic hardening of a Duffing spring):
-//!
-//! `F_extra = k · x + k3 · x³ + F0`
-//!
-//! with `k` = `stiff_k_n_per_m` ≥ 0, `k3` = `stiff_k3_n_per_m3` ≥ 0 and `F0` = `stiff_preload_n`, `x`
-//! measured from mid-stroke over the whole stroke. This is a global, conservative force; it is distinct
-//! from the hysteresis pre-yield slope, which lives only within a few yield displacements of each reversal.
-//! Both rates are kept non-negative: a passive spring is stable about mid-stroke, and on a sine test a
-//! negative rate is what a moving mass looks like (`−m ω² x`), which is `inertia`'s to explain.
+//! Position-dependent force `k x + k3 x³ + F0` over the whole stroke: a gas accumulator, a soaked foam or a
+//! centring spring, with a Duffing hardening towards the ends. Both rates are non-negative (a negative rate on
+//! a sine test is `inertia`'s). Physics and sources: `docs/explanation/damper-models.md`.
 
 use crate::device::effect::{Effect, EffectStage, Inputs, Stage};
 use crate::device::params::{DataStats, ParamSpec};

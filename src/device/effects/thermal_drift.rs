@@ -1,23 +1,6 @@
-//! Thermal drift: the yield force falls as the energy the damper dissipates heats its fluid.
-//!
-//! Physics: all the work the damper absorbs becomes heat in the fluid and body. The MR fluid's yield stress
-//! (and its carrier oil's viscosity) fall as it warms, so on a long test the force amplitude drifts down; it
-//! recovers as the device cools to ambient through its surface. A lumped thermal capacity `C_th` behind a
-//! thermal resistance `R_th` to ambient describes it (the first-order thermal model of MR dampers, e.g.
-//! Gordaninejad & Breese 1999, J. Intell. Mater. Syst. Struct. 10(8); Dogruoz, Wang, Gordaninejad & Stipanovic
-//! 2003, same journal 14(2)), with a yield stress linear in temperature over the working range:
-//!
-//! `C_th dT/dt = P − (T − T0)/R_th`,  `P = (Fy d + C v) v` (the dissipated power),  `Fy ← Fy (1 − α (T − T0))`.
-//!
-//! Only `C_th/α` and `R_th C_th` can be told apart from force data (a temperature is never measured here),
-//! so the state is the stored heat `E = C_th (T − T0)` in joules and the parameters are
-//!
-//! `dE/dt = P − E/τ`,  `Fy ← Fy · max(0, 1 − E/E_th)`
-//!
-//! with `E_th` = `thermal_energy_j` (heat that would remove the whole yield force at the linear rate) and
-//! `τ` = `thermal_tau_s` (cooling time constant). Each test starts at ambient (`E = 0`) at its first sample.
-//! Integration is exact for the power held constant over a step, so any step size is stable. Power is
-//! clamped at zero: elastic energy a hysteresis loop hands back is not heat taken out of the fluid.
+//! Thermal drift: the dissipated power heats the fluid (`dE/dt = P − E/τ`, from ambient at each test's
+//! start) and the yield force falls as `Fy · max(0, 1 − E/E_th)`; integrated exactly for a power held over
+//! a step. Physics and sources: `docs/explanation/damper-models.md`.
 
 use crate::device::effect::{Effect, EffectStage, Inputs, Stage, Step};
 use crate::device::params::{DataStats, ParamSpec};
@@ -30,6 +13,7 @@ pub(crate) struct ThermalDrift;
 
 /// Indices of the parameters in the effect's slice.
 pub(crate) const ENERGY: usize = 0;
+/// Index of the cooling time constant `thermal_tau_s`.
 pub const TAU: usize = 1;
 
 const PARAMS: [ParamSpec; 2] = [

@@ -1,0 +1,139 @@
+//! A fly-by-wire aircraft's stick: no hinge moment reaches it, so its feel is designed, and the pilot's
+//! force on it commands the flight control system (FCS), as on the F-16's force-sensing sidestick.
+//!
+//! - **Command.** The stick's own force sensor (in its base, measuring the hand's force on the grip; not
+//!   the feel loop's load cell) gives the FCS its normalised pitch command past the breakout,
+//!   `c = sgn(F) max(|F| − F_b, 0) / F_c` clipped to [-1, 1] (pull +), `F_c = (F/n) g_c` the force of full
+//!   command. A fault in the feel loop (coil, driver, load cell) changes how the stick moves under the
+//!   hand, what the pilot feels, never what the FCS is told; the MR damper is passive and cannot move the
+//!   stick, and no force on the grip commands nothing.
+//! - **Feel law.** The stick's small travel is the tactile cue: `F(θ) = F_b sgn(θ) + K θ` at the grip
+//!   (pull +), full command at the aft stop `θ_full`, designed from two figures:
+//!   the breakout `F_b` (MIL-F-8785C §3.5.2.1, Table XII: pitch, stick, Class IV, 0.5 to 3 lbf) and the
+//!   stick force per g `F/n` (MIL-F-8785C §3.2.2.2.1, Table V, Level 1). The gradient follows from the
+//!   FCS's steady response at the design condition, `g_c` load factor per unit command:
+//!   `K = (F/n) g_c / θ_full`, so a steady pull to `n` asks `F_b + (F/n)(n − 1)`.
+//! - **Level 1 band.** Table V's limits for the aircraft's `n/α` and limit load factor
+//!   ([`super::certification`]): at most `240/(n/α)` lbf/g (not above 28, not below `56/(n_L − 1)`), at least
+//!   `21/(n_L − 1)` lbf/g (not below 3.0). Table V is written for centre sticks and wheels; the sidestick
+//!   limits of MIL-STD-1797A §4.2.8.2 could not be consulted, so the centre-stick band is the design band.
+
+use super::certification::mil_f_8785c_stick_level1_per_g_n;
+use crate::units::LBF_TO_N;
+
+/// MIL-F-8785C §3.5.2.1, Table XII: pitch breakout of a stick, Class IV aircraft, N (0.5 to 3 lbf).
+pub const BREAKOUT_RANGE_CLASS_IV_N: (f64, f64) = (0.5 * LBF_TO_N, 3.0 * LBF_TO_N);
+
+/// A fly-by-wire aircraft's stick and the flight condition its feel is designed at
+/// (`models/aircraft/<name>.toml` with a `[fly_by_wire]` section).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FlyByWire {
+    /// JSBSim's name of the aircraft (`f16`).
+    pub name: String,
+    /// Stick angle of full aft command, rad (the sidestick's aft stop).
+    pub full_command_stick_rad: f64,
+    /// Designed breakout at the grip, N.
+    pub breakout_n: f64,
+    /// Designed stick force per g at the design condition, N/g.
+    pub stick_force_per_g_n: f64,
+    /// Largest pull and push the pilot's hand puts on the grip, N.
+    pub max_pull_n: f64,
+    pub max_push_n: f64,
+    /// The design condition: true airspeed, m/s, and altitude, m.
+    pub airspeed_m_s: f64,
+    pub altitude_m: f64,
+    /// The FCS's steady load factor per unit command at the design condition, g.
+    pub g_per_command: f64,
+    /// Load factor per radian of angle of attack at the design condition, g/rad.
+    pub n_alpha_per_rad: f64,
+    /// Symmetric limit load factor, g.
+    pub limit_load_factor: f64,
+    /// The model file's parameters marked `[EST]` (`section.key`).
+    pub estimates: Vec<String>,
+}
+
+impl FlyByWire {
+    /// The designed gradient at the grip, N per rad of stick: `(F/n) g_c / θ_full`.
+    pub fn gradient_n_per_rad(&self) -> f64 {
+        self.stick_force_per_g_n * self.g_per_command / self.full_command_stick_rad
+    }
+
+    /// The designed stick force at the grip at stick angle `stick_rad` from neutral (pull +), N.
+    pub fn stick_force_n(&self, stick_rad: f64) -> f64 {
+        let sgn = if stick_rad > 0.0 {
+            1.0
+        } else if stick_rad < 0.0 {
+            -1.0
+        } else {
+            0.0
+        };
+        self.breakout_n * sgn + self.gradient_n_per_rad() * stick_rad
+    }
+
+    /// The force of full command at the grip beyond the breakout, N: `(F/n) g_c`.
+    pub fn full_command_force_n(&self) -> f64 {
+        self.stick_force_per_g_n * self.g_per_command
+    }
+
+    /// The FCS's normalised pitch command for the hand's force `grip_force_n` on the grip (pull +), in
+    /// [-1, 1]: nothing inside the breakout.
+    pub fn command(&self, grip_force_n: f64) -> f64 {
+        let beyond = (grip_force_n.abs() - self.breakout_n).max(0.0);
+        (grip_force_n.signum() * beyond / self.full_command_force_n()).clamp(-1.0, 1.0)
+    }
+
+    /// The designed steady stick force to hold `nz_g` at the design condition, N.
+    pub fn designed_force_n(&self, nz_g: f64) -> f64 {
+        let dn = nz_g - 1.0;
+        self.breakout_n * dn.signum() * f64::from(dn != 0.0) + self.stick_force_per_g_n * dn
+    }
+
+    /// MIL-F-8785C Table V Level 1 stick force per g at the design condition: [min, max] N/g.
+    pub fn level1_per_g_n(&self) -> (f64, f64) {
+        mil_f_8785c_stick_level1_per_g_n(self.n_alpha_per_rad, self.limit_load_factor)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn f16() -> FlyByWire {
+        FlyByWire {
+            name: "f16".into(),
+            full_command_stick_rad: 0.05,
+            breakout_n: 6.0,
+            stick_force_per_g_n: 20.0,
+            max_pull_n: 100.0,
+            max_push_n: 50.0,
+            airspeed_m_s: 200.0,
+            altitude_m: 3000.0,
+            g_per_command: 6.0,
+            n_alpha_per_rad: 20.0,
+            limit_load_factor: 9.0,
+            estimates: Vec::new(),
+        }
+    }
+
+    /// The stick held where the FCS gives `n` g (command `(n − 1)/g_c`) asks the designed force:
+    /// breakout plus the force per g times the load factor gained, and that force commands `n` g; a force
+    /// inside the breakout commands nothing. Table V's worked corner: n/α 20 g/rad,
+    /// n_L 9 gives [3.0, 12.0] lbf/g.
+    #[test]
+    fn the_stick_where_the_fcs_gives_n_g_asks_the_designed_force_per_g() {
+        let f = f16();
+        for n in [1.5, 2.0, 3.0, 4.0] {
+            let stick = (n - 1.0) / f.g_per_command * f.full_command_stick_rad;
+            let force = f.stick_force_n(stick);
+            assert!((force - (6.0 + 20.0 * (n - 1.0))).abs() < 1e-9);
+            assert!((f.command(force) * f.g_per_command - (n - 1.0)).abs() < 1e-12);
+            assert!((f.designed_force_n(n) - force).abs() < 1e-9);
+        }
+        assert_eq!(f.command(5.9), 0.0);
+        assert_eq!(f.command(-5.9), 0.0);
+        assert_eq!(f.command(1000.0), 1.0);
+        assert_eq!(f.command(-1000.0), -1.0);
+        let (lo, hi) = f.level1_per_g_n();
+        assert!((lo / LBF_TO_N - 3.0).abs() < 1e-9 && (hi / LBF_TO_N - 12.0).abs() < 1e-9);
+    }
+}

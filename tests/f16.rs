@@ -1,0 +1,171 @@
+//! The fly-by-wire F-16 flown live through JSBSim's flight control system (`scenarios/f16-pullup.toml`):
+//! the sidestick's position commands the FCS, no hinge moment reaches the stick, and the MR damper
+//! renders the designed feel (src/aero/fbw.rs) on the sidestick rig (`models/sidestick.urdf`).
+//!
+//! Needs the repository's Python environment with jsbsim (made by the test command).
+//! `cargo test --locked --test f16 -- --nocapture` prints the figures of docs/flight.md.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use mrfeel::aero::FlyByWire;
+use mrfeel::sim::{self, Results, Row, RunOptions};
+
+fn scenario_path(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios").join(name)
+}
+
+/// Fly a scenario file to its end.
+fn fly(path: &Path) -> Results {
+    common::venv_python();
+    let (scn, devices, rig) = sim::load(path).unwrap_or_else(|e| panic!("{e:#}"));
+    sim::run(&scn, &devices, rig, RunOptions::default(), |_| {}).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn f16() -> FlyByWire {
+    FlyByWire::load(&mrfeel::aero::AircraftModel::builtin_path("f16")).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Means over the rows with `t0 ≤ t < t1`.
+fn mean(r: &Results, t0: f64, t1: f64, g: impl Fn(&Row) -> f64) -> f64 {
+    let v: Vec<f64> = r
+        .rows
+        .iter()
+        .filter(|x| x.t_s >= t0 && x.t_s < t1)
+        .map(g)
+        .collect();
+    v.iter().sum::<f64>() / v.len() as f64
+}
+
+/// RMS of the relative difference between the hand's force and the designed force at the stick's
+/// position, over the rows where the stick moves aft (faster than 0.01 rad/s) with the hand past the
+/// breakout: where the passive damper can render the law.
+fn rendering_error(r: &Results, f: &FlyByWire) -> (f64, usize) {
+    let e: Vec<f64> = r
+        .rows
+        .iter()
+        .filter(|x| x.stick_rate_rad_s > 0.01 && x.pilot_force_n > 2.0 * f.breakout_n)
+        .map(|x| x.pilot_force_n / x.aero.unwrap().stick_force_n - 1.0)
+        .collect();
+    (
+        (e.iter().map(|v| v * v).sum::<f64>() / e.len() as f64).sqrt(),
+        e.len(),
+    )
+}
+
+/// The pull-up to 3 g at the design condition. The pilot holds the load factor by the force on the grip,
+/// which the stick's force sensor hands to the FCS. Facts asserted:
+/// - over the last 1.5 s of the hold the load factor is the commanded 3 g (within 0.15 g);
+/// - the stick force per g the pilot felt there, hand force over the load factor gained, is inside
+///   MIL-F-8785C Table V's Level 1 band at the design condition (computed from n/α and n_L, not from the
+///   design value) and within 15 % of the designed `F_b/(n − 1) + F/n` (the FCS's g per command is
+///   JSBSim's, flown, not the file's [RUN] figure; the speed bleeds at fixed throttle);
+/// - the MR damper renders the law on the way out: where the stick moves aft, the hand's force is the
+///   designed force at the stick's position within 15 % RMS (with the coil open the stick runs to its stop
+///   under any pull: see the fault test);
+/// - no hinge moment reaches the stick (every row's is 0).
+#[test]
+fn f16_pull_up_holds_3_g_with_a_level_1_force_per_g_rendered_by_the_damper() {
+    let r = fly(&scenario_path("f16-pullup.toml"));
+    let f = f16();
+    assert_eq!(r.flight.as_ref().unwrap().aircraft, "jsbsim:f16");
+    let aero = |x: &Row| x.aero.unwrap();
+    let (t0, t1) = (4.5, 6.0);
+    let nz = mean(&r, t0, t1, |x| aero(x).nz_g);
+    let hand = mean(&r, t0, t1, |x| x.pilot_force_n);
+    let v = mean(&r, t0, t1, |x| aero(x).airspeed_m_s);
+    let stick_mm = mean(&r, t0, t1, |x| x.stick_angle_rad) * r.grip_arm_m * 1e3;
+    let per_g = hand / (nz - 1.0);
+    let design_per_g = f.designed_force_n(nz) / (nz - 1.0);
+    let (lo, hi) = f.level1_per_g_n();
+    let (render, n_render) = rendering_error(&r, &f);
+    println!(
+        "F-16 pull-up: {nz:.3} g (command 3 g) at {v:.1} m/s; grip {stick_mm:.2} mm aft; hand {hand:.1} N; \
+         {per_g:.1} N/g flown vs {design_per_g:.1} N/g designed (secant with the breakout); MIL-F-8785C Level 1 \
+         [{lo:.1}, {hi:.1}] N/g; hand vs designed force where the stick moves aft: {:.1} % RMS over {n_render} \
+         samples",
+        100.0 * render
+    );
+    assert!((nz - 3.0).abs() < 0.15, "the pilot did not hold 3 g: {nz} g");
+    assert!(
+        (lo..=hi).contains(&per_g),
+        "{per_g} N/g outside Level 1 [{lo}, {hi}]"
+    );
+    assert!(
+        (per_g / design_per_g - 1.0).abs() < 0.15,
+        "flown {per_g} N/g vs designed {design_per_g} N/g"
+    );
+    assert!(n_render > 200, "the stick moved aft in {n_render} samples only");
+    assert!(render < 0.15, "hand vs designed force {render} RMS");
+    assert!(r.rows.iter().all(|x| aero(x).hinge_moment_nm == 0.0));
+}
+
+/// The paper's claim that an MR feel fails safe in a fly-by-wire aircraft: the same pull-up with the feel
+/// loop failing from the start of the pull (1 s) to the end. The FCS reads the stick's own force sensor, so
+/// each fault changes what the pilot feels and how the stick moves, never what the FCS is told; the damper
+/// is passive, so no fault can move the stick. Facts asserted:
+/// - in every case the load factor over the last 1.5 s is within 0.1 g of the healthy flight's and the
+///   largest load factor of the flight within 0.2 g of the healthy one's (bounded, no hard-over);
+/// - driver stuck at 14 A: the damper's yield (105 N at the grip) exceeds the pull, so the stick hardly
+///   moves (under a fifth of the healthy travel): the fixed stick of the first YF-16;
+/// - load cell reading zero: the feel loop loses its force measurement; printed, with the aircraft
+///   asserted as above.
+///
+/// The open coil is not flown here: with no damper force the pull drives the stick into its aft stop, and
+/// the run's energy invariant (`sim::invariants`), which has no term for the stop's impacts, refuses it.
+#[test]
+fn feel_faults_change_what_the_pilot_feels_never_what_the_fcs_is_told() {
+    let healthy = fly(&scenario_path("f16-pullup.toml"));
+    let f = f16();
+    let aero = |x: &Row| x.aero.unwrap();
+    let nz_end = |r: &Results| mean(r, 4.5, 6.0, |x| aero(x).nz_g);
+    let nz_max = |r: &Results| r.rows.iter().map(|x| aero(x).nz_g).fold(f64::MIN, f64::max);
+    let travel = |r: &Results| r.rows.iter().map(|x| x.stick_angle_rad).fold(f64::MIN, f64::max);
+    let lc_hold = |r: &Results| {
+        r.rows
+            .iter()
+            .filter(|x| x.t_s >= 3.0)
+            .map(|x| x.load_cell_true_n.abs())
+            .fold(0.0, f64::max)
+    };
+    let text = std::fs::read_to_string(scenario_path("f16-pullup.toml")).unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let (h_nz, h_max, h_travel) = (nz_end(&healthy), nz_max(&healthy), travel(&healthy));
+    println!(
+        "healthy: {h_nz:.3} g at the end, {h_max:.3} g max, stick travel {:.2} mm, hand {:.1} N",
+        h_travel * healthy.grip_arm_m * 1e3,
+        mean(&healthy, 4.5, 6.0, |x| x.pilot_force_n)
+    );
+    for kind in ["driver_stuck", "load_cell_zero"] {
+        let p = tmp.path().join(format!("{kind}.toml"));
+        std::fs::write(
+            &p,
+            format!("{text}\n[[fault]]\nkind = \"{kind}\"\nstart_s = 1.0\nend_s = 6.0\n"),
+        )
+        .unwrap();
+        let r = fly(&p);
+        let (nz, max, tr, lc) = (nz_end(&r), nz_max(&r), travel(&r), lc_hold(&r));
+        println!(
+            "{kind}: {nz:.3} g at the end, {max:.3} g max, stick travel {:.2} mm (aft stop {:.2} mm), hand {:.1} N, \
+             largest load-cell force after 3 s {lc:.1} N",
+            tr * r.grip_arm_m * 1e3,
+            f.full_command_stick_rad * r.grip_arm_m * 1e3,
+            mean(&r, 4.5, 6.0, |x| x.pilot_force_n)
+        );
+        assert!((nz - h_nz).abs() < 0.1, "{kind}: {nz} g vs healthy {h_nz} g");
+        assert!(
+            (max - h_max).abs() < 0.2,
+            "{kind}: max {max} g vs healthy {h_max} g"
+        );
+        match kind {
+            "driver_stuck" => {
+                assert!(
+                    tr < 0.2 * h_travel,
+                    "driver stuck: travel {tr} rad vs healthy {h_travel} rad"
+                )
+            }
+            _ => {}
+        }
+    }
+}
