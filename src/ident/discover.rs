@@ -687,23 +687,27 @@ pub(crate) fn verdict(
     let mut rhs = vec![DVector::<f64>::zeros(p + 1); nf];
     let mut rr = vec![0.0; nf];
     let mut count = vec![0usize; nf];
+    // Most columns are bins, zero at most samples: only the non-zero ones are summed (adding a zero
+    // product leaves a sum as it is, so the sums are the same numbers).
+    let mut nz: Vec<usize> = Vec::with_capacity(p);
     for r in &rows {
         for (c, f) in feats.iter().enumerate() {
             x[c] = if scale[c] > 0.0 { f(r) / scale[c] } else { 0.0 };
         }
+        nz.clear();
+        nz.extend((0..p).filter(|&c| x[c] != 0.0));
         let fi = r.fold.min(nf - 1);
-        let g = &mut gram[fi];
-        for a in 0..p {
-            if x[a] == 0.0 {
-                continue;
+        let g = gram[fi].as_mut_slice();
+        let ld = p + 1;
+        for (ia, &a) in nz.iter().enumerate() {
+            let xa = x[a];
+            for &b in &nz[ia..] {
+                g[a + b * ld] += xa * x[b];
             }
-            for b in a..p {
-                g[(a, b)] += x[a] * x[b];
-            }
-            g[(a, p)] += x[a];
-            rhs[fi][a] += x[a] * r.r;
+            g[a + p * ld] += xa;
+            rhs[fi][a] += xa * r.r;
         }
-        g[(p, p)] += 1.0;
+        g[p + p * ld] += 1.0;
         rhs[fi][p] += r.r;
         rr[fi] += r.r * r.r;
         count[fi] += 1;

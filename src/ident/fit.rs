@@ -23,7 +23,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use super::residual::direction_weights;
 use super::timing::command_never_changes;
-use super::{data_stats, Test};
+use super::Test;
+use crate::device::params::TestSignals;
 use crate::device::{DataStats, Model, ParamSpec};
 
 /// A contiguous run of samples of one test that counts in the loss (`start..end`). The test is still
@@ -316,7 +317,7 @@ struct Problem<'a> {
     n_weighted: usize,
     /// Finite stand-in for a non-finite simulated force, N.
     blowup_n: f64,
-    /// The Jacobian of every parameter at one search vector, computed before the search.
+    /// The search's first (compressed) Jacobian and the search vector it is at, computed before the search.
     first_jac: Option<(Vec<f64>, DMatrix<f64>)>,
     /// Lowest loss (weighted sum of squares) seen and its search vector (the search may end on a rejected
     /// trial).
@@ -470,6 +471,13 @@ impl<'a> Problem<'a> {
     /// in a test whose current never changes has a zero column, taken without a simulation (test
     /// `a_lag_constant_where_the_current_never_changes_costs_no_simulation`).
     fn jacobian_cols(&self, cols: &[usize]) -> DMatrix<f64> {
+        let at: Vec<usize> = (0..cols.len()).collect();
+        self.jacobian_into(cols, &at, cols.len())
+    }
+
+    /// [`Problem::jacobian_cols`] written into columns `at` of a matrix `width` wide (the other columns
+    /// zero). Each task fills its own rows of its own column, so no column is held twice.
+    fn jacobian_into(&self, cols: &[usize], at: &[usize], width: usize) -> DMatrix<f64> {
         let used: Vec<usize> = (0..self.tests.len()).filter(|&j| self.sim_len[j] > 0).collect();
         let lags = self.model.lag_params();
         let unmoved = |k: usize, j: usize| lags.contains(&k) && self.steady_current[j];
@@ -483,46 +491,55 @@ impl<'a> Problem<'a> {
                 self.columns[usize::from(assembled)].fetch_add(1, Ordering::Relaxed);
             }
         }
-        let tasks: Vec<(usize, usize)> = (0..cols.len())
-            .flat_map(|c| used.iter().map(move |&j| (c, j)))
-            .filter(|&(c, j)| !unmoved(cols[c], j))
-            .collect();
-        let cols_out: Vec<(usize, usize, f64, Vec<f64>)> = tasks
-            .par_iter()
-            .map(|&(c, j)| {
-                let k = cols[c];
-                let h = 1e-6 * (1.0 + self.z[k].abs());
-                let mut z = self.z.clone();
-                z[k] += h;
-                let h = z[k] - self.z[k];
-                let p = self.params_of(&z);
-                let n = self.sim_len[j];
-                let inputs = self.tests[j].drive_inputs(n);
-                let out = if integrates(k, j) {
-                    self.model.simulate(&p, inputs)
-                } else {
-                    let mut out = vec![0.0; inputs.len()];
-                    self.model.forces_on_states(&p, inputs, &self.states[j], &mut out);
-                    out
-                };
-                let out = self.tests[j].observed(out);
-                (c, j, h, out)
-            })
-            .collect();
-        let mut jac = DMatrix::zeros(self.n_res, cols.len());
-        for (c, j, h, out) in cols_out {
-            for (s, &o) in self.spans.iter().zip(&self.offsets) {
-                if s.test != j {
-                    continue;
-                }
-                let base = &self.sims[j];
-                let w = &self.weights[j];
-                for k in s.start..s.end {
-                    let d = w[k] * (out[k] - base[k]) / h;
-                    jac[(o + k - s.start, c)] = if d.is_finite() { d } else { 0.0 };
+        let mut jac = DMatrix::zeros(self.n_res, width);
+        if self.n_res == 0 {
+            return jac;
+        }
+        let mut columns: Vec<Option<&mut [f64]>> =
+            jac.as_mut_slice().chunks_mut(self.n_res).map(Some).collect();
+        // (column, test, the test's spans with their rows in that column).
+        type Task<'s> = (usize, usize, Vec<(Span, &'s mut [f64])>);
+        let mut tasks: Vec<Task<'_>> = Vec::new();
+        for (c, &col_at) in at.iter().enumerate() {
+            let Some(mut rest) = columns[col_at].take() else {
+                continue;
+            };
+            let mut rows: Vec<Vec<(Span, &mut [f64])>> = (0..self.tests.len()).map(|_| Vec::new()).collect();
+            for s in self.spans {
+                let (head, tail) = rest.split_at_mut(s.len());
+                rows[s.test].push((*s, head));
+                rest = tail;
+            }
+            for &j in &used {
+                if !unmoved(cols[c], j) {
+                    tasks.push((c, j, std::mem::take(&mut rows[j])));
                 }
             }
         }
+        tasks.into_par_iter().for_each(|(c, j, rows)| {
+            let k = cols[c];
+            let h = 1e-6 * (1.0 + self.z[k].abs());
+            let mut z = self.z.clone();
+            z[k] += h;
+            let h = z[k] - self.z[k];
+            let p = self.params_of(&z);
+            let inputs = self.tests[j].drive_inputs(self.sim_len[j]);
+            let out = if integrates(k, j) {
+                self.model.simulate(&p, inputs)
+            } else {
+                let mut out = vec![0.0; inputs.len()];
+                self.model.forces_on_states(&p, inputs, &self.states[j], &mut out);
+                out
+            };
+            let out = self.tests[j].observed(out);
+            let (base, w) = (&self.sims[j], &self.weights[j]);
+            for (s, dst) in rows {
+                for (d, k) in dst.iter_mut().zip(s.start..s.end) {
+                    let v = w[k] * (out[k] - base[k]) / h;
+                    *d = if v.is_finite() { v } else { 0.0 };
+                }
+            }
+        });
         jac
     }
 }
@@ -556,6 +573,13 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     }
 
     fn jacobian(&self) -> Option<DMatrix<f64>> {
+        // The search's first Jacobian is at the start, where the zero-column check already computed every
+        // column: reuse it (one simulation per parameter saved per fit).
+        if let Some((z, j)) = &self.first_jac {
+            if *z == self.z {
+                return Some(j.clone());
+            }
+        }
         Some(compress(self.full_jacobian(), &self.resid))
     }
 }
@@ -589,38 +613,18 @@ fn compress(mut j: DMatrix<f64>, r: &DVector<f64>) -> DMatrix<f64> {
 impl Problem<'_> {
     /// The Jacobian of the residual with respect to the free parameters' `z`, one row per sample.
     fn full_jacobian(&self) -> DMatrix<f64> {
-        // The search's first Jacobian is at the start, where the zero-column check already computed every
-        // column: reuse it (one simulation per parameter saved per fit).
-        if let Some((z, j)) = &self.first_jac {
-            if *z == self.z {
-                let mut out = DMatrix::zeros(j.nrows(), self.free.len());
-                for (c, &k) in self.free.iter().enumerate() {
-                    out.set_column(c, &j.column(k));
-                }
-                return out;
-            }
-        }
         // A parameter on its bound sits where the transform is flat: its column is nearly zero and the
         // search cannot move it, so it costs no simulation. `step_off_bound` asks the data afterwards.
         let params = self.params_of(&self.z);
         let specs = self.model.param_specs();
-        let moving: Vec<usize> = self
+        let (at, moving): (Vec<usize>, Vec<usize>) = self
             .free
             .iter()
             .copied()
-            .filter(|&k| !on_bound(&specs[k], params[k]))
-            .collect();
-        if moving.len() == self.free.len() {
-            return self.jacobian_cols(&self.free);
-        }
-        let jm = self.jacobian_cols(&moving);
-        let mut out = DMatrix::zeros(self.n_res, self.free.len());
-        for (c, &k) in self.free.iter().enumerate() {
-            if let Some(m) = moving.iter().position(|&j| j == k) {
-                out.set_column(c, &jm.column(m));
-            }
-        }
-        out
+            .enumerate()
+            .filter(|&(_, k)| !on_bound(&specs[k], params[k]))
+            .unzip();
+        self.jacobian_into(&moving, &at, self.free.len())
     }
 }
 
@@ -661,11 +665,7 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
     // Parameters the force does not depend on in these data: a zero Jacobian column at the start.
     let mut prob = Problem::new(model, tests, spans, &weights, tf.clone(), z0.clone());
     let movable: Vec<usize> = (0..n).filter(|&k| !held[k]).collect();
-    let jm = prob.jacobian_cols(&movable);
-    let mut j0 = DMatrix::zeros(jm.nrows(), n);
-    for (c, &k) in movable.iter().enumerate() {
-        j0.set_column(k, &jm.column(c));
-    }
+    let j0 = prob.jacobian_into(&movable, &movable, n);
     let f_norm = spans
         .iter()
         .map(|s| {
@@ -712,11 +712,16 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
             .copied()
             .filter(|&k| !on_bound(&specs[k], p_start[k]))
             .collect();
-        if let Some(j) = j0.take() {
-            // Round 0 starts at z0, where j0 was computed.
-            prob.first_jac = Some((prob.z.clone(), j));
-        }
+        let first = j0.take();
         if !prob.free.is_empty() && prob.n_res > 0 {
+            if let Some(j) = first {
+                // Round 0 starts at z0, where j0 was computed.
+                let others: Vec<usize> = (0..n).filter(|k| !prob.free.contains(k)).collect();
+                prob.first_jac = Some((
+                    prob.z.clone(),
+                    compress(j.remove_columns_at(&others), &prob.resid),
+                ));
+            }
             let lm = LevenbergMarquardt::new()
                 .with_ftol(opts.tol)
                 .with_xtol(opts.tol)
@@ -967,11 +972,7 @@ fn std_errors(
         return (vec![None; nf], Vec::new());
     }
     let inside: Vec<usize> = (0..nf).filter(|&c| !at_bound(free[c])).collect();
-    let ji = prob.jacobian_cols(&inside.iter().map(|&c| free[c]).collect::<Vec<_>>());
-    let mut jac = DMatrix::zeros(prob.n_res, nf);
-    for (i, &c) in inside.iter().enumerate() {
-        jac.set_column(c, &ji.column(i));
-    }
+    let jac = prob.jacobian_into(&inside.iter().map(|&c| free[c]).collect::<Vec<_>>(), &inside, nf);
     // Degrees of freedom: a parameter held on its bound is not estimated.
     let s2 = prob.resid.norm_squared() / (m - inside.len()) as f64;
     let norms: Vec<f64> = (0..nf).map(|c| jac.column(c).norm()).collect();
@@ -1031,20 +1032,34 @@ fn std_errors(
     (se, enormous)
 }
 
-/// Statistics of the samples in `spans` (whole tests that have any sample in them).
+/// Statistics of the samples in `spans` ([`super::data_stats`] of the spans cut out, without copying the tests).
 pub fn span_stats(tests: &[Test], spans: &[Span]) -> DataStats {
-    let sub: Vec<Test> = spans
+    let cols: Vec<[Vec<f64>; 5]> = spans
         .iter()
         .map(|s| {
-            let t = &tests[s.test];
-            Test {
-                inputs: t.inputs[s.start..s.end].to_vec(),
-                f_n: t.f_n[s.start..s.end].to_vec(),
-                ..t.clone()
-            }
+            let inp = &tests[s.test].inputs[s.start..s.end];
+            [
+                inp.iter().map(|i| i.t_s).collect(),
+                inp.iter().map(|i| i.x_m).collect(),
+                inp.iter().map(|i| i.v_m_s).collect(),
+                inp.iter().map(|i| i.a_m_s2).collect(),
+                inp.iter().map(|i| i.current_cmd_a).collect(),
+            ]
         })
         .collect();
-    data_stats(&sub)
+    let sig: Vec<TestSignals<'_>> = cols
+        .iter()
+        .zip(spans)
+        .map(|(c, s)| TestSignals {
+            t_s: &c[0],
+            x_m: &c[1],
+            v_m_s: &c[2],
+            a_m_s2: &c[3],
+            i_a: &c[4],
+            f_n: &tests[s.test].f_n[s.start..s.end],
+        })
+        .collect();
+    DataStats::from_tests(&sig)
 }
 
 /// Linear least-squares warm start of the base model's linear gains (Eq. 2 with Eq. 6's yield force is
