@@ -512,10 +512,8 @@ impl ParamsFile {
 mod tests {
     use super::*;
 
-    /// A saved parameter file reads back as the numbers written, to the bit: `validate` runs the fitted
-    /// model unchanged. serde_json's fast float parser reads some shortest decimals one unit in the last
-    /// place off (3991.6813567412532 as 3991.681356741253, found by a probe of `fit --save` on the real
-    /// damper), which its `float_roundtrip` feature corrects.
+    /// A saved parameter file reads back as the numbers written, to the bit (serde_json's
+    /// `float_roundtrip`: its fast parser reads 3991.6813567412532 as 3991.681356741253).
     #[test]
     fn saved_parameters_read_back_to_the_bit() {
         let registry = Registry::builtin();
@@ -568,8 +566,7 @@ mod tests {
         }
     }
 
-    /// Text after the JSON object is the file's fault at its line, not the last key's before it (it was
-    /// blamed on `tm_s.unit`).
+    /// Text after the JSON object is the file's fault at its line, not the last key's before it.
     #[test]
     fn text_after_the_object_names_no_key() {
         let registry = Registry::builtin();

@@ -367,17 +367,11 @@ fn readable(records: &[Channels<'_>]) -> bool {
             .all(|r| r.t.len() >= 64 && crate::signal::uniform_interval(r.t).is_some())
 }
 
-/// The moving average that the displacement and force of every record in `records` (tests of one
-/// protocol, on one even clock) went through, from their combs pooled over the records (see the module's
-/// notes); `None` without such a comb, on an uneven clock, or with fewer than 64 samples in a record.
-///
-/// A measured velocity can stand in for the displacement as the motion's witness, never a needed one: one
-/// that is the backward first difference of the filtered displacement (`is_first_difference`, the
-/// UTFSM source's) carries the displacement's comb through a finer rounding than the displacement itself
-/// was logged with, and is taken where it shows the comb more clearly. It is the same record of the motion,
-/// so its evidence replaces the displacement's and is never added to it. The displacement must show the
-/// comb on its own in every case; a velocity differenced over `N` samples (a rig's smoothing
-/// differentiator, the comb of an `N`-sample average of its own) or from a transducer is no witness.
+/// The moving average that every record of `records` (tests of one protocol, on one even clock) went
+/// through, from their combs pooled over the records; `None` without such a comb, on an uneven clock, or
+/// with fewer than 64 samples in a record. The displacement must show the comb on its own; a measured
+/// velocity that is the first difference of the filtered displacement (`is_first_difference`) may replace
+/// its evidence where it shows the comb more clearly (the same record of the motion, never added to it).
 pub(crate) fn detect_moving_average(records: &[Channels<'_>]) -> Option<MovingAverage> {
     if !readable(records) {
         return None;

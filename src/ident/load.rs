@@ -606,7 +606,7 @@ mod tests {
                     var += sd[k] * sd[k];
                 }
             }
-            // The error at the ends is within twice the noise reported there (it was 20 times).
+            // The error at the ends is within twice the noise reported there.
             assert!(
                 ss < 4.0 * var,
                 "seed {seed}: end error {} against noise {}",
@@ -616,10 +616,8 @@ mod tests {
         }
     }
 
-    /// Near the ends of a test a centred window does not reach; the measurement module's 7-sample
-    /// differentiator used to fill in there, and at 2 kHz its second derivative of a 2 µm displacement noise
-    /// was 17 m/s² at the first sample of a 0.56 m/s² (rms) sine, which a hidden 3 kg mass turned into 50 N;
-    /// the end windows extrapolate, noisier than the centred ones (0.13 m/s² at the first sample).
+    /// Near the ends of a test, where a centred window does not reach, the off-centre windows give
+    /// derivatives about as good as inside (a 7-sample differentiator there gave 17 m/s² of noise at 2 kHz).
     #[test]
     fn derivatives_near_the_ends_of_a_test_are_as_good_as_inside() {
         let (amp, f_hz, rate, n) = (0.02, 1.0, 2000.0, 6000usize);
