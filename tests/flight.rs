@@ -13,7 +13,7 @@ use std::sync::OnceLock;
 use mrfeel::control::LoopMode;
 use mrfeel::device::DeviceConfig;
 use mrfeel::scenario::Scenario;
-use mrfeel::sim::metrics::{correlation, FlightMetrics};
+use mrfeel::sim::metrics::FlightMetrics;
 use mrfeel::sim::{self, Results, RunOptions};
 
 fn scenario_path(name: &str) -> PathBuf {
@@ -302,11 +302,8 @@ fn approach_737_holds_the_descent_attitude_and_descends() {
     let trim = r.flight.as_ref().unwrap().trim;
     let last = r.rows.last().unwrap().aero.unwrap();
     let first = r.rows.first().unwrap().aero.unwrap();
-    let desired: Vec<f64> = r.rows.iter().map(|x| x.desired_force_n).collect();
-    let stick: Vec<f64> = r.rows.iter().map(|x| x.aero.unwrap().stick_force_n).collect();
-    let corr = correlation(&desired, &stick);
     println!(
-        "737 approach: pitch RMS error {:.3}° (span {:.1}°); altitude {:.0} -> {:.0} m, airspeed {:.1} -> {:.1} m/s; stick force at trim {:.3} N, peak {:.1} N; desired vs stick force correlation {corr:.4}",
+        "737 approach: pitch RMS error {:.3}° (span {:.1}°); altitude {:.0} -> {:.0} m, airspeed {:.1} -> {:.1} m/s; stick force at trim {:.3} N, peak {:.1} N; hand force per g felt {:.1} N/g",
         m.tracking_rms.to_degrees(),
         m.command_span.to_degrees(),
         trim.altitude_m,
@@ -314,7 +311,8 @@ fn approach_737_holds_the_descent_attitude_and_descends() {
         trim.airspeed_m_s,
         last.airspeed_m_s,
         first.stick_force_n,
-        m.stick_force_peak_n
+        m.stick_force_peak_n,
+        m.hand_force_per_g_n
     );
     assert!(
         m.tracking_rms < 0.2 * m.command_span,
