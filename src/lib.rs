@@ -1,14 +1,11 @@
 //! mrfeel: simulation and model discovery for magneto-rheological artificial feel systems.
 #![warn(missing_docs)]
-#[allow(missing_docs)] // not yet documented item by item
 pub mod aero;
 pub mod builtin;
 pub mod compare;
-#[allow(missing_docs)] // not yet documented item by item
 pub mod control;
 pub mod device;
 pub mod faults;
-#[allow(missing_docs)] // not yet documented item by item
 pub mod ident;
 pub mod input;
 pub mod interrupt;
@@ -17,15 +14,12 @@ pub mod mts;
 pub mod outputs;
 pub mod pilot;
 pub mod prelude;
-#[allow(missing_docs)] // not yet documented item by item
 pub mod rig;
 pub mod scenario;
 pub mod sensors;
 pub mod signal;
-#[allow(missing_docs)] // not yet documented item by item
 pub mod sim;
 pub(crate) mod spikes;
-#[allow(missing_docs)] // not yet documented item by item
 pub mod sweep;
 pub mod units;
 pub mod viz;
