@@ -1665,7 +1665,46 @@ mod tests {
             "bingham+hysteresis+asymmetry+stiffness+inertia+magnetic_saturation+current_viscosity".into(),
         );
         specs.push("bingham+hysteresis+thermal_drift+asymmetry".into());
+        // Data-defined terms ([`with_terms`]): low-pass states that read no coefficient, and one that does.
+        specs.push("bingham+hysteresis+lagged".into());
+        specs.push("bingham+scaled_lag".into());
         specs
+    }
+
+    /// The built-in effects and two data-defined terms with low-pass states: `lagged`, whose states read
+    /// features only (its coefficients act on the force alone), and `scaled_lag`, whose state reads `sl_k`.
+    fn with_terms() -> Registry {
+        use crate::device::formula::{FormulaEffect, FormulaParam};
+        let param = |name: &str, guess: f64| FormulaParam {
+            name: name.into(),
+            unit: "N".into(),
+            lower: -1e6,
+            upper: 1e6,
+            guess,
+            doc: String::new(),
+        };
+        let mut r = Registry::builtin();
+        r.register(
+            FormulaEffect::new(
+                "lagged",
+                "",
+                "",
+                "lg_c1 * abs(i)*lp(tanh(v/0.02), 0.05) + lg_c2 * lp(x, 0.1)",
+                vec![param("lg_c1", 0.8), param("lg_c2", 900.0)],
+            )
+            .expect("formula"),
+        );
+        r.register(
+            FormulaEffect::new(
+                "scaled_lag",
+                "",
+                "",
+                "sl_c * lp(sl_k * v, 0.05) + sl_d * x",
+                vec![param("sl_c", 40.0), param("sl_k", 1.5), param("sl_d", 300.0)],
+            )
+            .expect("formula"),
+        );
+        r
     }
 
     /// The truth of `stepped_sine` with every effect at its typical strength.
@@ -1685,7 +1724,7 @@ mod tests {
     /// that reads the force are said to matter.
     #[test]
     fn a_parameter_no_state_depends_on_leaves_every_state_as_it_was() {
-        let registry = Registry::builtin();
+        let registry = with_terms();
         for spec in every_effect_models() {
             let model = Model::from_spec(&spec, &registry, 14.0).expect("model");
             let (tests, p) = typical(&model);
@@ -1728,13 +1767,26 @@ mod tests {
             bingham::LINEAR_GAINS.to_vec(),
             "hysteresis follows the piston only"
         );
+        // A data-defined term's coefficients act on the force alone unless a low-pass state reads them.
+        for (spec, force_only) in [
+            ("bingham+hysteresis+lagged", vec!["lg_c1", "lg_c2"]),
+            ("bingham+scaled_lag", vec!["sl_c", "sl_d"]),
+        ] {
+            let m = Model::from_spec(spec, &registry, 14.0).expect("model");
+            let flags = m.state_params();
+            let names: Vec<&str> = (0..m.n_params())
+                .filter(|&k| !flags[k] && !bingham::LINEAR_GAINS.contains(&k))
+                .map(|k| m.param_specs()[k].name)
+                .collect();
+            assert_eq!(names, force_only, "{spec}");
+        }
     }
 
     /// The fit's Jacobian takes the columns of parameters no state depends on from the kept states: the
     /// same matrix, to the bit, as integrating every test again for every column.
     #[test]
     fn columns_of_parameters_no_state_reads_equal_a_new_integration() {
-        let registry = Registry::builtin();
+        let registry = with_terms();
         for spec in every_effect_models() {
             let model = Model::from_spec(&spec, &registry, 14.0).expect("model");
             let (tests, p) = typical(&model);
