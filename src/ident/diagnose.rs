@@ -696,7 +696,10 @@ pub fn diagnose(
         // significant single effect, else the significant pair (whose members then join the path for the
         // backward pass). The others' are dropped before the open search holds columns of its own.
         let single = cands.iter().position(|c| c.significant);
-        let pair = pair_cands.iter().position(|c| c.significant).filter(|_| single.is_none());
+        let pair = pair_cands
+            .iter()
+            .position(|c| c.significant)
+            .filter(|_| single.is_none());
         for (i, (_, cv)) in tried.iter_mut().enumerate() {
             if Some(i) != single && pair.is_none() {
                 cv.oof = Vec::new();
