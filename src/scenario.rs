@@ -91,8 +91,9 @@ pub enum PilotDesign {
     },
 }
 
-/// Most physics steps a run may take ([`Scenario::load`] refuses more): each keeps a row of the results, so
-/// this bounds the memory at about 3 GB.
+/// Most physics steps a run may take ([`Scenario::load`] refuses more). A run that keeps its rows (plots, a
+/// flight's metrics, [`crate::sim::run`]) holds ~300 bytes a step, 3 GB here; a streamed run's memory stays
+/// flat, but its CSV grows by ~370 bytes a step and 10⁷ steps take about ten minutes.
 pub(crate) const MAX_PHYSICS_STEPS: f64 = 1e7;
 
 /// Lines of the scenario's keys that a run's own errors name (a trim with no solution, an integration that
@@ -151,9 +152,9 @@ pub struct Scenario {
     pub outer_loop: Option<OuterLoopConfig>,
     /// The feel system on the rig (`[feel_system]`; the paper's MR damper alone by default).
     pub feel_system: FeelSystemConfig,
-    /// The feel-spring file `[feel_system] springs` names, if any (resolved against the scenario's
-    /// directory).
-    pub springs_path: Option<PathBuf>,
+    /// The file `[feel_system]` names, if any (its `springs` or its active stick's `model`; resolved
+    /// against the scenario's directory).
+    pub feel_system_file: Option<PathBuf>,
 }
 
 impl Scenario {
@@ -192,8 +193,12 @@ impl Scenario {
         if let Some(p) = &self.controller_model_path {
             files.push(("controller model", p.clone()));
         }
-        if let Some(p) = &self.springs_path {
-            files.push(("feel-spring file", p.clone()));
+        if let Some(p) = &self.feel_system_file {
+            let what = match self.feel_system.kind {
+                crate::control::feel::FeelKind::Active => "active-stick file",
+                _ => "feel-spring file",
+            };
+            files.push((what, p.clone()));
         }
         if let Some(a) = &self.aircraft {
             // As the flight reads the spec (`sim::flight`): `jsbsim:<name>` flies the model `<name>` live.

@@ -84,10 +84,15 @@ pub struct DriverParams {
 /// The force sensor at the grip: `reading = gain · F + offset + noise`, clipped at ±`range_n`, quantised.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GripSensor {
+    /// Full scale, N: readings clip at ±this.
     pub range_n: f64,
+    /// Residual calibration gain (1: perfect).
     pub gain: f64,
+    /// Residual calibration offset, N.
     pub offset_n: f64,
+    /// RMS noise, N.
     pub noise_rms_n: f64,
+    /// ADC resolution over the range, bits.
     pub adc_bits: u32,
 }
 
@@ -118,11 +123,15 @@ pub struct AdmittanceParams {
 /// A whole active stick (`models/active-stick.toml`, read by `input::motor`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ActiveStickConfig {
+    /// The motor.
     pub motor: MotorParams,
+    /// The motor's current driver.
     pub driver: DriverParams,
     /// Gearing, motor rad per metre of push rod.
     pub gear_rad_per_m: f64,
+    /// The grip force sensor.
     pub sensor: GripSensor,
+    /// The admittance loop.
     pub admittance: AdmittanceParams,
     /// Moving mass at the push rod without the rotor, kg (stick, linkage and piston; the linearised
     /// model's plant).
@@ -167,8 +176,9 @@ pub struct RodState {
     pub grip_force_n: f64,
     /// Grip force to push-rod force, N/N (`grip arm / gearing` at the present angle).
     pub grip_to_rod: f64,
-    /// Push-rod position, m, and velocity, m/s.
+    /// Push-rod position, m.
     pub x_m: f64,
+    /// Push-rod velocity, m/s.
     pub v_m_s: f64,
 }
 
@@ -252,24 +262,6 @@ impl ActiveStick {
         1.0 / (self.cfg.admittance.rate_hz * self.inner_per_outer as f64)
     }
 
-    /// The feel law's force at the virtual model's state, N along +x (the force the pilot should feel);
-    /// a spring law's breakout rises linearly over ±`breakout_band_m`.
-    fn law_force_n(&self, law: &FeelLaw, t_s: f64, x: f64, v: f64) -> f64 {
-        match *law {
-            FeelLaw::Spring {
-                breakout_n,
-                gradient_n_per_m,
-                damping_n_s_per_m,
-                max_force_n,
-            } => {
-                let s = (x / self.cfg.admittance.breakout_band_m).clamp(-1.0, 1.0);
-                (breakout_n * s + gradient_n_per_m * x + damping_n_s_per_m * v)
-                    .clamp(-max_force_n, max_force_n)
-            }
-            _ => law.force_n(t_s, x, v, super::law::sgn(v)),
-        }
-    }
-
     /// The grip sensor's reading at `t_s`, N along the grip path, after its faults.
     fn read_sensor(&mut self, t_s: f64, true_n: f64, faults: &FaultSchedule) -> f64 {
         let s = self.cfg.sensor;
@@ -304,7 +296,10 @@ impl ActiveStick {
         let f_h = grip * rod.grip_to_rod;
         self.sensed_rod_force_n = f_h;
         // Virtual model, semi-implicit Euler.
-        let f_law = self.law_force_n(law, t_s, self.x_r_m, self.v_r_m_s);
+        // The law at the virtual model's state, its breakout continuous over the band (the virtual mass
+        // integrates it).
+        let (x_r, v_r) = (self.x_r_m, self.v_r_m_s);
+        let f_law = law.force_n(t_s, x_r, v_r, super::law::sgn(v_r), Some(a.breakout_band_m));
         let acc = (f_h - f_law - a.virtual_damping_n_s_per_m * self.v_r_m_s) / a.virtual_mass_kg;
         self.v_r_m_s += acc * dt;
         self.x_r_m += self.v_r_m_s * dt;
@@ -426,7 +421,9 @@ pub struct Margins {
 /// Both loops' margins.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LoopMargins {
+    /// The current loop's margins.
     pub current: Margins,
+    /// The outer (admittance) loop's margins.
     pub outer: Margins,
 }
 
