@@ -29,6 +29,17 @@ find a term for them or say that structure is left, tests/discovery.rs):
                rising reluctance): di_f/dt = (i - i_f) / (TAUF (1 + 4 (i_f / IMAX)^2)), the yield force made
                by i_f; with constant currents the field is settled, so it shows under STEPS=1 only
 
+A second device of another make (BROADBAND below), the way MR dampers are characterised in the field:
+  broadband    `independent_truth.py broadband OUTDIR [SEED]` writes RECORDS files OUTDIR/recordR.csv (seeds
+               SEED, SEED+1, ...): a modified Bouc-Wen damper (Spencer, Dyke, Sain & Carlson, J. Eng. Mech.
+               123(3), 1997, Eq. 9-12 and Table 1) at another force scale and stroke than the paper's, driven
+               by band-limited random displacement and a current command switched between random levels for
+               the first half of each record and varying continuously for the second, at 3 kHz, without a
+               velocity channel. Environment: DUR (s, default 20), FS (default 3000), RECORDS (default 2),
+               NOISE (N, default 4), CLIP (N: a load cell of that range, the force stuck at +-CLIP past it),
+               SAT=1 (the yield force's rise with current saturating, tanh, as a real fluid's does: the
+               published form no longer exact), SUB (RK4 substeps per sample, default 8).
+
 Run:  python3 -m venv /tmp/pyenv && /tmp/pyenv/bin/pip install numpy
       /tmp/pyenv/bin/python python/independent_truth.py EFFECTS OUTDIR [SEED]     (EFFECTS: comma-separated)
       target/release/mrfeel diagnose OUTDIR --json
@@ -62,6 +73,7 @@ sample. Integrating first would make the force use z(t[k] + 1/FS), one sample ah
 500 Hz without a velocity channel draws a false `inertia` beside hysteresis and stiffness (mrfeel's
 acceleration term takes up the offset).
 """
+import math
 import os
 import shutil
 import sys
@@ -274,4 +286,112 @@ def novel_step(st, v, i, h):
     if "slow_field" in on:
         st["if"] += h * (i - st["if"]) / (TAUF * (1 + 4 * (st["if"] / IMAX) ** 2))
 
-main()
+# The second device (`broadband`): Spencer et al. 1997's modified Bouc-Wen model, written from the paper's
+# equations. The paper's Table 1 (cm, V) scaled to a damper of FSCALE times the force over LSCALE times the
+# stroke: forces per length x FSCALE / LSCALE, lengths x LSCALE, Bouc-Wen beta and gamma / LSCALE^2; the command
+# in A, 1 A standing for the paper's VPERA volts.
+FSCALE, LSCALE, VPERA = 0.6, 0.4, 2.0
+BW = dict(aa=140e2, ab=695e2, c0a=21.0e2, c0b=3.50e2, c1a=283e2, c1b=2950e2, k0=46.9e2, k1=5.00e2,
+          x0=14.3e-2, beta=363e4, gamma=363e4, A=301.0, n=2.0, eta=190.0)
+
+def bw_params():
+    p = dict(BW)
+    for k in ("aa", "c0a", "c1a", "k0", "k1"):
+        p[k] *= FSCALE / LSCALE
+    for k in ("ab", "c0b", "c1b"):
+        p[k] *= FSCALE / LSCALE * VPERA
+    p["x0"] *= LSCALE
+    p["beta"] /= LSCALE ** 2
+    p["gamma"] /= LSCALE ** 2
+    return p
+
+def band_limited(rng, dur, f_lo, f_hi, comps, slope):
+    """A random multisine: `comps` components at frequencies uniform in [f_lo, f_hi], random phases, amplitude
+    proportional to f^slope; returns the function t -> (s, ds/dt, d2s/dt2), normalised to a peak of 1."""
+    f = np.sort(rng.uniform(f_lo, f_hi, comps)); ph = rng.uniform(0, 2 * np.pi, comps)
+    a = f ** slope * rng.uniform(0.5, 1.5, comps)
+    w = 2 * np.pi * f
+    tt = np.linspace(0.0, dur, int(dur * 400) + 1)
+    peak = np.max(np.abs(np.sin(np.outer(tt, w) + ph) @ a))
+    a = a / peak
+    def sig(t):
+        arg = np.multiply.outer(np.asarray(t, dtype=float), w) + ph
+        return np.sin(arg) @ a, np.cos(arg) @ (a * w), -(np.sin(arg) @ (a * w * w))
+    return sig
+
+def broadband_record(rng):
+    dur, fs = float(os.environ.get("DUR", "20")), float(os.environ.get("FS", "3000"))
+    sub = int(os.environ.get("SUB", "8"))
+    n = int(dur * fs); t = np.arange(n) / fs
+    # Displacement: 0.2-12 Hz, a roughly flat velocity spectrum, peak 10 mm (the paper tested at +-15 mm).
+    xs = band_limited(rng, dur, 0.2, 12.0, 60, -1.0)
+    stroke = 0.025 * LSCALE
+    # Command: random levels in 0-1 A held 0.2-1.2 s for the first half, then a slow random 0-0.8 Hz signal.
+    edges = [0.0]
+    while edges[-1] < dur / 2:
+        edges.append(edges[-1] + rng.uniform(0.2, 1.2))
+    levels = rng.choice([0.0, 0.25, 0.5, 0.75, 1.0], len(edges))
+    cs = band_limited(rng, dur, 0.05, 0.8, 12, 0.0)
+    def command(tt):
+        if tt < dur / 2:
+            return float(levels[np.searchsorted(edges, tt, side="right") - 1])
+        return float(np.clip(0.5 + 0.55 * cs(tt)[0], 0.0, 1.0))
+    p = bw_params()
+    sat = os.environ.get("SAT") == "1"
+    def gains(u):
+        ub = 0.6 * math.tanh(u / 0.6) if sat else u
+        return p["aa"] + p["ab"] * ub, p["c0a"] + p["c0b"] * u, p["c1a"] + p["c1b"] * u
+    pk0, pg, pb, pA, pn = p["k0"], p["gamma"], p["beta"], p["A"], p["n"]
+    def rates(x, xd, u, y, z):
+        al, c0, c1 = gains(u)
+        yd = (al * z + c0 * xd + pk0 * (x - y)) / (c0 + c1)
+        d = xd - yd
+        zn = abs(z) ** pn
+        return yd, -pg * abs(d) * (zn if z > 0 else -zn) - pb * d * zn + pA * d
+    h = 1.0 / fs / sub
+    half, full = math.exp(-p["eta"] * h / 2), math.exp(-p["eta"] * h)
+    x0v = xs(0.0)
+    u = command(0.0); y = stroke * float(x0v[0]); z = float(np.sign(x0v[1])) * (pA / (pb + pg)) ** (1 / pn)
+    F = np.zeros(n); I = np.zeros(n)
+    subt = t[:, None] + np.arange(sub + 1)[None, :] * h
+    X, V, _ = xs(subt); X = (X * stroke).tolist(); V = (V * stroke).tolist()
+    for k in range(n):
+        cmd = command(t[k])
+        I[k] = cmd
+        Xk, Vk = X[k], V[k]
+        al, c0, c1 = gains(u)
+        yd = (al * z + c0 * Vk[0] + pk0 * (Xk[0] - y)) / (c0 + c1)
+        F[k] = c1 * yd + p["k1"] * (Xk[0] - p["x0"])
+        # The command held over the sample, the coil's filter exact over each substep; (y, z) by RK4.
+        for s in range(sub):
+            xa, xb, va, vb = Xk[s], Xk[s + 1], Vk[s], Vk[s + 1]
+            xm, vm = 0.5 * (xa + xb), 0.5 * (va + vb)
+            um = cmd + (u - cmd) * half; ub = cmd + (u - cmd) * full
+            k1y, k1z = rates(xa, va, u, y, z)
+            k2y, k2z = rates(xm, vm, um, y + h / 2 * k1y, z + h / 2 * k1z)
+            k3y, k3z = rates(xm, vm, um, y + h / 2 * k2y, z + h / 2 * k2z)
+            k4y, k4z = rates(xb, vb, ub, y + h * k3y, z + h * k3z)
+            y += h / 6 * (k1y + 2 * k2y + 2 * k3y + k4y); z += h / 6 * (k1z + 2 * k2z + 2 * k3z + k4z)
+            u = ub
+    X = np.array([r[0] for r in X])
+    x = X + rng.normal(0, 2e-6, n)
+    F = F + rng.normal(0, float(os.environ.get("NOISE", "4")), n)
+    if "CLIP" in os.environ:
+        F = np.clip(F, -float(os.environ["CLIP"]), float(os.environ["CLIP"]))
+    return t, x, I, F
+
+def broadband_main(outdir, seed):
+    shutil.rmtree(outdir, ignore_errors=True); os.makedirs(outdir)
+    for r in range(int(os.environ.get("RECORDS", "2"))):
+        t, x, I, F = broadband_record(np.random.default_rng(seed + r))
+        with open(os.path.join(outdir, f"record{r + 1}.csv"), "w") as o:
+            o.write(f"# source: independent synthetic truth (modified Bouc-Wen, Spencer et al. 1997, scaled; "
+                    f"broadband, seed {seed + r})\n# sample_rate_hz: {float(os.environ.get('FS', '3000')):g}\n"
+                    "t_s,x_m,i_a,f_n\n")
+            for row in zip(t, x, I, F):
+                o.write(",".join(repr(float(q)) for q in row) + "\n")
+
+if sys.argv[1] == "broadband":
+    broadband_main(sys.argv[2], int(sys.argv[3]) if len(sys.argv) > 3 else 1)
+else:
+    main()
