@@ -255,26 +255,39 @@ pub fn advance(p: &[f64], s: &mut [f64], inp: &Inputs, limit_a: f64, step: Step)
 }
 
 /// Starting values from the data's linear Bingham estimate: `A = 1`, `n = 2` and `β = γ` with `z`'s bound
-/// at a fiftieth of the largest displacement (the yield transition's travel); `α zₛ` the yield force,
-/// `c0` the post-yield damping, `c1` ten times it (the pre-yield slope), no springs, the command filter at
-/// a few sample intervals.
+/// at a fiftieth of the largest displacement (the yield transition's travel); `α zₛ` the yield force and its
+/// rise with current, `c0` the post-yield damping, `c1` ten times the yield force over the rms velocity (a
+/// pre-yield slope steep beside the motion), with its rise with current in the yield force's proportion; a
+/// tenth of `c0` per ampere of the largest command; the springs `k0` and `k1` at a tenth and a hundredth of
+/// the yield force (and rms force) over the largest displacement, `x0` at 0; the command filter at a few
+/// sample intervals.
+///
+/// No parameter starts on its bound of 0: the fit searches a logarithm of each (`ident::fit`), where a
+/// start on the bound is a start at its flat end (a parameter there stays at 0), and `x0` moves the force
+/// only through `k1`: from `k1 = 0`, the offset `−k1 x0` was out of reach (a broadband record of a
+/// Spencer damper fitted to 14 times its noise, `k1` and the current's share of `c0` and `c1` left at 0).
 pub fn initial_guess(stats: &DataStats) -> Vec<f64> {
     let d = (0.02 * stats.x_max_m).max(1e-6);
     let bg = 1.0 / (d * d);
-    let c0 = stats.c0_n_s_per_m.max(0.0);
-    let fy = (stats.fc0_n + stats.fc_gain_n_per_a * stats.i_mean_a).max(0.0);
-    let c1 = (10.0 * c0).max(10.0 * fy / stats.v_rms_m_s.max(1e-6)).max(1.0);
-    let r = c1 / (c0 + c1);
+    let c0 = stats.c0_n_s_per_m.max(1e-3);
+    let (fy0, gain) = (stats.fc0_n.max(0.0), stats.fc_gain_n_per_a.max(0.0));
+    let i_ref = stats.i_max_a.max(1e-3);
+    let fy = (fy0 + gain * stats.i_mean_a).max(1e-3);
+    let v = stats.v_rms_m_s.max(1e-6);
+    // c1 = 10 (fy0 + gain i) / v, at least ten times c0 at every command.
+    let (c1a, c1b) = ((10.0 * fy0 / v).max(10.0 * c0).max(1.0), 10.0 * gain / v);
+    let r = c1a / (c0 + c1a);
+    let x = stats.x_max_m.max(1e-6);
     let lag = (5.0 * stats.dt_s).clamp(1e-4, 0.1);
     vec![
-        stats.fc0_n.max(0.0) / (r * d),
-        stats.fc_gain_n_per_a.max(0.0) / (r * d),
+        fy0.max(0.01 * fy) / (r * d),
+        gain.max(0.01 * fy / i_ref) / (r * d),
         c0 / r,
-        0.0,
-        c1,
-        0.0,
-        0.0,
-        0.0,
+        0.1 * c0 / i_ref,
+        c1a,
+        c1b.max(0.01 * c1a / i_ref),
+        0.1 * fy / x,
+        0.01 * stats.f_rms_n.max(fy) / x,
         0.0,
         0.5 * bg,
         0.5 * bg,
