@@ -305,7 +305,8 @@ pub fn predict(cfg: &DeviceConfig, m: &Measurement) -> Vec<f64> {
 /// What a diagnosis is asked to do (`mrfeel diagnose`'s options).
 #[derive(Debug, Clone, Default)]
 pub struct DiagnoseSetup {
-    /// The model to start from (empty: `bingham`).
+    /// The model to start from (empty: the base chosen by held-out error,
+    /// [`crate::ident::diagnose::diagnose_choosing_base`]).
     pub model: String,
     /// Driver saturation of the current command, A (`None`: the default for the data).
     pub current_limit_a: Option<f64>,
@@ -372,7 +373,11 @@ pub fn diagnose_in(
         ..opts.fit.clone()
     };
     let (tests, timing) = decide(&base, tests, setup.command_timing, &quick);
-    let d = crate::ident::diagnose(&tests, base.spec(), registry, &opts)?;
+    let d = if setup.model.trim().is_empty() {
+        crate::ident::diagnose::diagnose_choosing_base(&tests, registry, &opts)?
+    } else {
+        crate::ident::diagnose(&tests, base.spec(), registry, &opts)?
+    };
     let final_spec = model_in(&d.final_model, &d.registry, limit)?;
     let mut final_model = ParamsFile::new(&final_spec, &d.final_params, None);
     final_model.command_timing = Some(timing.timing.as_str().to_string());

@@ -283,6 +283,25 @@ pub struct DiagnoseJson {
     /// Present only when the final model's held-out residual is structure, not noise.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub unexplained: Option<UnexplainedJson>,
+    /// The bases tried, with their held-out figures; `chosen` marks the one the diagnosis carried on from.
+    pub bases_tried: Vec<BaseTriedJson>,
+}
+
+/// One entry of `bases_tried`.
+#[derive(Debug, Clone, Serialize)]
+pub struct BaseTriedJson {
+    /// The base's spec.
+    pub model: String,
+    /// Held-out NRMSE of the base alone (`null`: not fitted).
+    pub heldout_nrmse: Option<f64>,
+    /// The model a diagnosis from this base ended with (`null`: none ran from it).
+    pub final_model: Option<String>,
+    /// Its held-out NRMSE.
+    pub final_heldout_nrmse: Option<f64>,
+    /// Whether the diagnosis carried on from this base.
+    pub chosen: bool,
+    /// Why, in words.
+    pub note: String,
 }
 
 /// One entry of `discovered`.
@@ -366,6 +385,18 @@ impl DiagnoseJson {
                 r#where: v.where_.clone(),
                 correlates_with: v.correlates_with.iter().map(|c| c.0.clone()).collect(),
             }),
+            bases_tried: d
+                .bases
+                .iter()
+                .map(|b| BaseTriedJson {
+                    model: b.model.clone(),
+                    heldout_nrmse: b.heldout_nrmse,
+                    final_model: b.final_model.clone(),
+                    final_heldout_nrmse: b.final_heldout_nrmse,
+                    chosen: b.chosen,
+                    note: b.note.clone(),
+                })
+                .collect(),
         }
     }
 }
@@ -417,6 +448,19 @@ pub fn diagnose_table(d: &Diagnosis) -> String {
         d.cv_scheme,
         floor_words(d.noise_floor_nrmse)
     );
+    if d.bases.len() > 1 {
+        let tried: Vec<String> = d
+            .bases
+            .iter()
+            .map(|b| format!("{}: {}", b.model, b.note))
+            .collect();
+        let _ = writeln!(
+            s,
+            "base {} chosen by held-out error; {}",
+            d.base_model,
+            tried.join("; ")
+        );
+    }
     if !d.where_.is_empty() {
         let _ = writeln!(s, "\nwhere {} fails:", d.base_model);
         for r in &d.where_ {
