@@ -379,6 +379,29 @@ fn independent_bouc_wen_hysteresis_is_named_hysteresis() {
     check(&["hysteresis"], true, 2);
 }
 
+/// With no base named (`mrfeel diagnose` without `--model`), the paper's device with a Bouc–Wen hysteresis
+/// (the effect most like the `spencer` base) keeps the `bingham` base and names the same effect: a second
+/// base carries the diagnosis on only where it ends significantly better held out.
+#[test]
+fn independent_bouc_wen_hysteresis_keeps_the_bingham_base_when_none_is_named() {
+    let tests = data_set(&PAPER, &GROUPS, &["hysteresis"], true, 2);
+    let d = mrfeel::ident::diagnose::diagnose_choosing_base(
+        &tests,
+        &Registry::builtin(),
+        &mrfeel::ident::DiagnoseOptions {
+            current_limit_a: PAPER.limit_a,
+            ..Default::default()
+        },
+    )
+    .expect("diagnose");
+    let report = mrfeel::ident::report::diagnose_table(&d);
+    assert_eq!(d.base_model, "bingham", "{report}");
+    assert_eq!(d.missing, ["hysteresis"], "{report}");
+    let names: Vec<&str> = d.bases.iter().map(|b| b.model.as_str()).collect();
+    assert_eq!(names, ["bingham", "spencer"], "{report}");
+    assert!(d.bases[0].chosen && !d.bases[1].chosen, "{report}");
+}
+
 /// Both truths' Bouc–Wen shapes (n = 2; γ = 0, and Spencer et al.'s γ = β) are inside the family of
 /// `hysteresis`: fitted on all the data, `bingham+hysteresis` leaves the load cell's noise and finds the
 /// truth's shape and yield displacement. With the shape held at Dahl's the error is 7-10 times the noise,
