@@ -47,7 +47,7 @@ fn fmt(v: f64, prec: usize) -> String {
     }
 }
 
-/// The comparison table (markdown, so it pastes into `docs/feel.md`).
+/// The comparison table (markdown, so it pastes into `docs/explanation/feel-systems.md`).
 pub fn comparison_table(scn: &CompareScenario, c: &Comparison) -> String {
     let (l23, lpro, l25) = scn.limits.newtons();
     let mut s = format!(

@@ -1,5 +1,5 @@
 //! Feel systems compared on the same rig, linkage and pilot task (three spring feel units, the MR damper
-//! under a force loop, the hybrid and the active stick; table in `docs/feel.md`), with and without faults in
+//! under a force loop, the hybrid and the active stick; table in `docs/explanation/feel-systems.md`), with and without faults in
 //! the power and signal path ([`crate::faults`]). Every system runs in the loop of `mrfeel run`
 //! ([`crate::sim::Loop`]) as the scenario's [`crate::control::FeelSystem`]; the pilot's task is fed to the
 //! hand sample by sample, letting go a NaN command.

@@ -1,4 +1,4 @@
-//! What a finished run must satisfy before its results are reported or written (docs/invariants.md): every
+//! What a finished run must satisfy before its results are reported or written (docs/reference/invariants.md): every
 //! number finite, the energy balance closed, the load cell within its range. A run that breaks one is an
 //! error naming the invariant, the time and the scenario's setting that most likely caused it.
 

@@ -110,7 +110,7 @@ pub fn report(name: &str, columns: &[String], records: &[Record], maps: &[PathBu
         "Verdicts per run: 14 CFR 23.143(c) / 25.143(d) temporary and prolonged pitch force limits; stick force \
          per g in the steady pull-up against MIL-F-8785C Table V (centre stick) Levels; the felt force against \
          the aircraft's within the 14 CFR Part 60 tolerance (±5 lbf or ±10 %), the felt breakout against the \
-         target's within ±2 lbf. Sources and readings: docs/sweep.md.\n\n",
+         target's within ±2 lbf. Sources and readings: docs/howto/sweep-a-design.md.\n\n",
     );
     s.push_str(&summary_table(columns, records, by));
     let mut worst: Vec<&Record> = records.iter().filter(|r| r.outcome.error.is_none()).collect();
