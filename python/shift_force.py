@@ -7,8 +7,8 @@ time restarted at 0. Header lines are kept. Used to ask whether a delay between 
 after the acquisition chain (docs/explanation/ident.md):
 
     for ms in -10 -5 0 5 10; do
-        python python/shift_force.py data/utfsm-mr-damper $ms /tmp/shift$ms
-        target/release/mrfeel fit /tmp/shift$ms --model bingham+hysteresis --heldout
+        python python/shift_force.py data/utfsm-mr-damper $ms shift$ms
+        target/release/mrfeel fit shift$ms --model bingham+hysteresis --heldout
     done
 """
 
