@@ -150,8 +150,10 @@ pub fn report(name: &str, columns: &[String], records: &[Record], maps: &[PathBu
     }
     if !maps.is_empty() {
         s.push_str("\n## Maps\n\n");
+        // By file name: the maps are beside the report, wherever the directory is.
         for m in maps {
-            s.push_str(&format!("- {}\n", m.display()));
+            let name = m.file_name().map_or(m.as_os_str(), |n| n);
+            s.push_str(&format!("- {}\n", Path::new(name).display()));
         }
     }
     s
