@@ -13,6 +13,21 @@ find a term for them or say that structure is left, tests/discovery.rs):
   gas_spring   an accumulator's gas compressed adiabatically: F += P0A ((L / (L - x))^1.4 - 1)
   yield_lag    the yield force builds up after each reversal with a time constant: the direction function
                sgn v through a first-order lag of TAU_Y
+  stribeck     seal friction that falls from its static to its kinetic level with speed:
+               F += FST sgn v exp(-(v / VST)^2) (the excess of static over kinetic friction)
+  backlash     free play of half-width BL in the linkage: the piston stops while the rod crosses the gap
+               (the gap g = x - x_piston stays in [-BL, BL]) and no damper force is carried inside it
+  end_friction a seal rubbing harder near the stroke ends: F += FE sgn v (x / XE)^4
+  lugre        LuGre seal friction with bristle stiffness S0 and damping S1 and a Stribeck curve from FLS
+               (static) to FLC (kinetic) over VLS: dz/dt = v - S0 |v| z / g(v), F += S0 z + S1 dz/dt
+  ripple       a force ripple periodic in position (a ball screw's lead or a detent): F += FR sin(2 pi x / PR)
+  compress     fluid compressibility: a spring KF in series between the rod and a Bingham piston; the
+               force F_d obeys dF_d/dt = KF (v - v_p), v_p = 0 while |F_d| <= f_y, else (F_d - f_y sgn F_d) / c
+  cavitation   on extension (F > 0) the rebound chamber's pressure cannot fall below the vapour pressure,
+               so the positive force is capped softly: F <- F / (1 + (F / FCAV)^4)^(1/4)
+  slow_field   a coil field whose time constant grows with the current (eddy currents and the iron's
+               rising reluctance): di_f/dt = (i - i_f) / (TAUF (1 + 4 (i_f / IMAX)^2)), the yield force made
+               by i_f; with constant currents the field is settled, so it shows under STEPS=1 only
 
 Run:  python3 -m venv /tmp/pyenv && /tmp/pyenv/bin/pip install numpy
       /tmp/pyenv/bin/python python/independent_truth.py EFFECTS OUTDIR [SEED]     (EFFECTS: comma-separated)
@@ -123,6 +138,7 @@ def simulate(effect, A, f, i, rng, gi=0, cycles=CYCLES):
     z = (1.0 if kin(0.0)[1] >= 0 else -1.0) if "hysteresis" in effect.split(",") else 0.0
     y = np.sign(kin(0.0)[1])  # yield_lag's lagged direction, settled at the start
     stateful = any(e in effect.split(",") for e in ("hysteresis", "thermal_drift", "yield_lag"))
+    nov = novel_init(effect, kin, i if levels is None else levels[0]); stateful = stateful or nov["stateful"]
     T = 0.0
     out = np.zeros(n)
     lag = float(os.environ.get("LAG", "0")); after = os.environ.get("LAGAFTER") == "1"
@@ -151,6 +167,7 @@ def simulate(effect, A, f, i, rng, gi=0, cycles=CYCLES):
         if "inertia" in effect.split(","): extra += M * a
         if "thermal_drift" in effect.split(","): fy = fy * (1 - T / THY); c = c * (1 - T / THC)
         out[k] = fy * d + c * v + extra
+        if nov["on"]: out[k] = novel_force(nov, out[k], fy, c, d, extra, x, v, i)
         if lag > 0: ic = cmd + (ic - cmd) * np.exp(-1 / FS / lag)
         for s in range(SUB if stateful else 0):
             tt = t[k] + s * h
@@ -166,6 +183,7 @@ def simulate(effect, A, f, i, rng, gi=0, cycles=CYCLES):
                 fy = (FC0 + K * i) * (1 - T / THY)
                 P = max((fy * np.sign(v) + C0 * (1 - T / THC) * v) * v, 0.0)
                 T += h * (P - T / 60.0)
+            if nov["stateful"]: novel_step(nov, v, i, h)
     x, v, _ = kin(t)
     if levels is not None:
         i = np.array([levels[min(int(k * len(levels) / n), len(levels) - 1)] for k in range(n)])
@@ -187,4 +205,73 @@ def main():
                         + ("t_s,x_m,i_a,f_n\n" if NOVEL else "t_s,x_m,v_m_s,i_a,f_n\n"))
                 for r in zip(*cols):
                     o.write(",".join(repr(float(q)) for q in r) + "\n")
+
+# The effects stribeck .. slow_field of the docstring: their constants, state and force live in functions of
+# their own, so that the output of the effects above stays bit for bit the same.
+if os.environ.get("SCALE") == "real":
+    FST, VST, BL, FE, XE, FR, PR = 60.0, 0.004, 3e-4, 80.0, 0.02, 25.0, 0.004
+    S0, S1, FLS, FLC, VLS, KF, FCAV, TAUF = 1e6, 3000.0, 90.0, 50.0, 0.004, 2e6, 900.0, 0.01
+else:
+    FST, VST, BL, FE, XE, FR, PR = 4.0, 0.01, 3e-4, 6.0, 0.03, 1.0, 0.004
+    S0, S1, FLS, FLC, VLS, KF, FCAV, TAUF = 1e5, 100.0, 5.0, 3.0, 0.005, 1e5, 60.0, 0.01
+NOVEL_EFFECTS = ("stribeck", "backlash", "end_friction", "lugre", "ripple", "compress", "cavitation",
+                 "slow_field")
+
+def novel_init(effect, kin, i0):
+    """The state of the later effects at the first sample (settled as if the motion had run before)."""
+    on = [e for e in effect.split(",") if e in NOVEL_EFFECTS]
+    v0 = float(kin(0.0)[1])
+    d0 = np.sign(v0) if v0 != 0 else 1.0
+    return {"on": on, "stateful": any(e in on for e in ("backlash", "lugre", "compress", "slow_field")),
+            "g": BL * d0,                                   # backlash: the rod leads the piston by the gap
+            "z": d0 * (FLC + (FLS - FLC) * np.exp(-(v0 / VLS) ** 2)) / S0,  # lugre: bristles at steady state
+            "fd": None,                                     # compress: set from the first sample's force
+            "fy": FC0 + K * i0, "c": C0,                     # compress: the Bingham element's yield and c
+            "if": i0}                                       # slow_field: the settled field's current
+
+def novel_force(st, f, fy, c, d, extra, x, v, i):
+    """The force at a sample with the later effects, from `f` (the force of the effects above)."""
+    on = st["on"]
+    if "slow_field" in on:
+        f += K * (st["if"] - i) * d
+        fy = fy + K * (st["if"] - i)
+    if "backlash" in on:  # engaged only at a gap's end with the rod pushing outward
+        g = st["g"]
+        engaged = (g >= BL and v > 0) or (g <= -BL and v < 0)
+        f = f if engaged else extra
+    if "compress" in on:
+        if st["fd"] is None:
+            st["fd"] = fy * d + c * v
+        st["fy"], st["c"] = fy, c
+        f = st["fd"] + extra
+    if "stribeck" in on:
+        f += FST * np.sign(v) * np.exp(-(v / VST) ** 2)
+    if "end_friction" in on:
+        f += FE * np.sign(v) * (x / XE) ** 4
+    if "lugre" in on:
+        z = st["z"]; gv = FLC + (FLS - FLC) * np.exp(-(v / VLS) ** 2)
+        f += S0 * z + S1 * (v - S0 * abs(v) * z / gv)
+    if "ripple" in on:
+        f += FR * np.sin(2 * np.pi * x / PR)
+    if "cavitation" in on and f > 0:
+        f = f / (1 + (f / FCAV) ** 4) ** 0.25
+    return f
+
+def novel_step(st, v, i, h):
+    """Integrate the later effects' states over one substep h at rod velocity v and logged current i."""
+    on = st["on"]
+    if "backlash" in on:
+        st["g"] = float(np.clip(st["g"] + h * v, -BL, BL))
+    if "lugre" in on:
+        gv = FLC + (FLS - FLC) * np.exp(-(v / VLS) ** 2)
+        a = S0 * abs(v) / gv  # exact for the linear ODE over the substep (stiff at S0 |v| / g ~ 1e4 1/s)
+        zs = v / a if a > 0 else 0.0
+        st["z"] = zs + (st["z"] - zs) * np.exp(-a * h) if a > 0 else st["z"] + h * v
+    if "compress" in on and st["fd"] is not None:
+        fd, fy, c = st["fd"], st["fy"], st["c"]
+        vp = 0.0 if abs(fd) <= fy else (fd - fy * np.sign(fd)) / c
+        st["fd"] = fd + h * KF * (v - vp)
+    if "slow_field" in on:
+        st["if"] += h * (i - st["if"]) / (TAUF * (1 + 4 * (st["if"] / IMAX) ** 2))
+
 main()

@@ -4,7 +4,7 @@
 //! the noise and recovers the damper, and a model fitted on two protocols predicts the third; compared as
 //! logged, the same model is far off and its pre-yield parameters take up the filter's smear.
 
-mod common;
+use crate::common;
 use common::mrfeel;
 
 use std::f64::consts::PI;

@@ -1,6 +1,6 @@
 //! Aircraft models against their JSBSim 1.3.3 reference flights (scenarios/jsbsim/), flight-mechanics
 //! estimates and the certification force limits. Figures quoted in docs/aero.md come from the
-//! `eprintln!` lines here: `cargo test --test aero -- --nocapture`.
+//! `eprintln!` lines here: `cargo test --test integration aero:: -- --nocapture`.
 
 use std::path::Path;
 use std::sync::Arc;

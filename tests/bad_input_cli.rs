@@ -2,7 +2,7 @@
 //! an error that names the option (or file:line: field) and the culprit, with a non-zero exit, before
 //! anything is run: nothing printed on stdout, no file written.
 
-mod common;
+use crate::common;
 use common::{mrfeel, s};
 
 use std::path::{Path, PathBuf};

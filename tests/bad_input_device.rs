@@ -4,7 +4,7 @@
 //! Good files that differ from the usual one only in what the format allows (a byte-order mark, an optional
 //! key left out) load and give the same figures.
 
-mod common;
+use crate::common;
 use common::{mrfeel, s};
 
 use std::path::PathBuf;

@@ -2,7 +2,7 @@
 //! metadata), the rig's URDF, the files a scenario names and the aircraft it flies. Each bad file is an
 //! error naming the file, the line and the field, with a non-zero exit and no output file; never a panic.
 
-mod common;
+use crate::common;
 use common::mrfeel;
 
 use std::path::{Path, PathBuf};

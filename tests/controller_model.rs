@@ -1,7 +1,7 @@
 //! The feel controller runs on a model of its own (issue 31): the plant the rig simulates and the model the
 //! controller believes are apart, and the controller's feedforward follows only the latter.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

@@ -3,9 +3,9 @@
 //! renders the designed feel (src/aero/fbw.rs) on the sidestick rig (`models/sidestick.urdf`).
 //!
 //! Needs the repository's Python environment with jsbsim (made by the test command).
-//! `cargo test --locked --test f16 -- --nocapture` prints the figures of docs/flight.md.
+//! `cargo test --locked --test integration f16:: -- --nocapture` prints the figures of docs/flight.md.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

@@ -3,9 +3,9 @@
 //! renders it where it can (it only resists motion, up to its 14 A force), the McRuer pilot flies the
 //! tasks through the hand, and live JSBSim agrees with the embedded model.
 //!
-//! `cargo test --test flight -- --nocapture --test-threads 1` prints the figures of docs/flight.md.
+//! `cargo test --test integration flight:: -- --nocapture --test-threads 1` prints the figures of docs/flight.md.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;

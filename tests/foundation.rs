@@ -5,7 +5,7 @@ use std::process::{Command, Output};
 
 use mrfeel::measurement::Measurement;
 
-mod common;
+use crate::common;
 use common::mrfeel;
 
 fn text(o: &Output) -> (String, String) {

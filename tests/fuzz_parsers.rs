@@ -404,7 +404,7 @@ fn every_format_refuses_mutated_files_at_a_line_without_panic_or_hang() {
 
 /// The larger seeded sweep: 2000 mutations of each format.
 #[test]
-#[ignore = "a larger sweep: cargo test --test fuzz_parsers -- --ignored"]
+#[ignore = "a larger sweep: cargo test --test integration fuzz_parsers:: -- --ignored"]
 fn every_format_larger_sweep() {
     for f in FORMATS {
         f(cases(2000));

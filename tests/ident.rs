@@ -2,7 +2,7 @@
 //! synthetic data (each effect alone, none, pairs; several protocols, sample rates, measured or derived
 //! velocity), a user's own effect is diagnosed like the built-in ones, and the CLI keeps its contract.
 
-mod common;
+use crate::common;
 use common::mrfeel;
 
 use std::path::{Path, PathBuf};
@@ -16,7 +16,7 @@ use mrfeel::ident::fit::{all_spans, fit, FitOptions};
 use mrfeel::ident::{data_stats, diagnose, DiagnoseOptions, Test};
 use mrfeel::measurement::{smooth_derivative, Measurement};
 
-mod diagnosis_check;
+use crate::diagnosis_check;
 
 /// The paper's device (models/paper-device.toml values, with some friction and damping so that every
 /// base term is visible): fc0, fc_gain, c0, Te, Tm.
@@ -221,8 +221,8 @@ const CASES: [(Protocol, f64, bool, usize, f64, &[&str]); 10] = [
 ];
 
 /// Every diagnosis case on other seeds, and with measured velocity ten times noisier (2 mm/s), so that nothing
-/// is tuned to the committed seeds. Slow: `SWEEP_SEEDS=100..104 cargo test --release --test ident --
-/// --ignored diagnosis_sweep --nocapture` (default seeds 100..102; `SWEEP_NOISE=2e-4,1e-3` velocity noises;
+/// is tuned to the committed seeds. Slow: `SWEEP_SEEDS=100..104 cargo test --release --test integration
+/// ident::diagnosis_sweep -- --ignored --nocapture` (default seeds 100..102; `SWEEP_NOISE=2e-4,1e-3` velocity noises;
 /// `SWEEP_ONLY=inertia` the cases whose hidden effects contain that word).
 #[test]
 #[ignore]
@@ -1123,7 +1123,7 @@ fn fit_counts_each_test_once_unless_told_to_count_samples() {
 /// The real damper (`data/utfsm-mr-damper`): diagnosis from `bingham` finds hysteresis first, and its
 /// final model meets the held-out NRMSE ≤ 0.08, judged by leaving one amplitude/frequency group out
 /// at a time. Slow in the dev profile: run with
-/// `cargo test --release --test ident -- --ignored real_damper`.
+/// `cargo test --release --test integration ident::real_damper -- --ignored`.
 #[test]
 #[ignore]
 fn real_damper_diagnosis_finds_hysteresis() {

@@ -36,7 +36,7 @@ use mrfeel::ident::fit::{all_spans, fit, FitOptions};
 use mrfeel::ident::Test;
 use mrfeel::measurement::{smooth_derivative, Measurement};
 
-mod diagnosis_check;
+use crate::diagnosis_check;
 
 /// The device under test and the size of each hidden effect on it.
 struct Device {
@@ -299,7 +299,7 @@ fn stepped_measurement(
     m
 }
 
-/// The noise of every case: `INDEPENDENT_SEED_OFFSET=100 cargo test --test independent_truth` reruns them all
+/// The noise of every case: `INDEPENDENT_SEED_OFFSET=100 cargo test --test integration independent_truth::` reruns them all
 /// on other noise.
 fn rng_for(seed: u64) -> ChaCha8Rng {
     let offset: u64 = std::env::var("INDEPENDENT_SEED_OFFSET")
@@ -710,7 +710,7 @@ fn independent_mass_in_records_with_a_hole_is_fitted_to_the_noise() {
 
 /// Every effect alone, none, and nine pairs, on the paper's device (the hysteresis cases also in Spencer's
 /// shape; all also in two groups only) and at the real damper's scale, on other noise:
-/// `INDEPENDENT_SWEEP=300..303 cargo test --release --test independent_truth -- --ignored sweep --nocapture`
+/// `INDEPENDENT_SWEEP=300..303 cargo test --release --test integration independent_truth::independent_sweep_over_seeds_and_scales -- --ignored --nocapture`
 /// (default seeds 300..301; `INDEPENDENT_SWEEP_ONLY=inertia` the cases whose hidden effects contain that word;
 /// `INDEPENDENT_SWEEP_REPORT=1` prints the report of the cases that pass too; `INDEPENDENT_SWEEP_DUMP=DIR`
 /// writes each data set's files into `DIR/<scale>_<effects>_<seed>/` for `mrfeel diagnose`). Prints each verdict and fails

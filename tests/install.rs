@@ -1,7 +1,7 @@
 //! The repository and the binary stand alone: a clone of the repository with nothing beside it runs the
 //! main job, and a copy of the binary runs from any folder, with the models it ships built in.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

@@ -420,7 +420,7 @@ fn a_fit_of_a_known_device_covers_the_truth() {
 
 /// The larger seeded sweep of every property.
 #[test]
-#[ignore = "a larger sweep: cargo test --test properties -- --ignored"]
+#[ignore = "a larger sweep: cargo test --test integration properties:: -- --ignored"]
 fn larger_sweep_of_every_property() {
     every_run_is_finite_and_passive_or_fails_naming_the_setting(cases(200));
     the_damper_is_passive_for_any_device_and_protocol(cases(1000));

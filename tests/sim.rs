@@ -1,7 +1,7 @@
 //! The stick rig in closed loop (issue 4): feel tracking, stroke, current, creep, energy, response time vs
 //! DAQ rate, determinism, scenario errors, Rerun read-back.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;

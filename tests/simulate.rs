@@ -1,7 +1,7 @@
 //! `mrfeel simulate` (the force of a saved model on a person's own motion and current) and `validate
 //! --out` (the model's force beside the measured one), through the binary.
 
-mod common;
+use crate::common;
 use common::{mrfeel, ok, s};
 
 use std::path::{Path, PathBuf};

@@ -2,7 +2,7 @@
 //! device, driven by broadband displacement with a switched current, are fitted by `mrfeel fit --model
 //! spencer`, and the fit predicts a second record of another protocol, as the device does.
 
-mod common;
+use crate::common;
 use common::{mrfeel, ok, s};
 
 use std::path::{Path, PathBuf};

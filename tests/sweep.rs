@@ -1,7 +1,7 @@
 //! `mrfeel sweep`: shards merged equal one process to the byte, whatever the number of workers; a killed
 //! sweep resumes without repeating or losing a run; bad plans, shards and merges are refused at their line.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

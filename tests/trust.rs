@@ -2,7 +2,7 @@
 //! but would make meaningless results, a run that breaks a physical invariant, parallel writers to one
 //! output, the leftovers of killed runs, and input echoed in errors.
 
-mod common;
+use crate::common;
 use common::mrfeel;
 
 use std::path::{Path, PathBuf};

@@ -227,7 +227,7 @@ impl ActiveStick {
             last_sensor_n: 0.0,
             last_rod_v_m_s: None,
             rod_accel_m_s2: 0.0,
-            rng: ChaCha8Rng::seed_from_u64(seed ^ 0xac71_5e),
+            rng: ChaCha8Rng::seed_from_u64(seed ^ 0x00ac_715e),
             sensed_rod_force_n: 0.0,
             motor_force_n: 0.0,
         }
@@ -385,7 +385,7 @@ impl ActiveStick {
                 break;
             }
             let x = rod.x_m + rod.v_m_s * (t - t_s).max(0.0);
-            if self.inner_ticks % self.inner_per_outer == 0 {
+            if self.inner_ticks.is_multiple_of(self.inner_per_outer) {
                 self.outer_tick(t, law, rod, x, faults);
                 self.outer_ticks += 1;
             }
