@@ -5,6 +5,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::plan::{MapSpec, Param};
 use super::store::Record;
@@ -207,8 +208,8 @@ impl MapCell {
     }
 }
 
-/// Maps of the stick-force-per-g Level over (x, y), one panel per combination of the facet axes; where
-/// other axes vary, a cell shows the worst Level of its runs. Each cell is coloured by its Level and
+/// Maps of the stick-force-per-g Level over (x, y), one panel per combination of the facet axes, a cell
+/// per (x, y) value pair; where other axes vary, a cell shows the worst Level of its runs. Each cell is coloured by its Level and
 /// labelled with it and the stick force per g; a thick line runs where the Level changes between cells
 /// (the Level boundaries), and `overload` marks a cell where a run drove the load cell past its range.
 /// Written to `DIR/map-level.png` and `.svg`.
@@ -313,25 +314,27 @@ const HEADER_PX: u32 = 64;
 
 type Panels = BTreeMap<String, BTreeMap<(usize, usize), MapCell>>;
 
-/// The map's axis values and the cell edges halfway between them (a value's own spacing at the ends).
+/// The map's axis values. Cells are drawn of equal size in index space (cell `k` from `k − ½` to `k + ½`),
+/// with each axis labelled by its values at the cells' centres.
 struct Grid {
     xs: Vec<f64>,
     ys: Vec<f64>,
 }
 
 impl Grid {
+    /// Cell edges in index space.
     fn edges(v: &[f64]) -> Vec<f64> {
-        let w = |k: usize| {
-            if v.len() > 1 {
-                v[k.min(v.len() - 2) + 1] - v[k.min(v.len() - 2)]
-            } else {
-                1.0
-            }
-        };
-        let mut e = vec![v[0] - w(0) / 2.0];
-        e.extend(v.windows(2).map(|p| (p[0] + p[1]) / 2.0));
-        e.push(v[v.len() - 1] + w(v.len() - 1) / 2.0);
-        e
+        (0..=v.len()).map(|k| k as f64 - 0.5).collect()
+    }
+
+    /// The label of an index-space tick: the value at a cell's centre, nothing between cells.
+    fn label(v: &[f64], at: f64) -> String {
+        let k = at.round();
+        if (at - k).abs() < 1e-6 && k >= 0.0 && (k as usize) < v.len() {
+            format!("{}", v[k as usize])
+        } else {
+            String::new()
+        }
     }
 }
 
@@ -375,7 +378,8 @@ fn draw_panels<DB: DrawingBackend>(
     let cols = n.min(3);
     let rows = n.div_ceil(cols);
     let areas = body.split_evenly((rows, cols));
-    let fmt = |v: &f64| format!("{v}");
+    let fx = |v: &f64| Grid::label(&grid.xs, *v);
+    let fy = |v: &f64| Grid::label(&grid.ys, *v);
     for ((title, cells), area) in panels.iter().zip(areas) {
         let mut c = ChartBuilder::on(&area)
             .caption(
@@ -385,16 +389,16 @@ fn draw_panels<DB: DrawingBackend>(
             .margin(8)
             .x_label_area_size(36)
             .y_label_area_size(56)
-            .build_cartesian_2d(
-                (ex[0]..ex[ex.len() - 1]).with_key_points(grid.xs.clone()),
-                (ey[0]..ey[ey.len() - 1]).with_key_points(grid.ys.clone()),
-            )
+            .build_cartesian_2d(ex[0]..ex[ex.len() - 1], ey[0]..ey[ey.len() - 1])
             .map_err(e)?;
+        // At most one tick per cell: the nice step of `len` ticks over `len` cells is one cell.
         c.configure_mesh()
             .x_desc(spec.x.as_str())
             .y_desc(spec.y.as_str())
-            .x_label_formatter(&fmt)
-            .y_label_formatter(&fmt)
+            .x_labels(grid.xs.len())
+            .y_labels(grid.ys.len())
+            .x_label_formatter(&fx)
+            .y_label_formatter(&fy)
             .label_style(("sans-serif", 12))
             .disable_mesh()
             .draw()
