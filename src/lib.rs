@@ -1,4 +1,5 @@
 //! mrfeel: simulation and model discovery for magneto-rheological artificial feel systems.
+#![warn(missing_docs)]
 pub mod aero;
 pub mod builtin;
 pub mod compare;

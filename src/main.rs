@@ -118,34 +118,17 @@ impl Job {
                 ("--save-device", a.save_device.as_ref(), File),
                 ("--plot", a.plot.as_ref(), Dir),
             ],
-            Job::Run(a, _) => vec![
-                ("--out", a.out.as_ref(), File),
-                ("--rerun", a.rerun.as_ref(), File),
-                ("--plot", a.plot.as_ref(), Dir),
-            ],
+            Job::Run(a, _) => [vec![("--out", a.out.as_ref(), File)], a.output.files()].concat(),
             Job::DaqSweep(a, _) => vec![("--plot", a.plot.as_ref(), Dir)],
-            Job::Compare(a, _) => vec![
-                ("--plot", a.plot.as_ref(), Dir),
-                ("--rerun", a.rerun.as_ref(), File),
-            ],
-            Job::Fit(a) => vec![
-                ("--save", a.save.as_ref(), File),
-                ("--plot", a.plot.as_ref(), Dir),
-                ("--rerun", a.rerun.as_ref(), File),
-            ],
+            Job::Compare(a, _) => a.output.files(),
+            Job::Fit(a) => [vec![("--save", a.save.as_ref(), File)], a.output.files()].concat(),
             Job::Validate(a) => {
                 // One test: `--out` is its file; several: a directory of them.
                 let one = mrfeel::measurement::measurement_files(&a.data).is_ok_and(|f| f.len() == 1);
-                vec![
-                    ("--plot", a.plot.as_ref(), Dir),
-                    ("--rerun", a.rerun.as_ref(), File),
-                    ("--out", a.out.as_ref(), if one { File } else { Dir }),
-                ]
+                let out = ("--out", a.out.as_ref(), if one { File } else { Dir });
+                [a.output.files(), vec![out]].concat()
             }
-            Job::Diagnose(a) => vec![
-                ("--plot", a.plot.as_ref(), Dir),
-                ("--rerun", a.rerun.as_ref(), File),
-            ],
+            Job::Diagnose(a) => a.output.files(),
             Job::Simulate(a) => vec![("--out", Some(&a.out), File)],
             Job::LoopStudy(a, _) => vec![("--plot", a.plot.as_ref(), Dir)],
             Job::Sweep(a) => vec![("--out", a.out_dir(), Dir)],

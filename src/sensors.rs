@@ -20,9 +20,13 @@ use crate::signal::{quantise, FilteredDifferentiator};
 /// describes (1 and 0 for a perfect calibration).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LoadCellConfig {
+    /// Full scale, N: readings clip at ±this.
     pub range_n: f64,
+    /// Residual calibration gain (1: perfect).
     pub gain: f64,
+    /// Residual calibration offset, N.
     pub offset_n: f64,
+    /// RMS noise, N.
     pub noise_rms_n: f64,
 }
 
@@ -30,8 +34,11 @@ pub struct LoadCellConfig {
 /// the sampled position differentiated and low-passed at `velocity_cutoff_hz`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LaserConfig {
+    /// Full scale, m: readings clip at ±this.
     pub range_m: f64,
+    /// RMS noise, m.
     pub noise_rms_m: f64,
+    /// Low-pass cutoff of the differentiated velocity, Hz.
     pub velocity_cutoff_hz: f64,
 }
 
@@ -40,15 +47,22 @@ pub struct LaserConfig {
 /// ADC resolution over each channel's range.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DaqConfig {
+    /// Sample rate, Hz.
     pub sample_rate_hz: f64,
+    /// Samples from reading the inputs to the command taking effect.
     pub latency_samples: usize,
+    /// ADC resolution, bits, over each channel's range.
     pub adc_bits: u32,
 }
 
+/// The rig's sensors and their DAQ.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SensorsConfig {
+    /// The load cell.
     pub load_cell: LoadCellConfig,
+    /// The laser displacement sensor.
     pub laser: LaserConfig,
+    /// The DAQ.
     pub daq: DaqConfig,
 }
 
@@ -136,6 +150,7 @@ pub struct Daq {
 }
 
 impl Daq {
+    /// A DAQ of `cfg` whose noise is seeded by `seed`, before its first tick.
     pub fn new(cfg: SensorsConfig, seed: u64) -> Self {
         let period_s = 1.0 / cfg.daq.sample_rate_hz;
         Self {
@@ -148,10 +163,12 @@ impl Daq {
         }
     }
 
+    /// Its configuration.
     pub fn config(&self) -> &SensorsConfig {
         &self.cfg
     }
 
+    /// Sample period, s.
     pub fn period_s(&self) -> f64 {
         self.period_s
     }

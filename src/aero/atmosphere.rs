@@ -17,8 +17,11 @@ pub const TROPOPAUSE_M: f64 = 11_000.0;
 /// Air properties at an altitude.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Air {
+    /// Temperature, K.
     pub temperature_k: f64,
+    /// Density, kg/m³.
     pub density_kg_m3: f64,
+    /// Speed of sound, m/s.
     pub speed_of_sound_m_s: f64,
 }
 

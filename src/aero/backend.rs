@@ -140,6 +140,7 @@ pub struct Embedded {
 }
 
 impl Embedded {
+    /// The embedded model of `model`, named `label` in outputs.
     pub fn new(label: &str, model: Arc<AircraftModel>) -> Self {
         Self {
             label: label.to_string(),
@@ -147,10 +148,6 @@ impl Embedded {
             trim_throttle: 0.0,
             dt_s: 1.0 / 120.0,
         }
-    }
-
-    pub fn aircraft(&self) -> &Aircraft {
-        &self.aircraft
     }
 }
 

@@ -28,7 +28,9 @@ pub(crate) const KT_TO_M_S: f64 = 1852.0 / 3600.0;
 /// Pitch-force limits of one certification basis, N.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CertificationBasis {
+    /// Part 23 or 25.
     pub part: CertificationPart,
+    /// Wheel or stick.
     pub control: ControlType,
     /// Short-term (temporary) maximum, two hands (or a stick), N.
     pub short_term_two_hands_n: f64,
@@ -96,17 +98,23 @@ impl CertificationBasis {
 /// Where an aircraft's stick forces sit at one flight condition.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FeelAssessment {
+    /// True airspeed, m/s.
     pub airspeed_m_s: f64,
+    /// Altitude, m.
     pub altitude_m: f64,
+    /// The force limits applied.
     pub basis: CertificationBasis,
+    /// Positive limit load factor, g.
     pub limit_load_factor: f64,
     /// Secant stick force per g between 1 g and `per_g_at_nz` (2 g, or less where the limit load
     /// factor or the stall come first), N/g.
     pub stick_force_per_g_n: f64,
+    /// The load factor the stick force per g is taken at, g.
     pub per_g_at_nz: f64,
     /// Pull from trim to the limit load factor, N (from the model's steady pull-up; extrapolated
     /// with the stick force per g when the wing stalls before the limit).
     pub force_at_limit_n: f64,
+    /// Whether `force_at_limit_n` is extrapolated (the wing stalls first).
     pub force_at_limit_extrapolated: bool,
     /// Stick-force-versus-speed gradient around the trim speed, N per m/s, positive when stable (a
     /// pull below the trim speed): the mean of the slopes from 5 % to 10 % below and above the trim

@@ -36,11 +36,13 @@ pub struct FlyByWire {
     pub breakout_n: f64,
     /// Designed stick force per g at the design condition, N/g.
     pub stick_force_per_g_n: f64,
-    /// Largest pull and push the pilot's hand puts on the grip, N.
+    /// Largest pull the pilot's hand puts on the grip, N.
     pub max_pull_n: f64,
+    /// Largest push the pilot's hand puts on the grip, N.
     pub max_push_n: f64,
-    /// The design condition: true airspeed, m/s, and altitude, m.
+    /// The design condition: true airspeed, m/s.
     pub airspeed_m_s: f64,
+    /// The design condition: altitude, m.
     pub altitude_m: f64,
     /// The FCS's steady load factor per unit command at the design condition, g.
     pub g_per_command: f64,

@@ -42,16 +42,27 @@ use super::longitudinal::AircraftState;
 /// An aircraft's elevator hinge, tail and stick gearing (part of its [`super::AircraftModel`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct HingeModel {
+    /// Elevator area aft of the hinge, m².
     pub elevator_area_m2: f64,
+    /// Elevator chord aft of the hinge, m.
     pub elevator_chord_m: f64,
+    /// Hinge moment coefficient at zero tail angle of attack and deflections.
     pub ch0: f64,
+    /// Hinge moment coefficient per radian of tail angle of attack.
     pub ch_alpha_per_rad: f64,
+    /// Hinge moment coefficient per radian of elevator.
     pub ch_elevator_per_rad: f64,
+    /// Hinge moment coefficient per radian of trim tab.
     pub ch_tab_per_rad: f64,
+    /// Trim tab travel: lowest deflection, rad.
     pub tab_min_rad: f64,
+    /// Trim tab travel: highest deflection, rad.
     pub tab_max_rad: f64,
+    /// Tail dynamic pressure over free-stream dynamic pressure.
     pub tail_dynamic_pressure_ratio: f64,
+    /// Downwash gradient `d epsilon / d alpha` at the tail.
     pub downwash_gradient: f64,
+    /// Centre of gravity to the tail's aerodynamic centre, m.
     pub tail_arm_m: f64,
     /// `G`: elevator radians per stick radian (positive; aft stick = trailing edge up).
     pub elevator_per_stick_rad_per_rad: f64,
@@ -61,7 +72,9 @@ pub struct HingeModel {
     pub force_feedback_ratio: f64,
     /// Artificial feel of a powered elevator (`None` for reversible controls).
     pub feel_computer: Option<FeelComputer>,
+    /// Elevator travel: lowest deflection, rad.
     pub elevator_min_rad: f64,
+    /// Elevator travel: highest deflection, rad.
     pub elevator_max_rad: f64,
 }
 

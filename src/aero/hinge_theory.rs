@@ -43,7 +43,7 @@
 //! `k_v`, the ratio of measured to inviscid hinge-moment derivatives (boundary-layer thickening over the
 //! surface, trailing-edge angle, gap), is an input: thin-aerofoil theory has no boundary layer.
 //!
-//! Signs: `α`, `δ`, `δ_tab` positive trailing edge down / nose up as in [`super::hinge`]; restoring hinge
+//! Signs: `α`, `δ`, `δ_tab` positive trailing edge down / nose up as in `aero::hinge`; restoring hinge
 //! moments are negative.
 
 use std::f64::consts::PI;
@@ -83,11 +83,15 @@ pub struct SectionDerivatives {
 /// Tail (3-D) hinge-moment derivatives per radian, with the tail's lift slope they assume.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HingeDerivatives {
+    /// Per radian of tail angle of attack.
     pub ch_alpha_per_rad: f64,
+    /// Per radian of elevator.
     pub ch_elevator_per_rad: f64,
+    /// Per radian of trim tab.
     pub ch_tab_per_rad: f64,
     /// `a_t`, per radian of tail angle of attack.
     pub tail_lift_slope_per_rad: f64,
+    /// The 2-D section derivatives they come from.
     pub section: SectionDerivatives,
 }
 

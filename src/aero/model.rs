@@ -1,4 +1,4 @@
-//! An aircraft model (`models/aircraft/<name>.toml`, read by [`crate::input::aircraft`]): geometry, mass,
+//! An aircraft model (`models/aircraft/<name>.toml`, read by `input::aircraft`): geometry, mass,
 //! propulsion and aerodynamic tables from JSBSim 1.3.3's bundled aircraft, with the elevator hinge and
 //! stick gearing estimates; every number in the shipped files carries its source in a comment.
 
@@ -40,7 +40,9 @@ impl CertificationPart {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ControlType {
+    /// A control wheel (yoke).
     Wheel,
+    /// A stick.
     Stick,
 }
 
@@ -49,54 +51,88 @@ pub enum ControlType {
 pub enum Propulsion {
     /// Constant power: `T = throttle * eta * P_max * sigma^k / max(V, V_min)`.
     Propeller {
+        /// Shaft power at full throttle at sea level, W.
         max_power_w: f64,
+        /// Propeller efficiency `eta`, 0..1.
         efficiency: f64,
+        /// Airspeed below which the thrust stops rising, m/s.
         min_airspeed_m_s: f64,
         /// Disc diameter for the slipstream (momentum theory), m.
         diameter_m: f64,
     },
     /// Constant thrust: `T = throttle * T_max * sigma^k`.
-    Jet { max_thrust_n: f64 },
+    Jet {
+        /// Thrust at full throttle at sea level, N.
+        max_thrust_n: f64,
+    },
 }
 
 /// A loaded, validated aircraft model in SI units.
 #[derive(Debug, Clone)]
 pub struct AircraftModel {
+    /// The aircraft's name.
     pub name: String,
+    /// The aircraft file.
     pub path: PathBuf,
     // geometry
+    /// Wing reference area, m².
     pub wing_area_m2: f64,
+    /// Mean aerodynamic chord, m.
     pub chord_m: f64,
+    /// Wing span, m.
     pub span_m: f64,
-    /// Horizontal tail area and span, m², m.
+    /// Horizontal tail area, m².
     pub htail_area_m2: f64,
+    /// Horizontal tail span, m.
     pub htail_span_m: f64,
-    /// Aerodynamic reference point in JSBSim's structural frame (x aft, z up), m.
+    /// Aerodynamic reference point in JSBSim's structural frame (x aft, z up): x, m.
     pub aero_ref_x_m: f64,
+    /// Aerodynamic reference point: z, m.
     pub aero_ref_z_m: f64,
     // mass
+    /// Mass, kg.
     pub mass_kg: f64,
+    /// Pitch moment of inertia, kg·m².
     pub iyy_kg_m2: f64,
+    /// Centre of gravity in the structural frame: x, m.
     pub cg_x_m: f64,
+    /// Centre of gravity: z, m.
     pub cg_z_m: f64,
     // propulsion
+    /// The engine's thrust law.
     pub propulsion: Propulsion,
+    /// Thrust line in the structural frame: x, m.
     pub thrust_x_m: f64,
+    /// Thrust line: z, m.
     pub thrust_z_m: f64,
+    /// `k` in the thrust's density lapse `sigma^k`.
     pub density_exponent: f64,
     // aerodynamics (coefficients on wing area and chord)
+    /// Lift coefficient by angle of attack (rad).
     pub cl_alpha: Table1,
+    /// Lift coefficient per radian of elevator.
     pub cl_elevator_per_rad: f64,
+    /// Lift coefficient per unit nondimensional pitch rate `q c / 2V`.
     pub cl_q_per_rad: f64,
+    /// Lift coefficient per unit nondimensional `alpha-dot c / 2V`.
     pub cl_alphadot_per_rad: f64,
+    /// Zero-lift drag coefficient.
     pub cd0: f64,
+    /// Drag coefficient increment by angle of attack (rad).
     pub cd_alpha: Table1,
+    /// Induced drag factor: drag coefficient per CL².
     pub cd_induced_per_cl2: f64,
+    /// Drag coefficient per radian of |elevator|.
     pub cd_elevator_abs_per_rad: f64,
+    /// Drag coefficient increment by Mach number.
     pub cd_mach: Table1,
+    /// Pitching moment coefficient at zero angle of attack and elevator.
     pub cm0: f64,
+    /// Pitching moment coefficient per radian of angle of attack.
     pub cm_alpha_per_rad: f64,
+    /// Pitching moment coefficient per unit nondimensional pitch rate `q c / 2V`.
     pub cm_q_per_rad: f64,
+    /// Pitching moment coefficient per unit nondimensional `alpha-dot c / 2V`.
     pub cm_alphadot_per_rad: f64,
     /// Cm per radian of elevator, by Mach number.
     pub cm_elevator_per_rad: Table1,
@@ -107,9 +143,13 @@ pub struct AircraftModel {
     /// Elevator hinge, tail and stick gearing.
     pub hinge: HingeModel,
     // certification
+    /// Certification basis (14 CFR Part 23 or 25).
     pub part: CertificationPart,
+    /// Wheel or stick, for the basis's force limits.
     pub control: ControlType,
+    /// Maximum weight, kg.
     pub max_weight_kg: f64,
+    /// Positive limit load factor, g.
     pub limit_load_factor: f64,
     /// Keys (`section.key`) whose value the file marks `[EST]`: estimates without a source.
     pub estimates: Vec<String>,

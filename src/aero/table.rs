@@ -41,6 +41,7 @@ impl Table1 {
         }
     }
 
+    /// The value at `x`, linear between breakpoints and held beyond the ends.
     pub fn eval(&self, x: f64) -> f64 {
         let n = self.x.len();
         if n == 1 || x <= self.x[0] {
@@ -70,6 +71,7 @@ impl Table1 {
         self.y.iter().copied().fold(f64::NEG_INFINITY, f64::max)
     }
 
+    /// The first and last breakpoint.
     pub fn x_range(&self) -> (f64, f64) {
         (self.x[0], self.x[self.x.len() - 1])
     }

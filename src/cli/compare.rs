@@ -9,6 +9,10 @@ use mrfeel::faults::FaultKind;
 use mrfeel::viz::plot::{save_charts, Chart, Series};
 
 #[derive(Debug, clap::Args)]
+#[command(
+    mut_arg("json", |a| a.help("Print the results as JSON on stdout (the tables go to stderr)")),
+    mut_arg("rerun", |a| a.help("Write a Rerun recording (.rrd) of every run")),
+)]
 pub struct CompareArgs {
     /// Comparison scenario (`scenarios/compare-feel.toml`).
     pub scenario: PathBuf,
@@ -16,15 +20,8 @@ pub struct CompareArgs {
     /// variable_gradient_spring, q_feel, mr, mr_spring, active.
     #[arg(long)]
     pub feel: Option<String>,
-    /// Print the results as JSON on stdout (the tables go to stderr).
-    #[arg(long)]
-    pub json: bool,
-    /// Write plots (PNG + SVG) into this directory.
-    #[arg(long)]
-    pub plot: Option<PathBuf>,
-    /// Write a Rerun recording of every run.
-    #[arg(long)]
-    pub rerun: Option<PathBuf>,
+    #[command(flatten)]
+    pub output: super::OutputArgs,
     /// Also run every fault of `mrfeel::faults` on every system and print the fault table.
     #[arg(long)]
     pub faults: bool,
@@ -334,17 +331,17 @@ pub fn run_cmd(a: CompareArgs, scn: CompareScenario) -> anyhow::Result<()> {
         text += &fault_table(&scn, &c);
     }
     // The files first, stdout last: a run that fails to write prints no result.
-    if let Some(dir) = &a.plot {
+    if let Some(dir) = &a.output.plot {
         for f in plots(&c, dir)? {
             mrfeel::noteln!("wrote {}", f.display());
         }
     }
     #[cfg(feature = "rerun")]
-    if let Some(p) = &a.rerun {
+    if let Some(p) = &a.output.rerun {
         rerun_log(&c, p)?;
         mrfeel::noteln!("wrote {}", p.display());
     }
-    if a.json {
+    if a.output.json {
         mrfeel::note!("{text}");
         mrfeel::outln!("{}", serde_json::to_string_pretty(&to_json(&scn, &c))?)?;
     } else {

@@ -76,15 +76,8 @@ pub struct FitArgs {
     /// Write the model name and fitted parameters here (JSON, read by `validate --params`).
     #[arg(long)]
     pub save: Option<PathBuf>,
-    /// Print the contract's JSON on stdout instead of a table.
-    #[arg(long)]
-    pub json: bool,
-    /// Write PNG + SVG plots into this directory.
-    #[arg(long)]
-    pub plot: Option<PathBuf>,
-    /// Write a Rerun recording (.rrd) of measured vs model force.
-    #[arg(long)]
-    pub rerun: Option<PathBuf>,
+    #[command(flatten)]
+    pub output: super::OutputArgs,
     /// Driver saturation of the current command, A (default: 14 A, the paper's driver, or the largest
     /// command in the data if higher).
     #[arg(long)]
@@ -113,15 +106,8 @@ pub struct ValidateArgs {
     /// Parameters written by `mrfeel fit --save` (or a device `.toml`); run unchanged, no refit.
     #[arg(long)]
     pub params: PathBuf,
-    /// Print the contract's JSON on stdout instead of a table.
-    #[arg(long)]
-    pub json: bool,
-    /// Write PNG + SVG plots into this directory.
-    #[arg(long)]
-    pub plot: Option<PathBuf>,
-    /// Write a Rerun recording (.rrd) of measured vs model force.
-    #[arg(long)]
-    pub rerun: Option<PathBuf>,
+    #[command(flatten)]
+    pub output: super::OutputArgs,
     /// Write each test as read with the model's force beside the measured one (column `f_model_n`, the
     /// force as scored: through the acquisition filter where one was found): this file for one test, a
     /// directory of files named as the tests for several.
@@ -148,6 +134,11 @@ pub struct SimulateArgs {
 }
 
 #[derive(clap::Args, Debug, Clone)]
+#[command(
+    mut_arg("json", |a| a.help("Print the contract's JSON on stdout instead of a report")),
+    mut_arg("plot", |a| a.help("Write PNG + SVG plots into this directory (where the model fails, the error falling)")),
+    mut_arg("rerun", |a| a.help("Write a Rerun recording (.rrd) of measured vs model force, starting and final model")),
+)]
 pub struct DiagnoseArgs {
     /// Measurement CSV files or directories of them.
     #[arg(required = true)]
@@ -155,15 +146,8 @@ pub struct DiagnoseArgs {
     /// The model to start from.
     #[arg(long, default_value = "bingham")]
     pub model: String,
-    /// Print the contract's JSON on stdout instead of a report.
-    #[arg(long)]
-    pub json: bool,
-    /// Write PNG + SVG plots into this directory (where the model fails, the error falling).
-    #[arg(long)]
-    pub plot: Option<PathBuf>,
-    /// Write a Rerun recording (.rrd) of measured vs model force, starting and final model.
-    #[arg(long)]
-    pub rerun: Option<PathBuf>,
+    #[command(flatten)]
+    pub output: super::OutputArgs,
     /// Driver saturation of the current command, A (default: 14 A, the paper's driver, or the largest
     /// command in the data if higher).
     #[arg(long)]
@@ -300,15 +284,7 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
             mrfeel::noteln!("  {:<32} held-out NRMSE {:.4}", f.label, fig.nrmse());
         }
     }
-    outputs(
-        &out,
-        "fit",
-        a.json,
-        a.plot.as_ref(),
-        a.rerun.as_ref(),
-        tests,
-        &pred,
-    )
+    outputs(&out, "fit", &a.output, tests, &pred)
 }
 
 /// The reading of the current commands, on stderr, where it matters: where a command changes inside a test,
@@ -322,25 +298,23 @@ fn note_timing(timing: &TimingDecision) {
 fn outputs(
     out: &FitJson,
     title: &str,
-    json: bool,
-    plot: Option<&PathBuf>,
-    rerun: Option<&PathBuf>,
+    output: &super::OutputArgs,
     tests: &[Test],
     pred: &[Vec<f64>],
 ) -> anyhow::Result<()> {
     // The files first, stdout last: a run that fails to write prints no result.
-    if let Some(dir) = plot {
+    if let Some(dir) = &output.plot {
         let files = mrfeel::ident::plots::plot_model(dir, tests, pred, &out.model, "")?;
         mrfeel::noteln!("wrote {} plot files into {}", files.len(), dir.display());
     }
     #[cfg(not(feature = "rerun"))]
-    let _ = rerun; // refused before the command runs (main.rs)
+    let _ = &output.rerun; // refused before the command runs (main.rs)
     #[cfg(feature = "rerun")]
-    if let Some(path) = rerun {
+    if let Some(path) = &output.rerun {
         mrfeel::ident::rerun_log::record(path, tests, &[(&out.model, pred)])?;
         mrfeel::noteln!("wrote Rerun recording {}", path.display());
     }
-    if json {
+    if output.json {
         mrfeel::outln!("{}", serde_json::to_string_pretty(out)?)?;
     } else {
         mrfeel::out!("{}", out.table(title))?;
@@ -371,15 +345,7 @@ pub fn run_validate(a: &ValidateArgs) -> anyhow::Result<()> {
     if let Some(path) = &a.out {
         write_beside(path, &ms, &pred)?;
     }
-    outputs(
-        &out,
-        "validate",
-        a.json,
-        a.plot.as_ref(),
-        a.rerun.as_ref(),
-        &tests,
-        &pred,
-    )
+    outputs(&out, "validate", &a.output, &tests, &pred)
 }
 
 pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
@@ -422,12 +388,12 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
         .map_err(anyhow::Error::msg)?;
     mrfeel::noteln!("diagnosed in {:.1} s", t0.elapsed().as_secs_f64());
     // The files first, stdout last: a run that fails to write prints no result.
-    if let Some(dir) = &a.plot {
+    if let Some(dir) = &a.output.plot {
         let files = mrfeel::ident::plots::plot_diagnosis(dir, &tests, &d)?;
         mrfeel::noteln!("wrote {} plot files into {}", files.len(), dir.display());
     }
     #[cfg(feature = "rerun")]
-    if let Some(path) = &a.rerun {
+    if let Some(path) = &a.output.rerun {
         let mut models: Vec<(&str, &[Vec<f64>])> = vec![(&d.base_model, &d.base_pred)];
         if d.final_model != d.base_model {
             models.push((&d.final_model, &d.final_pred));
@@ -458,7 +424,7 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
             d.base_model
         );
     }
-    if a.json {
+    if a.output.json {
         mrfeel::outln!("{}", serde_json::to_string_pretty(&DiagnoseJson::new(&d))?)?;
     } else {
         mrfeel::out!("{}", diagnose_table(&d))?;

@@ -13,30 +13,30 @@ use mrfeel::sim::{build_rig, run, Devices, Plant, Results, RunOptions};
 
 /// `mrfeel run SCENARIO`: run a stick-rig scenario headless.
 #[derive(Debug, clap::Args)]
+#[command(
+    mut_arg("json", |a| a.help("Print the summary as JSON on stdout (nothing else on stdout)")),
+    mut_arg("rerun", |a| a.help("Write a Rerun recording (`.rrd`) of the run")),
+    mut_arg("plot", |a| a.help(
+        "Write `run.png` and `run.svg` into this directory: forces, coil current, stick angle and the \
+         pilot's hand force against time, and the force against the stick angle, with fault windows \
+         shaded. A flight also writes `<scenario name>-stick-force-per-g.png` and `.svg`: stick force \
+         against load factor, flown and steady, against the allowed band of the aircraft's basis"
+    )),
+)]
 pub struct RunArgs {
     /// Scenario file (`scenarios/*.toml`).
     pub scenario: PathBuf,
     /// Write the time series as CSV.
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Write a Rerun recording (`.rrd`).
-    #[arg(long)]
-    pub rerun: Option<PathBuf>,
-    /// Write `run.png` and `run.svg` into this directory: forces, coil current, stick angle and the pilot's
-    /// hand force against time, and the force against the stick angle, with fault windows shaded. A flight
-    /// also writes `<scenario name>-stick-force-per-g.png` and `.svg`: stick force against load factor,
-    /// flown and steady, against the allowed band of the aircraft's basis.
-    #[arg(long)]
-    pub plot: Option<PathBuf>,
+    #[command(flatten)]
+    pub output: super::OutputArgs,
     /// Stream the recording to a newly spawned Rerun viewer.
     #[arg(long)]
     pub spawn: bool,
     /// gRPC port of the viewer `--spawn` starts (or reuses, if one listens there).
     #[arg(long, default_value_t = 9876, requires = "spawn")]
     pub spawn_port: u16,
-    /// Print the summary as JSON on stdout (nothing else on stdout).
-    #[arg(long)]
-    pub json: bool,
     /// Fly another aircraft backend than the scenario's `[aircraft] model`: a model name from
     /// `models/aircraft/` (`c172p`, `737`, `T37`) or `jsbsim:<name>`; a name, never a path (`/`, `\`, `..` are refused).
     #[arg(long)]
@@ -138,7 +138,7 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
             )
         })?;
     }
-    let want_viz = args.rerun.is_some() || args.spawn;
+    let want_viz = args.output.rerun.is_some() || args.spawn;
     // A viewer is spawned before the run (it shows the run as it comes); a recording file is made after it,
     // so that a run that fails leaves no file behind.
     #[cfg(feature = "rerun")]
@@ -156,16 +156,16 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
     let streamed = rec.is_none();
     #[cfg(not(feature = "rerun"))]
     let streamed = true;
-    if streamed && args.plot.is_none() && scn.aircraft.is_none() {
+    if streamed && args.output.plot.is_none() && scn.aircraft.is_none() {
         let summary = run_streamed(args, &scn, &devices, rig, opts)?;
-        if args.json {
+        if args.output.json {
             mrfeel::outln!("{}", serde_json::to_string_pretty(&summary)?)?;
         } else {
             mrfeel::outln!("{summary}")?;
             if let Some(p) = &args.out {
                 mrfeel::outln!("  results: {}", p.display())?;
             }
-            if let Some(p) = &args.rerun {
+            if let Some(p) = &args.output.rerun {
                 mrfeel::outln!("  recording: {} (open with `rerun {}`)", p.display(), p.display())?;
             }
         }
@@ -187,7 +187,7 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
         )?;
     }
     #[cfg(feature = "rerun")]
-    match (&rec, &args.rerun) {
+    match (&rec, &args.output.rerun) {
         (Some(rec), _) => mrfeel::sim::log_rerun(rec, &res)?,
         (None, Some(p)) => mrfeel::outputs::write_whole(
             p,
@@ -199,11 +199,14 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
         )?,
         (None, None) => {}
     }
-    let mut plotted = match &args.plot {
+    let mut plotted = match &args.output.plot {
         Some(dir) => run_plots(&res, dir)?,
         None => Vec::new(),
     };
-    if let (Some(dir), Some(chart)) = (&args.plot, mrfeel::sim::flight::stick_force_per_g_chart(&res)?) {
+    if let (Some(dir), Some(chart)) = (
+        &args.output.plot,
+        mrfeel::sim::flight::stick_force_per_g_chart(&res)?,
+    ) {
         let name = format!("{}-stick-force-per-g", scn.name);
         plotted.extend(
             mrfeel::viz::plot::save_charts(&[chart], 1, dir, &name)
@@ -212,7 +215,7 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
     }
     let summary = res.summary();
     let flight = mrfeel::sim::metrics::FlightMetrics::of(&res, &scn);
-    if args.json {
+    if args.output.json {
         let v = mrfeel::prelude::run_summary(&res, &scn)?;
         mrfeel::outln!("{}", serde_json::to_string_pretty(&v)?)?;
     } else {
@@ -231,7 +234,7 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
         if let Some(p) = &args.out {
             mrfeel::outln!("  results: {}", p.display())?;
         }
-        if let Some(p) = &args.rerun {
+        if let Some(p) = &args.output.rerun {
             mrfeel::outln!("  recording: {} (open with `rerun {}`)", p.display(), p.display())?;
         }
         for p in plotted
@@ -270,7 +273,7 @@ fn run_streamed<P: Plant>(
     opts: RunOptions,
 ) -> anyhow::Result<mrfeel::sim::Summary> {
     #[cfg(feature = "rerun")]
-    let rrd = args.rerun.as_deref();
+    let rrd = args.output.rerun.as_deref();
     #[cfg(not(feature = "rerun"))]
     let rrd: Option<&Path> = None;
     let pb = progress_bar(1000, &scn.name);

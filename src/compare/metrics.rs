@@ -30,9 +30,11 @@ pub struct SystemMetrics {
     pub energy_injected_j: f64,
     /// Hand's work minus the energy left stored at the end, J.
     pub energy_dissipated_j: f64,
-    /// Mean and peak coil power I²R, W, and the coil's energy, J.
+    /// Mean coil power I²R, W.
     pub coil_power_mean_w: f64,
+    /// Peak coil power I²R, W.
     pub coil_power_peak_w: f64,
+    /// The coil's energy over the run, J.
     pub coil_energy_j: f64,
     /// Largest |grip force| in the main task (sinusoidal motion, deflect and hold), N.
     pub peak_force_n: f64,
@@ -156,6 +158,7 @@ pub fn energy_injected_j(rows: &[Row]) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// Grip force at breakout, N: the hand's force when the stick has moved `threshold_rad` (NaN if it never does).
 pub fn breakout_n(tr: &Trace, threshold_rad: f64) -> f64 {
     let Some(first) = tr.rows.first() else {
         return f64::NAN;
@@ -211,26 +214,29 @@ pub struct FaultMetrics {
     pub fault_steps: usize,
     /// Largest |grip force| in the window, N.
     pub peak_force_n: f64,
-    /// RMS of (grip force − target) in the window while the pilot moves the stick, N; and the same
-    /// figure for the healthy run over the same rows.
+    /// RMS of (grip force − target) in the window while the pilot moves the stick, N.
     pub force_rms_error_n: f64,
+    /// The same figure for the healthy run over the same rows, N.
     pub healthy_force_rms_error_n: f64,
     /// Pilot's tracking error in the window (sinusoidal part), deg RMS.
     pub tracking_rms_deg: f64,
-    /// Coil current command range and mean applied current in the window, A.
+    /// Smallest coil current command in the window, A.
     pub current_cmd_min_a: f64,
+    /// Largest coil current command in the window, A.
     pub current_cmd_max_a: f64,
+    /// Mean applied coil current in the window, A.
     pub current_applied_mean_a: f64,
     /// Mean yield force of the damper in the window, N.
     pub yield_mean_n: f64,
-    /// Hands off (inside the window): the largest motion from where the pilot let go, and the largest
-    /// motion away from the centre beyond that point, rad.
+    /// Hands off (inside the window): the largest motion from where the pilot let go, rad.
     pub hands_off_moved_rad: f64,
+    /// Hands off: the largest motion away from the centre beyond that point, rad.
     pub hands_off_away_rad: f64,
     /// Whether the stick moved away from the centre by more than the re-centring band without the pilot.
     pub moves_without_pilot: bool,
 }
 
+/// Metrics of the `faulty` run against the `healthy` one over the window `start_s`..`end_s`.
 pub fn fault_metrics(
     scn: &CompareScenario,
     faulty: &Trace,
@@ -284,8 +290,11 @@ pub fn fault_metrics(
 /// One row of the fault table.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FaultRow {
+    /// The feel system.
     pub system: FeelKind,
+    /// The fault injected.
     pub fault: FaultKind,
+    /// What the fault did.
     pub m: FaultMetrics,
 }
 

@@ -55,14 +55,19 @@ fn unknown_feel(name: &str) -> String {
 /// A comparison refused: its file, a feel-system list, or what it loads.
 #[derive(Debug, thiserror::Error)]
 pub enum CompareError {
+    /// A bad comparison file or a file it names.
     #[error(transparent)]
     Input(#[from] crate::input::InputError),
+    /// A bad feel-system list (`--feel` or `systems`).
     #[error("feel systems: {0}")]
     Feel(String),
+    /// The base scenario's damper model.
     #[error(transparent)]
     Device(#[from] crate::device::DeviceError),
+    /// The stick rig.
     #[error(transparent)]
     Rig(#[from] crate::rig::RigError),
+    /// A run that failed.
     #[error(transparent)]
     Sim(#[from] crate::sim::SimError),
 }
@@ -82,8 +87,11 @@ pub struct ActiveSection {
 /// The feel target, at the piston (force along +x): `F* = breakout·sgn x + gradient·x`, clipped.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TargetLaw {
+    /// Force at the first motion off centre, N.
     pub breakout_n: f64,
+    /// Force per piston displacement beyond the breakout, N/m.
     pub gradient_n_per_m: f64,
+    /// Largest target force, N (the law is clipped to ±this).
     pub max_force_n: f64,
 }
 
@@ -95,22 +103,30 @@ impl TargetLaw {
     }
 }
 
+/// `[task]`: the pilot's standard task (sinusoidal motion, deflect-hold-release, breakout push).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TaskSection {
-    /// Sinusoidal stick motion: amplitude, rad; frequency, Hz; whole cycles.
+    /// Sinusoidal stick motion: amplitude, rad.
     pub sweep_amplitude_rad: f64,
+    /// Sinusoidal stick motion: frequency, Hz.
     pub sweep_frequency_hz: f64,
+    /// Sinusoidal stick motion: whole cycles.
     pub sweep_cycles: usize,
-    /// Deflect, hold, let go: angle, rad; ramp and hold times, s; observation after letting go, s.
+    /// Deflect, hold, let go: the deflection, rad.
     pub release_angle_rad: f64,
+    /// Deflect, hold, let go: ramp time to the deflection, s.
     pub release_ramp_s: f64,
+    /// Deflect, hold, let go: hold time, s.
     pub release_hold_s: f64,
+    /// Observation after letting go, s.
     pub release_observe_s: f64,
     /// Re-centred when the stick stays within this band, rad.
     pub recentre_band_rad: f64,
-    /// Breakout: grip force ramp rate, N/s, and the stick motion that counts as breaking out, rad.
+    /// Breakout: grip force ramp rate, N/s.
     pub breakout_ramp_n_per_s: f64,
+    /// Breakout: length of the force ramp, s.
     pub breakout_duration_s: f64,
+    /// Breakout: the stick motion that counts as breaking out, rad.
     pub breakout_threshold_rad: f64,
 }
 
@@ -140,35 +156,52 @@ impl Limits {
 /// The fault table's runs: each fault active from `start_s` to `end_s` of the standard task.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FaultTest {
+    /// Start of each fault's window, s into the standard task.
     pub start_s: f64,
+    /// End of each fault's window, s.
     pub end_s: f64,
 }
 
 /// A validated comparison scenario with its files loaded.
 #[derive(Debug, Clone)]
 pub struct CompareScenario {
+    /// The comparison file.
     pub path: PathBuf,
+    /// Name of the comparison (`name`), used in outputs.
     pub name: String,
+    /// Seed of the sensor noise, the same for every system.
     pub seed: u64,
+    /// Feel systems compared, in order.
     pub systems: Vec<FeelKind>,
+    /// The stick rig every system runs on.
     pub rig: RigConfig,
     /// The plant and the model its controller believes, as the base scenario names them.
     pub devices: crate::sim::Devices,
+    /// Coil resistance for the coil's power and energy, Ω.
     pub coil_resistance_ohm: f64,
+    /// The passive feel springs (centring and variable gradient).
     pub springs: FeelSprings,
     /// The feel-spring file `[springs] file` names.
     pub springs_path: PathBuf,
+    /// Viscous damping of the spring systems, N·s/m.
     pub spring_damping_n_s_per_m: f64,
+    /// Dynamic pressure of the q-feel system, Pa.
     pub qbar_pa: f64,
+    /// The hybrid system's centring spring beside its MR damper.
     pub hybrid_spring: CentringSpring,
+    /// The hybrid system's damping while the stick returns to centre, N·s/m.
     pub hybrid_return_damping_n_s_per_m: f64,
+    /// The feel every system aims at.
     pub target: TargetLaw,
     /// The loop scenario every system runs in (`base`): rig, device, sensors, DAQ, the feel loop's
     /// controller and the pilot's hand; its feel law, pilot command, faults and feel system are replaced
     /// per run.
     pub base: Scenario,
+    /// The pilot's standard task.
     pub task: TaskSection,
+    /// Certification stick-force limits.
     pub limits: Limits,
+    /// The fault table's window.
     pub fault_test: FaultTest,
     /// The active stick's motor, if the file describes one (`[active]`).
     pub active: Option<ActiveSection>,
@@ -244,23 +277,38 @@ pub(crate) fn main_task(k: &TaskSection) -> Task {
 pub enum Segment {
     /// Follow `A sin(2π f t)` (rad), position task.
     Sine {
+        /// Amplitude, rad.
         amplitude_rad: f64,
+        /// Frequency, Hz.
         frequency_hz: f64,
+        /// Length, s.
         duration_s: f64,
     },
     /// Move from the centre to `angle_rad` (smooth ramp) and hold it.
     MoveHold {
+        /// Target deflection, rad.
         angle_rad: f64,
+        /// Ramp time to the deflection, s.
         ramp_s: f64,
+        /// Hold time, s.
         hold_s: f64,
     },
     /// Hands off the stick.
-    LetGo { duration_s: f64 },
+    LetGo {
+        /// Length, s.
+        duration_s: f64,
+    },
     /// Push the grip with a force rising at `rate_n_per_s` from 0.
-    ForceRamp { rate_n_per_s: f64, duration_s: f64 },
+    ForceRamp {
+        /// Rate of rise of the grip force, N/s.
+        rate_n_per_s: f64,
+        /// Length, s.
+        duration_s: f64,
+    },
 }
 
 impl Segment {
+    /// Length of the segment, s.
     pub fn duration_s(&self) -> f64 {
         match *self {
             Segment::Sine { duration_s, .. } => duration_s,
@@ -275,19 +323,27 @@ impl Segment {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum PilotCmd {
     /// Follow this stick angle (rad) and rate (rad/s).
-    Angle { theta_rad: f64, rate_rad_s: f64 },
+    Angle {
+        /// Stick angle, rad.
+        theta_rad: f64,
+        /// Stick rate, rad/s.
+        rate_rad_s: f64,
+    },
     /// Push the grip with this force, N.
     Force(f64),
     /// Hands off.
     Off,
 }
 
+/// The pilot's task: segments run one after the other.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Task {
+    /// The segments, in order.
     pub segments: Vec<Segment>,
 }
 
 impl Task {
+    /// Length of the task, s.
     pub fn duration_s(&self) -> f64 {
         self.segments.iter().map(Segment::duration_s).sum()
     }
@@ -309,6 +365,7 @@ impl Task {
         self.segments[..k].iter().map(Segment::duration_s).sum()
     }
 
+    /// The pilot's command at `t_s` (the last segment's past the end).
     pub fn command(&self, t_s: f64) -> PilotCmd {
         let (k, tau) = self.segment_at(t_s);
         match self.segments[k] {
@@ -351,30 +408,41 @@ impl Task {
 /// One physics step of a run (state at the start of the step, and what was applied over it).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Row {
+    /// Time, s.
     pub t_s: f64,
+    /// Index of the task segment.
     pub segment: usize,
+    /// Stick angle, rad.
     pub theta_rad: f64,
+    /// Stick angle the pilot aims at, rad.
     pub theta_cmd_rad: f64,
+    /// Stick rate, rad/s.
     pub rate_rad_s: f64,
+    /// Piston displacement, m.
     pub piston_x_m: f64,
     /// Pilot's force at the grip (what the pilot feels), N; 0 hands off.
     pub hand_force_n: f64,
+    /// Whether the pilot's hand is on the grip.
     pub hands_on: bool,
     /// The feel target at the grip at this deflection, N.
     pub target_grip_n: f64,
+    /// True force through the load cell, N.
     pub load_cell_true_n: f64,
     /// Load cell as the controller saw it (after faults, delay), N; NaN without a loop.
     pub load_cell_seen_n: f64,
-    /// Controller's current command, A, and what the coil received (after driver faults), A.
+    /// Controller's current command, A.
     pub current_cmd_a: f64,
+    /// Current the coil received (after driver faults), A.
     pub current_applied_a: f64,
     /// Coil current (Eq. 3 state), A.
     pub coil_current_a: f64,
+    /// Damper yield force, N.
     pub yield_force_n: f64,
-    /// Mechanical energy stored (kinetic + potential + feel spring), J; the hand's work so far, J; the
-    /// damper's dissipated energy so far, J.
+    /// Mechanical energy stored (kinetic + potential + feel spring), J.
     pub stored_j: f64,
+    /// The hand's work so far, J.
     pub hand_work_j: f64,
+    /// The damper's dissipated energy so far, J.
     pub damper_dissipated_j: f64,
     /// Active faults (bit set over `FaultKind::ALL`).
     pub faults: u8,
@@ -383,9 +451,13 @@ pub struct Row {
 /// A run's rows and what is needed to read them.
 #[derive(Debug, Clone)]
 pub struct Trace {
+    /// The feel system run.
     pub system: FeelKind,
+    /// The task flown.
     pub task: Task,
+    /// Physics step, s.
     pub dt_s: f64,
+    /// One row per physics step.
     pub rows: Vec<Row>,
 }
 
@@ -498,7 +570,9 @@ pub fn run(
 /// A comparison's results: per system its metrics and its task and breakout traces; per fault run its row
 /// and trace.
 pub struct Comparison {
+    /// Per system: its metrics, its standard-task trace and its breakout trace.
     pub systems: Vec<(FeelKind, SystemMetrics, Trace, Trace)>,
+    /// Per fault run: its table row and trace.
     pub faults: Vec<(FaultRow, Trace)>,
 }
 

@@ -84,10 +84,15 @@ pub struct DriverParams {
 /// The force sensor at the grip: `reading = gain · F + offset + noise`, clipped at ±`range_n`, quantised.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GripSensor {
+    /// Full scale, N: readings clip at ±this.
     pub range_n: f64,
+    /// Residual calibration gain (1: perfect).
     pub gain: f64,
+    /// Residual calibration offset, N.
     pub offset_n: f64,
+    /// RMS noise, N.
     pub noise_rms_n: f64,
+    /// ADC resolution over the range, bits.
     pub adc_bits: u32,
 }
 
@@ -118,11 +123,15 @@ pub struct AdmittanceParams {
 /// A whole active stick (`models/active-stick.toml`, read by `input::motor`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ActiveStickConfig {
+    /// The motor.
     pub motor: MotorParams,
+    /// The motor's current driver.
     pub driver: DriverParams,
     /// Gearing, motor rad per metre of push rod.
     pub gear_rad_per_m: f64,
+    /// The grip force sensor.
     pub sensor: GripSensor,
+    /// The admittance loop.
     pub admittance: AdmittanceParams,
     /// Moving mass at the push rod without the rotor, kg (stick, linkage and piston; the linearised
     /// model's plant).
@@ -167,8 +176,9 @@ pub struct RodState {
     pub grip_force_n: f64,
     /// Grip force to push-rod force, N/N (`grip arm / gearing` at the present angle).
     pub grip_to_rod: f64,
-    /// Push-rod position, m, and velocity, m/s.
+    /// Push-rod position, m.
     pub x_m: f64,
+    /// Push-rod velocity, m/s.
     pub v_m_s: f64,
 }
 
@@ -426,7 +436,9 @@ pub struct Margins {
 /// Both loops' margins.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LoopMargins {
+    /// The current loop's margins.
     pub current: Margins,
+    /// The outer (admittance) loop's margins.
     pub outer: Margins,
 }
 

@@ -37,8 +37,11 @@ pub enum LoopMode {
 /// The loop's decision at one tick.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ControlOutput {
+    /// Force the feel law asks for, N.
     pub desired_force_n: f64,
+    /// Coil current command, A.
     pub current_cmd_a: f64,
+    /// What the loop is doing: tracking, released or holding.
     pub mode: LoopMode,
 }
 
@@ -47,17 +50,22 @@ pub struct ControlOutput {
 /// damping, so the spring can re-centre the stick.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Hybrid {
+    /// The spring on the joint.
     pub spring: SpringElement,
+    /// Virtual viscous damping the coil gives at rest and on the way back, N·s/m.
     pub return_damping_n_s_per_m: f64,
 }
 
 /// The feel loop's controller; see the module documentation.
 #[derive(Debug, Clone)]
 pub struct FeelController {
+    /// The desired-force law.
     pub law: FeelLaw,
+    /// The force loop's PID.
     pub pid: Pid,
     /// The controller's model of the damper, when the loop uses its inverse as feedforward.
     pub feedforward: Option<ForceInverse>,
+    /// Below this piston speed the stick is at rest, m/s.
     pub rest_speed_m_s: f64,
     /// At rest, load-cell forces below this are "not pushing", N.
     pub rest_force_n: f64,

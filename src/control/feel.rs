@@ -107,10 +107,15 @@ impl Spring for QFeelSpring {
 /// The feel systems a scenario can put on the rig, in comparison-table order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum FeelKind {
+    /// A passive centring spring.
     CentringSpring,
+    /// A passive spring whose gradient rises with deflection.
     VariableGradientSpring,
+    /// A spring whose force scales with dynamic pressure (q-feel).
     QFeel,
+    /// The MR damper alone under the feel loop.
     Mr,
+    /// The MR damper with a centring spring on the same joint (the hybrid).
     MrSpring,
     /// A motor-driven stick rendering the law by impedance control: the upper bound on fidelity, and the
     /// one system that can drive the stick (back-drive hazard).
@@ -164,8 +169,11 @@ impl FeelKind {
 /// One of the spring elements, as a value (scenarios are cloned and compared).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum SpringElement {
+    /// A centring spring.
     Centring(CentringSpring),
+    /// A variable-gradient spring.
     VariableGradient(VariableGradientSpring),
+    /// A q-feel spring.
     QFeel(QFeelSpring),
 }
 
@@ -201,6 +209,7 @@ impl Spring for SpringElement {
 /// The feel system of a scenario (`[feel_system]`; the MR damper alone when absent).
 #[derive(Debug, Clone, PartialEq)]
 pub struct FeelSystemConfig {
+    /// Which feel system.
     pub kind: FeelKind,
     /// The spring on the piston joint (spring units and the hybrid).
     pub spring: Option<SpringElement>,
@@ -316,8 +325,11 @@ pub fn apply(feel: &dyn Spring, rig: &mut Rig) {
 /// `input::springs`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct FeelSprings {
+    /// The centring spring.
     pub centring: CentringSpring,
+    /// The variable-gradient spring.
     pub variable_gradient: VariableGradientSpring,
+    /// The q-feel spring.
     pub q_feel: QFeelSpring,
 }
 

@@ -22,23 +22,34 @@
 pub enum FeelLaw {
     /// `F = breakout_n·sgn(x) + gradient_n_per_m·x + damping_n_s_per_m·v`, clipped to ±`max_force_n`.
     Spring {
+        /// Force at the first motion off centre, N.
         breakout_n: f64,
+        /// Force per piston displacement, N/m.
         gradient_n_per_m: f64,
+        /// Force per piston velocity, N·s/m.
         damping_n_s_per_m: f64,
+        /// Largest force, N.
         max_force_n: f64,
     },
     /// A force magnitude stepping between `low_n` and `high_n` every `period_s` from `start_s`, with the
     /// sign of the velocity (always resisting): the response-time test signal.
     ForceSteps {
+        /// Lower force magnitude, N.
         low_n: f64,
+        /// Higher force magnitude, N.
         high_n: f64,
+        /// Time of the first step, s.
         start_s: f64,
+        /// Time between steps, s.
         period_s: f64,
     },
     /// A force set from outside the feel loop at every physics step (`feel.law = "aircraft"`: the
     /// aircraft's stick force, from its hinge moment or feel computer, mapped to the piston through the
     /// linkage), N along +x on the piston.
-    Target { force_n: f64 },
+    Target {
+        /// The force, N.
+        force_n: f64,
+    },
 }
 
 impl FeelLaw {

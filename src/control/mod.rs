@@ -2,11 +2,11 @@
 //! the feel system that puts one of them on the rig ([`FeelSystem`]).
 
 pub mod active;
-pub mod controller;
+pub(crate) mod controller;
 pub mod feel;
-pub mod law;
-pub mod pid;
-pub mod system;
+pub(crate) mod law;
+pub(crate) mod pid;
+pub(crate) mod system;
 
 pub use controller::{ControlOutput, FeelController, Hybrid, LoopMode};
 pub use law::FeelLaw;

@@ -14,9 +14,13 @@ pub enum AntiWindup {
     /// drive it further into saturation.
     Clamping,
     /// Back-calculation: the integrator is pulled back by `(u_sat - u) / tracking_time_s`.
-    BackCalculation { tracking_time_s: f64 },
+    BackCalculation {
+        /// Time constant of the pull-back, s.
+        tracking_time_s: f64,
+    },
 }
 
+/// The gains, output limits and anti-windup of a [`Pid`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PidGains {
     /// Output per unit error (A/N for the feel loop).
@@ -27,13 +31,18 @@ pub struct PidGains {
     pub kd: f64,
     /// Time constant of the first-order filter on the derivative, s (0: unfiltered).
     pub derivative_filter_s: f64,
+    /// Lowest output (A for the feel loop).
     pub out_min: f64,
+    /// Highest output (A for the feel loop).
     pub out_max: f64,
+    /// How the integrator is kept from winding up while the output is clipped.
     pub anti_windup: AntiWindup,
 }
 
+/// A PID controller with a filtered derivative, output limits and anti-windup.
 #[derive(Debug, Clone)]
 pub struct Pid {
+    /// Its gains.
     pub gains: PidGains,
     integral: f64,
     last_meas: Option<f64>,
@@ -43,6 +52,7 @@ pub struct Pid {
 }
 
 impl Pid {
+    /// A controller of `gains` at rest (zero integral, no previous measurement).
     pub fn new(gains: PidGains) -> Self {
         Self {
             gains,
@@ -53,10 +63,12 @@ impl Pid {
         }
     }
 
+    /// The integrator's state, in output units.
     pub fn integral(&self) -> f64 {
         self.integral
     }
 
+    /// Back to rest: zero integral, no previous measurement.
     pub fn reset(&mut self) {
         self.integral = 0.0;
         self.last_meas = None;

@@ -4,15 +4,15 @@
 //! One home for the damper force: the virtual MTS machine, the stick rig and the fitter all call
 //! [`Model::eval`] / [`Damper`].
 
-pub mod bingham;
-pub mod config;
-pub mod effect;
+pub(crate) mod bingham;
+pub(crate) mod config;
+pub(crate) mod effect;
 pub mod effects;
 pub mod formula;
-pub mod inverse;
-pub mod lag;
+pub(crate) mod inverse;
+pub(crate) mod lag;
 pub mod model;
-pub mod params;
+pub(crate) mod params;
 pub mod spencer;
 
 pub use config::{DeviceConfig, Geometry, ParamsFile};

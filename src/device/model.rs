@@ -15,14 +15,18 @@ pub const BASE: &str = "bingham";
 /// Bouc–Wen model of Spencer et al. (1997), the field's standard ([`spencer`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum Base {
+    /// The seed paper's Bingham model with coil and fluid lags.
     #[default]
     Bingham,
+    /// The modified Bouc–Wen model of Spencer et al. (1997).
     Spencer,
 }
 
 impl Base {
+    /// Every base, in the order listed in messages.
     pub const ALL: [Base; 2] = [Base::Bingham, Base::Spencer];
 
+    /// The base's name in a model spec (`bingham`, `spencer`).
     pub fn name(self) -> &'static str {
         match self {
             Base::Bingham => BASE,
@@ -30,6 +34,7 @@ impl Base {
         }
     }
 
+    /// The base named `name`, if any.
     pub fn from_name(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|b| b.name() == name)
     }
@@ -146,6 +151,7 @@ impl Registry {
         self
     }
 
+    /// The effect registered as `name`.
     pub fn get(&self, name: &str) -> Option<Arc<dyn Effect>> {
         self.effects.get(name).cloned()
     }
@@ -167,7 +173,9 @@ impl std::fmt::Debug for Registry {
 /// A parsed model spec: a base (`bingham`, `spencer`) and effects, `bingham+effect+effect`.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct ModelSpec {
+    /// The base model.
     pub base: Base,
+    /// The effects' names, in spec order.
     pub effects: Vec<String>,
 }
 
@@ -209,6 +217,7 @@ impl ModelSpec {
         }
     }
 
+    /// Whether the spec names `effect`.
     pub fn has(&self, effect: &str) -> bool {
         self.effects.iter().any(|e| e == effect)
     }
@@ -320,6 +329,7 @@ impl Model {
         Self::new(&ModelSpec::parse(spec)?, registry, current_limit_a)
     }
 
+    /// The spec the model was built from.
     pub fn spec(&self) -> &ModelSpec {
         &self.spec
     }
@@ -339,14 +349,17 @@ impl Model {
         self.spec.base.linear_gains()
     }
 
+    /// The model spec as text, `bingham+effect+…`.
     pub fn name(&self) -> String {
         self.spec.to_string()
     }
 
+    /// Parameter declarations, in vector order.
     pub fn param_specs(&self) -> &[ParamSpec] {
         &self.param_specs
     }
 
+    /// Number of parameters.
     pub fn n_params(&self) -> usize {
         self.param_specs.len()
     }
@@ -609,6 +622,7 @@ pub struct Damper {
 }
 
 impl Damper {
+    /// A damper of `model` with parameter values `params` (in [`Model::param_specs`] order), at rest.
     pub fn new(model: Arc<Model>, params: Vec<f64>) -> Result<Self, DeviceError> {
         if params.len() != model.n_params() {
             return Err(DeviceError::BadSpec {
@@ -629,10 +643,12 @@ impl Damper {
         })
     }
 
+    /// The damper's model.
     pub fn model(&self) -> &Model {
         &self.model
     }
 
+    /// Parameter values, in [`Model::param_specs`] order.
     pub fn params(&self) -> &[f64] {
         &self.params
     }

@@ -7,10 +7,15 @@ use serde::{Deserialize, Serialize};
 /// is not negative), not tuned to a data set.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ParamSpec {
+    /// Name, unique in a model, with its unit as suffix (`fc_gain_n_per_a`).
     pub name: &'static str,
+    /// Unit (`N/A`).
     pub unit: &'static str,
+    /// Lower physical bound, in `unit`.
     pub lower: f64,
+    /// Upper physical bound, in `unit`.
     pub upper: f64,
+    /// What the parameter is, one line.
     pub doc: &'static str,
     /// The value a parameter file that leaves this parameter out describes: set for a parameter added to an
     /// effect later, whose value here gives the effect as it was before (files saved then stay readable and
@@ -19,6 +24,7 @@ pub struct ParamSpec {
 }
 
 impl ParamSpec {
+    /// A parameter every file must give.
     pub const fn new(
         name: &'static str,
         unit: &'static str,
@@ -51,10 +57,12 @@ impl ParamSpec {
 /// One parameter value with its optional standard error, as written to `PARAMS.json`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ParamValue {
+    /// The value, in `unit`.
     pub value: f64,
     /// Standard error from the fit's Jacobian; `None` when the data does not determine the parameter.
     #[serde(default)]
     pub std_err: Option<f64>,
+    /// Unit, as written (checked against the declaration where given).
     #[serde(default)]
     pub unit: String,
 }
@@ -75,15 +83,19 @@ pub struct DataStats {
     pub x_max_m: f64,
     /// Largest |acceleration| (measured or derived), m/s².
     pub a_max_m_s2: f64,
-    /// Largest and mean current command, A.
+    /// Largest current command, A.
     pub i_max_a: f64,
+    /// Mean current command, A.
     pub i_mean_a: f64,
-    /// Median sample interval, s, and the longest test's duration, s.
+    /// Median sample interval, s.
     pub dt_s: f64,
+    /// The longest test's duration, s.
     pub duration_s: f64,
-    /// Linear least-squares Bingham estimate `F ≈ (fc0 + k i) sgn v + c v` on the data (a starting point).
+    /// Linear least-squares Bingham estimate `F ≈ (fc0 + k i) sgn v + c v` on the data (a starting point): `fc0`, N.
     pub fc0_n: f64,
+    /// The estimate's `k`, N/A.
     pub fc_gain_n_per_a: f64,
+    /// The estimate's `c`, N·s/m.
     pub c0_n_s_per_m: f64,
 }
 

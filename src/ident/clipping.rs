@@ -25,8 +25,9 @@ pub const DROP: f64 = 30.0;
 pub struct Clip {
     /// The value logged at the rail, in the channel's unit.
     pub value: f64,
-    /// Samples stuck there, and the runs they form.
+    /// Samples stuck there.
     pub samples: usize,
+    /// The runs of consecutive samples stuck there.
     pub runs: Vec<Range<usize>>,
 }
 

@@ -97,8 +97,11 @@ impl Default for DiagnoseOptions {
 /// One cross-validation fold: the samples fitted and the samples scored.
 #[derive(Debug, Clone)]
 pub struct Fold {
+    /// The samples fitted.
     pub train: Vec<Span>,
+    /// The samples held out and scored.
     pub test: Vec<Span>,
+    /// What is held out, for tables (a test group or a part of each test).
     pub label: String,
 }
 
@@ -263,8 +266,11 @@ fn motion_groups(sig: &[(f64, f64)]) -> Vec<usize> {
 /// Held-out performance of one model spec.
 #[derive(Debug, Clone)]
 pub struct CvResult {
+    /// The model judged.
     pub spec: ModelSpec,
+    /// Held-out figures of each fold.
     pub per_fold: Vec<Figures>,
+    /// Held-out figures over all folds.
     pub total: Figures,
     /// Fitted parameters of each fold's model (for warm starts).
     pub fold_params: Vec<Vec<f64>>,
@@ -275,6 +281,7 @@ pub struct CvResult {
 }
 
 impl CvResult {
+    /// Held-out NRMSE over all folds.
     pub fn heldout_nrmse(&self) -> f64 {
         self.total.nrmse()
     }
@@ -451,23 +458,32 @@ pub fn cross_validate(
 /// One candidate effect judged against the model it would extend.
 #[derive(Debug, Clone)]
 pub struct Candidate {
+    /// Effect name (`a+b` for a pair, the formula for an open-search term).
     pub effect: String,
+    /// Held-out NRMSE of the model with the effect.
     pub heldout_nrmse: f64,
     /// 1 − held-out NRMSE / the held-out NRMSE of the model it extends.
     pub improvement: f64,
+    /// Whether the improvement passed the significance test over the folds.
     pub significant: bool,
+    /// The signature in the residual that suggested the effect, in words.
     pub evidence: String,
     /// Folds in which it lowered the held-out error, of all folds.
     pub folds_better: usize,
+    /// Folds judged.
     pub folds: usize,
 }
 
 /// One step of the search: the model and its held-out error.
 #[derive(Debug, Clone)]
 pub struct StepResult {
+    /// Model spec at this step.
     pub model: String,
+    /// The effect this step added, if any.
     pub added: Option<String>,
+    /// Held-out NRMSE of the model.
     pub heldout_nrmse: f64,
+    /// Held-out RMS force error of the model, N.
     pub heldout_rmse_n: f64,
     /// Candidates tried at this step (best first).
     pub candidates: Vec<Candidate>,
@@ -482,13 +498,15 @@ pub struct StepResult {
 /// A force term outside the vocabulary that the diagnosis added.
 #[derive(Debug, Clone)]
 pub struct Discovered {
+    /// The term's name, as `--save-effect` writes it.
     pub name: String,
     /// The formula with the final fit's values and their units.
     pub formula: String,
     /// The library terms it is made of.
     pub features: Vec<String>,
-    /// Held-out NRMSE of the model it completed, and the share of the previous model's it removed.
+    /// Held-out NRMSE of the model it completed.
     pub heldout_nrmse: f64,
+    /// Share of the previous model's held-out NRMSE it removed.
     pub improvement: f64,
     /// The physical family its strongest term most resembles.
     pub resembles: String,
@@ -499,30 +517,45 @@ pub struct Discovered {
 /// Everything a diagnosis found.
 #[derive(Debug, Clone)]
 pub struct Diagnosis {
+    /// The starting model's spec.
     pub base_model: String,
+    /// Samples scored.
     pub samples: usize,
-    /// Base model fitted on all data.
+    /// Base model fitted on all data: NRMSE.
     pub base_fit_nrmse: f64,
+    /// Base model fitted on all data: RMS force error, N.
     pub base_fit_rmse_n: f64,
+    /// Base model's held-out NRMSE.
     pub base_heldout_nrmse: f64,
+    /// Base model's parameters fitted on all data.
     pub base_params: Vec<f64>,
     /// Base-model prediction (fitted on all data) at every sample.
     pub base_pred: Vec<Vec<f64>>,
+    /// Where in the motion the base model's error concentrates.
     pub where_: Vec<Region>,
     /// Candidates against the base model, best first.
     pub candidates: Vec<Candidate>,
+    /// Effects the diagnosis adds, in the order added (empty: the residual is noise).
     pub missing: Vec<String>,
     /// Effects the backward pass removed again (made redundant by effects added later).
     pub pruned: Vec<String>,
+    /// The final model's spec.
     pub final_model: String,
+    /// The final model's held-out NRMSE.
     pub final_heldout_nrmse: f64,
     /// Final model fitted on all data.
     pub final_params: Vec<f64>,
+    /// Final-model prediction (fitted on all data) at every sample, N.
     pub final_pred: Vec<Vec<f64>>,
+    /// Final model fitted on all data: NRMSE.
     pub final_fit_nrmse: f64,
+    /// Every step of the search.
     pub steps: Vec<StepResult>,
+    /// How the data was split for held-out errors.
     pub cv_scheme: String,
+    /// RMS measurement noise of the force, N.
     pub noise_floor_n: f64,
+    /// Held-out NRMSE the measurement noise alone would give.
     pub noise_floor_nrmse: f64,
     /// The final model's held-out prediction at every sample (each sample from the fold that held it out).
     pub final_oof: Vec<Vec<f64>>,

@@ -31,16 +31,21 @@ use crate::device::{DataStats, Model, ParamSpec};
 /// integrated from its own first sample, so states carry over from samples that do not count.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Span {
+    /// Index of the test.
     pub test: usize,
+    /// First sample that counts.
     pub start: usize,
+    /// One past the last sample that counts.
     pub end: usize,
 }
 
 impl Span {
+    /// Number of samples.
     pub fn len(&self) -> usize {
         self.end - self.start
     }
 
+    /// Whether the span holds no sample.
     pub fn is_empty(&self) -> bool {
         self.end <= self.start
     }
@@ -188,6 +193,7 @@ impl Default for FitOptions {
 /// Outcome of a fit.
 #[derive(Debug, Clone)]
 pub struct FitResult {
+    /// Fitted parameter values, in the model's order.
     pub params: Vec<f64>,
     /// Standard error of each parameter; `None` when the data do not determine it.
     pub std_err: Vec<Option<f64>>,
@@ -210,14 +216,17 @@ pub struct FitResult {
     /// assembled on kept states (a parameter no state depends on; the force assembly alone). A lag's time
     /// constant where the current never changes is in neither: its column is zero, known without either.
     pub jacobian_columns: (usize, usize),
+    /// Why the search stopped, in words.
     pub termination: String,
 }
 
 impl FitResult {
+    /// RMS force error over the fitted samples that count, N.
     pub fn rmse_n(&self) -> f64 {
         (self.sse / self.n.max(1) as f64).sqrt()
     }
 
+    /// RMS force error over RMS measured force, same samples.
     pub fn nrmse(&self) -> f64 {
         (self.sse / self.f_ss.max(f64::MIN_POSITIVE)).sqrt()
     }

@@ -7,7 +7,7 @@
 //! and diagnosed exactly like the built-in ones.
 
 pub mod acquisition;
-pub mod clipping;
+pub(crate) mod clipping;
 pub mod diagnose;
 pub mod discover;
 pub mod fit;
@@ -39,12 +39,16 @@ pub use validate::{evaluate, Figures};
 /// Errors of fitting, validation and diagnosis.
 #[derive(Debug, thiserror::Error)]
 pub enum IdentError {
+    /// A bad measurement file.
     #[error(transparent)]
     Input(#[from] InputError),
+    /// A bad model spec or parameter file.
     #[error(transparent)]
     Device(#[from] DeviceError),
+    /// No measurement file was given.
     #[error("no measurement files given")]
     NoData,
+    /// Anything else, in words.
     #[error("{0}")]
     Other(String),
 }
@@ -52,13 +56,17 @@ pub enum IdentError {
 /// One test prepared for the models: the inputs at every sample and the measured force.
 #[derive(Debug, Clone)]
 pub struct Test {
+    /// The measurement file.
     pub path: PathBuf,
     /// File name, for tables and plots.
     pub name: String,
     /// Cross-validation group: tests of one group are held out together (see `load::group_of`).
     pub group: String,
+    /// The model's inputs at every sample.
     pub inputs: Vec<Inputs>,
+    /// Measured force at every sample, N.
     pub f_n: Vec<f64>,
+    /// Whether the velocity was logged (else derived from the displacement).
     pub velocity_measured: bool,
     /// Noise standard deviation, at each sample, of a velocity derived here from the displacement (the
     /// displacement's noise through the differentiator used at that sample, see [`inputs_of`]: the centred
@@ -121,10 +129,12 @@ impl Test {
         self.observed(model.simulate(params, self.drive_inputs(n)))
     }
 
+    /// Number of samples.
     pub fn len(&self) -> usize {
         self.f_n.len()
     }
 
+    /// Whether the test has no samples.
     pub fn is_empty(&self) -> bool {
         self.f_n.is_empty()
     }

@@ -15,34 +15,49 @@ use crate::device::Model;
 /// One parameter in `fit --json`.
 #[derive(Debug, Clone, Serialize)]
 pub struct ParamJson {
+    /// Fitted (or given) value, in `unit`.
     pub value: f64,
+    /// Standard error from the fit's Jacobian; `null` where the data does not determine it.
     pub std_err: Option<f64>,
+    /// Unit of the value.
     pub unit: String,
+    /// Why the parameter was held (not fitted); omitted when empty.
     #[serde(skip_serializing_if = "String::is_empty")]
     pub note: String,
 }
 
+/// The figures of one measurement file.
 #[derive(Debug, Clone, Serialize)]
 pub struct FileJson {
+    /// The file's path as given.
     pub path: String,
+    /// RMS force error over RMS measured force.
     pub nrmse: f64,
+    /// RMS force error, N.
     pub rmse_n: f64,
 }
 
 /// `fit --json` and `validate --json`.
 #[derive(Debug, Clone, Serialize)]
 pub struct FitJson {
+    /// Model spec, `bingham+effect+…`.
     pub model: String,
+    /// Samples scored.
     pub samples: usize,
+    /// RMS force error over RMS measured force, all files.
     pub nrmse: f64,
+    /// RMS force error, N, all files.
     pub rmse_n: f64,
+    /// Every parameter by name.
     pub params: BTreeMap<String, ParamJson>,
+    /// The figures per file.
     pub files: Vec<FileJson>,
     /// The figures over the samples whose velocity sign is known (farther from zero than 4 standard
     /// deviations of its noise): the samples fits minimise and held-out scores count. Where a noisy
     /// velocity crosses zero the direction of the yield force is a coin toss for every model, and those few
     /// samples can dominate `nrmse`.
     pub direction_known: Subset,
+    /// Where in the motion the error concentrates; omitted when empty.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub r#where: Vec<Region>,
 }
@@ -50,12 +65,16 @@ pub struct FitJson {
 /// Error figures over a subset of the samples.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct Subset {
+    /// Samples in the subset.
     pub samples: usize,
+    /// RMS force error over RMS measured force in the subset.
     pub nrmse: f64,
+    /// RMS force error in the subset, N.
     pub rmse_n: f64,
 }
 
 impl FitJson {
+    /// The contract's figures of `model` with `params` on `tests`, whose predictions are `pred`.
     pub fn new(
         model: &Model,
         params: &[f64],
@@ -172,19 +191,29 @@ fn short(p: &str, n: usize) -> String {
     }
 }
 
+/// `base`: the starting model's figures.
 #[derive(Debug, Clone, Serialize)]
 pub struct BaseJson {
+    /// RMS force error over RMS measured force, fitted on all data.
     pub nrmse: f64,
+    /// RMS force error, N, fitted on all data.
     pub rmse_n: f64,
+    /// Held-out NRMSE (each fold scored by a fit without it).
     pub heldout_nrmse: f64,
 }
 
+/// One effect tried in `candidates`.
 #[derive(Debug, Clone, Serialize)]
 pub struct CandidateJson {
+    /// Effect name.
     pub effect: String,
+    /// Held-out NRMSE of the model with the effect.
     pub heldout_nrmse: f64,
+    /// 1 − held-out NRMSE / the held-out NRMSE of the model it extends.
     pub improvement: f64,
+    /// Whether the improvement passed the significance test over the folds.
     pub significant: bool,
+    /// The signature in the residual that suggested the effect, in words.
     pub evidence: String,
 }
 
@@ -200,15 +229,21 @@ impl CandidateJson {
     }
 }
 
+/// `final`: the model the diagnosis ends with.
 #[derive(Debug, Clone, Serialize)]
 pub struct FinalJson {
+    /// Model spec.
     pub model: String,
+    /// Its held-out NRMSE.
     pub heldout_nrmse: f64,
 }
 
+/// One step of the search.
 #[derive(Debug, Clone, Serialize)]
 pub struct StepJson {
+    /// Model spec at this step.
     pub model: String,
+    /// Its held-out NRMSE.
     pub heldout_nrmse: f64,
     /// Pairs of effects tried from this model because no effect alone was significant.
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -219,17 +254,28 @@ pub struct StepJson {
 /// `noise_floor_nrmse`, `pruned`).
 #[derive(Debug, Clone, Serialize)]
 pub struct DiagnoseJson {
+    /// The starting model's spec.
     pub base_model: String,
+    /// Samples scored.
     pub samples: usize,
+    /// The starting model's figures.
     pub base: BaseJson,
+    /// Where in the motion the starting model's error concentrates.
     pub r#where: Vec<Region>,
+    /// Effects tried on the starting model, best first.
     pub candidates: Vec<CandidateJson>,
+    /// Effects the diagnosis adds, in the order added (empty: the residual is noise).
     pub missing: Vec<String>,
+    /// The final model.
     #[serde(rename = "final")]
     pub final_: FinalJson,
+    /// Every step of the search.
     pub steps: Vec<StepJson>,
+    /// How the data was split for held-out errors.
     pub cross_validation: String,
+    /// Held-out NRMSE the measurement noise alone would give.
     pub noise_floor_nrmse: f64,
+    /// Effects removed at the end because dropping them did not raise the held-out error.
     pub pruned: Vec<String>,
     /// Terms outside the vocabulary the diagnosis added, in the order added.
     pub discovered: Vec<DiscoveredJson>,
@@ -241,25 +287,37 @@ pub struct DiagnoseJson {
 /// One entry of `discovered`.
 #[derive(Debug, Clone, Serialize)]
 pub struct DiscoveredJson {
+    /// The term's name, as `--save-effect` writes it.
     pub name: String,
+    /// The term's formula in the motion and current signals.
     pub formula: String,
+    /// The signals the formula uses.
     pub features: Vec<String>,
+    /// Held-out NRMSE of the model with the term.
     pub heldout_nrmse: f64,
+    /// 1 − held-out NRMSE / the held-out NRMSE of the model it extends.
     pub improvement: f64,
+    /// The known effect the term looks like, in words (empty if none).
     pub resembles: String,
 }
 
 /// `unexplained`: what is left when it is structure.
 #[derive(Debug, Clone, Serialize)]
 pub struct UnexplainedJson {
+    /// Held-out NRMSE of the final model.
     pub heldout_nrmse: f64,
+    /// Held-out NRMSE the measurement noise alone would give.
     pub floor_nrmse: f64,
+    /// Share of the held-out residual the signals predict (structure, not noise).
     pub predictable_share: f64,
+    /// Where in the motion the residual concentrates.
     pub r#where: Vec<Region>,
+    /// Signals whose inputs alone predict at least a fifth of the predictable residual.
     pub correlates_with: Vec<String>,
 }
 
 impl DiagnoseJson {
+    /// The contract's view of a diagnosis.
     pub fn new(d: &Diagnosis) -> Self {
         Self {
             base_model: d.base_model.clone(),

@@ -10,8 +10,11 @@ use crate::signal::{smooth_derivative, white_noise_std_on};
 /// A region of the operating space and its part of the squared error.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Region {
+    /// The region, in words (|v| bin × current bin, or a part of each test's duration).
     pub region: String,
+    /// Its share of the squared error, 0..1.
     pub share_of_error: f64,
+    /// RMS force error in the region, N.
     pub rmse_n: f64,
 }
 
@@ -482,7 +485,7 @@ pub(crate) const DIRECTION_SIGMAS: f64 = 4.0;
 /// residual of a correct model is the load-cell noise again. The noise of the velocity is estimated from
 /// the data (`velocity_noise_std`), so noise-free velocity loses almost no samples.
 ///
-/// Samples where the force channel is stuck at a rail ([`super::clipping`]) weigh 0 too.
+/// Samples where the force channel is stuck at a rail (`ident::clipping`) weigh 0 too.
 pub fn direction_weights(t: &Test) -> Vec<f64> {
     let mut w = sign_weights(t);
     for (w, c) in w.iter_mut().zip(super::clipping::unclipped(&t.f_n)) {

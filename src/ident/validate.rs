@@ -17,6 +17,7 @@ pub fn evaluate(model: &Model, params: &[f64], tests: &[Test]) -> Vec<Vec<f64>> 
 /// `nrmse = rmse_n / rms(f_n)` over the same samples).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Figures {
+    /// Samples counted.
     pub samples: usize,
     /// Sum of squared residuals, N².
     pub sse: f64,
@@ -25,6 +26,7 @@ pub struct Figures {
 }
 
 impl Figures {
+    /// The figures of `model_n` against `measured_n`, N.
     pub fn of(model_n: &[f64], measured_n: &[f64]) -> Self {
         let mut f = Figures {
             samples: model_n.len(),
@@ -54,27 +56,31 @@ impl Figures {
         f
     }
 
+    /// Add the samples of `o`.
     pub fn add(&mut self, o: &Figures) {
         self.samples += o.samples;
         self.sse += o.sse;
         self.f_ss += o.f_ss;
     }
 
+    /// RMS force error, N.
     pub fn rmse_n(&self) -> f64 {
         (self.sse / self.samples.max(1) as f64).sqrt()
     }
 
+    /// RMS force error over RMS measured force.
     pub fn nrmse(&self) -> f64 {
         (self.sse / self.f_ss.max(f64::MIN_POSITIVE)).sqrt()
     }
 
+    /// Mean squared force error, N².
     pub fn mse(&self) -> f64 {
         self.sse / self.samples.max(1) as f64
     }
 }
 
 /// Per-test figures and their total, over the samples where the force channel is not stuck at a rail
-/// ([`super::clipping`]).
+/// (`ident::clipping`).
 pub fn figures(pred: &[Vec<f64>], tests: &[Test]) -> (Vec<Figures>, Figures) {
     let per: Vec<Figures> = pred
         .iter()

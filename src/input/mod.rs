@@ -5,7 +5,7 @@
 //! TOML files are read with serde into schemas whose values carry their place ([`toml::Spanned`]); a
 //! schema's range checks go through [`Source`], so that a value out of range names its own line.
 
-pub mod aircraft;
+pub(crate) mod aircraft;
 pub mod compare;
 pub(crate) mod faults;
 pub(crate) mod hand;

@@ -8,9 +8,13 @@ use super::{InputError, Source};
 /// One reference run: header comments and named numeric columns.
 #[derive(Debug, Clone)]
 pub struct ReferenceRun {
+    /// The file read.
     pub path: PathBuf,
+    /// The `#` comment lines, trimmed, without the `#`.
     pub comments: Vec<String>,
+    /// Column names, in file order.
     pub columns: Vec<String>,
+    /// One row of numbers per line, in column order.
     pub rows: Vec<Vec<f64>>,
 }
 

@@ -406,8 +406,9 @@ pub fn scenario(src: &Source) -> Result<Scenario, InputError> {
     if steps > MAX_PHYSICS_STEPS {
         let msg = format!(
             "{duration_s} s at rig.physics_hz = {physics_hz} Hz is {steps:.0} physics steps: at most \
-             {MAX_PHYSICS_STEPS:e} (a run keeps a row of ~300 bytes per step: 3 GB); shorten the run or lower \
-             the physics rate"
+             {MAX_PHYSICS_STEPS:e} (a run that plots, flies an aircraft or runs from the library keeps a \
+             row of ~300 bytes per step, 3 GB at the cap; a streamed one writes ~370 bytes of CSV a step and \
+             takes about a minute per 10⁶ steps); shorten the run or lower the physics rate"
         );
         return Err(src.err(&f.duration_s, "duration_s", msg));
     }

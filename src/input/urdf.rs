@@ -12,6 +12,7 @@ use super::{InputError, Source};
 /// A parsed rig description.
 #[derive(Debug, Clone)]
 pub struct UrdfModel {
+    /// The URDF file read.
     pub path: PathBuf,
     /// The element tree with lines (for messages).
     xml: XmlElement,

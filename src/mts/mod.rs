@@ -21,8 +21,15 @@ use crate::measurement::{Measurement, MAGNITUDE_LIMIT};
 /// Errors configuring a virtual test.
 #[derive(Debug, thiserror::Error)]
 pub enum MtsError {
+    /// A setting out of its range or inconsistent with another.
     #[error("`{field}`: {msg}")]
-    Config { field: String, msg: String },
+    Config {
+        /// The setting, as named on the command line.
+        field: String,
+        /// What is wrong with it.
+        msg: String,
+    },
+    /// The device model.
     #[error(transparent)]
     Device(#[from] crate::device::DeviceError),
 }
@@ -49,15 +56,29 @@ fn cfg_err(field: &str, msg: impl Into<String>) -> MtsError {
 #[derive(Debug, Clone, PartialEq)]
 pub enum Protocol {
     /// `x = A sin(2π f t)`.
-    Sine { amplitude_m: f64, frequency_hz: f64 },
+    Sine {
+        /// Amplitude A, m.
+        amplitude_m: f64,
+        /// Frequency f, Hz.
+        frequency_hz: f64,
+    },
     /// Constant-velocity strokes between ±A (velocity `4 A f`), starting at mid-stroke moving outward.
-    Triangle { amplitude_m: f64, frequency_hz: f64 },
+    Triangle {
+        /// Amplitude A, m.
+        amplitude_m: f64,
+        /// Frequency f, Hz.
+        frequency_hz: f64,
+    },
     /// A sum of `tones` sines log-spaced from `f_min_hz` to `f_max_hz` with Schroeder phases (low crest
     /// factor, deterministic), scaled so that the peak displacement is A.
     Multisine {
+        /// Peak displacement, m.
         amplitude_m: f64,
+        /// Lowest tone, Hz.
         f_min_hz: f64,
+        /// Highest tone, Hz.
         f_max_hz: f64,
+        /// Number of tones.
         tones: usize,
     },
 }
@@ -87,6 +108,7 @@ impl Protocol {
         }
     }
 
+    /// Peak displacement, m.
     pub fn amplitude_m(&self) -> f64 {
         match *self {
             Protocol::Sine { amplitude_m, .. }
@@ -263,6 +285,7 @@ impl SensorSpec {
 /// A virtual test: protocol, current schedule, DAQ and sensors.
 #[derive(Debug, Clone)]
 pub struct MtsTest {
+    /// The actuator's displacement protocol.
     pub protocol: Protocol,
     /// One current level per block, A; the current steps at block boundaries.
     pub currents_a: Vec<f64>,
@@ -278,11 +301,13 @@ pub struct MtsTest {
     pub displacement: SensorSpec,
     /// Velocity channel (m/s), recorded when `record_velocity`.
     pub velocity: SensorSpec,
+    /// Record the velocity channel `v_m_s`.
     pub record_velocity: bool,
     /// Also record the coil current (the Eq. 3 state) as `i_meas_a`.
     pub record_coil_current: bool,
     /// The device's half stroke, m: a protocol that would drive the piston past it is refused.
     pub stroke_limit_m: Option<f64>,
+    /// Seed of the sensor noise.
     pub seed: u64,
 }
 

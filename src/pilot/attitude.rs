@@ -40,7 +40,7 @@ pub struct CrossoverPilotConfig {
 pub struct CrossoverDesign {
     /// ω_c: where the pilot puts the open loop's unit gain, rad/s.
     pub crossover_rad_s: f64,
-    /// τ_e: the pilot's effective delay realised by [`CrossoverPilot`], s. Lags modelled elsewhere in
+    /// τ_e: the pilot's effective delay realised by `CrossoverPilot`, s. Lags modelled elsewhere in
     /// the loop (the hand's activation) belong in the controlled element, not here.
     pub delay_s: f64,
     /// Corner of the trimming integral as a fraction of ω_c (`K_i = ratio ω_c K_p`); 0 for none.
@@ -172,7 +172,7 @@ impl CrossoverPilotConfig {
     }
 
     /// The pilot's describing function `Y_p(jω) = e^{−jωτ} [K (T_L jω + 1)/(T_I jω + 1) + K_i/(jω)]`
-    /// (stick rad per unit error), as [`CrossoverPilot`] realises it (its delay rounded to whole
+    /// (stick rad per unit error), as `CrossoverPilot` realises it (its delay rounded to whole
     /// steps aside).
     pub fn describing_function(&self, omega_rad_s: f64) -> Complex<f64> {
         let jw = Complex::new(0.0, omega_rad_s);
@@ -257,7 +257,7 @@ impl CrossoverPilot {
 /// A pursuit pilot (McRuer & Krendel 1974: a pilot who sees the command, not only the error, adds a
 /// feedforward `Y_ff ≈ 1/Y_c`): the crossover pilot's output on the error plus `feedforward × command`,
 /// both through the delay τ. For a load-factor task the feedforward is the aircraft's stick per g
-/// (`Aircraft::stick_per_g_rad`); with 0 it is the compensatory [`CrossoverPilot`].
+/// (`Aircraft::stick_per_g_rad`); with 0 it is the compensatory `CrossoverPilot`.
 #[derive(Debug, Clone)]
 pub struct PursuitPilot {
     pilot: CrossoverPilot,

@@ -39,6 +39,7 @@ pub struct DamperJoint {
 }
 
 impl DamperJoint {
+    /// The joint of `damper`, at rest.
     pub fn new(damper: Damper) -> Self {
         let implicit_yield = !damper
             .model()
@@ -57,6 +58,7 @@ impl DamperJoint {
         self.implicit_yield
     }
 
+    /// The damper.
     pub fn damper(&self) -> &Damper {
         &self.damper
     }

@@ -9,8 +9,9 @@ use super::frames::{Frame, V3};
 /// The slider-crank as it stands at neutral (all joint coordinates zero).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Linkage {
-    /// Stick pivot point and its unit axis (world).
+    /// Stick pivot point (world).
     pub pivot: V3,
+    /// The stick pivot's unit axis (world).
     pub pivot_axis: V3,
     /// Clevis pin on the stick at neutral (world).
     pub clevis: V3,
@@ -23,6 +24,7 @@ pub struct Linkage {
 }
 
 impl Linkage {
+    /// The linkage from the pivot's frame and local axis, the two pins and the slide's frame and local axis.
     pub fn new(
         pivot: &Frame,
         pivot_axis_local: V3,

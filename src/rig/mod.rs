@@ -1,6 +1,6 @@
 //! The stick rig: a rapier multibody built from `models/stick-rig.urdf` (stick on a revolute pivot, push
 //! rod, load cell, piston on a ±2 in prismatic joint in the cylinder), with the seed paper's MR damper
-//! as the piston joint's force element (see [`damper_joint`]).
+//! as the piston joint's force element (see `rig::damper_joint`).
 //!
 //! # Loop closure
 //! Stick, push rod and piston form a closed loop (a slider-crank), which a multibody tree cannot hold.
@@ -19,10 +19,10 @@
 //! the fluid, with the sign of the piston velocity — the measurement format's convention, so at steady
 //! speed `load_cell_n ≈ damper_force_n`.
 
-pub mod damper_joint;
-pub mod frames;
+pub(crate) mod damper_joint;
+pub(crate) mod frames;
 pub(crate) mod fuse;
-pub mod linkage;
+pub(crate) mod linkage;
 
 use std::path::{Path, PathBuf};
 
@@ -43,10 +43,17 @@ pub use linkage::Linkage;
 /// Errors building the rig: its URDF refused (file, line, element), or its configuration out of range.
 #[derive(Debug, thiserror::Error)]
 pub enum RigError {
+    /// A bad URDF or rig section.
     #[error(transparent)]
     Input(#[from] crate::input::InputError),
+    /// A rig setting out of its range.
     #[error("rig configuration: field `{field}`: {msg}")]
-    Config { field: String, msg: String },
+    Config {
+        /// The setting.
+        field: String,
+        /// What is wrong with it.
+        msg: String,
+    },
 }
 
 /// How far the URDF's piston stops may lie from a device's half stroke, m: 0.1 mm, the rounding of a
@@ -109,13 +116,14 @@ pub struct RigConfig {
     #[serde(default = "default_stop_natural_hz")]
     pub stop_natural_hz: f64,
     /// Fold links joined by fixed joints into one rigid body before the multibody is built (same dynamics,
-    /// fewer links: about 18 % fewer instructions per step for this rig; see [`fuse`]). Off only to compare.
+    /// fewer links: about 18 % fewer instructions per step for this rig; see `rig::fuse`). Off only to compare.
     #[serde(default = "default_true")]
     pub fuse_fixed_links: bool,
     /// When the linkage is planar, constrain only the loop pin's two in-plane translations (the other three
     /// rows are identically zero in the tree's coordinates). Off only to compare.
     #[serde(default = "default_true")]
     pub planar_loop_rows: bool,
+    /// Which URDF links and joints are the stick, the linkage and the damper.
     #[serde(default)]
     pub roles: RigRoles,
 }
@@ -191,18 +199,45 @@ impl RigConfig {
 /// Shape of a link's visual, with dimensions from the URDF (cylinders and capsules along local z).
 #[derive(Debug, Clone, PartialEq)]
 pub enum VisualShape {
-    Box { size_m: [f64; 3] },
-    Cylinder { radius_m: f64, length_m: f64 },
-    Capsule { radius_m: f64, length_m: f64 },
-    Sphere { radius_m: f64 },
-    Mesh { filename: String },
+    /// A box.
+    Box {
+        /// Edge lengths along x, y, z, m.
+        size_m: [f64; 3],
+    },
+    /// A cylinder along z.
+    Cylinder {
+        /// Radius, m.
+        radius_m: f64,
+        /// Length, m.
+        length_m: f64,
+    },
+    /// A capsule along z.
+    Capsule {
+        /// Radius, m.
+        radius_m: f64,
+        /// Length of the straight part, m.
+        length_m: f64,
+    },
+    /// A sphere.
+    Sphere {
+        /// Radius, m.
+        radius_m: f64,
+    },
+    /// A mesh file (not drawn).
+    Mesh {
+        /// The mesh file as the URDF names it.
+        filename: String,
+    },
 }
 
 /// One `<visual>` of a link, posed in the link's frame.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Visual {
+    /// The visual's name in the URDF, if any.
     pub name: Option<String>,
+    /// Its shape.
     pub shape: VisualShape,
+    /// Offset in the link's frame, m.
     pub translation_m: [f64; 3],
     /// Unit quaternion `[x, y, z, w]`.
     pub rotation_xyzw: [f64; 4],
@@ -211,14 +246,18 @@ pub struct Visual {
 /// A link's name and visuals (static; poses come from [`Rig::poses`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct LinkVisuals {
+    /// The link's name.
     pub name: String,
+    /// Its visuals.
     pub visuals: Vec<Visual>,
 }
 
 /// World pose of a link's frame.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BodyPose {
+    /// The link's name.
     pub name: String,
+    /// Origin in the world, m.
     pub translation_m: [f64; 3],
     /// Unit quaternion `[x, y, z, w]`.
     pub rotation_xyzw: [f64; 4],
@@ -227,6 +266,7 @@ pub struct BodyPose {
 /// The rig's state after the last step (all SI; signs in the module doc).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct RigState {
+    /// Time, s.
     pub t_s: f64,
     /// Stick angle about the pivot, rad, + = aft (pull).
     pub stick_angle_rad: f64,
@@ -236,6 +276,7 @@ pub struct RigState {
     pub grip_pos_m: [f64; 3],
     /// Piston displacement from mid-stroke, m, + = extension (= +x).
     pub piston_x_m: f64,
+    /// Piston velocity, m/s, + = extension.
     pub piston_v_m_s: f64,
     /// Piston acceleration over the last step, m/s².
     pub piston_a_m_s2: f64,
@@ -272,7 +313,7 @@ pub struct RigState {
     pub damper_power_w: f64,
 }
 
-/// A URDF link: the rigid body it belongs to (links joined by fixed joints share one, see [`fuse`]) and its
+/// A URDF link: the rigid body it belongs to (links joined by fixed joints share one, see `rig::fuse`) and its
 /// frame in that body's frame.
 struct LinkBody {
     name: String,

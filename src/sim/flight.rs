@@ -23,17 +23,27 @@ use crate::scenario::{AircraftConfig, OuterLoopConfig, PilotDesign};
 /// The aircraft's columns of a results row.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct AeroRow {
+    /// Dynamic pressure, Pa.
     pub qbar_pa: f64,
+    /// Elevator deflection, rad, positive trailing edge down.
     pub elevator_rad: f64,
+    /// Elevator hinge moment, N·m, positive trailing edge down.
     pub hinge_moment_nm: f64,
+    /// Pitch attitude, rad.
     pub pitch_rad: f64,
     /// The outer loop's command: pitch (rad, absolute) or load factor (g); NaN for the other loop or none.
     pub pitch_cmd_rad: f64,
+    /// Normal load factor, g.
     pub nz_g: f64,
+    /// The outer loop's load-factor command, g (NaN for the pitch loop or none).
     pub nz_cmd_g: f64,
+    /// Pitch rate, rad/s.
     pub q_rad_s: f64,
+    /// Angle of attack, rad.
     pub alpha_rad: f64,
+    /// True airspeed, m/s.
     pub airspeed_m_s: f64,
+    /// Altitude, m.
     pub altitude_m: f64,
     /// The aircraft's stick force at the grip (pull +), N: the feel target before the linkage.
     pub stick_force_n: f64,
@@ -84,6 +94,7 @@ enum Controls {
 pub struct Flight {
     backend: Box<dyn AircraftBackend>,
     controls: Controls,
+    /// The trimmed state the flight starts from.
     pub trim: AircraftState,
     /// Stick angle of the trim (aircraft convention), rad: the rig's neutral.
     pub trim_stick_rad: f64,

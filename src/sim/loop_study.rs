@@ -31,24 +31,32 @@ const BREAKOUT_BAND: f64 = 0.05;
 /// A controller model: its spec and fitted parameters.
 #[derive(Debug, Clone)]
 pub struct StageModel {
+    /// Model spec, `bingham+effect+…`.
     pub spec: String,
+    /// The model with its fitted parameters, as the controller's device.
     pub device: DeviceConfig,
 }
 
 /// The feel figures of one stage.
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct StageFigures {
+    /// Model spec of the stage.
     pub model: String,
+    /// Samples where the desired force resists the motion.
     pub resisting_samples: usize,
+    /// RMS of (load cell − desired) over the resisting samples, N.
     pub force_rmse_n: f64,
+    /// `force_rmse_n` over the RMS desired force there.
     pub force_nrmse: f64,
+    /// RMS force error over the resisting samples near the centre (the breakout band), N; NaN without a breakout.
     pub breakout_rmse_n: f64,
     /// Share of resisting samples within ±2 lbf (at the grip) or ±10 %, whichever is larger.
     pub within_part60_share: f64,
     /// Resisting samples where the plant can render the desired force ([`Renderable`]).
     pub renderable_samples: usize,
-    /// RMS of (load cell − desired) over them, N, and relative to the RMS desired force over them.
+    /// RMS of (load cell − desired) over the renderable samples, N.
     pub renderable_rmse_n: f64,
+    /// `renderable_rmse_n` over the RMS desired force over them.
     pub renderable_nrmse: f64,
 }
 

@@ -9,6 +9,7 @@ use crate::control::LoopMode;
 use crate::pilot::attitude::PilotLoop;
 use crate::scenario::Scenario;
 
+/// How well a flight's feel followed the aircraft, and the pilot the task.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct FlightMetrics {
     /// RMS of (command − response) from the first command change to the end: rad (pitch) or g (load
@@ -19,18 +20,19 @@ pub struct FlightMetrics {
     /// Correlation of the desired force on the piston with the aircraft's stick force (1: the feel
     /// follows the aircraft; the linkage's gearing changes slightly with angle).
     pub desired_vs_stick_force_corr: f64,
-    /// Where the loop tracks (the desired force resists the motion), the stick moves, and the desired
-    /// force is inside the damper's range: RMS of (true load cell − desired), N, the RMS desired force
-    /// there, N, and the fraction of the run in that condition.
+    /// Where the loop tracks (the desired force resists the motion), the stick moves, and the desired force is inside the damper's range: RMS of (true load cell − desired), N.
     pub follow_rms_n: f64,
+    /// The RMS desired force in that condition, N.
     pub follow_desired_rms_n: f64,
+    /// The fraction of the run in that condition.
     pub follow_fraction: f64,
     /// Peak |stick force| the aircraft asked for at the grip, N.
     pub stick_force_peak_n: f64,
     /// The damper's ceiling at the grip at centre stick, N (its largest yield force through the linkage).
     pub ceiling_at_grip_n: f64,
-    /// Live JSBSim: mean and max step round trip, µs (NaN for the embedded model).
+    /// Live JSBSim: mean step round trip, µs (NaN for the embedded model).
     pub round_trip_mean_us: f64,
+    /// Live JSBSim: longest step round trip, µs (NaN for the embedded model).
     pub round_trip_max_us: f64,
 }
 

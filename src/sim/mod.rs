@@ -17,9 +17,9 @@ pub mod flight;
 pub mod invariants;
 pub mod loop_study;
 pub mod metrics;
-pub mod plant;
+pub(crate) mod plant;
 pub mod response;
-pub mod results;
+pub(crate) mod results;
 
 pub use flight::{AeroRow, Flight};
 pub use plant::{Plant, PlantState};
@@ -45,15 +45,21 @@ pub enum SimError {
     /// error in flight.
     #[error("{}:{line}: aircraft: {error}", scenario.display())]
     Aero {
+        /// The scenario file.
         scenario: std::path::PathBuf,
+        /// Line of the key at fault.
         line: usize,
+        /// The aircraft's error.
         error: crate::aero::AeroError,
     },
     /// A device file the scenario names (`device.file`, `controller.model`) cannot be loaded.
     #[error("{}:{line}: `{key}`: {error}", scenario.display())]
     Device {
+        /// The scenario file.
         scenario: std::path::PathBuf,
+        /// Line of `key`.
         line: usize,
+        /// The key naming the device file.
         key: &'static str,
         /// Boxed: the error type stays small on the happy path of every run.
         error: Box<crate::device::DeviceError>,
@@ -65,11 +71,15 @@ pub enum SimError {
         scenario.display()
     )]
     Diverged {
+        /// The scenario file.
         scenario: std::path::PathBuf,
         /// The scenario's line of `rig.physics_hz`.
         line: usize,
+        /// Time of the divergence, s.
         t_s: f64,
+        /// What diverged, in words.
         what: String,
+        /// The physics rate, Hz.
         physics_hz: f64,
     },
     /// A finished run breaks an invariant its results must satisfy ([`invariants`]); `key` (at `line`) is
@@ -80,11 +90,17 @@ pub enum SimError {
         scenario.display()
     )]
     Invariant {
+        /// The scenario file.
         scenario: std::path::PathBuf,
+        /// Line of `key`.
         line: usize,
+        /// The setting that most likely caused the breach.
         key: &'static str,
+        /// The invariant broken, in words.
         invariant: String,
+        /// Time of the breach, s.
         t_s: f64,
+        /// What to change.
         advice: String,
     },
     /// Stopped on request ([`crate::interrupt`]).
@@ -117,7 +133,9 @@ fn diverged(row: &Row, stroke_half_m: f64) -> Option<String> {
 /// computes its feedforward from `controller` only, never from `plant`.
 #[derive(Debug, Clone)]
 pub struct Devices {
+    /// The damper the rig simulates.
     pub plant: DeviceConfig,
+    /// The model the feel controller believes.
     pub controller: DeviceConfig,
     /// Whether the controller's model is the plant's own file (no `[controller] model`).
     pub controller_is_plant: bool,
@@ -180,10 +198,13 @@ pub struct RunOptions {
 
 /// Everything that is stepped, wired from a scenario; [`Loop::step`] is one physics step.
 pub struct Loop<P: Plant> {
+    /// The rig.
     pub plant: P,
+    /// The DAQ between the rig's sensors and the controller.
     pub daq: Daq,
     /// The feel system on the rig: its controller, spring and actuators.
     pub feel: FeelSystem,
+    /// The pilot's hand.
     pub hand: Hand,
     scenario_command: crate::pilot::Signal,
     command_scale: f64,

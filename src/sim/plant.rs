@@ -7,14 +7,19 @@ use crate::rig::{BodyPose, LinkVisuals, Rig};
 /// The rig's true state after a step (the loop logs it; the controller never sees it).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct PlantState {
+    /// Time, s.
     pub t_s: f64,
+    /// Stick angle about the pivot, rad, + = aft.
     pub stick_angle_rad: f64,
+    /// Stick rate, rad/s.
     pub stick_rate_rad_s: f64,
-    /// Grip position along its path (arc length from neutral), m, and velocity, m/s.
+    /// Grip position along its path (arc length from neutral), m.
     pub grip_x_m: f64,
+    /// Grip velocity along its path, m/s.
     pub grip_v_m_s: f64,
-    /// Piston displacement from mid-stroke, m, and velocity, m/s.
+    /// Piston displacement from mid-stroke, m.
     pub piston_x_m: f64,
+    /// Piston velocity, m/s.
     pub piston_v_m_s: f64,
     /// True load-cell force along +x on the piston, N.
     pub load_cell_n: f64,
@@ -32,12 +37,14 @@ pub struct PlantState {
     pub dissipated_j: f64,
 }
 
+/// What the feel loop drives: the stick rig, stepped with the hand force and the coil current.
 pub trait Plant {
     /// Physics step, s.
     fn dt_s(&self) -> f64;
     /// Advance one physics step with the hand force at the grip (N, along the grip path) and the coil
     /// current command (A) held over the step.
     fn step(&mut self, hand_force_n: f64, current_cmd_a: f64);
+    /// The true state after the last step.
     fn state(&self) -> PlantState;
     /// Half stroke of the piston, m.
     fn stroke_half_m(&self) -> f64;

@@ -126,15 +126,19 @@ pub(crate) fn step_responses(res: &Results, law: &FeelLaw) -> Vec<StepResponse> 
 /// One line of the DAQ-rate table.
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct SweepPoint {
+    /// DAQ rate, Hz.
     pub daq_rate_hz: f64,
+    /// Force steps in the run.
     pub steps: usize,
-    /// Delay to 10 % and rise 10–90 %, over the steps measured; `None` when no step could be measured at
-    /// this rate (a DAQ too slow to follow the scenario's steps), not a made-up 0.
+    /// Mean delay to 10 % over the steps measured, ms; `None` when no step could be measured at this rate (a DAQ too slow to follow the scenario's steps), not a made-up 0.
     pub mean_delay_ms: Option<f64>,
+    /// Mean rise time 10–90 %, ms (`None` as for the delay).
     pub mean_rise_ms: Option<f64>,
+    /// Longest rise time 10–90 %, ms (`None` as for the delay).
     pub max_rise_ms: Option<f64>,
-    /// Mean over the steps that settled; `None` if none did.
+    /// Mean settling time over the steps that settled, ms; `None` if none did.
     pub mean_settling_ms: Option<f64>,
+    /// Longest settling time over the steps that settled, ms; `None` if none did.
     pub max_settling_ms: Option<f64>,
     /// Steps that never settled within their window.
     pub unsettled: usize,

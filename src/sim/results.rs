@@ -13,15 +13,21 @@ use crate::rig::{BodyPose, LinkVisuals};
 /// One physics step: the state at its start and what was applied over it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Row {
+    /// Time, s.
     pub t_s: f64,
+    /// Stick angle about the pivot, rad, + = aft.
     pub stick_angle_rad: f64,
+    /// Stick rate, rad/s.
     pub stick_rate_rad_s: f64,
+    /// Piston displacement from mid-stroke, m.
     pub piston_x_m: f64,
+    /// Piston velocity, m/s.
     pub piston_v_m_s: f64,
     /// Load-cell force as the controller last saw it (calibrated, noisy, quantised, delayed, held), N.
     pub load_cell_n: f64,
     /// True force in the load cell along +x on the piston, N.
     pub load_cell_true_n: f64,
+    /// The feel law's desired force on the piston, N.
     pub desired_force_n: f64,
     /// Coil current command held over the step, A.
     pub current_a: f64,
@@ -29,25 +35,31 @@ pub struct Row {
     pub pilot_force_n: f64,
     /// Pilot command in grip units (m for a position task, N for a force task).
     pub pilot_cmd: f64,
+    /// Damper force along +x on the piston, N.
     pub damper_force_n: f64,
+    /// Damper yield-force magnitude, N.
     pub yield_force_n: f64,
+    /// What the feel loop is doing: tracking, released or holding.
     pub mode: LoopMode,
+    /// Kinetic energy of the moving bodies, J.
     pub kinetic_energy_j: f64,
+    /// Gravitational potential energy relative to the start, J.
     pub potential_energy_j: f64,
+    /// Energy dissipated in the damper since the start, J.
     pub dissipated_j: f64,
     /// Work done by the hand on the grip since the start, J.
     pub pilot_work_j: f64,
     /// Faults active at this time (bit set over `FaultKind::ALL`, see [`crate::faults::mask_names`]).
     pub faults: u8,
-    /// The current the coil actually receives (after driver faults), A, and the coil's current
-    /// (Eq. 3's state), A.
+    /// The current the coil actually receives (after driver faults), A.
     pub current_applied_a: f64,
+    /// The coil's current (Eq. 3's state), A.
     pub coil_current_a: f64,
     /// Energy stored in a spring feel element, J (0 without one).
     pub spring_energy_j: f64,
-    /// The active stick's motor force on the piston along +x, N, and its work on the piston so far, J
-    /// (0 for the other systems).
+    /// The active stick's motor force on the piston along +x, N (0 for the other systems).
     pub actuator_force_n: f64,
+    /// The motor's work on the piston so far, J (0 for the other systems).
     pub actuator_work_j: f64,
     /// The aircraft's columns, when the scenario flies one.
     pub aero: Option<AeroRow>,
@@ -102,6 +114,7 @@ pub(crate) const AERO_COLUMNS: [&str; 13] = [
 pub struct FlightInfo {
     /// Backend label (`"c172p"`, `"jsbsim:c172p"`).
     pub aircraft: String,
+    /// The trimmed state the run starts from.
     pub trim: AircraftState,
     /// Stick angle of the trim (aircraft convention), rad: the rig's neutral.
     pub trim_stick_rad: f64,
@@ -119,12 +132,18 @@ pub(crate) fn mode_code(m: LoopMode) -> u8 {
     }
 }
 
+/// A run kept whole: its rows, drawing frames and the facts needed to read them.
 #[derive(Debug, Clone)]
 pub struct Results {
+    /// The scenario's name.
     pub scenario: String,
+    /// Below this piston speed the controller holds, m/s.
     pub rest_speed_m_s: f64,
+    /// Half stroke of the piston, m.
     pub stroke_half_m: f64,
+    /// The driver's largest current, A.
     pub current_max_a: f64,
+    /// One row per physics step.
     pub rows: Vec<Row>,
     /// Link shapes for drawing (empty unless poses were recorded).
     pub visuals: Vec<LinkVisuals>,
@@ -135,9 +154,9 @@ pub struct Results {
     pub feel_ceiling_n: f64,
     /// The model the controller believed, with its file.
     pub controller_model: String,
-    /// The grip's arm about the pivot, m, and the linkage's gearing at centre stick, m/rad (to express
-    /// piston forces at the grip).
+    /// The grip's arm about the pivot, m (to express piston forces at the grip).
     pub grip_arm_m: f64,
+    /// The linkage's gearing at centre stick, m/rad.
     pub gearing_at_centre_m_per_rad: f64,
     /// The aircraft, when the scenario flies one.
     pub flight: Option<FlightInfo>,
@@ -146,29 +165,39 @@ pub struct Results {
 /// Summary figures of a run.
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct Summary {
+    /// The scenario's name.
     pub scenario: String,
+    /// Length of the run, s.
     pub duration_s: f64,
     /// The model the controller believed (`bingham from models/paper-device.toml (the plant's file)`).
     pub controller_model: String,
     /// Samples where the target resists the motion (loop tracking and `F*·v > 0`).
     pub resisting_samples: usize,
-    /// RMS of (true load-cell force − desired) over the resisting samples, N, and relative to the RMS of
-    /// the desired force there; `None` (JSON `null`) where no sample resists, or the desired force there
-    /// is zero: nothing was tracked.
+    /// RMS of (true load-cell force − desired) over the resisting samples, N; `None` (JSON `null`) where no sample resists, or the desired force there is zero: nothing was tracked.
     pub tracking_rmse_n: Option<f64>,
+    /// `tracking_rmse_n` over the RMS desired force on the same samples.
     pub tracking_nrmse: Option<f64>,
+    /// Largest |piston displacement|, m.
     pub max_abs_piston_x_m: f64,
+    /// Half stroke of the piston, m.
     pub stroke_half_m: f64,
+    /// Smallest coil current command, A.
     pub current_min_a: f64,
+    /// Largest coil current command, A.
     pub current_max_a: f64,
+    /// Largest |true load-cell force|, N.
     pub max_abs_load_cell_n: f64,
+    /// Work done by the hand on the grip, J.
     pub pilot_work_j: f64,
+    /// Kinetic energy at the end minus at the start, J.
     pub kinetic_energy_change_j: f64,
+    /// Potential energy at the end minus at the start, J.
     pub potential_energy_change_j: f64,
     /// Change of the energy stored in a spring feel element, J.
     pub spring_energy_change_j: f64,
     /// Work of the active stick's motor, J (0 for the passive systems).
     pub actuator_work_j: f64,
+    /// Energy dissipated in the damper, J.
     pub dissipated_j: f64,
     /// (pilot work + motor work − ΔKE − ΔPE − Δspring − dissipated) / (|pilot work| + |motor work|);
     /// `None` where no work was done.
@@ -190,6 +219,7 @@ pub struct SummaryAcc {
 }
 
 impl SummaryAcc {
+    /// Count row `r` in.
     pub fn push(&mut self, r: &Row) {
         if r.mode == LoopMode::Tracking && r.desired_force_n * r.piston_v_m_s > 0.0 {
             self.se += (r.load_cell_true_n - r.desired_force_n).powi(2);
@@ -242,6 +272,7 @@ impl SummaryAcc {
 }
 
 impl Results {
+    /// The run's summary figures.
     pub fn summary(&self) -> Summary {
         let mut acc = SummaryAcc::default();
         for r in &self.rows {

@@ -8,7 +8,7 @@
 //! order depends only on the plan and the runs' results, so shards merged equal one process to the byte.
 
 pub(crate) mod hq;
-pub mod outcome;
+pub(crate) mod outcome;
 pub mod plan;
 pub mod report;
 pub(crate) mod steady;

@@ -16,9 +16,13 @@ use crate::units::G0_M_S2;
 /// A cell of a results column. `None`: not applicable to this run (no aircraft, a run that failed).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Cell {
+    /// A number.
     F(Option<f64>),
+    /// A verdict.
     B(Option<bool>),
+    /// A small count (a Level).
     U(Option<u8>),
+    /// Text.
     S(Option<String>),
 }
 
@@ -28,16 +32,19 @@ pub enum Cell {
 pub struct Outcome {
     /// RMS of (load cell − desired force) where the loop resists the motion, N (the feel loop's tracking).
     pub force_tracking_rmse_n: Option<f64>,
+    /// `force_tracking_rmse_n` over the RMS desired force there.
     pub force_tracking_nrmse: Option<f64>,
     /// RMS of the pilot's task error (pitch, rad; load factor, g) with an outer loop.
     pub task_tracking_rms: Option<f64>,
     /// RMS of (true load cell − desired) where the damper can follow, N (flight runs).
     pub follow_rms_n: Option<f64>,
-    /// Largest |pilot force at the grip|, N, and the largest held over the prolonged window, N.
+    /// Largest |pilot force at the grip|, N.
     pub grip_force_peak_n: Option<f64>,
+    /// The largest grip force held over the prolonged window, N.
     pub grip_force_prolonged_n: Option<f64>,
     /// Largest |aircraft stick force| asked for at the grip, N.
     pub stick_force_peak_n: Option<f64>,
+    /// Largest coil current command, A.
     pub current_max_a: Option<f64>,
     /// Largest |force through the load cell|, N (the true force, not the clipped reading).
     pub load_cell_peak_n: Option<f64>,
@@ -50,20 +57,21 @@ pub struct Outcome {
     /// The same deflection per g times the force–deflection gradient the feel rendered in the run (the
     /// outward samples' least-squares line), N/g.
     pub stick_force_per_g_rendered_n: Option<f64>,
-    /// Span of the load factor flown, g, and the felt pull force per g over it (least squares over the
-    /// task, a dynamic figure, not the verdict's), N/g.
+    /// Span of the load factor flown, g.
     pub nz_span_g: Option<f64>,
+    /// The felt pull force per g over the load factor flown (least squares over the task, a dynamic figure, not the verdict's), N/g.
     pub stick_force_per_g_flown_n: Option<f64>,
     /// Acceleration sensitivity at trim, g/rad.
     pub n_per_alpha_g_per_rad: Option<f64>,
     /// Largest |felt − aircraft stick force| as a ratio of the Part 60 tolerance.
     pub part60_force_ratio: Option<f64>,
-    /// Breakout the pilot felt (the intercept at centre of the force–deflection line rendered moving out),
-    /// and the breakout of the feel target (the aircraft's feel unit, or the law's), N at the grip.
+    /// Breakout the pilot felt (the intercept at centre of the force–deflection line rendered moving out), N at the grip.
     pub breakout_n: Option<f64>,
+    /// Breakout of the feel target (the aircraft's feel unit, or the law's), N at the grip.
     pub breakout_ref_n: Option<f64>,
-    /// 14 CFR 23.143 / 25.143: peak within the temporary limit, prolonged within the prolonged limit.
+    /// 14 CFR 23.143 / 25.143: peak within the temporary limit.
     pub far_temporary_ok: Option<bool>,
+    /// 14 CFR 23.143 / 25.143: prolonged force within the prolonged limit.
     pub far_prolonged_ok: Option<bool>,
     /// MIL-F-8785C Table V Level of the stick force per g (4: outside Level 3).
     pub per_g_level: Option<u8>,
@@ -85,6 +93,7 @@ fn finite(x: f64) -> Option<f64> {
 }
 
 impl Outcome {
+    /// A run that stopped with `msg`: no figures.
     pub fn failed(msg: String) -> Self {
         Self {
             error: Some(msg),

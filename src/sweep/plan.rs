@@ -16,18 +16,26 @@ pub const MAX_RUNS: u64 = 10_000_000;
 /// A plan refused (its file, as `InputError`), or a run's scenario refused.
 #[derive(Debug, thiserror::Error)]
 pub enum PlanError {
+    /// A bad plan file.
     #[error(transparent)]
     Input(#[from] InputError),
     /// A run's scenario refused (an axis value out of its key's range, an unknown key).
     #[error("run {index}: {error}")]
-    Run { index: u64, error: InputError },
+    Run {
+        /// The run's index in the plan.
+        index: u64,
+        /// The scenario's error.
+        error: InputError,
+    },
 }
 
 /// A parameter's value in a run, as its column holds it.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(untagged)]
 pub enum Param {
+    /// A number.
     Num(f64),
+    /// Text (a case's name, a file).
     Text(String),
 }
 
@@ -68,6 +76,7 @@ impl Dist {
     }
 }
 
+/// One axis of a plan: a key and its values, or named cases.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Axis {
     /// The column name: the dotted key, or the axis's `name` for cases.
@@ -101,11 +110,13 @@ impl Axis {
 /// One run of a plan.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Run {
+    /// The run's index in the plan.
     pub index: u64,
     /// The scenario's seed in this run: from the plan's seed and the index only.
     pub seed: u64,
     /// One value per axis, in the plan's order.
     pub params: Vec<Param>,
+    /// The scenario overrides that make the run.
     pub overrides: Vec<Override>,
 }
 
@@ -115,29 +126,43 @@ pub enum Mode {
     /// Every combination (the last axis varies fastest).
     Grid,
     /// `runs` runs, each axis drawn independently per run (a list: one of its values, uniformly).
-    Sample { runs: u64 },
+    Sample {
+        /// Number of runs.
+        runs: u64,
+    },
 }
 
 /// Maps over the envelope (`[map]`): cells at (x, y), one panel per combination of the `facet` axes.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct MapSpec {
+    /// The axis along x.
     pub x: String,
+    /// The axis along y.
     pub y: String,
+    /// The axes that split the maps into panels.
     pub facets: Vec<String>,
 }
 
 /// A loaded, checked plan.
 #[derive(Debug, Clone)]
 pub struct Plan {
+    /// The plan file.
     pub path: PathBuf,
+    /// The plan's name.
     pub name: String,
+    /// The base scenario file.
     pub scenario_path: PathBuf,
+    /// The base scenario's text, as read once.
     pub scenario_text: String,
+    /// The plan's seed.
     pub seed: u64,
+    /// How the axes combine.
     pub mode: Mode,
+    /// The axes, in the plan's order.
     pub axes: Vec<Axis>,
     /// Window over which a held force counts as prolonged (14 CFR 23.143 / 25.143), s.
     pub prolonged_window_s: f64,
+    /// The maps to draw, if any.
     pub map: Option<MapSpec>,
     /// SHA-256 of the plan's and the base scenario's texts: shards of one plan carry the same.
     pub digest: String,

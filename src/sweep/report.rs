@@ -13,19 +13,26 @@ use super::store::Record;
 /// Counts of one group of runs.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Group {
+    /// Runs in the group.
     pub runs: usize,
+    /// Runs that stopped with an error.
     pub failed: usize,
     /// Runs per stick-force-per-g Level 1, 2, 3, worse; runs with no Level (no aircraft, or no steady pull-up
     /// at that speed).
     pub levels: [usize; 4],
+    /// Runs with no Level.
     pub no_level: usize,
+    /// Runs within the temporary force limit of 14 CFR 23.143 / 25.143.
     pub far_temporary_ok: usize,
+    /// Runs within the prolonged force limit.
     pub far_prolonged_ok: usize,
+    /// Runs within Part 60's force tolerance.
     pub part60_ok: usize,
     /// Runs judged by Part 60's force tolerance (with an aircraft).
     pub part60_judged: usize,
-    /// Runs within Part 60's breakout tolerance, and runs judged by it (a breakout measured and a target's).
+    /// Runs within Part 60's breakout tolerance.
     pub breakout_ok: usize,
+    /// Runs judged by it (a breakout measured and a target's).
     pub breakout_judged: usize,
     /// Runs whose load cell stayed within its range.
     pub load_cell_ok: usize,

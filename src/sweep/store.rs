@@ -18,12 +18,25 @@ use crate::input::InputError;
 /// `--shard` argument refused.
 #[derive(Debug, thiserror::Error)]
 pub enum StoreError {
+    /// A bad manifest or journal.
     #[error(transparent)]
     Input(#[from] InputError),
+    /// A file that could not be read or written.
     #[error("{}: {msg}", path.display())]
-    Io { path: PathBuf, msg: String },
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// What failed.
+        msg: String,
+    },
+    /// A `--shard` argument refused.
     #[error("--shard {arg}: {msg}")]
-    Shard { arg: String, msg: String },
+    Shard {
+        /// The argument as given.
+        arg: String,
+        /// What is wrong with it.
+        msg: String,
+    },
 }
 
 fn io(path: &Path) -> impl Fn(std::io::Error) -> StoreError + '_ {
@@ -41,13 +54,17 @@ fn not_a_sweep(manifest: &Path) -> InputError {
 /// index is `k` modulo `n`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Shard {
+    /// This shard's index, 0..n.
     pub k: u64,
+    /// Number of shards.
     pub n: u64,
 }
 
 impl Shard {
+    /// The whole plan: one shard.
     pub const ALL: Shard = Shard { k: 0, n: 1 };
 
+    /// Whether run `index` is in this shard.
     pub fn contains(&self, index: u64) -> bool {
         index % self.n == self.k
     }
@@ -93,9 +110,13 @@ impl std::str::FromStr for Shard {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Record {
+    /// The run's index in the plan.
     pub index: u64,
+    /// The scenario's seed in the run.
     pub seed: u64,
+    /// One value per axis, in the plan's order.
     pub params: Vec<Param>,
+    /// The run's figures and verdicts.
     pub outcome: Outcome,
 }
 
@@ -130,16 +151,22 @@ impl Loaded {
     }
 }
 
+/// The plan and digest the directory belongs to.
 pub const MANIFEST: &str = "sweep.toml";
+/// One finished run per line, appended as runs end (what a rerun skips).
 pub const JOURNAL: &str = "runs.jsonl";
+/// The results table, one row per run.
 pub const RESULTS_CSV: &str = "results.csv";
+/// The results table in Parquet.
 pub const RESULTS_PARQUET: &str = "results.parquet";
 
 /// An output directory open for a plan's shard: its journal to append to, and the runs it already has.
 pub struct Store {
+    /// The output directory.
     pub dir: PathBuf,
     manifest: Manifest,
     journal: std::fs::File,
+    /// Runs already in the journal.
     pub done: Vec<Record>,
 }
 

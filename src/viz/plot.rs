@@ -14,14 +14,18 @@ use plotters::style::FontStyle;
 #[derive(Debug, thiserror::Error)]
 #[error("{}: cannot write plot: {msg}", path.display())]
 pub struct PlotError {
+    /// The file not written.
     pub path: PathBuf,
+    /// Why.
     pub msg: String,
 }
 
 /// How a series is drawn.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Kind {
+    /// A solid line.
     Line,
+    /// Markers, no line.
     Points,
     /// A dashed dark-grey line: a reference (a paper's value, a target, a limit).
     Dashed,
@@ -30,12 +34,16 @@ pub enum Kind {
 /// One named series of (x, y) points.
 #[derive(Debug, Clone)]
 pub struct Series {
+    /// Legend entry.
     pub name: String,
+    /// The (x, y) points, in the chart's axis units.
     pub points: Vec<(f64, f64)>,
+    /// How it is drawn.
     pub kind: Kind,
 }
 
 impl Series {
+    /// A solid line through `points`.
     pub fn line(name: impl Into<String>, points: Vec<(f64, f64)>) -> Self {
         Self {
             name: name.into(),
@@ -43,6 +51,7 @@ impl Series {
             kind: Kind::Line,
         }
     }
+    /// Markers at `points`.
     pub fn points(name: impl Into<String>, points: Vec<(f64, f64)>) -> Self {
         Self {
             name: name.into(),
@@ -50,6 +59,7 @@ impl Series {
             kind: Kind::Points,
         }
     }
+    /// A dashed reference line through `points`.
     pub fn dashed(name: impl Into<String>, points: Vec<(f64, f64)>) -> Self {
         Self {
             name: name.into(),
@@ -62,16 +72,22 @@ impl Series {
 /// One panel: title, axis labels (with units) and series.
 #[derive(Debug, Clone, Default)]
 pub struct Chart {
+    /// Title above the panel.
     pub title: String,
+    /// x-axis label, with unit.
     pub x_label: String,
+    /// y-axis label, with unit.
     pub y_label: String,
+    /// The series, drawn in order.
     pub series: Vec<Series>,
     /// Shaded spans of x (fault windows), labelled `band_label` in the legend.
     pub bands: Vec<(f64, f64)>,
+    /// Legend entry of the shaded spans.
     pub band_label: String,
 }
 
 impl Chart {
+    /// An empty panel with a title and axis labels.
     pub fn new(title: impl Into<String>, x_label: impl Into<String>, y_label: impl Into<String>) -> Self {
         Self {
             title: title.into(),
@@ -80,6 +96,7 @@ impl Chart {
             ..Self::default()
         }
     }
+    /// The chart with `s` added.
     pub fn with(mut self, s: Series) -> Self {
         self.series.push(s);
         self

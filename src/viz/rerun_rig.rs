@@ -102,9 +102,9 @@ const PILOT: usize = 6;
 pub struct Sample {
     /// Time since the run's start, s.
     pub t_s: f64,
-    /// The values of [`SERIES`], in order (SI units as the paths say).
+    /// The values of `SERIES`, in order (SI units as the paths say).
     pub series: [f64; 10],
-    /// The values of [`AIRCRAFT_SERIES`], in order, when the run flies (the first is the pitch, rad).
+    /// The values of `AIRCRAFT_SERIES`, in order, when the run flies (the first is the pitch, rad).
     pub aircraft: Option<[f64; 9]>,
 }
 

@@ -3,13 +3,13 @@
 //! tests) from [`DataStats`] through `Scales`, never from numbers tuned to one data set.
 #![warn(missing_docs)]
 
-pub mod asymmetry;
-pub mod current_viscosity;
-pub mod hysteresis;
-pub mod inertia;
-pub mod magnetic_saturation;
-pub mod stiffness;
-pub mod thermal_drift;
+pub(crate) mod asymmetry;
+pub(crate) mod current_viscosity;
+pub(crate) mod hysteresis;
+pub(crate) mod inertia;
+pub(crate) mod magnetic_saturation;
+pub(crate) mod stiffness;
+pub(crate) mod thermal_drift;
 
 use super::model::Registry;
 use super::params::DataStats;
