@@ -65,6 +65,10 @@ const FILES: &[(&str, &str)] = &[
         include_str!("../scenarios/paper-feel-loop.toml"),
     ),
     (
+        "scenarios/paper-fine-corrections.toml",
+        include_str!("../scenarios/paper-fine-corrections.toml"),
+    ),
+    (
         "scenarios/response-time.toml",
         include_str!("../scenarios/response-time.toml"),
     ),

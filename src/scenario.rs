@@ -152,9 +152,9 @@ pub struct Scenario {
     pub outer_loop: Option<OuterLoopConfig>,
     /// The feel system on the rig (`[feel_system]`; the paper's MR damper alone by default).
     pub feel_system: FeelSystemConfig,
-    /// The feel-spring file `[feel_system] springs` names, if any (resolved against the scenario's
-    /// directory).
-    pub springs_path: Option<PathBuf>,
+    /// The file `[feel_system]` names, if any (its `springs` or its active stick's `model`; resolved
+    /// against the scenario's directory).
+    pub feel_system_file: Option<PathBuf>,
 }
 
 impl Scenario {
@@ -193,8 +193,12 @@ impl Scenario {
         if let Some(p) = &self.controller_model_path {
             files.push(("controller model", p.clone()));
         }
-        if let Some(p) = &self.springs_path {
-            files.push(("feel-spring file", p.clone()));
+        if let Some(p) = &self.feel_system_file {
+            let what = match self.feel_system.kind {
+                crate::control::feel::FeelKind::Active => "active-stick file",
+                _ => "feel-spring file",
+            };
+            files.push((what, p.clone()));
         }
         if let Some(a) = &self.aircraft {
             // As the flight reads the spec (`sim::flight`): `jsbsim:<name>` flies the model `<name>` live.

@@ -172,6 +172,54 @@ fn errors(res: &Results, band: &Renderable) -> (f64, usize, f64) {
     (all, n, e)
 }
 
+/// A scenario on the hysteresis plant under the controller that believes `bingham` (`nominal`) and the one
+/// that believes `bingham+hysteresis` (`aware`), with the loop's floor: the error where renderable of the
+/// paper's plant under its own controller.
+struct HysteresisRuns {
+    band: Renderable,
+    nominal: Results,
+    aware: Results,
+    /// (all resisting samples N, renderable samples, renderable N) of each run.
+    nominal_err: (f64, usize, f64),
+    aware_err: (f64, usize, f64),
+    floor_n: f64,
+}
+
+impl HysteresisRuns {
+    /// Run `scn` three times (floor, nominal, aware) and print the figures under `label`.
+    fn new(scn: &Scenario, dir: &Path, label: &str) -> Self {
+        let limit = scn.controller.gains.out_max;
+        let paper = paper_device();
+        let (_, _, floor_n) = errors(
+            &run(scn, &paper, &paper),
+            &Renderable::new(&paper, limit).unwrap(),
+        );
+        let plant = hysteresis_plant(dir);
+        let band = Renderable::new(&plant, limit).unwrap();
+        let nominal = run(scn, &plant, &paper);
+        let aware = run(scn, &plant, &plant);
+        let (nominal_err, aware_err) = (errors(&nominal, &band), errors(&aware, &band));
+        let ((a0, n0, e0), (a1, n1, e1)) = (nominal_err, aware_err);
+        eprintln!(
+            "{label}, hysteresis plant: where renderable bingham controller {e0:.2} N ({n0} samples), \
+             bingham+hysteresis {e1:.2} N ({n1}): {:+.1} %; floor {floor_n:.2} N; all resisting samples \
+             {a0:.2} -> {a1:.2} N ({:+.1} %), out of reach of any current {:.2} / {:.2} N",
+            100.0 * (e1 / e0 - 1.0),
+            100.0 * (a1 / a0 - 1.0),
+            band.out_of_reach_n(&nominal),
+            band.out_of_reach_n(&aware),
+        );
+        Self {
+            band,
+            nominal,
+            aware,
+            nominal_err,
+            aware_err,
+            floor_n,
+        }
+    }
+}
+
 /// The paper's sweep (±16° at 0.25 Hz) on the hysteresis plant: the error over all resisting samples lies
 /// where no current gives the force. At the slow end of each outward stroke the piston moves below the
 /// pre-yield velocity, the plant gives at most `Fy(14 A)·v/v_y`, under the feel's 60 N: that shortfall alone
@@ -181,29 +229,14 @@ fn errors(res: &Results, band: &Renderable) -> (f64, usize, f64) {
 #[test]
 fn on_the_papers_sweep_the_hysteresis_error_lies_where_no_current_gives_the_force() {
     let dir = tempfile::tempdir().unwrap();
-    let scn = paper_scenario();
-    let limit = scn.controller.gains.out_max;
-    let paper = paper_device();
-    let (_, _, floor) = errors(
-        &run(&scn, &paper, &paper),
-        &Renderable::new(&paper, limit).unwrap(),
-    );
-    let plant = hysteresis_plant(dir.path());
-    let band = Renderable::new(&plant, limit).unwrap();
-    let nominal = run(&scn, &plant, &paper);
-    let aware = run(&scn, &plant, &plant);
-    let (a0, n0, e0) = errors(&nominal, &band);
-    let (a1, n1, e1) = errors(&aware, &band);
-    let (out0, out1) = (band.out_of_reach_n(&nominal), band.out_of_reach_n(&aware));
-    eprintln!(
-        "paper sweep, hysteresis plant: all resisting samples bingham controller {a0:.2} N, aware {a1:.2} N; \
-         out of reach of any current {out0:.2} N / {out1:.2} N; where renderable {e0:.2} N ({n0} samples) / \
-         {e1:.2} N ({n1}), floor {floor:.2} N"
-    );
+    let r = HysteresisRuns::new(&paper_scenario(), dir.path(), "paper sweep");
+    let (a0, a1) = (r.nominal_err.0, r.aware_err.0);
+    let (out0, out1) = (r.band.out_of_reach_n(&r.nominal), r.band.out_of_reach_n(&r.aware));
     assert!(
         out0 > 0.8 * a0 && out1 > 0.8 * a1,
         "out of reach {out0:.2} / {out1:.2} N, errors {a0:.2} / {a1:.2} N"
     );
+    let (e1, floor) = (r.aware_err.2, r.floor_n);
     assert!(
         e1 <= 1.1 * floor,
         "floor {floor:.2} N, bingham+hysteresis {e1:.2} N"
@@ -221,28 +254,9 @@ fn on_the_papers_sweep_the_hysteresis_error_lies_where_no_current_gives_the_forc
 fn on_fine_corrections_the_hysteresis_aware_controller_cuts_the_error_where_the_plant_can_render_it() {
     let dir = tempfile::tempdir().unwrap();
     let scn = scenario("paper-fine-corrections.toml");
-    let limit = scn.controller.gains.out_max;
-    let paper = paper_device();
-    let (_, _, floor) = errors(
-        &run(&scn, &paper, &paper),
-        &Renderable::new(&paper, limit).unwrap(),
-    );
-    let plant = hysteresis_plant(dir.path());
-    let band = Renderable::new(&plant, limit).unwrap();
-    let nominal = run(&scn, &plant, &paper);
-    let aware = run(&scn, &plant, &plant);
-    let (a0, n0, e0) = errors(&nominal, &band);
-    let (a1, n1, e1) = errors(&aware, &band);
-    eprintln!(
-        "fine corrections, hysteresis plant, where renderable: bingham controller {e0:.2} N ({n0} samples), \
-         bingham+hysteresis {e1:.2} N ({n1}): {:+.1} %; floor {floor:.2} N; all resisting samples {a0:.2} -> \
-         {a1:.2} N ({:+.1} %), out of reach of any current {:.2} / {:.2} N",
-        100.0 * (e1 / e0 - 1.0),
-        100.0 * (a1 / a0 - 1.0),
-        band.out_of_reach_n(&nominal),
-        band.out_of_reach_n(&aware),
-    );
-    let resisting = aware.summary().resisting_samples;
+    let r = HysteresisRuns::new(&scn, dir.path(), "fine corrections");
+    let ((_, _, e0), (_, n1, e1), floor) = (r.nominal_err, r.aware_err, r.floor_n);
+    let resisting = r.aware.summary().resisting_samples;
     assert!(n1 > resisting / 2, "{n1} of {resisting} samples renderable");
     assert!(e1 <= 0.6 * e0, "bingham {e0:.2} N, bingham+hysteresis {e1:.2} N");
     assert!(

@@ -540,6 +540,23 @@ fn feel_system_section_errors_name_the_file_line_and_key() {
         e.contains("feel_system.motor_max_force_n") && e.contains("required by `active`"),
         "{e}"
     );
+    // The modelled stick's file gives the force limit: the ideal source's keys are refused beside it, and
+    // a file of another kind is refused at `model`.
+    let e = err("kind = \"active\"\nmodel = \"../models/active-stick.toml\"\nmotor_max_force_n = 150.0");
+    assert!(
+        e.contains("feel_system.motor_max_force_n") && e.contains("not used with `feel_system.model`"),
+        "{e}"
+    );
+    let e = err("kind = \"active\"\nmodel = \"../models/paper-device.toml\"");
+    assert!(
+        e.contains("feel_system.model") && e.contains("paper-device.toml"),
+        "{e}"
+    );
+    let e = err("kind = \"mr\"\nmodel = \"../models/active-stick.toml\"");
+    assert!(
+        e.contains("feel_system.model") && e.contains("not used by `mr`"),
+        "{e}"
+    );
     // A key of another kind is refused, not ignored.
     let e = err("kind = \"mr\"\nhybrid_k_n_per_m = 500.0");
     assert!(

@@ -1,8 +1,6 @@
 //! The repository and the binary stand alone: a clone of the repository with nothing beside it runs the
 //! main job, and a copy of the binary runs from any folder, with the models it ships built in.
 
-use crate::common;
-
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -200,6 +198,40 @@ fn a_copied_binary_runs_a_copied_scenario_anywhere() {
         assert!(msg.contains(&needle), "{needle} not in: {msg}");
     }
     assert!(!work.join("m.csv").exists());
+}
+
+/// `scenarios/paper-fine-corrections.toml` ships in the binary: copied into a folder with a copy of the
+/// binary and no source tree in reach it runs on the built-in models, and the built-in copy
+/// (`<built-in>/scenarios/paper-fine-corrections.toml`) runs from the same folder to the same bytes.
+#[test]
+fn the_fine_corrections_scenario_runs_anywhere_and_is_built_in() {
+    let tmp = tempfile::tempdir().unwrap();
+    let bin = tmp.path().join("mrfeel");
+    std::fs::copy(env!("CARGO_BIN_EXE_mrfeel"), &bin).unwrap();
+    let original = std::fs::read_to_string(root().join("scenarios/paper-fine-corrections.toml")).unwrap();
+    std::fs::write(tmp.path().join("paper-fine-corrections.toml"), &original).unwrap();
+    let copied = run_in(
+        &bin,
+        tmp.path(),
+        &["run", "paper-fine-corrections.toml", "--out", "copied.csv"],
+    );
+    assert!(copied.status.success(), "{}", text(&copied));
+    let built_in = run_in(
+        &bin,
+        tmp.path(),
+        &[
+            "run",
+            "<built-in>/scenarios/paper-fine-corrections.toml",
+            "--out",
+            "built-in.csv",
+        ],
+    );
+    assert!(built_in.status.success(), "{}", text(&built_in));
+    let read = |f: &str| std::fs::read(tmp.path().join(f)).unwrap();
+    // 10 s at 1 kHz.
+    let rows = read("copied.csv").split(|&b| b == b'\n').count();
+    assert!(rows > 10_000, "{rows} lines");
+    assert_eq!(read("copied.csv"), read("built-in.csv"));
 }
 
 /// An aircraft named in a copied scenario is flown from the built-in model, from any folder.

@@ -262,24 +262,6 @@ impl ActiveStick {
         1.0 / (self.cfg.admittance.rate_hz * self.inner_per_outer as f64)
     }
 
-    /// The feel law's force at the virtual model's state, N along +x (the force the pilot should feel);
-    /// a spring law's breakout rises linearly over ±`breakout_band_m`.
-    fn law_force_n(&self, law: &FeelLaw, t_s: f64, x: f64, v: f64) -> f64 {
-        match *law {
-            FeelLaw::Spring {
-                breakout_n,
-                gradient_n_per_m,
-                damping_n_s_per_m,
-                max_force_n,
-            } => {
-                let s = (x / self.cfg.admittance.breakout_band_m).clamp(-1.0, 1.0);
-                (breakout_n * s + gradient_n_per_m * x + damping_n_s_per_m * v)
-                    .clamp(-max_force_n, max_force_n)
-            }
-            _ => law.force_n(t_s, x, v, super::law::sgn(v)),
-        }
-    }
-
     /// The grip sensor's reading at `t_s`, N along the grip path, after its faults.
     fn read_sensor(&mut self, t_s: f64, true_n: f64, faults: &FaultSchedule) -> f64 {
         let s = self.cfg.sensor;
@@ -314,7 +296,10 @@ impl ActiveStick {
         let f_h = grip * rod.grip_to_rod;
         self.sensed_rod_force_n = f_h;
         // Virtual model, semi-implicit Euler.
-        let f_law = self.law_force_n(law, t_s, self.x_r_m, self.v_r_m_s);
+        // The law at the virtual model's state, its breakout continuous over the band (the virtual mass
+        // integrates it).
+        let (x_r, v_r) = (self.x_r_m, self.v_r_m_s);
+        let f_law = law.force_n(t_s, x_r, v_r, super::law::sgn(v_r), Some(a.breakout_band_m));
         let acc = (f_h - f_law - a.virtual_damping_n_s_per_m * self.v_r_m_s) / a.virtual_mass_kg;
         self.v_r_m_s += acc * dt;
         self.x_r_m += self.v_r_m_s * dt;

@@ -117,7 +117,7 @@ impl FeelController {
         } else {
             0.0
         };
-        let desired = self.law.force_n(t_s, s.x_m, s.v_m_s, dir);
+        let desired = self.law.force_n(t_s, s.x_m, s.v_m_s, dir, None);
         if let FeelLaw::Target { .. } = self.law {
             let (last, rate) = &mut self.target;
             if let Some(f0) = *last {

@@ -55,7 +55,11 @@ pub enum FeelLaw {
 impl FeelLaw {
     /// Desired force at time `t_s`, deflection `x_m`, velocity `v_m_s`; `dir` is the direction of motion
     /// (or of the pilot's push at rest), used by laws that always resist.
-    pub fn force_n(&self, t_s: f64, x_m: f64, v_m_s: f64, dir: f64) -> f64 {
+    ///
+    /// `breakout_band_m`: a spring's breakout rises linearly from 0 to full over ±this deflection instead
+    /// of stepping at the centre (`sgn x`). A model that integrates the law (the active stick's virtual
+    /// mass) needs it continuous; a loop that only tracks it takes the step (`None`).
+    pub fn force_n(&self, t_s: f64, x_m: f64, v_m_s: f64, dir: f64, breakout_band_m: Option<f64>) -> f64 {
         match *self {
             FeelLaw::Spring {
                 breakout_n,
@@ -63,7 +67,11 @@ impl FeelLaw {
                 damping_n_s_per_m,
                 max_force_n,
             } => {
-                let f = breakout_n * sgn(x_m) + gradient_n_per_m * x_m + damping_n_s_per_m * v_m_s;
+                let s = match breakout_band_m {
+                    Some(band) => (x_m / band).clamp(-1.0, 1.0),
+                    None => sgn(x_m),
+                };
+                let f = breakout_n * s + gradient_n_per_m * x_m + damping_n_s_per_m * v_m_s;
                 f.clamp(-max_force_n, max_force_n)
             }
             FeelLaw::ForceSteps { .. } => self.step_level_n(t_s) * dir,
@@ -75,7 +83,7 @@ impl FeelLaw {
     /// unknown and the damper's yield force acts either way).
     pub(crate) fn holding_force_n(&self, t_s: f64, x_m: f64) -> f64 {
         match self {
-            FeelLaw::Spring { .. } => self.force_n(t_s, x_m, 0.0, 0.0).abs(),
+            FeelLaw::Spring { .. } => self.force_n(t_s, x_m, 0.0, 0.0, None).abs(),
             FeelLaw::ForceSteps { .. } => self.step_level_n(t_s),
             FeelLaw::Target { force_n } => force_n.abs(),
         }
@@ -140,10 +148,36 @@ mod tests {
             damping_n_s_per_m: 0.0,
             max_force_n: 70.0,
         };
-        assert!((law.force_n(0.0, 0.0508, 0.0, sgn(0.0)) - 70.0).abs() < 1e-9);
-        assert!((law.force_n(0.0, -0.0508, 0.0, sgn(0.0)) + 70.0).abs() < 1e-9);
-        assert_eq!(law.force_n(0.0, 0.08, 0.0, sgn(0.0)), 70.0);
-        assert_eq!(law.force_n(0.0, 0.0, 0.3, sgn(0.3)), 0.0);
+        assert!((law.force_n(0.0, 0.0508, 0.0, sgn(0.0), None) - 70.0).abs() < 1e-9);
+        assert!((law.force_n(0.0, -0.0508, 0.0, sgn(0.0), None) + 70.0).abs() < 1e-9);
+        assert_eq!(law.force_n(0.0, 0.08, 0.0, sgn(0.0), None), 70.0);
+        assert_eq!(law.force_n(0.0, 0.0, 0.3, sgn(0.3), None), 0.0);
+    }
+
+    #[test]
+    fn a_breakout_band_ramps_the_breakout_and_leaves_the_law_beyond_it() {
+        let law = FeelLaw::Spring {
+            breakout_n: 5.0,
+            gradient_n_per_m: 1000.0,
+            damping_n_s_per_m: 20.0,
+            max_force_n: 70.0,
+        };
+        let band = Some(0.001);
+        // Half-way into the band: half the breakout, plus the gradient and damping terms.
+        let f = law.force_n(0.0, 0.0005, 0.1, 1.0, band);
+        assert!((f - (2.5 + 0.5 + 2.0)).abs() < 1e-12, "{f}");
+        assert!((law.force_n(0.0, -0.0005, 0.0, -1.0, band) + 3.0).abs() < 1e-12);
+        // Beyond the band, the stepped law exactly; at the centre no breakout either way.
+        for x in [0.002, -0.03, 0.06] {
+            assert_eq!(
+                law.force_n(0.0, x, 0.1, 1.0, band),
+                law.force_n(0.0, x, 0.1, 1.0, None)
+            );
+        }
+        assert_eq!(law.force_n(0.0, 0.0, 0.0, 1.0, band), 0.0);
+        // The stepped law jumps by twice the breakout across the centre.
+        let jump = law.force_n(0.0, 1e-9, 0.0, 1.0, None) - law.force_n(0.0, -1e-9, 0.0, -1.0, None);
+        assert!((jump - 10.0).abs() < 1e-5);
     }
 
     #[test]
@@ -154,9 +188,9 @@ mod tests {
             start_s: 0.5,
             period_s: 0.3,
         };
-        assert_eq!(law.force_n(0.4, 0.0, 0.1, sgn(0.1)), 20.0);
-        assert_eq!(law.force_n(0.6, 0.0, 0.1, sgn(0.1)), 50.0);
-        assert_eq!(law.force_n(0.9, 0.0, -0.1, sgn(-0.1)), -20.0);
+        assert_eq!(law.force_n(0.4, 0.0, 0.1, sgn(0.1), None), 20.0);
+        assert_eq!(law.force_n(0.6, 0.0, 0.1, sgn(0.1), None), 50.0);
+        assert_eq!(law.force_n(0.9, 0.0, -0.1, sgn(-0.1), None), -20.0);
         let steps = law.step_times_s(1.2);
         assert_eq!(steps.len(), 3);
         assert!((steps[2] - 1.1).abs() < 1e-12);

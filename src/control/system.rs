@@ -37,8 +37,9 @@ pub struct FeelSystem {
 }
 
 impl FeelSystem {
-    /// The system `config` describes, run by `controller`.
-    pub fn new(config: &FeelSystemConfig, mut controller: FeelController) -> Self {
+    /// The system `config` describes, run by `controller`; `seed` (the scenario's) seeds the modelled
+    /// active stick's grip-sensor noise.
+    pub fn new(config: &FeelSystemConfig, mut controller: FeelController, seed: u64) -> Self {
         let (coil, motor) = match config.kind {
             FeelKind::Mr | FeelKind::MrSpring => (true, None),
             FeelKind::Active => (false, Some(config.motor_max_force_n)),
@@ -61,7 +62,7 @@ impl FeelSystem {
                 cmd_n: 0.0,
                 force_n: 0.0,
             }),
-            stick: config.active_stick.map(|c| ActiveStick::new(c, 1)),
+            stick: config.active_stick.map(|c| ActiveStick::new(c, seed)),
         }
     }
 

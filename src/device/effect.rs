@@ -108,6 +108,15 @@ pub trait Effect: Send + Sync {
     fn states_read_the_force(&self) -> bool {
         true
     }
+    /// Which of this effect's parameters its states can depend on, one flag per parameter in the order of
+    /// [`Effect::params`] (read only when [`Effect::states_read_the_force`] is `false`). The default, every
+    /// one, is always right. An effect whose states follow only some of its parameters (a data-defined
+    /// effect's low-pass states read no coefficient) may leave the others out: the fitter then takes the
+    /// force's sensitivity to them from the states it kept, as for the parameters of effects without states.
+    /// Leaving out a parameter a state reads makes the fit's Jacobian wrong.
+    fn params_the_states_read(&self) -> Vec<bool> {
+        vec![true; self.params().len()]
+    }
     /// Initial states at the first sample of a test.
     fn init_states(&self, _p: &[f64], _s: &mut [f64], _inp: &Inputs, _stage: &Stage) {}
     /// Edit the force assembly at this sample.

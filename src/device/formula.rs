@@ -196,6 +196,17 @@ impl Formula {
             .any(|(e, _)| e.reads(&|x| *x == Expr::Feature(Feature::I)))
     }
 
+    /// Which of the parameters (by index, `n` of them) the low-pass states read.
+    fn params_the_states_read(&self, n: usize) -> Vec<bool> {
+        (0..n)
+            .map(|k| {
+                self.lowpass
+                    .iter()
+                    .any(|(e, _)| e.reads(&|x| *x == Expr::Param(k)))
+            })
+            .collect()
+    }
+
     /// Low-pass states at a test's first sample: each at its input's value.
     fn init(&self, p: &[f64], s: &mut [f64], sig: &Signals) {
         for k in 0..self.lowpass.len() {
@@ -631,6 +642,10 @@ impl Effect for FormulaEffect {
 
     fn states_read_the_force(&self) -> bool {
         self.formula.states_read_the_current()
+    }
+
+    fn params_the_states_read(&self) -> Vec<bool> {
+        self.formula.params_the_states_read(self.params.len())
     }
 
     fn init_states(&self, p: &[f64], s: &mut [f64], inp: &Inputs, stage: &Stage) {

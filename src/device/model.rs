@@ -551,7 +551,7 @@ impl Model {
     }
 
     /// Which parameters the states can depend on ([`Effect::states_read_the_force`]): the lags' time
-    /// constants and the parameters of effects with states, or every parameter when one of those effects
+    /// constants and the parameters the effects' states read ([`Effect::params_the_states_read`]), or every parameter when one of those effects
     /// reads the force. A parameter marked `false` acts on the force only through the sample's force
     /// assembly, so [`Model::forces_on_states`] gives the force it makes without a new integration.
     pub(crate) fn state_params(&self) -> Vec<bool> {
@@ -564,7 +564,10 @@ impl Model {
             out[k] = true;
         }
         for slot in stateful() {
-            out[slot.params.clone()].fill(true);
+            let read = slot.effect.params_the_states_read();
+            for (k, r) in slot.params.clone().zip(read) {
+                out[k] |= r;
+            }
         }
         out
     }

@@ -595,6 +595,13 @@ pub fn diagnose(
     let f_rms = (f_ss / samples.max(1) as f64).sqrt();
     let noise = noise_floor_n(tests);
     let cv_fit = opts.cv_fit();
+    // The fits of candidates cross-validated side by side each keep to one thread (the candidates and
+    // their folds are the parallel work): a thread waiting for part of its fit would otherwise start another
+    // candidate's fit and hold both fits' buffers. A single model's cross-validation keeps `cv_fit`.
+    let side_by_side = FitOptions {
+        parallel: false,
+        ..cv_fit.clone()
+    };
 
     let bar = if opts.progress {
         let b = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
@@ -658,7 +665,7 @@ pub fn diagnose(
             .par_iter()
             .map(|n| {
                 let m = build(&cur.spec.with(n), &reg)?;
-                let cv = cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &cv_fit, &bar);
+                let cv = cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &side_by_side, &bar);
                 Ok((m, cv))
             })
             .collect();
@@ -701,7 +708,8 @@ pub fn diagnose(
                         // From the current model's fits, both effects from their initial guesses: the seed's
                         // own fit has taken its partner's part, the very thing the pair undoes.
                         let m = build(&tried[si].0.spec().with(n), &reg)?;
-                        let cv = cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &cv_fit, &bar);
+                        let cv =
+                            cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &side_by_side, &bar);
                         Ok((m, cv))
                     })
                     .collect();
@@ -715,6 +723,24 @@ pub fn diagnose(
                 for (c, (m, cv)) in pair_cands.iter_mut().zip(&pairs) {
                     c.significant &= search.beats_each_member(&cur, m, cv, &tried);
                 }
+            }
+        }
+        // From here on a candidate's held-out predictions are read only if it becomes the current model: the
+        // significant single effect, else the significant pair (whose members then join the path for the
+        // backward pass). The others' are dropped before the open search holds columns of its own.
+        let single = cands.iter().position(|c| c.significant);
+        let pair = pair_cands
+            .iter()
+            .position(|c| c.significant)
+            .filter(|_| single.is_none());
+        for (i, (_, cv)) in tried.iter_mut().enumerate() {
+            if Some(i) != single && pair.is_none() {
+                cv.oof = Vec::new();
+            }
+        }
+        for (i, (_, cv)) in pairs.iter_mut().enumerate() {
+            if Some(i) != pair {
+                cv.oof = Vec::new();
             }
         }
         // The open search: a term from the library, fitted and judged on the same folds by the same rules.
@@ -848,7 +874,7 @@ pub fn diagnose(
                 let m = build(&spec, &reg)?;
                 let cv = match path_cv.get(&spec.to_string()) {
                     Some(cv) => cv.clone(),
-                    None => cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &cv_fit, &bar),
+                    None => cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &side_by_side, &bar),
                 };
                 Ok((gi, m, cv))
             })

@@ -20,6 +20,7 @@
 //! structure the model lacks; noise is not predictable. `verdict`.
 
 use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
 
 use super::diagnose::Fold;
 use super::residual::direction_weights;
@@ -230,89 +231,121 @@ pub(crate) fn propose_term(
             w.push(if ok { 1.0 } else { 0.0 });
         }
     }
-    let cols: Vec<(usize, Vec<f64>)> = lib
-        .iter()
-        .enumerate()
-        .filter_map(|(j, l)| column(&l.feature, tests, current).map(|c| (j, c)))
-        .map(|(j, c)| (j, c.iter().zip(&w).map(|(a, b)| a * b).collect()))
-        .collect();
     let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
     let rr = dot(&target, &target);
     if rr <= 0.0 {
         return None;
     }
+    // A library term's column over the samples that count; `None` where it is not finite everywhere.
+    let weighted = |j: usize| -> Option<Vec<f64>> {
+        let c = column(&lib[j].feature, tests, current)?;
+        Some(c.iter().zip(&w).map(|(a, b)| a * b).collect())
+    };
+    // A column orthogonalised against the chosen terms, and the share of the residual's energy it explains
+    // (`None` when the chosen terms already span it: it adds nothing).
+    let orthogonal = |c: &[f64], basis: &[Vec<f64>]| -> Option<(f64, Vec<f64>)> {
+        let mut q = c.to_vec();
+        for b in basis {
+            let k = dot(&q, b) / dot(b, b);
+            q.iter_mut().zip(b).for_each(|(q, b)| *q -= k * b);
+        }
+        let qq = dot(&q, &q);
+        if qq <= 1e-10 * dot(c, c) || qq <= 0.0 {
+            return None;
+        }
+        Some((dot(&q, &target).powi(2) / (qq * rr), q))
+    };
+    // The columns are computed afresh in each round (in parallel, each dropped once scored) rather than
+    // held all at once: a library of ~30 terms would hold ~30 values per sample through the search, the
+    // largest buffer of a diagnosis. Only the chosen terms' columns are kept.
+    let first: Vec<Option<Option<f64>>> = (0..lib.len())
+        .into_par_iter()
+        .map(|j| weighted(j).map(|c| orthogonal(&c, &[]).map(|(err, _)| err)))
+        .collect();
+    // The library terms whose columns are finite; a candidate's index `ci` is its place in this list.
+    let valid: Vec<usize> = (0..lib.len()).filter(|&j| first[j].is_some()).collect();
+    let mut errs: Vec<Option<f64>> = first.into_iter().flatten().collect();
     let mut chosen: Vec<usize> = Vec::new();
     let mut basis: Vec<Vec<f64>> = Vec::new();
+    let mut raw: Vec<Vec<f64>> = Vec::new();
     while chosen.len() < MAX_TERMS {
-        let mut best: Option<(f64, usize, Vec<f64>)> = None;
-        for (ci, (_, c)) in cols.iter().enumerate() {
-            if chosen.contains(&ci) {
-                continue;
-            }
-            let mut q = c.clone();
-            for b in &basis {
-                let k = dot(&q, b) / dot(b, b);
-                q.iter_mut().zip(b).for_each(|(q, b)| *q -= k * b);
-            }
-            let qq = dot(&q, &q);
-            // A candidate the chosen terms already span adds nothing.
-            if qq <= 1e-10 * dot(c, c) || qq <= 0.0 {
-                continue;
-            }
-            let err = dot(&q, &target).powi(2) / (qq * rr);
-            if best.as_ref().is_none_or(|b| err > b.0) {
-                best = Some((err, ci, q));
+        if !chosen.is_empty() {
+            errs = (0..valid.len())
+                .into_par_iter()
+                .map(|ci| {
+                    if chosen.contains(&ci) {
+                        return None;
+                    }
+                    let c = weighted(valid[ci])?;
+                    orthogonal(&c, &basis).map(|(err, _)| err)
+                })
+                .collect();
+        }
+        // The first candidate with the largest share, in library order.
+        let mut best: Option<(f64, usize)> = None;
+        for (ci, err) in errs.iter().enumerate() {
+            if let Some(err) = *err {
+                if !chosen.contains(&ci) && best.is_none_or(|b| err > b.0) {
+                    best = Some((err, ci));
+                }
             }
         }
         match best {
-            Some((err, ci, q)) if err >= MIN_ERR => {
+            Some((err, ci)) if err >= MIN_ERR => {
+                let Some(c) = weighted(valid[ci]) else { break };
+                let Some((_, q)) = orthogonal(&c, &basis) else {
+                    break;
+                };
                 chosen.push(ci);
                 basis.push(q);
+                raw.push(c);
             }
             _ => break,
         }
     }
+    drop(basis);
     if chosen.is_empty() {
         return None;
     }
     // Least-squares coefficients of the chosen (not orthogonalised) columns. A term chosen early can end
     // with a negligible share once the later terms are fitted beside it (they explain what it explained):
     // such a term is dropped and the rest refitted, so the effect keeps only terms that carry force.
-    let solve = |chosen: &[usize]| -> Option<DVector<f64>> {
-        let m = chosen.len();
+    let solve = |raw: &[Vec<f64>]| -> Option<DVector<f64>> {
+        let m = raw.len();
         let mut ata = DMatrix::<f64>::zeros(m, m);
         let mut atb = DVector::<f64>::zeros(m);
         for a in 0..m {
-            atb[a] = dot(&cols[chosen[a]].1, &target);
+            atb[a] = dot(&raw[a], &target);
             for b in 0..m {
-                ata[(a, b)] = dot(&cols[chosen[a]].1, &cols[chosen[b]].1);
+                ata[(a, b)] = dot(&raw[a], &raw[b]);
             }
         }
         ata.lu().solve(&atb)
     };
-    let share = |chosen: &[usize], coef: &DVector<f64>, a: usize| {
-        coef[a].powi(2) * dot(&cols[chosen[a]].1, &cols[chosen[a]].1) / rr
-    };
-    let mut coef = solve(&chosen)?;
+    let share =
+        |raw: &[Vec<f64>], coef: &DVector<f64>, a: usize| coef[a].powi(2) * dot(&raw[a], &raw[a]) / rr;
+    let mut coef = solve(&raw)?;
     while chosen.len() > 1 {
         let (weakest, s) = (0..chosen.len())
-            .map(|a| (a, share(&chosen, &coef, a)))
+            .map(|a| (a, share(&raw, &coef, a)))
             .min_by(|a, b| a.1.total_cmp(&b.1))?;
         if s >= MIN_ERR {
             break;
         }
         chosen.remove(weakest);
-        coef = solve(&chosen)?;
+        raw.remove(weakest);
+        coef = solve(&raw)?;
     }
     // Strongest term first: it names the family the effect resembles.
     let mut order: Vec<usize> = (0..chosen.len()).collect();
-    order.sort_by(|&a, &b| share(&chosen, &coef, b).total_cmp(&share(&chosen, &coef, a)));
+    order.sort_by(|&a, &b| share(&raw, &coef, b).total_cmp(&share(&raw, &coef, a)));
+    drop(raw);
     let (chosen, coef): (Vec<usize>, Vec<f64>) = order.iter().map(|&a| (chosen[a], coef[a])).unzip();
     let mut params = Vec::new();
     let mut formula = Vec::new();
     let mut families = Vec::new();
     for (a, &ci) in chosen.iter().enumerate() {
-        let term = &lib[cols[ci].0];
+        let term = &lib[valid[ci]];
         let c = coef[a];
         if !c.is_finite() {
             return None;
@@ -793,6 +826,74 @@ mod tests {
         };
         for t in library(s) {
             Formula::parse(&t.feature, &[]).unwrap_or_else(|e| panic!("{}: {e}", t.feature));
+        }
+    }
+
+    /// A residual made of two library terms (a force even in velocity and a spring odd in displacement,
+    /// under current steps) is found as those two terms with their exact coefficients, and no third term
+    /// joins them.
+    #[test]
+    fn a_residual_of_two_library_terms_is_found_as_them() {
+        let tests: Vec<Test> = (0..3)
+            .map(|j| {
+                let (a, f) = (0.02 / (1.0 + j as f64), 1.0 + j as f64);
+                let w = std::f64::consts::TAU * f;
+                let inputs: Vec<Inputs> = (0..4000)
+                    .map(|k| {
+                        let t = k as f64 * 1e-3;
+                        Inputs {
+                            t_s: t,
+                            x_m: a * (w * t).sin(),
+                            v_m_s: a * w * (w * t).cos(),
+                            a_m_s2: -a * w * w * (w * t).sin(),
+                            current_cmd_a: 2.0 * ((k / 700 + j) % 4) as f64,
+                        }
+                    })
+                    .collect();
+                Test {
+                    path: format!("g{j}.csv").into(),
+                    name: format!("g{j}.csv"),
+                    group: format!("g{j}"),
+                    f_n: vec![0.0; inputs.len()],
+                    inputs,
+                    velocity_measured: true,
+                    velocity_noise_m_s: None,
+                    drive: None,
+                }
+            })
+            .collect();
+        let current: Vec<Vec<f64>> = tests
+            .iter()
+            .map(|t| t.inputs.iter().map(|i| i.current_cmd_a).collect())
+            .collect();
+        let lib = library(Scales::of(&tests));
+        let truth = [("v^2".to_string(), 1000.0), ("x^3".to_string(), 2e6)];
+        let mut tests = tests;
+        for (j, t) in tests.iter_mut().enumerate() {
+            let cur = std::slice::from_ref(&current[j]);
+            let one = std::slice::from_ref(t);
+            let mut f = vec![0.0; t.len()];
+            for (term, c) in &truth {
+                let col = column(term, one, cur).expect("finite");
+                f.iter_mut().zip(col).for_each(|(f, x)| *f += c * x);
+            }
+            t.f_n = f;
+        }
+        let oof: Vec<Vec<f64>> = tests.iter().map(|t| vec![0.0; t.len()]).collect();
+        let e = propose_term("term1", &tests, &oof, &current, &lib).expect("a term");
+        let features = features_of(&e);
+        let mut want: Vec<&str> = truth.iter().map(|t| t.0.as_str()).collect();
+        let mut got: Vec<&str> = features.iter().map(String::as_str).collect();
+        want.sort_unstable();
+        got.sort_unstable();
+        assert_eq!(got, want, "{}", e.formula());
+        for (p, f) in e.declared_params().iter().zip(&features) {
+            let c = truth
+                .iter()
+                .find(|t| &t.0 == f)
+                .map(|t| t.1)
+                .expect("a true term");
+            assert!((p.guess - c).abs() <= 1e-6 * c, "{f}: {} against {c}", p.guess);
         }
     }
 

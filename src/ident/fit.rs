@@ -175,6 +175,11 @@ pub struct FitOptions {
     pub std_errors: bool,
     /// How the tests share the loss.
     pub weighting: Weighting,
+    /// Spread the fit's simulations over threads (tests, Jacobian columns). A caller that runs many fits side
+    /// by side turns it off: each fit then keeps to one thread, so that a thread waiting for a share of its
+    /// own fit's work never starts another fit meanwhile (each fit holds its Jacobian and states, several
+    /// values per sample). The numbers are the same either way.
+    pub parallel: bool,
 }
 
 impl Default for FitOptions {
@@ -186,6 +191,7 @@ impl Default for FitOptions {
             max_iterations: 40,
             std_errors: true,
             weighting: Weighting::Tests,
+            parallel: true,
         }
     }
 }
@@ -334,6 +340,8 @@ struct Problem<'a> {
     evaluations: usize,
     /// Jacobian columns integrated and assembled on kept states, so far.
     columns: [AtomicUsize; 2],
+    /// Simulate tests and Jacobian columns in parallel ([`FitOptions::parallel`]).
+    parallel: bool,
 }
 
 impl<'a> Problem<'a> {
@@ -344,6 +352,7 @@ impl<'a> Problem<'a> {
         weights: &'a [Vec<f64>],
         tf: Vec<Transform>,
         z: Vec<f64>,
+        parallel: bool,
     ) -> Self {
         let mut sim_len = vec![0usize; tests.len()];
         let mut offsets = Vec::with_capacity(spans.len());
@@ -389,6 +398,7 @@ impl<'a> Problem<'a> {
             best: (f64::INFINITY, Vec::new()),
             evaluations: 0,
             columns: Default::default(),
+            parallel,
         };
         p.update();
         p
@@ -404,6 +414,7 @@ impl<'a> Problem<'a> {
             self.weights,
             self.tf.clone(),
             z,
+            self.parallel,
         )
     }
 
@@ -430,31 +441,33 @@ impl<'a> Problem<'a> {
     fn simulate(&self, z: &[f64]) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
         let p = self.params_of(z);
         let keep = self.state_params.iter().any(|s| !s);
-        (0..self.tests.len())
-            .into_par_iter()
-            .map(|j| {
-                let n = self.sim_len[j];
-                if n == 0 {
-                    return (Vec::new(), Vec::new());
+        let one = |j: usize| {
+            let n = self.sim_len[j];
+            if n == 0 {
+                return (Vec::new(), Vec::new());
+            }
+            // With a filtered acquisition the model runs over the lead-in too, and its force is
+            // averaged as the file's was; the states are kept over the whole drive.
+            let inputs = self.tests[j].drive_inputs(n);
+            let (mut out, mut states) = (vec![0.0; inputs.len()], Vec::new());
+            if keep {
+                self.model.simulate_recording(&p, inputs, &mut out, &mut states);
+            } else {
+                self.model.simulate_into(&p, inputs, &mut out);
+            }
+            let mut out = self.tests[j].observed(out);
+            for v in &mut out {
+                if !v.is_finite() {
+                    *v = self.blowup_n;
                 }
-                // With a filtered acquisition the model runs over the lead-in too, and its force is
-                // averaged as the file's was; the states are kept over the whole drive.
-                let inputs = self.tests[j].drive_inputs(n);
-                let (mut out, mut states) = (vec![0.0; inputs.len()], Vec::new());
-                if keep {
-                    self.model.simulate_recording(&p, inputs, &mut out, &mut states);
-                } else {
-                    self.model.simulate_into(&p, inputs, &mut out);
-                }
-                let mut out = self.tests[j].observed(out);
-                for v in &mut out {
-                    if !v.is_finite() {
-                        *v = self.blowup_n;
-                    }
-                }
-                (out, states)
-            })
-            .unzip()
+            }
+            (out, states)
+        };
+        if self.parallel {
+            (0..self.tests.len()).into_par_iter().map(one).unzip()
+        } else {
+            (0..self.tests.len()).map(one).unzip()
+        }
     }
 
     fn update(&mut self) {
@@ -525,7 +538,7 @@ impl<'a> Problem<'a> {
                 }
             }
         }
-        tasks.into_par_iter().for_each(|(c, j, rows)| {
+        let task = |(c, j, rows): Task<'_>| {
             let k = cols[c];
             let h = 1e-6 * (1.0 + self.z[k].abs());
             let mut z = self.z.clone();
@@ -548,7 +561,12 @@ impl<'a> Problem<'a> {
                     *d = if v.is_finite() { v } else { 0.0 };
                 }
             }
-        });
+        };
+        if self.parallel {
+            tasks.into_par_iter().for_each(task);
+        } else {
+            tasks.into_iter().for_each(task);
+        }
         jac
     }
 }
@@ -658,7 +676,7 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
     let weights = loss_weights(tests, spans, opts.weighting);
     let staged = !opts.hold.is_empty();
     if !staged {
-        linear_warm_start(model, tests, spans, &weights, &mut p0);
+        linear_warm_start(model, tests, spans, &weights, &mut p0, opts.parallel);
     }
     let z0: Vec<f64> = p0.iter().zip(&tf).map(|(p, t)| t.z(*p)).collect();
     let n = model.n_params();
@@ -672,7 +690,15 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
     }
 
     // Parameters the force does not depend on in these data: a zero Jacobian column at the start.
-    let mut prob = Problem::new(model, tests, spans, &weights, tf.clone(), z0.clone());
+    let mut prob = Problem::new(
+        model,
+        tests,
+        spans,
+        &weights,
+        tf.clone(),
+        z0.clone(),
+        opts.parallel,
+    );
     let movable: Vec<usize> = (0..n).filter(|&k| !held[k]).collect();
     let j0 = prob.jacobian_into(&movable, &movable, n);
     let f_norm = spans
@@ -797,7 +823,7 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
         let sse = prob.resid.norm_squared();
         let mut p_lin = params.clone();
         if round < 3 && !staged {
-            linear_warm_start(model, tests, spans, &weights, &mut p_lin);
+            linear_warm_start(model, tests, spans, &weights, &mut p_lin, opts.parallel);
             let z_lin: Vec<f64> = p_lin.iter().zip(&tf).map(|(p, t)| t.z(*p)).collect();
             let trial = prob.at(z_lin.clone());
             evaluations += 1;
@@ -1075,7 +1101,14 @@ pub fn span_stats(tests: &[Test], spans: &[Span]) -> DataStats {
 /// linear in the zero-current yield force, the yield force per ampere and the damping), holding the other
 /// parameters: up to two projected Gauss–Newton steps, with the lower bounds kept (the first is exact when the
 /// force is linear in the gains, and the second is then skipped).
-fn linear_warm_start(model: &Model, tests: &[Test], spans: &[Span], weights: &[Vec<f64>], p: &mut [f64]) {
+fn linear_warm_start(
+    model: &Model,
+    tests: &[Test],
+    spans: &[Span],
+    weights: &[Vec<f64>],
+    p: &mut [f64],
+    parallel: bool,
+) {
     let idx = model.linear_gains();
     // Solved for the Bingham base's three gains; a base with other linear gains starts where it is.
     if idx.len() != 3 {
@@ -1091,37 +1124,34 @@ fn linear_warm_start(model: &Model, tests: &[Test], spans: &[Span], weights: &[V
     let on_states = !idx.iter().any(|&k| state_params[k]);
     for _ in 0..2 {
         let eval = |q: &[f64]| -> Vec<Vec<f64>> {
-            spans
-                .par_iter()
-                .map(|s| tests[s.test].predict(model, q, s.end)[s.start..].to_vec())
-                .collect()
+            each_span(parallel, spans.len(), |si| {
+                let s = &spans[si];
+                tests[s.test].predict(model, q, s.end)[s.start..].to_vec()
+            })
         };
         let (base, states): (Vec<Vec<f64>>, Vec<Vec<f64>>) = if on_states {
-            spans
-                .par_iter()
-                .map(|s| {
-                    let t = &tests[s.test];
-                    let inputs = t.drive_inputs(s.end);
-                    let (mut out, mut states) = (vec![0.0; inputs.len()], Vec::new());
-                    model.simulate_recording(p, inputs, &mut out, &mut states);
-                    (t.observed(out)[s.start..].to_vec(), states)
-                })
-                .unzip()
+            each_span(parallel, spans.len(), |si| {
+                let s = &spans[si];
+                let t = &tests[s.test];
+                let inputs = t.drive_inputs(s.end);
+                let (mut out, mut states) = (vec![0.0; inputs.len()], Vec::new());
+                model.simulate_recording(p, inputs, &mut out, &mut states);
+                (t.observed(out)[s.start..].to_vec(), states)
+            })
+            .into_iter()
+            .unzip()
         } else {
             (eval(p), Vec::new())
         };
         let assembled = |q: &[f64]| -> Vec<Vec<f64>> {
-            spans
-                .par_iter()
-                .zip(&states)
-                .map(|(s, st)| {
-                    let t = &tests[s.test];
-                    let inputs = t.drive_inputs(s.end);
-                    let mut out = vec![0.0; inputs.len()];
-                    model.forces_on_states(q, inputs, st, &mut out);
-                    t.observed(out)[s.start..].to_vec()
-                })
-                .collect()
+            each_span(parallel, spans.len(), |si| {
+                let s = &spans[si];
+                let t = &tests[s.test];
+                let inputs = t.drive_inputs(s.end);
+                let mut out = vec![0.0; inputs.len()];
+                model.forces_on_states(q, inputs, &states[si], &mut out);
+                t.observed(out)[s.start..].to_vec()
+            })
         };
         // The loss: the weighted sum of squares over the samples that count.
         let rr: f64 = spans
@@ -1188,6 +1218,15 @@ fn linear_warm_start(model: &Model, tests: &[Test], spans: &[Span], weights: &[V
         for (a, &k) in idx.iter().enumerate() {
             p[k] = specs[k].clamp(p[k] + d[a]);
         }
+    }
+}
+
+/// `f(0)`, …, `f(n − 1)` in order, computed in parallel or on this thread.
+fn each_span<T: Send>(parallel: bool, n: usize, f: impl Fn(usize) -> T + Sync + Send) -> Vec<T> {
+    if parallel {
+        (0..n).into_par_iter().map(f).collect()
+    } else {
+        (0..n).map(f).collect()
     }
 }
 
@@ -1674,7 +1713,46 @@ mod tests {
             "bingham+hysteresis+asymmetry+stiffness+inertia+magnetic_saturation+current_viscosity".into(),
         );
         specs.push("bingham+hysteresis+thermal_drift+asymmetry".into());
+        // Data-defined terms ([`with_terms`]): low-pass states that read no coefficient, and one that does.
+        specs.push("bingham+hysteresis+lagged".into());
+        specs.push("bingham+scaled_lag".into());
         specs
+    }
+
+    /// The built-in effects and two data-defined terms with low-pass states: `lagged`, whose states read
+    /// features only (its coefficients act on the force alone), and `scaled_lag`, whose state reads `sl_k`.
+    fn with_terms() -> Registry {
+        use crate::device::formula::{FormulaEffect, FormulaParam};
+        let param = |name: &str, guess: f64| FormulaParam {
+            name: name.into(),
+            unit: "N".into(),
+            lower: -1e6,
+            upper: 1e6,
+            guess,
+            doc: String::new(),
+        };
+        let mut r = Registry::builtin();
+        r.register(
+            FormulaEffect::new(
+                "lagged",
+                "",
+                "",
+                "lg_c1 * abs(i)*lp(tanh(v/0.02), 0.05) + lg_c2 * lp(x, 0.1)",
+                vec![param("lg_c1", 0.8), param("lg_c2", 900.0)],
+            )
+            .expect("formula"),
+        );
+        r.register(
+            FormulaEffect::new(
+                "scaled_lag",
+                "",
+                "",
+                "sl_c * lp(sl_k * v, 0.05) + sl_d * x",
+                vec![param("sl_c", 40.0), param("sl_k", 1.5), param("sl_d", 300.0)],
+            )
+            .expect("formula"),
+        );
+        r
     }
 
     /// The truth of `stepped_sine` with every effect at its typical strength.
@@ -1694,7 +1772,7 @@ mod tests {
     /// that reads the force are said to matter.
     #[test]
     fn a_parameter_no_state_depends_on_leaves_every_state_as_it_was() {
-        let registry = Registry::builtin();
+        let registry = with_terms();
         for spec in every_effect_models() {
             let model = Model::from_spec(&spec, &registry, 14.0).expect("model");
             let (tests, p) = typical(&model);
@@ -1737,13 +1815,26 @@ mod tests {
             bingham::LINEAR_GAINS.to_vec(),
             "hysteresis follows the piston only"
         );
+        // A data-defined term's coefficients act on the force alone unless a low-pass state reads them.
+        for (spec, force_only) in [
+            ("bingham+hysteresis+lagged", vec!["lg_c1", "lg_c2"]),
+            ("bingham+scaled_lag", vec!["sl_c", "sl_d"]),
+        ] {
+            let m = Model::from_spec(spec, &registry, 14.0).expect("model");
+            let flags = m.state_params();
+            let names: Vec<&str> = (0..m.n_params())
+                .filter(|&k| !flags[k] && !bingham::LINEAR_GAINS.contains(&k))
+                .map(|k| m.param_specs()[k].name)
+                .collect();
+            assert_eq!(names, force_only, "{spec}");
+        }
     }
 
     /// The fit's Jacobian takes the columns of parameters no state depends on from the kept states: the
     /// same matrix, to the bit, as integrating every test again for every column.
     #[test]
     fn columns_of_parameters_no_state_reads_equal_a_new_integration() {
-        let registry = Registry::builtin();
+        let registry = with_terms();
         for spec in every_effect_models() {
             let model = Model::from_spec(&spec, &registry, 14.0).expect("model");
             let (tests, p) = typical(&model);
@@ -1778,7 +1869,7 @@ mod tests {
         let spans = all_spans(&tests);
         let weights: Vec<Vec<f64>> = tests.iter().map(direction_weights).collect();
         let mut p = vec![1.0, 1.0, 1.0, TRUTH[3], TRUTH[4]];
-        linear_warm_start(&model, &tests, &spans, &weights, &mut p);
+        linear_warm_start(&model, &tests, &spans, &weights, &mut p, true);
         for k in [bingham::FC0, bingham::FC_GAIN, bingham::C0] {
             let rel = (p[k] - TRUTH[k]).abs() / TRUTH[k];
             assert!(rel < 1e-6, "gain {k}: {} vs {}", p[k], TRUTH[k]);
@@ -1847,7 +1938,7 @@ mod tests {
             .map(|s| Transform::for_bounds(s.lower, s.upper))
             .collect();
         let z: Vec<f64> = p.iter().zip(&tf).map(|(p, t)| t.z(*p) * 0.9 + 0.01).collect();
-        Problem::new(model, tests, spans, weights, tf, z)
+        Problem::new(model, tests, spans, weights, tf, z, true)
     }
 
     /// The lags start settled on the first command and stay there while it never changes: a time constant's

@@ -187,7 +187,7 @@ keyed_section!(
 );
 
 keyed_section!(
-    FeelSystemSection { kind: Spanned<String>, springs: Option<Spanned<PathBuf>> }
+    FeelSystemSection { kind: Spanned<String>, springs: Option<Spanned<PathBuf>>, model: Option<Spanned<PathBuf>> }
     damping_n_s_per_m, qbar_pa, hybrid_k_n_per_m, return_damping_n_s_per_m, motor_max_force_n
 );
 
@@ -484,7 +484,7 @@ pub fn scenario(src: &Source) -> Result<Scenario, InputError> {
         .map(|a| aircraft(src, a, physics_hz))
         .transpose()?;
     let outer_loop = f.outer_loop.as_ref().map(|o| outer_loop(src, o)).transpose()?;
-    let (feel_system, springs_path) = match &f.feel_system {
+    let (feel_system, feel_system_file) = match &f.feel_system {
         Some(fs) => feel_system(src, fs, aircraft.is_some())?,
         None => (FeelSystemConfig::default(), None),
     };
@@ -535,7 +535,7 @@ pub fn scenario(src: &Source) -> Result<Scenario, InputError> {
         aircraft,
         outer_loop,
         feel_system,
-        springs_path,
+        feel_system_file,
     })
 }
 
@@ -609,11 +609,12 @@ fn feel_system(
     if let Some(p) = fs.springs.as_ref().filter(|_| !used.contains(&"springs")) {
         return Err(src.err(p, "feel_system.springs", format!("not used by {by}")));
     }
+    if let Some(p) = fs.model.as_ref().filter(|_| kind != FeelKind::Active) {
+        return Err(src.err(p, "feel_system.model", format!("not used by {by}")));
+    }
     unused(src, "feel_system", &fs.keys(), used, &format!("not used by {by}"))?;
     if kind == FeelKind::Active {
-        let max_force = need(&fs.motor_max_force_n, "motor_max_force_n")?;
-        let config = FeelSystemConfig::active(max_force, need(&fs.damping_n_s_per_m, "damping_n_s_per_m")?);
-        return Ok((config, None));
+        return active_stick(src, fs, &by);
     }
     let Some(p) = &fs.springs else {
         if kind == FeelKind::Mr {
@@ -648,6 +649,46 @@ fn feel_system(
     let mut config = FeelSystemConfig::from_springs(kind, &springs, qbar, hybrid, damping, ret);
     config.q_from_aircraft = q_from_aircraft;
     Ok((config, Some(path)))
+}
+
+/// `kind = "active"`: the modelled stick of an active-stick file (`model`, else the built-in
+/// `models/active-stick.toml`), or with `motor_max_force_n` and `damping_n_s_per_m` an ideal clamped force
+/// source.
+fn active_stick(
+    src: &Source,
+    fs: &FeelSystemSection,
+    by: &str,
+) -> Result<(FeelSystemConfig, Option<PathBuf>), InputError> {
+    let ideal = [
+        ("motor_max_force_n", &fs.motor_max_force_n),
+        ("damping_n_s_per_m", &fs.damping_n_s_per_m),
+    ];
+    let given = ideal.iter().find_map(|(key, v)| v.as_ref().map(|v| (*key, v)));
+    match (&fs.model, given) {
+        (Some(_), Some((key, v))) => {
+            let msg = "not used with `feel_system.model` (the active-stick file gives the force limit and the friction)";
+            Err(src.err(v, &format!("feel_system.{key}"), msg))
+        }
+        (_, Some(_)) => {
+            let by = &format!("{by} without `model` (the ideal force source)");
+            let need = |v: &Opt, key: &str| need(src, v, &format!("feel_system.{key}"), &fs.kind, by);
+            let max_force = need(&fs.motor_max_force_n, "motor_max_force_n")?;
+            let damping = need(&fs.damping_n_s_per_m, "damping_n_s_per_m")?;
+            Ok((FeelSystemConfig::active(max_force, damping), None))
+        }
+        (Some(p), None) => {
+            let path = src.named_file(p, "feel_system.model", p.get_ref())?;
+            let stick = crate::control::active::ActiveStickConfig::load(&path)
+                .map_err(|e| src.err(p, "feel_system.model", e.to_string()))?;
+            Ok((FeelSystemConfig::active_stick(stick), Some(path)))
+        }
+        (None, None) => {
+            let path = crate::builtin::by_file_name("active-stick.toml").expect("a built-in file");
+            let stick = crate::control::active::ActiveStickConfig::load(&path)
+                .map_err(|e| src.err(&fs.kind, "feel_system.kind", e.to_string()))?;
+            Ok((FeelSystemConfig::active_stick(stick), None))
+        }
+    }
 }
 
 fn aircraft(src: &Source, a: &AircraftSection, physics_hz: f64) -> Result<AircraftConfig, InputError> {

@@ -281,7 +281,7 @@ impl<P: Plant> Loop<P> {
             .any(|f| f.kind == crate::faults::FaultKind::LatencySpike);
         Ok(Self {
             daq: Daq::new(scn.sensors, scn.seed),
-            feel: FeelSystem::new(&scn.feel_system, controller),
+            feel: FeelSystem::new(&scn.feel_system, controller, scn.seed),
             hand: Hand::new(scn.pilot.hand, scn.pilot.task),
             scenario_command: scn.pilot.command.clone(),
             command_scale,
