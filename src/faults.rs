@@ -11,6 +11,10 @@
 //! | `load_cell_noisy` | load cell → DAQ | Gaussian noise of `noise_rms_n` added (seeded) |
 //! | `displacement_dropout` | laser → DAQ | the DAQ holds the last valid position (the differentiated velocity falls to 0) |
 //! | `latency_spike` | DAQ → controller | the controller sees samples `extra_latency_s` older than normal |
+//! | `hands_off` | hand → grip | the pilot lets go: no force on the grip (the hand grips again where the stick is when the fault ends) |
+//!
+//! `hands_off` is the pilot's, not the feel system's: the feel comparison's fault runs (`FaultKind::ALL`)
+//! leave it out (its task has a hands-off period of its own), a scenario schedules it like any other.
 //!
 //! The active stick's motor driver has the same two driver faults (`FaultInjector::motor_force_n`): open
 //! gives no force, stuck gives full force in the direction it was pushing. Passive spring feel systems have
@@ -39,10 +43,12 @@ pub enum FaultKind {
     DisplacementDropout,
     /// The controller sees older samples.
     LatencySpike,
+    /// The pilot lets go of the grip.
+    HandsOff,
 }
 
 impl FaultKind {
-    /// Every kind, in table order.
+    /// Every kind of fault in the feel system's path, in table order (all but [`FaultKind::HandsOff`]).
     pub const ALL: [FaultKind; 7] = [
         FaultKind::CoilOpen,
         FaultKind::DriverStuck,
@@ -51,6 +57,18 @@ impl FaultKind {
         FaultKind::LoadCellNoisy,
         FaultKind::DisplacementDropout,
         FaultKind::LatencySpike,
+    ];
+
+    /// Every kind, in table order: the feel path's, then the pilot's.
+    pub const KINDS: [FaultKind; 8] = [
+        FaultKind::CoilOpen,
+        FaultKind::DriverStuck,
+        FaultKind::LoadCellStuck,
+        FaultKind::LoadCellZero,
+        FaultKind::LoadCellNoisy,
+        FaultKind::DisplacementDropout,
+        FaultKind::LatencySpike,
+        FaultKind::HandsOff,
     ];
 
     /// The name used in scenario files and tables.
@@ -63,6 +81,7 @@ impl FaultKind {
             FaultKind::LoadCellNoisy => "load_cell_noisy",
             FaultKind::DisplacementDropout => "displacement_dropout",
             FaultKind::LatencySpike => "latency_spike",
+            FaultKind::HandsOff => "hands_off",
         }
     }
 
@@ -151,7 +170,7 @@ impl FaultSchedule {
 
 /// Names of the kinds in a mask, joined by `+` (empty string for none).
 pub fn mask_names(mask: u8) -> String {
-    FaultKind::ALL
+    FaultKind::KINDS
         .iter()
         .filter(|k| mask & k.bit() != 0)
         .map(|k| k.name())
@@ -240,6 +259,11 @@ impl FaultInjector {
             self.last_x_m = x_m;
             x_m
         }
+    }
+
+    /// Hook hand → grip: whether the pilot's hand is off the grip at `t_s`.
+    pub(crate) fn hands_off(&self, t_s: f64) -> bool {
+        self.schedule.active(FaultKind::HandsOff, t_s).is_some()
     }
 
     /// Hook DAQ → controller: extra delay of the samples the controller sees, s.

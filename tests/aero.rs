@@ -417,6 +417,79 @@ fn c172p_stick_force_per_g_from_derived_hinge_moments_sits_in_its_certification_
     }
 }
 
+/// What the c172p's checks against figures it was not built from say of a model: `Ok` with the figures
+/// when every check passes, `Err` naming the first that fails. The checks: the stick force per g at
+/// 35, 45, 50 and 55 m/s, 1000 m inside its Part 23 band (14 CFR 23.155(a) and 23.143(c) over the 3.8 g
+/// limit: 8.6 to 26.8 lbf/g), and at 35, 45 and 55 m/s the stable stick-force-versus-speed slope 14 CFR 23.173(a) and
+/// 23.175(b) ask (a pull to fly below the trim speed, a push above), each with the tab trimmed, as a
+/// pilot trims (the model must trim: the tab zeroes the force within its travel); and the C172's "more
+/// than 20 lb/G" (E. Kolano, AOPA, *Flight Control Forces*, no speed, weight or CG given), read as
+/// reached somewhere from 35 to 55 m/s.
+fn c172p_point_2_checks(m: &AircraftModel) -> Result<String, String> {
+    let a = Aircraft::new(Arc::new(m.clone()));
+    let (lo, hi) = (24.0 / 2.8, 75.0 / 2.8);
+    let f = FeelAssessment::assess(&a, 50.0, 1000.0).map_err(|e| format!("no trim at 50 m/s: {e}"))?;
+    let per_g = f.stick_force_per_g_n / LBF_TO_N;
+    if !(lo..=hi).contains(&per_g) {
+        return Err(format!(
+            "{per_g:.1} lbf/g outside the Part 23 band [{lo:.1}, {hi:.1}]"
+        ));
+    }
+    let mut out = format!("{per_g:.1} lbf/g at 50 m/s;");
+    let mut most_per_g = per_g;
+    for v in [35.0, 45.0, 55.0] {
+        let f = FeelAssessment::assess(&a, v, 1000.0).map_err(|e| format!("no trim at {v} m/s: {e}"))?;
+        let per_g = f.stick_force_per_g_n / LBF_TO_N;
+        most_per_g = most_per_g.max(per_g);
+        if !(lo..=hi).contains(&per_g) {
+            return Err(format!(
+                "{per_g:.1} lbf/g at {v} m/s outside the Part 23 band [{lo:.1}, {hi:.1}]"
+            ));
+        }
+        // lbf per knot
+        let g = f.speed_gradient_n_per_m_s / LBF_TO_N * (1852.0 / 3600.0);
+        if g <= 0.0 {
+            return Err(format!(
+                "unstable stick force versus speed at {v} m/s: {g:.3} lbf/kt"
+            ));
+        }
+        out += &format!(" {per_g:.1} lbf/g and {g:.3} lbf/kt at {v} m/s;");
+    }
+    if most_per_g <= 20.0 {
+        return Err(format!(
+            "at most {most_per_g:.1} lbf/g over 35 to 55 m/s, never AOPA's more than 20 lbf/g"
+        ));
+    }
+    Ok(out)
+}
+
+/// The c172p's checks of point 2 (issue 35) can fail: each hinge derivative the model derives from the
+/// elevator's geometry, doubled or halved, makes at least one of them fail, while the model as derived
+/// passes them all. Doubling `Ch_α` (a stronger floating tendency: the elevator floats up with the angle
+/// of attack, taking the force out of a pull) leaves the stick force per g inside the wide Part 23 band
+/// and the speed slope stable, but halves the force per g, far below AOPA's figure at every speed.
+#[test]
+fn c172p_checks_fail_when_a_hinge_derivative_is_doubled_or_halved() {
+    let m = AircraftModel::load(&AircraftModel::builtin_path("c172p")).unwrap();
+    let healthy = c172p_point_2_checks(&m);
+    eprintln!("c172p as derived: {healthy:?}");
+    assert!(healthy.is_ok(), "{healthy:?}");
+    type Mutation = (&'static str, fn(&mut AircraftModel));
+    let mutations: [Mutation; 4] = [
+        ("Ch_alpha x 2", |m| m.hinge.ch_alpha_per_rad *= 2.0),
+        ("Ch_alpha / 2", |m| m.hinge.ch_alpha_per_rad *= 0.5),
+        ("Ch_delta x 2", |m| m.hinge.ch_elevator_per_rad *= 2.0),
+        ("Ch_delta / 2", |m| m.hinge.ch_elevator_per_rad *= 0.5),
+    ];
+    for (what, mutate) in mutations {
+        let mut bad = m.clone();
+        mutate(&mut bad);
+        let r = c172p_point_2_checks(&bad);
+        eprintln!("  {what}: {r:?}");
+        assert!(r.is_err(), "{what}: every check still passes: {r:?}");
+    }
+}
+
 #[test]
 fn bad_model_file_names_file_line_and_field() {
     let path = AircraftModel::builtin_path("c172p");

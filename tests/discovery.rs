@@ -71,7 +71,7 @@ fn truth_nrmse(tests: &[Test], noise_n: f64) -> f64 {
 }
 
 /// `diagnose` ends within 1.3× of the truth's held-out error, or reports `unexplained`.
-fn found_or_said(effects: &str, env: &[(&str, &str)], seed: u64) -> Diagnosis {
+fn near_truth_or_said(effects: &str, env: &[(&str, &str)], seed: u64) -> (Diagnosis, String) {
     let (_dir, tests) = generate(effects, env, seed);
     let d = run(&tests);
     let truth = truth_nrmse(&tests, NOISE_N);
@@ -83,7 +83,12 @@ fn found_or_said(effects: &str, env: &[(&str, &str)], seed: u64) -> Diagnosis {
         d.final_heldout_nrmse,
         d.final_heldout_nrmse / truth
     );
-    // Whatever it ends with, the error fell well below the base model's.
+    (d, report)
+}
+
+/// As [`near_truth_or_said`], and the error fell well below the base model's whatever it ends with.
+fn found_or_said(effects: &str, env: &[(&str, &str)], seed: u64) -> Diagnosis {
+    let (d, report) = near_truth_or_said(effects, env, seed);
     assert!(
         d.final_heldout_nrmse < 0.8 * d.base_heldout_nrmse,
         "{effects}: {report}"
@@ -173,6 +178,36 @@ fn drag_under_current_steps_at_3_khz_is_found_or_reported() {
     found_or_said("drag", &[("STEPS", "1"), ("FS", "3000")], 4);
 }
 
+/// Effects that neither a named effect nor a library term captures, so that only the verdict can be right:
+/// a force ripple periodic in position (a detent, a screw's lead) finer than the verdict's bins, and LuGre
+/// friction, whose bristle state is a memory of the motion no input carries. Each held-out error stays
+/// several times the noise while a regressor predicts little of it: the tool must still say structure is
+/// left, and say that the signals do not predict it.
+#[test]
+fn effects_no_signal_predicts_are_still_reported() {
+    for (effect, env, seed) in [
+        ("ripple", &[][..], 8),
+        (
+            "lugre",
+            &[("WAVE", "multisine"), ("FS", "500"), ("NOVEL", "1")][..],
+            9,
+        ),
+    ] {
+        let (d, report) = near_truth_or_said(effect, env, seed);
+        let v = &d.verdict;
+        if d.unexplained().is_some() && v.predictable_share < 0.05 {
+            assert!(report.contains("do not carry"), "{effect}: {report}");
+        }
+    }
+}
+
+/// A field that lags more at high current (a coil whose inductance grows with current), under current
+/// steps: the residual lives in the fifth of a second after each step.
+#[test]
+fn a_field_lag_growing_with_current_is_found_or_reported() {
+    near_truth_or_said("slow_field", &[("STEPS", "1")], 10);
+}
+
 #[test]
 fn nothing_hidden_on_sines_at_1_khz_finds_nothing() {
     nothing_found(&[], 5);
@@ -190,14 +225,26 @@ fn nothing_hidden_on_multisines_at_500_hz_without_velocity_finds_nothing() {
     nothing_found(&[("WAVE", "multisine"), ("FS", "500"), ("NOVEL", "1")], 7);
 }
 
-/// The whole matrix: every out-of-vocabulary effect on every protocol, at 500 Hz, 1 kHz and 3 kHz, with and
-/// without a velocity channel; nothing hidden at three noise levels.
+/// The whole matrix: every out-of-vocabulary effect of `python/independent_truth.py` on every protocol, at
+/// 500 Hz, 1 kHz and 3 kHz, with and without a velocity channel; nothing hidden at three noise levels.
 #[test]
 #[ignore]
 fn discovery_matrix() {
     let mut failures = Vec::new();
     let mut seed = 100;
-    for effect in ["drag", "gas_spring", "yield_lag"] {
+    for effect in [
+        "drag",
+        "gas_spring",
+        "yield_lag",
+        "stribeck",
+        "backlash",
+        "end_friction",
+        "lugre",
+        "ripple",
+        "compress",
+        "cavitation",
+        "slow_field",
+    ] {
         for wave in ["sine", "triangle", "multisine", "steps"] {
             for fs in ["500", "1000", "3000"] {
                 for novel in ["0", "1"] {
@@ -209,7 +256,12 @@ fn discovery_matrix() {
                         env.push(("WAVE", wave));
                     }
                     let r = std::panic::catch_unwind(|| {
-                        let d = found_or_said(effect, &env, seed);
+                        // The first three the library can capture: their error must also fall.
+                        let d = if ["drag", "gas_spring", "yield_lag"].contains(&effect) {
+                            found_or_said(effect, &env, seed)
+                        } else {
+                            near_truth_or_said(effect, &env, seed).0
+                        };
                         (
                             d.final_heldout_nrmse,
                             d.unexplained().is_some(),

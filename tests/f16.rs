@@ -109,11 +109,12 @@ fn f16_pull_up_holds_3_g_with_a_level_1_force_per_g_rendered_by_the_damper() {
 ///   largest load factor of the flight within 0.2 g of the healthy one's (bounded, no hard-over);
 /// - driver stuck at 14 A: the damper's yield (105 N at the grip) exceeds the pull, so the stick hardly
 ///   moves (under a fifth of the healthy travel): the fixed stick of the first YF-16;
+/// - coil open: the damper's force falls to its zero-field yield, far below the pull, so the stick runs
+///   to its aft stop (at least 95 % of the stop angle) and the pilot feels no gradient, only the stop;
+///   the aircraft flies as healthy (the run's energy balance counts the energy the stop's bumper takes,
+///   `sim::invariants`);
 /// - load cell reading zero: the feel loop loses its force measurement; printed, with the aircraft
 ///   asserted as above.
-///
-/// The open coil is not flown here: with no damper force the pull drives the stick into its aft stop, and
-/// the run's energy invariant (`sim::invariants`), which has no term for the stop's impacts, refuses it.
 #[test]
 fn feel_faults_change_what_the_pilot_feels_never_what_the_fcs_is_told() {
     let healthy = fly(&scenario_path("f16-pullup.toml"));
@@ -137,7 +138,7 @@ fn feel_faults_change_what_the_pilot_feels_never_what_the_fcs_is_told() {
         h_travel * healthy.grip_arm_m * 1e3,
         mean(&healthy, 4.5, 6.0, |x| x.pilot_force_n)
     );
-    for kind in ["driver_stuck", "load_cell_zero"] {
+    for kind in ["coil_open", "driver_stuck", "load_cell_zero"] {
         let p = tmp.path().join(format!("{kind}.toml"));
         std::fs::write(
             &p,
@@ -158,11 +159,129 @@ fn feel_faults_change_what_the_pilot_feels_never_what_the_fcs_is_told() {
             (max - h_max).abs() < 0.2,
             "{kind}: max {max} g vs healthy {h_max} g"
         );
-        if kind == "driver_stuck" {
-            assert!(
-                tr < 0.2 * h_travel,
-                "driver stuck: travel {tr} rad vs healthy {h_travel} rad"
-            )
+        match kind {
+            "driver_stuck" => {
+                assert!(
+                    tr < 0.2 * h_travel,
+                    "driver stuck: travel {tr} rad vs healthy {h_travel} rad"
+                )
+            }
+            "coil_open" => {
+                assert!(
+                    tr >= 0.95 * f.full_command_stick_rad,
+                    "coil open: travel {tr} rad, aft stop {} rad",
+                    f.full_command_stick_rad
+                )
+            }
+            _ => {}
+        }
+    }
+}
+
+/// One hands-off case: the feel system's table (empty: the MR damper), its fault, what it is.
+struct HandsOff {
+    what: &'static str,
+    feel_system: &'static str,
+    fault: Option<&'static str>,
+}
+
+/// The pilot lets go at 3 s, in the 3 g hold of the pull-up, to the end of the run (6 s), with the feel
+/// system failing at the same instant: the MR damper with its coil open, and a centring spring unit
+/// (`models/feel-springs.toml`, 1130 N/m, 100 N·s/m), which has nothing to fail. (The active stick is not
+/// flown here: on the sidestick its run breaks the energy balance before any fault.) The FCS reads the
+/// stick's force sensor, and no hand on the grip is no force on it, so in every case the command falls
+/// to zero and the FCS flies back to 1 g. Facts asserted, for each case:
+/// - the aircraft: the load factor rises no more than 0.1 g above its value at the release (the FCS's
+///   lag: the pull-up is still converging on 3 g at 3 s), never falls below 0.5 g (no push-over), and
+///   over the last second is 1 g within 0.1 g;
+/// - the stick: nothing holds the MR stick with its coil open (no field, no spring), and it ends on its
+///   aft stop, where the pilot finds it on taking it again (the FCS never sees it); the spring brings it
+///   back to centre (within a tenth of the deflection it had at the release).
+#[test]
+fn hands_off_the_fcs_flies_back_to_1_g_whatever_the_feel_system_does() {
+    let text = std::fs::read_to_string(scenario_path("f16-pullup.toml")).unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let aero = |x: &Row| x.aero.unwrap();
+    let release = 3.0;
+    let cases = [
+        HandsOff {
+            what: "MR damper, coil open",
+            feel_system: "",
+            fault: Some("coil_open"),
+        },
+        HandsOff {
+            what: "centring spring",
+            feel_system: "[feel_system]\nkind = \"centring_spring\"\nsprings = \"../models/feel-springs.toml\"\ndamping_n_s_per_m = 100.0\n",
+            fault: None,
+        },
+    ];
+    for (k, c) in cases.iter().enumerate() {
+        let mut toml = format!(
+            "{text}\n{}\n[[fault]]\nkind = \"hands_off\"\nstart_s = {release:?}\nend_s = 6.0\n",
+            c.feel_system
+        );
+        if let Some(f) = c.fault {
+            toml += &format!("\n[[fault]]\nkind = \"{f}\"\nstart_s = {release:?}\nend_s = 6.0\n");
+        }
+        let p = tmp.path().join(format!("hands-off-{k}.toml"));
+        std::fs::write(&p, toml).unwrap();
+        let r = fly(&p);
+        let (lo, hi) = sim::load(&p).unwrap().2.stick_limits_rad();
+        let at_release = mean(&r, release - 0.1, release, |x| x.stick_angle_rad);
+        let at_end = mean(&r, 5.5, 6.0, |x| x.stick_angle_rad);
+        let nz_release = mean(&r, release - 0.1, release, |x| aero(x).nz_g);
+        let after = r.rows.iter().filter(|x| x.t_s >= release);
+        let (nz_min, nz_max) = after
+            .map(|x| aero(x).nz_g)
+            .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(v), b.max(v)));
+        let nz_end = mean(&r, 5.0, 6.0, |x| aero(x).nz_g);
+        let rod_peak = r
+            .rows
+            .iter()
+            .filter(|x| x.t_s >= release)
+            .map(|x| x.load_cell_true_n.abs())
+            .fold(0.0, f64::max);
+        let hand_after = r
+            .rows
+            .iter()
+            .filter(|x| x.t_s >= release)
+            .map(|x| x.pilot_force_n.abs())
+            .fold(0.0, f64::max);
+        println!(
+            "hands off at {release} s, {}: stick {:.2} mm at the release -> {:.2} mm at the end (stops {:.2}, \
+             {:.2} mm); load factor {nz_release:.3} g at the release, {nz_min:.3} to {nz_max:.3} g after, \
+             {nz_end:.3} g over the last second; hand force after the release {hand_after} N; largest rod force \
+             after the release {rod_peak:.1} N",
+            c.what,
+            at_release * r.grip_arm_m * 1e3,
+            at_end * r.grip_arm_m * 1e3,
+            lo * r.grip_arm_m * 1e3,
+            hi * r.grip_arm_m * 1e3,
+        );
+        assert_eq!(hand_after, 0.0, "{}: the hand pushed after letting go", c.what);
+        assert!(
+            nz_max <= nz_release + 0.1,
+            "{}: {nz_max} g after letting go at {nz_release} g",
+            c.what
+        );
+        assert!(nz_min >= 0.5, "{}: pushed over to {nz_min} g", c.what);
+        assert!(
+            (nz_end - 1.0).abs() < 0.1,
+            "{}: {nz_end} g over the last second",
+            c.what
+        );
+        let travel = hi - lo;
+        match c.fault {
+            Some("coil_open") => assert!(
+                at_end >= hi - 0.05 * travel,
+                "{}: the stick at {at_end} rad, not on its aft stop {hi} rad",
+                c.what
+            ),
+            _ => assert!(
+                at_end.abs() < 0.1 * at_release.abs(),
+                "{}: the stick at {at_end} rad, let go at {at_release} rad",
+                c.what
+            ),
         }
     }
 }

@@ -13,7 +13,7 @@ use std::sync::OnceLock;
 use mrfeel::control::LoopMode;
 use mrfeel::device::DeviceConfig;
 use mrfeel::scenario::Scenario;
-use mrfeel::sim::metrics::{correlation, FlightMetrics};
+use mrfeel::sim::metrics::FlightMetrics;
 use mrfeel::sim::{self, Results, RunOptions};
 
 fn scenario_path(name: &str) -> PathBuf {
@@ -292,8 +292,8 @@ fn a_pilot_adapted_to_the_aircraft_flies_the_pitch_task_without_given_gains() {
 
 /// The 737 approach: the throttle comes back to 0.6 of trim and the pilot pitches 2.5° nose-down and holds
 /// it. The pilot holds the attitude and the aircraft descends (at about V·sin 2.5° ≈ 6 m/s), and the feel target
-/// is the 737's feel computer (q-feel, not the air load on its powered elevator): it follows the
-/// aircraft's stick force, zero at trim.
+/// is the 737's feel computer (q-feel, not the air load on its powered elevator), zero at trim. (That the
+/// desired force follows the aircraft's stick force is true by construction, a gearing: not asserted.)
 #[test]
 fn approach_737_holds_the_descent_attitude_and_descends() {
     let (s, d) = load("737-approach.toml");
@@ -302,11 +302,8 @@ fn approach_737_holds_the_descent_attitude_and_descends() {
     let trim = r.flight.as_ref().unwrap().trim;
     let last = r.rows.last().unwrap().aero.unwrap();
     let first = r.rows.first().unwrap().aero.unwrap();
-    let desired: Vec<f64> = r.rows.iter().map(|x| x.desired_force_n).collect();
-    let stick: Vec<f64> = r.rows.iter().map(|x| x.aero.unwrap().stick_force_n).collect();
-    let corr = correlation(&desired, &stick);
     println!(
-        "737 approach: pitch RMS error {:.3}° (span {:.1}°); altitude {:.0} -> {:.0} m, airspeed {:.1} -> {:.1} m/s; stick force at trim {:.3} N, peak {:.1} N; desired vs stick force correlation {corr:.4}",
+        "737 approach: pitch RMS error {:.3}° (span {:.1}°); altitude {:.0} -> {:.0} m, airspeed {:.1} -> {:.1} m/s; stick force at trim {:.3} N, peak {:.1} N; hand force per g felt {:.1} N/g",
         m.tracking_rms.to_degrees(),
         m.command_span.to_degrees(),
         trim.altitude_m,
@@ -314,7 +311,8 @@ fn approach_737_holds_the_descent_attitude_and_descends() {
         trim.airspeed_m_s,
         last.airspeed_m_s,
         first.stick_force_n,
-        m.stick_force_peak_n
+        m.stick_force_peak_n,
+        m.hand_force_per_g_n
     );
     assert!(
         m.tracking_rms < 0.2 * m.command_span,
@@ -335,10 +333,6 @@ fn approach_737_holds_the_descent_attitude_and_descends() {
         "the feel computer is trimmed to zero force at trim"
     );
     assert!(m.stick_force_peak_n > 10.0, "the task must load the stick");
-    assert!(
-        corr > 0.99,
-        "the feel target must follow the aircraft's stick force: {corr}"
-    );
 }
 
 /// Live JSBSim 1.3.3 through the bridge flies the same scenario as the embedded model: pitch and load

@@ -8,8 +8,8 @@
 //! creates it with the pinned jsbsim), and `python3` on the `PATH`; the bridge says on stderr which it
 //! used. The bridge scripts are built into the binary ([`crate::builtin`]) and written to a temporary
 //! folder for the child. A missing interpreter or jsbsim is an error that says so and how to install it;
-//! every read has a timeout (never a hang); the child is killed when the bridge is dropped. Each request's
-//! round trip is timed.
+//! every read has a timeout (never a hang); the child is killed when the bridge is dropped. The round trip of
+//! every per-frame request (`step`, `cmd`) is timed; the trim's is not.
 
 use std::io::{BufRead, BufReader, Write};
 use std::path::PathBuf;
@@ -83,7 +83,8 @@ fn write_scripts() -> std::io::Result<(tempfile::TempDir, PathBuf)> {
     Ok((dir, bridge))
 }
 
-/// Round-trip statistics of the `step` requests (request written → reply parsed), µs.
+/// Round-trip statistics of the per-frame requests (`step` with an elevator, `cmd` with a fly-by-wire
+/// command; not the trim), request written → reply parsed, µs.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(crate) struct RoundTrip {
     pub count: u64,
@@ -271,7 +272,7 @@ impl JsbsimBridge {
                 v.len()
             )));
         }
-        if line.starts_with("step") {
+        if line.starts_with("step ") || line.starts_with("cmd ") {
             self.rt.count += 1;
             self.rt_sum_us += us;
             self.rt.mean_us = self.rt_sum_us / self.rt.count as f64;

@@ -482,6 +482,12 @@ pub struct Verdict {
 /// fold, for it to be called structure: below it, what a regressor with ~150 inputs finds in noise.
 pub(crate) const MIN_PREDICTABLE_SHARE: f64 = 0.05;
 
+/// Held-out error, as a multiple of the noise floor, beyond which what is left is structure whatever a
+/// regressor predicts of it: a residual the offered signals cannot represent (a ripple finer than their
+/// bins, a memory no feature carries) is still not noise. It is the bar for a model that explains
+/// the data: within 1.3× of the truth's held-out error, which is the noise.
+pub(crate) const MAX_NOISE_RATIO: f64 = 1.3;
+
 /// Most samples the verdict's regressor uses (every k-th sample beyond): its figures are shares, which a
 /// regular subsample of 20 000 measures to about a percent.
 const VERDICT_SAMPLES: usize = 20_000;
@@ -800,7 +806,8 @@ pub(crate) fn verdict(
         .filter(|(_, sh)| *sh >= 0.2 * predictable_share && *sh > 0.01)
         .collect();
     correlates_with.sort_by(|a, b| b.1.total_cmp(&a.1));
-    let structure = !at_floor && rows.len() > 10 * p && predictable_share >= MIN_PREDICTABLE_SHARE;
+    let predicted = rows.len() > 10 * p && predictable_share >= MIN_PREDICTABLE_SHARE;
+    let structure = !at_floor && (predicted || heldout_nrmse > MAX_NOISE_RATIO * floor_nrmse);
     Verdict {
         heldout_nrmse,
         floor_nrmse,

@@ -6,6 +6,7 @@ use std::fmt::Write as _;
 use serde::Serialize;
 
 use super::diagnose::{Candidate, Diagnosis};
+use super::discover::MIN_PREDICTABLE_SHARE;
 use super::fit::FitResult;
 use super::residual::{direction_weights, where_regions, Region};
 use super::validate::{figures, Figures};
@@ -479,8 +480,10 @@ pub fn diagnose_table(d: &Diagnosis) -> String {
     let _ = writeln!(
         s,
         "\nmissing: {}\nfinal: {} (held-out NRMSE {:.4}, fitted on all {:.4})",
-        if d.missing.is_empty() {
+        if d.missing.is_empty() && !d.verdict.structure {
             "none (the residual is explained)".to_string()
+        } else if d.missing.is_empty() {
+            "no named effect (see below)".to_string()
         } else {
             d.missing.join(", ")
         },
@@ -508,7 +511,7 @@ pub fn diagnose_table(d: &Diagnosis) -> String {
 pub fn verdict_words(d: &Diagnosis) -> String {
     let v = &d.verdict;
     let mut s = String::new();
-    if v.structure {
+    if v.structure && v.predictable_share >= MIN_PREDICTABLE_SHARE {
         let _ = writeln!(
             s,
             "\nUNEXPLAINED: what {} leaves is structure, not noise. A regressor on the measured signals predicts \
@@ -519,6 +522,22 @@ pub fn verdict_words(d: &Diagnosis) -> String {
             v.heldout_nrmse,
             floor_words(v.floor_nrmse)
         );
+    } else if v.structure {
+        let _ = writeln!(
+            s,
+            "\nUNEXPLAINED: what {} leaves is structure, not noise: its held-out NRMSE {:.4} is {:.1}× the noise \
+             floor of {}, yet a regressor on the measured signals predicts only {:.1} % of it out of sample. \
+             The missing effect depends on something those signals do not carry in a form the regressor can use \
+             (a memory of the motion, a fine periodic shape, the force path itself); no named effect and no term \
+             of the open search's library explains it.",
+            d.final_model,
+            v.heldout_nrmse,
+            v.heldout_nrmse / v.floor_nrmse,
+            floor_words(v.floor_nrmse),
+            100.0 * v.predictable_share,
+        );
+    }
+    if v.structure {
         if !v.correlates_with.is_empty() {
             let list: Vec<String> = v
                 .correlates_with

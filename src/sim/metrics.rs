@@ -1,5 +1,5 @@
-//! Figures of merit of a flight run (issue 5): how well the pilot flew the task, whether the desired feel
-//! force follows the aircraft's stick force, and how well the load cell follows the desired force where
+//! Figures of merit of a flight run (issue 5): how well the pilot flew the task, the stick force per g the
+//! pilot felt, and how well the load cell follows the desired force where
 //! the damper can provide it.
 
 use serde::Serialize;
@@ -17,10 +17,13 @@ pub struct FlightMetrics {
     pub tracking_rms: f64,
     /// Largest command change of the schedule, same unit (the scale of the task).
     pub command_span: f64,
-    /// Correlation of the desired force on the piston with the aircraft's stick force (1: the feel
-    /// follows the aircraft; the linkage's gearing changes slightly with angle).
-    pub desired_vs_stick_force_corr: f64,
-    /// Where the loop tracks (the desired force resists the motion), the stick moves, and the desired force is inside the damper's range: RMS of (true load cell − desired), N.
+    /// The stick force per g the pilot felt, N/g: the least-squares slope of the hand's force on the grip
+    /// against the load factor, over the rows from the first command change (all rows without an outer
+    /// loop); NaN where the load factor does not vary. A flown figure, set by the aircraft, its feel and
+    /// how the damper renders it, to hold against the aircraft's designed or certified figure.
+    pub hand_force_per_g_n: f64,
+    /// Where the loop tracks (the desired force resists the motion), the stick moves, and the desired
+    /// force is inside the damper's range: RMS of (true load cell − desired), N.
     pub follow_rms_n: f64,
     /// The RMS desired force in that condition, N.
     pub follow_desired_rms_n: f64,
@@ -30,9 +33,9 @@ pub struct FlightMetrics {
     pub stick_force_peak_n: f64,
     /// The damper's ceiling at the grip at centre stick, N (its largest yield force through the linkage).
     pub ceiling_at_grip_n: f64,
-    /// Live JSBSim: mean step round trip, µs (NaN for the embedded model).
+    /// Live JSBSim: mean round trip of an aircraft frame's request, µs (NaN for the embedded model).
     pub round_trip_mean_us: f64,
-    /// Live JSBSim: longest step round trip, µs (NaN for the embedded model).
+    /// Live JSBSim: longest round trip of an aircraft frame's request, µs (NaN for the embedded model).
     pub round_trip_max_us: f64,
 }
 
@@ -62,11 +65,19 @@ impl FlightMetrics {
             }
             None => (f64::NAN, f64::NAN),
         };
+        let t_judged = scn
+            .outer_loop
+            .as_ref()
+            .map_or(f64::NEG_INFINITY, |o| o.command.first_change_s());
+        let (nz, hand): (Vec<f64>, Vec<f64>) = rows
+            .iter()
+            .filter(|r| r.t_s >= t_judged)
+            .filter_map(|r| r.aero.map(|a| (a.nz_g, r.pilot_force_n)))
+            .unzip();
         let stick: Vec<f64> = rows
             .iter()
             .map(|r| r.aero.map_or(0.0, |a| a.stick_force_n))
             .collect();
-        let desired: Vec<f64> = rows.iter().map(|r| r.desired_force_n).collect();
         let rest = res.rest_speed_m_s;
         let ceiling = res.feel_ceiling_n;
         let follow: Vec<(f64, f64)> = rows
@@ -85,7 +96,7 @@ impl FlightMetrics {
         Some(Self {
             tracking_rms,
             command_span,
-            desired_vs_stick_force_corr: correlation(&desired, &stick),
+            hand_force_per_g_n: slope(&nz, &hand),
             follow_rms_n: rms(&e),
             follow_desired_rms_n: rms(&d),
             follow_fraction: follow.len() as f64 / rows.len().max(1) as f64,
@@ -101,8 +112,9 @@ impl std::fmt::Display for FlightMetrics {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(
             f,
-            "  flight: tracking RMS {:.4} (command span {:.4}); desired force vs stick force correlation {:.5}",
-            self.tracking_rms, self.command_span, self.desired_vs_stick_force_corr
+            "  flight: tracking RMS {:.4} (command span {:.4}); hand force per g felt {:.1} N/g (slope over the \
+             load factor flown)",
+            self.tracking_rms, self.command_span, self.hand_force_per_g_n
         )?;
         if self.follow_fraction > 0.0 {
             write!(
@@ -128,12 +140,25 @@ impl std::fmt::Display for FlightMetrics {
         if self.round_trip_mean_us.is_finite() {
             write!(
                 f,
-                "\n  JSBSim round trip: mean {:.1} µs, max {:.1} µs",
+                "\n  JSBSim round trip per aircraft frame: mean {:.1} µs, max {:.1} µs",
                 self.round_trip_mean_us, self.round_trip_max_us
             )?;
         }
         Ok(())
     }
+}
+
+/// Least-squares slope of `y` on `x` (NaN when `x` is constant or empty).
+pub fn slope(x: &[f64], y: &[f64]) -> f64 {
+    let n = x.len().min(y.len()) as f64;
+    let mx = x.iter().sum::<f64>() / n;
+    let my = y.iter().sum::<f64>() / n;
+    let (mut sxy, mut sxx) = (0.0, 0.0);
+    for (a, b) in x.iter().zip(y) {
+        sxy += (a - mx) * (b - my);
+        sxx += (a - mx) * (a - mx);
+    }
+    sxy / sxx
 }
 
 /// Pearson correlation coefficient (NaN when either series is constant).

@@ -365,8 +365,8 @@ impl<P: Plant> Loop<P> {
             Some(f) if f.has_outer_loop() => f.stick_cmd_rad() * self.command_scale,
             _ => self.scenario_command.value(t) * self.command_scale,
         };
-        // A NaN command: hands off the stick.
-        let hand_force = if cmd.is_nan() {
+        // A NaN command or a `hands_off` fault: hands off the stick.
+        let hand_force = if cmd.is_nan() || self.faults.hands_off(t) {
             self.hand.release();
             0.0
         } else {
@@ -544,7 +544,7 @@ pub fn run_streaming<P: Plant, E: From<SimError>>(
         flight: flight_info(&lp),
     };
     sink(Event::Start(&head))?;
-    let mut check = invariants::Checker::new(scn);
+    let mut check = invariants::Checker::new(scn).with_stops(lp.plant.stick_limits_rad());
     let mut summary = results::SummaryAcc::default();
     let report_every = (n / 200).max(1);
     for k in 0..n {

@@ -49,7 +49,7 @@ pub struct Row {
     pub dissipated_j: f64,
     /// Work done by the hand on the grip since the start, J.
     pub pilot_work_j: f64,
-    /// Faults active at this time (bit set over `FaultKind::ALL`, see [`crate::faults::mask_names`]).
+    /// Faults active at this time (bit set over `FaultKind::KINDS`, see [`crate::faults::mask_names`]).
     pub faults: u8,
     /// The current the coil actually receives (after driver faults), A.
     pub current_applied_a: f64,
@@ -299,7 +299,7 @@ impl Results {
             w,
             "# forces: along +x on the piston (load cell, desired, damper); pilot force along the grip path"
         )?;
-        let bits: Vec<String> = FaultKind::ALL
+        let bits: Vec<String> = FaultKind::KINDS
             .iter()
             .map(|f| format!("{}={}", f.bit(), f.name()))
             .collect();
