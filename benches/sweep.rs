@@ -11,6 +11,14 @@
 //! Throughput is in **simulated seconds** (`elem` = 1 s simulated), so `thrpt: N elem/s` reads as "N×
 //! faster than real time"; runs per second are that over 2 (each run simulates 2 s).
 //!
+//! With `MRFEEL_BENCH_RAY=HOST:PORT` (a Ray cluster of 2 CPUs that `ray start --head --num-cpus 2` started),
+//! a second group compares the command line's two ways of running the same sweep, each a whole `mrfeel`
+//! process with its results, report and maps written:
+//! - `local_jobs_2`: `mrfeel sweep PLAN --out DIR --jobs 2`: the baseline;
+//! - `ray_2_shards`: `mrfeel sweep PLAN --out DIR --ray HOST:PORT --shards 2`: the shards as two Ray tasks
+//!   (the driver `python/sweep_ray.py` in the checkout's Python, each task a `mrfeel sweep --shard`), then
+//!   merged: its time over the baseline's is Ray's overhead on this plan.
+//!
 //! `cargo bench --bench sweep`
 
 use std::hint::black_box;
@@ -50,6 +58,36 @@ fn bench(c: &mut Criterion) {
             )
         });
     }
+    g.finish();
+
+    let Ok(address) = std::env::var("MRFEEL_BENCH_RAY") else {
+        return;
+    };
+    let mrfeel = env!("CARGO_BIN_EXE_mrfeel");
+    let sweep_cli = |extra: &[&str]| {
+        let dir = tempfile::tempdir().unwrap();
+        let out = std::process::Command::new(mrfeel)
+            .arg("sweep")
+            .arg(&path)
+            .arg("--out")
+            .arg(dir.path().join("out"))
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "mrfeel sweep {extra:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        dir
+    };
+    let mut g = c.benchmark_group("sweep_12_runs_cli");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(simulated_s as u64));
+    g.bench_function("local_jobs_2", |b| b.iter(|| sweep_cli(&["--jobs", "2"])));
+    g.bench_function("ray_2_shards", |b| {
+        b.iter(|| sweep_cli(&["--ray", &address, "--shards", "2"]))
+    });
     g.finish();
 }
 
