@@ -1,8 +1,11 @@
 //! The documents hold together: every relative link in a Markdown file of the repository names a file that
 //! exists (and a heading of it, where the link names one), and every `docs/….md` path that code, scenarios,
-//! scripts or documents mention exists. A document moved or renamed without its links fails here.
+//! scripts or documents mention exists. A document moved or renamed without its links fails here. The
+//! command-line reference is what `--help` prints.
 
 use std::path::{Path, PathBuf};
+
+use crate::common;
 
 fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -137,5 +140,45 @@ fn every_docs_path_mentioned_exists() {
         missing.is_empty(),
         "paths of documents that do not exist:\n{}",
         missing.join("\n")
+    );
+}
+
+/// `docs/reference/cli.md` holds, under each `## \`mrfeel COMMAND\`` heading (and first, for `mrfeel`
+/// itself), the block `mrfeel COMMAND --help` prints: an option added, renamed or described anew without
+/// the reference fails here.
+#[test]
+fn the_cli_reference_is_what_help_prints() {
+    let text = std::fs::read_to_string(root().join("docs/reference/cli.md")).unwrap();
+    let mut command: Vec<String> = Vec::new();
+    let mut block: Option<String> = None;
+    let mut stale = Vec::new();
+    let mut blocks = 0;
+    for line in text.lines() {
+        if let Some(name) = line.strip_prefix("## `mrfeel ").and_then(|l| l.strip_suffix('`')) {
+            command = name.split_whitespace().map(str::to_string).collect();
+        } else if line == "```" {
+            match block.take() {
+                None => block = Some(String::new()),
+                Some(body) => {
+                    blocks += 1;
+                    let mut args = command.clone();
+                    args.push("--help".into());
+                    let out = common::mrfeel(&args);
+                    assert!(out.status.success(), "mrfeel {args:?}");
+                    if String::from_utf8_lossy(&out.stdout) != body {
+                        stale.push(format!("mrfeel {}", args.join(" ")));
+                    }
+                }
+            }
+        } else if let Some(body) = block.as_mut() {
+            body.push_str(line);
+            body.push('\n');
+        }
+    }
+    assert!(blocks >= 12, "only {blocks} help blocks in docs/reference/cli.md");
+    assert!(
+        stale.is_empty(),
+        "docs/reference/cli.md differs from what these print (copy their output into it):\n{}",
+        stale.join("\n")
     );
 }
