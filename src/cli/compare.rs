@@ -212,7 +212,7 @@ fn plots(c: &Comparison, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     let mut files = save_charts(&[fd, rel, cur, brk], 2, dir, "compare-feel")?;
     if !c.faults.is_empty() {
         let mut charts = Vec::new();
-        for f in FaultKind::ALL {
+        for &f in FaultKind::ALL {
             let mut ch = Chart::new(
                 format!("{}: stick angle", f.name()),
                 "time (s)",

@@ -603,7 +603,7 @@ pub fn compare(
                 run(scn, k, &main_task, &FaultSchedule::none())?
             };
             done += 1;
-            for f in FaultKind::ALL {
+            for &f in FaultKind::ALL {
                 let (a, b) = (scn.fault_test.start_s, scn.fault_test.end_s);
                 let tr = run(scn, k, &main_task, &FaultSchedule::single(Fault::new(f, a, b)))?;
                 let fm = fault_metrics(scn, &tr, &healthy, a, b);

@@ -86,9 +86,10 @@ fn run_scenario(scn: &crate::scenario::Scenario, path: &std::path::Path, window_
                 .rows
                 .iter()
                 .try_for_each(|r| check.push(r))
-                .and_then(|()| check.finish(&res.summary()));
-            if judged.is_err() {
-                return failed(&e);
+                .and_then(|()| check.finish(res.summary()));
+            match judged {
+                Ok(summary) => res.stops_j = summary.stops_j,
+                Err(_) => return failed(&e),
             }
             res
         }
