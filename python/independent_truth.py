@@ -40,8 +40,8 @@ A second device of another make (BROADBAND below), the way MR dampers are charac
                SAT=1 (the yield force's rise with current saturating, tanh, as a real fluid's does: the
                published form no longer exact), SUB (RK4 substeps per sample, default 8).
 
-Run:  python3 -m venv /tmp/pyenv && /tmp/pyenv/bin/pip install numpy
-      /tmp/pyenv/bin/python python/independent_truth.py EFFECTS OUTDIR [SEED]     (EFFECTS: comma-separated)
+Run:  python3 -m venv probe-env && probe-env/bin/pip install numpy
+      probe-env/bin/python python/independent_truth.py EFFECTS OUTDIR [SEED]     (EFFECTS: comma-separated)
       target/release/mrfeel diagnose OUTDIR --json
 Environment (all optional):
   SCALE=real       a device like the real damper in data/ (80 N + 900 N/A, 2000 N s/m, 0-1 A,

@@ -205,7 +205,9 @@ fn parse_cli() -> Cli {
         .mut_subcommand("diagnose", |c| {
             c.mut_arg("model", |a| {
                 a.help(format!(
-                    "The model to start from: `bingham` plus effects joined by `+` (effects: {effects})"
+                    "The model to start from: `bingham` plus effects joined by `+` (effects: {effects}); \
+                     without it, `bingham`, or the `spencer` base where it ends significantly better held out \
+                     (`bases_tried` in the JSON)"
                 ))
             })
         });

@@ -143,8 +143,8 @@ pub struct DiagnoseArgs {
     /// Measurement CSV files or directories of them.
     #[arg(required = true)]
     pub data: Vec<PathBuf>,
-    /// The model to start from (default: `bingham`, or the `spencer` base where it ends significantly
-    /// better held out; `bases_tried` in the JSON).
+    /// The model to start from (none: `bingham`, or the `spencer` base where it ends significantly better
+    /// held out).
     #[arg(long)]
     pub model: Option<String>,
     #[command(flatten)]
