@@ -173,7 +173,153 @@ pub(crate) fn library(s: Scales) -> Vec<LibraryTerm> {
         "N/m",
         "frequency-dependent stiffness (viscoelastic, Maxwell spring)",
     ));
+    // Memory of the last reversal: a force that changes over a travel `s0` after each reversal (bristles
+    // deflecting before the seal slides, free play crossed before the piston moves), at travels of a
+    // fraction of the stroke.
+    for k in [0.003, 0.01, 0.03] {
+        let s0 = num(k * x);
+        l.push(t(
+            format!("sign(v)*exp(-s/{s0})"),
+            "N",
+            "pre-sliding friction after a reversal (LuGre, Dahl bristles)",
+        ));
+        l.push(t(
+            format!("abs(i)*sign(v)*exp(-s/{s0})"),
+            "N/A",
+            "field yield force missing over a travel after a reversal (free play, backlash, fluid compliance)",
+        ));
+    }
+    // Friction that falls from a static to a kinetic level as the speed rises.
+    for k in [0.02, 0.06, 0.2] {
+        let vs = num(k * v);
+        l.push(t(
+            format!("sign(v)*exp(-(v/{vs})^2)"),
+            "N",
+            "Stribeck friction (static above kinetic, falling with speed)",
+        ));
+        l.push(t(
+            format!("abs(i)*sign(v)*exp(-(v/{vs})^2)"),
+            "N/A",
+            "Stribeck effect of the field's yield force (static above dynamic yield)",
+        ));
+    }
+    // Friction that depends on where the piston is (a seal rubbing harder toward the stroke's ends).
+    for (f, unit, unit_i) in [("x^2", "N/m^2", "N/(m^2 A)"), ("abs(x)", "N/m", "N/(m A)")] {
+        l.push(t(
+            format!("sign(v)*{f}"),
+            unit,
+            "position-dependent friction (seal tighter toward the stroke's ends)",
+        ));
+        l.push(t(
+            format!("abs(i)*sign(v)*{f}"),
+            unit_i,
+            "position-dependent yield force (field or gap varying along the stroke)",
+        ));
+    }
+    // A field slower than the model's lags: the force the yield lacks while the field still builds up after
+    // a command change, through a further lag of the current or a decay since the change.
+    for k in [0.03, 0.1, 0.3] {
+        let tau = num((k * s.tau).max(2.0 * s.dt));
+        l.push(t(
+            format!("sign(v)*(lp(i,{tau})-i)"),
+            "N/A",
+            "slow field build-up (a further lag of the field: eddy currents, the iron's reluctance)",
+        ));
+    }
+    for k in [0.03, 0.1] {
+        let tau = num((k * s.tau).max(2.0 * s.dt));
+        l.push(t(
+            format!("i*sign(v)*exp(-tc/{tau})"),
+            "N/A",
+            "slow field build-up after a command step",
+        ));
+    }
     l
+}
+
+/// A positive number to four significant digits in plain decimal notation: a wavelength, whose error
+/// grows into a phase error over the stroke.
+fn num4(x: f64) -> String {
+    let x = if x.is_finite() && x > 0.0 { x } else { 1.0 };
+    let decimals = (3.0 - x.log10().floor()).max(0.0) as usize;
+    format!("{x:.decimals$}")
+}
+
+/// Wavelengths scanned for a force periodic in position, as fractions of the stroke scale `Scales::x`:
+/// from a ripple a few hundred times finer than the stroke to one a third of it (longer is a smooth
+/// function of position, which the library's powers cover).
+const RIPPLE_SHORTEST: f64 = 1.0 / 300.0;
+const RIPPLE_LONGEST: f64 = 1.0 / 3.0;
+/// Steps of the scan's log grid, then of its refinement around the best wavelength.
+const RIPPLE_GRID: usize = 240;
+const RIPPLE_REFINE: usize = 40;
+/// Most samples the wavelength scan reads (every k-th beyond).
+const RIPPLE_SAMPLES: usize = 20_000;
+
+/// The pair `sin(x/L)`, `cos(x/L)` of the force periodic in position (cogging, a screw's lead, a detent's
+/// ripple) whose wavelength `2πL` best explains `target` (weights `w`, over `tests` concatenated): the
+/// peak of the residual's periodogram against displacement, scanned on a log grid of wavelengths and
+/// refined around its peak.
+fn ripple_terms(s: Scales, tests: &[Test], target: &[f64], w: &[f64]) -> Vec<LibraryTerm> {
+    let xs: Vec<f64> = tests
+        .iter()
+        .flat_map(|t| t.inputs.iter().map(|i| i.x_m))
+        .collect();
+    let stride = xs.len().div_ceil(RIPPLE_SAMPLES).max(1);
+    let pts: Vec<(f64, f64)> = (0..xs.len())
+        .step_by(stride)
+        .filter(|&k| w[k] != 0.0)
+        .map(|k| (xs[k], target[k]))
+        .collect();
+    if pts.len() < 100 {
+        return Vec::new();
+    }
+    // The share of the residual's energy a sine and cosine pair of wavenumber `q` (rad/m) explains.
+    let power = |q: f64| -> f64 {
+        let (mut ss, mut cc, mut sc, mut rs, mut rc) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for &(x, r) in &pts {
+            let (sn, cs) = (q * x).sin_cos();
+            ss += sn * sn;
+            cc += cs * cs;
+            sc += sn * cs;
+            rs += r * sn;
+            rc += r * cs;
+        }
+        // Least squares on the pair: [ss sc; sc cc] β = [rs; rc], explained energy β·[rs; rc].
+        let det = ss * cc - sc * sc;
+        if det <= 1e-12 * (ss * cc).max(f64::MIN_POSITIVE) {
+            return 0.0;
+        }
+        (cc * rs * rs - 2.0 * sc * rs * rc + ss * rc * rc) / det
+    };
+    let (lo, hi) = (RIPPLE_SHORTEST * s.x, RIPPLE_LONGEST * s.x);
+    let grid = |lo: f64, hi: f64, n: usize| -> Vec<f64> {
+        (0..n)
+            .map(|k| lo * (hi / lo).powf(k as f64 / (n - 1) as f64))
+            .collect()
+    };
+    let best = |lams: Vec<f64>| -> (f64, f64) {
+        lams.into_par_iter()
+            .map(|lam| (power(std::f64::consts::TAU / lam), lam))
+            .reduce(|| (f64::NEG_INFINITY, lo), |a, b| if b.0 > a.0 { b } else { a })
+    };
+    let (_, lam) = best(grid(lo, hi, RIPPLE_GRID));
+    let step = (hi / lo).powf(1.0 / (RIPPLE_GRID - 1) as f64);
+    let (_, lam) = best(grid(lam / step, lam * step, RIPPLE_REFINE));
+    let l = num4(lam / std::f64::consts::TAU);
+    let family = ripple_family("sin(x/").unwrap_or_default();
+    vec![
+        LibraryTerm {
+            feature: format!("sin(x/{l})"),
+            coef_unit: "N".into(),
+            family,
+        },
+        LibraryTerm {
+            feature: format!("cos(x/{l})"),
+            coef_unit: "N".into(),
+            family,
+        },
+    ]
 }
 
 /// The lagged current (the model's own excitation state) at every sample of every test.
@@ -204,6 +350,56 @@ fn column(term: &str, tests: &[Test], current: &[Vec<f64>]) -> Option<Vec<f64>> 
     out.iter().all(|v| v.is_finite()).then_some(out)
 }
 
+/// The current model's parameter sensitivities at the samples it was scored on: for each parameter, the
+/// change of the held-out prediction per unit of the parameter (forward differences at the fitted values of
+/// the fold that held the sample out), concatenated test after test as the library's columns are. A term
+/// the search proposes must explain what these cannot: what a refit of the model's own parameters would
+/// absorb is not structure the model lacks. Columns that are not finite everywhere are left out.
+pub(crate) fn sensitivities(
+    model: &Model,
+    fold_params: &[Vec<f64>],
+    folds: &[Fold],
+    tests: &[Test],
+) -> Vec<Vec<f64>> {
+    let np = model.n_params();
+    let mut offsets = Vec::with_capacity(tests.len());
+    let mut total = 0;
+    for t in tests {
+        offsets.push(total);
+        total += t.len();
+    }
+    let mut cols = vec![vec![0.0; total]; np];
+    for (fold, p) in folds.iter().zip(fold_params) {
+        if p.len() != np {
+            continue;
+        }
+        let mut held: Vec<usize> = fold.test.iter().map(|sp| sp.test).collect();
+        held.sort_unstable();
+        held.dedup();
+        for j in held {
+            let t = &tests[j];
+            let base = t.predict(model, p, t.len());
+            let d: Vec<Vec<f64>> = (0..np)
+                .into_par_iter()
+                .map(|k| {
+                    let mut q = p.clone();
+                    q[k] += 1e-6 * (1.0 + p[k].abs());
+                    let h = q[k] - p[k];
+                    let out = t.predict(model, &q, t.len());
+                    out.iter().zip(&base).map(|(a, b)| (a - b) / h).collect()
+                })
+                .collect();
+            for sp in fold.test.iter().filter(|sp| sp.test == j) {
+                for (col, dk) in cols.iter_mut().zip(&d) {
+                    col[offsets[j] + sp.start..offsets[j] + sp.end].copy_from_slice(&dk[sp.start..sp.end]);
+                }
+            }
+        }
+    }
+    cols.retain(|c| c.iter().all(|v| v.is_finite()) && c.iter().any(|v| *v != 0.0));
+    cols
+}
+
 /// Smallest share of the residual's energy a term must explain to be kept by the forward regression.
 const MIN_ERR: f64 = 0.02;
 /// Most terms a discovered effect has.
@@ -211,13 +407,16 @@ const MAX_TERMS: usize = 3;
 
 /// The term a forward regression (FROLS) finds in the held-out residual `oof − f` of the current model:
 /// a data-defined effect named `name` with a coefficient per kept library term (initial guesses their
-/// least-squares values), or `None` when no term explains [`MIN_ERR`] of it.
+/// least-squares values), or `None` when no term explains [`MIN_ERR`] of it. The model's own parameter
+/// sensitivities `sens` ([`sensitivities`]) enter the regression first, as regressors already chosen: a
+/// term is judged on what is left once the model's own parameters have taken their part.
 pub(crate) fn propose_term(
     name: &str,
     tests: &[Test],
     oof: &[Vec<f64>],
     current: &[Vec<f64>],
     lib: &[LibraryTerm],
+    sens: &[Vec<f64>],
 ) -> Option<FormulaEffect> {
     // The force the term must add: measured − predicted, on the samples that count.
     let mut target = Vec::new();
@@ -236,6 +435,12 @@ pub(crate) fn propose_term(
     if rr <= 0.0 {
         return None;
     }
+    // The library and the pair periodic in position at the wavelength this residual shows.
+    let lib: Vec<LibraryTerm> = lib
+        .iter()
+        .cloned()
+        .chain(ripple_terms(Scales::of(tests), tests, &target, &w))
+        .collect();
     // A library term's column over the samples that count; `None` where it is not finite everywhere.
     let weighted = |j: usize| -> Option<Vec<f64>> {
         let c = column(&lib[j].feature, tests, current)?;
@@ -256,17 +461,26 @@ pub(crate) fn propose_term(
         Some((dot(&q, &target).powi(2) / (qq * rr), q))
     };
     // The columns are computed afresh in each round (in parallel, each dropped once scored) rather than
-    // held all at once: a library of ~30 terms would hold ~30 values per sample through the search, the
-    // largest buffer of a diagnosis. Only the chosen terms' columns are kept.
+    // held all at once: a library of ~50 terms would hold ~50 values per sample through the search, the
+    // largest buffer of a diagnosis. Only the sensitivities' and the chosen terms' columns are kept.
+    let mut chosen: Vec<usize> = Vec::new();
+    let mut basis: Vec<Vec<f64>> = Vec::new();
+    // The model's sensitivities, the regressors chosen before any term (those another one spans left out).
+    let mut fixed: Vec<Vec<f64>> = Vec::new();
+    for c in sens {
+        let c: Vec<f64> = c.iter().zip(&w).map(|(a, b)| a * b).collect();
+        if let Some((_, q)) = orthogonal(&c, &basis) {
+            basis.push(q);
+            fixed.push(c);
+        }
+    }
     let first: Vec<Option<Option<f64>>> = (0..lib.len())
         .into_par_iter()
-        .map(|j| weighted(j).map(|c| orthogonal(&c, &[]).map(|(err, _)| err)))
+        .map(|j| weighted(j).map(|c| orthogonal(&c, &basis).map(|(err, _)| err)))
         .collect();
     // The library terms whose columns are finite; a candidate's index `ci` is its place in this list.
     let valid: Vec<usize> = (0..lib.len()).filter(|&j| first[j].is_some()).collect();
     let mut errs: Vec<Option<f64>> = first.into_iter().flatten().collect();
-    let mut chosen: Vec<usize> = Vec::new();
-    let mut basis: Vec<Vec<f64>> = Vec::new();
     let mut raw: Vec<Vec<f64>> = Vec::new();
     while chosen.len() < MAX_TERMS {
         if !chosen.is_empty() {
@@ -310,17 +524,22 @@ pub(crate) fn propose_term(
     // Least-squares coefficients of the chosen (not orthogonalised) columns. A term chosen early can end
     // with a negligible share once the later terms are fitted beside it (they explain what it explained):
     // such a term is dropped and the rest refitted, so the effect keeps only terms that carry force.
+    // The sensitivities are fitted beside the terms (the refit they stand for) and their coefficients
+    // dropped: the terms' coefficients are those that remain once the model's parameters have moved.
     let solve = |raw: &[Vec<f64>]| -> Option<DVector<f64>> {
-        let m = raw.len();
+        let cols: Vec<&Vec<f64>> = raw.iter().chain(&fixed).collect();
+        let m = cols.len();
         let mut ata = DMatrix::<f64>::zeros(m, m);
         let mut atb = DVector::<f64>::zeros(m);
         for a in 0..m {
-            atb[a] = dot(&raw[a], &target);
-            for b in 0..m {
-                ata[(a, b)] = dot(&raw[a], &raw[b]);
+            atb[a] = dot(cols[a], &target);
+            for b in a..m {
+                ata[(a, b)] = dot(cols[a], cols[b]);
+                ata[(b, a)] = ata[(a, b)];
             }
         }
-        ata.lu().solve(&atb)
+        let all = ata.lu().solve(&atb)?;
+        Some(all.rows(0, raw.len()).into_owned())
     };
     let share =
         |raw: &[Vec<f64>], coef: &DVector<f64>, a: usize| coef[a].powi(2) * dot(&raw[a], &raw[a]) / rr;
@@ -425,13 +644,23 @@ pub(crate) fn strongest_family(
         .iter()
         .zip(values)
         .filter_map(|(f, c)| {
-            let term = lib.iter().find(|t| &t.feature == f)?;
+            let family = lib
+                .iter()
+                .find(|t| &t.feature == f)
+                .map(|t| t.family)
+                .or_else(|| ripple_family(f))?;
             let col = column(f, tests, current)?;
-            Some((term.family, c * c * col.iter().map(|x| x * x).sum::<f64>()))
+            Some((family, c * c * col.iter().map(|x| x * x).sum::<f64>()))
         })
         .filter(|(_, share)| share.is_finite())
         .max_by(|a, b| a.1.total_cmp(&b.1))
         .map(|(family, _)| family)
+}
+
+/// The family of a term periodic in position (`ripple_terms`), whose wavelength the residual chose.
+fn ripple_family(feature: &str) -> Option<&'static str> {
+    (feature.starts_with("sin(x/") || feature.starts_with("cos(x/"))
+        .then_some("force periodic in position (cogging, a screw's lead, detent ripple)")
 }
 
 /// The library terms of a discovered effect (its formula is `c1 * term1 + c2 * term2 …`).
@@ -474,8 +703,18 @@ pub struct Verdict {
     pub correlates_with: Vec<(String, f64)>,
     /// Structure is left (the residual is not noise).
     pub structure: bool,
+    /// The regressor had enough samples for its columns (ten a column) for its share to be read.
+    pub enough_samples: bool,
     /// Where the held-out residual lives (regions, as for the base model).
     pub where_: Vec<super::residual::Region>,
+}
+
+impl Verdict {
+    /// The regressor predicts the residual: its share is at least [`MIN_PREDICTABLE_SHARE`] on enough
+    /// samples. (Structure can be left without it: a held-out error far above the noise floor.)
+    pub fn predicted(&self) -> bool {
+        self.enough_samples && self.predictable_share >= MIN_PREDICTABLE_SHARE
+    }
 }
 
 /// Smallest share of the held-out residual's mean square that must be predictable out of sample, in every
@@ -806,16 +1045,17 @@ pub(crate) fn verdict(
         .filter(|(_, sh)| *sh >= 0.2 * predictable_share && *sh > 0.01)
         .collect();
     correlates_with.sort_by(|a, b| b.1.total_cmp(&a.1));
-    let predicted = rows.len() > 10 * p && predictable_share >= MIN_PREDICTABLE_SHARE;
-    let structure = !at_floor && (predicted || heldout_nrmse > MAX_NOISE_RATIO * floor_nrmse);
-    Verdict {
+    let mut v = Verdict {
         heldout_nrmse,
         floor_nrmse,
         predictable_share,
         correlates_with,
-        structure,
+        structure: false,
+        enough_samples: rows.len() > 10 * p,
         where_: Vec::new(),
-    }
+    };
+    v.structure = !at_floor && (v.predicted() || heldout_nrmse > MAX_NOISE_RATIO * floor_nrmse);
+    v
 }
 
 #[cfg(test)]
@@ -887,7 +1127,7 @@ mod tests {
             t.f_n = f;
         }
         let oof: Vec<Vec<f64>> = tests.iter().map(|t| vec![0.0; t.len()]).collect();
-        let e = propose_term("term1", &tests, &oof, &current, &lib).expect("a term");
+        let e = propose_term("term1", &tests, &oof, &current, &lib, &[]).expect("a term");
         let features = features_of(&e);
         let mut want: Vec<&str> = truth.iter().map(|t| t.0.as_str()).collect();
         let mut got: Vec<&str> = features.iter().map(String::as_str).collect();
@@ -902,6 +1142,60 @@ mod tests {
                 .expect("a true term");
             assert!((p.guess - c).abs() <= 1e-6 * c, "{f}: {} against {c}", p.guess);
         }
+    }
+
+    /// A force periodic in position, beside a larger smooth one and noise, is found at its wavelength (to
+    /// a fraction of a percent, off the scan's grid) by the periodogram of the residual against x.
+    #[test]
+    fn a_ripple_in_position_is_found_at_its_wavelength() {
+        let lam = 0.0037;
+        let w = std::f64::consts::TAU * 1.3;
+        let inputs: Vec<Inputs> = (0..6000)
+            .map(|k| {
+                let t = k as f64 * 1e-3;
+                Inputs {
+                    t_s: t,
+                    x_m: 0.02 * (w * t).sin(),
+                    v_m_s: 0.02 * w * (w * t).cos(),
+                    ..Inputs::default()
+                }
+            })
+            .collect();
+        let mut noise = 12345u64;
+        let target: Vec<f64> = inputs
+            .iter()
+            .map(|i| {
+                noise = noise
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                let u = (noise >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+                0.8 * (std::f64::consts::TAU * i.x_m / lam + 0.4).sin() + 3.0 * i.v_m_s.signum() + u
+            })
+            .collect();
+        let t = Test {
+            path: "r.csv".into(),
+            name: "r.csv".into(),
+            group: "r".into(),
+            f_n: target.clone(),
+            inputs,
+            velocity_measured: true,
+            velocity_noise_m_s: None,
+            drive: None,
+        };
+        let tests = [t];
+        let terms = ripple_terms(Scales::of(&tests), &tests, &target, &vec![1.0; target.len()]);
+        assert_eq!(terms.len(), 2);
+        let l: f64 = terms[0]
+            .feature
+            .trim_start_matches("sin(x/")
+            .trim_end_matches(')')
+            .parse()
+            .expect("a number");
+        let found = std::f64::consts::TAU * l;
+        assert!(
+            (found / lam - 1.0).abs() < 0.003,
+            "wavelength {found} against {lam}"
+        );
     }
 
     #[test]
