@@ -15,9 +15,7 @@ use std::collections::BTreeMap;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 
-use super::discover::{
-    lagged_current, library, propose_term, readable, sensitivities, verdict, Scales, Verdict,
-};
+use super::discover::{lagged_current, library, propose_term, readable, verdict, Scales, Verdict};
 use super::fit::{fit, span_stats, FitOptions, Span};
 use super::residual::{direction_weights, noise_floor_n, where_regions, Region, Signatures};
 use super::validate::{evaluate, Figures};
@@ -750,8 +748,7 @@ pub fn diagnose(
         let mut term_cand: Option<Candidate> = None;
         if opts.open_search && !search.at_floor(&cur) {
             let name = next_term_name(&reg);
-            let sens = sensitivities(&cur_model, &cur.fold_params, &folds, tests);
-            if let Some(effect) = propose_term(&name, tests, &cur.oof, &current, &lib, &sens) {
+            if let Some(effect) = propose_term(&name, tests, &cur.oof, &current, &lib) {
                 bar.set_message(format!("trying the term {} on {}", effect.formula(), cur.spec));
                 let mut with = reg.clone();
                 with.register(effect.clone());

@@ -350,56 +350,6 @@ fn column(term: &str, tests: &[Test], current: &[Vec<f64>]) -> Option<Vec<f64>> 
     out.iter().all(|v| v.is_finite()).then_some(out)
 }
 
-/// The current model's parameter sensitivities at the samples it was scored on: for each parameter, the
-/// change of the held-out prediction per unit of the parameter (forward differences at the fitted values of
-/// the fold that held the sample out), concatenated test after test as the library's columns are. A term
-/// the search proposes must explain what these cannot: what a refit of the model's own parameters would
-/// absorb is not structure the model lacks. Columns that are not finite everywhere are left out.
-pub(crate) fn sensitivities(
-    model: &Model,
-    fold_params: &[Vec<f64>],
-    folds: &[Fold],
-    tests: &[Test],
-) -> Vec<Vec<f64>> {
-    let np = model.n_params();
-    let mut offsets = Vec::with_capacity(tests.len());
-    let mut total = 0;
-    for t in tests {
-        offsets.push(total);
-        total += t.len();
-    }
-    let mut cols = vec![vec![0.0; total]; np];
-    for (fold, p) in folds.iter().zip(fold_params) {
-        if p.len() != np {
-            continue;
-        }
-        let mut held: Vec<usize> = fold.test.iter().map(|sp| sp.test).collect();
-        held.sort_unstable();
-        held.dedup();
-        for j in held {
-            let t = &tests[j];
-            let base = t.predict(model, p, t.len());
-            let d: Vec<Vec<f64>> = (0..np)
-                .into_par_iter()
-                .map(|k| {
-                    let mut q = p.clone();
-                    q[k] += 1e-6 * (1.0 + p[k].abs());
-                    let h = q[k] - p[k];
-                    let out = t.predict(model, &q, t.len());
-                    out.iter().zip(&base).map(|(a, b)| (a - b) / h).collect()
-                })
-                .collect();
-            for sp in fold.test.iter().filter(|sp| sp.test == j) {
-                for (col, dk) in cols.iter_mut().zip(&d) {
-                    col[offsets[j] + sp.start..offsets[j] + sp.end].copy_from_slice(&dk[sp.start..sp.end]);
-                }
-            }
-        }
-    }
-    cols.retain(|c| c.iter().all(|v| v.is_finite()) && c.iter().any(|v| *v != 0.0));
-    cols
-}
-
 /// Smallest share of the residual's energy a term must explain to be kept by the forward regression.
 const MIN_ERR: f64 = 0.02;
 /// Most terms a discovered effect has.
@@ -407,16 +357,13 @@ const MAX_TERMS: usize = 3;
 
 /// The term a forward regression (FROLS) finds in the held-out residual `oof − f` of the current model:
 /// a data-defined effect named `name` with a coefficient per kept library term (initial guesses their
-/// least-squares values), or `None` when no term explains [`MIN_ERR`] of it. The model's own parameter
-/// sensitivities `sens` ([`sensitivities`]) enter the regression first, as regressors already chosen: a
-/// term is judged on what is left once the model's own parameters have taken their part.
+/// least-squares values), or `None` when no term explains [`MIN_ERR`] of it.
 pub(crate) fn propose_term(
     name: &str,
     tests: &[Test],
     oof: &[Vec<f64>],
     current: &[Vec<f64>],
     lib: &[LibraryTerm],
-    sens: &[Vec<f64>],
 ) -> Option<FormulaEffect> {
     // The force the term must add: measured − predicted, on the samples that count.
     let mut target = Vec::new();
@@ -462,25 +409,16 @@ pub(crate) fn propose_term(
     };
     // The columns are computed afresh in each round (in parallel, each dropped once scored) rather than
     // held all at once: a library of ~50 terms would hold ~50 values per sample through the search, the
-    // largest buffer of a diagnosis. Only the sensitivities' and the chosen terms' columns are kept.
-    let mut chosen: Vec<usize> = Vec::new();
-    let mut basis: Vec<Vec<f64>> = Vec::new();
-    // The model's sensitivities, the regressors chosen before any term (those another one spans left out).
-    let mut fixed: Vec<Vec<f64>> = Vec::new();
-    for c in sens {
-        let c: Vec<f64> = c.iter().zip(&w).map(|(a, b)| a * b).collect();
-        if let Some((_, q)) = orthogonal(&c, &basis) {
-            basis.push(q);
-            fixed.push(c);
-        }
-    }
+    // largest buffer of a diagnosis. Only the chosen terms' columns are kept.
     let first: Vec<Option<Option<f64>>> = (0..lib.len())
         .into_par_iter()
-        .map(|j| weighted(j).map(|c| orthogonal(&c, &basis).map(|(err, _)| err)))
+        .map(|j| weighted(j).map(|c| orthogonal(&c, &[]).map(|(err, _)| err)))
         .collect();
     // The library terms whose columns are finite; a candidate's index `ci` is its place in this list.
     let valid: Vec<usize> = (0..lib.len()).filter(|&j| first[j].is_some()).collect();
     let mut errs: Vec<Option<f64>> = first.into_iter().flatten().collect();
+    let mut chosen: Vec<usize> = Vec::new();
+    let mut basis: Vec<Vec<f64>> = Vec::new();
     let mut raw: Vec<Vec<f64>> = Vec::new();
     while chosen.len() < MAX_TERMS {
         if !chosen.is_empty() {
@@ -524,22 +462,17 @@ pub(crate) fn propose_term(
     // Least-squares coefficients of the chosen (not orthogonalised) columns. A term chosen early can end
     // with a negligible share once the later terms are fitted beside it (they explain what it explained):
     // such a term is dropped and the rest refitted, so the effect keeps only terms that carry force.
-    // The sensitivities are fitted beside the terms (the refit they stand for) and their coefficients
-    // dropped: the terms' coefficients are those that remain once the model's parameters have moved.
     let solve = |raw: &[Vec<f64>]| -> Option<DVector<f64>> {
-        let cols: Vec<&Vec<f64>> = raw.iter().chain(&fixed).collect();
-        let m = cols.len();
+        let m = raw.len();
         let mut ata = DMatrix::<f64>::zeros(m, m);
         let mut atb = DVector::<f64>::zeros(m);
         for a in 0..m {
-            atb[a] = dot(cols[a], &target);
-            for b in a..m {
-                ata[(a, b)] = dot(cols[a], cols[b]);
-                ata[(b, a)] = ata[(a, b)];
+            atb[a] = dot(&raw[a], &target);
+            for b in 0..m {
+                ata[(a, b)] = dot(&raw[a], &raw[b]);
             }
         }
-        let all = ata.lu().solve(&atb)?;
-        Some(all.rows(0, raw.len()).into_owned())
+        ata.lu().solve(&atb)
     };
     let share =
         |raw: &[Vec<f64>], coef: &DVector<f64>, a: usize| coef[a].powi(2) * dot(&raw[a], &raw[a]) / rr;
@@ -1127,7 +1060,7 @@ mod tests {
             t.f_n = f;
         }
         let oof: Vec<Vec<f64>> = tests.iter().map(|t| vec![0.0; t.len()]).collect();
-        let e = propose_term("term1", &tests, &oof, &current, &lib, &[]).expect("a term");
+        let e = propose_term("term1", &tests, &oof, &current, &lib).expect("a term");
         let features = features_of(&e);
         let mut want: Vec<&str> = truth.iter().map(|t| t.0.as_str()).collect();
         let mut got: Vec<&str> = features.iter().map(String::as_str).collect();
