@@ -29,8 +29,8 @@ find a term for them or say that structure is left, tests/discovery.rs):
                rising reluctance): di_f/dt = (i - i_f) / (TAUF (1 + 4 (i_f / IMAX)^2)), the yield force made
                by i_f; with constant currents the field is settled, so it shows under STEPS=1 only
 
-Run:  python3 -m venv /tmp/pyenv && /tmp/pyenv/bin/pip install numpy
-      /tmp/pyenv/bin/python python/independent_truth.py EFFECTS OUTDIR [SEED]     (EFFECTS: comma-separated)
+Run:  python3 -m venv probe-env && probe-env/bin/pip install numpy
+      probe-env/bin/python python/independent_truth.py EFFECTS OUTDIR [SEED]     (EFFECTS: comma-separated)
       target/release/mrfeel diagnose OUTDIR --json
 Environment (all optional):
   SCALE=real       a device like the real damper in data/ (80 N + 900 N/A, 2000 N s/m, 0-1 A,

@@ -10,8 +10,8 @@ leaving one amplitude/frequency group out, either to the files as they are (`non
 (`exact`: the window from the nominal frequency; `rule`: from the displacement's spectral peak): the motion
 before the filter by Tikhonov deconvolution, the model's force averaged as the source averaged the data.
 
-Run:  python3 -m venv /tmp/pyenv && /tmp/pyenv/bin/pip install numpy scipy numba
-      /tmp/pyenv/bin/python python/probe_acquisition_filter.py none|exact|rule [cvisc]
+Run:  python3 -m venv probe-env && probe-env/bin/pip install numpy scipy numba
+      probe-env/bin/python python/probe_acquisition_filter.py none|exact|rule [cvisc]
 """
 import numpy as np, glob, os, sys, time
 import scipy.sparse as sp, scipy.sparse.linalg as spl

@@ -12,8 +12,8 @@ viscous pre-yield dashpot), parameters linear in the constant current; 200 Hz; e
 pooled NRMSE = RMS(residual) / RMS(force) over the held-out samples. Its own figures differ slightly from
 `mrfeel diagnose`'s (0.104 vs 0.0999 for the same model held out): another fitter and weighting.
 
-Run:  python3 -m venv /tmp/pyenv && /tmp/pyenv/bin/pip install numpy scipy numba
-      /tmp/pyenv/bin/python python/probe_delay_and_levels.py       (a few minutes)
+Run:  python3 -m venv probe-env && probe-env/bin/pip install numpy scipy numba
+      probe-env/bin/python python/probe_delay_and_levels.py       (a few minutes)
 """
 import os, sys
 import numpy as np, numba

@@ -9,8 +9,8 @@ evaluate rmse/rms(f) pooled over the five files of the third) and the fit-on-all
 Each model is simulated as the Rust crate does: at sample k the force uses the states at k and the present
 velocity; the states then advance with the measured step (dx = x[k+1]-x[k], dt) by an exact update.
 
-Run:  python3 -m venv /tmp/pyenv && /tmp/pyenv/bin/pip install numpy scipy
-      /tmp/pyenv/bin/python python/prototype_hysteresis.py [--forms a,b,...] [--data DIR]
+Run:  python3 -m venv probe-env && probe-env/bin/pip install numpy scipy
+      probe-env/bin/python python/prototype_hysteresis.py [--forms a,b,...] [--data DIR]
 """
 
 import argparse

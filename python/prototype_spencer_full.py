@@ -6,8 +6,8 @@ F = c1 ẏ + k1 x,  ẏ = (α z + c0 ẋ + k0 (x − y)) / (c0 + c1),
 α, c0, c1 linear in the (constant) current. 11 parameters, fitted with scipy least_squares on all 15 tests
 and leaving one amplitude/frequency group out (tests decimated to 200 Hz as in prototype_hysteresis.py).
 
-Run:  python3 -m venv /tmp/pyenv && /tmp/pyenv/bin/pip install numpy scipy numba
-      /tmp/pyenv/bin/python python/prototype_spencer_full.py       (about 2 min)
+Run:  python3 -m venv probe-env && probe-env/bin/pip install numpy scipy numba
+      probe-env/bin/python python/prototype_spencer_full.py       (about 2 min)
 """
 import sys, time, numpy as np, numba
 sys.path.insert(0, __import__('os').path.dirname(__import__('os').path.abspath(__file__)))

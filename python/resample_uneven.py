@@ -10,8 +10,8 @@ force, displacement and velocity are exact for their own times:
   drops   every 4th sample, 3 % of them lost at random: some intervals of 2 and 3
   even    every 4th sample (the control: an even grid from the same data)
 
-Run:  env FS=4000 SUB=5 /tmp/pyenv/bin/python python/independent_truth.py inertia RAW 2
-      /tmp/pyenv/bin/python python/resample_uneven.py RAW OUT 2 jitter
+Run:  env FS=4000 SUB=5 probe-env/bin/python python/independent_truth.py inertia RAW 2
+      probe-env/bin/python python/resample_uneven.py RAW OUT 2 jitter
       target/release/mrfeel diagnose OUT --json
 The `sample_rate_hz` metadata line is dropped (there is no one rate); other lines are kept.
 """

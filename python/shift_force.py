@@ -4,11 +4,11 @@
 `f_n` is compared `MS` milliseconds later than the motion (negative: earlier): each file's force column is
 moved by round(MS * fs / 1000) samples of its own clock, the rows left without a partner trimmed, and the
 time restarted at 0. Header lines are kept. Used to ask whether a delay between the channels is left
-after the acquisition chain (docs/ident.md):
+after the acquisition chain (docs/explanation/ident.md):
 
     for ms in -10 -5 0 5 10; do
-        python python/shift_force.py data/utfsm-mr-damper $ms /tmp/shift$ms
-        target/release/mrfeel fit /tmp/shift$ms --model bingham+hysteresis --heldout
+        python python/shift_force.py data/utfsm-mr-damper $ms shift$ms
+        target/release/mrfeel fit shift$ms --model bingham+hysteresis --heldout
     done
 """
 

@@ -48,17 +48,6 @@ pub enum FaultKind {
 }
 
 impl FaultKind {
-    /// Every kind of fault in the feel system's path, in table order (all but [`FaultKind::HandsOff`]).
-    pub const ALL: [FaultKind; 7] = [
-        FaultKind::CoilOpen,
-        FaultKind::DriverStuck,
-        FaultKind::LoadCellStuck,
-        FaultKind::LoadCellZero,
-        FaultKind::LoadCellNoisy,
-        FaultKind::DisplacementDropout,
-        FaultKind::LatencySpike,
-    ];
-
     /// Every kind, in table order: the feel path's, then the pilot's.
     pub const KINDS: [FaultKind; 8] = [
         FaultKind::CoilOpen,
@@ -70,6 +59,9 @@ impl FaultKind {
         FaultKind::LatencySpike,
         FaultKind::HandsOff,
     ];
+
+    /// Every kind of fault in the feel system's path, in table order (all but [`FaultKind::HandsOff`]).
+    pub const ALL: &'static [FaultKind] = Self::KINDS.split_last().expect("kinds").1;
 
     /// The name used in scenario files and tables.
     pub fn name(self) -> &'static str {

@@ -108,7 +108,7 @@ impl QuinticFit {
 
 /// The `order`-th derivative (1 or 2; 0 smooths) of `y` (white noise `sd_y`) by a local quintic fit whose
 /// window (11 to 81 samples) widens while the change a wider window makes stays within three sampling
-/// spreads of the noise it removes: beyond that the wider fit bends the signal (`docs/ident.md`, "Velocity
+/// spreads of the noise it removes: beyond that the wider fit bends the signal (`docs/explanation/ident.md`, "Velocity
 /// and acceleration"). The first and last samples take off-centre fits widened by their own rule; a hole in
 /// the record (an interval over [`GAP_INTERVALS`] times the median one) splits it into pieces differentiated
 /// alone. Returns the derivative and its noise standard deviation at each sample; `fallback` and `None`

@@ -1,5 +1,5 @@
 //! Aircraft models against their JSBSim 1.3.3 reference flights (scenarios/jsbsim/), flight-mechanics
-//! estimates and the certification force limits. Figures quoted in docs/aero.md come from the
+//! estimates and the certification force limits. Figures quoted in docs/explanation/aero.md come from the
 //! `eprintln!` lines here: `cargo test --test integration aero:: -- --nocapture`.
 
 use std::path::Path;
@@ -373,7 +373,7 @@ fn c172p_per_g_lbf(m: AircraftModel) -> Option<f64> {
 /// most 75 lbf, from 1 g to the 3.8 g limit, so 8.6 to 26.8 lbf/g), and the C172's "more than 20 lb/G"
 /// (E. Kolano, AOPA, *Flight Control Forces*, aopa.org/training-and-safety/students/presolo/topics/
 /// flight-control-forces; no speed, weight or CG given) is printed beside it, not asserted: the model
-/// reads 12 % below it (docs/aero.md). The band catches `Ch_δ` of the wrong sign or wrong by a factor of
+/// reads 12 % below it (docs/explanation/aero.md). The band catches `Ch_δ` of the wrong sign or wrong by a factor of
 /// two, and `Ch_α` of the wrong sign; a factor of two in `Ch_α` stays inside it (the section test
 /// against the discrete-vortex solution catches that, `aero::hinge_theory`).
 #[test]

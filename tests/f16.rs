@@ -3,7 +3,7 @@
 //! renders the designed feel (src/aero/fbw.rs) on the sidestick rig (`models/sidestick.urdf`).
 //!
 //! Needs the repository's Python environment with jsbsim (made by the test command).
-//! `cargo test --locked --test integration f16:: -- --nocapture` prints the figures of docs/flight.md.
+//! `cargo test --locked --test integration f16:: -- --nocapture` prints the figures of docs/explanation/flight.md.
 
 use crate::common;
 

@@ -252,7 +252,7 @@ fn every_fault_leaves_the_run_going_is_flagged_and_cannot_touch_a_spring_feel_un
     let f14 = scn.devices.plant.param("fc0_n").unwrap()
         + scn.devices.plant.param("fc_gain_n_per_a").unwrap() * limit;
     let f14_grip = f14 * scn_gear_over_lever(&scn);
-    for f in FaultKind::ALL {
+    for &f in FaultKind::ALL {
         let sched = FaultSchedule::single(Fault::new(f, a, b));
         let mr = main_run(&scn, FeelKind::Mr, &sched);
         assert_eq!(mr.rows.len(), n, "{f:?}");

@@ -3,7 +3,7 @@
 //! renders it where it can (it only resists motion, up to its 14 A force), the McRuer pilot flies the
 //! tasks through the hand, and live JSBSim agrees with the embedded model.
 //!
-//! `cargo test --test integration flight:: -- --nocapture --test-threads 1` prints the figures of docs/flight.md.
+//! `cargo test --test integration flight:: -- --nocapture --test-threads 1` prints the figures of docs/explanation/flight.md.
 
 use crate::common;
 
@@ -140,7 +140,7 @@ fn pull_up_reaches_the_load_factor_with_the_feel_capped_at_the_device_force() {
     let m = FlightMetrics::of(&r, &s).unwrap();
     let hold: Vec<_> = r.rows.iter().filter(|x| x.t_s >= 5.0 && x.t_s < 7.0).collect();
     let nz_hold = hold.iter().filter_map(|x| x.aero).map(|a| a.nz_g).sum::<f64>() / hold.len() as f64;
-    // The whole hold with its onset, for the figure beside it in docs/flight.md (not judged).
+    // The whole hold with its onset, for the figure beside it in docs/explanation/flight.md (not judged).
     let whole: Vec<_> = r.rows.iter().filter(|x| x.t_s >= 3.0 && x.t_s < 7.0).collect();
     let nz_whole = whole.iter().filter_map(|x| x.aero).map(|a| a.nz_g).sum::<f64>() / whole.len() as f64;
     let ceiling = r.feel_ceiling_n;
@@ -210,7 +210,7 @@ fn pull_up_reaches_the_load_factor_with_the_feel_capped_at_the_device_force() {
 /// within 15 %, not exactly). A linkage or gearing wrong by a factor of two breaks the grip-force check; a
 /// hinge path that differs between the flight and the steady solver breaks the per-g check. MIL-F-8785C
 /// Level 1 is printed, not asserted: no published T-37 stick force per g was found and the elevator
-/// geometry and gearing are `[EST]` (docs/aero.md).
+/// geometry and gearing are `[EST]` (docs/explanation/aero.md).
 #[test]
 fn t37_pull_up_is_held_with_the_aircrafts_stick_force_at_the_grip_and_its_steady_per_g() {
     use mrfeel::aero::{Aircraft, AircraftModel, FeelAssessment};

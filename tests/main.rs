@@ -16,6 +16,7 @@ mod bad_input_files;
 mod controller_model;
 mod custom_effect;
 mod discovery;
+mod docs;
 mod f16;
 mod feel;
 mod flight;

@@ -1,4 +1,4 @@
-//! Property tests across the parameter space (docs/invariants.md): random valid scenarios, devices and
+//! Property tests across the parameter space (docs/reference/invariants.md): random valid scenarios, devices and
 //! protocols within the schema's ranges.
 //!
 //! - every run either succeeds with finite results that keep the invariants, the feel system passive, or

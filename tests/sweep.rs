@@ -329,3 +329,46 @@ fn bad_axes_shards_and_merges_are_refused_at_their_line() {
         &["sweep.toml:3: field `digest`"],
     );
 }
+
+/// A plan of the c172p pitch-tracking task at 50 m/s, 1000 m, 14 s, one run per feel system given.
+fn c172p_plan(dir: &Path, kinds: &[&str]) -> PathBuf {
+    let cases: String = kinds
+        .iter()
+        .map(|k| {
+            format!(
+                "[[axis.case]]\nlabel = \"{k}\"\nset = {{ \"feel_system.kind\" = \"{k}\", \"feel_system.springs\" = \"{}\", \"feel_system.damping_n_s_per_m\" = 100.0 }}\n",
+                repo("models/feel-springs.toml").display()
+            )
+        })
+        .collect();
+    let text = format!(
+        "name = \"stop\"\nscenario = \"{}\"\nseed = 1\n\n[[axis]]\nkey = \"duration_s\"\nvalues = [14.0]\n\n[[axis]]\nname = \"feel\"\n{cases}",
+        repo("scenarios/c172p-pitch-tracking.toml").display()
+    );
+    let p = dir.join("stop.toml");
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// A run that drives the load cell past its range is a design point with a failed verdict, not a lost
+/// run: at 50 m/s the q-feel spring (243 N/m at the piston, a fifth of the centring spring's 1130) lets the
+/// pilot drive the stick into its stop at about 0.9 rad/s, and stopping the 3.4 kg piston assembly in a
+/// few milliseconds puts a few hundred newtons through the 250 N cell. The run keeps its figures and
+/// verdicts with `load_cell_ok = false`; the stiffer centring spring at the same point stays in range.
+#[test]
+fn a_run_past_the_load_cell_range_is_a_failed_verdict_not_a_lost_run() {
+    let t = tempfile::tempdir().unwrap();
+    let plan = mrfeel::sweep::Plan::load(&c172p_plan(t.path(), &["q_feel", "centring_spring"])).unwrap();
+    let q = mrfeel::sweep::run_one(&plan, &plan.run(0)).outcome;
+    let c = mrfeel::sweep::run_one(&plan, &plan.run(1)).outcome;
+    assert_eq!(q.error, None, "{q:?}");
+    assert_eq!(q.load_cell_ok, Some(false), "{q:?}");
+    let peak = q.load_cell_peak_n.unwrap();
+    // Above the 250 N rating, and of the size of the impact: the piston assembly (3.36 kg in the URDF)
+    // arriving at about 0.135 m/s and stopped within one 1 ms step would need 454 N.
+    assert!(peak > 250.0 && peak < 454.0, "peak {peak} N");
+    assert!(q.per_g_level.is_some() && q.grip_force_peak_n.is_some(), "{q:?}");
+    assert_eq!(c.error, None, "{c:?}");
+    assert_eq!(c.load_cell_ok, Some(true), "{c:?}");
+    assert!(c.load_cell_peak_n.unwrap() < 250.0, "{c:?}");
+}

@@ -1,4 +1,4 @@
-//! Results checked before they are saved, and outputs safe to write (docs/invariants.md): input that parses
+//! Results checked before they are saved, and outputs safe to write (docs/reference/invariants.md): input that parses
 //! but would make meaningless results, a run that breaks a physical invariant, parallel writers to one
 //! output, the leftovers of killed runs, and input echoed in errors.
 

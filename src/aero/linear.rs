@@ -99,7 +99,7 @@ impl LinearLongitudinal {
 /// a first-order lag `1/(stick_lag_s s + 1)` between the pilot's stick command and the stick: the
 /// hand's activation lag alone (0.1 s, `models/pilot-hand.toml`) when the stick moves freely, or the
 /// lag measured on the rig (stick command → stick angle; ≈ 1 s for the c172p pitch task with the
-/// paper's MR brake, docs/aero.md §4); 0 when the stick follows the command directly. Equalised and
+/// paper's MR brake, docs/explanation/aero.md §4); 0 when the stick follows the command directly. Equalised and
 /// scaled by `CrossoverPilotConfig::adapted_with`.
 pub fn adapted_pilot(
     aircraft: &Aircraft,

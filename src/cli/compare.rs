@@ -47,7 +47,7 @@ fn fmt(v: f64, prec: usize) -> String {
     }
 }
 
-/// The comparison table (markdown, so it pastes into `docs/feel.md`).
+/// The comparison table (markdown, so it pastes into `docs/explanation/feel-systems.md`).
 pub fn comparison_table(scn: &CompareScenario, c: &Comparison) -> String {
     let (l23, lpro, l25) = scn.limits.newtons();
     let mut s = format!(
@@ -212,7 +212,7 @@ fn plots(c: &Comparison, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     let mut files = save_charts(&[fd, rel, cur, brk], 2, dir, "compare-feel")?;
     if !c.faults.is_empty() {
         let mut charts = Vec::new();
-        for f in FaultKind::ALL {
+        for &f in FaultKind::ALL {
             let mut ch = Chart::new(
                 format!("{}: stick angle", f.name()),
                 "time (s)",

@@ -1,5 +1,5 @@
 //! Feel systems compared on the same rig, linkage and pilot task (three spring feel units, the MR damper
-//! under a force loop, the hybrid and the active stick; table in `docs/feel.md`), with and without faults in
+//! under a force loop, the hybrid and the active stick; table in `docs/explanation/feel-systems.md`), with and without faults in
 //! the power and signal path ([`crate::faults`]). Every system runs in the loop of `mrfeel run`
 //! ([`crate::sim::Loop`]) as the scenario's [`crate::control::FeelSystem`]; the pilot's task is fed to the
 //! hand sample by sample, letting go a NaN command.
@@ -603,7 +603,7 @@ pub fn compare(
                 run(scn, k, &main_task, &FaultSchedule::none())?
             };
             done += 1;
-            for f in FaultKind::ALL {
+            for &f in FaultKind::ALL {
                 let (a, b) = (scn.fault_test.start_s, scn.fault_test.end_s);
                 let tr = run(scn, k, &main_task, &FaultSchedule::single(Fault::new(f, a, b)))?;
                 let fm = fault_metrics(scn, &tr, &healthy, a, b);

@@ -1,7 +1,7 @@
 //! The extension point: a physical effect that composes with the base model. The force is assembled in
 //! stages, `F = yield_n · direction + damping_n_s_per_m · v + extra_n`; effects apply in the order of their
 //! [`EffectStage`], so `bingham+a+b` is `bingham+b+a`. A new effect is one `impl Effect` and one
-//! `Registry::register` call (`docs/effects.md`).
+//! `Registry::register` call (`docs/reference/effects.md`).
 #![warn(missing_docs)]
 
 use super::params::{DataStats, ParamSpec};

@@ -89,7 +89,7 @@ pub fn inputs_of(m: &Measurement) -> Vec<Inputs> {
 /// 7-sample differentiator is too noisy at high sample rates. A missing acceleration comes from the
 /// measured velocity once or the displacement twice, whichever route is quieter (each signal's white noise
 /// carried through the differentiator's weights): a noisy acceleration hides `inertia` (errors in the
-/// variables). Everything on the file's own time grid, even or not (`docs/ident.md`).
+/// variables). Everything on the file's own time grid, even or not (`docs/explanation/ident.md`).
 pub fn inputs_and_velocity_noise(m: &Measurement) -> (Vec<Inputs>, Option<Vec<f64>>) {
     let mut inputs = m.inputs();
     if m.len() < 32 {

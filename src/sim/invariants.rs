@@ -1,4 +1,4 @@
-//! What a finished run must satisfy before its results are reported or written (docs/invariants.md): every
+//! What a finished run must satisfy before its results are reported or written (docs/reference/invariants.md): every
 //! number finite, the energy balance closed, the load cell within its range. A run that breaks one is an
 //! error naming the invariant, the time and the scenario's setting that most likely caused it.
 
@@ -224,9 +224,9 @@ impl<'a> Checker<'a> {
         Ok(())
     }
 
-    /// Check the whole run: the load cell within its range, then the energy balance of its summary with
-    /// the energy the stops took.
-    pub fn finish(&self, s: &super::Summary) -> Result<(), SimError> {
+    /// Check the whole run: the load cell within its range, then the energy balance of its summary `s`
+    /// with the energy the stops took, which the returned summary counts.
+    pub fn finish(&self, s: super::Summary) -> Result<super::Summary, SimError> {
         if let Some((t_s, most)) = self.range_off {
             let range = self.scn.sensors.load_cell.range_n;
             return Err(broken(
@@ -237,11 +237,10 @@ impl<'a> Checker<'a> {
                 t_s,
             ));
         }
+        // Energy the stops would have given back counts against the balance (a stop is passive).
+        let s = s.with_stops_j(self.stop_j.max(0.0));
         if let Some(e) = s.energy_residual {
             let work = s.pilot_work_j.abs() + s.actuator_work_j.abs();
-            // Energy the stops would have given back counts against the balance (a stop is passive).
-            let stops = self.stop_j.max(0.0);
-            let e = e - stops / work;
             if e.abs() > ENERGY_RESIDUAL_TOLERANCE && e.abs() * work > ENERGY_FLOOR_J {
                 let taken = if self.stop_j != 0.0 {
                     format!(" with {:.4} J taken by the stick's stops", self.stop_j)
@@ -260,7 +259,7 @@ impl<'a> Checker<'a> {
                 ));
             }
         }
-        Ok(())
+        Ok(s)
     }
 }
 
@@ -270,7 +269,7 @@ pub fn check(res: &Results, scn: &Scenario) -> Result<(), SimError> {
     for r in &res.rows {
         c.push(r)?;
     }
-    c.finish(&res.summary())
+    c.finish(res.summary()).map(|_| ())
 }
 
 #[cfg(test)]
@@ -360,7 +359,7 @@ end_s = 1.5
         for r in &res.rows {
             c.push(r)?;
         }
-        c.finish(&res.summary())?;
+        c.finish(res.summary())?;
         Ok(c.stop_j)
     }
 
@@ -386,9 +385,10 @@ end_s = 1.5
             .unwrap()
             .kinetic_energy_j;
         let s = res.summary();
+        let bare = s.clone().with_stops_j(0.0);
         eprintln!(
             "stop impact: residual without the stops {:?}, pilot work {:.5} J, KE at impact {impact_ke:.5} J",
-            s.energy_residual, s.pilot_work_j
+            bare.energy_residual, s.pilot_work_j
         );
         let without = check_rows(&scn, &res, None);
         assert!(
@@ -398,9 +398,16 @@ end_s = 1.5
         let taken = check_rows(&scn, &res, Some(SIDESTICK_STOPS_RAD)).unwrap_or_else(|e| panic!("{e}"));
         eprintln!(
             "stops took {taken:.5} J; residual with them {:.2} %",
-            100.0 * (s.energy_residual.unwrap() - taken / s.pilot_work_j.abs())
+            100.0 * s.energy_residual.unwrap()
         );
         assert!(taken > 0.0, "a stop takes energy: {taken} J");
+        // The run's own summary counts what the stops took: its balance closes where the bare one does not.
+        assert_eq!(s.stops_j, taken, "the summary carries the checker's figure");
+        let (with, without) = (s.energy_residual.unwrap(), bare.energy_residual.unwrap());
+        assert!(
+            with.abs() <= ENERGY_RESIDUAL_TOLERANCE && without.abs() > ENERGY_RESIDUAL_TOLERANCE,
+            "residual {with} with the stops, {without} without"
+        );
     }
 
     /// Energy created breaks the balance with the stops counted: added to the kinetic energy while the

@@ -538,10 +538,18 @@ pub fn run_streaming<P: Plant, E: From<SimError>>(
         },
         frames: Vec::new(),
         feel_ceiling_n: devices.plant.ceiling_force_n(scn.controller.gains.out_max),
-        controller_model: devices.controller_label(),
+        controller_model: if scn.feel_system.kind.has_coil() {
+            devices.controller_label()
+        } else {
+            format!(
+                "none: the {} has no MR damper controller",
+                scn.feel_system.kind.name()
+            )
+        },
         grip_arm_m: lp.plant.grip_arm_m(),
         gearing_at_centre_m_per_rad: lp.plant.gearing_m_per_rad(0.0),
         flight: flight_info(&lp),
+        stops_j: 0.0,
     };
     sink(Event::Start(&head))?;
     let mut check = invariants::Checker::new(scn).with_stops(lp.plant.stick_limits_rad());
@@ -565,9 +573,9 @@ pub fn run_streaming<P: Plant, E: From<SimError>>(
         }
     }
     progress(1.0);
-    let summary = summary.finish(&head);
-    check.finish(&summary)?;
+    let summary = check.finish(summary.finish(&head))?;
     head.flight = flight_info(&lp);
+    head.stops_j = summary.stops_j;
     Ok((head, summary))
 }
 

@@ -160,6 +160,8 @@ pub struct Results {
     pub gearing_at_centre_m_per_rad: f64,
     /// The aircraft, when the scenario flies one.
     pub flight: Option<FlightInfo>,
+    /// Energy taken by the stick's end stops at impacts over the run, J (counted by the run's checks).
+    pub stops_j: f64,
 }
 
 /// Summary figures of a run.
@@ -199,9 +201,21 @@ pub struct Summary {
     pub actuator_work_j: f64,
     /// Energy dissipated in the damper, J.
     pub dissipated_j: f64,
-    /// (pilot work + motor work − ΔKE − ΔPE − Δspring − dissipated) / (|pilot work| + |motor work|);
-    /// `None` where no work was done.
+    /// Energy taken by the stick's end stops at impacts, J (0 where not counted).
+    pub stops_j: f64,
+    /// (pilot work + motor work − ΔKE − ΔPE − Δspring − dissipated − stops) / (|pilot work| + |motor
+    /// work|); `None` where no work was done.
     pub energy_residual: Option<f64>,
+}
+
+impl Summary {
+    /// The summary with `stops_j` of energy taken by the stick's stops counted in its balance.
+    pub fn with_stops_j(mut self, stops_j: f64) -> Self {
+        let work = self.pilot_work_j.abs() + self.actuator_work_j.abs();
+        self.energy_residual = self.energy_residual.map(|e| e - (stops_j - self.stops_j) / work);
+        self.stops_j = stops_j;
+        self
+    }
 }
 
 /// A run's [`Summary`] gathered row by row, so that a run streamed to its outputs needs no rows kept.
@@ -265,6 +279,7 @@ impl SummaryAcc {
             spring_energy_change_j: dspring,
             actuator_work_j: wa,
             dissipated_j: diss,
+            stops_j: 0.0,
             energy_residual: (w != 0.0 || wa != 0.0)
                 .then(|| (w + wa - dke - dpe - dspring - diss) / (w.abs() + wa.abs())),
         }
@@ -278,7 +293,7 @@ impl Results {
         for r in &self.rows {
             acc.push(r);
         }
-        acc.finish(self)
+        acc.finish(self).with_stops_j(self.stops_j)
     }
 
     /// Write the CSV: a `# key: value` metadata block, the header, one row per physics step. Numbers are
@@ -494,12 +509,22 @@ impl std::fmt::Display for Summary {
         writeln!(f, "  max |load cell| {:.1} N", self.max_abs_load_cell_n)?;
         write!(
             f,
-            "  energy: pilot work {:.4} J = ΔKE {:.4} J + ΔPE {:.4} J + Δspring {:.4} J + dissipated {:.4} J (residual {})",
+            "  energy: pilot work {:.4} J{} = ΔKE {:.4} J + ΔPE {:.4} J + Δspring {:.4} J + dissipated {:.4} J{} (residual {})",
             self.pilot_work_j,
+            if self.actuator_work_j != 0.0 {
+                format!(" + motor work {:.4} J", self.actuator_work_j)
+            } else {
+                String::new()
+            },
             self.kinetic_energy_change_j,
             self.potential_energy_change_j,
             self.spring_energy_change_j,
             self.dissipated_j,
+            if self.stops_j != 0.0 {
+                format!(" + taken by the stops {:.4} J", self.stops_j)
+            } else {
+                String::new()
+            },
             self.energy_residual
                 .map_or("none: no work done".into(), |e| format!("{:.3} %", 100.0 * e))
         )

@@ -46,6 +46,8 @@ pub struct Outcome {
     pub stick_force_peak_n: Option<f64>,
     /// Largest coil current command, A.
     pub current_max_a: Option<f64>,
+    /// Largest |force through the load cell|, N (the true force, not the clipped reading).
+    pub load_cell_peak_n: Option<f64>,
     /// Stick deflection per g of the aircraft's steady pull-up (1 g to `nz`: 2 g, or less near the stall),
     /// rad.
     pub stick_per_g_rad: Option<f64>,
@@ -77,6 +79,8 @@ pub struct Outcome {
     pub part60_force_ok: Option<bool>,
     /// 14 CFR Part 60 breakout tolerance (±2 lbf of the target's breakout) met.
     pub part60_breakout_ok: Option<bool>,
+    /// The force through the load cell stayed within its rated range (`load_cell.range_n`) all run.
+    pub load_cell_ok: Option<bool>,
     /// Why the run stopped, if it did (its figures are then empty).
     pub error: Option<String>,
 }
@@ -143,6 +147,16 @@ impl Outcome {
             grip_force_prolonged_n: prolonged,
             stick_force_peak_n: flight.and_then(|f| finite(f.stick_force_peak_n)),
             current_max_a: finite(s.current_max_a),
+            load_cell_peak_n: finite(
+                res.rows
+                    .iter()
+                    .fold(0.0_f64, |m, r| m.max(r.load_cell_true_n.abs())),
+            ),
+            load_cell_ok: Some(
+                res.rows
+                    .iter()
+                    .all(|r| r.load_cell_true_n.abs() <= scn.sensors.load_cell.range_n),
+            ),
             far_temporary_ok: Some(peak <= temporary),
             far_prolonged_ok: prolonged.map(|p| p <= prolonged_limit),
             breakout_n: breakout,
@@ -215,6 +229,7 @@ impl Outcome {
             ("grip_force_prolonged_n", F(self.grip_force_prolonged_n)),
             ("stick_force_peak_n", F(self.stick_force_peak_n)),
             ("current_max_a", F(self.current_max_a)),
+            ("load_cell_peak_n", F(self.load_cell_peak_n)),
             ("stick_per_g_rad", F(self.stick_per_g_rad)),
             ("stick_force_per_g_n", F(self.stick_force_per_g_n)),
             (
@@ -232,6 +247,7 @@ impl Outcome {
             ("per_g_level", U(self.per_g_level)),
             ("part60_force_ok", B(self.part60_force_ok)),
             ("part60_breakout_ok", B(self.part60_breakout_ok)),
+            ("load_cell_ok", B(self.load_cell_ok)),
             ("error", S(self.error.clone())),
         ]
     }

@@ -5,6 +5,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::plan::{MapSpec, Param};
 use super::store::Record;
@@ -33,6 +34,8 @@ pub struct Group {
     pub breakout_ok: usize,
     /// Runs judged by it (a breakout measured and a target's).
     pub breakout_judged: usize,
+    /// Runs whose load cell stayed within its range.
+    pub load_cell_ok: usize,
 }
 
 /// Runs grouped by the value of axis `by` (all runs in one group `all` when `None`).
@@ -60,6 +63,7 @@ pub fn groups(columns: &[String], records: &[Record], by: Option<&str>) -> BTree
         g.part60_ok += usize::from(o.part60_force_ok == Some(true));
         g.breakout_judged += usize::from(o.part60_breakout_ok.is_some());
         g.breakout_ok += usize::from(o.part60_breakout_ok == Some(true));
+        g.load_cell_ok += usize::from(o.load_cell_ok == Some(true));
     }
     out
 }
@@ -67,13 +71,13 @@ pub fn groups(columns: &[String], records: &[Record], by: Option<&str>) -> BTree
 /// The summary as a Markdown table.
 pub fn summary_table(columns: &[String], records: &[Record], by: Option<&str>) -> String {
     let mut s = format!(
-        "| {} | runs | failed | Level 1 | Level 2 | Level 3 | worse | no Level | FAR temporary ok | FAR prolonged ok | Part 60 force ok | Part 60 breakout ok |\n",
+        "| {} | runs | failed | Level 1 | Level 2 | Level 3 | worse | no Level | FAR temporary ok | FAR prolonged ok | Part 60 force ok | Part 60 breakout ok | load cell ok |\n",
         by.unwrap_or("group")
     );
-    s.push_str("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+    s.push_str("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
     for (name, g) in groups(columns, records, by) {
         s.push_str(&format!(
-            "| {name} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {}/{} | {}/{} |\n",
+            "| {name} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {}/{} | {}/{} | {} |\n",
             g.runs,
             g.failed,
             g.levels[0],
@@ -86,7 +90,8 @@ pub fn summary_table(columns: &[String], records: &[Record], by: Option<&str>) -
             g.part60_ok,
             g.part60_judged,
             g.breakout_ok,
-            g.breakout_judged
+            g.breakout_judged,
+            g.load_cell_ok
         ));
     }
     s
@@ -110,7 +115,7 @@ pub fn report(name: &str, columns: &[String], records: &[Record], maps: &[PathBu
         "Verdicts per run: 14 CFR 23.143(c) / 25.143(d) temporary and prolonged pitch force limits; stick force \
          per g in the steady pull-up against MIL-F-8785C Table V (centre stick) Levels; the felt force against \
          the aircraft's within the 14 CFR Part 60 tolerance (±5 lbf or ±10 %), the felt breakout against the \
-         target's within ±2 lbf. Sources and readings: docs/sweep.md.\n\n",
+         target's within ±2 lbf; the force through the load cell within its range. Sources and readings: docs/howto/sweep-a-design.md.\n\n",
     );
     s.push_str(&summary_table(columns, records, by));
     let mut worst: Vec<&Record> = records.iter().filter(|r| r.outcome.error.is_none()).collect();
@@ -157,30 +162,64 @@ pub fn report(name: &str, columns: &[String], records: &[Record], maps: &[PathBu
     }
     if !maps.is_empty() {
         s.push_str("\n## Maps\n\n");
+        // By file name: the maps are beside the report, wherever the directory is.
         for m in maps {
-            s.push_str(&format!("- {}\n", m.display()));
+            let name = m.file_name().map_or(m.as_os_str(), |n| n);
+            s.push_str(&format!("- {}\n", Path::new(name).display()));
         }
     }
     s
 }
 
-/// Colour of a Level (1 green, 2 yellow, 3 orange, worse red), grey for a run with none, black failed.
+/// Colour of a Level (1 green, 2 yellow, 3 orange: Okabe–Ito hues, told apart by colour-blind readers too;
+/// worse a dark red, far from the orange), grey for a run with none, black failed.
 fn level_colour(level: Option<u8>, failed: bool) -> RGBColor {
     match (failed, level) {
         (true, _) => RGBColor(40, 40, 40),
         (_, Some(1)) => RGBColor(0, 158, 115),
         (_, Some(2)) => RGBColor(240, 228, 66),
         (_, Some(3)) => RGBColor(230, 159, 0),
-        (_, Some(_)) => RGBColor(213, 94, 0),
+        (_, Some(_)) => RGBColor(150, 20, 45),
         (_, None) => RGBColor(200, 200, 200),
     }
 }
 
-/// A map cell: whether a run there failed, and the worst Level seen there.
-type MapCell = (bool, Option<u8>);
+/// The legend's entries: colour and label.
+const LEGEND: [(Option<u8>, bool, &str); 6] = [
+    (Some(1), false, "Level 1"),
+    (Some(2), false, "Level 2"),
+    (Some(3), false, "Level 3"),
+    (Some(4), false, "worse than Level 3"),
+    (None, false, "no Level"),
+    (None, true, "run failed"),
+];
 
-/// Maps of the stick-force-per-g Level over (x, y), one panel per combination of the facet axes; where
-/// other axes vary, a cell shows the worst Level of its runs. Written to `DIR/map-level.png` and `.svg`.
+/// A map cell: the worst of its runs (failed, then the highest Level), that run's stick force per g, and
+/// whether any run there overloaded the load cell.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct MapCell {
+    failed: bool,
+    level: Option<u8>,
+    per_g_n: Option<f64>,
+    overload: bool,
+}
+
+impl MapCell {
+    /// Severity: failed worst, then no Level, then Level 4 down to 1.
+    fn rank(&self) -> u8 {
+        if self.failed {
+            6
+        } else {
+            self.level.map_or(5, |l| l)
+        }
+    }
+}
+
+/// Maps of the stick-force-per-g Level over (x, y), one panel per combination of the facet axes, a cell
+/// per (x, y) value pair; where other axes vary, a cell shows the worst Level of its runs. Each cell is coloured by its Level and
+/// labelled with it and the stick force per g; a thick line runs where the Level changes between cells
+/// (the Level boundaries), and `overload` marks a cell where a run drove the load cell past its range.
+/// Written to `DIR/map-level.png` and `.svg`.
 pub fn maps(
     dir: &Path,
     spec: &MapSpec,
@@ -220,8 +259,7 @@ pub fn maps(
             spec.x, spec.y
         ));
     }
-    // (panel, x cell, y cell) -> worst (failed, level) seen.
-    let mut panels: BTreeMap<String, BTreeMap<(usize, usize), MapCell>> = BTreeMap::new();
+    let mut panels: Panels = BTreeMap::new();
     for r in records {
         let panel: Vec<String> = facets.iter().map(|&k| text(r, k)).collect();
         let (Some(cx), Some(cy)) = (
@@ -230,45 +268,38 @@ pub fn maps(
         ) else {
             continue;
         };
-        let cell = (r.outcome.error.is_some(), r.outcome.per_g_level);
+        let o = &r.outcome;
+        let cell = MapCell {
+            failed: o.error.is_some(),
+            level: o.per_g_level,
+            per_g_n: o.stick_force_per_g_n,
+            overload: o.load_cell_ok == Some(false),
+        };
         let e = panels
             .entry(panel.join(", "))
             .or_default()
             .entry((cx, cy))
             .or_insert(cell);
-        let rank = |c: &(bool, Option<u8>)| if c.0 { 6 } else { c.1.map_or(5, |l| l) };
-        if rank(&cell) > rank(e) {
+        let overload = e.overload || cell.overload;
+        if cell.rank() > e.rank() {
             *e = cell;
         }
+        e.overload = overload;
     }
     crate::viz::plot::register_font();
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let n = panels.len().max(1);
     let cols = n.min(3);
     let rows = n.div_ceil(cols);
-    let size = (420 * cols as u32, 340 * rows as u32 + 40);
-    let edges = |v: &[f64]| -> Vec<f64> {
-        // Cell edges halfway between values (a value's own width at the ends).
-        let w = |k: usize| {
-            if v.len() > 1 {
-                v[k.min(v.len() - 2) + 1] - v[k.min(v.len() - 2)]
-            } else {
-                1.0
-            }
-        };
-        let mut e = vec![v[0] - w(0) / 2.0];
-        e.extend(v.windows(2).map(|p| (p[0] + p[1]) / 2.0));
-        e.push(v[v.len() - 1] + w(v.len() - 1) / 2.0);
-        e
-    };
-    let (ex, ey) = (edges(&xs), edges(&ys));
+    let size = (460 * cols as u32, 360 * rows as u32 + HEADER_PX);
+    let grid = Grid { xs, ys };
     let png = dir.join("map-level.png");
     let svg = dir.join("map-level.svg");
     crate::outputs::write_whole(
         &png,
         |tmp| {
             let root = BitMapBackend::new(tmp, size).into_drawing_area();
-            draw_panels(root.clone(), &panels, &ex, &ey, spec)?;
+            draw_panels(root.clone(), &panels, &grid, spec)?;
             root.present().map_err(|e| e.to_string())
         },
         |e| e.to_string(),
@@ -277,7 +308,7 @@ pub fn maps(
         &svg,
         |tmp| {
             let root = SVGBackend::new(tmp, size).into_drawing_area();
-            draw_panels(root.clone(), &panels, &ex, &ey, spec)?;
+            draw_panels(root.clone(), &panels, &grid, spec)?;
             root.present().map_err(|e| e.to_string())
         },
         |e| e.to_string(),
@@ -285,28 +316,77 @@ pub fn maps(
     Ok(vec![png, svg])
 }
 
-type Panels = BTreeMap<String, BTreeMap<(usize, usize), (bool, Option<u8>)>>;
+/// Height of the maps' title and legend, px.
+const HEADER_PX: u32 = 64;
+
+type Panels = BTreeMap<String, BTreeMap<(usize, usize), MapCell>>;
+
+/// The map's axis values. Cells are drawn of equal size in index space (cell `k` from `k − ½` to `k + ½`),
+/// with each axis labelled by its values at the cells' centres.
+struct Grid {
+    xs: Vec<f64>,
+    ys: Vec<f64>,
+}
+
+impl Grid {
+    /// Cell edges in index space.
+    fn edges(v: &[f64]) -> Vec<f64> {
+        (0..=v.len()).map(|k| k as f64 - 0.5).collect()
+    }
+
+    /// The label of an index-space tick: the value at a cell's centre, nothing between cells.
+    fn label(v: &[f64], at: f64) -> String {
+        let k = at.round();
+        if (at - k).abs() < 1e-6 && k >= 0.0 && (k as usize) < v.len() {
+            format!("{}", v[k as usize])
+        } else {
+            String::new()
+        }
+    }
+}
 
 fn draw_panels<DB: DrawingBackend>(
     root: DrawingArea<DB, plotters::coord::Shift>,
     panels: &Panels,
-    ex: &[f64],
-    ey: &[f64],
+    grid: &Grid,
     spec: &MapSpec,
 ) -> Result<(), String> {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    let (ex, ey) = (Grid::edges(&grid.xs), Grid::edges(&grid.ys));
     root.fill(&WHITE).map_err(e)?;
-    let (top, body) = root.split_vertically(40);
+    let (top, body) = root.split_vertically(HEADER_PX);
     top.draw_text(
-        "stick force per g: Level 1 green, 2 yellow, 3 orange, worse red; grey no Level, black failed",
+        "Stick force per g in the steady pull-up, MIL-F-8785C Table V (centre stick): each cell the worst run \
+         there, its Level and N/g; thick lines: Level boundaries",
         &("sans-serif", 14).into_text_style(&top),
-        (10, 12),
+        (10, 8),
+    )
+    .map_err(e)?;
+    let mut x = 10;
+    for (level, failed, label) in LEGEND {
+        top.draw(&Rectangle::new(
+            [(x, 32), (x + 16, 48)],
+            level_colour(level, failed).filled(),
+        ))
+        .map_err(e)?;
+        top.draw(&Rectangle::new([(x, 32), (x + 16, 48)], BLACK.stroke_width(1)))
+            .map_err(e)?;
+        top.draw_text(label, &("sans-serif", 13).into_text_style(&top), (x + 22, 34))
+            .map_err(e)?;
+        x += 30 + 7 * label.len() as i32;
+    }
+    top.draw_text(
+        "overload: the load cell past its range",
+        &("sans-serif", 13).into_text_style(&top),
+        (x + 10, 34),
     )
     .map_err(e)?;
     let n = panels.len().max(1);
     let cols = n.min(3);
     let rows = n.div_ceil(cols);
     let areas = body.split_evenly((rows, cols));
+    let fx = |v: &f64| Grid::label(&grid.xs, *v);
+    let fy = |v: &f64| Grid::label(&grid.ys, *v);
     for ((title, cells), area) in panels.iter().zip(areas) {
         let mut c = ChartBuilder::on(&area)
             .caption(
@@ -318,23 +398,69 @@ fn draw_panels<DB: DrawingBackend>(
             .y_label_area_size(56)
             .build_cartesian_2d(ex[0]..ex[ex.len() - 1], ey[0]..ey[ey.len() - 1])
             .map_err(e)?;
+        // At most one tick per cell: the nice step of `len` ticks over `len` cells is one cell.
         c.configure_mesh()
             .x_desc(spec.x.as_str())
             .y_desc(spec.y.as_str())
+            .x_labels(grid.xs.len())
+            .y_labels(grid.ys.len())
+            .x_label_formatter(&fx)
+            .y_label_formatter(&fy)
             .label_style(("sans-serif", 12))
             .disable_mesh()
             .draw()
             .map_err(e)?;
-        for (&(cx, cy), &(failed, level)) in cells {
+        for (&(cx, cy), cell) in cells {
             let r = [(ex[cx], ey[cy]), (ex[cx + 1], ey[cy + 1])];
             c.draw_series(std::iter::once(Rectangle::new(
                 r,
-                level_colour(level, failed).filled(),
+                level_colour(cell.level, cell.failed).filled(),
             )))
             .map_err(e)?;
             c.draw_series(std::iter::once(Rectangle::new(r, WHITE.stroke_width(1))))
                 .map_err(e)?;
+            // Light text on the dark fills (failed, worse than Level 3), dark on the others.
+            let ink = if cell.failed || cell.level.is_some_and(|l| l >= 4) {
+                WHITE
+            } else {
+                BLACK
+            };
+            let label = match (cell.failed, cell.level, cell.per_g_n) {
+                (true, ..) => "failed".to_string(),
+                (_, Some(l), Some(g)) => format!("L{l}  {g:.1} N/g"),
+                _ => "–".to_string(),
+            };
+            let style = ("sans-serif", 12)
+                .into_font()
+                .color(&ink)
+                .pos(Pos::new(HPos::Center, VPos::Center));
+            let (mx, my) = ((ex[cx] + ex[cx + 1]) / 2.0, (ey[cy] + ey[cy + 1]) / 2.0);
+            let dy = (ey[cy + 1] - ey[cy]) * 0.2;
+            let at = if cell.overload { my + dy } else { my };
+            c.draw_series(std::iter::once(Text::new(label, (mx, at), style.clone())))
+                .map_err(e)?;
+            if cell.overload {
+                c.draw_series(std::iter::once(Text::new("overload", (mx, my - dy), style)))
+                    .map_err(e)?;
+            }
         }
+        // Level boundaries: a thick line along each edge between neighbouring cells of different rank.
+        let rank = |cx: usize, cy: usize| cells.get(&(cx, cy)).map(MapCell::rank);
+        let mut edges = Vec::new();
+        for (&(cx, cy), cell) in cells {
+            if rank(cx + 1, cy).is_some_and(|r| r != cell.rank()) {
+                edges.push([(ex[cx + 1], ey[cy]), (ex[cx + 1], ey[cy + 1])]);
+            }
+            if rank(cx, cy + 1).is_some_and(|r| r != cell.rank()) {
+                edges.push([(ex[cx], ey[cy + 1]), (ex[cx + 1], ey[cy + 1])]);
+            }
+        }
+        c.draw_series(
+            edges
+                .into_iter()
+                .map(|p| PathElement::new(p.to_vec(), BLACK.stroke_width(3))),
+        )
+        .map_err(e)?;
     }
     Ok(())
 }

@@ -1,6 +1,6 @@
 //! Rerun recording of a stick-rig run: the rig's bodies in 3D with the forces on them as arrows (1 mm per
 //! newton), time series of the run's signals (`SERIES`, `AIRCRAFT_SERIES`), and a default blueprint with
-//! the 3D rig beside the plots. Entity layout: `docs/sim.md`. It takes plain data ([`Sample`], poses,
+//! the 3D rig beside the plots. Entity layout: `docs/explanation/feel-loop.md`. It takes plain data ([`Sample`], poses,
 //! visuals), not the simulation's types.
 #![warn(missing_docs)]
 

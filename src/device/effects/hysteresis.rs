@@ -2,7 +2,7 @@
 //! Bouc–Wen element (yield displacement `x_y`, knee `κ`, return share `g`) in series with a viscous
 //! pre-yield dashpot `Fy/v_y` (Spencer et al. 1997, reduced). `shaped_step` integrates it by Runge–Kutta
 //! in sub-steps blended so the force is continuous in every parameter; [`step`] is the Dahl shape's closed
-//! form. Equations: `docs/explanation/damper-models.md`; choice and evidence: `docs/hysteresis.md`.
+//! form. Equations: `docs/explanation/damper-models.md`; choice and evidence: `docs/explanation/hysteresis.md`.
 
 use crate::device::effect::{Effect, EffectStage, Inputs, Stage, Step};
 use crate::device::params::{DataStats, ParamSpec};

@@ -1,5 +1,5 @@
 //! The effect library: one file per physical effect of the model-discovery vocabulary (table:
-//! `docs/effects.md`). Each derives its initial guess and its typical strength (the hidden truth of synthetic
+//! `docs/reference/effects.md`). Each derives its initial guess and its typical strength (the hidden truth of synthetic
 //! tests) from [`DataStats`] through `Scales`, never from numbers tuned to one data set.
 #![warn(missing_docs)]
 
