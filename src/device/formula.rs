@@ -1,8 +1,9 @@
 //! Data-defined effects: an additive force term `F_extra = formula(x, v, a, i, t; parameters)` loaded from
 //! a TOML file (or built by the diagnosis's open term search) and registered beside the built-in effects.
 //! The formula is parsed by `evalexpr` and compiled into a small tree evaluated at every sample; `lp(expr,
-//! tau_s)` is a first-order low-pass state. Features, functions and file format:
-//! `docs/spec/model-discovery.md`.
+//! tau_s)` is a first-order low-pass state, and the memory features `s` (travel since the last reversal) and
+//! `tc` (time since the command last changed) are states the formula keeps when it reads them. Features,
+//! functions and file format: `docs/spec/model-discovery.md`.
 #![warn(missing_docs)]
 
 use std::collections::BTreeMap;
@@ -25,16 +26,26 @@ pub(crate) enum Feature {
     A,
     I,
     T,
+    /// Distance travelled since the last velocity reversal, m (a state).
+    S,
+    /// Time since the current command last changed, s (a state).
+    Tc,
 }
+
+/// The time since the command last changed at a test's first sample, s: the test starts with its command
+/// settled, as if held long before (`exp(-tc/τ)` is then 0 for any time constant a field has).
+pub(crate) const TC_SETTLED_S: f64 = 1000.0;
 
 impl Feature {
     /// Every feature with its name, meaning and unit, as the file format documents them.
-    pub const ALL: [(Feature, &'static str, &'static str); 5] = [
+    pub const ALL: [(Feature, &'static str, &'static str); 7] = [
         (Feature::X, "x", "m"),
         (Feature::V, "v", "m/s"),
         (Feature::A, "a", "m/s^2"),
         (Feature::I, "i", "A"),
         (Feature::T, "t", "s"),
+        (Feature::S, "s", "m"),
+        (Feature::Tc, "tc", "s"),
     ];
 
     fn of(name: &str) -> Option<Self> {
@@ -86,18 +97,13 @@ struct Signals {
     a: f64,
     i: f64,
     t: f64,
+    s: f64,
+    tc: f64,
 }
 
-impl Signals {
-    fn at(inp: &Inputs, current_a: f64) -> Self {
-        Self {
-            x: inp.x_m,
-            v: inp.v_m_s,
-            a: inp.a_m_s2,
-            i: current_a,
-            t: inp.t_s,
-        }
-    }
+/// The sign of a velocity, 0 at rest.
+fn direction(v: f64) -> f64 {
+    f64::from(u8::from(v > 0.0)) - f64::from(u8::from(v < 0.0))
 }
 
 impl Expr {
@@ -110,6 +116,8 @@ impl Expr {
                 Feature::A => sig.a,
                 Feature::I => sig.i,
                 Feature::T => sig.t,
+                Feature::S => sig.s,
+                Feature::Tc => sig.tc,
             },
             Expr::Param(k) => p[*k],
             Expr::State(k) => s[*k],
@@ -118,7 +126,7 @@ impl Expr {
                 let u = e.eval(p, s, sig);
                 match f {
                     Fn1::Abs => u.abs(),
-                    Fn1::Sign => f64::from(u8::from(u > 0.0)) - f64::from(u8::from(u < 0.0)),
+                    Fn1::Sign => direction(u),
                     Fn1::Tanh => u.tanh(),
                     Fn1::Exp => u.exp(),
                     Fn1::Ln => u.ln(),
@@ -152,13 +160,19 @@ impl Expr {
     }
 }
 
-/// A formula compiled against its parameter names, with its low-pass states.
+/// A formula compiled against its parameter names, with its states: the low-pass states first, then the
+/// memory features' (two each: `s` keeps the travel and the direction of motion it was counted in; `tc` the
+/// time held and the command held).
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Formula {
     text: String,
     expr: Expr,
     /// Input and time constant of each low-pass state, in the order their indices were given (inner first).
     lowpass: Vec<(Expr, f64)>,
+    /// Index of the travel state when the formula reads `s`.
+    travel: Option<usize>,
+    /// Index of the held-time state when the formula reads `tc`.
+    held: Option<usize>,
 }
 
 impl Formula {
@@ -172,10 +186,19 @@ impl Formula {
             lowpass: Vec::new(),
         };
         let expr = c.compile(&tree)?;
+        let reads = |f: Feature| {
+            let is = |x: &Expr| *x == Expr::Feature(f);
+            expr.reads(&is) || c.lowpass.iter().any(|(e, _)| e.reads(&is))
+        };
+        let n = c.lowpass.len();
+        let travel = reads(Feature::S).then_some(n);
+        let held = reads(Feature::Tc).then_some(n + 2 * usize::from(travel.is_some()));
         Ok(Self {
             text: text.trim().to_string(),
             expr,
             lowpass: c.lowpass,
+            travel,
+            held,
         })
     }
 
@@ -184,9 +207,65 @@ impl Formula {
         &self.text
     }
 
-    /// Number of low-pass states.
+    /// Number of states: the low-pass states and two per memory feature read.
     pub(crate) fn n_states(&self) -> usize {
-        self.lowpass.len()
+        self.lowpass.len() + 2 * (usize::from(self.travel.is_some()) + usize::from(self.held.is_some()))
+    }
+
+    /// The signals at a sample, the memory features read from the states `s` as they stand before it: the
+    /// travel restarts at 0 at the first sample moving the other way, the held time at the first sample of a
+    /// new command.
+    fn signals(&self, s: &[f64], inp: &Inputs, current_a: f64) -> Signals {
+        let travel = self.travel.map_or(0.0, |k| {
+            let d = direction(inp.v_m_s);
+            if d != 0.0 && d != s[k + 1] {
+                0.0
+            } else {
+                s[k]
+            }
+        });
+        let held = self
+            .held
+            .map_or(0.0, |k| if inp.current_cmd_a != s[k + 1] { 0.0 } else { s[k] });
+        Signals {
+            x: inp.x_m,
+            v: inp.v_m_s,
+            a: inp.a_m_s2,
+            i: current_a,
+            t: inp.t_s,
+            s: travel,
+            tc: held,
+        }
+    }
+
+    /// The memory states at a test's first sample: no travel yet in the first direction of motion (a start
+    /// from rest), the first command settled.
+    fn init_memory(&self, s: &mut [f64], inp: &Inputs) {
+        if let Some(k) = self.travel {
+            s[k] = 0.0;
+            s[k + 1] = direction(inp.v_m_s);
+        }
+        if let Some(k) = self.held {
+            s[k] = TC_SETTLED_S;
+            s[k + 1] = inp.current_cmd_a;
+        }
+    }
+
+    /// Advance the memory states over `dt_s` from a sample whose signals are `sig`: the travel grows by
+    /// `|v| dt`, the held time by `dt`.
+    fn advance_memory(&self, s: &mut [f64], inp: &Inputs, sig: &Signals, dt_s: f64) {
+        let dt = dt_s.max(0.0);
+        if let Some(k) = self.travel {
+            let d = direction(inp.v_m_s);
+            if d != 0.0 {
+                s[k + 1] = d;
+            }
+            s[k] = sig.s + inp.v_m_s.abs() * dt;
+        }
+        if let Some(k) = self.held {
+            s[k + 1] = inp.current_cmd_a;
+            s[k] = sig.tc + dt;
+        }
     }
 
     /// Does any low-pass state read the lagged current (whose lags are the base model's parameters)?
@@ -207,35 +286,45 @@ impl Formula {
             .collect()
     }
 
-    /// Low-pass states at a test's first sample: each at its input's value.
-    fn init(&self, p: &[f64], s: &mut [f64], sig: &Signals) {
+    /// States at a test's first sample: the memory features' (`init_memory`), then each low-pass state at
+    /// its input's value.
+    fn init(&self, p: &[f64], s: &mut [f64], inp: &Inputs, current_a: f64) {
+        self.init_memory(s, inp);
+        let sig = self.signals(s, inp, current_a);
         for k in 0..self.lowpass.len() {
-            s[k] = self.lowpass[k].0.eval(p, s, sig);
+            s[k] = self.lowpass[k].0.eval(p, s, &sig);
         }
     }
 
-    /// Advance the low-pass states over `dt_s`, their inputs held (exact for a first-order lag).
-    fn advance(&self, p: &[f64], s: &mut [f64], sig: &Signals, dt_s: f64) {
+    /// Advance the states over `dt_s`: the low-pass states with their inputs held (exact for a first-order
+    /// lag), then the memory features'.
+    fn advance(&self, p: &[f64], s: &mut [f64], inp: &Inputs, current_a: f64, dt_s: f64) {
+        let sig = self.signals(s, inp, current_a);
         for k in 0..self.lowpass.len() {
             let (input, tau) = &self.lowpass[k];
-            let u = input.eval(p, s, sig);
+            let u = input.eval(p, s, &sig);
             s[k] += (1.0 - (-dt_s.max(0.0) / tau).exp()) * (u - s[k]);
         }
+        self.advance_memory(s, inp, &sig, dt_s);
+    }
+
+    /// The formula's value at a sample with the states `s`.
+    fn eval(&self, p: &[f64], s: &[f64], inp: &Inputs, current_a: f64) -> f64 {
+        self.expr.eval(p, s, &self.signals(s, inp, current_a))
     }
 
     /// The formula (over features only, no parameters) at every sample of one test, its low-pass states
     /// run exactly as the effect runs them; `current_a` is the lagged current at each sample.
     pub fn series(&self, inputs: &[Inputs], current_a: &[f64]) -> Vec<f64> {
-        let mut s = vec![0.0; self.lowpass.len()];
+        let mut s = vec![0.0; self.n_states()];
         let mut out = Vec::with_capacity(inputs.len());
         for (k, inp) in inputs.iter().enumerate() {
-            let sig = Signals::at(inp, current_a[k]);
             if k == 0 {
-                self.init(&[], &mut s, &sig);
+                self.init(&[], &mut s, inp, current_a[k]);
             }
-            out.push(self.expr.eval(&[], &s, &sig));
+            out.push(self.eval(&[], &s, inp, current_a[k]));
             if let Some(next) = inputs.get(k + 1) {
-                self.advance(&[], &mut s, &sig, next.t_s - inp.t_s);
+                self.advance(&[], &mut s, inp, current_a[k], next.t_s - inp.t_s);
             }
         }
         out
@@ -649,16 +738,15 @@ impl Effect for FormulaEffect {
     }
 
     fn init_states(&self, p: &[f64], s: &mut [f64], inp: &Inputs, stage: &Stage) {
-        self.formula.init(p, s, &Signals::at(inp, stage.current_a));
+        self.formula.init(p, s, inp, stage.current_a);
     }
 
     fn apply(&self, p: &[f64], s: &[f64], inp: &Inputs, stage: &mut Stage) {
-        stage.extra_n += self.formula.expr.eval(p, s, &Signals::at(inp, stage.current_a));
+        stage.extra_n += self.formula.eval(p, s, inp, stage.current_a);
     }
 
     fn advance(&self, p: &[f64], s: &mut [f64], inp: &Inputs, stage: &Stage, _force_n: f64, step: Step) {
-        self.formula
-            .advance(p, s, &Signals::at(inp, stage.current_a), step.dt_s);
+        self.formula.advance(p, s, inp, stage.current_a, step.dt_s);
     }
 
     fn residual_signature(&self) -> &'static str {
@@ -811,6 +899,119 @@ mod tests {
         }
     }
 
+    /// `s` is the distance travelled since the last reversal: on a sine it is `|x − x_turn|` (the turning
+    /// point's displacement) to within the rectangle rule's error, and it restarts at each reversal.
+    #[test]
+    fn the_travel_feature_restarts_at_each_reversal() {
+        let f = Formula::parse("s", &[]).expect("parses");
+        assert_eq!(f.n_states(), 2);
+        let (a, w, dt) = (0.01, std::f64::consts::TAU, 1e-3);
+        let inputs: Vec<Inputs> = (0..2500)
+            .map(|k| {
+                let t = k as f64 * dt;
+                Inputs {
+                    t_s: t,
+                    x_m: a * (w * t).sin(),
+                    v_m_s: a * w * (w * t).cos(),
+                    ..Inputs::default()
+                }
+            })
+            .collect();
+        let s = f.series(&inputs, &vec![0.0; inputs.len()]);
+        // From rest at the start (x = 0, moving up), then from each turning point x = ±a (at t = 0.25 s +
+        // half periods); samples within two steps of a turn are skipped (the turn falls between samples).
+        let tol = 2.0 * a * w * dt;
+        let mut turns = 0;
+        for k in 0..inputs.len() {
+            let t = k as f64 * dt;
+            let phase = (t - 0.25).rem_euclid(0.5);
+            let want = if t < 0.25 {
+                inputs[k].x_m
+            } else {
+                let turn = t - phase;
+                (inputs[k].x_m - a * (w * turn).sin()).abs()
+            };
+            if phase.min(0.5 - phase) > 2.0 * dt {
+                assert!((s[k] - want).abs() <= tol, "t = {t}: s = {} against {want}", s[k]);
+            }
+            if k > 0 && s[k] < s[k - 1] {
+                turns += 1;
+            }
+        }
+        assert_eq!(turns, 5, "one restart per reversal");
+    }
+
+    /// `tc` is the time since the command last changed, settled before the first change.
+    #[test]
+    fn the_held_time_feature_counts_from_each_command_change() {
+        let f = Formula::parse("tc", &[]).expect("parses");
+        let dt = 1e-3;
+        let inputs: Vec<Inputs> = (0..900)
+            .map(|k| Inputs {
+                t_s: k as f64 * dt,
+                current_cmd_a: [1.0, 2.0, 0.5][k / 300],
+                ..Inputs::default()
+            })
+            .collect();
+        let tc = f.series(&inputs, &vec![0.0; inputs.len()]);
+        for k in 0..inputs.len() {
+            let want = if k < 300 {
+                TC_SETTLED_S + k as f64 * dt
+            } else {
+                (k % 300) as f64 * dt
+            };
+            assert!(
+                (tc[k] - want).abs() < 1e-9,
+                "sample {k}: {} against {want}",
+                tc[k]
+            );
+        }
+    }
+
+    /// An effect reading the memory features (inside a low-pass state too) gives, run by the model, the
+    /// force its formula's series gives: the model keeps its states where the formula reads them.
+    #[test]
+    fn memory_features_run_by_the_model_as_by_the_formula() {
+        let text = "m_c1 * sign(v)*exp(-s/0.002) + m_c2 * lp(exp(-tc/0.05), 0.01)";
+        let e = FormulaEffect::new("mem", "", "", text, vec![param("m_c1", 1.0), param("m_c2", 1.0)])
+            .expect("builds");
+        let mut r = Registry::builtin();
+        r.register(e);
+        let m = Model::from_spec("bingham+mem", &r, 14.0).expect("model");
+        let dt = 1e-3;
+        let inputs: Vec<Inputs> = (0..1200)
+            .map(|k| {
+                let t = k as f64 * dt;
+                Inputs {
+                    t_s: t,
+                    x_m: 0.01 * (9.0 * t).sin(),
+                    v_m_s: 0.09 * (9.0 * t).cos(),
+                    current_cmd_a: if k < 500 { 0.0 } else { 2.0 },
+                    ..Inputs::default()
+                }
+            })
+            .collect();
+        let p = vec![0.0, 0.0, 0.0, 0.015, 0.008, 3.0, -2.0];
+        let got = m.simulate(&p, &inputs);
+        let zero = vec![0.0; inputs.len()];
+        let a = Formula::parse("sign(v)*exp(-s/0.002)", &[])
+            .expect("parses")
+            .series(&inputs, &zero);
+        let b = Formula::parse("lp(exp(-tc/0.05), 0.01)", &[])
+            .expect("parses")
+            .series(&inputs, &zero);
+        for k in 0..inputs.len() {
+            let want = 3.0 * a[k] - 2.0 * b[k];
+            assert!(
+                (got[k] - want).abs() < 1e-9,
+                "sample {k}: {} against {want}",
+                got[k]
+            );
+        }
+        // The step of the command shows: the lagged exponential rises from 0 after it.
+        assert!(b[499].abs() < 1e-12 && b[520] > 0.5, "{} {}", b[499], b[520]);
+    }
+
     /// What `to_toml` writes loads back to the same formula and parameters.
     #[test]
     fn a_written_effect_loads_back_the_same() {
@@ -818,8 +1019,14 @@ mod tests {
             "term1",
             "found",
             "quadratic damping",
-            "term1_c1 * v*abs(v) + term1_c2 * lp(x, 0.05)",
-            vec![param("term1_c1", 310.5), param("term1_c2", -2.25e-3)],
+            "term1_c1 * v*abs(v) + term1_c2 * lp(x, 0.05) + term1_c3 * sign(v)*exp(-s/0.0003) + term1_c4 * \
+             i*exp(-tc/0.02)",
+            vec![
+                param("term1_c1", 310.5),
+                param("term1_c2", -2.25e-3),
+                param("term1_c3", 1.5),
+                param("term1_c4", -0.25),
+            ],
         )
         .expect("builds");
         let back = FormulaEffect::from_toml(&e.to_toml(), Path::new("t.toml")).expect("loads back");

@@ -173,7 +173,153 @@ pub(crate) fn library(s: Scales) -> Vec<LibraryTerm> {
         "N/m",
         "frequency-dependent stiffness (viscoelastic, Maxwell spring)",
     ));
+    // Memory of the last reversal: a force that changes over a travel `s0` after each reversal (bristles
+    // deflecting before the seal slides, free play crossed before the piston moves), at travels of a
+    // fraction of the stroke.
+    for k in [0.003, 0.01, 0.03] {
+        let s0 = num(k * x);
+        l.push(t(
+            format!("sign(v)*exp(-s/{s0})"),
+            "N",
+            "pre-sliding friction after a reversal (LuGre, Dahl bristles)",
+        ));
+        l.push(t(
+            format!("abs(i)*sign(v)*exp(-s/{s0})"),
+            "N/A",
+            "field yield force missing over a travel after a reversal (free play, backlash, fluid compliance)",
+        ));
+    }
+    // Friction that falls from a static to a kinetic level as the speed rises.
+    for k in [0.02, 0.06, 0.2] {
+        let vs = num(k * v);
+        l.push(t(
+            format!("sign(v)*exp(-(v/{vs})^2)"),
+            "N",
+            "Stribeck friction (static above kinetic, falling with speed)",
+        ));
+        l.push(t(
+            format!("abs(i)*sign(v)*exp(-(v/{vs})^2)"),
+            "N/A",
+            "Stribeck effect of the field's yield force (static above dynamic yield)",
+        ));
+    }
+    // Friction that depends on where the piston is (a seal rubbing harder toward the stroke's ends).
+    for (f, unit, unit_i) in [("x^2", "N/m^2", "N/(m^2 A)"), ("abs(x)", "N/m", "N/(m A)")] {
+        l.push(t(
+            format!("sign(v)*{f}"),
+            unit,
+            "position-dependent friction (seal tighter toward the stroke's ends)",
+        ));
+        l.push(t(
+            format!("abs(i)*sign(v)*{f}"),
+            unit_i,
+            "position-dependent yield force (field or gap varying along the stroke)",
+        ));
+    }
+    // A field slower than the model's lags: the force the yield lacks while the field still builds up after
+    // a command change, through a further lag of the current or a decay since the change.
+    for k in [0.03, 0.1, 0.3] {
+        let tau = num((k * s.tau).max(2.0 * s.dt));
+        l.push(t(
+            format!("sign(v)*(lp(i,{tau})-i)"),
+            "N/A",
+            "slow field build-up (a further lag of the field: eddy currents, the iron's reluctance)",
+        ));
+    }
+    for k in [0.03, 0.1] {
+        let tau = num((k * s.tau).max(2.0 * s.dt));
+        l.push(t(
+            format!("i*sign(v)*exp(-tc/{tau})"),
+            "N/A",
+            "slow field build-up after a command step",
+        ));
+    }
     l
+}
+
+/// A positive number to four significant digits in plain decimal notation: a wavelength, whose error
+/// grows into a phase error over the stroke.
+fn num4(x: f64) -> String {
+    let x = if x.is_finite() && x > 0.0 { x } else { 1.0 };
+    let decimals = (3.0 - x.log10().floor()).max(0.0) as usize;
+    format!("{x:.decimals$}")
+}
+
+/// Wavelengths scanned for a force periodic in position, as fractions of the stroke scale `Scales::x`:
+/// from a ripple a few hundred times finer than the stroke to one a third of it (longer is a smooth
+/// function of position, which the library's powers cover).
+const RIPPLE_SHORTEST: f64 = 1.0 / 300.0;
+const RIPPLE_LONGEST: f64 = 1.0 / 3.0;
+/// Steps of the scan's log grid, then of its refinement around the best wavelength.
+const RIPPLE_GRID: usize = 240;
+const RIPPLE_REFINE: usize = 40;
+/// Most samples the wavelength scan reads (every k-th beyond).
+const RIPPLE_SAMPLES: usize = 20_000;
+
+/// The pair `sin(x/L)`, `cos(x/L)` of the force periodic in position (cogging, a screw's lead, a detent's
+/// ripple) whose wavelength `2πL` best explains `target` (weights `w`, over `tests` concatenated): the
+/// peak of the residual's periodogram against displacement, scanned on a log grid of wavelengths and
+/// refined around its peak.
+fn ripple_terms(s: Scales, tests: &[Test], target: &[f64], w: &[f64]) -> Vec<LibraryTerm> {
+    let xs: Vec<f64> = tests
+        .iter()
+        .flat_map(|t| t.inputs.iter().map(|i| i.x_m))
+        .collect();
+    let stride = xs.len().div_ceil(RIPPLE_SAMPLES).max(1);
+    let pts: Vec<(f64, f64)> = (0..xs.len())
+        .step_by(stride)
+        .filter(|&k| w[k] != 0.0)
+        .map(|k| (xs[k], target[k]))
+        .collect();
+    if pts.len() < 100 {
+        return Vec::new();
+    }
+    // The share of the residual's energy a sine and cosine pair of wavenumber `q` (rad/m) explains.
+    let power = |q: f64| -> f64 {
+        let (mut ss, mut cc, mut sc, mut rs, mut rc) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for &(x, r) in &pts {
+            let (sn, cs) = (q * x).sin_cos();
+            ss += sn * sn;
+            cc += cs * cs;
+            sc += sn * cs;
+            rs += r * sn;
+            rc += r * cs;
+        }
+        // Least squares on the pair: [ss sc; sc cc] β = [rs; rc], explained energy β·[rs; rc].
+        let det = ss * cc - sc * sc;
+        if det <= 1e-12 * (ss * cc).max(f64::MIN_POSITIVE) {
+            return 0.0;
+        }
+        (cc * rs * rs - 2.0 * sc * rs * rc + ss * rc * rc) / det
+    };
+    let (lo, hi) = (RIPPLE_SHORTEST * s.x, RIPPLE_LONGEST * s.x);
+    let grid = |lo: f64, hi: f64, n: usize| -> Vec<f64> {
+        (0..n)
+            .map(|k| lo * (hi / lo).powf(k as f64 / (n - 1) as f64))
+            .collect()
+    };
+    let best = |lams: Vec<f64>| -> (f64, f64) {
+        lams.into_par_iter()
+            .map(|lam| (power(std::f64::consts::TAU / lam), lam))
+            .reduce(|| (f64::NEG_INFINITY, lo), |a, b| if b.0 > a.0 { b } else { a })
+    };
+    let (_, lam) = best(grid(lo, hi, RIPPLE_GRID));
+    let step = (hi / lo).powf(1.0 / (RIPPLE_GRID - 1) as f64);
+    let (_, lam) = best(grid(lam / step, lam * step, RIPPLE_REFINE));
+    let l = num4(lam / std::f64::consts::TAU);
+    let family = ripple_family("sin(x/").unwrap_or_default();
+    vec![
+        LibraryTerm {
+            feature: format!("sin(x/{l})"),
+            coef_unit: "N".into(),
+            family,
+        },
+        LibraryTerm {
+            feature: format!("cos(x/{l})"),
+            coef_unit: "N".into(),
+            family,
+        },
+    ]
 }
 
 /// The lagged current (the model's own excitation state) at every sample of every test.
@@ -236,6 +382,12 @@ pub(crate) fn propose_term(
     if rr <= 0.0 {
         return None;
     }
+    // The library and the pair periodic in position at the wavelength this residual shows.
+    let lib: Vec<LibraryTerm> = lib
+        .iter()
+        .cloned()
+        .chain(ripple_terms(Scales::of(tests), tests, &target, &w))
+        .collect();
     // A library term's column over the samples that count; `None` where it is not finite everywhere.
     let weighted = |j: usize| -> Option<Vec<f64>> {
         let c = column(&lib[j].feature, tests, current)?;
@@ -256,7 +408,7 @@ pub(crate) fn propose_term(
         Some((dot(&q, &target).powi(2) / (qq * rr), q))
     };
     // The columns are computed afresh in each round (in parallel, each dropped once scored) rather than
-    // held all at once: a library of ~30 terms would hold ~30 values per sample through the search, the
+    // held all at once: a library of ~50 terms would hold ~50 values per sample through the search, the
     // largest buffer of a diagnosis. Only the chosen terms' columns are kept.
     let first: Vec<Option<Option<f64>>> = (0..lib.len())
         .into_par_iter()
@@ -425,13 +577,23 @@ pub(crate) fn strongest_family(
         .iter()
         .zip(values)
         .filter_map(|(f, c)| {
-            let term = lib.iter().find(|t| &t.feature == f)?;
+            let family = lib
+                .iter()
+                .find(|t| &t.feature == f)
+                .map(|t| t.family)
+                .or_else(|| ripple_family(f))?;
             let col = column(f, tests, current)?;
-            Some((term.family, c * c * col.iter().map(|x| x * x).sum::<f64>()))
+            Some((family, c * c * col.iter().map(|x| x * x).sum::<f64>()))
         })
         .filter(|(_, share)| share.is_finite())
         .max_by(|a, b| a.1.total_cmp(&b.1))
         .map(|(family, _)| family)
+}
+
+/// The family of a term periodic in position (`ripple_terms`), whose wavelength the residual chose.
+fn ripple_family(feature: &str) -> Option<&'static str> {
+    (feature.starts_with("sin(x/") || feature.starts_with("cos(x/"))
+        .then_some("force periodic in position (cogging, a screw's lead, detent ripple)")
 }
 
 /// The library terms of a discovered effect (its formula is `c1 * term1 + c2 * term2 …`).
@@ -474,8 +636,18 @@ pub struct Verdict {
     pub correlates_with: Vec<(String, f64)>,
     /// Structure is left (the residual is not noise).
     pub structure: bool,
+    /// The regressor had enough samples for its columns (ten a column) for its share to be read.
+    pub enough_samples: bool,
     /// Where the held-out residual lives (regions, as for the base model).
     pub where_: Vec<super::residual::Region>,
+}
+
+impl Verdict {
+    /// The regressor predicts the residual: its share is at least [`MIN_PREDICTABLE_SHARE`] on enough
+    /// samples. (Structure can be left without it: a held-out error far above the noise floor.)
+    pub fn predicted(&self) -> bool {
+        self.enough_samples && self.predictable_share >= MIN_PREDICTABLE_SHARE
+    }
 }
 
 /// Smallest share of the held-out residual's mean square that must be predictable out of sample, in every
@@ -806,16 +978,17 @@ pub(crate) fn verdict(
         .filter(|(_, sh)| *sh >= 0.2 * predictable_share && *sh > 0.01)
         .collect();
     correlates_with.sort_by(|a, b| b.1.total_cmp(&a.1));
-    let predicted = rows.len() > 10 * p && predictable_share >= MIN_PREDICTABLE_SHARE;
-    let structure = !at_floor && (predicted || heldout_nrmse > MAX_NOISE_RATIO * floor_nrmse);
-    Verdict {
+    let mut v = Verdict {
         heldout_nrmse,
         floor_nrmse,
         predictable_share,
         correlates_with,
-        structure,
+        structure: false,
+        enough_samples: rows.len() > 10 * p,
         where_: Vec::new(),
-    }
+    };
+    v.structure = !at_floor && (v.predicted() || heldout_nrmse > MAX_NOISE_RATIO * floor_nrmse);
+    v
 }
 
 #[cfg(test)]
@@ -902,6 +1075,60 @@ mod tests {
                 .expect("a true term");
             assert!((p.guess - c).abs() <= 1e-6 * c, "{f}: {} against {c}", p.guess);
         }
+    }
+
+    /// A force periodic in position, beside a larger smooth one and noise, is found at its wavelength (to
+    /// a fraction of a percent, off the scan's grid) by the periodogram of the residual against x.
+    #[test]
+    fn a_ripple_in_position_is_found_at_its_wavelength() {
+        let lam = 0.0037;
+        let w = std::f64::consts::TAU * 1.3;
+        let inputs: Vec<Inputs> = (0..6000)
+            .map(|k| {
+                let t = k as f64 * 1e-3;
+                Inputs {
+                    t_s: t,
+                    x_m: 0.02 * (w * t).sin(),
+                    v_m_s: 0.02 * w * (w * t).cos(),
+                    ..Inputs::default()
+                }
+            })
+            .collect();
+        let mut noise = 12345u64;
+        let target: Vec<f64> = inputs
+            .iter()
+            .map(|i| {
+                noise = noise
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                let u = (noise >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+                0.8 * (std::f64::consts::TAU * i.x_m / lam + 0.4).sin() + 3.0 * i.v_m_s.signum() + u
+            })
+            .collect();
+        let t = Test {
+            path: "r.csv".into(),
+            name: "r.csv".into(),
+            group: "r".into(),
+            f_n: target.clone(),
+            inputs,
+            velocity_measured: true,
+            velocity_noise_m_s: None,
+            drive: None,
+        };
+        let tests = [t];
+        let terms = ripple_terms(Scales::of(&tests), &tests, &target, &vec![1.0; target.len()]);
+        assert_eq!(terms.len(), 2);
+        let l: f64 = terms[0]
+            .feature
+            .trim_start_matches("sin(x/")
+            .trim_end_matches(')')
+            .parse()
+            .expect("a number");
+        let found = std::f64::consts::TAU * l;
+        assert!(
+            (found / lam - 1.0).abs() < 0.003,
+            "wavelength {found} against {lam}"
+        );
     }
 
     #[test]

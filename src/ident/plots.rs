@@ -443,7 +443,7 @@ pub fn plot_diagnosis(dir: &Path, tests: &[Test], d: &Diagnosis) -> Result<Vec<P
     let v = &d.verdict;
     let mut shares: Vec<(String, f64)> = vec![("all signals".into(), v.predictable_share.max(0.0))];
     shares.extend(v.correlates_with.iter().map(|(n, s)| (n.clone(), *s)));
-    let caption = if v.structure && v.predictable_share < super::discover::MIN_PREDICTABLE_SHARE {
+    let caption = if v.structure && !v.predicted() {
         format!(
             "UNEXPLAINED: what {} leaves is {:.1}x the noise floor, yet not predictable from these signals",
             d.final_model,

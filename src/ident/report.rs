@@ -6,7 +6,6 @@ use std::fmt::Write as _;
 use serde::Serialize;
 
 use super::diagnose::{Candidate, Diagnosis};
-use super::discover::MIN_PREDICTABLE_SHARE;
 use super::fit::FitResult;
 use super::residual::{direction_weights, where_regions, Region};
 use super::validate::{figures, Figures};
@@ -555,7 +554,7 @@ pub fn diagnose_table(d: &Diagnosis) -> String {
 pub fn verdict_words(d: &Diagnosis) -> String {
     let v = &d.verdict;
     let mut s = String::new();
-    if v.structure && v.predictable_share >= MIN_PREDICTABLE_SHARE {
+    if v.structure && v.predicted() {
         let _ = writeln!(
             s,
             "\nUNEXPLAINED: what {} leaves is structure, not noise. A regressor on the measured signals predicts \

@@ -137,7 +137,9 @@ fn v_max(tests: &[Test]) -> f64 {
 }
 
 /// The regions (|v| bin × current bin, and a part of each test's duration) that carry most of the squared
-/// residual, largest first, until they cover most of it.
+/// residual, largest first, until they cover most of it. Samples count with their [`direction_weights`], as
+/// in the rest of the diagnosis: a sample whose direction of motion is unknown or whose force is clipped
+/// does not place the error.
 #[allow(clippy::needless_range_loop)] // several parallel per-sample arrays
 pub(crate) fn where_regions(tests: &[Test], pred: &[Vec<f64>]) -> Vec<Region> {
     let cb = CurrentBins::of(tests);
@@ -150,9 +152,13 @@ pub(crate) fn where_regions(tests: &[Test], pred: &[Vec<f64>]) -> Vec<Region> {
     let mut total = 0.0;
     for (t, p) in tests.iter().zip(pred) {
         let n = t.len();
+        let w = direction_weights(t);
         for k in 0..n {
             let r = p[k] - t.f_n[k];
-            let r2 = r * r;
+            if w[k] == 0.0 || !r.is_finite() {
+                continue;
+            }
+            let r2 = w[k] * r * r;
             let inp = &t.inputs[k];
             let vb = (0..nv)
                 .find(|&b| inp.v_m_s.abs() < edges[b + 1])
