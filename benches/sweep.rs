@@ -6,7 +6,10 @@
 //!   goal: ≥ 250× on one core);
 //! - `sweep_jobs_1`: `sweep::execute` on one thread (the runs checked first, the journal, results Parquet
 //!   and CSV): its time over the baseline's is the sweep's overhead (goal < 5 %);
-//! - `sweep_jobs_2`: the same on two threads (goal ≥ 1.8× the throughput of `sweep_jobs_1`).
+//! - `sweep_jobs_2`: the same on two threads (goal ≥ 1.8× the throughput of `sweep_jobs_1`);
+//! - `sweep_without_runs`: what `sweep_jobs_1` does besides the runs (the scenarios checked, the journal,
+//!   the results written), with the runs' records made beforehand: the part of the overhead that does not
+//!   grow with the runs' length.
 //!
 //! Throughput is in **simulated seconds** (`elem` = 1 s simulated), so `thrpt: N elem/s` reads as "N×
 //! faster than real time"; runs per second are that over 2 (each run simulates 2 s).
@@ -58,6 +61,26 @@ fn bench(c: &mut Criterion) {
             )
         });
     }
+    // What `sweep_jobs_1` does besides the runs, with their records already made: the scenarios checked,
+    // the journal appended to, the results written.
+    let records: Vec<_> = (0..n).map(|i| sweep::run_one(&plan, &plan.run(i))).collect();
+    g.bench_function("sweep_without_runs", |b| {
+        b.iter_batched(
+            || tempfile::tempdir().unwrap(),
+            |dir| {
+                let mut store = Store::open(dir.path(), &plan, Shard::ALL).unwrap();
+                for i in 0..n {
+                    black_box(plan.scenario(&plan.run(i)).unwrap());
+                }
+                for r in &records {
+                    store.append(r).unwrap();
+                }
+                store.finish(&mut records.clone()).unwrap();
+                dir
+            },
+            criterion::BatchSize::PerIteration,
+        )
+    });
     g.finish();
 
     let Ok(address) = std::env::var("MRFEEL_BENCH_RAY") else {
