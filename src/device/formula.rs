@@ -954,17 +954,14 @@ mod tests {
             })
             .collect();
         let tc = f.series(&inputs, &vec![0.0; inputs.len()]);
-        for k in 0..inputs.len() {
+        assert_eq!(tc.len(), inputs.len());
+        for (k, got) in tc.iter().enumerate() {
             let want = if k < 300 {
                 TC_SETTLED_S + k as f64 * dt
             } else {
                 (k % 300) as f64 * dt
             };
-            assert!(
-                (tc[k] - want).abs() < 1e-9,
-                "sample {k}: {} against {want}",
-                tc[k]
-            );
+            assert!((got - want).abs() < 1e-9, "sample {k}: {got} against {want}");
         }
     }
 
