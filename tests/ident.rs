@@ -634,7 +634,7 @@ fn mts_runs_of_one_saved_hidden_device_are_diagnosed_together() {
         "a separate --effects run scales the effect to its own test: {} vs {m} kg",
         mass(&other)
     );
-    let out = mrfeel(&["diagnose", &s(&data), "--json"]);
+    let out = mrfeel(&["diagnose", &s(&data), "--json", "--model", "bingham"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("diagnose --json");
     assert_eq!(v["missing"], serde_json::json!(["inertia"]), "{v:#}");
@@ -788,7 +788,15 @@ fn a_current_in_force_at_the_sample_it_is_logged_with_is_read_so_and_saved_with_
     let floor = 0.2 / (forces.iter().map(|f| f * f).sum::<f64>() / forces.len() as f64).sqrt();
     let dir_s = d.display().to_string();
     let heldout = |timing: &str| {
-        let out = mrfeel(&["diagnose", &dir_s, "--json", "--command-timing", timing]);
+        let out = mrfeel(&[
+            "diagnose",
+            &dir_s,
+            "--json",
+            "--model",
+            "bingham",
+            "--command-timing",
+            timing,
+        ]);
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
         let j: serde_json::Value = serde_json::from_slice(&out.stdout).expect("diagnose --json");
         assert_eq!(j["missing"], serde_json::json!([]), "{timing}: {j}");
