@@ -906,17 +906,7 @@ mod tests {
         let f = Formula::parse("s", &[]).expect("parses");
         assert_eq!(f.n_states(), 2);
         let (a, w, dt) = (0.01, std::f64::consts::TAU, 1e-3);
-        let inputs: Vec<Inputs> = (0..2500)
-            .map(|k| {
-                let t = k as f64 * dt;
-                Inputs {
-                    t_s: t,
-                    x_m: a * (w * t).sin(),
-                    v_m_s: a * w * (w * t).cos(),
-                    ..Inputs::default()
-                }
-            })
-            .collect();
+        let inputs = crate::device::effects::testkit::sine(a, 1.0, 0.0, dt, 2.499);
         let s = f.series(&inputs, &vec![0.0; inputs.len()]);
         // From rest at the start (x = 0, moving up), then from each turning point x = ±a (at t = 0.25 s +
         // half periods); samples within two steps of a turn are skipped (the turn falls between samples).

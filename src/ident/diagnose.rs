@@ -570,8 +570,8 @@ pub struct Diagnosis {
     pub bases: Vec<BaseTried>,
 }
 
-/// A base model the diagnosis tried, with its held-out figures.
-#[derive(Debug, Clone)]
+/// A base model the diagnosis tried, with its held-out figures (an entry of `bases_tried` in the JSON).
+#[derive(Debug, Clone, serde::Serialize)]
 pub struct BaseTried {
     /// The base's spec (`bingham`, `spencer`).
     pub model: String,

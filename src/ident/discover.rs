@@ -1082,26 +1082,13 @@ mod tests {
     #[test]
     fn a_ripple_in_position_is_found_at_its_wavelength() {
         let lam = 0.0037;
-        let w = std::f64::consts::TAU * 1.3;
-        let inputs: Vec<Inputs> = (0..6000)
-            .map(|k| {
-                let t = k as f64 * 1e-3;
-                Inputs {
-                    t_s: t,
-                    x_m: 0.02 * (w * t).sin(),
-                    v_m_s: 0.02 * w * (w * t).cos(),
-                    ..Inputs::default()
-                }
-            })
-            .collect();
-        let mut noise = 12345u64;
+        let inputs = crate::device::effects::testkit::sine(0.02, 1.3, 0.0, 1e-3, 5.999);
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(12345);
         let target: Vec<f64> = inputs
             .iter()
             .map(|i| {
-                noise = noise
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                let u = (noise >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+                let u = rng.random::<f64>() - 0.5;
                 0.8 * (std::f64::consts::TAU * i.x_m / lam + 0.4).sin() + 3.0 * i.v_m_s.signum() + u
             })
             .collect();

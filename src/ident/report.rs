@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 
 use serde::Serialize;
 
-use super::diagnose::{Candidate, Diagnosis};
+use super::diagnose::{BaseTried, Candidate, Diagnosis};
 use super::fit::FitResult;
 use super::residual::{direction_weights, where_regions, Region};
 use super::validate::{figures, Figures};
@@ -283,24 +283,7 @@ pub struct DiagnoseJson {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub unexplained: Option<UnexplainedJson>,
     /// The bases tried, with their held-out figures; `chosen` marks the one the diagnosis carried on from.
-    pub bases_tried: Vec<BaseTriedJson>,
-}
-
-/// One entry of `bases_tried`.
-#[derive(Debug, Clone, Serialize)]
-pub struct BaseTriedJson {
-    /// The base's spec.
-    pub model: String,
-    /// Held-out NRMSE of the base alone (`null`: not fitted).
-    pub heldout_nrmse: Option<f64>,
-    /// The model a diagnosis from this base ended with (`null`: none ran from it).
-    pub final_model: Option<String>,
-    /// Its held-out NRMSE.
-    pub final_heldout_nrmse: Option<f64>,
-    /// Whether the diagnosis carried on from this base.
-    pub chosen: bool,
-    /// Why, in words.
-    pub note: String,
+    pub bases_tried: Vec<BaseTried>,
 }
 
 /// One entry of `discovered`.
@@ -384,18 +367,7 @@ impl DiagnoseJson {
                 r#where: v.where_.clone(),
                 correlates_with: v.correlates_with.iter().map(|c| c.0.clone()).collect(),
             }),
-            bases_tried: d
-                .bases
-                .iter()
-                .map(|b| BaseTriedJson {
-                    model: b.model.clone(),
-                    heldout_nrmse: b.heldout_nrmse,
-                    final_model: b.final_model.clone(),
-                    final_heldout_nrmse: b.final_heldout_nrmse,
-                    chosen: b.chosen,
-                    note: b.note.clone(),
-                })
-                .collect(),
+            bases_tried: d.bases.clone(),
         }
     }
 }
