@@ -252,8 +252,6 @@ fn on_a_broadband_bouc_wen_damper_diagnose_predicts_a_second_record_as_well_as_s
 /// count of samples the file logs there (runs shorter than the rule's 8 samples aside), and those samples
 /// weigh nothing in the fit and in every score.
 #[test]
-#[ignore = "known gap: on broadband force the clip rule names 221 of the 522 samples logged at +600 N \
-            (a rail run whose neighbour a run-length away is back at the rail is not counted)"]
 fn a_broadband_record_with_a_saturated_load_cell_is_read_with_its_clip_named_and_left_out() {
     let dir = tempfile::tempdir().unwrap();
     let recs = broadband(dir.path(), 1.0, 1, 5, &[("CLIP", "600")]);

@@ -5,13 +5,15 @@
 //! [`super::validate::figures`]).
 //!
 //! Rule: a run of at least [`MIN_RUN`] samples exactly equal to the channel's largest (or smallest) value,
-//! whose neighbours, as far beyond either end as the run is long, are more than [`DROP`] resolution
-//! steps below the rail (the resolution: the channel's white noise or its smallest step, whichever is
-//! larger). A natural peak that a coarse ADC logs as a run of equal values falls by less than about nine
-//! of its steps there (a parabola within one step over the run falls by (1 + 2)² steps at twice its
-//! half-width beyond); a signal cut at a rail δ below its peak falls by eight δ, so a clip is named when
-//! it cuts more than about four steps off the peak. A flat top of a noiseless simulation that sits
-//! exactly at the channel's extreme is indistinguishable from a rail and is reported the same way.
+//! which on each side, within as many samples beyond its end as the run is long, falls more than [`DROP`]
+//! resolution steps below the rail (the resolution: the channel's white noise or its smallest step,
+//! whichever is larger). A natural peak that a coarse ADC logs as a run of equal values falls by less
+//! than about nine of its steps there (a parabola within one step over the run falls by (1 + 2)² steps at
+//! twice its half-width beyond); a signal cut at a rail δ below its peak falls by eight δ, so a clip is
+//! named when it cuts more than about four steps off the peak. The fall is looked for anywhere in the
+//! window, not only at its far end: a broadband force may dip off the rail and be back on it a run's
+//! length later. A flat top of a noiseless simulation that sits exactly at the channel's extreme is
+//! indistinguishable from a rail and is reported the same way.
 
 use std::ops::Range;
 
@@ -66,13 +68,14 @@ pub fn clips(y: &[f64]) -> Vec<Clip> {
                 k += 1;
             }
             let len = k - start;
-            // The neighbour a run's length beyond each end (or the record's end, if nearer).
-            let before = (start > 0).then(|| start.saturating_sub(len));
-            let after = (k < n).then(|| (k - 1 + len).min(n - 1));
-            let sides = [before, after];
+            // The samples within a run's length beyond each end (up to the record's end).
+            let sides = [start.saturating_sub(len)..start, k..(k + len).min(n)];
             if len >= MIN_RUN
-                && sides.iter().any(Option::is_some)
-                && sides.iter().flatten().all(|&j| falls(j))
+                && sides.iter().any(|s| !s.is_empty())
+                && sides
+                    .iter()
+                    .filter(|s| !s.is_empty())
+                    .all(|s| s.clone().any(falls))
             {
                 runs.push(start..k);
             }

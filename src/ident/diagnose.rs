@@ -625,8 +625,9 @@ pub fn diagnose(
 /// where two rival models each fitted whole are ranked by their held-out error (on a broadband Bouc–Wen
 /// record, `spencer` alone held out 0.0130 against `bingham+hysteresis+stiffness+current_viscosity`'s
 /// 0.0185, the noise floor 0.0075, and was lower in 2 of 4 time blocks). A further base is not fitted
-/// when the model so far ends at the noise floor (nothing left for it to explain: the cost of its stiff
-/// ODE fit is saved), nor when a test is too short for its parameters.
+/// when the model so far ends at the noise floor or its verdict finds no structure left in the held-out
+/// residual (nothing left for another base to explain: the cost of its stiff ODE fit is saved), nor when
+/// a test is too short for its parameters.
 pub fn diagnose_choosing_base(
     tests: &[Test],
     registry: &Registry,
@@ -660,6 +661,11 @@ pub fn diagnose_choosing_base(
         let skip = if best_cv.total.rmse_n() <= opts.floor_ratio * noise {
             Some(format!(
                 "not fitted: {} ends at the noise floor, nothing is left for another base to explain",
+                best.final_model
+            ))
+        } else if best.unexplained().is_none() {
+            Some(format!(
+                "not fitted: no structure is left in {}'s held-out residual for another base to explain",
                 best.final_model
             ))
         } else if shortest < 2 * model.n_params() {

@@ -553,22 +553,25 @@ impl PyDiagnosis {
 }
 
 /// Find where `model` fails on `measurements` (as `Model.fit` takes them) and name the missing effects by
-/// the held-out error they remove, as `mrfeel diagnose` does.
+/// the held-out error they remove, as `mrfeel diagnose` does: with `model=None` the base is chosen by
+/// held-out error, and terms beyond the named effects are searched for unless `named_only`.
 #[pyfunction]
-#[pyo3(signature = (measurements, model="bingham", weighting="tests", acquisition=None, command_timing="auto", current_limit_a=None))]
+#[pyo3(signature = (measurements, model=None, weighting="tests", acquisition=None, command_timing="auto", current_limit_a=None, named_only=false))]
+#[allow(clippy::too_many_arguments)]
 fn diagnose<'py>(
     py: Python<'py>,
     measurements: &Bound<'py, PyAny>,
-    model: &str,
+    model: Option<&str>,
     weighting: &str,
     acquisition: Option<&Bound<'py, PyAny>>,
     command_timing: &str,
     current_limit_a: Option<f64>,
+    named_only: bool,
 ) -> PyResult<PyDiagnosis> {
     let ms = self::measurements(measurements)?;
     let acq = self::acquisition(acquisition)?;
     let setup = prelude::DiagnoseSetup {
-        model: model.to_string(),
+        model: model.unwrap_or_default().to_string(),
         current_limit_a,
         weighting: choice("weighting", weighting, &Weighting::ALL, Weighting::as_str)?,
         command_timing: choice(
@@ -581,7 +584,8 @@ fn diagnose<'py>(
     };
     work(py, move || {
         let data = prelude::prepare(&ms, acq, None)?;
-        let d = prelude::diagnose(data, &setup)?;
+        let registry = mrfeel::device::Registry::builtin();
+        let d = prelude::diagnose_in(data, &setup, &registry, !named_only)?;
         Ok(PyDiagnosis {
             json: serde_json::to_string(&prelude::DiagnoseJson::new(&d.diagnosis))?,
             table: mrfeel::ident::report::diagnose_table(&d.diagnosis),
