@@ -91,8 +91,10 @@ def test_ctrl_c_stops_a_diagnosis_under_way(hidden_inertia):
     import sys
     import time
 
+    # Python's own Ctrl-C handler even when the test runs in a background job (whose SIGINT is ignored).
     code = (
-        "import sys, time, mrfeel\n"
+        "import signal, sys, time, mrfeel\n"
+        "signal.signal(signal.SIGINT, signal.default_int_handler)\n"
         "ms = [mrfeel.Measurement.from_csv(p) for p in sys.argv[1:]]\n"
         "print('ready', flush=True)\n"
         "try:\n"

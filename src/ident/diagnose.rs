@@ -689,6 +689,7 @@ pub fn diagnose_choosing_base(
         }
         bar.set_message(format!("trying the base {spec}"));
         let cv = cross_validate(&model, tests, &folds, None, &opts.cv_fit(), &bar);
+        super::stop_if_asked()?;
         let better = enough_removed(&best_cv, &cv, noise * noise, opts);
         let folds_better = (0..folds.len())
             .filter(|&f| cv.per_fold[f].sse < best_cv.per_fold[f].sse)
@@ -853,6 +854,7 @@ fn diagnose_from(
             })
             .collect();
         let mut tried: Vec<(Model, CvResult)> = tried.into_iter().collect::<Result<_, _>>()?;
+        super::stop_if_asked()?;
         tried.sort_by(|a, b| a.1.total.sse.total_cmp(&b.1.total.sse));
         if search.refit_from_candidates(&mut cur, &cur_model, &tried) {
             path_cv.insert(cur.spec.to_string(), cur.clone());
@@ -930,6 +932,7 @@ fn diagnose_from(
         let mut term: Option<(Model, CvResult, FormulaEffect)> = None;
         let mut term_cand: Option<Candidate> = None;
         if opts.open_search && !search.at_floor(&cur) {
+            super::stop_if_asked()?;
             let name = next_term_name(&reg);
             if let Some(effect) = propose_term(&name, tests, &cur.oof, &current, &lib) {
                 bar.set_message(format!("trying the term {} on {}", effect.formula(), cur.spec));
@@ -1036,6 +1039,7 @@ fn diagnose_from(
     // two effects of a pair were judged together and go together: either alone had failed a fold.
     let mut pruned = Vec::new();
     while added_groups.len() >= 2 {
+        super::stop_if_asked()?;
         bar.set_message(format!(
             "checking each of {} added effects is still needed",
             missing.len()
@@ -1091,6 +1095,7 @@ fn diagnose_from(
         cur = cv;
     }
 
+    super::stop_if_asked()?;
     bar.set_message(format!("fitting {}", cur.spec));
     let final_fit = fit(
         &cur_model,

@@ -48,9 +48,22 @@ pub enum IdentError {
     /// No measurement file was given.
     #[error("no measurement files given")]
     NoData,
+    /// Stopped on request ([`crate::interrupt`]).
+    #[error("interrupted")]
+    Interrupted,
     /// Anything else, in words.
     #[error("{0}")]
     Other(String),
+}
+
+/// `Err(Interrupted)` when a stop was asked for ([`crate::interrupt`]): long searches check between
+/// stages, so a stop does not wait for the rest of the search to run on stopped fits.
+pub(crate) fn stop_if_asked() -> Result<(), IdentError> {
+    if crate::interrupt::requested() {
+        Err(IdentError::Interrupted)
+    } else {
+        Ok(())
+    }
 }
 
 /// One test prepared for the models: the inputs at every sample and the measured force.
