@@ -229,6 +229,23 @@ pub(crate) fn resolve(dir: &Path, named: &Path) -> PathBuf {
     direct
 }
 
+/// The scenario a command line names: `path` as given where it exists or has a folder; a bare file name
+/// that is not in the working directory is looked for in the data directory, then among the built-in
+/// scenarios ([`resolve`], which notes the built-in file it uses). Anything else is returned as given, for
+/// the reader's error.
+pub fn scenario_arg(path: &Path) -> PathBuf {
+    let bare = path.parent().is_some_and(|p| p.as_os_str().is_empty());
+    let built_in = path.to_str().is_some_and(|name| {
+        FILES
+            .iter()
+            .any(|(p, _)| p.strip_prefix("scenarios/") == Some(name))
+    });
+    if path.exists() || !bare || !built_in {
+        return path.to_path_buf();
+    }
+    resolve(Path::new(""), path)
+}
+
 /// `msg`, an error about the file `path` a scenario names, with [`not_found_hint`] when the file is not there.
 pub(crate) fn hint_if_missing(path: &Path, msg: String) -> String {
     if is_builtin(path) || path.exists() {

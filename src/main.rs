@@ -69,15 +69,18 @@ impl Job {
         use mrfeel::scenario::Scenario;
         Ok(match command {
             Command::Mts(a) => Job::Mts(a),
-            Command::Run(a) => {
+            Command::Run(mut a) => {
+                a.scenario = mrfeel::builtin::scenario_arg(&a.scenario);
                 let scn = a.load_scenario()?;
                 Job::Run(a, Box::new(scn))
             }
-            Command::DaqSweep(a) => {
+            Command::DaqSweep(mut a) => {
+                a.scenario = mrfeel::builtin::scenario_arg(&a.scenario);
                 let scn = Scenario::load(&a.scenario)?;
                 Job::DaqSweep(a, Box::new(scn))
             }
-            Command::Compare(a) => {
+            Command::Compare(mut a) => {
+                a.scenario = mrfeel::builtin::scenario_arg(&a.scenario);
                 let scn = mrfeel::compare::CompareScenario::load(&a.scenario)?;
                 Job::Compare(a, Box::new(scn))
             }
@@ -85,7 +88,8 @@ impl Job {
             Command::Validate(a) => Job::Validate(a),
             Command::Diagnose(a) => Job::Diagnose(a),
             Command::Simulate(a) => Job::Simulate(a),
-            Command::LoopStudy(a) => {
+            Command::LoopStudy(mut a) => {
+                a.scenario = mrfeel::builtin::scenario_arg(&a.scenario);
                 let scn = Scenario::load(&a.scenario)?;
                 Job::LoopStudy(a, Box::new(scn))
             }

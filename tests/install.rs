@@ -202,7 +202,8 @@ fn a_copied_binary_runs_a_copied_scenario_anywhere() {
 
 /// `scenarios/paper-fine-corrections.toml` ships in the binary: copied into a folder with a copy of the
 /// binary and no source tree in reach it runs on the built-in models, and the built-in copy
-/// (`<built-in>/scenarios/paper-fine-corrections.toml`) runs from the same folder to the same bytes.
+/// (`<built-in>/scenarios/paper-fine-corrections.toml`) runs from the same folder to the same bytes, as
+/// does its bare file name from an empty folder (saying that it uses the built-in file).
 #[test]
 fn the_fine_corrections_scenario_runs_anywhere_and_is_built_in() {
     let tmp = tempfile::tempdir().unwrap();
@@ -232,6 +233,20 @@ fn the_fine_corrections_scenario_runs_anywhere_and_is_built_in() {
     let rows = read("copied.csv").split(|&b| b == b'\n').count();
     assert!(rows > 10_000, "{rows} lines");
     assert_eq!(read("copied.csv"), read("built-in.csv"));
+    let empty = tmp.path().join("empty");
+    std::fs::create_dir(&empty).unwrap();
+    let bare = run_in(
+        &bin,
+        &empty,
+        &["run", "paper-fine-corrections.toml", "--out", "../bare.csv"],
+    );
+    assert!(bare.status.success(), "{}", text(&bare));
+    assert!(
+        text(&bare).contains("using the built-in <built-in>/scenarios/paper-fine-corrections.toml"),
+        "{}",
+        text(&bare)
+    );
+    assert_eq!(read("bare.csv"), read("built-in.csv"));
 }
 
 /// An aircraft named in a copied scenario is flown from the built-in model, from any folder.

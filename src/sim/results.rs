@@ -203,19 +203,29 @@ pub struct Summary {
     pub dissipated_j: f64,
     /// Energy taken by the stick's end stops at impacts, J (0 where not counted).
     pub stops_j: f64,
-    /// (pilot work + motor work − ΔKE − ΔPE − Δspring − dissipated − stops) / (|pilot work| + |motor
-    /// work|); `None` where no work was done.
+    /// Work the hand and the motor exchanged with the rig, J: each step's work of each counted whatever
+    /// its sign, so that the energy a rendered spring takes in and gives back both count. The scale of the
+    /// balance's residual: the integrator's error grows with the energy that flows, not with its net.
+    pub work_exchanged_j: f64,
+    /// (pilot work + motor work − ΔKE − ΔPE − Δspring − dissipated − stops) / `work_exchanged_j`; `None`
+    /// where no work was done.
     pub energy_residual: Option<f64>,
 }
 
 impl Summary {
     /// The summary with `stops_j` of energy taken by the stick's stops counted in its balance.
     pub fn with_stops_j(mut self, stops_j: f64) -> Self {
-        let work = self.pilot_work_j.abs() + self.actuator_work_j.abs();
+        let work = self.work_exchanged_j;
         self.energy_residual = self.energy_residual.map(|e| e - (stops_j - self.stops_j) / work);
         self.stops_j = stops_j;
         self
     }
+}
+
+/// The work the hand and the motor exchanged with the rig between rows `a` and `b`, J, each whatever its
+/// sign.
+pub(crate) fn work_exchanged_j(a: &Row, b: &Row) -> f64 {
+    (b.pilot_work_j - a.pilot_work_j).abs() + (b.actuator_work_j - a.actuator_work_j).abs()
 }
 
 /// A run's [`Summary`] gathered row by row, so that a run streamed to its outputs needs no rows kept.
@@ -228,6 +238,7 @@ pub struct SummaryAcc {
     current_min: Option<f64>,
     current_max: Option<f64>,
     max_abs_load_cell: f64,
+    exchanged_j: f64,
     first: Option<Row>,
     last: Option<Row>,
 }
@@ -244,6 +255,9 @@ impl SummaryAcc {
         self.current_min = Some(self.current_min.map_or(r.current_a, |c| c.min(r.current_a)));
         self.current_max = Some(self.current_max.map_or(r.current_a, |c| c.max(r.current_a)));
         self.max_abs_load_cell = self.max_abs_load_cell.max(r.load_cell_true_n.abs());
+        if let Some(prev) = &self.last {
+            self.exchanged_j += work_exchanged_j(prev, r);
+        }
         self.first.get_or_insert(*r);
         self.last = Some(*r);
     }
@@ -280,8 +294,9 @@ impl SummaryAcc {
             actuator_work_j: wa,
             dissipated_j: diss,
             stops_j: 0.0,
-            energy_residual: (w != 0.0 || wa != 0.0)
-                .then(|| (w + wa - dke - dpe - dspring - diss) / (w.abs() + wa.abs())),
+            work_exchanged_j: self.exchanged_j,
+            energy_residual: (self.exchanged_j > 0.0)
+                .then(|| (w + wa - dke - dpe - dspring - diss) / self.exchanged_j),
         }
     }
 }
@@ -509,7 +524,7 @@ impl std::fmt::Display for Summary {
         writeln!(f, "  max |load cell| {:.1} N", self.max_abs_load_cell_n)?;
         write!(
             f,
-            "  energy: pilot work {:.4} J{} = ΔKE {:.4} J + ΔPE {:.4} J + Δspring {:.4} J + dissipated {:.4} J{} (residual {})",
+            "  energy: pilot work {:.4} J{} = ΔKE {:.4} J + ΔPE {:.4} J + Δspring {:.4} J + dissipated {:.4} J{} (residual {} of {:.4} J exchanged)",
             self.pilot_work_j,
             if self.actuator_work_j != 0.0 {
                 format!(" + motor work {:.4} J", self.actuator_work_j)
@@ -526,7 +541,8 @@ impl std::fmt::Display for Summary {
                 String::new()
             },
             self.energy_residual
-                .map_or("none: no work done".into(), |e| format!("{:.3} %", 100.0 * e))
+                .map_or("none: no work done".into(), |e| format!("{:.3} %", 100.0 * e)),
+            self.work_exchanged_j
         )
     }
 }
