@@ -10,6 +10,10 @@ use crate::common::{ok, s};
 
 /// Peak resident set of one run of `mrfeel ARGS`, bytes, from the kernel's account of the child
 /// (`wait4`'s `ru_maxrss`, in KiB on Linux).
+#[expect(
+    clippy::zombie_processes,
+    reason = "the child is reaped by wait4, which also gives its usage"
+)]
 fn peak_rss(args: &[&str]) -> u64 {
     let child = Command::new(env!("CARGO_BIN_EXE_mrfeel"))
         .args(args)
