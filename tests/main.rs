@@ -26,6 +26,7 @@ mod fuzz_parsers;
 mod ident;
 mod independent_truth;
 mod install;
+mod memory;
 mod properties;
 mod rig;
 mod sim;

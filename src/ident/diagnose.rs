@@ -276,8 +276,11 @@ pub struct CvResult {
     pub fold_params: Vec<Vec<f64>>,
     /// Each fold's fitted loss on its training samples ([`crate::ident::fit::FitResult::loss`]), N².
     pub fold_train_loss: Vec<f64>,
-    /// Out-of-fold prediction at every sample (each sample is scored by exactly one fold).
+    /// Out-of-fold prediction at every sample (each sample is scored by exactly one fold). Empty where the
+    /// diagnosis shed it: a candidate's is read again only if it is chosen.
     pub oof: Vec<Vec<f64>>,
+    /// The signatures of the held-out residual, kept when `oof` was shed.
+    pub(crate) sig: Option<Signatures>,
 }
 
 impl CvResult {
@@ -296,6 +299,7 @@ impl CvResult {
             return None;
         }
         let mut out = self.clone();
+        out.sig = None;
         for f in better {
             out.per_fold[f] = other.per_fold[f];
             out.fold_params[f] = other.fold_params[f].clone();
@@ -310,6 +314,61 @@ impl CvResult {
         }
         Some(out)
     }
+
+    /// Drop the per-sample held-out predictions, keeping their signatures: 8 bytes a sample for every
+    /// candidate of a step, of which at most one becomes the current model ([`CvResult::restore_oof`]).
+    fn shed_oof(&mut self, tests: &[Test]) {
+        if !self.oof.is_empty() {
+            self.sig = Some(Signatures::of(tests, &self.oof));
+            self.oof = Vec::new();
+        }
+    }
+
+    /// A copy without the held-out predictions (for the path the backward pass may return to).
+    fn shed(&self, tests: &[Test]) -> CvResult {
+        let mut out = CvResult {
+            oof: Vec::new(),
+            ..self.clone()
+        };
+        if !self.oof.is_empty() {
+            out.sig = Some(Signatures::of(tests, &self.oof));
+        }
+        out
+    }
+
+    /// The held-out predictions again where they were shed: each fold's model, `model` with that fold's
+    /// fitted parameters, simulated as [`cross_validate`] did (the same numbers).
+    fn restore_oof(mut self, model: &Model, tests: &[Test], folds: &[Fold]) -> CvResult {
+        if self.oof.is_empty() {
+            let preds: Vec<Vec<(Span, Vec<f64>)>> = folds
+                .par_iter()
+                .zip(&self.fold_params)
+                .map(|(fold, p)| {
+                    fold.test
+                        .iter()
+                        .map(|s| (*s, heldout_prediction(model, p, tests, s)))
+                        .collect()
+                })
+                .collect();
+            self.oof = tests.iter().map(|t| vec![f64::NAN; t.len()]).collect();
+            for (s, p) in preds.into_iter().flatten() {
+                self.oof[s.test][s.start..s.end].copy_from_slice(&p);
+            }
+            self.sig = None;
+        }
+        self
+    }
+
+    /// The signatures of the held-out residual.
+    fn signatures(&self, tests: &[Test]) -> Signatures {
+        self.sig.unwrap_or_else(|| Signatures::of(tests, &self.oof))
+    }
+}
+
+/// The prediction of `model` with parameters `p` over the held-out span `s`.
+fn heldout_prediction(model: &Model, p: &[f64], tests: &[Test], s: &Span) -> Vec<f64> {
+    let sim = tests[s.test].predict(model, p, s.end);
+    sim[s.start..s.end].to_vec()
 }
 
 /// Starting values for `model` from a fitted `parent` (matching parameter names), the rest data-derived.
@@ -346,6 +405,13 @@ pub fn cross_validate(
     bar: &ProgressBar,
 ) -> CvResult {
     let weights: Vec<Vec<f64>> = tests.par_iter().map(direction_weights).collect();
+    // With a fold for every thread the folds are the parallel work: a fit that also ran its own tasks in
+    // parallel would, waiting for one, start another fold on the same thread and hold both folds' Jacobians
+    // (every fold's at once, at most). The same numbers either way.
+    let opts = &FitOptions {
+        parallel: opts.parallel && folds.len() < rayon::current_num_threads(),
+        ..opts.clone()
+    };
     let out: Vec<FoldOutcome> = folds
         .par_iter()
         .enumerate()
@@ -418,8 +484,7 @@ pub fn cross_validate(
             let mut preds = Vec::new();
             for s in &fold.test {
                 let t = &tests[s.test];
-                let sim = t.predict(model, &fr.params, s.end);
-                let p = sim[s.start..s.end].to_vec();
+                let p = heldout_prediction(model, &fr.params, tests, s);
                 fig.add(&Figures::of_weighted(
                     &p,
                     &t.f_n[s.start..s.end],
@@ -452,6 +517,7 @@ pub fn cross_validate(
         fold_params,
         fold_train_loss,
         oof,
+        sig: None,
     }
 }
 
@@ -825,7 +891,7 @@ fn diagnose_from(
     let mut first_candidates: Option<Vec<Candidate>> = None;
     // Held-out results of the models on the path, by spec, for the backward pass.
     let mut path_cv: BTreeMap<String, CvResult> = BTreeMap::new();
-    path_cv.insert(cur.spec.to_string(), cur.clone());
+    path_cv.insert(cur.spec.to_string(), cur.shed(tests));
     let search = Search {
         tests,
         folds: &folds,
@@ -849,7 +915,8 @@ fn diagnose_from(
             .par_iter()
             .map(|n| {
                 let m = build(&cur.spec.with(n), &reg)?;
-                let cv = cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &side_by_side, &bar);
+                let mut cv = cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &side_by_side, &bar);
+                cv.shed_oof(tests);
                 Ok((m, cv))
             })
             .collect();
@@ -857,7 +924,7 @@ fn diagnose_from(
         super::stop_if_asked()?;
         tried.sort_by(|a, b| a.1.total.sse.total_cmp(&b.1.total.sse));
         if search.refit_from_candidates(&mut cur, &cur_model, &tried) {
-            path_cv.insert(cur.spec.to_string(), cur.clone());
+            path_cv.insert(cur.spec.to_string(), cur.shed(tests));
         }
         let mut cands = search.candidates(&cur, &tried, registry);
         let mut pairs: Vec<(Model, CvResult)> = Vec::new();
@@ -893,39 +960,22 @@ fn diagnose_from(
                         // From the current model's fits, both effects from their initial guesses: the seed's
                         // own fit has taken its partner's part, the very thing the pair undoes.
                         let m = build(&tried[si].0.spec().with(n), &reg)?;
-                        let cv =
+                        let mut cv =
                             cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &side_by_side, &bar);
+                        cv.shed_oof(tests);
                         Ok((m, cv))
                     })
                     .collect();
                 pairs = done.into_iter().collect::<Result<_, _>>()?;
                 pairs.sort_by(|a, b| a.1.total.sse.total_cmp(&b.1.total.sse));
                 if search.refit_from_candidates(&mut cur, &cur_model, &pairs) {
-                    path_cv.insert(cur.spec.to_string(), cur.clone());
+                    path_cv.insert(cur.spec.to_string(), cur.shed(tests));
                     cands = search.candidates(&cur, &tried, registry);
                 }
                 pair_cands = search.candidates(&cur, &pairs, registry);
                 for (c, (m, cv)) in pair_cands.iter_mut().zip(&pairs) {
                     c.significant &= search.beats_each_member(&cur, m, cv, &tried);
                 }
-            }
-        }
-        // From here on a candidate's held-out predictions are read only if it becomes the current model: the
-        // significant single effect, else the significant pair (whose members then join the path for the
-        // backward pass). The others' are dropped before the open search holds columns of its own.
-        let single = cands.iter().position(|c| c.significant);
-        let pair = pair_cands
-            .iter()
-            .position(|c| c.significant)
-            .filter(|_| single.is_none());
-        for (i, (_, cv)) in tried.iter_mut().enumerate() {
-            if Some(i) != single && pair.is_none() {
-                cv.oof = Vec::new();
-            }
-        }
-        for (i, (_, cv)) in pairs.iter_mut().enumerate() {
-            if Some(i) != pair {
-                cv.oof = Vec::new();
             }
         }
         // The open search: a term from the library, fitted and judged on the same folds by the same rules.
@@ -976,7 +1026,7 @@ fn diagnose_from(
                 Some(pi) => {
                     // The single fits of both members are on the path, for the backward pass.
                     for (m, cv) in &tried {
-                        path_cv.insert(m.name(), cv.clone());
+                        path_cv.insert(m.name(), cv.shed(tests));
                     }
                     Some(pairs.swap_remove(pi))
                 }
@@ -998,7 +1048,10 @@ fn diagnose_from(
                 term_added = Some(effect);
                 (m, cv)
             }
-            (_, _, Some(chosen)) => chosen,
+            (_, _, Some((m, cv))) => {
+                let cv = cv.restore_oof(&m, tests, &folds);
+                (m, cv)
+            }
             _ => break,
         };
         // Its folds were fitted from the current model's fits, staged; a fit from the data-derived start may end
@@ -1030,7 +1083,7 @@ fn diagnose_from(
             pairs: Vec::new(),
             term: None,
         });
-        path_cv.insert(m.name(), cv.clone());
+        path_cv.insert(m.name(), cv.shed(tests));
         cur_model = m;
         cur = cv;
     }
@@ -1091,8 +1144,8 @@ fn diagnose_from(
             pairs: Vec::new(),
             term: None,
         });
+        cur = cv.restore_oof(&m, tests, &folds);
         cur_model = m;
-        cur = cv;
     }
 
     super::stop_if_asked()?;
@@ -1277,13 +1330,13 @@ impl Search<'_> {
 
     /// `tried` (extensions of `cur`, best first) judged against `cur`, with their evidence.
     fn candidates(&self, cur: &CvResult, tried: &[(Model, CvResult)], registry: &Registry) -> Vec<Candidate> {
-        let cur_sig = Signatures::of(self.tests, &cur.oof);
+        let cur_sig = cur.signatures(self.tests);
         tried
             .iter()
             .map(|(m, cv)| {
                 let names: Vec<&str> = added_effects(m, &cur.spec).into_iter().map(String::as_str).collect();
                 let (significant, folds_better) = self.judge(cur, cv);
-                let sig = Signatures::of(self.tests, &cv.oof);
+                let sig = cv.signatures(self.tests);
                 let signature = match names.as_slice() {
                     [one] => registry
                         .get(one)
@@ -1411,6 +1464,7 @@ mod tests {
             fold_params: folds.iter().map(|&(t, _, _)| vec![t]).collect(),
             fold_train_loss: folds.iter().map(|&(t, _, _)| t).collect(),
             oof: vec![vec![folds[0].2, folds[0].2, folds[1].2, folds[1].2]],
+            sig: None,
         }
     }
 

@@ -699,8 +699,10 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
         z0.clone(),
         opts.parallel,
     );
+    // One column per movable parameter, in their order: a held parameter's column would be zero and is
+    // never searched, and a full-width matrix per fit is the largest buffer of a staged fit.
     let movable: Vec<usize> = (0..n).filter(|&k| !held[k]).collect();
-    let j0 = prob.jacobian_into(&movable, &movable, n);
+    let j0 = prob.jacobian_cols(&movable);
     let f_norm = spans
         .iter()
         .map(|s| {
@@ -715,8 +717,8 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
         .sqrt();
     let negligible = 1e-13 * f_norm.max(f64::MIN_POSITIVE);
     let mut zero_held = vec![false; n];
-    for &k in &movable {
-        let cn = j0.column(k).norm();
+    for (c, &k) in movable.iter().enumerate() {
+        let cn = j0.column(c).norm();
         if cn <= negligible {
             held[k] = true;
             zero_held[k] = true;
@@ -751,7 +753,9 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
         if !prob.free.is_empty() && prob.n_res > 0 {
             if let Some(j) = first {
                 // Round 0 starts at z0, where j0 was computed.
-                let others: Vec<usize> = (0..n).filter(|k| !prob.free.contains(k)).collect();
+                let others: Vec<usize> = (0..movable.len())
+                    .filter(|&c| !prob.free.contains(&movable[c]))
+                    .collect();
                 prob.first_jac = Some((
                     prob.z.clone(),
                     compress(j.remove_columns_at(&others), &prob.resid),
