@@ -231,8 +231,8 @@ pub(crate) fn resolve(dir: &Path, named: &Path) -> PathBuf {
 
 /// The scenario a command line names: `path` as given where it exists or has a folder; a bare file name
 /// that is not in the working directory is looked for in the data directory, then among the built-in
-/// scenarios ([`resolve`], which notes the built-in file it uses). Anything else is returned as given, for
-/// the reader's error.
+/// scenarios, in the order a file named inside a scenario is found (the module's order), with a note of the
+/// built-in file it uses. Anything else is returned as given, for the reader's error.
 pub fn scenario_arg(path: &Path) -> PathBuf {
     let bare = path.parent().is_some_and(|p| p.as_os_str().is_empty());
     let built_in = path.to_str().is_some_and(|name| {

@@ -643,8 +643,8 @@ pub struct Verdict {
 }
 
 impl Verdict {
-    /// The regressor predicts the residual: its share is at least [`MIN_PREDICTABLE_SHARE`] on enough
-    /// samples. (Structure can be left without it: a held-out error far above the noise floor.)
+    /// The regressor predicts the residual: its share is at least 5 % on enough samples. (Structure can be
+    /// left without it: a held-out error far above the noise floor.)
     pub fn predicted(&self) -> bool {
         self.enough_samples && self.predictable_share >= MIN_PREDICTABLE_SHARE
     }
