@@ -326,13 +326,8 @@ impl CvResult {
 
     /// A copy without the held-out predictions (for the path the backward pass may return to).
     fn shed(&self, tests: &[Test]) -> CvResult {
-        let mut out = CvResult {
-            oof: Vec::new(),
-            ..self.clone()
-        };
-        if !self.oof.is_empty() {
-            out.sig = Some(Signatures::of(tests, &self.oof));
-        }
+        let mut out = self.clone();
+        out.shed_oof(tests);
         out
     }
 
