@@ -53,6 +53,10 @@ def test_diagnose_on_arrays_names_the_hidden_mass_and_is_the_cli_json(hidden_ine
     # Exactly the command line's JSON on the same files.
     want = json.loads(cli("diagnose", *hidden_inertia, "--json").stdout)
     assert got == want
+    # The mass explains the data and the verdict finds no structure left: the Spencer base is not fitted.
+    assert "unexplained" not in got, got
+    spencer = [b for b in got["bases_tried"] if b["model"] == "spencer"]
+    assert len(spencer) == 1 and spencer[0]["heldout_nrmse"] is None and not spencer[0]["chosen"], got
 
 
 def test_run_scenario_equals_mrfeel_run_csv(tmp_path):
