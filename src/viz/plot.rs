@@ -6,6 +6,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::Once;
 
+use plotters::chart::SeriesAnno;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
@@ -283,26 +284,41 @@ fn draw_chart<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, chart: &Chart) 
         } else {
             palette(k)
         };
-        let pts = s
+        let pts: Vec<(f64, f64)> = s
             .points
             .iter()
             .copied()
-            .filter(|p| p.0.is_finite() && p.1.is_finite());
-        let drawn = match s.kind {
-            Kind::Line => c
-                .draw_series(LineSeries::new(pts, color.stroke_width(2)))
-                .map_err(e)?,
-            Kind::Dashed => c
-                .draw_series(DashedLineSeries::new(pts, 6, 4, color.stroke_width(2)))
-                .map_err(e)?,
-            Kind::Points => c
-                .draw_series(pts.map(|p| Circle::new(p, 2, color.mix(0.5).filled())))
-                .map_err(e)?,
+            .filter(|p| p.0.is_finite() && p.1.is_finite())
+            .collect();
+        let mut labelled = s.name.is_empty();
+        let mut label = |drawn: &mut SeriesAnno<'_, DB>| {
+            if !labelled {
+                labelled = true;
+                drawn
+                    .label(s.name.clone())
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(3)));
+            }
         };
-        if !s.name.is_empty() {
-            drawn
-                .label(s.name.clone())
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(3)));
+        match s.kind {
+            Kind::Line | Kind::Dashed => {
+                let pieces = strokes(&pts, |p| c.backend_coord(&p));
+                for piece in pieces {
+                    let piece = piece.iter().copied();
+                    let drawn = if s.kind == Kind::Line {
+                        c.draw_series(LineSeries::new(piece, color.stroke_width(2)))
+                    } else {
+                        c.draw_series(DashedLineSeries::new(piece, 6, 4, color.stroke_width(2)))
+                    }
+                    .map_err(e)?;
+                    label(drawn);
+                }
+            }
+            Kind::Points => {
+                let drawn = c
+                    .draw_series(pts.iter().map(|&p| Circle::new(p, 2, color.mix(0.5).filled())))
+                    .map_err(e)?;
+                label(drawn);
+            }
         }
     }
     if chart.series.iter().any(|s| !s.name.is_empty()) {
@@ -315,6 +331,36 @@ fn draw_chart<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, chart: &Chart) 
             .map_err(e)?;
     }
     Ok(())
+}
+
+/// A polyline cut into strokes wherever it turns back on itself by more than 120° in pixels (`to_px`, the
+/// chart's own mapping). A thick line's joins are mitred without a limit in the bitmap backend, so a
+/// reversal between neighbouring pixels (a current command dropping to 0 A for one sample) would
+/// otherwise draw a spike far beyond the data, out of the plot area.
+fn strokes(pts: &[(f64, f64)], to_px: impl Fn((f64, f64)) -> (i32, i32)) -> Vec<&[(f64, f64)]> {
+    let px: Vec<(i32, i32)> = pts.iter().map(|&p| to_px(p)).collect();
+    let mut out = Vec::new();
+    let mut start = 0;
+    let mut last: Option<(f64, f64)> = None;
+    for k in 1..px.len() {
+        let d = ((px[k].0 - px[k - 1].0) as f64, (px[k].1 - px[k - 1].1) as f64);
+        let n = d.0.hypot(d.1);
+        if n == 0.0 {
+            continue;
+        }
+        let d = (d.0 / n, d.1 / n);
+        if let Some(l) = last {
+            if l.0 * d.0 + l.1 * d.1 < -0.5 {
+                out.push(&pts[start..k]);
+                start = k - 1;
+            }
+        }
+        last = Some(d);
+    }
+    if pts.len() > start {
+        out.push(&pts[start..]);
+    }
+    out
 }
 
 /// The perceptual colour scale of every heat map (viridis: lightness rises steadily, readable in grey and
@@ -349,6 +395,42 @@ mod tests {
         assert_eq!((strokes(&f2[1], palette(0)), strokes(&f2[1], palette(1))), (2, 2));
         let svg = std::fs::read_to_string(&f2[1]).unwrap();
         assert!(svg.contains("t [s]") && svg.contains("y2"));
+    }
+
+    #[test]
+    fn a_chattering_line_stays_inside_its_chart() {
+        // A current command held near 12.7 A that drops to 0 for single samples, as at a stroke end: every
+        // pixel of the line must fall inside the plotting area, none in the caption band above it.
+        let pts: Vec<(f64, f64)> = (0..4000)
+            .map(|k| {
+                let dropped = [1101, 1166, 1262, 1268, 3130, 3144, 3168].contains(&k);
+                (
+                    k as f64 * 1e-3,
+                    if dropped { 0.0 } else { 12.72 + 1e-4 * k as f64 },
+                )
+            })
+            .collect();
+        let chart = Chart::new("chatter", "t", "A").with(Series::line("", pts));
+        register_font();
+        let (w, h) = (560u32, 420u32);
+        let mut buf = vec![0u8; (w * h * 3) as usize];
+        {
+            let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+            draw_grid(&root, &[chart], 1, 1).unwrap();
+            root.present().unwrap();
+        }
+        let blue = palette(0);
+        let px = |x: u32, y: u32| {
+            let i = ((y * w + x) * 3) as usize;
+            (buf[i], buf[i + 1], buf[i + 2])
+        };
+        let drawn_in = |rows: std::ops::Range<u32>| {
+            rows.flat_map(|y| (0..w).map(move |x| (x, y)))
+                .filter(|&(x, y)| px(x, y) == (blue.0, blue.1, blue.2))
+                .count()
+        };
+        assert!(drawn_in(30..h) > 1000, "the line itself is drawn");
+        assert_eq!(drawn_in(0..30), 0, "no stroke reaches the caption band");
     }
 
     #[test]
