@@ -132,16 +132,21 @@ impl FitJson {
         let mut s = String::new();
         let _ = writeln!(
             s,
-            "{title} {}: {} samples, NRMSE {:.4}, RMSE {:.3} N",
-            self.model, self.samples, self.nrmse, self.rmse_n
+            "{title} {}: {} samples, NRMSE {:.4}, RMSE {} N",
+            self.model,
+            self.samples,
+            self.nrmse,
+            force(self.rmse_n)
         );
         let k = &self.direction_known;
         if k.samples < self.samples {
             let _ = writeln!(
                 s,
                 "  where the velocity's sign is known ({} samples, as fits and held-out scores count): \
-                 NRMSE {:.4}, RMSE {:.3} N",
-                k.samples, k.nrmse, k.rmse_n
+                 NRMSE {:.4}, RMSE {} N",
+                k.samples,
+                k.nrmse,
+                force(k.rmse_n)
             );
         }
         let _ = writeln!(s, "\n{:<28} {:>14} {:>12}  unit", "parameter", "value", "std err");
@@ -160,10 +165,10 @@ impl FitJson {
         for f in &self.files {
             let _ = writeln!(
                 s,
-                "{:<40} {:>8.4} {:>10.3}",
+                "{:<40} {:>8.4} {:>10}",
                 short(&f.path, 40),
                 f.nrmse,
-                f.rmse_n
+                force(f.rmse_n)
             );
         }
         if !self.r#where.is_empty() {
@@ -171,10 +176,10 @@ impl FitJson {
             for r in &self.r#where {
                 let _ = writeln!(
                     s,
-                    "  {:<44} {:>5.1} % of the squared error, RMSE {:.3} N",
+                    "  {:<44} {:>5.1} % of the squared error, RMSE {} N",
                     r.region,
                     100.0 * r.share_of_error,
-                    r.rmse_n
+                    force(r.rmse_n)
                 );
             }
         }
@@ -437,10 +442,10 @@ pub fn diagnose_table(d: &Diagnosis) -> String {
         for r in &d.where_ {
             let _ = writeln!(
                 s,
-                "  {:<44} {:>5.1} % of the squared error, RMSE {:.3} N",
+                "  {:<44} {:>5.1} % of the squared error, RMSE {} N",
                 r.region,
                 100.0 * r.share_of_error,
-                r.rmse_n
+                force(r.rmse_n)
             );
         }
     }
@@ -581,6 +586,11 @@ pub fn verdict_words(d: &Diagnosis) -> String {
         );
     }
     s
+}
+
+/// A force for people: three significant digits (`82.7`, `0.479`).
+fn force(f_n: f64) -> String {
+    crate::input::text::significant(f_n, 3)
 }
 
 #[cfg(test)]
