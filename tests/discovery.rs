@@ -115,6 +115,46 @@ fn nothing_found(env: &[(&str, &str)], seed: u64) {
     );
 }
 
+/// Effects of the vocabulary, alone and in pairs, are named exactly with the open search on, nothing is
+/// discovered beside them, and the diagnosis ends at the noise. A term of several library features can take
+/// the parts of hysteresis and a spring at once and beat each alone in one step; were it let in there, the
+/// diagnosis would miss hysteresis and end far above the noise.
+#[test]
+fn named_effects_are_named_exactly_with_the_open_search_on() {
+    let mut seed = 7;
+    for effects in [
+        "hysteresis,stiffness",
+        "hysteresis,asymmetry",
+        "current_viscosity,stiffness",
+        "hysteresis",
+        "stiffness",
+        "asymmetry",
+        "current_viscosity",
+        "magnetic_saturation",
+        "inertia",
+        "thermal_drift",
+    ] {
+        seed += 1;
+        let (_dir, tests) = generate(effects, &[], seed);
+        let d = run(&tests);
+        let report = mrfeel::ident::report::diagnose_table(&d);
+        let mut named = d.missing.clone();
+        named.sort();
+        let mut hidden: Vec<&str> = effects.split(',').collect();
+        hidden.sort();
+        assert_eq!(named, hidden, "{effects}:\n{report}");
+        assert!(
+            d.discovered.is_empty(),
+            "{effects}: a term beside named effects\n{report}"
+        );
+        assert!(
+            d.final_heldout_nrmse < 1.2 * d.noise_floor_nrmse && d.unexplained().is_none(),
+            "{effects}: ended at {:.2}x the noise floor\n{report}",
+            d.final_heldout_nrmse / d.noise_floor_nrmse
+        );
+    }
+}
+
 /// Turbulent drag `CD v|v|` on sines at 1 kHz: a term of the quadratic-damping family is found and the error
 /// ends near the truth's; saved as an effect file and fitted alone, it keeps its held-out gain.
 #[test]

@@ -973,10 +973,29 @@ fn diagnose_from(
                 }
             }
         }
-        // The open search: a term from the library, fitted and judged on the same folds by the same rules.
+        let named_choice = match cands.iter().position(|c| c.significant) {
+            Some(bi) => Some(tried.swap_remove(bi)),
+            None => match pair_cands.iter().position(|c| c.significant) {
+                Some(pi) => {
+                    // The single fits of both members are on the path, for the backward pass.
+                    for (m, cv) in &tried {
+                        path_cv.insert(m.name(), cv.shed(tests));
+                    }
+                    Some(pairs.swap_remove(pi))
+                }
+                None => None,
+            },
+        };
+        // The open search, where no named effect (or pair) is significant: a term from the library, fitted
+        // and judged on the same folds by the same rules. Named effects come first because a term is up to
+        // three library features fitted freely: it can take the parts of two named effects at once and beat
+        // each alone in one step although together they explain the data (hidden hysteresis and a spring:
+        // a term won the first step and the diagnosis ended above the noise floor without naming
+        // hysteresis). What the named effects leave is then the term's to find, and the backward pass drops
+        // a named effect that a later term makes redundant.
         let mut term: Option<(Model, CvResult, FormulaEffect)> = None;
         let mut term_cand: Option<Candidate> = None;
-        if opts.open_search && !search.at_floor(&cur) {
+        if opts.open_search && named_choice.is_none() && !search.at_floor(&cur) {
             super::stop_if_asked()?;
             let name = next_term_name(&reg);
             if let Some(effect) = propose_term(&name, tests, &cur.oof, &current, &lib) {
@@ -1015,27 +1034,7 @@ fn diagnose_from(
         if first_candidates.is_none() {
             first_candidates = Some(cands.clone());
         }
-        let named_choice = match cands.iter().position(|c| c.significant) {
-            Some(bi) => Some(tried.swap_remove(bi)),
-            None => match pair_cands.iter().position(|c| c.significant) {
-                Some(pi) => {
-                    // The single fits of both members are on the path, for the backward pass.
-                    for (m, cv) in &tried {
-                        path_cv.insert(m.name(), cv.shed(tests));
-                    }
-                    Some(pairs.swap_remove(pi))
-                }
-                None => None,
-            },
-        };
-        // A term wins only when it is significant and, beside a significant named effect, significantly
-        // better than it too: a discovered term never hides a named effect that explains the data as well.
-        let term_wins = match (&term, &term_cand, &named_choice) {
-            (Some((_, tcv, _)), Some(tc), named) if tc.significant => {
-                named.as_ref().is_none_or(|(_, ncv)| search.judge(ncv, tcv).0)
-            }
-            _ => false,
-        };
+        let term_wins = term_cand.as_ref().is_some_and(|tc| tc.significant);
         let mut term_added: Option<FormulaEffect> = None;
         let (m, cv) = match (term_wins, term, named_choice) {
             (true, Some((m, cv, effect)), _) => {
