@@ -158,6 +158,20 @@ impl FaultSchedule {
     pub fn is_empty(&self) -> bool {
         self.faults.is_empty()
     }
+
+    /// The schedule for messages: `, with driver_stuck from 4 s to 6 s`, or nothing when empty.
+    pub fn describe(&self) -> String {
+        let each: Vec<String> = self
+            .faults
+            .iter()
+            .map(|f| format!("{} from {} s to {} s", f.kind.name(), f.start_s, f.end_s))
+            .collect();
+        if each.is_empty() {
+            String::new()
+        } else {
+            format!(", with {}", each.join(" and "))
+        }
+    }
 }
 
 /// Names of the kinds in a mask, joined by `+` (empty string for none).

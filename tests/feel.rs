@@ -674,3 +674,35 @@ fn compare_help_names_every_feel_system() {
         );
     }
 }
+
+/// Every run of a comparison is checked as `mrfeel run` checks its own. The active stick driving into a
+/// stop with its encoder frozen (`displacement_dropout`) is not resolved at the base's 1 kHz: stepped
+/// there, the run is refused naming the system, the fault and the energy balance, where it once went
+/// into the fault table unchecked; at the comparison's 2 kHz for the active stick the balance closes.
+#[test]
+fn a_comparison_run_that_breaks_the_energy_balance_is_refused_naming_system_and_fault() {
+    let path = Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenarios/compare-feel.toml"
+    ));
+    let text = std::fs::read_to_string(path).unwrap();
+    assert!(text.contains("physics_hz = 2000.0"));
+    let coarse = CompareScenario::parse(&text.replace("physics_hz = 2000.0", ""), path).unwrap();
+    let dropout = FaultSchedule::single(Fault::new(FaultKind::DisplacementDropout, 3.0, 10.0));
+    let Err(e) = run(&coarse, FeelKind::Active, &coarse.main_task(), &dropout) else {
+        panic!("the 1 kHz run is refused");
+    };
+    let msg = format!("{:#}", anyhow::Error::from(e));
+    assert!(
+        msg.contains("active, with displacement_dropout from 3 s to 10 s")
+            && msg.contains("energy balance")
+            && msg.contains("rig.physics_hz"),
+        "{msg}"
+    );
+    let scn = scenario();
+    let tr = run(&scn, FeelKind::Active, &scn.main_task(), &dropout).unwrap();
+    assert!(
+        (tr.dt_s - 5e-4).abs() < 1e-12,
+        "the active stick's runs step at 2 kHz"
+    );
+}

@@ -70,6 +70,16 @@ pub enum CompareError {
     /// A run that failed.
     #[error(transparent)]
     Sim(#[from] crate::sim::SimError),
+    /// A run that broke an invariant: which system, under which faults.
+    #[error("{system}{faults}")]
+    Run {
+        /// The feel system.
+        system: &'static str,
+        /// The faults of the run (`, with driver_stuck from 3 s to 5 s`), or nothing.
+        faults: String,
+        /// What it broke.
+        source: Box<crate::sim::SimError>,
+    },
 }
 
 /// `[active]`: the motor-driven stick.
@@ -82,6 +92,9 @@ pub struct ActiveSection {
     /// The modelled stick (`model = FILE`: motor, current loop, grip sensor, admittance loop); `None`: an
     /// ideal force source of `max_force_n`.
     pub model: Option<crate::control::active::ActiveStickConfig>,
+    /// The rig's physics rate for this system's runs, Hz; `None`: the base scenario's. A stiff position
+    /// loop driving the stick into its stops needs a finer mechanical step than the passive systems.
+    pub physics_hz: Option<f64>,
 }
 
 /// The feel target, at the piston (force along +x): `F* = breakout·sgn x + gradient·x`, clipped.
@@ -496,7 +509,10 @@ pub fn run(
     faults: &FaultSchedule,
 ) -> Result<Trace, CompareError> {
     let mut s = scn.base.with_feel_system(scn.feel_system(kind)?);
-    let dt = 1.0 / scn.base.rig.physics_hz;
+    if let (FeelKind::Active, Some(hz)) = (kind, scn.active.as_ref().and_then(|a| a.physics_hz)) {
+        s.rig.physics_hz = hz;
+    }
+    let dt = 1.0 / s.rig.physics_hz;
     let (pilot_task, samples) = pilot_command(task, dt)?;
     s.name = format!("{}/{}", scn.name, kind.name());
     s.seed = scn.seed;
@@ -519,12 +535,30 @@ pub fn run(
         crate::sim::build_rig(&s, &scn.devices.plant).map_err(|e| CompareError::Feel(format!("{e:#}")))?;
     let lever = Plant::grip_arm_m(&rig);
     let mut lp = Loop::new(&s, &scn.devices, rig)?;
+    // Each run is checked as `mrfeel run` checks its own (every number finite, the energy balance closed),
+    // and the load cell's range where it is a design limit: on a healthy system with a load cell. Where a
+    // fault drives the force past it, or the system has no load cell to overload, the force reached is a
+    // result of the comparison, not a broken run.
+    let judged = if kind.has_coil() && faults.is_empty() {
+        s.clone()
+    } else {
+        let mut lifted = s.clone();
+        lifted.sensors.load_cell.range_n = f64::INFINITY;
+        lifted
+    };
+    let mut check = crate::sim::invariants::Checker::new(&judged).with_stops(lp.plant.stick_limits_rad());
+    let broke = |source| CompareError::Run {
+        system: kind.name(),
+        faults: faults.describe(),
+        source: Box::new(source),
+    };
     let n = (task.duration_s() / dt).round() as usize;
     let mut rows = Vec::with_capacity(n);
     let mut e0 = None;
     for (step, &cmd) in samples.iter().enumerate().take(n) {
         let t = step as f64 * dt;
         let r = lp.step()?;
+        check.push(&r).map_err(broke)?;
         let stored = r.kinetic_energy_j + r.potential_energy_j + r.spring_energy_j;
         let e0 = *e0.get_or_insert(stored);
         let gear = Plant::gearing_m_per_rad(&lp.plant, r.stick_angle_rad);
@@ -559,6 +593,7 @@ pub fn run(
             faults: if kind.has_electrical_path() { r.faults } else { 0 },
         });
     }
+    check.judge().map_err(broke)?;
     Ok(Trace {
         system: kind,
         task: task.clone(),

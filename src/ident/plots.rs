@@ -268,7 +268,10 @@ fn draw_heatmap<DB: DrawingBackend>(
     let labels = hm.current_labels.clone();
     let mut chart = ChartBuilder::on(&main)
         .caption(
-            format!("{model}: RMS residual over |v| × current (max {} N)", crate::input::text::significant(rmax, 3)),
+            format!(
+                "{model}: RMS residual over |v| × current (max {} N)",
+                crate::input::text::significant(rmax, 3)
+            ),
             ("sans-serif", 18),
         )
         .margin(10)

@@ -99,6 +99,8 @@ struct ActiveFile {
     /// The ideal force source's limit and friction (without `model`).
     max_force_n: Option<S<f64>>,
     damping_n_s_per_m: Option<S<f64>>,
+    /// The rig's physics rate for the active stick's runs, Hz (default: the base scenario's).
+    physics_hz: Option<S<f64>>,
 }
 
 impl CompareScenario {
@@ -223,40 +225,50 @@ impl CompareScenario {
             return Err(src.err(at, &format!("fault_test.{key}"), msg).into());
         }
         let active = match &f.active {
-            Some(a) => Some(match &a.model {
-                Some(p) => {
-                    let ideal = [
-                        ("max_force_n", &a.max_force_n),
-                        ("damping_n_s_per_m", &a.damping_n_s_per_m),
-                    ];
-                    if let Some((key, Some(v))) = ideal.into_iter().find(|(_, v)| v.is_some()) {
-                        let msg = "not used with `active.model` (the motor file gives the force limit and the friction)";
-                        return Err(src.err(v, &format!("active.{key}"), msg).into());
+            Some(a) => Some({
+                let physics_hz = match &a.physics_hz {
+                    Some(v) => Some(w(v, "active.physics_hz", 100.0, 100_000.0, "Hz")?),
+                    None => None,
+                };
+                let mut section = match &a.model {
+                    Some(p) => {
+                        let ideal = [
+                            ("max_force_n", &a.max_force_n),
+                            ("damping_n_s_per_m", &a.damping_n_s_per_m),
+                        ];
+                        if let Some((key, Some(v))) = ideal.into_iter().find(|(_, v)| v.is_some()) {
+                            let msg = "not used with `active.model` (the motor file gives the force limit and the friction)";
+                            return Err(src.err(v, &format!("active.{key}"), msg).into());
+                        }
+                        let path = src.named_file(p, "active.model", p.get_ref())?;
+                        let m = crate::control::active::ActiveStickConfig::load(&path)
+                            .map_err(|e| src.err(p, "active.model", e.to_string()))?;
+                        ActiveSection {
+                            max_force_n: m.max_force_n(),
+                            damping_n_s_per_m: m.rod_damping_n_s_per_m(),
+                            model: Some(m),
+                            physics_hz: None,
+                        }
                     }
-                    let path = src.named_file(p, "active.model", p.get_ref())?;
-                    let m = crate::control::active::ActiveStickConfig::load(&path)
-                        .map_err(|e| src.err(p, "active.model", e.to_string()))?;
-                    ActiveSection {
-                        max_force_n: m.max_force_n(),
-                        damping_n_s_per_m: m.rod_damping_n_s_per_m(),
-                        model: Some(m),
+                    None => {
+                        let need = |v: &Option<S<f64>>, key: &str, hi: f64, unit: &str| match v {
+                            Some(v) => w(v, &format!("active.{key}"), 0.0, hi, unit),
+                            None => Err(src.err(
+                                &f.systems,
+                                &format!("active.{key}"),
+                                "required without `active.model`",
+                            )),
+                        };
+                        ActiveSection {
+                            max_force_n: need(&a.max_force_n, "max_force_n", 1e4, "N")?,
+                            damping_n_s_per_m: need(&a.damping_n_s_per_m, "damping_n_s_per_m", 1e5, "N·s/m")?,
+                            model: None,
+                            physics_hz: None,
+                        }
                     }
-                }
-                None => {
-                    let need = |v: &Option<S<f64>>, key: &str, hi: f64, unit: &str| match v {
-                        Some(v) => w(v, &format!("active.{key}"), 0.0, hi, unit),
-                        None => Err(src.err(
-                            &f.systems,
-                            &format!("active.{key}"),
-                            "required without `active.model`",
-                        )),
-                    };
-                    ActiveSection {
-                        max_force_n: need(&a.max_force_n, "max_force_n", 1e4, "N")?,
-                        damping_n_s_per_m: need(&a.damping_n_s_per_m, "damping_n_s_per_m", 1e5, "N·s/m")?,
-                        model: None,
-                    }
-                }
+                };
+                section.physics_hz = physics_hz;
+                section
             }),
             None => None,
         };

@@ -232,6 +232,39 @@ impl<'a> Checker<'a> {
     /// summary counts. A balance judged at the end alone would miss an error that cancels over a cycle
     /// (a spring's energy left out of it).
     pub fn finish(&self, s: super::Summary) -> Result<super::Summary, SimError> {
+        self.judge()?;
+        // Energy the stops would have given back counts against the balance (a stop is passive).
+        let s = s.with_stops_j(self.stop_j.max(0.0));
+        let tol = 100.0 * ENERGY_RESIDUAL_TOLERANCE;
+        if let Some(e) = s.energy_residual {
+            if e.abs() > ENERGY_RESIDUAL_TOLERANCE && e.abs() * s.work_exchanged_j > ENERGY_FLOOR_J {
+                return Err(broken(
+                    self.scn,
+                    format!(
+                        "energy balance within {tol} % of the work exchanged: the work done and the energy \
+                         stored and dissipated differ by {:.1} % over the run{}",
+                        100.0 * e,
+                        self.stops_taken()
+                    ),
+                    s.duration_s,
+                ));
+            }
+        }
+        Ok(s)
+    }
+
+    /// The energy the stops took, for messages.
+    fn stops_taken(&self) -> String {
+        if self.stop_j != 0.0 {
+            format!(" with {:.4} J taken by the stick's stops", self.stop_j)
+        } else {
+            String::new()
+        }
+    }
+
+    /// Check the rows pushed: the load cell within its range and the energy balance at every row (what
+    /// [`Checker::finish`] judges before the summary's balance, for a run that keeps no summary).
+    pub fn judge(&self) -> Result<(), SimError> {
         if let Some((t_s, most)) = self.range_off {
             let range = self.scn.sensors.load_cell.range_n;
             return Err(broken(
@@ -242,38 +275,19 @@ impl<'a> Checker<'a> {
                 t_s,
             ));
         }
-        // Energy the stops would have given back counts against the balance (a stop is passive).
-        let s = s.with_stops_j(self.stop_j.max(0.0));
-        let taken = if self.stop_j != 0.0 {
-            format!(" with {:.4} J taken by the stick's stops", self.stop_j)
-        } else {
-            String::new()
-        };
         let tol = 100.0 * ENERGY_RESIDUAL_TOLERANCE;
         if let Some((t_s, gap, exchanged)) = self.energy_off {
             return Err(broken(
                 self.scn,
                 format!(
                     "energy balance within {tol} % of the work exchanged: by t = {t_s} s the work done and the \
-                     energy stored and dissipated differ by {gap:.4} J of {exchanged:.4} J exchanged{taken}"
+                     energy stored and dissipated differ by {gap:.4} J of {exchanged:.4} J exchanged{}",
+                    self.stops_taken()
                 ),
                 t_s,
             ));
         }
-        if let Some(e) = s.energy_residual {
-            if e.abs() > ENERGY_RESIDUAL_TOLERANCE && e.abs() * s.work_exchanged_j > ENERGY_FLOOR_J {
-                return Err(broken(
-                    self.scn,
-                    format!(
-                        "energy balance within {tol} % of the work exchanged: the work done and the energy \
-                         stored and dissipated differ by {:.1} % over the run{taken}",
-                        100.0 * e
-                    ),
-                    s.duration_s,
-                ));
-            }
-        }
-        Ok(s)
+        Ok(())
     }
 }
 
