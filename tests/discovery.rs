@@ -431,3 +431,47 @@ fn bad_effect_files_stop_the_command_at_their_line() {
         }
     }
 }
+
+/// `diagnose --save` writes the final model as `fit --save` would: run unchanged by `validate`, it scores the
+/// data at the noise floor. A final model with a discovered term is refused, naming `--save-effect`, and
+/// nothing is written.
+#[test]
+fn diagnose_saves_its_final_model_for_validate_and_refuses_one_with_a_term() {
+    let (dir, _) = generate("hysteresis", &[], 31);
+    let data = dir.path().join("data");
+    let saved = dir.path().join("final.json");
+    let o = common::mrfeel(&[
+        "diagnose",
+        &common::s(&data),
+        "--json",
+        "--save",
+        &common::s(&saved),
+    ]);
+    common::ok(&o);
+    let d: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let p: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&saved).unwrap()).unwrap();
+    assert_eq!(p["model"], d["final"]["model"], "{p}");
+    let floor = d["noise_floor_nrmse"].as_f64().unwrap();
+    let v = common::mrfeel(&[
+        "validate",
+        &common::s(&data),
+        "--json",
+        "--params",
+        &common::s(&saved),
+    ]);
+    common::ok(&v);
+    let v: serde_json::Value = serde_json::from_slice(&v.stdout).unwrap();
+    let nrmse = v["nrmse"].as_f64().unwrap();
+    assert!(
+        nrmse < 1.2 * floor,
+        "validate of the saved model: NRMSE {nrmse}, noise floor {floor}"
+    );
+
+    let (dir, _) = generate("drag", &[], 1);
+    let data = dir.path().join("data");
+    let saved = dir.path().join("final.json");
+    let o = common::mrfeel(&["diagnose", &common::s(&data), "--save", &common::s(&saved)]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("--save-effect"), "{err}");
+    assert!(!saved.exists(), "a refused --save writes nothing");
+}

@@ -153,6 +153,12 @@ pub struct DiagnoseArgs {
     /// command in the data if higher).
     #[arg(long)]
     pub current_limit_a: Option<f64>,
+    /// Write the final model fitted on every test here (PARAMS.json as `fit --save` writes it, without
+    /// standard errors), for `validate --params`, `simulate --params` and a scenario's `[controller] model`.
+    /// A final model with terms found beyond the vocabulary is not written: save them with `--save-effect`
+    /// and fit the model that names that file.
+    #[arg(long, value_name = "PARAMS.json")]
+    pub save: Option<PathBuf>,
     /// Write the terms the open search found as one data-defined effect (TOML) named after the file, for
     /// `--effects FILE` (or `--model bingham+FILE`) in `fit`, `validate`, `diagnose` and device files.
     #[arg(long, value_name = "FILE.toml")]
@@ -353,6 +359,9 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
     if let Some(path) = &a.save_effect {
         effect_name_of(path)?;
     }
+    if let Some(path) = &a.save {
+        ParamsFile::check_path("--save", path).map_err(anyhow::Error::msg)?;
+    }
     let (registry, spec) = a.effects.registry(a.model.as_deref().unwrap_or("bingham"))?;
     let data = load_and_tell(&a.data, a.acquisition.acquisition, None)?;
     let setup = prelude::DiagnoseSetup {
@@ -371,7 +380,7 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
         tests,
         diagnosis: d,
         timing,
-        ..
+        final_model,
     } = prelude::diagnose_in(data, &setup, &registry, !a.named_only)?;
     note_timing(&timing);
     let mut numbers = vec![
@@ -389,6 +398,28 @@ pub fn run_diagnose(a: &DiagnoseArgs) -> anyhow::Result<()> {
     mrfeel::ident::validate::check_finite("diagnose", &numbers, &tests, &d.final_pred)
         .map_err(anyhow::Error::msg)?;
     mrfeel::noteln!("diagnosed in {:.1} s", t0.elapsed().as_secs_f64());
+    if let Some(path) = &a.save {
+        if !d.discovered.is_empty() {
+            let named: Vec<&str> = d
+                .final_model
+                .split('+')
+                .filter(|part| !d.discovered.iter().any(|t| t.name == *part))
+                .collect();
+            anyhow::bail!(
+                "--save {}: the final model {} has terms found beyond the vocabulary, which a PARAMS.json \
+                 cannot carry; write them with `--save-effect NAME.toml`, then `mrfeel fit DATA --model \
+                 {}+NAME.toml --save {}`",
+                path.display(),
+                d.final_model,
+                named.join("+"),
+                path.display()
+            );
+        }
+        final_model
+            .write(path)
+            .with_context(|| format!("writing {}", path.display()))?;
+        mrfeel::noteln!("saved the final model {} in {}", d.final_model, path.display());
+    }
     // The files first, stdout last: a run that fails to write prints no result.
     if let Some(dir) = &a.output.plot {
         let files = mrfeel::ident::plots::plot_diagnosis(dir, &tests, &d)?;
