@@ -897,6 +897,12 @@ fn diagnose_from(
     };
 
     loop {
+        // At the noise floor no candidate can be significant (`judge`), so once an effect has brought the
+        // model there the search stops without fitting the rest: the base's own candidates are always
+        // ranked, for the contract's `candidates`.
+        if steps.len() > 1 && search.at_floor(&cur) {
+            break;
+        }
         let names: Vec<&'static str> = registry
             .names()
             .into_iter()

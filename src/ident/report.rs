@@ -497,6 +497,12 @@ pub fn diagnose_table(d: &Diagnosis) -> String {
     if !d.pruned.is_empty() {
         let _ = writeln!(s, "  (removed again as redundant: {})", d.pruned.join(", "));
     }
+    if d.steps.len() > 1 && d.steps.last().is_some_and(|st| st.candidates.is_empty()) {
+        let _ = writeln!(
+            s,
+            "  (at the noise floor after the last step: no further effect was tried, none could be significant)"
+        );
+    }
     let _ = writeln!(
         s,
         "\nmissing: {}\nfinal: {} (held-out NRMSE {:.4}, fitted on all {:.4})",
