@@ -4,7 +4,7 @@
 #![warn(missing_docs)]
 
 use super::effect::{Inputs, Stage};
-use super::lag::advance_two_lags;
+use super::lag::{advance_two_lags_in, DecayMemo};
 use super::params::{DataStats, ParamSpec};
 
 /// Index of each base parameter in the parameter vector.
@@ -99,9 +99,17 @@ pub fn stage(p: &[f64], s: &[f64], inp: &Inputs) -> Stage {
 }
 
 /// Advance the two lags (Eq. 3, Eq. 4) over one step with the saturated command held.
-pub fn advance(p: &[f64], s: &mut [f64], current_cmd_a: f64, limit_a: f64, dt_s: f64) {
+/// The lags' decays come from `memo`, an integration's ([`DecayMemo`]).
+pub(crate) fn advance_in(
+    p: &[f64],
+    s: &mut [f64],
+    current_cmd_a: f64,
+    limit_a: f64,
+    dt_s: f64,
+    memo: &mut DecayMemo,
+) {
     let u = saturate(current_cmd_a, limit_a);
-    let (i, h) = advance_two_lags(s[0], s[1], u, p[TE], p[TM], dt_s);
+    let (i, h) = advance_two_lags_in(s[0], s[1], u, p[TE], p[TM], dt_s, memo);
     s[0] = i;
     s[1] = h;
 }

@@ -10,13 +10,55 @@
 /// `i` is the coil current (Eq. 3, the RL circuit), `h` the fluid's effective excitation expressed in
 /// amperes (Eq. 4). Returns the new `(i, h)`. Time constants of zero are allowed (no lag).
 pub(crate) fn advance_two_lags(i: f64, h: f64, u: f64, te_s: f64, tm_s: f64, dt_s: f64) -> (f64, f64) {
+    advance_two_lags_in(i, h, u, te_s, tm_s, dt_s, &mut DecayMemo::default())
+}
+
+/// The decays `exp(-dt/Te)` and `exp(-dt/Tm)` of the last few `(dt, Te, Tm)` asked, exactly as computed.
+/// A simulation steps on a clock whose step lengths take a handful of values (an even clock's `t[k+1] −
+/// t[k]` differ in their last bits), so one integration keeps a memo and spends an exponential only on a
+/// step length it has not met: the same numbers as computing each, without two exponentials per sample.
+#[derive(Debug, Default, Clone)]
+pub(crate) struct DecayMemo {
+    keys: [(u64, u64, u64); MEMO],
+    values: [(f64, f64); MEMO],
+    len: usize,
+    next: usize,
+}
+
+/// Step lengths a [`DecayMemo`] remembers.
+const MEMO: usize = 4;
+
+impl DecayMemo {
+    fn decays(&mut self, dt_s: f64, te_s: f64, tm_s: f64) -> (f64, f64) {
+        let key = (dt_s.to_bits(), te_s.to_bits(), tm_s.to_bits());
+        if let Some(k) = self.keys[..self.len].iter().position(|&k| k == key) {
+            return self.values[k];
+        }
+        let v = (decay(dt_s, te_s), decay(dt_s, tm_s));
+        self.keys[self.next] = key;
+        self.values[self.next] = v;
+        self.next = (self.next + 1) % MEMO;
+        self.len = (self.len + 1).min(MEMO);
+        v
+    }
+}
+
+/// [`advance_two_lags`] with the decays from `memo`.
+pub(crate) fn advance_two_lags_in(
+    i: f64,
+    h: f64,
+    u: f64,
+    te_s: f64,
+    tm_s: f64,
+    dt_s: f64,
+    memo: &mut DecayMemo,
+) -> (f64, f64) {
     if i == u && h == u {
         // Settled (exactly, as the states become after ~36 time constants in floating point): the general
         // formula gives `u` too, without two exponentials.
         return (u, u);
     }
-    let ee = decay(dt_s, te_s);
-    let em = decay(dt_s, tm_s);
+    let (ee, em) = memo.decays(dt_s, te_s, tm_s);
     let e0 = i - u; // coil error, decays as exp(-t/Te)
     let g0 = h - u; // fluid error
     let i1 = u + e0 * ee;

@@ -4,6 +4,7 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use super::effect::{Effect, EffectStage, Inputs, Stage, Step};
+use super::lag::DecayMemo;
 use super::params::{DataStats, ParamSpec};
 use super::DeviceError;
 use super::{bingham, spencer};
@@ -98,9 +99,9 @@ impl Base {
         }
     }
 
-    fn advance(self, p: &[f64], s: &mut [f64], inp: &Inputs, limit_a: f64, step: Step) {
+    fn advance(self, p: &[f64], s: &mut [f64], inp: &Inputs, limit_a: f64, step: Step, memo: &mut DecayMemo) {
         match self {
-            Base::Bingham => bingham::advance(p, s, inp.current_cmd_a, limit_a, step.dt_s),
+            Base::Bingham => bingham::advance_in(p, s, inp.current_cmd_a, limit_a, step.dt_s, memo),
             Base::Spencer => spencer::advance(p, s, inp, limit_a, step),
         }
     }
@@ -517,6 +518,21 @@ impl Model {
 
     /// Advance every state from this sample to the next.
     pub fn advance(&self, p: &[f64], s: &mut [f64], inp: &Inputs, stage: &Stage, force_n: f64, step: Step) {
+        self.advance_in(p, s, inp, stage, force_n, step, &mut DecayMemo::default());
+    }
+
+    /// [`Model::advance`] with the base's lag decays from `memo` (an integration's).
+    #[allow(clippy::too_many_arguments)]
+    fn advance_in(
+        &self,
+        p: &[f64],
+        s: &mut [f64],
+        inp: &Inputs,
+        stage: &Stage,
+        force_n: f64,
+        step: Step,
+        memo: &mut DecayMemo,
+    ) {
         for &k in &self.apply_order {
             let slot = &self.slots[k];
             slot.effect.advance(
@@ -528,7 +544,9 @@ impl Model {
                 step,
             );
         }
-        self.spec.base.advance(p, s, inp, self.current_limit_a, step);
+        self.spec
+            .base
+            .advance(p, s, inp, self.current_limit_a, step, memo);
     }
 
     /// Integrate one test from its own start and write the force at every sample into `out`.
@@ -588,6 +606,7 @@ impl Model {
         assert_eq!(inputs.len(), out.len());
         let Some(first) = inputs.first() else { return };
         let mut s = self.init_state(p, first);
+        let mut memo = DecayMemo::default();
         for k in 0..inputs.len() {
             let inp = &inputs[k];
             if let Some(r) = record.as_deref_mut() {
@@ -601,7 +620,7 @@ impl Model {
                     dt_s: next.t_s - inp.t_s,
                     dx_m: next.x_m - inp.x_m,
                 };
-                self.advance(p, &mut s, inp, &stage, f, step);
+                self.advance_in(p, &mut s, inp, &stage, f, step, &mut memo);
             }
         }
     }
