@@ -1,4 +1,4 @@
-//! Feel systems compared and under faults (issue 6): physical facts on the multibody rig.
+//! Feel systems compared and under faults: physical facts on the multibody rig.
 
 use std::path::Path;
 
