@@ -1040,16 +1040,17 @@ fn diagnose_from(
         if first_candidates.is_none() {
             first_candidates = Some(cands.clone());
         }
-        let term_wins = term_cand.as_ref().is_some_and(|tc| tc.significant);
+        // The significant named effect (or pair), else the term where it is significant (it was only
+        // proposed where no named effect is).
         let mut term_added: Option<FormulaEffect> = None;
-        let (m, cv) = match (term_wins, term, named_choice) {
-            (true, Some((m, cv, effect)), _) => {
-                reg.register(effect.clone());
-                term_added = Some(effect);
+        let (m, cv) = match (named_choice, term) {
+            (Some((m, cv)), _) => {
+                let cv = cv.restore_oof(&m, tests, &folds);
                 (m, cv)
             }
-            (_, _, Some((m, cv))) => {
-                let cv = cv.restore_oof(&m, tests, &folds);
+            (None, Some((m, cv, effect))) if term_cand.as_ref().is_some_and(|tc| tc.significant) => {
+                reg.register(effect.clone());
+                term_added = Some(effect);
                 (m, cv)
             }
             _ => break,

@@ -163,6 +163,8 @@ pub(crate) struct Checker<'a> {
     exchanged_j: f64,
     /// The first time the load cell's force left its range, and the most it reached.
     range_off: Option<(f64, f64)>,
+    /// Whether the load cell's range is judged ([`Checker::without_range`]).
+    judge_range: bool,
 }
 
 impl<'a> Checker<'a> {
@@ -177,7 +179,15 @@ impl<'a> Checker<'a> {
             energy_off: None,
             exchanged_j: 0.0,
             range_off: None,
+            judge_range: true,
         }
+    }
+
+    /// Leave the load cell's range unjudged: where a force past it is a result (a fault's consequence, a
+    /// design point of a sweep), not a broken run. The other invariants are judged as before.
+    pub fn without_range(mut self) -> Self {
+        self.judge_range = false;
+        self
     }
 
     /// Count the energy the stick's stops (lower, upper), rad, take at impacts (see the type's doc).
@@ -202,7 +212,7 @@ impl<'a> Checker<'a> {
         }
         let range = scn.sensors.load_cell.range_n;
         let f = r.load_cell_true_n.abs();
-        if f > range {
+        if self.judge_range && f > range {
             let first_t = self.range_off.map_or(r.t_s, |(t, _)| t);
             let most = self.range_off.map_or(f, |(_, m)| m.max(f));
             self.range_off = Some((first_t, most));
