@@ -705,4 +705,15 @@ fn a_comparison_run_that_breaks_the_energy_balance_is_refused_naming_system_and_
         (tr.dt_s - 5e-4).abs() < 1e-12,
         "the active stick's runs step at 2 kHz"
     );
+    // A rate outside the rig's range is refused at its line.
+    let line = text.lines().position(|l| l.starts_with("physics_hz")).unwrap() + 1;
+    let Err(e) = CompareScenario::parse(&text.replace("physics_hz = 2000.0", "physics_hz = 5.0"), path)
+    else {
+        panic!("a 5 Hz rate is refused");
+    };
+    let e = e.to_string();
+    assert!(
+        e.contains("active.physics_hz") && e.contains(&format!(":{line}")),
+        "{e}"
+    );
 }
