@@ -20,10 +20,21 @@ pub use store::{Record, Shard, Store};
 
 /// Run one run of a plan to its outcome (an error of the run itself is its outcome, not the sweep's).
 pub fn run_one(plan: &Plan, run: &Run) -> Record {
-    let outcome = match plan.scenario(run) {
-        Err(e) => Outcome::failed(e.to_string()),
-        Ok(scn) => run_scenario(&scn, &plan.scenario_path, plan.prolonged_window_s),
-    };
+    match plan.scenario(run) {
+        Err(e) => record(run, Outcome::failed(e.to_string())),
+        Ok(scn) => run_checked(plan, run, &scn),
+    }
+}
+
+/// Run one run whose scenario `plan.scenario(run)` has already built.
+fn run_checked(plan: &Plan, run: &Run, scn: &crate::scenario::Scenario) -> Record {
+    record(
+        run,
+        run_scenario(scn, &plan.scenario_path, plan.prolonged_window_s),
+    )
+}
+
+fn record(run: &Run, outcome: Outcome) -> Record {
     Record {
         index: run.index,
         seed: run.seed,
@@ -112,18 +123,20 @@ pub fn execute(
     use rayon::prelude::*;
     use std::sync::Mutex;
     let done: std::collections::HashSet<u64> = store.done.iter().map(|r| r.index).collect();
-    let todo: Vec<u64> = (0..plan.run_count())
+    // Every scenario built once, before any run: a bad value stops the sweep before it starts.
+    let todo = (0..plan.run_count())
         .filter(|&i| shard.contains(i) && !done.contains(&i))
-        .collect();
-    for &i in &todo {
-        plan.scenario(&plan.run(i))?;
-    }
+        .map(|i| {
+            let run = plan.run(i);
+            plan.scenario(&run).map(|scn| (run, scn))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(jobs.max(1)).build()?;
     let store = Mutex::new(store);
     let fresh = Mutex::new(Vec::with_capacity(todo.len()));
     pool.install(|| {
-        todo.par_iter().try_for_each(|&i| -> anyhow::Result<()> {
-            let rec = run_one(plan, &plan.run(i));
+        todo.par_iter().try_for_each(|(run, scn)| -> anyhow::Result<()> {
+            let rec = run_checked(plan, run, scn);
             store
                 .lock()
                 .map_err(|_| anyhow::anyhow!("a worker failed while writing the journal"))?
@@ -132,7 +145,7 @@ pub fn execute(
                 .lock()
                 .map_err(|_| anyhow::anyhow!("a worker failed while collecting results"))?
                 .push(rec);
-            progress(i);
+            progress(run.index);
             Ok(())
         })
     })?;
