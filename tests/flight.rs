@@ -473,6 +473,7 @@ fn flight_scenario_errors_name_file_line_and_field() {
 /// `mrfeel run --rerun` of a flight: the recording holds the aircraft's series (the same values as the
 /// CSV's aircraft columns) and its attitude over time beside the rig, read back with the Rerun SDK.
 #[test]
+#[cfg(feature = "rerun")]
 fn flight_recording_reads_back_with_the_aircraft_beside_the_stick() {
     common::venv_python(); // before the flight: the read-back needs it
     let (mut s, d) = load("c172p-pitch-tracking.toml");

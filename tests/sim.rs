@@ -301,6 +301,7 @@ fn scenario_with_an_out_of_range_value_names_the_key_and_the_allowed_range() {
 }
 
 #[test]
+#[cfg(feature = "rerun")]
 fn rerun_recording_reads_back_equal_to_the_csv() {
     common::venv_python();
     let (mut scn, device) = load("paper-feel-loop.toml");

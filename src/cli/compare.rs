@@ -4,7 +4,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use mrfeel::compare::{CompareScenario, Comparison, Trace};
+use mrfeel::compare::{CompareScenario, Comparison};
 use mrfeel::faults::FaultKind;
 use mrfeel::viz::plot::{save_charts, Chart, Series};
 
@@ -252,7 +252,7 @@ fn rerun_log_into(
     let rec = rerun::RecordingStreamBuilder::new("mrfeel-compare")
         .save(tmp)
         .map_err(|e| once(&e))?;
-    let log = |prefix: String, tr: &Trace| -> anyhow::Result<()> {
+    let log = |prefix: String, tr: &mrfeel::compare::Trace| -> anyhow::Result<()> {
         let times: Vec<f64> = tr.rows.iter().map(|r| r.t_s).collect();
         type Col = (&'static str, fn(&mrfeel::compare::Row) -> f64);
         let cols: [Col; 6] = [

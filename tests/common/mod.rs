@@ -38,6 +38,7 @@ pub fn rerun_readback(rrd: &Path, csv: &Path) -> (bool, String) {
 
 /// Write a run's CSV and its Rerun recording (as `mrfeel run --out --rerun` does) into a temporary folder
 /// and read the recording back against the CSV ([`rerun_readback`]).
+#[cfg(feature = "rerun")]
 pub fn record_and_read_back(res: &mrfeel::sim::Results) -> (bool, String) {
     let dir = tempfile::tempdir().unwrap();
     let (csv, rrd) = (dir.path().join("run.csv"), dir.path().join("run.rrd"));
