@@ -5,8 +5,6 @@
 //!
 //! `cargo test --test integration flight:: -- --nocapture --test-threads 1` prints the figures of docs/explanation/flight.md.
 
-use crate::common;
-
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
@@ -475,7 +473,7 @@ fn flight_scenario_errors_name_file_line_and_field() {
 #[test]
 #[cfg(feature = "rerun")]
 fn flight_recording_reads_back_with_the_aircraft_beside_the_stick() {
-    common::venv_python(); // before the flight: the read-back needs it
+    crate::common::venv_python(); // before the flight: the read-back needs it
     let (mut s, d) = load("c172p-pitch-tracking.toml");
     s.duration_s = 4.0;
     let rig = sim::build_rig(&s, &d.plant).unwrap();
@@ -489,7 +487,7 @@ fn flight_recording_reads_back_with_the_aircraft_beside_the_stick() {
         |_| {},
     )
     .unwrap();
-    let (ok, text) = common::record_and_read_back(&res);
+    let (ok, text) = crate::common::record_and_read_back(&res);
     assert!(ok, "read-back failed:\n{text}");
     assert!(
         text.contains("ok /signals/aircraft/pitch == CSV pitch_rad"),

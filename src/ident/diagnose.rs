@@ -662,7 +662,7 @@ pub fn diagnose(
     registry: &Registry,
     opts: &DiagnoseOptions,
 ) -> Result<Diagnosis, IdentError> {
-    let (mut d, _) = diagnose_from(tests, base, registry, opts, None)?;
+    let (mut d, _) = diagnose_path(tests, base, registry, opts, None)?;
     d.bases = vec![BaseTried {
         model: base.to_string(),
         heldout_nrmse: Some(d.base_heldout_nrmse),
@@ -704,7 +704,7 @@ pub fn diagnose_choosing_base(
     let Some((first, rest)) = specs.split_first() else {
         return Err(IdentError::Other("no base model to start from".into()));
     };
-    let (mut best, mut best_cv) = diagnose_from(tests, first, registry, opts, None)?;
+    let (mut best, mut best_cv) = diagnose_path(tests, first, registry, opts, None)?;
     let mut bases = vec![BaseTried {
         model: first.to_string(),
         heldout_nrmse: Some(best.base_heldout_nrmse),
@@ -780,7 +780,7 @@ pub fn diagnose_choosing_base(
             best_cv.heldout_nrmse(),
             folds.len()
         );
-        let (d, dcv) = diagnose_from(tests, spec, registry, opts, Some(cv))?;
+        let (d, dcv) = diagnose_path(tests, spec, registry, opts, Some(cv))?;
         if dcv.total.sse >= best_cv.total.sse {
             bases.push(BaseTried {
                 model: spec.to_string(),
@@ -825,12 +825,43 @@ fn progress_bar(opts: &DiagnoseOptions) -> ProgressBar {
 /// The diagnosis of `base` ([`diagnose`]), its `bases` left empty, and the final model's held-out
 /// result; `first`: the base's cross-validation on `opts.folds(tests)` with `opts.cv_fit()`, when already
 /// made.
+/// The diagnosis from `base`: named effects first, the open search only where none is significant (see
+/// [`diagnose_from`]). Where that path named an effect and still ends with structure left, a second path
+/// lets a term compete with the named effects at every step, and the diagnosis that ends significantly
+/// lower held out (by the [`DiagnoseOptions::min_gain`] and [`DiagnoseOptions::min_excess_removed`] rules)
+/// is kept. A named effect can be significant beside a cause it only partly mimics: `v|v|` drag on
+/// triangle waves, where current-dependent damping took a fifth of the error first and the term that then
+/// remained explained little of the rest.
+fn diagnose_path(
+    tests: &[Test],
+    base: &ModelSpec,
+    registry: &Registry,
+    opts: &DiagnoseOptions,
+    first: Option<CvResult>,
+) -> Result<(Diagnosis, CvResult), IdentError> {
+    let (d, cv) = diagnose_from(tests, base, registry, opts, first.clone(), false)?;
+    let named = !d.missing.is_empty() || !d.pruned.is_empty();
+    if !opts.open_search || !named || d.unexplained().is_none() {
+        return Ok((d, cv));
+    }
+    let (d2, cv2) = diagnose_from(tests, base, registry, opts, first, true)?;
+    let noise = noise_floor_n(tests);
+    Ok(if enough_removed(&cv, &cv2, noise * noise, opts) {
+        (d2, cv2)
+    } else {
+        (d, cv)
+    })
+}
+
+/// One diagnosis path from `base`. With `term_competes`, the open search runs at every step and its term
+/// is added instead of the significant named effect when it is significant and lower held out.
 fn diagnose_from(
     tests: &[Test],
     base: &ModelSpec,
     registry: &Registry,
     opts: &DiagnoseOptions,
     first: Option<CvResult>,
+    term_competes: bool,
 ) -> Result<(Diagnosis, CvResult), IdentError> {
     if tests.is_empty() {
         return Err(IdentError::NoData);
@@ -992,7 +1023,8 @@ fn diagnose_from(
                 None => None,
             },
         };
-        // The open search, where no named effect (or pair) is significant: a term from the library, fitted
+        // The open search, where no named effect (or pair) is significant (on the second path of
+        // `diagnose_path`, at every step): a term from the library, fitted
         // and judged on the same folds by the same rules. Named effects come first because a term is up to
         // three library features fitted freely: it can take the parts of two named effects at once and beat
         // each alone in one step although together they explain the data (hidden hysteresis and a spring:
@@ -1001,7 +1033,7 @@ fn diagnose_from(
         // a named effect that a later term makes redundant.
         let mut term: Option<(Model, CvResult, FormulaEffect)> = None;
         let mut term_cand: Option<Candidate> = None;
-        if opts.open_search && named_choice.is_none() && !search.at_floor(&cur) {
+        if opts.open_search && (named_choice.is_none() || term_competes) && !search.at_floor(&cur) {
             super::stop_if_asked()?;
             let name = next_term_name(&reg);
             if let Some(effect) = propose_term(&name, tests, &cur.oof, &current, &lib) {
@@ -1040,17 +1072,22 @@ fn diagnose_from(
         if first_candidates.is_none() {
             first_candidates = Some(cands.clone());
         }
-        // The significant named effect (or pair), else the term where it is significant (it was only
-        // proposed where no named effect is).
+        // The term where it is significant and, beside a significant named effect (second path only),
+        // lower held out; else the significant named effect (or pair).
         let mut term_added: Option<FormulaEffect> = None;
+        let term_wins = term_cand.as_ref().is_some_and(|tc| tc.significant)
+            && match (&named_choice, &term) {
+                (Some((_, ncv)), Some((_, tcv, _))) => tcv.total.sse < ncv.total.sse,
+                _ => true,
+            };
         let (m, cv) = match (named_choice, term) {
-            (Some((m, cv)), _) => {
-                let cv = cv.restore_oof(&m, tests, &folds);
-                (m, cv)
-            }
-            (None, Some((m, cv, effect))) if term_cand.as_ref().is_some_and(|tc| tc.significant) => {
+            (_, Some((m, cv, effect))) if term_wins => {
                 reg.register(effect.clone());
                 term_added = Some(effect);
+                (m, cv)
+            }
+            (Some((m, cv)), _) => {
+                let cv = cv.restore_oof(&m, tests, &folds);
                 (m, cv)
             }
             _ => break,
