@@ -282,6 +282,25 @@ fn a_field_lag_growing_with_current_is_found_or_reported() {
     near_truth_or_said("slow_field", &[("STEPS", "1")], 10);
 }
 
+/// Triangle waves whose corners are rounded over 5 % of the period carry a comb of zeros in their
+/// displacement's spectrum with no filter anywhere. On one draw of the load cell's noise (seed 341: one of
+/// 46 seeds tried) that comb passed for a 149-sample moving average in the slowest group, and the diagnosis,
+/// driving the model with the motion "before" the filter, ended at 48 times the noise floor calling the rest
+/// unexplained. A filter found in the spectra is taken only where the model follows the force better with
+/// it undone: here none is, and nothing is found.
+#[test]
+fn a_smooth_drive_is_not_taken_for_a_filtered_acquisition() {
+    let env = [("FS", "1000"), ("WAVE", "triangle")];
+    let (_dir, tests) = generate("none", &env, 341);
+    let filtered: Vec<&str> = tests
+        .iter()
+        .filter(|t| t.drive.is_some())
+        .map(|t| t.name.as_str())
+        .collect();
+    assert!(filtered.is_empty(), "read through a filter: {filtered:?}");
+    nothing_found(&env, 341);
+}
+
 #[test]
 fn nothing_hidden_on_sines_at_1_khz_finds_nothing() {
     nothing_found(&[], 5);
