@@ -822,9 +822,6 @@ fn progress_bar(opts: &DiagnoseOptions) -> ProgressBar {
     }
 }
 
-/// The diagnosis of `base` ([`diagnose`]), its `bases` left empty, and the final model's held-out
-/// result; `first`: the base's cross-validation on `opts.folds(tests)` with `opts.cv_fit()`, when already
-/// made.
 /// The diagnosis from `base`: named effects first, the open search only where none is significant (see
 /// [`diagnose_from`]). Where that path named an effect and still ends with structure left, a second path
 /// lets a term compete with the named effects at every step, and the diagnosis that ends significantly
@@ -853,8 +850,10 @@ fn diagnose_path(
     })
 }
 
-/// One diagnosis path from `base`. With `term_competes`, the open search runs at every step and its term
-/// is added instead of the significant named effect when it is significant and lower held out.
+/// One diagnosis path from `base` ([`diagnose`]), its `bases` left empty, and the final model's held-out
+/// result; `first`: the base's cross-validation on `opts.folds(tests)` with `opts.cv_fit()`, when already
+/// made. With `term_competes`, the open search runs at every step and its term is added instead of the
+/// significant named effect when it is significant and lower held out.
 fn diagnose_from(
     tests: &[Test],
     base: &ModelSpec,
