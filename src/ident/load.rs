@@ -37,8 +37,9 @@ fn confirm_filter(ms: &[&Measurement], window: usize) -> Option<acquisition::Mov
     acquisition::confirm_moving_average(&channels(ms), window)
 }
 
-/// Whether the seed paper's model (`bingham`, fitted to the tests `ms` of one protocol) follows the
-/// measured force more closely with `filter` undone than with the files read as logged. A comb in the
+/// Whether the seed paper's model (`bingham`, fitted to the measurements `ms` of one protocol) follows the
+/// measured force more closely through `through` (the same measurements read with a filter undone) than
+/// with the files read as logged. A comb in the
 /// spectra is a hypothesis about the acquisition chain, and a drive that is smooth by design has one of
 /// its own: a triangle wave's corners rounded over a share of its period put a comb of zeros in its
 /// displacement at that share, with no filter anywhere. Undoing a filter that is not there drives the
@@ -47,7 +48,7 @@ fn confirm_filter(ms: &[&Measurement], window: usize) -> Option<acquisition::Mov
 /// window predicted from the share of the period that other protocols' filters span is not judged again:
 /// two protocols' filters agreeing on one share are evidence of their own, and on a short test the
 /// model's own misfit can outweigh a filter of a few samples.
-fn undoing_fits_better(ms: &[&Measurement], filter: acquisition::MovingAverage) -> bool {
+fn undoing_fits_better(ms: &[&Measurement], through: &[Test]) -> bool {
     use crate::device::{Base, Model, ModelSpec, Registry, PAPER_CURRENT_LIMIT_A};
     let spec = ModelSpec {
         base: Base::Bingham,
@@ -58,11 +59,9 @@ fn undoing_fits_better(ms: &[&Measurement], filter: acquisition::MovingAverage) 
         std_errors: false,
         ..Default::default()
     };
-    let rmse = |f: Option<acquisition::MovingAverage>| {
-        let tests: Vec<Test> = ms.iter().map(|m| Test::with_filter(m, f)).collect();
-        super::fit(&model, &tests, &super::fit::all_spans(&tests), &opts).rmse_n()
-    };
-    rmse(Some(filter)) < rmse(None)
+    let rmse = |tests: &[Test]| super::fit(&model, tests, &super::fit::all_spans(tests), &opts).rmse_n();
+    let as_logged: Vec<Test> = ms.iter().map(|m| Test::with_filter(m, None)).collect();
+    rmse(through) < rmse(&as_logged)
 }
 
 /// The model's drive for a file whose displacement and force went through the moving average `filter`:
@@ -243,22 +242,35 @@ pub(crate) fn tests_predicting(ms: &[Measurement], share: Option<f64>) -> (Vec<T
     }
     let measurements_of =
         |members: &[usize]| -> Vec<&Measurement> { members.iter().map(|&k| &ms[k]).collect() };
-    let found: Vec<Option<acquisition::MovingAverage>> = protocols
+    // A protocol's own filter, with its tests read through it (kept: they are the protocol's tests).
+    let found: Vec<Option<(acquisition::MovingAverage, Vec<Test>)>> = protocols
         .iter()
         .map(|(_, members)| {
             let ms = measurements_of(members);
-            filter_of(&ms).filter(|&f| undoing_fits_better(&ms, f))
+            let filter = filter_of(&ms)?;
+            let through: Vec<Test> = ms
+                .par_iter()
+                .map(|m| Test::with_filter(m, Some(filter)))
+                .collect();
+            undoing_fits_better(&ms, &through).then_some((filter, through))
         })
         .collect();
     let shown: Vec<(usize, f64, f64)> = protocols
         .iter()
         .zip(&found)
-        .filter_map(|((key, _), f)| Some((f.as_ref()?.window, key.interval?, key.period)))
+        .filter_map(|((key, _), f)| Some((f.as_ref()?.0.window, key.interval?, key.period)))
         .collect();
     let law = acquisition::window_law(&shown);
     let mut filters = vec![None; ms.len()];
-    for ((key, members), filter) in protocols.iter().zip(found) {
-        let filter = filter.or_else(|| {
+    let mut read: Vec<Option<Test>> = vec![None; ms.len()];
+    for ((key, members), found) in protocols.iter().zip(found) {
+        let found = found.map(|(filter, through)| {
+            for (&k, t) in members.iter().zip(through) {
+                read[k] = Some(t);
+            }
+            filter
+        });
+        let filter = found.or_else(|| {
             let share = law.or(share)?;
             let window = (share * key.period / key.interval?).round();
             (window >= 2.0 && window.is_finite())
@@ -273,7 +285,8 @@ pub(crate) fn tests_predicting(ms: &[Measurement], share: Option<f64>) -> (Vec<T
     let tests = ms
         .par_iter()
         .zip(filters)
-        .map(|(m, f)| Test::with_filter(m, f))
+        .zip(read)
+        .map(|((m, f), read)| read.unwrap_or_else(|| Test::with_filter(m, f)))
         .collect();
     (tests, law)
 }
