@@ -228,6 +228,14 @@ fn main() -> std::process::ExitCode {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
+    // glibc gives each thread that allocates its own arena and keeps what is freed in it, so a fit's
+    // Jacobians freed on one worker are not reused by another and the resident set of a diagnosis grew
+    // with the number of threads: two arenas hold it to what the work holds (`docs/reference/invariants.md`).
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: called before any other thread exists; M_ARENA_MAX only bounds how many arenas glibc makes.
+    unsafe {
+        libc::mallopt(libc::M_ARENA_MAX, 2);
+    }
     let cli = parse_cli();
     if cli.data_dir.is_some() {
         mrfeel::builtin::set_data_dir(cli.data_dir);
