@@ -10,7 +10,8 @@
 //! every other effect: a pair counts when it is significant and also removes as much of the error each of
 //! its effects alone leaves; the backward pass removes a pair only as a whole.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
+use std::sync::Mutex;
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
@@ -290,10 +291,11 @@ impl CvResult {
     }
 
     /// The same model fitted again (`other`): in each fold the fit with the lower *training* error (the
-    /// held-out samples play no part in the choice). `None` when no fold of `other` fits better.
-    fn better_fits(&self, other: &CvResult, folds: &[Fold]) -> Option<CvResult> {
+    /// held-out samples play no part in the choice), lower by more than `margin` (N²). `None` when no fold
+    /// of `other` fits better.
+    fn better_fits(&self, other: &CvResult, folds: &[Fold], margin: f64) -> Option<CvResult> {
         let better: Vec<usize> = (0..folds.len())
-            .filter(|&f| other.fold_train_loss[f] < self.fold_train_loss[f] * (1.0 - 1e-9))
+            .filter(|&f| other.fold_train_loss[f] < self.fold_train_loss[f] * (1.0 - 1e-9) - margin)
             .collect();
         if better.is_empty() {
             return None;
@@ -836,12 +838,13 @@ fn diagnose_path(
     opts: &DiagnoseOptions,
     first: Option<CvResult>,
 ) -> Result<(Diagnosis, CvResult), IdentError> {
-    let (d, cv) = diagnose_from(tests, base, registry, opts, first.clone(), false)?;
+    let cache = CvCache::default();
+    let (d, cv) = diagnose_from(tests, base, registry, opts, first.clone(), false, &cache)?;
     let named = !d.missing.is_empty() || !d.pruned.is_empty();
     if !opts.open_search || !named || d.unexplained().is_none() {
         return Ok((d, cv));
     }
-    let (d2, cv2) = diagnose_from(tests, base, registry, opts, first, true)?;
+    let (d2, cv2) = diagnose_from(tests, base, registry, opts, first, true, &cache)?;
     let noise = noise_floor_n(tests);
     Ok(if enough_removed(&cv, &cv2, noise * noise, opts) {
         (d2, cv2)
@@ -861,6 +864,7 @@ fn diagnose_from(
     opts: &DiagnoseOptions,
     first: Option<CvResult>,
     term_competes: bool,
+    cache: &CvCache,
 ) -> Result<(Diagnosis, CvResult), IdentError> {
     if tests.is_empty() {
         return Err(IdentError::NoData);
@@ -946,8 +950,12 @@ fn diagnose_from(
             .par_iter()
             .map(|n| {
                 let m = build(&cur.spec.with(n), &reg)?;
-                let mut cv = cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &side_by_side, &bar);
-                cv.shed_oof(tests);
+                let cv = cache.get_or(&m, &cur, registry, || {
+                    let mut cv =
+                        cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &side_by_side, &bar);
+                    cv.shed_oof(tests);
+                    cv
+                });
                 Ok((m, cv))
             })
             .collect();
@@ -991,9 +999,18 @@ fn diagnose_from(
                         // From the current model's fits, both effects from their initial guesses: the seed's
                         // own fit has taken its partner's part, the very thing the pair undoes.
                         let m = build(&tried[si].0.spec().with(n), &reg)?;
-                        let mut cv =
-                            cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &side_by_side, &bar);
-                        cv.shed_oof(tests);
+                        let cv = cache.get_or(&m, &cur, registry, || {
+                            let mut cv = cross_validate(
+                                &m,
+                                tests,
+                                &folds,
+                                Some((&cur_model, &cur)),
+                                &side_by_side,
+                                &bar,
+                            );
+                            cv.shed_oof(tests);
+                            cv
+                        });
                         Ok((m, cv))
                     })
                     .collect();
@@ -1100,7 +1117,9 @@ fn diagnose_from(
             ..opts.fit.clone()
         };
         let fresh = cross_validate(&m, tests, &folds, None, &whole_fit, &bar);
-        let cv = cv.better_fits(&fresh, &folds).unwrap_or(cv);
+        let cv = cv
+            .better_fits(&fresh, &folds, refit_margin(&m, noise))
+            .unwrap_or(cv);
         let added: Vec<String> = added_effects(&m, &cur.spec).into_iter().cloned().collect();
         match term_added {
             Some(effect) => discovered.push((
@@ -1284,6 +1303,57 @@ fn next_term_name(reg: &Registry) -> String {
 /// How many effects that remove enough error but fail a fold are each tried again beside every other effect.
 const PAIR_SEEDS: usize = 2;
 
+/// How much lower (N²) a second fit of `model` must end on a fold's training samples to replace the first:
+/// `p σ²`, what its `p` parameters can take out of noise of standard deviation `σ` (the expected fall of a
+/// least-squares loss, whose weights average 1, when `p` directions are fitted to noise). Closer fits are
+/// the same fit as far as the data can tell, and the one kept is the first: where the training samples
+/// leave a parameter free (the lags of a fold whose only current step is held out), a refit that moved it
+/// far for a fall below the noise predicted the held-out block at 4.3 times the first fit's error.
+fn refit_margin(model: &Model, noise_n: f64) -> f64 {
+    model.n_params() as f64 * noise_n * noise_n
+}
+
+/// The named candidates' cross-validations (held-out predictions shed) of one diagnosis, shared by the two
+/// paths of [`diagnose_path`]: the second repeats the first up to the step where a term first wins, and a
+/// candidate's cross-validation is a function of its model, the current model's fits it starts from and the
+/// settings, which are the same there, so those steps are not fitted twice. Only models of the given
+/// registry's effects are kept: a term of the same name may be another formula on the other path.
+#[derive(Default)]
+pub(crate) struct CvCache(Mutex<HashMap<String, CvResult>>);
+
+impl CvCache {
+    /// The cross-validation of `model` from the current model's `parent` fits: kept, or `run` and kept.
+    fn get_or(
+        &self,
+        model: &Model,
+        parent: &CvResult,
+        given: &Registry,
+        run: impl FnOnce() -> CvResult,
+    ) -> CvResult {
+        let named = |spec: &ModelSpec| spec.effects.iter().all(|e| given.get(e).is_some());
+        if !named(model.spec()) || !named(&parent.spec) {
+            return run();
+        }
+        let bits: Vec<String> = parent
+            .fold_params
+            .iter()
+            .map(|p| {
+                p.iter()
+                    .map(|v| format!("{:x}", v.to_bits()))
+                    .collect::<Vec<_>>()
+                    .join(",")
+            })
+            .collect();
+        let key = format!("{}|{}|{}", model.spec(), parent.spec, bits.join(";"));
+        if let Some(cv) = self.0.lock().expect("cache lock").get(&key) {
+            return cv.clone();
+        }
+        let cv = run();
+        self.0.lock().expect("cache lock").insert(key, cv.clone());
+        cv
+    }
+}
+
 /// What every judgment of one diagnosis shares.
 struct Search<'a> {
     tests: &'a [Test],
@@ -1339,7 +1409,7 @@ impl Search<'_> {
                 self.cv_fit,
                 self.bar,
             );
-            if let Some(better) = cur.better_fits(&again, self.folds) {
+            if let Some(better) = cur.better_fits(&again, self.folds, refit_margin(cur_model, self.noise)) {
                 *cur = better;
                 changed = true;
             }
@@ -1519,7 +1589,7 @@ mod tests {
         let cur = cv_of([(10.0, 5.0, 1.0), (10.0, 5.0, 2.0)]);
         // Fold 0 fits its training samples better but predicts worse; fold 1 fits worse but predicts better.
         let again = cv_of([(8.0, 7.0, 3.0), (12.0, 1.0, 4.0)]);
-        let merged = cur.better_fits(&again, &folds).expect("fold 0 fits better");
+        let merged = cur.better_fits(&again, &folds, 0.0).expect("fold 0 fits better");
         // Chosen by the training error alone: the held-out samples play no part.
         assert_eq!(merged.fold_train_loss, vec![8.0, 10.0]);
         assert_eq!(merged.per_fold[0].sse, 7.0);
@@ -1527,7 +1597,7 @@ mod tests {
         assert_eq!(merged.total.sse, 12.0);
         assert_eq!(merged.oof[0], vec![3.0, 3.0, 2.0, 2.0]);
         // No fold better: nothing to replace.
-        assert!(cur.better_fits(&cur.clone(), &folds).is_none());
+        assert!(cur.better_fits(&cur.clone(), &folds, 0.0).is_none());
     }
 
     /// A pair is significant only if it also removes enough of the error each of its effects leaves alone:
