@@ -610,65 +610,32 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
                 return Some(j.clone());
             }
         }
-        let rf = factor(&self.resid, &self.full_jacobian());
-        Some(compress(&rf, &(0..self.free.len()).collect::<Vec<_>>()))
+        Some(compress(self.full_jacobian(), &self.resid))
     }
 }
 
-/// Rows of `[r J]` factorised at a time by [`factor`].
-const FACTOR_BLOCK_ROWS: usize = 2048;
-
-/// The triangular factor `R` (`n + 1` square, `RᵀR = [r J]ᵀ[r J]`) of the residual `r` beside the
-/// Jacobian `J` of `n` columns, by blocks of rows: each block is stacked under the factor so far and
-/// factorised again (Householder QR), so no more than a block is held beside `J`. A non-finite residual
-/// enters as zero. The columns stay in double precision: stored in single precision (half the largest
-/// buffer of a fit), the stiff 14-parameter Spencer model took 62 % more simulations to fit the real
-/// damper, and a fit whose residual was 0.3 % of the force stopped short of its optimum.
-fn factor(r: &DVector<f64>, j: &DMatrix<f64>) -> DMatrix<f64> {
+/// A least-squares problem of `m` rows, residual `r` and Jacobian `J`, compressed to `n + 1` rows with the same
+/// linear model `|r + J d|²` for every step `d`: the residual `(|r|, 0, …, 0)` and the Jacobian whose first row
+/// is `(Jᵀr)ᵀ/|r|` and whose other rows are the triangular factor of `(I − r rᵀ/|r|²) J`. Then
+/// `J'ᵀJ' = JᵀJ`, `J'ᵀr' = Jᵀr` and `|r'| = |r|`, so the Levenberg–Marquardt search takes the same steps and
+/// tests the same reductions, while its own pivoted QR, run on every Jacobian, works on `n + 1` rows instead
+/// of one per sample (82,638 on the real damper's files, where it took more time than a simulation). The
+/// residual is the same vector at every point, so it pairs with a Jacobian computed later at that point.
+fn compress(mut j: DMatrix<f64>, r: &DVector<f64>) -> DMatrix<f64> {
     let n = j.ncols();
-    let finite = r.iter().all(|v| v.is_finite());
-    let mut rf = DMatrix::<f64>::zeros(0, n + 1);
-    let mut start = 0;
-    while start < j.nrows() {
-        let end = (start + FACTOR_BLOCK_ROWS).min(j.nrows());
-        let top = rf.nrows();
-        let mut a = DMatrix::<f64>::zeros(top + end - start, n + 1);
-        a.view_mut((0, 0), (top, n + 1)).copy_from(&rf);
-        if finite {
-            a.view_mut((top, 0), (end - start, 1))
-                .copy_from(&r.rows(start, end - start));
-        }
-        a.view_mut((top, 1), (end - start, n))
-            .copy_from(&j.rows(start, end - start));
-        rf = a.qr().r();
-        start = end;
-    }
-    let mut out = DMatrix::zeros(n + 1, n + 1);
-    out.view_mut((0, 0), (rf.nrows(), n + 1)).copy_from(&rf);
-    out
-}
-
-/// The least-squares problem of residual `r` and Jacobian columns `keep` of `J`, given the factor `R` of
-/// `[r J]` ([`factor`]), compressed to `keep.len() + 1` rows with the same linear model `|r + J d|²` for
-/// every step `d`: the residual `(|r|, 0, …, 0)`, and the Jacobian whose first row is `(Jᵀr)ᵀ/|r|` (the
-/// first row of `R` past its first column, whose first entry is `±|r|`) and whose other rows are the
-/// triangular factor of the rest of those columns of `R`. Then `J'ᵀJ' = JᵀJ`, `J'ᵀr' = Jᵀr` and
-/// `|r'| = |r|`, so the Levenberg–Marquardt search takes the same steps and tests the same reductions,
-/// while its own pivoted QR, run on every Jacobian, works on a few rows instead of one per sample (82,638
-/// on the real damper's files, where it took more time than a simulation). The residual is the same vector
-/// at every point, so it pairs with a Jacobian computed later at that point.
-fn compress(rf: &DMatrix<f64>, keep: &[usize]) -> DMatrix<f64> {
-    let n = keep.len();
+    let rho = r.norm();
     let mut out = DMatrix::zeros(n + 1, n);
-    let sign = if rf[(0, 0)] < 0.0 { -1.0 } else { 1.0 };
-    for (c, &k) in keep.iter().enumerate() {
-        out[(0, c)] = sign * rf[(0, k + 1)];
+    if rho > 0.0 && rho.is_finite() {
+        let g = j.tr_mul(r) / rho;
+        out.row_mut(0).copy_from(&g.transpose());
+        // (I − r rᵀ/ρ²) J = J − (r/ρ) gᵀ.
+        j.ger(-1.0 / rho, r, &g, 1.0);
     }
-    let rest = DMatrix::from_fn(rf.nrows() - 1, n, |i, c| rf[(i + 1, keep[c] + 1)]);
-    if rest.nrows() >= n {
-        out.view_mut((1, 0), (n, n)).copy_from(&rest.qr().r());
+    let rows = j.nrows();
+    if rows >= n {
+        out.view_mut((1, 0), (n, n)).copy_from(&j.qr().r());
     } else {
-        out.view_mut((1, 0), (rest.nrows(), n)).copy_from(&rest);
+        out.view_mut((1, 0), (rows, n)).copy_from(&j);
     }
     out
 }
@@ -738,8 +705,7 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
     // One column per movable parameter, in their order: a held parameter's column would be zero and is
     // never searched, and a full-width matrix per fit is the largest buffer of a staged fit.
     let movable: Vec<usize> = (0..n).filter(|&k| !held[k]).collect();
-    // Factorised at once, so the columns are not held through the search.
-    let j0 = factor(&prob.resid, &prob.jacobian_cols(&movable));
+    let j0 = prob.jacobian_cols(&movable);
     let f_norm = spans
         .iter()
         .map(|s| {
@@ -755,7 +721,7 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
     let negligible = 1e-13 * f_norm.max(f64::MIN_POSITIVE);
     let mut zero_held = vec![false; n];
     for (c, &k) in movable.iter().enumerate() {
-        let cn = j0.column(c + 1).norm();
+        let cn = j0.column(c).norm();
         if cn <= negligible {
             held[k] = true;
             zero_held[k] = true;
@@ -790,10 +756,13 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
         if !prob.free.is_empty() && prob.n_res > 0 {
             if let Some(j) = first {
                 // Round 0 starts at z0, where j0 was computed.
-                let kept: Vec<usize> = (0..movable.len())
-                    .filter(|&c| prob.free.contains(&movable[c]))
+                let others: Vec<usize> = (0..movable.len())
+                    .filter(|&c| !prob.free.contains(&movable[c]))
                     .collect();
-                prob.first_jac = Some((prob.z.clone(), compress(&j, &kept)));
+                prob.first_jac = Some((
+                    prob.z.clone(),
+                    compress(j.remove_columns_at(&others), &prob.resid),
+                ));
             }
             let lm = LevenbergMarquardt::new()
                 .with_ftol(opts.tol)
@@ -1045,11 +1014,7 @@ fn std_errors(
         return (vec![None; nf], Vec::new());
     }
     let inside: Vec<usize> = (0..nf).filter(|&c| !at_bound(free[c])).collect();
-    let rf = factor(
-        &prob.resid,
-        &prob.jacobian_into(&inside.iter().map(|&c| free[c]).collect::<Vec<_>>(), &inside, nf),
-    );
-    let jac = rf.columns(1, nf);
+    let jac = prob.jacobian_into(&inside.iter().map(|&c| free[c]).collect::<Vec<_>>(), &inside, nf);
     // Degrees of freedom: a parameter held on its bound is not estimated.
     let s2 = prob.resid.norm_squared() / (m - inside.len()) as f64;
     let norms: Vec<f64> = (0..nf).map(|c| jac.column(c).norm()).collect();
@@ -1376,7 +1341,7 @@ mod tests {
         let r = DVector::from_fn(m, |i, _| {
             ((i * 37 % 101) as f64 - 50.0) + 20.0 * (i as f64 * 1e-3).cos()
         });
-        let c = compress(&factor(&r, &j), &[0, 1, 2, 3]);
+        let c = compress(j.clone(), &r);
         assert_eq!(c.shape(), (n + 1, n));
         let mut rc = DVector::zeros(n + 1);
         rc[0] = r.norm();
@@ -1398,18 +1363,9 @@ mod tests {
                 assert!((a[(p, q)] - ac[(p, q)]).abs() <= 1e-10 * scale, "({p}, {q})");
             }
         }
-        // A subset of the columns: the linear model of those columns alone.
-        let sub = compress(&factor(&r, &j), &[1, 3]);
-        let js = j.select_columns(&[1, 3]);
-        let d = DVector::from_vec(vec![-2.0, 40.0]);
-        let (full, small) = (
-            (&r + &js * &d).norm_squared(),
-            (rc.rows(0, 3) + &sub * &d).norm_squared(),
-        );
-        assert!((full - small).abs() <= 1e-10 * full, "{full} against {small}");
         // Fewer rows than columns, and a zero residual.
         let short = DMatrix::from_fn(2, 3, |i, k| (i + 2 * k) as f64);
-        let cs = compress(&factor(&DVector::zeros(2), &short), &[0, 1, 2]);
+        let cs = compress(short.clone(), &DVector::zeros(2));
         assert!((cs.tr_mul(&cs) - short.tr_mul(&short)).norm() < 1e-12);
     }
 
