@@ -1319,7 +1319,7 @@ fn refit_margin(model: &Model, noise_n: f64) -> f64 {
 /// settings, which are the same there, so those steps are not fitted twice. Only models of the given
 /// registry's effects are kept: a term of the same name may be another formula on the other path.
 #[derive(Default)]
-pub(crate) struct CvCache(Mutex<HashMap<String, CvResult>>);
+struct CvCache(Mutex<HashMap<String, CvResult>>);
 
 impl CvCache {
     /// The cross-validation of `model` from the current model's `parent` fits: kept, or `run` and kept.

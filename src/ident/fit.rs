@@ -1140,22 +1140,22 @@ fn linear_warm_start(
             let s = &spans[si];
             let t = &tests[s.test];
             let inputs = t.drive_inputs(s.end);
+            let predicted = |q: &[f64]| t.predict(model, q, s.end)[s.start..].to_vec();
             let mut states = Vec::new();
             let base = if on_states {
                 let mut out = vec![0.0; inputs.len()];
                 model.simulate_recording(q, inputs, &mut out, &mut states);
                 t.observed(out)[s.start..].to_vec()
             } else {
-                t.predict(model, q, s.end)[s.start..].to_vec()
+                predicted(q)
             };
             let force = |q: &[f64]| -> Vec<f64> {
-                if on_states {
-                    let mut out = vec![0.0; inputs.len()];
-                    model.forces_on_states(q, inputs, &states, &mut out);
-                    t.observed(out)[s.start..].to_vec()
-                } else {
-                    t.predict(model, q, s.end)[s.start..].to_vec()
+                if !on_states {
+                    return predicted(q);
                 }
+                let mut out = vec![0.0; inputs.len()];
+                model.forces_on_states(q, inputs, &states, &mut out);
+                t.observed(out)[s.start..].to_vec()
             };
             let mut cols = Vec::with_capacity(3);
             for (&k, &h) in idx.iter().zip(&steps).filter(|_| columns) {
