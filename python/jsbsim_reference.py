@@ -94,6 +94,18 @@ AIRCRAFT = {
 }
 
 
+# Fly-by-wire aircraft, flown through their own flight control system: `elevator-cmd-norm` is the stick's
+# command (JSBSim's sign: negative = aft stick), the trims hold the FCS's pitch trim. Each doublet is
+# (true airspeed m/s, altitude m, command amplitude, file suffix).
+FLY_BY_WIRE = {
+    "f16": {
+        "altitude_m": 3000.0,
+        "trim_speeds_m_s": [140.0, 160.0, 180.0, 200.0, 220.0, 240.0, 260.0],
+        "doublets": [(200.0, 3000.0, 0.1, "doublet"), (110.0, 1000.0, 0.1, "doublet_slow")],
+    },
+}
+
+
 _OFFLINE_DIR: Path | None = None
 NETWORK_INPUT = re.compile(r"<input\b[^>]*\bport=[^>]*?(/>|>.*?</input>)", re.S)
 
@@ -105,6 +117,9 @@ def offline_aircraft_dir(jsbsim, aircraft: str) -> Path:
     else (aerodynamics, mass, FCS, engines and systems from the wheel's folders) is unchanged.
     """
     global _OFFLINE_DIR
+    if aircraft in FLY_BY_WIRE:
+        # the package's own folder: its XML opens no network port and its systems are found beside it
+        return Path(jsbsim.get_default_root_dir()) / "aircraft"
     if _OFFLINE_DIR is None:
         _OFFLINE_DIR = Path(tempfile.mkdtemp(prefix="mrfeel-jsbsim-"))
         atexit.register(shutil.rmtree, _OFFLINE_DIR, True)
@@ -205,7 +220,8 @@ def write_csv(path: Path, header: list[str], columns: list[str], rows: list[list
 def common_header(jsbsim, aircraft: str, what: str, props: dict) -> list[str]:
     return [
         f"JSBSim {jsbsim.__version__} (Python package jsbsim=={jsbsim.__version__}), aircraft {aircraft} "
-        f"(aircraft/{aircraft}/{aircraft}.xml shipped in the wheel, network <input port> elements removed)",
+        f"(aircraft/{aircraft}/{aircraft}.xml shipped in the wheel"
+        + (")" if aircraft in FLY_BY_WIRE else ", network <input port> elements removed)"),
         what,
         f"regenerate: {COMMAND}   (check: {COMMAND} --check)",
         "conditions: ISA, latitude 45 deg, wings level, clean (flaps 0, gear up), fuel frozen, dt 1/120 s",
@@ -215,19 +231,25 @@ def common_header(jsbsim, aircraft: str, what: str, props: dict) -> list[str]:
 
 
 def run_doublet(jsbsim, ac: str, cfg: dict) -> tuple[list[str], list[list[float]]]:
-    fl = Flight(jsbsim, ac, cfg["cruise_m_s"], cfg["altitude_m"])
-    a = cfg["doublet_cmd"]
+    return doublet(jsbsim, ac, cfg["cruise_m_s"], cfg["altitude_m"], cfg["doublet_cmd"])
+
+
+def doublet(jsbsim, ac: str, airspeed_m_s: float, altitude_m: float, a: float):
+    """Doublet on elevator-cmd-norm (positive = push: the elevator of a reversible aircraft, the stick
+    command of a fly-by-wire one) from trim: +a for 1 s, then -a for 1 s, throttle held."""
+    fl = Flight(jsbsim, ac, airspeed_m_s, altitude_m)
     rows = []
     n = int(round(12.0 / DT_S))
     for k in range(n + 1):
         t = k * DT_S
-        # elevator-cmd-norm: positive = trailing edge down (push). Doublet: push 1 s, pull 1 s.
         cmd = a if 1.0 <= t < 2.0 else (-a if 2.0 <= t < 3.0 else 0.0)
         fl.set_elevator_cmd(cmd)
         rows.append(fl.row())
         fl.step()
-    what = (f"run: elevator doublet from trim at {fmt(cfg['cruise_m_s'])} m/s TAS, {fmt(cfg['altitude_m'])} m: "
+    what = (f"run: elevator doublet from trim at {fmt(airspeed_m_s)} m/s TAS, {fmt(altitude_m)} m: "
             f"elevator-cmd-norm +{a} for t in [1,2) s, -{a} for [2,3) s, throttle held at trim; rows at 120 Hz (every step)")
+    if ac in FLY_BY_WIRE:
+        what += "; flown through the aircraft's FCS (elevator-cmd-norm is the stick's command, the FCS's pitch trim held)"
     return [what, fl], rows
 
 
@@ -366,6 +388,16 @@ def generate(out: Path) -> list[Path]:
         for name, fn in (("doublet", run_doublet), ("pullup", run_pullup), ("approach", run_approach)):
             (what, fl), rows = fn(jsbsim, ac, cfg)
             p = out / f"{ac}_{name}.csv"
+            write_csv(p, common_header(jsbsim, ac, what, fl.mass_properties()), COLUMNS, rows)
+            written.append(p)
+    for ac, cfg in FLY_BY_WIRE.items():
+        what, props, cols, rows = run_trims(jsbsim, ac, cfg)
+        p = out / f"{ac}_trim.csv"
+        write_csv(p, common_header(jsbsim, ac, what, props), cols, rows)
+        written.append(p)
+        for v, h, a, suffix in cfg["doublets"]:
+            (what, fl), rows = doublet(jsbsim, ac, v, h, a)
+            p = out / f"{ac}_{suffix}.csv"
             write_csv(p, common_header(jsbsim, ac, what, fl.mass_properties()), COLUMNS, rows)
             written.append(p)
     return written

@@ -5,7 +5,7 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use mrfeel::aero::{AeroError, Aircraft, AircraftModel, AircraftState, FeelAssessment};
+use mrfeel::aero::{AeroError, Aircraft, AircraftModel, AircraftState, FbwAircraft, FbwModel, FeelAssessment};
 use mrfeel::input::reference::ReferenceRun;
 use mrfeel::input::InputError;
 use mrfeel::units::{G0_M_S2, LBF_TO_N};
@@ -151,6 +151,111 @@ fn c172p_trim_alpha_and_elevator_match_jsbsim_over_the_speed_range() {
 #[test]
 fn b737_trim_alpha_and_elevator_match_jsbsim_over_the_speed_range() {
     check_trims("737", 0.005, 0.01);
+}
+
+fn f16() -> FbwAircraft {
+    let path = AircraftModel::builtin_path("f16");
+    let model = FbwModel::load(&path).expect("shipped model loads");
+    FbwAircraft::new(model.expect("the F-16's file has an embedded model"))
+}
+
+/// The embedded F-16 under its FCS replays JSBSim's stick-command doublet (`f16_<which>.csv`): trim at
+/// the first row, then the recorded `elevator-cmd-norm`. JSBSim's frame integrates, then runs its FCS on
+/// the new state, then the forces: a row's command moves the tail of the next row, which acts over the
+/// interval after it; the replay's frame runs the FCS on the state at its start, so it takes the command
+/// of the row before and its tail is that row's. Returns (pitch-rate error max and RMS, its peak;
+/// load-factor error max and RMS, its peak excursion; tail error max, its peak excursion).
+fn replay_f16(which: &str) -> [f64; 8] {
+    let r = run("f16", which);
+    let col = |c: &str| r.column(c).unwrap();
+    let (t, cmd, q_ref, nz_ref, de_ref) = (
+        col("t_s"),
+        col("elevator_cmd_norm"),
+        col("q_rad_s"),
+        col("nz_g"),
+        col("elevator_rad"),
+    );
+    let mut a = f16();
+    let trim = a.trim(col("airspeed_m_s")[0], col("altitude_m")[0]).unwrap();
+    let (mut e, mut ss) = ([0.0_f64; 8], [0.0_f64; 2]);
+    for k in 0..t.len() {
+        let s = *a.state();
+        let dq = s.q_rad_s - q_ref[k];
+        let dn = (s.nz_g - trim.nz_g) - (nz_ref[k] - nz_ref[0]);
+        e[0] = e[0].max(dq.abs());
+        e[2] = e[2].max(q_ref[k].abs());
+        e[3] = e[3].max(dn.abs());
+        e[5] = e[5].max((nz_ref[k] - nz_ref[0]).abs());
+        ss[0] += dq * dq;
+        ss[1] += dn * dn;
+        if k + 1 < t.len() {
+            let c = if k == 0 { 0.0 } else { cmd[k - 1] };
+            let tail = a.step(c, trim.throttle, t[k + 1] - t[k]).elevator_rad;
+            let dd = (tail - trim.elevator_rad) - (de_ref[k] - de_ref[0]);
+            e[6] = e[6].max(dd.abs());
+            e[7] = e[7].max((de_ref[k] - de_ref[0]).abs());
+        }
+    }
+    let n = t.len() as f64;
+    e[1] = (ss[0] / n).sqrt();
+    e[4] = (ss[1] / n).sqrt();
+    e
+}
+
+/// The embedded F-16 (JSBSim's tables and pitch FCS in Rust, src/aero/fcs.rs) flies JSBSim's own
+/// doublets through the FCS: at the design condition (200 m/s, 3000 m, flap up) and slow (110 m/s,
+/// 1000 m, where the push takes alpha below the leading-edge flap's step and the flap retracts). Pitch
+/// rate within 2 % of its peak, load factor within 6 % of its peak excursion (the rest is where the tail
+/// jumps: JSBSim reports the load factor of its frame's accelerations a frame late), the tail within 1 %
+/// of its peak excursion.
+#[test]
+fn f16_embedded_fcs_and_airframe_follow_jsbsim_doublets_through_the_fcs() {
+    for which in ["doublet", "doublet_slow"] {
+        let e = replay_f16(which);
+        eprintln!(
+            "f16 {which} replay vs JSBSim: pitch rate max error {:.4} rad/s ({:.1} % of peak {:.4}), rms {:.4}; \
+             load factor max error {:.4} g ({:.1} % of peak excursion {:.3} g), rms {:.4} g; tail max error \
+             {:.4} rad ({:.1} % of {:.4})",
+            e[0],
+            100.0 * e[0] / e[2],
+            e[2],
+            e[1],
+            e[3],
+            100.0 * e[3] / e[5],
+            e[5],
+            e[4],
+            e[6],
+            100.0 * e[6] / e[7],
+            e[7]
+        );
+        assert!(e[0] <= 0.02 * e[2], "{which}: pitch-rate error {} of peak {}", e[0], e[2]);
+        assert!(e[3] <= 0.06 * e[5], "{which}: nz error {} of peak {}", e[3], e[5]);
+        assert!(e[6] <= 0.01 * e[7], "{which}: tail error {} of peak {}", e[6], e[7]);
+    }
+}
+
+/// The embedded F-16's level trims against JSBSim's (`f16_trim.csv`, FCS engaged) from 140 to 260 m/s:
+/// angle of attack within 0.002 rad and tail within 0.002 rad; the trim is a pitch balance of JSBSim's
+/// tables at JSBSim's mass and centre of gravity, so a wrong sign or a factor of two in `Cm(α, δ)`, the
+/// lift table or the load points moves it by more.
+#[test]
+fn f16_embedded_trim_alpha_and_tail_match_jsbsim_over_the_speed_range() {
+    let r = run("f16", "trim");
+    let col = |c: &str| r.column(c).unwrap();
+    let (v, h, alpha, de) = (col("airspeed_m_s"), col("altitude_m"), col("alpha_rad"), col("elevator_rad"));
+    let mut a = f16();
+    let (mut ea, mut ed) = (0.0_f64, 0.0_f64);
+    for k in 0..v.len() {
+        let s = a.trim(v[k], h[k]).unwrap();
+        ea = ea.max((s.alpha_rad - alpha[k]).abs());
+        ed = ed.max((s.elevator_rad - de[k]).abs());
+    }
+    eprintln!(
+        "f16 trims over {} speeds: max |alpha error| {ea:.5} rad, max |tail error| {ed:.5} rad",
+        v.len()
+    );
+    assert!(ea < 0.002, "alpha error {ea}");
+    assert!(ed < 0.002, "tail error {ed}");
 }
 
 /// Short-period and phugoid roots of the linearised model against the classical approximations

@@ -1,7 +1,8 @@
 //! Aircraft backends behind one trait: the embedded Rust model ([`Embedded`], the default, no Python)
 //! and the live JSBSim co-simulation (`super::jsbsim_bridge::JsbsimBridge`, a Python subprocess).
 //!
-//! A scenario names its backend with one string: `"c172p"` (embedded, `models/aircraft/c172p.toml`),
+//! A scenario names its backend with one string: `"c172p"` (embedded, `models/aircraft/c172p.toml`; a
+//! fly-by-wire aircraft's embedded model and FCS, [`super::fcs`], for `"f16"`),
 //! `"jsbsim:c172p"` (live JSBSim 1.3.3). Both report the same [`AircraftState`]; the hinge moment and
 //! stick force come from the same [`HingeModel`] in both cases (JSBSim has no hinge moments), with the
 //! trim tab set at trim so the stick force is zero there.
@@ -10,6 +11,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use super::fbw::FlyByWire;
+use super::fcs::{EmbeddedFbw, FbwModel};
 use super::jsbsim_bridge::JsbsimBridge;
 use super::{AeroError, Aircraft, AircraftModel, AircraftState, HingeModel};
 
@@ -110,14 +112,18 @@ pub fn open(spec: &str) -> Result<Box<dyn AircraftBackend>, AeroError> {
             why: format!("unknown backend `{other}` (use `<name>` or `jsbsim:<name>`)"),
         }),
         None => {
-            if is_fly_by_wire_file(&AircraftModel::builtin(spec)?)? {
-                return Err(AeroError::Refused {
-                    what: format!("aircraft `{spec}`"),
-                    why: format!(
-                        "a fly-by-wire aircraft is flown live through its flight control system: `jsbsim:{spec}` \
-                         (no embedded model)"
-                    ),
-                });
+            let path = AircraftModel::builtin(spec)?;
+            if is_fly_by_wire_file(&path)? {
+                let Some(model) = FbwModel::load(&path)? else {
+                    return Err(AeroError::Refused {
+                        what: format!("aircraft `{spec}`"),
+                        why: format!(
+                            "a fly-by-wire aircraft without an embedded model ([airframe], [aero_tables], [fcs]) \
+                             is flown live through its flight control system: `jsbsim:{spec}`"
+                        ),
+                    });
+                };
+                return Ok(Box::new(EmbeddedFbw::new(spec, model, FlyByWire::load(&path)?)));
             }
             let model = Arc::new(AircraftModel::load_builtin(spec)?);
             Ok(Box::new(Embedded::new(spec, model)))

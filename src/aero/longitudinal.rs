@@ -86,7 +86,63 @@ struct Controls {
 }
 
 /// State vector `[u, w, q, theta, h]`.
-type X = [f64; 5];
+pub(crate) type X = [f64; 5];
+
+/// Mass, pitch inertia and where the loads act, in JSBSim's structural frame (x aft, z up), m.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Airframe {
+    pub mass_kg: f64,
+    pub iyy_kg_m2: f64,
+    pub cg_x_m: f64,
+    pub cg_z_m: f64,
+    pub aero_ref_x_m: f64,
+    pub aero_ref_z_m: f64,
+    /// Height of the thrust line (thrust acts along body x).
+    pub thrust_z_m: f64,
+}
+
+/// The loads of one evaluation: lift and drag (wind axes) at the aerodynamic reference point, the
+/// aerodynamic pitching moment about that point, and thrust along body x.
+pub(crate) struct Loads {
+    pub lift_n: f64,
+    pub drag_n: f64,
+    pub moment_nm: f64,
+    pub thrust_n: f64,
+}
+
+impl Airframe {
+    /// Derivatives of `[u, w, q, theta, h]` at `x` (angle of attack `alpha`) under `loads`, and the normal
+    /// load factor: the equations of the module header, with lift and drag carried from the reference
+    /// point to the centre of gravity.
+    pub(crate) fn derivatives(&self, x: &X, alpha: f64, loads: &Loads) -> (X, f64) {
+        let [u, w, q, theta, _] = *x;
+        let (sa, ca) = alpha.sin_cos();
+        let xa = -loads.drag_n * ca + loads.lift_n * sa;
+        let za = -loads.drag_n * sa - loads.lift_n * ca;
+        // arms from the CG in body axes: the structural frame is x aft, z up
+        let (rx_a, rz_a) = (-(self.aero_ref_x_m - self.cg_x_m), -(self.aero_ref_z_m - self.cg_z_m));
+        // thrust along body x: only the thruster's vertical offset from the CG makes a moment
+        let rz_t = -(self.thrust_z_m - self.cg_z_m);
+        let moment = loads.moment_nm + (rz_a * xa - rx_a * za) + rz_t * loads.thrust_n;
+        let (st, ct) = theta.sin_cos();
+        let g = G0_M_S2;
+        let du = (xa + loads.thrust_n) / self.mass_kg - g * st - q * w;
+        let dw = za / self.mass_kg + g * ct + q * u;
+        let dq = moment / self.iyy_kg_m2;
+        let dh = u * st - w * ct;
+        ([du, dw, dq, q, dh], -za / (self.mass_kg * g))
+    }
+}
+
+/// One classical Runge–Kutta 4 step of `dx/dt = f(x)` over `dt_s`.
+pub(crate) fn rk4(x: &X, dt_s: f64, f: impl Fn(&X) -> X) -> X {
+    let add = |k: &X, h: f64| -> X { std::array::from_fn(|i| x[i] + h * k[i]) };
+    let k1 = f(x);
+    let k2 = f(&add(&k1, 0.5 * dt_s));
+    let k3 = f(&add(&k2, 0.5 * dt_s));
+    let k4 = f(&add(&k3, dt_s));
+    std::array::from_fn(|i| x[i] + dt_s / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]))
+}
 
 #[derive(Debug, Clone, Copy)]
 struct Eval {
@@ -199,14 +255,7 @@ impl Aircraft {
             throttle: throttle.clamp(0.0, 1.0),
         };
         let c = self.controls;
-        let x = self.x;
-        let k1 = self.eval(&x, c).dx;
-        let k2 = self.eval(&add(&x, &k1, 0.5 * dt_s), c).dx;
-        let k3 = self.eval(&add(&x, &k2, 0.5 * dt_s), c).dx;
-        let k4 = self.eval(&add(&x, &k3, dt_s), c).dx;
-        for i in 0..5 {
-            self.x[i] += dt_s / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-        }
+        self.x = rk4(&self.x, dt_s, |x| self.eval(x, c).dx);
         self.t_s += dt_s;
         self.refresh();
         &self.state
@@ -399,7 +448,7 @@ impl Aircraft {
 
     fn eval_with_alphadot(&self, x: &X, c: Controls, alphadot: f64) -> EvalAd {
         let m = &*self.model;
-        let [u, w, q, theta, h] = *x;
+        let [u, w, q, _, h] = *x;
         let v = (u * u + w * w).sqrt().max(1e-3);
         let alpha = w.atan2(u);
         let air = isa(h);
@@ -430,38 +479,26 @@ impl Aircraft {
         let cm_de = m.cm_elevator_per_rad.eval(mach) * de;
 
         let s = m.wing_area_m2;
-        let lift = qbar * s * cl;
-        let drag = qbar * s * cd;
-        let (sa, ca) = alpha.sin_cos();
-        let xa = -drag * ca + lift * sa;
-        let za = -drag * sa - lift * ca;
-        // arms from the CG in body axes: structural frame is x aft, z up
-        let (rx_a, rz_a) = (-(m.aero_ref_x_m - m.cg_x_m), -(m.aero_ref_z_m - m.cg_z_m));
-        // thrust along body x: only the thruster's vertical offset from the CG makes a moment
-        let rz_t = -(m.thrust_z_m - m.cg_z_m);
-        let moment = qbar * s * m.chord_m * cm
-            + qbar_e * s * m.chord_m * cm_de
-            + (rz_a * xa - rx_a * za)
-            + rz_t * thrust;
-
-        let (st, ct) = theta.sin_cos();
-        let g = G0_M_S2;
-        let du = (xa + thrust) / m.mass_kg - g * st - q * w;
-        let dw = za / m.mass_kg + g * ct + q * u;
-        let dq = moment / m.iyy_kg_m2;
-        let dh = u * st - w * ct;
+        let loads = Loads {
+            lift_n: qbar * s * cl,
+            drag_n: qbar * s * cd,
+            moment_nm: qbar * s * m.chord_m * cm + qbar_e * s * m.chord_m * cm_de,
+            thrust_n: thrust,
+        };
+        let (dx, nz) = m.airframe().derivatives(x, alpha, &loads);
+        let [du, dw, ..] = dx;
         let alphadot_out = (u * dw - w * du) / (v * v);
         EvalAd {
             alphadot_out,
             eval: Eval {
-                dx: [du, dw, dq, q, dh],
+                dx,
                 alpha,
                 alphadot,
                 airspeed: v,
                 qbar,
                 qbar_e,
                 mach,
-                nz: -za / (m.mass_kg * g),
+                nz,
                 thrust,
             },
         }
@@ -595,10 +632,3 @@ struct EvalAd {
     eval: Eval,
 }
 
-fn add(x: &X, k: &X, h: f64) -> X {
-    let mut y = *x;
-    for i in 0..5 {
-        y[i] += h * k[i];
-    }
-    y
-}

@@ -17,6 +17,7 @@ pub(crate) mod atmosphere;
 pub(crate) mod backend;
 pub(crate) mod certification;
 pub(crate) mod fbw;
+pub(crate) mod fcs;
 pub(crate) mod hinge;
 pub mod hinge_theory;
 pub mod jsbsim_bridge;
@@ -27,10 +28,11 @@ pub(crate) mod table;
 
 pub use certification::{CertificationBasis, FeelAssessment};
 pub use fbw::FlyByWire;
+pub use fcs::{FbwAircraft, FbwModel};
 pub use hinge::HingeModel;
 pub use longitudinal::{Aircraft, AircraftState};
 pub use model::AircraftModel;
-pub use table::Table1;
+pub use table::{Table1, Table2};
 
 /// An aircraft refused: its file, its name, or a flight condition it cannot trim at.
 #[derive(Debug, thiserror::Error)]

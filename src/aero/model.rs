@@ -210,6 +210,19 @@ impl AircraftModel {
         self.cl_alpha.max_value()
     }
 
+    /// Mass, inertia and load points for the equations of motion.
+    pub(crate) fn airframe(&self) -> super::longitudinal::Airframe {
+        super::longitudinal::Airframe {
+            mass_kg: self.mass_kg,
+            iyy_kg_m2: self.iyy_kg_m2,
+            cg_x_m: self.cg_x_m,
+            cg_z_m: self.cg_z_m,
+            aero_ref_x_m: self.aero_ref_x_m,
+            aero_ref_z_m: self.aero_ref_z_m,
+            thrust_z_m: self.thrust_z_m,
+        }
+    }
+
     /// Aspect ratio b²/S.
     pub fn aspect_ratio(&self) -> f64 {
         self.span_m * self.span_m / self.wing_area_m2

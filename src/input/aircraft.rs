@@ -8,6 +8,9 @@ use toml::Spanned;
 
 use super::{InputError, Source};
 use crate::aero::fbw::{FlyByWire, BREAKOUT_RANGE_CLASS_IV_N};
+use crate::aero::fcs::{FbwModel, PitchFcs, TableAero};
+use crate::aero::longitudinal::Airframe;
+use crate::aero::Table2;
 use crate::aero::hinge::{FeelComputer, HingeModel};
 use crate::aero::hinge_theory::ControlGeometry;
 use crate::aero::model::{AircraftModel, CertificationPart, ControlType, Propulsion};
@@ -387,6 +390,183 @@ struct FbwFile {
     name: String,
     fly_by_wire: FbwStick,
     design: FbwDesign,
+    airframe: Option<S<FbwAirframe>>,
+    aero_tables: Option<S<FbwAero>>,
+    fcs: Option<S<FbwFcs>>,
+}
+
+/// The embedded model's airframe (structural frame: x aft, z up).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FbwAirframe {
+    wing_area_m2: S<f64>,
+    chord_m: S<f64>,
+    aero_ref_x_m: S<f64>,
+    aero_ref_z_m: S<f64>,
+    pilot_x_m: S<f64>,
+    pilot_z_m: S<f64>,
+    mass_kg: S<f64>,
+    iyy_kg_m2: S<f64>,
+    cg_x_m: S<f64>,
+    cg_z_m: S<f64>,
+    max_thrust_n: S<f64>,
+    thrust_z_m: S<f64>,
+    density_exponent: S<f64>,
+}
+
+/// Tables over `alpha_rad` (rows) and `elevator_rad` (columns); the one-dimensional ones by α give one
+/// value per `alpha_rad` breakpoint.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FbwAero {
+    alpha_rad: S<Vec<f64>>,
+    elevator_rad: S<Vec<f64>>,
+    cl: S<Vec<Vec<f64>>>,
+    cd: S<Vec<Vec<f64>>>,
+    cm: S<Vec<Vec<f64>>>,
+    cl_lef_per_rad: S<Vec<f64>>,
+    cd_lef_per_rad: S<Vec<f64>>,
+    cl_q: S<Vec<f64>>,
+    cd_q: S<Vec<f64>>,
+    cd_q_lef_per_rad: S<Vec<f64>>,
+    cm_q: S<Vec<f64>>,
+    cd_mach: Rows,
+    cm_alpha_mach: Rows,
+    lef_alpha_steps: Rows,
+    lef_above_mach: Option<S<Vec<f64>>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FbwFcs {
+    command_limits: S<Vec<f64>>,
+    alpha_gain: Rows,
+    alpha_limiter_per_rad: S<f64>,
+    pitch_rate_gain_s: S<f64>,
+    load_factor_gain_per_g: S<f64>,
+    proportional_gain: S<f64>,
+    full_travel_s: S<f64>,
+    elevator_max_rad: S<f64>,
+}
+
+impl FbwModel {
+    /// The embedded model of a fly-by-wire aircraft's file, `None` if it has none (no `[airframe]`,
+    /// `[aero_tables]` and `[fcs]`; all three or none).
+    pub fn load(path: &Path) -> Result<Option<Self>, InputError> {
+        let src = Source::read(path)?;
+        Self::from_toml(&src.text, path)
+    }
+
+    /// As [`FbwModel::load`], from text; `path` places its errors.
+    pub fn from_toml(text: &str, path: &Path) -> Result<Option<Self>, InputError> {
+        let src = Source::new(path, text);
+        let f: FbwFile = src.toml()?;
+        let (g, a, c) = match (&f.airframe, &f.aero_tables, &f.fcs) {
+            (None, None, None) => return Ok(None),
+            (Some(g), Some(a), Some(c)) => (g.get_ref(), a.get_ref(), c.get_ref()),
+            _ => {
+                let missing: Vec<&str> = [
+                    ("[airframe]", f.airframe.is_none()),
+                    ("[aero_tables]", f.aero_tables.is_none()),
+                    ("[fcs]", f.fcs.is_none()),
+                ]
+                .iter()
+                .filter(|(_, m)| *m)
+                .map(|(s, _)| *s)
+                .collect();
+                return Err(InputError::file(
+                    path,
+                    format!(
+                        "an embedded fly-by-wire model needs [airframe], [aero_tables] and [fcs] together: {} missing",
+                        missing.join(", ")
+                    ),
+                ));
+            }
+        };
+        let n = |v: &S<f64>, field: &str, lo: f64, hi: f64| src.within(v, field, lo..=hi, "");
+        let alpha = a.alpha_rad.get_ref();
+        let by_alpha = |v: &S<Vec<f64>>, field: &str| -> Result<Table1, InputError> {
+            if v.get_ref().len() != alpha.len() {
+                let msg = format!(
+                    "{} values for {} aero_tables.alpha_rad breakpoints",
+                    v.get_ref().len(),
+                    alpha.len()
+                );
+                return Err(src.err(v, field, msg));
+            }
+            let rows: Vec<[f64; 2]> = alpha.iter().zip(v.get_ref()).map(|(&x, &y)| [x, y]).collect();
+            Table1::new(&rows).map_err(|m| src.err(v, field, m))
+        };
+        let table2 = |v: &S<Vec<Vec<f64>>>, field: &str| {
+            Table2::new(alpha, a.elevator_rad.get_ref(), v.get_ref()).map_err(|m| src.err(v, field, m))
+        };
+        let pair = |v: &S<Vec<f64>>, field: &str| match v.get_ref().as_slice() {
+            &[x, y] => Ok((x, y)),
+            other => Err(src.err(v, field, format!("{} values, expected 2", other.len()))),
+        };
+        // rows of two values with increasing thresholds, as a table's
+        table(&src, &a.lef_alpha_steps, "aero_tables.lef_alpha_steps")?;
+        let lef_alpha_steps = a
+            .lef_alpha_steps
+            .get_ref()
+            .iter()
+            .map(|r| (r.get_ref()[0], r.get_ref()[1]))
+            .collect();
+        let elevator_max_rad = n(&c.elevator_max_rad, "fcs.elevator_max_rad", 0.01, 1.0)?;
+        let (cmin, cmax) = pair(&c.command_limits, "fcs.command_limits")?;
+        if !(cmin < 0.0 && cmax > 0.0 && cmin >= -1.0 && cmax <= 1.0) {
+            let msg = format!("[{cmin}, {cmax}]: needs -1 <= min < 0 < max <= 1");
+            return Err(src.err(&c.command_limits, "fcs.command_limits", msg));
+        }
+        Ok(Some(FbwModel {
+            name: f.name.clone(),
+            wing_area_m2: n(&g.wing_area_m2, "airframe.wing_area_m2", 0.1, 2000.0)?,
+            chord_m: n(&g.chord_m, "airframe.chord_m", 0.05, 50.0)?,
+            airframe: Airframe {
+                mass_kg: n(&g.mass_kg, "airframe.mass_kg", 1.0, 1e6)?,
+                iyy_kg_m2: n(&g.iyy_kg_m2, "airframe.iyy_kg_m2", 0.01, 1e9)?,
+                cg_x_m: n(&g.cg_x_m, "airframe.cg_x_m", -100.0, 100.0)?,
+                cg_z_m: n(&g.cg_z_m, "airframe.cg_z_m", -100.0, 100.0)?,
+                aero_ref_x_m: n(&g.aero_ref_x_m, "airframe.aero_ref_x_m", -100.0, 100.0)?,
+                aero_ref_z_m: n(&g.aero_ref_z_m, "airframe.aero_ref_z_m", -100.0, 100.0)?,
+                thrust_z_m: n(&g.thrust_z_m, "airframe.thrust_z_m", -100.0, 100.0)?,
+            },
+            pilot_station_m: (
+                n(&g.pilot_x_m, "airframe.pilot_x_m", -100.0, 100.0)?,
+                n(&g.pilot_z_m, "airframe.pilot_z_m", -100.0, 100.0)?,
+            ),
+            max_thrust_n: n(&g.max_thrust_n, "airframe.max_thrust_n", 1.0, 1e12)?,
+            density_exponent: n(&g.density_exponent, "airframe.density_exponent", 0.0, 2.0)?,
+            aero: TableAero {
+                cl: table2(&a.cl, "aero_tables.cl")?,
+                cd: table2(&a.cd, "aero_tables.cd")?,
+                cm: table2(&a.cm, "aero_tables.cm")?,
+                cl_lef: by_alpha(&a.cl_lef_per_rad, "aero_tables.cl_lef_per_rad")?,
+                cd_lef: by_alpha(&a.cd_lef_per_rad, "aero_tables.cd_lef_per_rad")?,
+                cl_q: by_alpha(&a.cl_q, "aero_tables.cl_q")?,
+                cd_q: by_alpha(&a.cd_q, "aero_tables.cd_q")?,
+                cd_q_lef: by_alpha(&a.cd_q_lef_per_rad, "aero_tables.cd_q_lef_per_rad")?,
+                cm_q: by_alpha(&a.cm_q, "aero_tables.cm_q")?,
+                cd_mach: table(&src, &a.cd_mach, "aero_tables.cd_mach")?,
+                cm_alpha_mach: table(&src, &a.cm_alpha_mach, "aero_tables.cm_alpha_mach")?,
+                lef_alpha_steps,
+                lef_above_mach: match &a.lef_above_mach {
+                    Some(v) => Some(pair(v, "aero_tables.lef_above_mach")?),
+                    None => None,
+                },
+            },
+            fcs: PitchFcs {
+                command_limits: (cmin, cmax),
+                alpha_gain: table(&src, &c.alpha_gain, "fcs.alpha_gain")?,
+                alpha_limiter_per_rad: n(&c.alpha_limiter_per_rad, "fcs.alpha_limiter_per_rad", 0.0, 20.0)?,
+                pitch_rate_gain_s: n(&c.pitch_rate_gain_s, "fcs.pitch_rate_gain_s", 0.0, 100.0)?,
+                load_factor_gain_per_g: n(&c.load_factor_gain_per_g, "fcs.load_factor_gain_per_g", 0.0, 10.0)?,
+                proportional_gain: n(&c.proportional_gain, "fcs.proportional_gain", 0.0, 100.0)?,
+                full_travel_s: n(&c.full_travel_s, "fcs.full_travel_s", 1e-3, 60.0)?,
+                elevator_max_rad,
+            },
+        }))
+    }
 }
 
 #[derive(Deserialize)]
