@@ -5,7 +5,9 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use mrfeel::aero::{AeroError, Aircraft, AircraftModel, AircraftState, FbwAircraft, FbwModel, FeelAssessment};
+use mrfeel::aero::{
+    AeroError, Aircraft, AircraftModel, AircraftState, FbwAircraft, FbwModel, FeelAssessment,
+};
 use mrfeel::input::reference::ReferenceRun;
 use mrfeel::input::InputError;
 use mrfeel::units::{G0_M_S2, LBF_TO_N};
@@ -153,10 +155,16 @@ fn b737_trim_alpha_and_elevator_match_jsbsim_over_the_speed_range() {
     check_trims("737", 0.005, 0.01);
 }
 
-fn f16() -> FbwAircraft {
-    let path = AircraftModel::builtin_path("f16");
-    let model = FbwModel::load(&path).expect("shipped model loads");
-    FbwAircraft::new(model.expect("the F-16's file has an embedded model"))
+fn f16_text() -> String {
+    std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("models/aircraft/f16.toml")).unwrap()
+}
+
+/// The embedded F-16 of a model text; a text the schema refuses is an error.
+fn f16_from(text: &str) -> Result<FbwAircraft, String> {
+    let model = FbwModel::from_toml(text, Path::new("f16.toml")).map_err(|e| e.to_string())?;
+    Ok(FbwAircraft::new(
+        model.expect("the F-16's file has an embedded model"),
+    ))
 }
 
 /// The embedded F-16 under its FCS replays JSBSim's stick-command doublet (`f16_<which>.csv`): trim at
@@ -165,7 +173,7 @@ fn f16() -> FbwAircraft {
 /// interval after it; the replay's frame runs the FCS on the state at its start, so it takes the command
 /// of the row before and its tail is that row's. Returns (pitch-rate error max and RMS, its peak;
 /// load-factor error max and RMS, its peak excursion; tail error max, its peak excursion).
-fn replay_f16(which: &str) -> [f64; 8] {
+fn replay_f16(mut a: FbwAircraft, which: &str) -> Result<[f64; 8], AeroError> {
     let r = run("f16", which);
     let col = |c: &str| r.column(c).unwrap();
     let (t, cmd, q_ref, nz_ref, de_ref) = (
@@ -175,8 +183,7 @@ fn replay_f16(which: &str) -> [f64; 8] {
         col("nz_g"),
         col("elevator_rad"),
     );
-    let mut a = f16();
-    let trim = a.trim(col("airspeed_m_s")[0], col("altitude_m")[0]).unwrap();
+    let trim = a.trim(col("airspeed_m_s")[0], col("altitude_m")[0])?;
     let (mut e, mut ss) = ([0.0_f64; 8], [0.0_f64; 2]);
     for k in 0..t.len() {
         let s = *a.state();
@@ -199,63 +206,142 @@ fn replay_f16(which: &str) -> [f64; 8] {
     let n = t.len() as f64;
     e[1] = (ss[0] / n).sqrt();
     e[4] = (ss[1] / n).sqrt();
-    e
+    Ok(e)
 }
 
-/// The embedded F-16 (JSBSim's tables and pitch FCS in Rust, src/aero/fcs.rs) flies JSBSim's own
-/// doublets through the FCS: at the design condition (200 m/s, 3000 m, flap up) and slow (110 m/s,
-/// 1000 m, where the push takes alpha below the leading-edge flap's step and the flap retracts). Pitch
-/// rate within 2 % of its peak, load factor within 6 % of its peak excursion (the rest is where the tail
-/// jumps: JSBSim reports the load factor of its frame's accelerations a frame late), the tail within 1 %
-/// of its peak excursion.
-#[test]
-fn f16_embedded_fcs_and_airframe_follow_jsbsim_doublets_through_the_fcs() {
+/// The F-16's checks against JSBSim: both doublets (pitch rate within 2 % of its peak, load factor within
+/// 6 % of its peak excursion, tail within 1 %) and the level trims (α and tail within 0.002 rad).
+fn f16_checks(text: &str, print: bool) -> Result<(), String> {
     for which in ["doublet", "doublet_slow"] {
-        let e = replay_f16(which);
-        eprintln!(
-            "f16 {which} replay vs JSBSim: pitch rate max error {:.4} rad/s ({:.1} % of peak {:.4}), rms {:.4}; \
-             load factor max error {:.4} g ({:.1} % of peak excursion {:.3} g), rms {:.4} g; tail max error \
-             {:.4} rad ({:.1} % of {:.4})",
-            e[0],
-            100.0 * e[0] / e[2],
-            e[2],
-            e[1],
-            e[3],
-            100.0 * e[3] / e[5],
-            e[5],
-            e[4],
-            e[6],
-            100.0 * e[6] / e[7],
-            e[7]
-        );
-        assert!(e[0] <= 0.02 * e[2], "{which}: pitch-rate error {} of peak {}", e[0], e[2]);
-        assert!(e[3] <= 0.06 * e[5], "{which}: nz error {} of peak {}", e[3], e[5]);
-        assert!(e[6] <= 0.01 * e[7], "{which}: tail error {} of peak {}", e[6], e[7]);
+        let e = replay_f16(f16_from(text)?, which).map_err(|e| e.to_string())?;
+        if print {
+            eprintln!(
+                "f16 {which} replay vs JSBSim: pitch rate max error {:.4} rad/s ({:.1} % of peak {:.4}), rms {:.4}; \
+                 load factor max error {:.4} g ({:.1} % of peak excursion {:.3} g), rms {:.4} g; tail max error \
+                 {:.4} rad ({:.1} % of {:.4})",
+                e[0],
+                100.0 * e[0] / e[2],
+                e[2],
+                e[1],
+                e[3],
+                100.0 * e[3] / e[5],
+                e[5],
+                e[4],
+                e[6],
+                100.0 * e[6] / e[7],
+                e[7]
+            );
+        }
+        if !(e[0] <= 0.02 * e[2] && e[3] <= 0.06 * e[5] && e[6] <= 0.01 * e[7]) {
+            return Err(format!("{which}: errors {e:?}"));
+        }
     }
-}
-
-/// The embedded F-16's level trims against JSBSim's (`f16_trim.csv`, FCS engaged) from 140 to 260 m/s:
-/// angle of attack within 0.002 rad and tail within 0.002 rad; the trim is a pitch balance of JSBSim's
-/// tables at JSBSim's mass and centre of gravity, so a wrong sign or a factor of two in `Cm(α, δ)`, the
-/// lift table or the load points moves it by more.
-#[test]
-fn f16_embedded_trim_alpha_and_tail_match_jsbsim_over_the_speed_range() {
     let r = run("f16", "trim");
     let col = |c: &str| r.column(c).unwrap();
-    let (v, h, alpha, de) = (col("airspeed_m_s"), col("altitude_m"), col("alpha_rad"), col("elevator_rad"));
-    let mut a = f16();
+    let (v, h, alpha, de) = (
+        col("airspeed_m_s"),
+        col("altitude_m"),
+        col("alpha_rad"),
+        col("elevator_rad"),
+    );
+    let mut a = f16_from(text)?;
     let (mut ea, mut ed) = (0.0_f64, 0.0_f64);
     for k in 0..v.len() {
-        let s = a.trim(v[k], h[k]).unwrap();
+        let s = a.trim(v[k], h[k]).map_err(|e| e.to_string())?;
         ea = ea.max((s.alpha_rad - alpha[k]).abs());
         ed = ed.max((s.elevator_rad - de[k]).abs());
     }
-    eprintln!(
-        "f16 trims over {} speeds: max |alpha error| {ea:.5} rad, max |tail error| {ed:.5} rad",
-        v.len()
-    );
-    assert!(ea < 0.002, "alpha error {ea}");
-    assert!(ed < 0.002, "tail error {ed}");
+    if print {
+        eprintln!(
+            "f16 trims over {} speeds: max |alpha error| {ea:.5} rad, max |tail error| {ed:.5} rad",
+            v.len()
+        );
+    }
+    if !(ea < 0.002 && ed < 0.002) {
+        return Err(format!("trims: alpha error {ea}, tail error {ed}"));
+    }
+    Ok(())
+}
+
+/// `text` with every number of `key`'s value (one line, or a multi-line table up to its closing `]`)
+/// multiplied by `factor`.
+fn scale_key(text: &str, key: &str, factor: f64) -> String {
+    let mut out = String::new();
+    let mut inside = false;
+    for line in text.lines() {
+        let (code, comment) = line.split_once('#').map_or((line, ""), |(c, k)| (c, k));
+        let starts = code.trim_start().starts_with(&format!("{key} ="));
+        if starts || inside {
+            let value = if starts {
+                code.split_once('=').unwrap().1
+            } else {
+                code
+            };
+            let scaled: String = value
+                .split_inclusive(|c: char| "[], ".contains(c))
+                .map(|tok| {
+                    let (num, sep) = tok.split_at(tok.trim_end_matches(|c: char| "[], ".contains(c)).len());
+                    match num.parse::<f64>() {
+                        Ok(x) => format!("{:?}{sep}", x * factor),
+                        Err(_) => tok.to_string(),
+                    }
+                })
+                .collect();
+            out += &if starts {
+                format!("{key} ={scaled}")
+            } else {
+                scaled
+            };
+            inside = if starts {
+                code.trim_end().ends_with('[')
+            } else {
+                code.trim() != "]"
+            };
+        } else {
+            out += code;
+        }
+        if !comment.is_empty() {
+            out += "#";
+            out += comment;
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// The embedded F-16 (JSBSim's tables and pitch FCS in Rust, src/aero/fcs.rs) against JSBSim flown with
+/// its FCS: two stick-command doublets, at the design condition (200 m/s, 3000 m, flap up) and slow
+/// (110 m/s, 1000 m, where the push takes alpha below the leading-edge flap's step and the flap retracts),
+/// and level trims from 140 to 260 m/s ([`f16_checks`]). The load factor's error sits where the tail jumps
+/// (JSBSim reports the load factor of its frame's accelerations a frame late).
+#[test]
+fn f16_embedded_model_follows_jsbsim_doublets_through_the_fcs_and_its_trims() {
+    f16_checks(&f16_text(), true).unwrap();
+}
+
+/// The checks fail when a coefficient table, the inertia or an FCS gain of the F-16's file is doubled,
+/// halved or of the wrong sign (a negative inertia or gain is refused by the schema).
+#[test]
+fn f16_checks_fail_when_a_coefficient_or_gain_is_doubled_halved_or_of_the_wrong_sign() {
+    let text = f16_text();
+    for key in [
+        "cm",
+        "cl",
+        "cm_q",
+        "iyy_kg_m2",
+        "pitch_rate_gain_s",
+        "proportional_gain",
+    ] {
+        for factor in [2.0, 0.5, -1.0] {
+            let bad = scale_key(&text, key, factor);
+            assert_ne!(bad, text, "{key} not found");
+            // a negative inertia or gain is refused by the schema, which counts as failing
+            assert!(
+                f16_checks(&bad, false).is_err(),
+                "{key} x {factor} passes the checks"
+            );
+        }
+    }
 }
 
 /// Short-period and phugoid roots of the linearised model against the classical approximations

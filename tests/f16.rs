@@ -285,3 +285,57 @@ fn hands_off_the_fcs_flies_back_to_1_g_whatever_the_feel_system_does() {
         }
     }
 }
+
+/// The embedded F-16 (JSBSim's tables and pitch FCS in Rust, `model = "f16"`, no Python) flies the same
+/// pilot-in-the-loop pull-up as live JSBSim: the pilot, the feel loop and the sidestick are the same, only
+/// the aircraft differs. Facts asserted: load factor within 0.05 g RMS and pitch within 0.2° RMS of the live
+/// flight over the whole run, the hand's force within 2 N RMS; the embedded flight holds 3 g as the live one
+/// does (within 0.15 g over the last 1.5 s), with its flown force per g inside the Level 1 band.
+#[test]
+fn the_embedded_f16_flies_the_pilot_in_the_loop_pull_up_as_live_jsbsim_does() {
+    let path = scenario_path("f16-pullup.toml");
+    let live = fly(&path);
+    let (scn, devices, rig) = sim::load(&path).unwrap_or_else(|e| panic!("{e:#}"));
+    let scn = scn.with_aircraft_model("f16").unwrap();
+    let emb = sim::run(&scn, &devices, rig, RunOptions::default(), |_| {}).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(emb.flight.as_ref().unwrap().aircraft, "f16");
+    assert!(
+        emb.flight.as_ref().unwrap().round_trip_us.is_none(),
+        "no bridge for the embedded model"
+    );
+    assert_eq!(live.rows.len(), emb.rows.len());
+    let rms = |g: &dyn Fn(&Row) -> f64| {
+        let ss: f64 = live
+            .rows
+            .iter()
+            .zip(&emb.rows)
+            .map(|(a, b)| (g(a) - g(b)).powi(2))
+            .sum();
+        (ss / live.rows.len() as f64).sqrt()
+    };
+    let nz = rms(&|x| x.aero.unwrap().nz_g);
+    let pitch = rms(&|x| x.aero.unwrap().pitch_rad);
+    let hand = rms(&|x| x.pilot_force_n);
+    let f = f16();
+    let (t0, t1) = (4.5, 6.0);
+    let nz_emb = mean(&emb, t0, t1, |x| x.aero.unwrap().nz_g);
+    let per_g = mean(&emb, t0, t1, |x| x.pilot_force_n) / (nz_emb - 1.0);
+    let (lo, hi) = f.level1_per_g_n();
+    println!(
+        "F-16 pull-up, embedded vs live JSBSim: load factor {nz:.4} g RMS, pitch {:.3}° RMS, hand force {hand:.2} N \
+         RMS; embedded {nz_emb:.3} g over the last 1.5 s at {per_g:.1} N/g (Level 1 [{lo:.1}, {hi:.1}] N/g)",
+        pitch.to_degrees()
+    );
+    assert!(nz < 0.05, "load factor disagreement {nz} g RMS");
+    assert!(
+        pitch.to_degrees() < 0.2,
+        "pitch disagreement {}° RMS",
+        pitch.to_degrees()
+    );
+    assert!(hand < 2.0, "hand force disagreement {hand} N RMS");
+    assert!((nz_emb - 3.0).abs() < 0.15, "embedded: {nz_emb} g");
+    assert!(
+        (lo..=hi).contains(&per_g),
+        "embedded: {per_g} N/g outside Level 1"
+    );
+}

@@ -151,7 +151,8 @@ impl FbwModel {
             + a.cd_lef.eval(alpha) * lef_rad
             + (a.cd_q.eval(alpha) + a.cd_q_lef.eval(alpha) * lef_rad) * qhat
             + a.cd_mach.eval(mach);
-        let cm = a.cm.eval(alpha, elevator_rad) + a.cm_alpha_mach.eval(mach) * alpha + a.cm_q.eval(alpha) * qhat;
+        let cm =
+            a.cm.eval(alpha, elevator_rad) + a.cm_alpha_mach.eval(mach) * alpha + a.cm_q.eval(alpha) * qhat;
         let sigma = air.density_kg_m3 / RHO0_KG_M3;
         let thrust = throttle * self.max_thrust_n * sigma.powf(self.density_exponent);
         let s = self.wing_area_m2;
@@ -287,11 +288,19 @@ impl FbwAircraft {
         }
         let state = |p: &Vector3<f64>| -> X {
             let alpha = p[0];
-            [airspeed_m_s * alpha.cos(), airspeed_m_s * alpha.sin(), 0.0, alpha, altitude_m]
+            [
+                airspeed_m_s * alpha.cos(),
+                airspeed_m_s * alpha.sin(),
+                0.0,
+                alpha,
+                altitude_m,
+            ]
         };
         let residual = |p: &Vector3<f64>| -> Vector3<f64> {
             let x = state(p);
-            let lef = m.aero.lef_rad(p[0], airspeed_m_s / isa(altitude_m).speed_of_sound_m_s);
+            let lef = m
+                .aero
+                .lef_rad(p[0], airspeed_m_s / isa(altitude_m).speed_of_sound_m_s);
             let e = m.eval(&x, p[1], lef, p[2]);
             Vector3::new(e.dx[0] / G0_M_S2, e.dx[1] / G0_M_S2, e.dx[2])
         };
@@ -337,7 +346,9 @@ impl FbwAircraft {
         let gain = f.alpha_gain.eval(p[0]);
         let c = s / gain;
         if gain <= 0.0 || c < f.command_limits.0 || c > f.command_limits.1 {
-            return Err(fail(format!("the FCS cannot hold the trim surface (trim command {c:.3})")));
+            return Err(fail(format!(
+                "the FCS cannot hold the trim surface (trim command {c:.3})"
+            )));
         }
         self.trim_command = c;
         self.sensed = self.sense();
@@ -367,7 +378,8 @@ impl FbwAircraft {
         let s = (command.clamp(-1.0, 1.0) + self.trim_command).clamp(f.command_limits.0, f.command_limits.1)
             * f.alpha_gain.eval(alpha);
         let err = s + f.pitch_rate_gain_s * q - f.load_factor_gain_per_g * (pilot_nz - self.x[3].cos());
-        let u = (s + f.alpha_limiter_per_rad * alpha + (f.proportional_gain * err).clamp(-1.0, 1.0)).clamp(-1.0, 1.0);
+        let u = (s + f.alpha_limiter_per_rad * alpha + (f.proportional_gain * err).clamp(-1.0, 1.0))
+            .clamp(-1.0, 1.0);
         let max_move = 2.0 / f.full_travel_s * dt_s;
         self.surface += (u - self.surface).clamp(-max_move, max_move);
         self.throttle = throttle.clamp(0.0, 1.0);

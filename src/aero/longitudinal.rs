@@ -120,7 +120,10 @@ impl Airframe {
         let xa = -loads.drag_n * ca + loads.lift_n * sa;
         let za = -loads.drag_n * sa - loads.lift_n * ca;
         // arms from the CG in body axes: the structural frame is x aft, z up
-        let (rx_a, rz_a) = (-(self.aero_ref_x_m - self.cg_x_m), -(self.aero_ref_z_m - self.cg_z_m));
+        let (rx_a, rz_a) = (
+            -(self.aero_ref_x_m - self.cg_x_m),
+            -(self.aero_ref_z_m - self.cg_z_m),
+        );
         // thrust along body x: only the thruster's vertical offset from the CG makes a moment
         let rz_t = -(self.thrust_z_m - self.cg_z_m);
         let moment = loads.moment_nm + (rz_a * xa - rx_a * za) + rz_t * loads.thrust_n;
@@ -631,4 +634,3 @@ struct EvalAd {
     alphadot_out: f64,
     eval: Eval,
 }
-

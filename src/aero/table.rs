@@ -185,7 +185,10 @@ mod tests {
     fn two_dimensional_tables_are_bilinear_inside_and_held_outside() {
         let plane = |r: f64, c: f64| 1.0 + 2.0 * r - 3.0 * c;
         let (rows, cols) = ([0.0, 1.0, 3.0], [-1.0, 0.5]);
-        let values: Vec<Vec<f64>> = rows.iter().map(|&r| cols.iter().map(|&c| plane(r, c)).collect()).collect();
+        let values: Vec<Vec<f64>> = rows
+            .iter()
+            .map(|&r| cols.iter().map(|&c| plane(r, c)).collect())
+            .collect();
         let t = Table2::new(&rows, &cols, &values).unwrap();
         for (r, c) in [(0.3, -0.2), (2.0, 0.1), (1.0, -1.0), (3.0, 0.5)] {
             assert!((t.eval(r, c) - plane(r, c)).abs() < 1e-12, "{r} {c}");

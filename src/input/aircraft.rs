@@ -9,12 +9,12 @@ use toml::Spanned;
 use super::{InputError, Source};
 use crate::aero::fbw::{FlyByWire, BREAKOUT_RANGE_CLASS_IV_N};
 use crate::aero::fcs::{FbwModel, PitchFcs, TableAero};
-use crate::aero::longitudinal::Airframe;
-use crate::aero::Table2;
 use crate::aero::hinge::{FeelComputer, HingeModel};
 use crate::aero::hinge_theory::ControlGeometry;
+use crate::aero::longitudinal::Airframe;
 use crate::aero::model::{AircraftModel, CertificationPart, ControlType, Propulsion};
 use crate::aero::Table1;
+use crate::aero::Table2;
 
 type S<T> = Spanned<T>;
 /// A table as written: `[[x, y], ...]`, each row spanned so that a row with the wrong number of values is
@@ -560,7 +560,12 @@ impl FbwModel {
                 alpha_gain: table(&src, &c.alpha_gain, "fcs.alpha_gain")?,
                 alpha_limiter_per_rad: n(&c.alpha_limiter_per_rad, "fcs.alpha_limiter_per_rad", 0.0, 20.0)?,
                 pitch_rate_gain_s: n(&c.pitch_rate_gain_s, "fcs.pitch_rate_gain_s", 0.0, 100.0)?,
-                load_factor_gain_per_g: n(&c.load_factor_gain_per_g, "fcs.load_factor_gain_per_g", 0.0, 10.0)?,
+                load_factor_gain_per_g: n(
+                    &c.load_factor_gain_per_g,
+                    "fcs.load_factor_gain_per_g",
+                    0.0,
+                    10.0,
+                )?,
                 proportional_gain: n(&c.proportional_gain, "fcs.proportional_gain", 0.0, 100.0)?,
                 full_travel_s: n(&c.full_travel_s, "fcs.full_travel_s", 1e-3, 60.0)?,
                 elevator_max_rad,
@@ -693,6 +698,37 @@ mod tests {
         assert!(
             e.contains(&format!(
                 "bad.toml:{line}: field `propulsion.max_power_w`: required"
+            )),
+            "{e}"
+        );
+    }
+
+    /// A fly-by-wire file's embedded model: all three sections or none, and a table row with the wrong
+    /// number of values is named by its table's line and field with the row's number.
+    #[test]
+    fn an_embedded_fly_by_wire_model_needs_its_three_sections_and_whole_table_rows() {
+        let path = AircraftModel::builtin_path("f16");
+        let text = crate::input::text::read_text(&path).unwrap();
+        assert!(FbwModel::from_toml(&text, &path).unwrap().is_some());
+        let cut = text.find("\n[airframe]").unwrap();
+        assert!(FbwModel::from_toml(&text[..cut], &path).unwrap().is_none());
+        let no_fcs = &text[..text.find("\n[fcs]").unwrap()];
+        let e = FbwModel::from_toml(no_fcs, Path::new("f.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("f.toml") && e.contains("[fcs] missing"), "{e}");
+        let bad = text.replacen(
+            "[-0.659, -0.709, -0.754, -0.792, -0.825]",
+            "[-0.659, -0.709, -0.754]",
+            1,
+        );
+        let e = FbwModel::from_toml(&bad, Path::new("f.toml"))
+            .unwrap_err()
+            .to_string();
+        let line = line_with(&bad, "cl = [");
+        assert!(
+            e.contains(&format!(
+                "f.toml:{line}: field `aero_tables.cl`: row 1 has 3 values for 5 column"
             )),
             "{e}"
         );
