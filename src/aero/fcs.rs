@@ -32,7 +32,7 @@
 use nalgebra::Vector3;
 
 use super::atmosphere::{isa, RHO0_KG_M3};
-use super::longitudinal::{rk4, Airframe, Loads, X};
+use super::longitudinal::{newton3, rk4, Airframe, Loads, X};
 use super::table::{Table1, Table2};
 use super::{AeroError, AircraftState, FlyByWire};
 use crate::units::G0_M_S2;
@@ -304,28 +304,7 @@ impl FbwAircraft {
             let e = m.eval(&x, p[1], lef, p[2]);
             Vector3::new(e.dx[0] / G0_M_S2, e.dx[1] / G0_M_S2, e.dx[2])
         };
-        let mut p = Vector3::new(0.05, 0.0, 0.5);
-        let mut converged = false;
-        for _ in 0..60 {
-            let r = residual(&p);
-            if r.norm() < 1e-11 {
-                converged = true;
-                break;
-            }
-            let mut jac = nalgebra::Matrix3::<f64>::zeros();
-            for j in 0..3 {
-                let mut pp = p;
-                pp[j] += 1e-7;
-                jac.set_column(j, &((residual(&pp) - r) / 1e-7));
-            }
-            let Some(dp) = jac.lu().solve(&(-r)) else {
-                return Err(fail("singular trim Jacobian".into()));
-            };
-            p += dp * (0.1 / dp.amax()).min(1.0);
-        }
-        if !converged {
-            return Err(fail("no convergence in 60 Newton steps".into()));
-        }
+        let p = newton3(Vector3::new(0.05, 0.0, 0.5), residual).map_err(fail)?;
         let f = &m.fcs;
         if p[1].abs() > f.elevator_max_rad || !(0.0..=1.0).contains(&p[2]) {
             return Err(fail(format!(

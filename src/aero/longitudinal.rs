@@ -567,42 +567,47 @@ impl Aircraft {
             }
             a += 0.002;
         }
-        let mut p = Vector3::new(alpha0, 0.0, throttle.map(|_| 0.0).unwrap_or(0.5));
-        for _ in 0..60 {
-            let r = residual(&p);
-            if r.norm() < 1e-11 {
-                let (x, c) = state(&p);
-                if c.elevator_rad < m.hinge.elevator_min_rad || c.elevator_rad > m.hinge.elevator_max_rad {
-                    return Err(fail(format!(
-                        "elevator {:.4} rad is beyond its stops [{}, {}]",
-                        c.elevator_rad, m.hinge.elevator_min_rad, m.hinge.elevator_max_rad
-                    )));
-                }
-                if !matches!(throttle_mode, Throttle::Unbounded) && !(0.0..=1.0).contains(&c.throttle) {
-                    return Err(fail(format!("throttle {:.3} is outside [0, 1]", c.throttle)));
-                }
-                if best > 0.05 || m.cl_alpha.slope(p[0]) <= 0.0 {
-                    return Err(fail(format!("needs CL = {cl_need:.3}: at or beyond the stall")));
-                }
-                return Ok((x, c));
-            }
-            let mut jac = Matrix3::<f64>::zeros();
-            for j in 0..3 {
-                let mut pp = p;
-                let hstep = 1e-7;
-                pp[j] += hstep;
-                let col = (residual(&pp) - r) / hstep;
-                jac.set_column(j, &col);
-            }
-            let Some(dp) = jac.lu().solve(&(-r)) else {
-                return Err(fail("singular trim Jacobian".into()));
-            };
-            // damp large steps
-            let scale = (0.1 / dp.amax()).min(1.0);
-            p += dp * scale;
+        let p0 = Vector3::new(alpha0, 0.0, throttle.map(|_| 0.0).unwrap_or(0.5));
+        let p = newton3(p0, residual).map_err(fail)?;
+        let (x, c) = state(&p);
+        if c.elevator_rad < m.hinge.elevator_min_rad || c.elevator_rad > m.hinge.elevator_max_rad {
+            return Err(fail(format!(
+                "elevator {:.4} rad is beyond its stops [{}, {}]",
+                c.elevator_rad, m.hinge.elevator_min_rad, m.hinge.elevator_max_rad
+            )));
         }
-        Err(fail("no convergence in 60 Newton steps".into()))
+        if !matches!(throttle_mode, Throttle::Unbounded) && !(0.0..=1.0).contains(&c.throttle) {
+            return Err(fail(format!("throttle {:.3} is outside [0, 1]", c.throttle)));
+        }
+        if best > 0.05 || m.cl_alpha.slope(p[0]) <= 0.0 {
+            return Err(fail(format!("needs CL = {cl_need:.3}: at or beyond the stall")));
+        }
+        Ok((x, c))
     }
+}
+
+/// The root of a trim's three residuals from `p`: Newton's method on a forward-difference Jacobian, each
+/// step scaled so that no unknown moves more than 0.1; converged when the residual's norm is below 1e-11.
+pub(crate) fn newton3(
+    mut p: Vector3<f64>,
+    residual: impl Fn(&Vector3<f64>) -> Vector3<f64>,
+) -> Result<Vector3<f64>, String> {
+    for _ in 0..60 {
+        let r = residual(&p);
+        if r.norm() < 1e-11 {
+            return Ok(p);
+        }
+        let mut jac = Matrix3::<f64>::zeros();
+        for j in 0..3 {
+            let mut pp = p;
+            let hstep = 1e-7;
+            pp[j] += hstep;
+            jac.set_column(j, &((residual(&pp) - r) / hstep));
+        }
+        let dp = jac.lu().solve(&(-r)).ok_or("singular trim Jacobian")?;
+        p += dp * (0.1 / dp.amax()).min(1.0);
+    }
+    Err("no convergence in 60 Newton steps".into())
 }
 
 /// Dynamic pressure in a propeller's fully developed slipstream, Pa: momentum theory gives the
