@@ -319,6 +319,34 @@ fn f16_embedded_model_follows_jsbsim_doublets_through_the_fcs_and_its_trims() {
     f16_checks(&f16_text(), true).unwrap();
 }
 
+/// The design figure the F-16's feel law is sized on, `design.g_per_command` ([RUN] in the file: JSBSim's
+/// load factor 2 s after the stick command steps to -0.3 from trim at 200 m/s, 3000 m, 2.749 g from
+/// 0.996 g), flown on the embedded model: within 2 % of JSBSim's load factor gained (the step takes
+/// alpha past the leading-edge flap's step, so the flap deploys on the way).
+#[test]
+fn f16_embedded_step_gives_the_files_g_per_command() {
+    let mut a = f16_from(&f16_text()).unwrap();
+    let trim = a.trim(200.0, 3000.0).unwrap();
+    let dt = 1.0 / 120.0;
+    let mut s = trim;
+    for _ in 0..240 {
+        s = *a.step(-0.3, trim.throttle, dt);
+    }
+    let fbw = mrfeel::aero::FlyByWire::load(&AircraftModel::builtin_path("f16")).unwrap();
+    let flown = (s.nz_g - trim.nz_g) / 0.3;
+    eprintln!(
+        "f16 step to -0.3: {:.3} g from {:.3} g 2 s later, alpha {:.2} deg: {flown:.2} g per command (file {:.2})",
+        s.nz_g,
+        trim.nz_g,
+        s.alpha_rad.to_degrees(),
+        fbw.g_per_command
+    );
+    assert!(
+        (flown / fbw.g_per_command - 1.0).abs() < 0.02,
+        "{flown} g per command"
+    );
+}
+
 /// The checks fail when a coefficient table, the inertia or an FCS gain of the F-16's file is doubled,
 /// halved or of the wrong sign (a negative inertia or gain is refused by the schema).
 #[test]
