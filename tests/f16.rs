@@ -339,3 +339,46 @@ fn the_embedded_f16_flies_the_pilot_in_the_loop_pull_up_as_live_jsbsim_does() {
         "embedded: {per_g} N/g outside Level 1"
     );
 }
+
+/// The designed feel across the envelope (`scenarios/sweeps/f16-envelope.toml` at 3000 m, embedded model):
+/// each run of the sweep gets a MIL-F-8785C Level from the force per g the pilot flew and its own n/α.
+/// Facts asserted: at the design condition (200 m/s) the sweep's n/α, the lift table's slope, is within
+/// 10 % of the file's figure from a JSBSim run (21.9 g/rad, which also counts the flap and pitch-rate lift),
+/// and the run is Level 1; n/α rises with speed; from 150 to 250 m/s the airframe needs less tail per g as
+/// the dynamic pressure rises, so the FCS gives more load factor per command and the force per g flown
+/// falls by more than 30 % per 50 m/s (beyond, the FCS's own pitch-rate and α terms set it: 15.4 N/g at 250
+/// m/s, 15.9 at 300).
+#[test]
+fn the_f16_envelope_sweep_gives_each_condition_a_level_from_the_force_per_g_flown() {
+    let plan = mrfeel::sweep::Plan::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/sweeps/f16-envelope.toml"),
+    )
+    .unwrap();
+    // a grid, the last axis (altitude: 1000, 3000, 6000 m) fastest
+    assert_eq!(plan.run_count(), 12);
+    let runs: Vec<_> = [1, 4, 7, 10]
+        .iter()
+        .map(|&k| mrfeel::sweep::run_one(&plan, &plan.run(k)).outcome)
+        .collect();
+    assert_eq!(runs.len(), 4);
+    for (v, o) in [150.0, 200.0, 250.0, 300.0].iter().zip(&runs) {
+        println!(
+            "F-16 at {v} m/s, 3000 m: {:.1} N/g flown, n/α {:.1} g/rad, Level {:?}",
+            o.stick_force_per_g_flown_n.unwrap_or(f64::NAN),
+            o.n_per_alpha_g_per_rad.unwrap_or(f64::NAN),
+            o.per_g_level
+        );
+        assert_eq!(o.error, None);
+        assert!(o.per_g_level.is_some(), "{v} m/s: no Level");
+    }
+    let design = &runs[1];
+    let na = design.n_per_alpha_g_per_rad.unwrap();
+    assert!((na / f16().n_alpha_per_rad - 1.0).abs() < 0.10, "n/α {na} g/rad");
+    assert_eq!(design.per_g_level, Some(1));
+    for w in runs.windows(2) {
+        assert!(w[1].n_per_alpha_g_per_rad.unwrap() > w[0].n_per_alpha_g_per_rad.unwrap());
+    }
+    for w in runs[..3].windows(2) {
+        assert!(w[1].stick_force_per_g_flown_n.unwrap() < 0.7 * w[0].stick_force_per_g_flown_n.unwrap());
+    }
+}

@@ -174,6 +174,15 @@ impl FbwModel {
         }
     }
 
+    /// Acceleration sensitivity `n/α = q̄ S C_Lα / W` at angle of attack `alpha` and tail `elevator_rad`,
+    /// g/rad (`C_Lα` the lift table's slope there, over ±0.01 rad).
+    pub fn n_per_alpha_g_per_rad(&self, alpha: f64, elevator_rad: f64, qbar_pa: f64) -> f64 {
+        let d = 0.01;
+        let cl = |a: f64| self.aero.cl.eval(a, elevator_rad);
+        let cl_alpha = (cl(alpha + d) - cl(alpha - d)) / (2.0 * d);
+        qbar_pa * self.wing_area_m2 * cl_alpha / (self.airframe.mass_kg * G0_M_S2)
+    }
+
     /// The pilot station's normal specific force, g (z body down: about −1 in level flight).
     fn pilot_nz(&self, x: &X, e: &Eval) -> f64 {
         let f = &self.airframe;

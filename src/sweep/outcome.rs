@@ -7,7 +7,7 @@ use super::hq;
 use super::steady::{steady_per_g, Lever};
 use crate::aero::certification::CertificationBasis;
 use crate::aero::model::{AircraftModel, CertificationPart, ControlType};
-use crate::aero::Aircraft;
+use crate::aero::{Aircraft, FbwModel, FlyByWire};
 use crate::control::law::FeelLaw;
 use crate::scenario::Scenario;
 use crate::sim::Results;
@@ -73,7 +73,8 @@ pub struct Outcome {
     pub far_temporary_ok: Option<bool>,
     /// 14 CFR 23.143 / 25.143: prolonged force within the prolonged limit.
     pub far_prolonged_ok: Option<bool>,
-    /// MIL-F-8785C Table V Level of the stick force per g (4: outside Level 3).
+    /// MIL-F-8785C Table V Level of the stick force per g (4: outside Level 3): of the steady pull-up's, or
+    /// for a fly-by-wire aircraft of the force per g flown.
     pub per_g_level: Option<u8>,
     /// 14 CFR Part 60 force tolerance met throughout.
     pub part60_force_ok: Option<bool>,
@@ -109,13 +110,24 @@ impl Outcome {
         let grip: Vec<f64> = res.rows.iter().map(|r| r.pilot_force_n).collect();
         let peak = grip.iter().fold(0.0_f64, |m, f| m.max(f.abs()));
         let prolonged = hq::prolonged_force_n(&t, &grip, prolonged_window_s);
-        let model = scn.aircraft.as_ref().and_then(|a| {
-            AircraftModel::load_builtin(a.model.strip_prefix("jsbsim:").unwrap_or(&a.model)).ok()
-        });
-        let basis = match &model {
-            Some(m) => CertificationBasis::for_model(m),
+        let name = scn
+            .aircraft
+            .as_ref()
+            .map(|a| a.model.strip_prefix("jsbsim:").unwrap_or(&a.model));
+        let model = name.and_then(|n| AircraftModel::load_builtin(n).ok());
+        // A fly-by-wire aircraft: its stick's design and, where its file has one, its embedded model.
+        let fbw = match (&model, name.and_then(|n| AircraftModel::builtin(n).ok())) {
+            (None, Some(path)) => FlyByWire::load(&path)
+                .ok()
+                .map(|stick| (stick, FbwModel::load(&path).ok().flatten())),
+            _ => None,
+        };
+        let basis = match (&model, &fbw) {
+            (Some(m), _) => CertificationBasis::for_model(m),
+            // MIL-F-8785C, Class IV: the designed feel's basis (`aero::fbw`).
+            (None, Some(_)) => CertificationBasis::new(CertificationPart::MilF8785C, ControlType::Stick, 0.0),
             // The rig alone: a stick under Part 23 (the paper's light-aircraft stick).
-            None => CertificationBasis::new(CertificationPart::Part23, ControlType::Stick, 0.0),
+            (None, None) => CertificationBasis::new(CertificationPart::Part23, ControlType::Stick, 0.0),
         };
         let (temporary, prolonged_limit) = hq::force_limits(&basis);
         let lever = Lever {
@@ -187,7 +199,11 @@ impl Outcome {
             .iter()
             .filter_map(|r| r.aero.map(|a| (r.pilot_force_n, a)))
             .collect();
-        if let (Some(m), Some(first)) = (&model, aero.first()) {
+        let verdict_of = model
+            .as_ref()
+            .map(|m| (m.limit_load_factor, None))
+            .or(fbw.as_ref().map(|(f, e)| (f.limit_load_factor, Some(e))));
+        if let (Some((n_limit, fbw_model)), Some(first)) = (verdict_of, aero.first()) {
             // The felt force's sign as the aircraft's (pull +): the pilot's force on the grip follows it.
             let dot: f64 = aero.iter().map(|(f, a)| f * a.stick_force_n).sum();
             let sign = if dot < 0.0 { -1.0 } else { 1.0 };
@@ -196,19 +212,33 @@ impl Outcome {
             let nz_lo = aero.iter().map(|(_, a)| a.nz_g).fold(f64::INFINITY, f64::min);
             let nz_hi = aero.iter().map(|(_, a)| a.nz_g).fold(f64::NEG_INFINITY, f64::max);
             o.nz_span_g = finite(nz_hi - nz_lo);
-            // n/α = q̄ S C_Lα / W at the trim's angle of attack (C_Lα the slope of the lift table there).
-            let alpha = first.1.alpha_rad;
-            let d = 0.01;
-            let cl_alpha = (m.cl_alpha.eval(alpha + d) - m.cl_alpha.eval(alpha - d)) / (2.0 * d);
-            let n_alpha = first.1.qbar_pa * m.wing_area_m2 * cl_alpha / (m.mass_kg * G0_M_S2);
+            // n/α = q̄ S C_Lα / W at the trim's angle of attack (C_Lα the slope of the lift table there); a
+            // fly-by-wire aircraft without an embedded model: its design condition's.
+            let (alpha, qbar) = (first.1.alpha_rad, first.1.qbar_pa);
+            let n_alpha = match (&model, &fbw) {
+                (Some(m), _) => {
+                    let d = 0.01;
+                    let cl_alpha = (m.cl_alpha.eval(alpha + d) - m.cl_alpha.eval(alpha - d)) / (2.0 * d);
+                    qbar * m.wing_area_m2 * cl_alpha / (m.mass_kg * G0_M_S2)
+                }
+                (None, Some((_, Some(e)))) => e.n_per_alpha_g_per_rad(alpha, first.1.elevator_rad, qbar),
+                (None, Some((f, None))) => f.n_alpha_per_rad,
+                (None, None) => f64::NAN,
+            };
             o.n_per_alpha_g_per_rad = finite(n_alpha);
             if nz_hi - nz_lo >= MIN_NZ_SPAN_G {
                 let per_g =
                     crate::compare::metrics::slope(aero.iter().zip(&felt).map(|((_, a), f)| (a.nz_g, *f)));
                 o.stick_force_per_g_flown_n = finite(per_g);
             }
-            if let (Some(g), Some(na)) = (o.stick_force_per_g_n, o.n_per_alpha_g_per_rad) {
-                let bounds = hq::centre_stick_per_g_bounds(m.limit_load_factor, na);
+            // The verdict's force per g: the feel's steady pull-up, or for a fly-by-wire aircraft (no steady
+            // hinge moment to hold; its FCS sets the load factor a force gives) the force per g flown.
+            let per_g = match fbw_model {
+                None => o.stick_force_per_g_n,
+                Some(_) => o.stick_force_per_g_flown_n,
+            };
+            if let (Some(g), Some(na)) = (per_g, o.n_per_alpha_g_per_rad) {
+                let bounds = hq::centre_stick_per_g_bounds(n_limit, na);
                 o.per_g_level = Some(hq::per_g_level(g, &bounds));
             }
             o.part60_force_ratio = hq::part60_force_ratio(&felt, &target).and_then(finite);
