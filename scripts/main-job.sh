@@ -49,14 +49,17 @@ if step 6 "Feel systems compared (springs, MR, hybrid) and under faults"; then
     "$mrfeel" compare scenarios/compare-feel.toml --plot "$out/compare" --rerun "$out/compare.rrd" --faults
 fi
 
-if step 7 "Feel design across the c172p's envelope: five feel systems x airspeed x altitude x two pilots (200 runs), handling-qualities verdicts, maps by Level"; then
+if step 7 "Feel design across the envelope: the c172p's five feel systems x airspeed x altitude x two pilots (200 runs), the F-16's designed feel (12 runs); handling-qualities verdicts, maps by Level"; then
     # A fresh directory: a sweep resumes from what its output directory already holds.
     rm -rf "$out/sweep-c172p-envelope"
     "$mrfeel" sweep scenarios/sweeps/c172p-envelope.toml --out "$out/sweep-c172p-envelope"
+    # The F-16's designed sidestick feel over its envelope, on the embedded model and FCS (12 runs).
+    rm -rf "$out/sweep-f16-envelope"
+    "$mrfeel" sweep scenarios/sweeps/f16-envelope.toml --out "$out/sweep-f16-envelope"
 fi
 
 if step 8 "A pull-up in each aircraft: stick force against load factor, flown and steady, against its basis's band"; then
-    # f16-pullup flies JSBSim live (the fly-by-wire F-16 has no embedded model): it needs .venv with jsbsim
+    # f16-pullup flies JSBSim live through its own FCS: it needs .venv with jsbsim
     for scn in c172p-pullup T37-pullup 737-approach f16-pullup; do
         "$mrfeel" run "scenarios/$scn.toml" --out "$out/flight/$scn.csv" --plot "$out/flight/$scn"
     done

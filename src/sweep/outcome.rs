@@ -247,6 +247,13 @@ impl Outcome {
         o
     }
 
+    /// The stick force per g that `per_g_level` judges, N/g: the steady pull-up's, or for a fly-by-wire
+    /// aircraft the force per g flown.
+    pub fn per_g_judged_n(&self) -> Option<f64> {
+        self.per_g_level
+            .and(self.stick_force_per_g_n.or(self.stick_force_per_g_flown_n))
+    }
+
     /// The columns, in the results' order.
     pub fn columns(&self) -> Vec<(&'static str, Cell)> {
         use Cell::{B, F, S, U};

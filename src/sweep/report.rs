@@ -144,7 +144,7 @@ pub fn report(name: &str, columns: &[String], records: &[Record], maps: &[PathBu
             r.index,
             params.join(" | "),
             r.outcome.per_g_level.map_or("–".into(), |l| l.to_string()),
-            num(r.outcome.stick_force_per_g_n),
+            num(r.outcome.per_g_judged_n()),
             num(r.outcome.part60_force_ratio),
             num(r.outcome.grip_force_peak_n)
         ));
@@ -272,7 +272,7 @@ pub fn maps(
         let cell = MapCell {
             failed: o.error.is_some(),
             level: o.per_g_level,
-            per_g_n: o.stick_force_per_g_n,
+            per_g_n: o.per_g_judged_n(),
             overload: o.load_cell_ok == Some(false),
         };
         let e = panels
@@ -291,7 +291,8 @@ pub fn maps(
     let n = panels.len().max(1);
     let cols = n.min(3);
     let rows = n.div_ceil(cols);
-    let size = (460 * cols as u32, 360 * rows as u32 + HEADER_PX);
+    // at least the header's width: its title and legend are one line each
+    let size = ((460 * cols as u32).max(1000), 360 * rows as u32 + HEADER_PX);
     let grid = Grid { xs, ys };
     let png = dir.join("map-level.png");
     let svg = dir.join("map-level.svg");
@@ -356,8 +357,8 @@ fn draw_panels<DB: DrawingBackend>(
     root.fill(&WHITE).map_err(e)?;
     let (top, body) = root.split_vertically(HEADER_PX);
     top.draw_text(
-        "Stick force per g in the steady pull-up, MIL-F-8785C Table V (centre stick): each cell the worst run \
-         there, its Level and N/g; thick lines: Level boundaries",
+        "Stick force per g (steady pull-up; flown, fly-by-wire), MIL-F-8785C Table V (centre stick): the \
+         worst run per cell, its Level and N/g; thick lines: Level boundaries",
         &("sans-serif", 14).into_text_style(&top),
         (10, 8),
     )
