@@ -341,7 +341,8 @@ fn the_embedded_f16_flies_the_pilot_in_the_loop_pull_up_as_live_jsbsim_does() {
 }
 
 /// The designed feel across the envelope (`scenarios/sweeps/f16-envelope.toml` at 3000 m, embedded model):
-/// each run of the sweep gets a MIL-F-8785C Level from the force per g the pilot flew and its own n/α.
+/// each run of the sweep gets a MIL-F-8785C Level from the force per g the pilot flew and its own n/α, and a
+/// Part 60 breakout verdict against the designed law's breakout, which the damper renders within ±2 lbf.
 /// Facts asserted: at the design condition (200 m/s) the sweep's n/α, the lift table's slope, is within
 /// 10 % of the file's figure from a JSBSim run (21.9 g/rad, which also counts the flap and pitch-rate lift),
 /// and the run is Level 1; n/α rises with speed; from 150 to 250 m/s the airframe needs less tail per g as
@@ -370,6 +371,14 @@ fn the_f16_envelope_sweep_gives_each_condition_a_level_from_the_force_per_g_flow
         );
         assert_eq!(o.error, None);
         assert!(o.per_g_level.is_some(), "{v} m/s: no Level");
+        // the damper renders the designed breakout within 14 CFR Part 60's ±2 lbf
+        assert_eq!(o.breakout_ref_n, Some(f16().breakout_n));
+        assert_eq!(
+            o.part60_breakout_ok,
+            Some(true),
+            "{v} m/s: breakout {:?} N",
+            o.breakout_n
+        );
     }
     let design = &runs[1];
     let na = design.n_per_alpha_g_per_rad.unwrap();

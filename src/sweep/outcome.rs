@@ -144,9 +144,13 @@ impl Outcome {
             &grip,
             scn.controller.rest_speed_m_s / lever.gearing_m_per_rad,
         );
-        let breakout_ref = match (&scn.feel, &model) {
-            (FeelLaw::Target { .. }, Some(m)) => Some(m.hinge.feel_computer.map_or(0.0, |fc| fc.breakout_n)),
-            (FeelLaw::Spring { breakout_n, .. }, _) => Some(breakout_n * to_grip),
+        let breakout_ref = match (&scn.feel, &model, &fbw) {
+            (FeelLaw::Target { .. }, Some(m), _) => {
+                Some(m.hinge.feel_computer.map_or(0.0, |fc| fc.breakout_n))
+            }
+            // a fly-by-wire stick's designed law (`aero::fbw`)
+            (FeelLaw::Target { .. }, None, Some((stick, _))) => Some(stick.breakout_n),
+            (FeelLaw::Spring { breakout_n, .. }, ..) => Some(breakout_n * to_grip),
             _ => None,
         };
         let breakout = line.and_then(|l| finite(l.breakout_n));
