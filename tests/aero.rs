@@ -898,6 +898,49 @@ fn adapted_pilot_crosses_at_the_chosen_frequency_on_the_nonlinear_aircraft() {
     }
 }
 
+/// McRuer's adapted pilot on the fly-by-wire F-16, designed on the embedded model's frame map linearised
+/// with its FCS (the grip force to the FCS's command through the designed law, the hand's 0.1 s lag), closes
+/// the loop at the chosen crossover on the **nonlinear** model: the open loop built from the response to a
+/// force sinusoid measured by simulation crosses unity within 3 % of ω_c, for pitch and load factor.
+#[test]
+fn adapted_pilot_crosses_at_the_chosen_frequency_on_the_fly_by_wire_f16() {
+    use mrfeel::aero::linear::{adapted_fly_by_wire_pilot, simulated_response, Complex};
+    use mrfeel::pilot::attitude::{CrossoverDesign, PilotLoop};
+    let (hand_lag_s, dt) = (0.1, 1.0 / 120.0);
+    let stick = mrfeel::aero::FlyByWire::load(&AircraftModel::builtin_path("f16")).unwrap();
+    let per_newton = 1.0 / stick.full_command_force_n();
+    let mut a = f16_from(&f16_text()).unwrap();
+    let trim = a.trim(200.0, 3000.0).unwrap();
+    for (output, w_c, amplitude_n) in [(PilotLoop::Pitch, 2.0, 1.0), (PilotLoop::LoadFactor, 1.5, 1.0)] {
+        let d = CrossoverDesign::new(w_c, 0.2);
+        let p = adapted_fly_by_wire_pilot(&a, output, &d, hand_lag_s, per_newton, dt).unwrap();
+        let ws = [0.9 * w_c, w_c, 1.1 * w_c];
+        let m = ws.map(|w| {
+            let mut ac = a.clone();
+            // a pull of F newtons (beyond the breakout) is the command F / F_c, JSBSim's sign negative
+            let yc = simulated_response(
+                |f| *ac.step(-f * per_newton, trim.throttle, dt),
+                &trim,
+                output,
+                w,
+                amplitude_n,
+                dt,
+            );
+            (p.describing_function(w) * yc / Complex::new(1.0, w * hand_lag_s)).norm()
+        });
+        let wx = log_crossing(ws, m).unwrap_or(f64::NAN);
+        eprintln!(
+            "f16 {output:?} at 200 m/s: adapted pilot K {:.4}, T_L {:.3} s, T_I {:.3} s, K_i {:.4}/s; |L| on the \
+             nonlinear model {:.3} / {:.3} / {:.3} at 0.9 / 1 / 1.1 w_c; crossover {wx:.3} rad/s (chosen {w_c})",
+            p.gain, p.lead_s, p.lag_s, p.integral_per_s, m[0], m[1], m[2]
+        );
+        assert!(
+            (wx / w_c - 1.0).abs() < 0.03,
+            "{output:?}: crossover {wx} vs {w_c}"
+        );
+    }
+}
+
 /// The c172p pull-up task of `scenarios/c172p-pullup.toml` (1 → 1.3 g in 1 s from 2 s, held to 7 s,
 /// back to 1 g by 8 s) flown by a pilot whose stick reaches the elevator through the hand's 0.1 s
 /// activation lag only (no rig, no feel device): RMS load-factor error from the first command on.

@@ -29,12 +29,13 @@
 //! proportional. Trim: the airframe's steady state, then the trim command that makes `u` equal the trim
 //! surface with `q = 0`.
 
-use nalgebra::Vector3;
+use nalgebra::{Complex, SMatrix, SVector, Vector3};
 
 use super::atmosphere::{isa, RHO0_KG_M3};
 use super::longitudinal::{newton3, rk4, Airframe, Loads, X};
 use super::table::{Table1, Table2};
 use super::{AeroError, AircraftState, FlyByWire};
+use crate::pilot::attitude::PilotLoop;
 use crate::units::G0_M_S2;
 
 /// Tabulated longitudinal aerodynamics (the module header's build-up).
@@ -376,6 +377,73 @@ impl FbwAircraft {
         self.t_s += dt_s;
         self.refresh();
         &self.state
+    }
+}
+
+/// The frame map's state: airframe `[u, w, q, θ, h]`, the surface, and the FCS's sensors of one frame ago.
+type Z = [f64; 9];
+
+impl FbwAircraft {
+    fn z(&self) -> Z {
+        let [u, w, q, th, h] = self.x;
+        let s = self.sensed;
+        [u, w, q, th, h, self.surface, s.alpha, s.q, s.pilot_nz]
+    }
+
+    fn with_z(&self, z: &Z) -> Self {
+        let mut a = self.clone();
+        a.x = [z[0], z[1], z[2], z[3], z[4]];
+        a.surface = z[5];
+        a.sensed = Sensed {
+            alpha: z[6],
+            q: z[7],
+            pilot_nz: z[8],
+        };
+        a.refresh();
+        a
+    }
+
+    fn output(&self, output: PilotLoop) -> f64 {
+        match output {
+            PilotLoop::Pitch => self.state.theta_rad,
+            PilotLoop::LoadFactor => self.state.nz_g,
+        }
+    }
+
+    /// The response of `output` (pitch, rad; load factor, g) to the stick's normalised command (pull +)
+    /// at `omega_rad_s`, about the present state with the throttle held: the frame map of [`Self::step`]
+    /// over `dt_s`, linearised by central differences over its state (airframe, surface, the FCS's
+    /// sensors), `Y(jω) = C (e^{jωT} I − A)⁻¹ B` with `T = dt_s`.
+    pub fn command_response(&self, output: PilotLoop, omega_rad_s: f64, dt_s: f64) -> Complex<f64> {
+        let z0 = self.z();
+        let throttle = self.throttle;
+        let frame = |z: &Z, pull: f64| -> (Z, f64) {
+            let mut a = self.with_z(z);
+            a.step(-pull, throttle, dt_s);
+            (a.z(), a.output(output))
+        };
+        let h = |v: f64| 1e-6 * v.abs().max(1.0);
+        let mut am = SMatrix::<Complex<f64>, 9, 9>::zeros();
+        let mut c = SMatrix::<Complex<f64>, 1, 9>::zeros();
+        for j in 0..9 {
+            let (mut zp, mut zm) = (z0, z0);
+            zp[j] += h(z0[j]);
+            zm[j] -= h(z0[j]);
+            let ((fp, _), (fm, _)) = (frame(&zp, 0.0), frame(&zm, 0.0));
+            for i in 0..9 {
+                am[(i, j)] = Complex::from((fp[i] - fm[i]) / (2.0 * h(z0[j])));
+            }
+            let d = self.with_z(&zp).output(output) - self.with_z(&zm).output(output);
+            c[j] = Complex::from(d / (2.0 * h(z0[j])));
+        }
+        let du = 1e-4;
+        let ((fp, _), (fm, _)) = (frame(&z0, du), frame(&z0, -du));
+        let b = SVector::<Complex<f64>, 9>::from_fn(|i, _| Complex::from((fp[i] - fm[i]) / (2.0 * du)));
+        let zc = Complex::from_polar(1.0, omega_rad_s * dt_s);
+        let m = SMatrix::<Complex<f64>, 9, 9>::identity() * zc - am;
+        m.lu()
+            .solve(&b)
+            .map_or(Complex::new(f64::NAN, f64::NAN), |x| (c * x)[0])
     }
 }
 

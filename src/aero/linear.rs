@@ -119,6 +119,32 @@ pub fn adapted_pilot(
     )
 }
 
+/// McRuer's adapted pilot for a fly-by-wire aircraft's embedded model, trimmed: the controlled element is
+/// the FCS and airframe from the stick's normalised command, `command_per_output` command per unit of
+/// the pilot's output (per newton on the grip for a force task, per radian of stick otherwise), behind the
+/// stick's lag.
+pub fn adapted_fly_by_wire_pilot(
+    aircraft: &super::FbwAircraft,
+    output: PilotLoop,
+    design: &CrossoverDesign,
+    stick_lag_s: f64,
+    command_per_output: f64,
+    dt_s: f64,
+) -> Result<CrossoverPilotConfig, CrossoverDesignError> {
+    if !(stick_lag_s.is_finite() && stick_lag_s >= 0.0) {
+        return Err(CrossoverDesignError(format!(
+            "stick lag {stick_lag_s} s must be finite and >= 0"
+        )));
+    }
+    CrossoverPilotConfig::adapted_with(
+        |w| {
+            aircraft.command_response(output, w, dt_s) * command_per_output
+                / Complex::new(1.0, w * stick_lag_s)
+        },
+        design,
+    )
+}
+
 /// The stick-to-output response of the **nonlinear** aircraft at `omega_rad_s`, measured by
 /// simulation from its present (trimmed) state: a stick sinusoid of `stick_amplitude_rad` about the
 /// present elevator, faded in over two periods (raised cosine, so the slow phugoid is barely
@@ -135,6 +161,27 @@ pub fn simulated_stick_response(
     let mut ac = aircraft.clone();
     let s0 = *ac.state();
     let g = -ac.hinge().elevator_per_stick_rad_per_rad;
+    simulated_response(
+        |stick| *ac.step(s0.elevator_rad + g * stick, s0.throttle, dt_s),
+        &s0,
+        output,
+        omega_rad_s,
+        stick_amplitude_rad,
+        dt_s,
+    )
+}
+
+/// The response measured as [`simulated_stick_response`] does, for any aircraft: `step` flies one step of
+/// `dt_s` with the input (relative to trim) held and returns the state; `s0` is the state at the start.
+/// Returns the complex ratio output/input.
+pub fn simulated_response(
+    mut step: impl FnMut(f64) -> super::AircraftState,
+    s0: &super::AircraftState,
+    output: PilotLoop,
+    omega_rad_s: f64,
+    amplitude: f64,
+    dt_s: f64,
+) -> Complex<f64> {
     let period = 2.0 * std::f64::consts::PI / omega_rad_s;
     let (fade, measure) = (2.0 * period, 8.0 * period);
     let n = ((fade + measure) / dt_s).round() as usize;
@@ -148,15 +195,14 @@ pub fn simulated_stick_response(
     let t_mid = fade + 0.5 * measure;
     for k in 0..n {
         let t = k as f64 * dt_s;
-        // stick over the step [t, t + dt]: evaluated at the step's middle
+        // input over the step [t, t + dt]: evaluated at the step's middle
         let tm = t + 0.5 * dt_s;
         let env = if tm < fade {
             0.5 * (1.0 - (std::f64::consts::PI * tm / fade).cos())
         } else {
             1.0
         };
-        let stick = stick_amplitude_rad * env * (omega_rad_s * tm).sin();
-        let s = *ac.step(s0.elevator_rad + g * stick, s0.throttle, dt_s);
+        let s = step(amplitude * env * (omega_rad_s * tm).sin());
         let t1 = t + dt_s;
         if t1 >= fade {
             let tau = (t1 - t_mid) / measure;
@@ -172,8 +218,8 @@ pub fn simulated_stick_response(
         }
     }
     let coef = ata.lu().solve(&aty).unwrap_or_else(nalgebra::SVector::zeros);
-    // y = a sin ωt + b cos ωt = Im[(a + j b) e^{jωt}], stick = A Im[e^{jωt}]
-    Complex::new(coef[0], coef[1]) / stick_amplitude_rad
+    // y = a sin ωt + b cos ωt = Im[(a + j b) e^{jωt}], input = A Im[e^{jωt}]
+    Complex::new(coef[0], coef[1]) / amplitude
 }
 
 #[cfg(test)]

@@ -75,6 +75,41 @@ fn adapted(
     })
 }
 
+/// The crossover pilot adapted to a fly-by-wire aircraft at its trim: designed on its embedded model and
+/// FCS (also when flying JSBSim live); `design` is (crossover, delay, stick lag).
+fn adapted_fly_by_wire(
+    cfg: &AircraftConfig,
+    kind: PilotLoop,
+    design: (f64, f64, f64),
+    command_per_output: f64,
+    dt_s: f64,
+) -> Result<CrossoverPilotConfig, AeroError> {
+    let (crossover_rad_s, delay_s, stick_lag_s) = design;
+    let name = cfg.model.strip_prefix("jsbsim:").unwrap_or(&cfg.model);
+    let Some(model) = crate::aero::FbwModel::load(&crate::aero::backend::model_file(name)?)? else {
+        return Err(AeroError::Refused {
+            what: format!("adapted pilot for `{}`", cfg.model),
+            why: "the adapted pilot is designed on an embedded model ([airframe], [aero_tables], [fcs]), \
+                  which this fly-by-wire aircraft's file has not: give the pilot's `gain` (and `integral_per_s`)"
+                .into(),
+        });
+    };
+    let mut ac = crate::aero::FbwAircraft::new(model);
+    ac.trim(cfg.airspeed_m_s, cfg.altitude_m)?;
+    crate::aero::linear::adapted_fly_by_wire_pilot(
+        &ac,
+        kind,
+        &crate::pilot::attitude::CrossoverDesign::new(crossover_rad_s, delay_s),
+        stick_lag_s,
+        command_per_output,
+        dt_s,
+    )
+    .map_err(|e| AeroError::Refused {
+        what: format!("adapted pilot for `{}` at ω_c {crossover_rad_s} rad/s", cfg.model),
+        why: e.0,
+    })
+}
+
 /// The pilot's outer loop.
 struct Outer {
     pilot: CrossoverPilot,
@@ -151,17 +186,31 @@ impl Flight {
             Some(o) => {
                 let cfg = match (o.pilot, &controls) {
                     (PilotDesign::Given(c), _) => c,
-                    (PilotDesign::Adapted { .. }, Controls::FlyByWire(_)) => return Err(refuse(
-                        "the adapted pilot is designed on an embedded model, which a fly-by-wire aircraft \
-                             has not: give the pilot's `gain` (and `integral_per_s`)",
-                    )),
                     (
                         PilotDesign::Adapted {
                             crossover_rad_s,
                             delay_s,
                             stick_lag_s,
                         },
-                        _,
+                        Controls::FlyByWire(f),
+                    ) => {
+                        // the FCS's command per unit of the pilot's output: a force on the grip beyond the
+                        // breakout, or the stick's angle through the designed law
+                        let per_output = if force_task {
+                            1.0 / f.full_command_force_n()
+                        } else {
+                            1.0 / f.full_command_stick_rad
+                        };
+                        let design = (crossover_rad_s, delay_s, stick_lag_s);
+                        adapted_fly_by_wire(cfg, o.loop_kind, design, per_output, dt_s)?
+                    }
+                    (
+                        PilotDesign::Adapted {
+                            crossover_rad_s,
+                            delay_s,
+                            stick_lag_s,
+                        },
+                        Controls::Hinge(_),
                     ) => adapted(cfg, o.loop_kind, crossover_rad_s, delay_s, stick_lag_s)?,
                 };
                 Some(Outer {
