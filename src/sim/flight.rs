@@ -52,59 +52,41 @@ pub struct AeroRow {
 }
 
 /// The crossover pilot adapted to the aircraft at its trim (McRuer): designed on the embedded model of the
-/// same aircraft (also when flying JSBSim live, whose linearisation it stands for).
+/// same aircraft (also when flying JSBSim live, whose linearisation it stands for). `fly_by_wire`: the FCS's
+/// command per unit of the pilot's output, for a fly-by-wire aircraft (its embedded model with the FCS).
 fn adapted(
     cfg: &AircraftConfig,
     kind: PilotLoop,
-    crossover_rad_s: f64,
-    delay_s: f64,
-    stick_lag_s: f64,
-) -> Result<CrossoverPilotConfig, AeroError> {
-    let name = cfg.model.strip_prefix("jsbsim:").unwrap_or(&cfg.model);
-    let mut ac = crate::aero::Aircraft::load(&crate::aero::backend::model_file(name)?)?;
-    ac.trim(cfg.airspeed_m_s, cfg.altitude_m)?;
-    crate::aero::linear::adapted_pilot(
-        &ac,
-        kind,
-        &crate::pilot::attitude::CrossoverDesign::new(crossover_rad_s, delay_s),
-        stick_lag_s,
-    )
-    .map_err(|e| AeroError::Refused {
-        what: format!("adapted pilot for `{}` at ω_c {crossover_rad_s} rad/s", cfg.model),
-        why: e.0,
-    })
-}
-
-/// The crossover pilot adapted to a fly-by-wire aircraft at its trim: designed on its embedded model and
-/// FCS (also when flying JSBSim live); `design` is (crossover, delay, stick lag).
-fn adapted_fly_by_wire(
-    cfg: &AircraftConfig,
-    kind: PilotLoop,
-    design: (f64, f64, f64),
-    command_per_output: f64,
+    (crossover_rad_s, delay_s, stick_lag_s): (f64, f64, f64),
+    fly_by_wire: Option<f64>,
     dt_s: f64,
 ) -> Result<CrossoverPilotConfig, AeroError> {
-    let (crossover_rad_s, delay_s, stick_lag_s) = design;
     let name = cfg.model.strip_prefix("jsbsim:").unwrap_or(&cfg.model);
-    let Some(model) = crate::aero::FbwModel::load(&crate::aero::backend::model_file(name)?)? else {
-        return Err(AeroError::Refused {
-            what: format!("adapted pilot for `{}`", cfg.model),
-            why: "the adapted pilot is designed on an embedded model ([airframe], [aero_tables], [fcs]), \
-                  which this fly-by-wire aircraft's file has not: give the pilot's `gain` (and `integral_per_s`)"
-                .into(),
-        });
+    let file = crate::aero::backend::model_file(name)?;
+    let design = crate::pilot::attitude::CrossoverDesign::new(crossover_rad_s, delay_s);
+    let pilot = match fly_by_wire {
+        None => {
+            let mut ac = crate::aero::Aircraft::load(&file)?;
+            ac.trim(cfg.airspeed_m_s, cfg.altitude_m)?;
+            crate::aero::linear::adapted_pilot(&ac, kind, &design, stick_lag_s)
+        }
+        Some(command_per_output) => {
+            let Some(model) = crate::aero::FbwModel::load(&file)? else {
+                return Err(AeroError::Refused {
+                    what: format!("adapted pilot for `{}`", cfg.model),
+                    why: "the adapted pilot is designed on an embedded model ([airframe], [aero_tables], \
+                          [fcs]), which this fly-by-wire aircraft's file has not: give the pilot's `gain` (and \
+                          `integral_per_s`)"
+                        .into(),
+                });
+            };
+            let mut ac = crate::aero::FbwAircraft::new(model);
+            ac.trim(cfg.airspeed_m_s, cfg.altitude_m)?;
+            let per = command_per_output;
+            crate::aero::linear::adapted_fly_by_wire_pilot(&ac, kind, &design, stick_lag_s, per, dt_s)
+        }
     };
-    let mut ac = crate::aero::FbwAircraft::new(model);
-    ac.trim(cfg.airspeed_m_s, cfg.altitude_m)?;
-    crate::aero::linear::adapted_fly_by_wire_pilot(
-        &ac,
-        kind,
-        &crate::pilot::attitude::CrossoverDesign::new(crossover_rad_s, delay_s),
-        stick_lag_s,
-        command_per_output,
-        dt_s,
-    )
-    .map_err(|e| AeroError::Refused {
+    pilot.map_err(|e| AeroError::Refused {
         what: format!("adapted pilot for `{}` at ω_c {crossover_rad_s} rad/s", cfg.model),
         why: e.0,
     })
@@ -192,26 +174,18 @@ impl Flight {
                             delay_s,
                             stick_lag_s,
                         },
-                        Controls::FlyByWire(f),
+                        controls,
                     ) => {
-                        // the FCS's command per unit of the pilot's output: a force on the grip beyond the
-                        // breakout, or the stick's angle through the designed law
-                        let per_output = if force_task {
-                            1.0 / f.full_command_force_n()
-                        } else {
-                            1.0 / f.full_command_stick_rad
+                        // a fly-by-wire FCS's command per unit of the pilot's output: a force on the grip
+                        // beyond the breakout, or the stick's angle through the designed law
+                        let fly_by_wire = match controls {
+                            Controls::FlyByWire(f) if force_task => Some(1.0 / f.full_command_force_n()),
+                            Controls::FlyByWire(f) => Some(1.0 / f.full_command_stick_rad),
+                            Controls::Hinge(_) => None,
                         };
                         let design = (crossover_rad_s, delay_s, stick_lag_s);
-                        adapted_fly_by_wire(cfg, o.loop_kind, design, per_output, dt_s)?
+                        adapted(cfg, o.loop_kind, design, fly_by_wire, dt_s)?
                     }
-                    (
-                        PilotDesign::Adapted {
-                            crossover_rad_s,
-                            delay_s,
-                            stick_lag_s,
-                        },
-                        Controls::Hinge(_),
-                    ) => adapted(cfg, o.loop_kind, crossover_rad_s, delay_s, stick_lag_s)?,
                 };
                 Some(Outer {
                     pilot: CrossoverPilot::new(
