@@ -347,6 +347,56 @@ fn f16_embedded_step_gives_the_files_g_per_command() {
     );
 }
 
+/// The F-16's FCS bounds what a pilot can command, wherever it flies: over 48 seeded draws of airspeed
+/// (100–300 m/s), altitude (0–9000 m) and a stick command held 3 s from trim (any value in [-1, 1]), the
+/// aircraft either trims or is refused with a trim error, and then every state stays finite, the angle of
+/// attack stays below the α limiter's 30° (its schedule takes the command to nothing there and the limiter
+/// pushes), and a push (the command limiter's 44 %) never takes the load factor below −4 g.
+#[test]
+fn f16_fcs_bounds_alpha_and_push_over_random_conditions_and_commands() {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(35);
+    let base = f16_from(&f16_text()).unwrap();
+    let (mut flown, mut alpha_max, mut nz_min, mut nz_max) = (0, 0.0_f64, f64::INFINITY, f64::NEG_INFINITY);
+    for _ in 0..48 {
+        let (v, h, c) = (
+            rng.random_range(100.0..300.0),
+            rng.random_range(0.0..9000.0),
+            rng.random_range(-1.0..1.0),
+        );
+        let mut a = base.clone();
+        let trim = match a.trim(v, h) {
+            Ok(t) => t,
+            Err(AeroError::Trim { .. }) => continue,
+            Err(e) => panic!("{v} m/s, {h} m: {e}"),
+        };
+        flown += 1;
+        for _ in 0..360 {
+            let s = *a.step(c, trim.throttle, 1.0 / 120.0);
+            assert!(
+                [s.u_m_s, s.w_m_s, s.q_rad_s, s.theta_rad, s.nz_g, s.elevator_rad]
+                    .iter()
+                    .all(|x| x.is_finite()),
+                "{v} m/s, {h} m, command {c}: {s:?}"
+            );
+            alpha_max = alpha_max.max(s.alpha_rad);
+            nz_min = nz_min.min(s.nz_g);
+            nz_max = nz_max.max(s.nz_g);
+            assert!(
+                s.alpha_rad < 30f64.to_radians(),
+                "{v} m/s, {h} m, command {c}: alpha {}",
+                s.alpha_rad
+            );
+            assert!(s.nz_g > -4.0, "{v} m/s, {h} m, command {c}: {} g", s.nz_g);
+        }
+    }
+    eprintln!(
+        "f16 FCS over 48 draws: {flown} trimmed; alpha up to {:.1} deg, load factor {nz_min:.2} to {nz_max:.2} g",
+        alpha_max.to_degrees()
+    );
+    assert!(flown >= 40, "only {flown} of 48 draws trimmed");
+}
+
 /// The checks fail when a coefficient table, the inertia or an FCS gain of the F-16's file is doubled,
 /// halved or of the wrong sign (a negative inertia or gain is refused by the schema).
 #[test]
