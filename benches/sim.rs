@@ -10,6 +10,8 @@
 //! time), so `thrpt: N elem/s` reads directly as "N× faster than real time" for every benchmark here.
 //! Target (issue 4): the whole scenario ≥ 100× on one core.
 //!
+//! The aircraft alone: the embedded fly-by-wire F-16 with its FCS against the embedded c172p.
+//!
 //! `cargo bench --bench sim`
 
 use std::hint::black_box;
@@ -109,5 +111,36 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
+/// The aircraft alone, one simulated second at 120 Hz: the embedded fly-by-wire F-16 (tables, FCS) against
+/// the embedded c172p (linear coefficients) as its baseline, each from its trim with the stick held.
+fn bench_aircraft(c: &mut Criterion) {
+    use mrfeel::aero::{Aircraft, AircraftModel, FbwAircraft, FbwModel};
+    let dt = 1.0 / 120.0;
+    let mut g = c.benchmark_group("aircraft_120hz");
+    g.throughput(Throughput::Elements(1));
+    let path = AircraftModel::builtin_path("f16");
+    let mut f16 = FbwAircraft::new(FbwModel::load(&path).unwrap().unwrap());
+    let trim = f16.trim(200.0, 3000.0).unwrap();
+    g.bench_function("f16_embedded_with_fcs_1s", |b| {
+        b.iter(|| {
+            let mut a = f16.clone();
+            for _ in 0..120 {
+                black_box(a.step(-0.1, trim.throttle, dt));
+            }
+        })
+    });
+    let mut c172p = Aircraft::load(&AircraftModel::builtin_path("c172p")).unwrap();
+    let trim = c172p.trim(50.0, 1000.0).unwrap();
+    g.bench_function("c172p_embedded_1s (baseline)", |b| {
+        b.iter(|| {
+            let mut a = c172p.clone();
+            for _ in 0..120 {
+                black_box(a.step(trim.elevator_rad - 0.01, trim.throttle, dt));
+            }
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench, bench_aircraft);
 criterion_main!(benches);
