@@ -208,6 +208,8 @@ pub struct FbwAircraft {
     surface: f64,
     /// What the FCS senses (α, q, pilot's `n_p`), one frame old.
     sensed: Sensed,
+    /// The sensors at the present state ([`Self::refresh`]): what the next frame's FCS reads a frame later.
+    now: Sensed,
     state: AircraftState,
 }
 
@@ -230,6 +232,7 @@ impl FbwAircraft {
             trim_command: 0.0,
             surface: 0.0,
             sensed: Sensed::default(),
+            now: Sensed::default(),
             state: AircraftState::default(),
         }
     }
@@ -260,6 +263,11 @@ impl FbwAircraft {
             .eval(&self.x, self.elevator_rad(), self.lef_rad(), self.throttle);
         let [u, w, q, theta, h] = self.x;
         let [du, dw, ..] = e.dx;
+        self.now = Sensed {
+            alpha: e.alpha,
+            q,
+            pilot_nz: self.model.pilot_nz(&self.x, &e),
+        };
         self.state = AircraftState {
             t_s: self.t_s,
             u_m_s: u,
@@ -306,11 +314,10 @@ impl FbwAircraft {
                 altitude_m,
             ]
         };
+        let mach = airspeed_m_s / isa(altitude_m).speed_of_sound_m_s;
         let residual = |p: &Vector3<f64>| -> Vector3<f64> {
             let x = state(p);
-            let lef = m
-                .aero
-                .lef_rad(p[0], airspeed_m_s / isa(altitude_m).speed_of_sound_m_s);
+            let lef = m.aero.lef_rad(p[0], mach);
             let e = m.eval(&x, p[1], lef, p[2]);
             Vector3::new(e.dx[0] / G0_M_S2, e.dx[1] / G0_M_S2, e.dx[2])
         };
@@ -340,28 +347,16 @@ impl FbwAircraft {
             )));
         }
         self.trim_command = c;
-        self.sensed = self.sense();
         self.refresh();
+        self.sensed = self.now;
         Ok(self.state)
-    }
-
-    /// The FCS's sensors at the current state.
-    fn sense(&self) -> Sensed {
-        let m = &self.model;
-        let e = m.eval(&self.x, self.elevator_rad(), self.lef_rad(), self.throttle);
-        Sensed {
-            alpha: e.alpha,
-            q: self.x[2],
-            pilot_nz: m.pilot_nz(&self.x, &e),
-        }
     }
 
     /// One frame of `dt_s`: the FCS takes the stick's command `command` (JSBSim's sign, + push, in
     /// [-1, 1]) with its sensors of one frame before and moves the surface, then the airframe flies the
     /// frame with surface, flap and throttle (0–1) held.
     pub fn step(&mut self, command: f64, throttle: f64, dt_s: f64) -> &AircraftState {
-        let now = self.sense();
-        let Sensed { alpha, q, pilot_nz } = std::mem::replace(&mut self.sensed, now);
+        let Sensed { alpha, q, pilot_nz } = std::mem::replace(&mut self.sensed, self.now);
         let m = &self.model;
         let f = &m.fcs;
         let s = (command.clamp(-1.0, 1.0) + self.trim_command).clamp(f.command_limits.0, f.command_limits.1)
@@ -417,10 +412,10 @@ impl FbwAircraft {
     pub fn command_response(&self, output: PilotLoop, omega_rad_s: f64, dt_s: f64) -> Complex<f64> {
         let z0 = self.z();
         let throttle = self.throttle;
-        let frame = |z: &Z, pull: f64| -> (Z, f64) {
+        let frame = |z: &Z, pull: f64| -> Z {
             let mut a = self.with_z(z);
             a.step(-pull, throttle, dt_s);
-            (a.z(), a.output(output))
+            a.z()
         };
         let h = |v: f64| 1e-6 * v.abs().max(1.0);
         let mut am = SMatrix::<Complex<f64>, 9, 9>::zeros();
@@ -429,7 +424,7 @@ impl FbwAircraft {
             let (mut zp, mut zm) = (z0, z0);
             zp[j] += h(z0[j]);
             zm[j] -= h(z0[j]);
-            let ((fp, _), (fm, _)) = (frame(&zp, 0.0), frame(&zm, 0.0));
+            let (fp, fm) = (frame(&zp, 0.0), frame(&zm, 0.0));
             for i in 0..9 {
                 am[(i, j)] = Complex::from((fp[i] - fm[i]) / (2.0 * h(z0[j])));
             }
@@ -437,7 +432,7 @@ impl FbwAircraft {
             c[j] = Complex::from(d / (2.0 * h(z0[j])));
         }
         let du = 1e-4;
-        let ((fp, _), (fm, _)) = (frame(&z0, du), frame(&z0, -du));
+        let (fp, fm) = (frame(&z0, du), frame(&z0, -du));
         let b = SVector::<Complex<f64>, 9>::from_fn(|i, _| Complex::from((fp[i] - fm[i]) / (2.0 * du)));
         let zc = Complex::from_polar(1.0, omega_rad_s * dt_s);
         let m = SMatrix::<Complex<f64>, 9, 9>::identity() * zc - am;
