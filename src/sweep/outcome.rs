@@ -11,7 +11,6 @@ use crate::aero::{Aircraft, FbwModel, FlyByWire};
 use crate::control::law::FeelLaw;
 use crate::scenario::Scenario;
 use crate::sim::Results;
-use crate::units::G0_M_S2;
 
 /// A cell of a results column. `None`: not applicable to this run (no aircraft, a run that failed).
 #[derive(Debug, Clone, PartialEq)]
@@ -203,11 +202,12 @@ impl Outcome {
             .iter()
             .filter_map(|r| r.aero.map(|a| (r.pilot_force_n, a)))
             .collect();
+        // The limit load factor, and whether the aircraft is fly-by-wire.
         let verdict_of = model
             .as_ref()
-            .map(|m| (m.limit_load_factor, None))
-            .or(fbw.as_ref().map(|(f, e)| (f.limit_load_factor, Some(e))));
-        if let (Some((n_limit, fbw_model)), Some(first)) = (verdict_of, aero.first()) {
+            .map(|m| (m.limit_load_factor, false))
+            .or(fbw.as_ref().map(|(f, _)| (f.limit_load_factor, true)));
+        if let (Some((n_limit, fly_by_wire)), Some(first)) = (verdict_of, aero.first()) {
             // The felt force's sign as the aircraft's (pull +): the pilot's force on the grip follows it.
             let dot: f64 = aero.iter().map(|(f, a)| f * a.stick_force_n).sum();
             let sign = if dot < 0.0 { -1.0 } else { 1.0 };
@@ -216,15 +216,11 @@ impl Outcome {
             let nz_lo = aero.iter().map(|(_, a)| a.nz_g).fold(f64::INFINITY, f64::min);
             let nz_hi = aero.iter().map(|(_, a)| a.nz_g).fold(f64::NEG_INFINITY, f64::max);
             o.nz_span_g = finite(nz_hi - nz_lo);
-            // n/α = q̄ S C_Lα / W at the trim's angle of attack (C_Lα the slope of the lift table there); a
-            // fly-by-wire aircraft without an embedded model: its design condition's.
+            // n/α at the trim's angle of attack from the model's lift table; a fly-by-wire aircraft without
+            // an embedded model: its design condition's.
             let (alpha, qbar) = (first.1.alpha_rad, first.1.qbar_pa);
             let n_alpha = match (&model, &fbw) {
-                (Some(m), _) => {
-                    let d = 0.01;
-                    let cl_alpha = (m.cl_alpha.eval(alpha + d) - m.cl_alpha.eval(alpha - d)) / (2.0 * d);
-                    qbar * m.wing_area_m2 * cl_alpha / (m.mass_kg * G0_M_S2)
-                }
+                (Some(m), _) => m.n_per_alpha_g_per_rad(alpha, qbar),
                 (None, Some((_, Some(e)))) => e.n_per_alpha_g_per_rad(alpha, first.1.elevator_rad, qbar),
                 (None, Some((f, None))) => f.n_alpha_per_rad,
                 (None, None) => f64::NAN,
@@ -237,9 +233,10 @@ impl Outcome {
             }
             // The verdict's force per g: the feel's steady pull-up, or for a fly-by-wire aircraft (no steady
             // hinge moment to hold; its FCS sets the load factor a force gives) the force per g flown.
-            let per_g = match fbw_model {
-                None => o.stick_force_per_g_n,
-                Some(_) => o.stick_force_per_g_flown_n,
+            let per_g = if fly_by_wire {
+                o.stick_force_per_g_flown_n
+            } else {
+                o.stick_force_per_g_n
             };
             if let (Some(g), Some(na)) = (per_g, o.n_per_alpha_g_per_rad) {
                 let bounds = hq::centre_stick_per_g_bounds(n_limit, na);
