@@ -390,9 +390,9 @@ struct FbwFile {
     name: String,
     fly_by_wire: FbwStick,
     design: FbwDesign,
-    airframe: Option<S<FbwAirframe>>,
-    aero_tables: Option<S<FbwAero>>,
-    fcs: Option<S<FbwFcs>>,
+    airframe: Option<FbwAirframe>,
+    aero_tables: Option<FbwAero>,
+    fcs: Option<FbwFcs>,
 }
 
 /// The embedded model's airframe (structural frame: x aft, z up).
@@ -463,7 +463,7 @@ impl FbwModel {
         let f: FbwFile = src.toml()?;
         let (g, a, c) = match (&f.airframe, &f.aero_tables, &f.fcs) {
             (None, None, None) => return Ok(None),
-            (Some(g), Some(a), Some(c)) => (g.get_ref(), a.get_ref(), c.get_ref()),
+            (Some(g), Some(a), Some(c)) => (g, a, c),
             _ => {
                 let missing: Vec<&str> = [
                     ("[airframe]", f.airframe.is_none()),
