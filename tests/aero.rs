@@ -26,6 +26,9 @@ fn run(name: &str, which: &str) -> ReferenceRun {
     .expect("shipped reference loads")
 }
 
+/// A replay's errors against its JSBSim reference; the tail's only for a fly-by-wire aircraft, whose FCS
+/// moves it (0 otherwise).
+#[derive(Default)]
 struct Replay {
     q_max_err: f64,
     q_peak: f64,
@@ -33,6 +36,53 @@ struct Replay {
     nz_peak: f64,
     q_rms_err: f64,
     nz_rms_err: f64,
+    tail_max_err: f64,
+    tail_peak: f64,
+}
+
+impl Replay {
+    /// One row: the pitch rate and JSBSim's, the load factor's increment from trim and JSBSim's. The RMS
+    /// fields hold sums of squares until [`Replay::finish`].
+    fn row(&mut self, q: f64, q_ref: f64, dnz: f64, dnz_ref: f64) {
+        let (dq, dn) = (q - q_ref, dnz - dnz_ref);
+        self.q_max_err = self.q_max_err.max(dq.abs());
+        self.nz_max_err = self.nz_max_err.max(dn.abs());
+        self.q_peak = self.q_peak.max(q_ref.abs());
+        self.nz_peak = self.nz_peak.max(dnz_ref.abs());
+        self.q_rms_err += dq * dq;
+        self.nz_rms_err += dn * dn;
+    }
+
+    /// The RMS errors over `n` rows.
+    fn finish(mut self, n: usize) -> Self {
+        self.q_rms_err = (self.q_rms_err / n as f64).sqrt();
+        self.nz_rms_err = (self.nz_rms_err / n as f64).sqrt();
+        self
+    }
+
+    fn summary(&self) -> String {
+        let mut s = format!(
+            "pitch rate max error {:.4} rad/s ({:.1} % of peak {:.4}), rms {:.4}; load factor max error {:.4} g \
+             ({:.1} % of peak excursion {:.4} g), rms {:.4} g",
+            self.q_max_err,
+            100.0 * self.q_max_err / self.q_peak,
+            self.q_peak,
+            self.q_rms_err,
+            self.nz_max_err,
+            100.0 * self.nz_max_err / self.nz_peak,
+            self.nz_peak,
+            self.nz_rms_err
+        );
+        if self.tail_peak > 0.0 {
+            s += &format!(
+                "; tail max error {:.4} rad ({:.1} % of {:.4})",
+                self.tail_max_err,
+                100.0 * self.tail_max_err / self.tail_peak,
+                self.tail_peak
+            );
+        }
+        s
+    }
 }
 
 /// Trim at the reference's first row, then replay its elevator (as increments on the trim
@@ -48,20 +98,11 @@ fn replay_doublet(name: &str) -> Replay {
     let mut a = aircraft(name);
     let trim = a.trim(v[0], h[0]).unwrap();
     let throttle = trim.throttle;
-    let (mut q_max_err, mut nz_max_err, mut q_peak, mut nz_peak, mut q_ss, mut nz_ss) =
-        (0.0_f64, 0.0_f64, 0.0_f64, 0.0_f64, 0.0, 0.0);
-    let nz0_rust = trim.nz_g;
+    let mut e = Replay::default();
     for k in 0..t.len() {
         let s = a.state();
         // compare increments from trim: both start at their own 1-g trim
-        let dq = s.q_rad_s - q_ref[k];
-        let dnz = (s.nz_g - nz0_rust) - (nz_ref[k] - nz_ref[0]);
-        q_max_err = q_max_err.max(dq.abs());
-        nz_max_err = nz_max_err.max(dnz.abs());
-        q_peak = q_peak.max(q_ref[k].abs());
-        nz_peak = nz_peak.max((nz_ref[k] - nz_ref[0]).abs());
-        q_ss += dq * dq;
-        nz_ss += dnz * dnz;
+        e.row(s.q_rad_s, q_ref[k], s.nz_g - trim.nz_g, nz_ref[k] - nz_ref[0]);
         if k + 1 < t.len() {
             // JSBSim integrates first in its frame (Propagate, then FCS and Aerodynamics), so the
             // elevator recorded in row k acts on the state from t_k to t_k+1
@@ -69,31 +110,12 @@ fn replay_doublet(name: &str) -> Replay {
             a.step(de_cmd, throttle, t[k + 1] - t[k]);
         }
     }
-    let n = t.len() as f64;
-    Replay {
-        q_max_err,
-        q_peak,
-        nz_max_err,
-        nz_peak,
-        q_rms_err: (q_ss / n).sqrt(),
-        nz_rms_err: (nz_ss / n).sqrt(),
-    }
+    e.finish(t.len())
 }
 
 fn check_replay(name: &str, q_frac: f64, nz_frac: f64) {
     let r = replay_doublet(name);
-    eprintln!(
-        "{name} doublet replay vs JSBSim: pitch rate max error {:.4} rad/s ({:.1} % of peak {:.4}), rms {:.4}; \
-         load factor max error {:.4} g ({:.1} % of peak excursion {:.4} g), rms {:.4} g",
-        r.q_max_err,
-        100.0 * r.q_max_err / r.q_peak,
-        r.q_peak,
-        r.q_rms_err,
-        r.nz_max_err,
-        100.0 * r.nz_max_err / r.nz_peak,
-        r.nz_peak,
-        r.nz_rms_err
-    );
+    eprintln!("{name} doublet replay vs JSBSim: {}", r.summary());
     assert!(
         r.q_max_err <= q_frac * r.q_peak,
         "{name}: pitch-rate error {} > {} x peak {}",
@@ -127,19 +149,10 @@ fn t37_doublet_pitch_rate_and_load_factor_follow_jsbsim() {
 
 /// Trim alpha and elevator over the JSBSim speed sweep.
 fn check_trims(name: &str, alpha_tol: f64, de_tol: f64) {
-    let r = run(name, "trim");
-    let (v, h) = (r.column("airspeed_m_s").unwrap(), r.column("altitude_m").unwrap());
-    let (alpha, de) = (r.column("alpha_rad").unwrap(), r.column("elevator_rad").unwrap());
     let mut a = aircraft(name);
-    let (mut ea, mut ed) = (0.0_f64, 0.0_f64);
-    for k in 0..v.len() {
-        let s = a.trim(v[k], h[k]).unwrap();
-        ea = ea.max((s.alpha_rad - alpha[k]).abs());
-        ed = ed.max((s.elevator_rad - de[k]).abs());
-    }
+    let (n, ea, ed) = trim_errors(name, |v, h| a.trim(v, h).map_err(|e| e.to_string())).unwrap();
     eprintln!(
-        "{name} trims over {} speeds: max |alpha error| {ea:.4} rad, max |elevator error| {ed:.4} rad",
-        v.len()
+        "{name} trims over {n} speeds: max |alpha error| {ea:.4} rad, max |elevator error| {ed:.4} rad"
     );
     assert!(ea < alpha_tol, "{name}: alpha error {ea}");
     assert!(ed < de_tol, "{name}: elevator error {ed}");
@@ -171,9 +184,8 @@ fn f16_from(text: &str) -> Result<FbwAircraft, String> {
 /// the first row, then the recorded `elevator-cmd-norm`. JSBSim's frame integrates, then runs its FCS on
 /// the new state, then the forces: a row's command moves the tail of the next row, which acts over the
 /// interval after it; the replay's frame runs the FCS on the state at its start, so it takes the command
-/// of the row before and its tail is that row's. Returns (pitch-rate error max and RMS, its peak;
-/// load-factor error max and RMS, its peak excursion; tail error max, its peak excursion).
-fn replay_f16(mut a: FbwAircraft, which: &str) -> Result<[f64; 8], AeroError> {
+/// of the row before and its tail is that row's.
+fn replay_f16(mut a: FbwAircraft, which: &str) -> Result<Replay, AeroError> {
     let r = run("f16", which);
     let col = |c: &str| r.column(c).unwrap();
     let (t, cmd, q_ref, nz_ref, de_ref) = (
@@ -184,29 +196,42 @@ fn replay_f16(mut a: FbwAircraft, which: &str) -> Result<[f64; 8], AeroError> {
         col("elevator_rad"),
     );
     let trim = a.trim(col("airspeed_m_s")[0], col("altitude_m")[0])?;
-    let (mut e, mut ss) = ([0.0_f64; 8], [0.0_f64; 2]);
+    let mut e = Replay::default();
     for k in 0..t.len() {
         let s = *a.state();
-        let dq = s.q_rad_s - q_ref[k];
-        let dn = (s.nz_g - trim.nz_g) - (nz_ref[k] - nz_ref[0]);
-        e[0] = e[0].max(dq.abs());
-        e[2] = e[2].max(q_ref[k].abs());
-        e[3] = e[3].max(dn.abs());
-        e[5] = e[5].max((nz_ref[k] - nz_ref[0]).abs());
-        ss[0] += dq * dq;
-        ss[1] += dn * dn;
+        e.row(s.q_rad_s, q_ref[k], s.nz_g - trim.nz_g, nz_ref[k] - nz_ref[0]);
         if k + 1 < t.len() {
             let c = if k == 0 { 0.0 } else { cmd[k - 1] };
             let tail = a.step(c, trim.throttle, t[k + 1] - t[k]).elevator_rad;
             let dd = (tail - trim.elevator_rad) - (de_ref[k] - de_ref[0]);
-            e[6] = e[6].max(dd.abs());
-            e[7] = e[7].max((de_ref[k] - de_ref[0]).abs());
+            e.tail_max_err = e.tail_max_err.max(dd.abs());
+            e.tail_peak = e.tail_peak.max((de_ref[k] - de_ref[0]).abs());
         }
     }
-    let n = t.len() as f64;
-    e[1] = (ss[0] / n).sqrt();
-    e[4] = (ss[1] / n).sqrt();
-    Ok(e)
+    Ok(e.finish(t.len()))
+}
+
+/// Trim at every row of `<name>_trim.csv` with `trim`: the rows, and the largest |α error| and
+/// |elevator error| against JSBSim's trims.
+fn trim_errors(
+    name: &str,
+    mut trim: impl FnMut(f64, f64) -> Result<AircraftState, String>,
+) -> Result<(usize, f64, f64), String> {
+    let r = run(name, "trim");
+    let col = |c: &str| r.column(c).unwrap();
+    let (v, h, alpha, de) = (
+        col("airspeed_m_s"),
+        col("altitude_m"),
+        col("alpha_rad"),
+        col("elevator_rad"),
+    );
+    let (mut ea, mut ed) = (0.0_f64, 0.0_f64);
+    for k in 0..v.len() {
+        let s = trim(v[k], h[k])?;
+        ea = ea.max((s.alpha_rad - alpha[k]).abs());
+        ed = ed.max((s.elevator_rad - de[k]).abs());
+    }
+    Ok((v.len(), ea, ed))
 }
 
 /// The F-16's checks against JSBSim: both doublets (pitch rate within 2 % of its peak, load factor within
@@ -215,47 +240,19 @@ fn f16_checks(text: &str, print: bool) -> Result<(), String> {
     for which in ["doublet", "doublet_slow"] {
         let e = replay_f16(f16_from(text)?, which).map_err(|e| e.to_string())?;
         if print {
-            eprintln!(
-                "f16 {which} replay vs JSBSim: pitch rate max error {:.4} rad/s ({:.1} % of peak {:.4}), rms {:.4}; \
-                 load factor max error {:.4} g ({:.1} % of peak excursion {:.3} g), rms {:.4} g; tail max error \
-                 {:.4} rad ({:.1} % of {:.4})",
-                e[0],
-                100.0 * e[0] / e[2],
-                e[2],
-                e[1],
-                e[3],
-                100.0 * e[3] / e[5],
-                e[5],
-                e[4],
-                e[6],
-                100.0 * e[6] / e[7],
-                e[7]
-            );
+            eprintln!("f16 {which} replay vs JSBSim: {}", e.summary());
         }
-        if !(e[0] <= 0.02 * e[2] && e[3] <= 0.06 * e[5] && e[6] <= 0.01 * e[7]) {
-            return Err(format!("{which}: errors {e:?}"));
+        if !(e.q_max_err <= 0.02 * e.q_peak
+            && e.nz_max_err <= 0.06 * e.nz_peak
+            && e.tail_max_err <= 0.01 * e.tail_peak)
+        {
+            return Err(format!("{which}: {}", e.summary()));
         }
     }
-    let r = run("f16", "trim");
-    let col = |c: &str| r.column(c).unwrap();
-    let (v, h, alpha, de) = (
-        col("airspeed_m_s"),
-        col("altitude_m"),
-        col("alpha_rad"),
-        col("elevator_rad"),
-    );
     let mut a = f16_from(text)?;
-    let (mut ea, mut ed) = (0.0_f64, 0.0_f64);
-    for k in 0..v.len() {
-        let s = a.trim(v[k], h[k]).map_err(|e| e.to_string())?;
-        ea = ea.max((s.alpha_rad - alpha[k]).abs());
-        ed = ed.max((s.elevator_rad - de[k]).abs());
-    }
+    let (n, ea, ed) = trim_errors("f16", |v, h| a.trim(v, h).map_err(|e| e.to_string()))?;
     if print {
-        eprintln!(
-            "f16 trims over {} speeds: max |alpha error| {ea:.5} rad, max |tail error| {ed:.5} rad",
-            v.len()
-        );
+        eprintln!("f16 trims over {n} speeds: max |alpha error| {ea:.5} rad, max |tail error| {ed:.5} rad");
     }
     if !(ea < 0.002 && ed < 0.002) {
         return Err(format!("trims: alpha error {ea}, tail error {ed}"));
