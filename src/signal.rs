@@ -374,17 +374,54 @@ pub(crate) fn quantile(mut a: Vec<f64>, q: f64) -> f64 {
 /// The causal moving average of `window` samples over `f` (which starts `window − 1` samples before the
 /// first output): `f.len() − window + 1` values.
 pub fn moving_average(f: &[f64], window: usize) -> Vec<f64> {
-    if window <= 1 {
-        return f.to_vec();
-    }
-    let mut out = Vec::with_capacity(f.len().saturating_sub(window - 1));
-    let mut sum: f64 = f[..window - 1].iter().sum();
-    for k in window - 1..f.len() {
-        sum += f[k];
-        out.push(sum / window as f64);
-        sum -= f[k + 1 - window];
-    }
+    let mut out = Vec::with_capacity(f.len().saturating_sub(window.max(1) - 1));
+    RollingMean::new(window).feed(f, &mut out);
     out
+}
+
+/// [`moving_average`] taken piece by piece: pieces fed one after another give the same numbers as the
+/// whole signal at once, holding only the last `window − 1` samples between pieces.
+#[derive(Debug, Clone)]
+pub(crate) struct RollingMean {
+    window: usize,
+    /// The samples still to leave the sum (all samples seen, until the first `window − 1` have come).
+    held: Vec<f64>,
+    /// The sum of `held` once it holds `window − 1` samples.
+    sum: Option<f64>,
+}
+
+impl RollingMean {
+    /// A mean over `window` samples (1 or 0: the samples themselves).
+    pub(crate) fn new(window: usize) -> Self {
+        Self {
+            window: window.max(1),
+            held: Vec::new(),
+            sum: None,
+        }
+    }
+
+    /// Append to `out` the mean of every full window that ends in `f`.
+    pub(crate) fn feed(&mut self, f: &[f64], out: &mut Vec<f64>) {
+        let w = self.window;
+        if w == 1 {
+            out.extend_from_slice(f);
+            return;
+        }
+        self.held.extend_from_slice(f);
+        let mut sum = match self.sum {
+            Some(sum) => sum,
+            None if self.held.len() >= w - 1 => self.held[..w - 1].iter().sum(),
+            None => return,
+        };
+        for k in w - 1..self.held.len() {
+            sum += self.held[k];
+            out.push(sum / w as f64);
+            sum -= self.held[k + 1 - w];
+        }
+        self.sum = Some(sum);
+        let spent = self.held.len() - (w - 1);
+        self.held.drain(..spent);
+    }
 }
 
 /// Uniform mid-tread quantiser over `[-range, range]` with `2^bits` levels, saturating at the range.
@@ -433,6 +470,37 @@ mod tests {
     use super::*;
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};
+
+    /// The mean taken in pieces of any size is, to the bit, the mean of the whole, and each value is the
+    /// mean of the `window` samples that end at it.
+    #[test]
+    fn a_rolling_mean_fed_in_pieces_is_the_mean_of_the_whole() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let noise = Normal::new(0.0, 1.0).unwrap();
+        let f: Vec<f64> = (0..500)
+            .map(|k| 1e3 * (k as f64 * 0.05).sin() + noise.sample(&mut rng))
+            .collect();
+        for window in [1, 2, 7, 64] {
+            let whole = moving_average(&f, window);
+            assert_eq!(whole.len(), f.len() + 1 - window);
+            for (k, m) in whole.iter().enumerate() {
+                let direct = f[k..k + window].iter().sum::<f64>() / window as f64;
+                assert!((m - direct).abs() < 1e-9, "window {window}, sample {k}");
+            }
+            let mut pieces = RollingMean::new(window);
+            let mut out = Vec::new();
+            let mut rest = &f[..];
+            for len in [0, 1, 3, 5, 100, 1].into_iter().cycle() {
+                let (piece, tail) = rest.split_at(len.min(rest.len()));
+                pieces.feed(piece, &mut out);
+                rest = tail;
+                if rest.is_empty() {
+                    break;
+                }
+            }
+            assert_eq!(out, whole, "window {window}");
+        }
+    }
 
     #[test]
     fn derived_velocity_of_a_sine_is_accurate_on_uneven_sampling() {

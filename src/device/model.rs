@@ -602,27 +602,53 @@ impl Model {
         }
     }
 
-    fn integrate(&self, p: &[f64], inputs: &[Inputs], out: &mut [f64], mut record: Option<&mut Vec<f64>>) {
+    fn integrate(&self, p: &[f64], inputs: &[Inputs], out: &mut [f64], record: Option<&mut Vec<f64>>) {
         assert_eq!(inputs.len(), out.len());
         let Some(first) = inputs.first() else { return };
-        let mut s = self.init_state(p, first);
-        let mut memo = DecayMemo::default();
-        for k in 0..inputs.len() {
+        let mut run = self.start(p, first);
+        self.carry(p, &mut run, inputs, out, record);
+    }
+
+    /// An integration of a test at its first sample, to be carried on piece by piece with
+    /// [`Model::carry`].
+    pub(crate) fn start(&self, p: &[f64], first: &Inputs) -> Integration {
+        Integration {
+            state: self.init_state(p, first),
+            memo: DecayMemo::default(),
+            next: 0,
+        }
+    }
+
+    /// Carry `run` on over the next `out.len()` samples of `inputs` (the whole test's inputs, from its
+    /// first sample), writing the force at each into `out` and, with `record`, appending the state at
+    /// each. Pieces taken one after another give the same numbers as one integration of the whole, so a
+    /// caller can integrate many runs side by side without holding any of them whole.
+    pub(crate) fn carry(
+        &self,
+        p: &[f64],
+        run: &mut Integration,
+        inputs: &[Inputs],
+        out: &mut [f64],
+        mut record: Option<&mut Vec<f64>>,
+    ) {
+        let s = &mut run.state;
+        for (k, f_out) in (run.next..).zip(out.iter_mut()) {
             let inp = &inputs[k];
             if let Some(r) = record.as_deref_mut() {
-                r.extend_from_slice(&s);
+                r.extend_from_slice(s);
             }
-            let stage = self.eval(p, &s, inp);
+            let stage = self.eval(p, s, inp);
             let f = stage.force_n(inp.v_m_s);
-            out[k] = f;
+            *f_out = f;
             if let Some(next) = inputs.get(k + 1) {
                 let step = Step {
                     dt_s: next.t_s - inp.t_s,
                     dx_m: next.x_m - inp.x_m,
                 };
-                self.advance_in(p, &mut s, inp, &stage, f, step, &mut memo);
+                self.advance_in(p, s, inp, &stage, f, step, &mut run.memo);
             }
         }
+        run.next += out.len();
     }
 
     /// Integrate one test and return the force at every sample.
@@ -631,6 +657,15 @@ impl Model {
         self.simulate_into(p, inputs, &mut out);
         out
     }
+}
+
+/// The state of one integration of a test between pieces ([`Model::start`], [`Model::carry`]).
+#[derive(Debug, Clone)]
+pub(crate) struct Integration {
+    state: Vec<f64>,
+    memo: DecayMemo,
+    /// The next sample to integrate.
+    next: usize,
 }
 
 /// A model with its parameters and running state: the force element that the MTS machine and the stick
@@ -729,6 +764,36 @@ mod tests {
             }
         }
         assert!(Model::from_spec("bingham", &r, PAPER_CURRENT_LIMIT_A).is_ok());
+    }
+
+    /// An integration carried on in pieces of any size gives, to the bit, the force and states of one
+    /// integration of the whole (hysteresis and the lags carry state across the pieces' joins).
+    #[test]
+    fn an_integration_in_pieces_is_the_integration_of_the_whole() {
+        let model = Model::from_spec("bingham+hysteresis", &Registry::builtin(), 14.0).unwrap();
+        let mut p = vec![20.0, 4.83, 60.0, 0.015, 0.008];
+        p.extend([2.5e-4, 0.016, 0.5, 0.3]);
+        assert_eq!(p.len(), model.n_params());
+        let mut inputs = crate::device::effects::testkit::sine(0.02, 1.0, 0.0, 1e-3, 2.0);
+        for (k, inp) in inputs.iter_mut().enumerate() {
+            inp.current_cmd_a = [0.0, 14.0, 3.5, 7.0][(k / 130) % 4];
+        }
+        let (mut whole, mut whole_states) = (vec![0.0; inputs.len()], Vec::new());
+        model.simulate_recording(&p, &inputs, &mut whole, &mut whole_states);
+        assert!(whole.iter().any(|f| f.abs() > 10.0));
+        let mut run = model.start(&p, &inputs[0]);
+        let (mut pieces, mut states) = (vec![0.0; inputs.len()], Vec::new());
+        let mut at = 0;
+        for len in [1, 0, 129, 2, 600].into_iter().cycle() {
+            let end = (at + len).min(inputs.len());
+            model.carry(&p, &mut run, &inputs, &mut pieces[at..end], Some(&mut states));
+            at = end;
+            if at == inputs.len() {
+                break;
+            }
+        }
+        assert_eq!(pieces, whole);
+        assert_eq!(states, whole_states);
     }
 
     /// The paper's device gives a usable force everywhere; a damping of 10³⁰⁰ N·s/m (inside its bounds)

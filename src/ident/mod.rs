@@ -137,6 +137,16 @@ impl Test {
         }
     }
 
+    /// Whether the acquisition filtered the force (so [`Test::observed`] is not the model's force itself).
+    pub(crate) fn filtered(&self) -> bool {
+        self.drive.as_ref().is_some_and(|d| d.window() > 1)
+    }
+
+    /// [`Test::observed`] taken piece by piece.
+    pub(crate) fn observer(&self) -> crate::signal::RollingMean {
+        crate::signal::RollingMean::new(self.drive.as_ref().map_or(1, |d| d.window()))
+    }
+
     /// The model's prediction of the first `n` samples of the file's force.
     pub fn predict(&self, model: &crate::device::Model, params: &[f64], n: usize) -> Vec<f64> {
         self.observed(model.simulate(params, self.drive_inputs(n)))
