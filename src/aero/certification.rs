@@ -9,9 +9,10 @@
 //!   but need not exceed 50 lbf (35 lbf for a stick).
 //! - 14 CFR 25.173(c): the average stable stick-force-versus-speed gradient may not be less than
 //!   1 lbf per 6 knots.
-//! - MIL-F-8785C §3.2.2.2.1, Table V (centre stick, Level 1): the stick force per g at most
-//!   `240/(n/α)` lbf/g but not more than 28.0 nor less than `56/(n_L − 1)`, and at least `21/(n_L − 1)`
-//!   but not less than 3.0 lbf/g; `n/α` is the load factor per radian of angle of attack.
+//! - MIL-F-8785C §3.2.2.2.1, Table V (centre stick): the stick force per g of Levels 1, 2 and 3
+//!   ([`centre_stick_per_g_bounds`], the bounds quoted in `sweep::hq`); Level 1 at most `240/(n/α)`
+//!   lbf/g but not more than 28.0 nor less than `56/(n_L − 1)`, and at least `21/(n_L − 1)` but not less
+//!   than 3.0 lbf/g; `n/α` is the load factor per radian of angle of attack.
 //!
 //! Reading used here: the pull to the limit load factor from trim is a short-term force, so it must
 //! stay within the short-term two-hand limit; the stick force per g must be positive; Part 23's
@@ -151,7 +152,8 @@ impl FeelAssessment {
                 let trim = aircraft.steady_state(airspeed_m_s, altitude_m, 1.0)?;
                 let n_alpha =
                     trim.qbar_pa * m.wing_area_m2 * m.cl_alpha.slope(trim.alpha_rad) / (m.mass_kg * G0_M_S2);
-                mil_f_8785c_stick_level1_per_g_n(n_alpha, n_lim)
+                let level1 = centre_stick_per_g_bounds(n_lim, n_alpha)[0];
+                (level1.min_n_per_g, level1.max_n_per_g)
             }
             _ => (
                 basis
@@ -251,33 +253,37 @@ pub(crate) fn per_g_load_factor(
     Ok(n_ref)
 }
 
-/// MIL-F-8785C Table V, centre stick, Level 1: (minimum, maximum) stick force per g, N/g, for the
-/// airplane's `n/α` (g per radian) and limit load factor `n_L`.
-pub(crate) fn mil_f_8785c_stick_level1_per_g_n(n_alpha_per_rad: f64, n_limit: f64) -> (f64, f64) {
-    let max_lbf = (240.0 / n_alpha_per_rad).min(28.0).max(56.0 / (n_limit - 1.0));
-    let min_lbf = (21.0 / (n_limit - 1.0)).max(3.0);
-    (min_lbf * LBF_TO_N, max_lbf * LBF_TO_N)
+/// Stick-force-per-g bounds of one Level, N/g.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct PerGBounds {
+    pub min_n_per_g: f64,
+    pub max_n_per_g: f64,
+}
+
+/// MIL-F-8785C Table V for a centre stick: the bounds of Levels 1, 2 and 3, N/g, for limit load factor
+/// `n_limit` (g) and acceleration sensitivity `n_per_alpha` (g/rad).
+pub(crate) fn centre_stick_per_g_bounds(n_limit: f64, n_per_alpha: f64) -> [PerGBounds; 3] {
+    let dn = n_limit - 1.0;
+    let b = |min_lbf: f64, max_lbf: f64| PerGBounds {
+        min_n_per_g: min_lbf * LBF_TO_N,
+        max_n_per_g: max_lbf * LBF_TO_N,
+    };
+    [
+        b(
+            (21.0 / dn).max(3.0),
+            (240.0 / n_per_alpha).min(28.0).max(56.0 / dn),
+        ),
+        b(
+            (18.0 / dn).max(3.0),
+            (360.0 / n_per_alpha).min(42.5).max(85.0 / dn),
+        ),
+        b((12.0 / dn).max(2.0), 56.0),
+    ]
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Table V's corners: a fighter (n_L 7.33, n/α 20 g/rad) may have 3.3–12 lbf/g; a high n/α
-    /// floors the maximum at 56/(n_L − 1); a low one caps it at 28 lbf/g.
-    #[test]
-    fn mil_f_8785c_level_1_stick_band_follows_table_v() {
-        let lbf = |(lo, hi): (f64, f64)| (lo / LBF_TO_N, hi / LBF_TO_N);
-        let (lo, hi) = lbf(mil_f_8785c_stick_level1_per_g_n(20.0, 7.33));
-        assert!(
-            (lo - 21.0 / 6.33).abs() < 1e-9 && (hi - 12.0).abs() < 1e-9,
-            "{lo} {hi}"
-        );
-        let (_, hi) = lbf(mil_f_8785c_stick_level1_per_g_n(60.0, 7.33));
-        assert!((hi - 56.0 / 6.33).abs() < 1e-9, "{hi}");
-        let (lo, hi) = lbf(mil_f_8785c_stick_level1_per_g_n(5.0, 3.0));
-        assert!((hi - 28.0).abs() < 1e-9 && (lo - 10.5).abs() < 1e-9, "{lo} {hi}");
-    }
 
     #[test]
     fn part_23_wheel_limits_follow_the_regulation_table() {

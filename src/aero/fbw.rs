@@ -18,7 +18,7 @@
 //!   `21/(n_L − 1)` lbf/g (not below 3.0). Table V is written for centre sticks and wheels; the sidestick
 //!   limits of MIL-STD-1797A §4.2.8.2 could not be consulted, so the centre-stick band is the design band.
 
-use super::certification::mil_f_8785c_stick_level1_per_g_n;
+use super::certification::centre_stick_per_g_bounds;
 use crate::units::LBF_TO_N;
 
 /// MIL-F-8785C §3.5.2.1, Table XII: pitch breakout of a stick, Class IV aircraft, N (0.5 to 3 lbf).
@@ -92,7 +92,8 @@ impl FlyByWire {
 
     /// MIL-F-8785C Table V Level 1 stick force per g at the design condition: [min, max] N/g.
     pub fn level1_per_g_n(&self) -> (f64, f64) {
-        mil_f_8785c_stick_level1_per_g_n(self.n_alpha_per_rad, self.limit_load_factor)
+        let level1 = centre_stick_per_g_bounds(self.limit_load_factor, self.n_alpha_per_rad)[0];
+        (level1.min_n_per_g, level1.max_n_per_g)
     }
 }
 

@@ -22,39 +22,12 @@
 //! 5 s by default) is a prolonged application; the largest |force| anywhere is a temporary one.
 
 use crate::aero::certification::CertificationBasis;
+pub(crate) use crate::aero::certification::{centre_stick_per_g_bounds, PerGBounds};
 use crate::units::LBF_TO_N;
 
 /// Handling-qualities Level of the stick force per g (MIL-F-8785C 1.5): 1 satisfactory, 2 acceptable,
 /// 3 controllable; 4 here: outside the Level 3 bounds.
 pub type Level = u8;
-
-/// Stick-force-per-g bounds of one Level, N/g.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct PerGBounds {
-    pub min_n_per_g: f64,
-    pub max_n_per_g: f64,
-}
-
-/// MIL-F-8785C Table V for a centre stick: the bounds of Levels 1, 2 and 3, N/g, for limit load factor
-/// `n_limit` (g) and acceleration sensitivity `n_per_alpha` (g/rad).
-pub(crate) fn centre_stick_per_g_bounds(n_limit: f64, n_per_alpha: f64) -> [PerGBounds; 3] {
-    let dn = n_limit - 1.0;
-    let b = |min_lbf: f64, max_lbf: f64| PerGBounds {
-        min_n_per_g: min_lbf * LBF_TO_N,
-        max_n_per_g: max_lbf * LBF_TO_N,
-    };
-    [
-        b(
-            (21.0 / dn).max(3.0),
-            (240.0 / n_per_alpha).min(28.0).max(56.0 / dn),
-        ),
-        b(
-            (18.0 / dn).max(3.0),
-            (360.0 / n_per_alpha).min(42.5).max(85.0 / dn),
-        ),
-        b((12.0 / dn).max(2.0), 56.0),
-    ]
-}
 
 /// The best Level whose bounds hold `per_g_n` (N/g), 4 if none does.
 pub(crate) fn per_g_level(per_g_n: f64, bounds: &[PerGBounds; 3]) -> Level {
