@@ -5,10 +5,10 @@
 //! - Starting values from [`Model::initial_guess`] on the data's [`DataStats`], then a linear least-squares
 //!   warm start of the base model's linear gains (yield force at zero current, yield force per ampere,
 //!   viscous damping: Eq. 2 and 6 are linear in them), with non-negativity kept.
-//! - Residuals are computed in parallel over tests, the forward-difference Jacobian over parameters a block
-//!   of samples at a time, each block going into the Jacobian's triangular factor before the next is made
-//!   ([`Factor`]), so a fit's memory does not grow with its parameters (rayon, results taken in a fixed
-//!   order: deterministic).
+//! - Residuals are computed in parallel over tests, the forward-difference Jacobian over tests and, within a
+//!   test, over parameters a block of samples at a time, each block going into the Jacobian's triangular
+//!   factor before the next is made (`Factor`), so a fit's memory does not grow with its parameters
+//!   (rayon, results taken in a fixed order: deterministic).
 //! - Samples where the velocity is within its noise of zero (its sign unknown) do not count in the loss
 //!   ([`direction_weights`]); every sample is still simulated, so states carry through them.
 //! - Each test counts once in the loss, whatever its length and logging rate ([`Weighting::Tests`], the
