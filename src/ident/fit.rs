@@ -540,7 +540,7 @@ impl<'a> Problem<'a> {
                         h: z[k] - self.z[k],
                         integration: integrates(k, j).then(|| self.model.start(&p, &inputs[0])),
                         p,
-                        observer: test.filtered().then(|| test.observer()),
+                        observer: test.observer(),
                         model_force: Vec::new(),
                         force: Vec::new(),
                     }
@@ -628,9 +628,7 @@ impl<'a> Problem<'a> {
         };
         let mut factor = Factor::new(width);
         for f in &factors {
-            let mut stacked = factor.stacked(width + 1);
-            stacked.rows_mut(width + 1, width + 1).copy_from(&f.0);
-            factor.absorb(stacked);
+            factor.join(f);
         }
         factor
     }
@@ -732,6 +730,14 @@ impl Factor {
     /// Take in the rows under the factor in `stacked` (from [`Factor::stacked`]).
     fn absorb(&mut self, stacked: DMatrix<f64>) {
         self.0 = stacked.qr().r();
+    }
+
+    /// Take in the rows another factor of the same columns stands for.
+    fn join(&mut self, other: &Factor) {
+        let m = self.0.nrows();
+        let mut stacked = self.stacked(m);
+        stacked.rows_mut(m, m).copy_from(&other.0);
+        self.absorb(stacked);
     }
 
     /// `|J e_c|`.
@@ -1524,6 +1530,16 @@ mod tests {
                 assert!((a[(p, q)] - ac[(p, q)]).abs() <= 1e-10 * scale, "({p}, {q})");
             }
         }
+        // Two tests' factors joined: the same as one factor of all their rows.
+        let (top, bottom) = (1234, m - 1234);
+        let mut joined = factor_of(&j.rows(0, top).into(), &r.rows(0, top).into());
+        joined.join(&factor_of(
+            &j.rows(top, bottom).into(),
+            &r.rows(top, bottom).into(),
+        ));
+        let cj = joined.compressed();
+        assert!((&g - cj.tr_mul(&rc)).norm() <= 1e-10 * g.norm());
+        assert!((&a - cj.tr_mul(&cj)).norm() <= 1e-10 * a.norm());
         // Columns left out after the rows went in: the same as a factor of the remaining columns.
         let (kept, cw) = (
             j.clone().remove_column(0),

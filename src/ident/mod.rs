@@ -137,14 +137,10 @@ impl Test {
         }
     }
 
-    /// Whether the acquisition filtered the force (so [`Test::observed`] is not the model's force itself).
-    pub(crate) fn filtered(&self) -> bool {
-        self.drive.as_ref().is_some_and(|d| d.window() > 1)
-    }
-
-    /// [`Test::observed`] taken piece by piece.
-    pub(crate) fn observer(&self) -> crate::signal::RollingMean {
-        crate::signal::RollingMean::new(self.drive.as_ref().map_or(1, |d| d.window()))
+    /// [`Test::observed`] taken piece by piece, or none where the file's force is the model's itself.
+    pub(crate) fn observer(&self) -> Option<crate::signal::RollingMean> {
+        let window = self.drive.as_ref().map_or(1, |d| d.window());
+        (window > 1).then(|| crate::signal::RollingMean::new(window))
     }
 
     /// The model's prediction of the first `n` samples of the file's force.

@@ -22,7 +22,7 @@
 //! 5 s by default) is a prolonged application; the largest |force| anywhere is a temporary one.
 
 use crate::aero::certification::CertificationBasis;
-pub(crate) use crate::aero::certification::{centre_stick_per_g_bounds, PerGBounds};
+use crate::aero::certification::PerGBounds;
 use crate::units::LBF_TO_N;
 
 /// Handling-qualities Level of the stick force per g (MIL-F-8785C 1.5): 1 satisfactory, 2 acceptable,
@@ -138,6 +138,7 @@ pub(crate) fn part60_force_ratio(felt_n: &[f64], reference_n: &[f64]) -> Option<
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::aero::certification::centre_stick_per_g_bounds;
     use crate::aero::model::{CertificationPart, ControlType};
 
     const LB: f64 = LBF_TO_N;

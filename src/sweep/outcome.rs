@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use super::hq;
 use super::steady::{steady_per_g, Lever};
-use crate::aero::certification::CertificationBasis;
+use crate::aero::certification::{centre_stick_per_g_bounds, CertificationBasis};
 use crate::aero::model::{AircraftModel, CertificationPart, ControlType};
 use crate::aero::{Aircraft, FbwModel, FlyByWire};
 use crate::control::law::FeelLaw;
@@ -239,7 +239,7 @@ impl Outcome {
                 o.stick_force_per_g_n
             };
             if let (Some(g), Some(na)) = (per_g, o.n_per_alpha_g_per_rad) {
-                let bounds = hq::centre_stick_per_g_bounds(n_limit, na);
+                let bounds = centre_stick_per_g_bounds(n_limit, na);
                 o.per_g_level = Some(hq::per_g_level(g, &bounds));
             }
             o.part60_force_ratio = hq::part60_force_ratio(&felt, &target).and_then(finite);
