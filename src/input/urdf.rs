@@ -2,8 +2,7 @@
 //! mrfeel extension that standard URDF parsers ignore) and link visuals, with errors that name the line.
 //!
 //! `urdf-rs` reports no position, so the text is first read with every element's and attribute's line
-//! (`scan_xml`, on quick-xml) and checked against what `urdf-rs` reads: required attributes, numbers,
-//! vectors, joint types, unique names; unknown attributes and elements are errors, not silently dropped.
+//! (`scan_xml`, on quick-xml) and checked against what `urdf-rs` reads (`SCHEMA`).
 
 use std::path::{Path, PathBuf};
 
@@ -172,14 +171,10 @@ impl UrdfModel {
                 .filter(|j| j.child.link == l.name)
                 .count();
             if parents > 1 {
-                return Err(self.field_error(
-                    "link",
-                    &l.name,
-                    "parent",
-                    format!(
-                        "{parents} joints have this link as child; close a kinematic loop with <loop_joint>"
-                    ),
-                ));
+                let msg = format!(
+                    "{parents} joints have this link as child; close a kinematic loop with <loop_joint>"
+                );
+                return Err(self.field_error("link", &l.name, "parent", msg));
             }
             let m = l.inertial.mass.value;
             if !m.is_finite() || m < 0.0 {
@@ -188,12 +183,8 @@ impl UrdfModel {
             let i = &l.inertial.inertia;
             for (name, v) in [("ixx", i.ixx), ("iyy", i.iyy), ("izz", i.izz)] {
                 if !v.is_finite() || v < 0.0 {
-                    return Err(self.inertial_error(
-                        &l.name,
-                        "inertia",
-                        &format!("inertial/inertia `{name}`"),
-                        format!("{v} must be ≥ 0"),
-                    ));
+                    let field = format!("inertial/inertia `{name}`");
+                    return Err(self.inertial_error(&l.name, "inertia", &field, format!("{v} must be ≥ 0")));
                 }
             }
             // Triangle inequality of principal moments (for the diagonal inertias used here).
@@ -201,12 +192,10 @@ impl UrdfModel {
                 let (a, b, c) = (i.ixx, i.iyy, i.izz);
                 let tol = 1e-9 * (a + b + c);
                 if a + b < c - tol || a + c < b - tol || b + c < a - tol {
-                    return Err(self.inertial_error(
-                        &l.name,
-                        "inertia",
-                        "inertial/inertia",
-                        format!("moments ixx={a}, iyy={b}, izz={c} violate the triangle inequality (not a physical body)"),
-                    ));
+                    let msg = format!(
+                        "moments ixx={a}, iyy={b}, izz={c} violate the triangle inequality (not a physical body)"
+                    );
+                    return Err(self.inertial_error(&l.name, "inertia", "inertial/inertia", msg));
                 }
             }
         }
@@ -286,11 +275,6 @@ pub(crate) fn urdf_error(path: &Path, line: usize, msg: impl Into<String>) -> In
     }
 }
 
-// ---------------------------------------------------------------------------------------------------
-// The URDF text read with positions: `urdf-rs` reports where nothing is, so the text is first read here,
-// every element and attribute with its line, and checked against the elements `urdf-rs` reads (their
-// required attributes, numbers, vectors and joint types). What passes here, `urdf-rs` reads.
-
 /// An element of the file, with the 1-based line of its start tag.
 #[derive(Debug, Clone, Default)]
 struct XmlElement {
@@ -342,14 +326,12 @@ impl Lines {
 
 type XmlError = (usize, String);
 
-/// The deepest nesting of elements read. A URDF nests a few levels (`robot/link/visual/geometry/box`); the
-/// tree is built, checked and dropped, and `urdf-rs` reads it, by recursion, which a file nesting tens of
-/// thousands of elements would take past the stack (a crash, not an error).
+/// The deepest nesting of elements read: the tree is walked by recursion (here and in `urdf-rs`), which a
+/// file nesting tens of thousands of elements would take past the stack.
 const MAX_DEPTH: usize = 256;
 
-/// Read the XML text into its element tree (the root element), or the line and reason it is not XML. The
-/// parsing is quick-xml's (the XML reader urdf-rs itself uses); this adds the lines of elements and
-/// attributes, which urdf-rs's errors do not give.
+/// Read the XML text (with quick-xml, as urdf-rs does) into its element tree, every element and attribute
+/// with its line, or the line and reason it is not XML.
 fn scan_xml(text: &str) -> Result<XmlElement, XmlError> {
     use quick_xml::events::{BytesStart, Event};
     let lines = Lines::new(text);

@@ -1,11 +1,9 @@
 //! Scenario values replaced by dotted key (`feel.gradient_n_per_m = 900`): the axes of a sweep, `mrfeel run
 //! --set`, the overrides of the Python bindings.
 //!
-//! The scenario file's TOML document is edited (`toml_edit`, every other line left as written) and then read
-//! by the scenario's one checked parse ([`Scenario::parse`]), so the schema that checks a scenario checks its
-//! overrides: an unknown key, a wrong type or a value out of range is refused at the place the override was
-//! written (a plan's line, a `--set` argument), an error the override causes elsewhere (a DAQ rate above a
-//! lowered physics rate) at the scenario's own line, with the overrides named.
+//! The scenario's TOML document is edited (`toml_edit`) and read by [`Scenario::parse`], so the scenario's
+//! schema checks its overrides: an error is placed where the override was written (a plan's line, a
+//! `--set` argument), or, caused elsewhere, at the scenario's own line with the overrides named.
 
 use std::fmt;
 use std::path::{Path, PathBuf};
