@@ -190,8 +190,7 @@ fn estimated_keys(text: &str) -> Vec<String> {
 impl AircraftModel {
     /// Read and check an aircraft model file.
     pub fn load(path: &Path) -> Result<Self, InputError> {
-        let src = Source::read(path)?;
-        Self::from_toml(&src.text, path)
+        Self::from_toml(&Source::read(path)?.text, path)
     }
 
     /// Check an aircraft model's text; `path` places its errors.
@@ -411,8 +410,7 @@ impl FbwModel {
     /// The embedded model of a fly-by-wire aircraft's file, `None` if it has none (no `[airframe]`,
     /// `[aero_tables]` and `[fcs]`; all three or none).
     pub fn load(path: &Path) -> Result<Option<Self>, InputError> {
-        let src = Source::read(path)?;
-        Self::from_toml(&src.text, path)
+        Self::from_toml(&Source::read(path)?.text, path)
     }
 
     /// As [`FbwModel::load`], from text; `path` places its errors.
@@ -560,8 +558,7 @@ pub fn is_fly_by_wire(text: &str) -> bool {
 impl FlyByWire {
     /// Read and check a fly-by-wire aircraft's model file.
     pub fn load(path: &Path) -> Result<Self, InputError> {
-        let src = Source::read(path)?;
-        Self::from_toml(&src.text, path)
+        Self::from_toml(&Source::read(path)?.text, path)
     }
 
     /// Check a fly-by-wire aircraft's model text; `path` places its errors.

@@ -24,13 +24,6 @@ impl CommandTiming {
             Self::AtSample => "at-sample",
         }
     }
-
-    /// The timing of a name ([`CommandTiming::as_str`]).
-    pub fn from_name(name: &str) -> Option<Self> {
-        [Self::AfterSample, Self::AtSample]
-            .into_iter()
-            .find(|t| t.as_str() == name)
-    }
 }
 
 /// A parameter file's top-level keys, and each parameter's.
@@ -148,7 +141,7 @@ impl ParamsJson {
         let command_timing = match top.get("command_timing") {
             Some(e) => {
                 let name: String = typed(src, e, &["command_timing"], "\"after-sample\" or \"at-sample\"")?;
-                CommandTiming::from_name(&name).ok_or_else(|| {
+                serde_json::from_value(name.clone().into()).map_err(|_| {
                     let msg = format!(
                         "`{name}` is not a command timing: `after-sample` (a command acts after the sample it is \
                          logged with) or `at-sample` (in force at it)"
