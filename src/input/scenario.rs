@@ -362,19 +362,14 @@ fn schedule(
         return Err(src.err(pts, field, "needs at least one [t_s, value] point"));
     }
     for (i, q) in p.iter().enumerate() {
-        if !(q.1.is_finite() && (lo..=hi).contains(&q.1)) {
-            let msg = format!(
-                "point {i}: value {} outside the allowed range [{lo}, {hi}] {unit}",
-                q.1
-            );
+        let (t, v) = (q.0, q.1);
+        if !(v.is_finite() && (lo..=hi).contains(&v)) {
+            let msg = format!("point {i}: value {v} outside the allowed range [{lo}, {hi}] {unit}");
             return Err(src.err(pts, field, msg.trim_end()));
         }
-        if !q.0.is_finite() || (i > 0 && q.0 <= p[i - 1].0) {
-            return Err(src.err(
-                pts,
-                field,
-                format!("point {i}: times must be finite and increasing"),
-            ));
+        if !t.is_finite() || (i > 0 && t <= p[i - 1].0) {
+            let msg = format!("point {i}: times must be finite and increasing");
+            return Err(src.err(pts, field, msg));
         }
     }
     Ok(Schedule {

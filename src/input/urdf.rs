@@ -398,13 +398,9 @@ fn scan_xml(text: &str) -> Result<XmlElement, XmlError> {
                     return Err((line, format!("`</{name}>` closes no open element")));
                 };
                 if open.name != name {
-                    return Err((
-                        line,
-                        format!(
-                            "`</{name}>` does not close `<{}>` opened at line {}",
-                            open.name, open.line
-                        ),
-                    ));
+                    let (open, at) = (&open.name, open.line);
+                    let msg = format!("`</{name}>` does not close `<{open}>` opened at line {at}");
+                    return Err((line, msg));
                 }
                 Some(open)
             }
@@ -425,23 +421,17 @@ fn scan_xml(text: &str) -> Result<XmlElement, XmlError> {
             match stack.last_mut() {
                 Some(parent) => parent.children.push(el),
                 None if root.is_some() => {
-                    return Err((
-                        el.line,
-                        format!("a second root element `<{}>` after the first", el.name),
-                    ));
+                    let msg = format!("a second root element `<{}>` after the first", el.name);
+                    return Err((el.line, msg));
                 }
                 None => root = Some(el),
             }
         }
     }
     if let Some(open) = stack.last() {
-        return Err((
-            open.line,
-            format!(
-                "`<{}>` is never closed (the file ends inside it: truncated?)",
-                open.name
-            ),
-        ));
+        let name = &open.name;
+        let msg = format!("`<{name}>` is never closed (the file ends inside it: truncated?)");
+        return Err((open.line, msg));
     }
     root.ok_or((1, "no XML element at all (not a URDF file?)".to_string()))
 }
@@ -571,23 +561,17 @@ fn check_schema(root: &XmlElement) -> Result<(), SchemaError> {
         match el.name.as_str() {
             "link" => {
                 if let Some((_, first)) = links.iter().find(|(n, _)| *n == name) {
-                    return Err((
-                        el.line,
-                        owner,
-                        format!("name: a second link named `{name}` (the first is at line {first})"),
-                    ));
+                    let msg = format!("name: a second link named `{name}` (the first is at line {first})");
+                    return Err((el.line, owner, msg));
                 }
                 links.push((name, el.line));
             }
             "joint" | "loop_joint" => {
                 if let Some((_, kind, first)) = joints.iter().find(|(n, _, _)| *n == name) {
-                    return Err((
-                        el.line,
-                        owner,
-                        format!(
-                            "name: a second joint named `{name}` (the first, a <{kind}>, is at line {first})"
-                        ),
-                    ));
+                    let msg = format!(
+                        "name: a second joint named `{name}` (the first, a <{kind}>, is at line {first})"
+                    );
+                    return Err((el.line, owner, msg));
                 }
                 joints.push((name, &el.name, el.line));
             }
@@ -612,11 +596,8 @@ fn check_element(parent: &str, el: &XmlElement, owner: &str, path: &str) -> Resu
     for a in &el.attrs {
         let Some(&(_, kind, _)) = attrs.iter().find(|(n, _, _)| *n == a.name) else {
             let known = allowed(attrs.iter().map(|(n, _, _)| n.to_string()).collect());
-            return Err((
-                a.line,
-                here,
-                format!("unknown attribute `{}` (allowed: {known})", a.name),
-            ));
+            let msg = format!("unknown attribute `{}` (allowed: {known})", a.name);
+            return Err((a.line, here, msg));
         };
         check_value(kind, &a.value).map_err(|m| (a.line, here.clone(), format!("`{}`: {m}", a.name)))?;
     }
@@ -629,11 +610,8 @@ fn check_element(parent: &str, el: &XmlElement, owner: &str, path: &str) -> Resu
     for c in &el.children {
         let Some(&(_, repeats, _)) = children.iter().find(|(n, _, _)| *n == c.name) else {
             let known = allowed(children.iter().map(|(n, _, _)| format!("<{n}>")).collect());
-            return Err((
-                c.line,
-                here,
-                format!("unknown element <{}> (allowed here: {known})", c.name),
-            ));
+            let msg = format!("unknown element <{}> (allowed here: {known})", c.name);
+            return Err((c.line, here, msg));
         };
         let first = el.children.iter().find(|d| d.name == c.name).expect("c itself");
         if !repeats && !std::ptr::eq(first, c) {
