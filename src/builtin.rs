@@ -3,10 +3,8 @@
 //! scenarios and the JSBSim bridge scripts.
 //!
 //! A file a scenario names is looked for, in order: relative to the scenario's folder (an absolute path as
-//! given); in the data directory (`--data-dir` or `MRFEEL_DATA`), where one is set; then, for a relative
-//! path, among the built-in files by its file name. A built-in file has the path `<built-in>/models/…`,
-//! which every reader of this crate reads and error messages name with its lines like
-//! any other file.
+//! given); in the data directory (`--data-dir` or `MRFEEL_DATA`); then, for a relative path, among the
+//! built-in files by its file name, whose paths (`<built-in>/models/…`) every reader of this crate reads.
 
 use std::path::{Component, Path, PathBuf};
 use std::sync::OnceLock;
@@ -24,86 +22,32 @@ pub const PAPER_DEVICE: &str = include_str!("../models/paper-device.toml");
 pub const PAPER_POINTS: [(f64, f64); 3] = [(2.2, 10.0), (5.0, 25.0), (14.0, 70.0)];
 
 /// Each built-in file: its path in the repository and its text.
-const FILES: &[(&str, &str)] = &[
-    ("models/stick-rig.urdf", include_str!("../models/stick-rig.urdf")),
-    ("models/paper-device.toml", PAPER_DEVICE),
-    (
-        "models/pilot-hand.toml",
-        include_str!("../models/pilot-hand.toml"),
-    ),
-    (
-        "models/pilot-bench-actuator.toml",
-        include_str!("../models/pilot-bench-actuator.toml"),
-    ),
-    (
-        "models/active-stick.toml",
-        include_str!("../models/active-stick.toml"),
-    ),
-    (
-        "models/feel-springs.toml",
-        include_str!("../models/feel-springs.toml"),
-    ),
-    (
-        "models/aircraft/c172p.toml",
-        include_str!("../models/aircraft/c172p.toml"),
-    ),
-    (
-        "models/aircraft/737.toml",
-        include_str!("../models/aircraft/737.toml"),
-    ),
-    (
-        "models/aircraft/T37.toml",
-        include_str!("../models/aircraft/T37.toml"),
-    ),
-    (
-        "models/aircraft/f16.toml",
-        include_str!("../models/aircraft/f16.toml"),
-    ),
-    ("models/sidestick.urdf", include_str!("../models/sidestick.urdf")),
-    (
-        "scenarios/paper-feel-loop.toml",
-        include_str!("../scenarios/paper-feel-loop.toml"),
-    ),
-    (
-        "scenarios/paper-fine-corrections.toml",
-        include_str!("../scenarios/paper-fine-corrections.toml"),
-    ),
-    (
-        "scenarios/response-time.toml",
-        include_str!("../scenarios/response-time.toml"),
-    ),
-    (
-        "scenarios/compare-feel.toml",
-        include_str!("../scenarios/compare-feel.toml"),
-    ),
-    (
-        "scenarios/c172p-pitch-tracking.toml",
-        include_str!("../scenarios/c172p-pitch-tracking.toml"),
-    ),
-    (
-        "scenarios/c172p-pullup.toml",
-        include_str!("../scenarios/c172p-pullup.toml"),
-    ),
-    (
-        "scenarios/737-approach.toml",
-        include_str!("../scenarios/737-approach.toml"),
-    ),
-    (
-        "scenarios/T37-pullup.toml",
-        include_str!("../scenarios/T37-pullup.toml"),
-    ),
-    (
-        "scenarios/f16-pullup.toml",
-        include_str!("../scenarios/f16-pullup.toml"),
-    ),
-    (
-        "python/jsbsim_bridge.py",
-        include_str!("../python/jsbsim_bridge.py"),
-    ),
-    (
-        "python/jsbsim_reference.py",
-        include_str!("../python/jsbsim_reference.py"),
-    ),
+macro_rules! files {
+    ($($path:literal),* $(,)?) => { &[$(($path, include_str!(concat!("../", $path)))),*] };
+}
+const FILES: &[(&str, &str)] = files![
+    "models/stick-rig.urdf",
+    "models/paper-device.toml",
+    "models/pilot-hand.toml",
+    "models/pilot-bench-actuator.toml",
+    "models/active-stick.toml",
+    "models/feel-springs.toml",
+    "models/aircraft/c172p.toml",
+    "models/aircraft/737.toml",
+    "models/aircraft/T37.toml",
+    "models/aircraft/f16.toml",
+    "models/sidestick.urdf",
+    "scenarios/paper-feel-loop.toml",
+    "scenarios/paper-fine-corrections.toml",
+    "scenarios/response-time.toml",
+    "scenarios/compare-feel.toml",
+    "scenarios/c172p-pitch-tracking.toml",
+    "scenarios/c172p-pullup.toml",
+    "scenarios/737-approach.toml",
+    "scenarios/T37-pullup.toml",
+    "scenarios/f16-pullup.toml",
+    "python/jsbsim_bridge.py",
+    "python/jsbsim_reference.py",
 ];
 
 /// Folder of the built-in aircraft models.
@@ -133,21 +77,20 @@ fn path_of(repo_path: &str) -> PathBuf {
     Path::new(ROOT).join(repo_path)
 }
 
-/// The repository path of a built-in file's path, if `path` is one (`<built-in>/models/x` → `models/x`).
-fn repo_path(path: &Path) -> Option<&str> {
+/// The built-in file (repository path, text) whose path is `path` (`<built-in>/models/x`), if it is one.
+fn entry(path: &Path) -> Option<&'static (&'static str, &'static str)> {
     let rest = path.strip_prefix(ROOT).ok()?.to_str()?;
-    FILES.iter().find(|(p, _)| *p == rest).map(|(p, _)| *p)
+    FILES.iter().find(|(p, _)| *p == rest)
 }
 
 /// Whether `path` is a built-in file's path.
 pub(crate) fn is_builtin(path: &Path) -> bool {
-    repo_path(path).is_some()
+    entry(path).is_some()
 }
 
 /// The text of a built-in file's path; `None` for any other path.
 pub fn text(path: &Path) -> Option<&'static str> {
-    let rest = repo_path(path)?;
-    FILES.iter().find(|(p, _)| *p == rest).map(|(_, t)| *t)
+    entry(path).map(|(_, t)| *t)
 }
 
 /// The built-in file whose file name is `name` (`stick-rig.urdf`, `paper-device.toml`).

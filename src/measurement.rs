@@ -1,9 +1,8 @@
 //! Test-rig measurements in the project's CSV format (`docs/spec/measurement-format.md`): the signals of
 //! one test in SI units, read by `input::measurement` and written back.
 //!
-//! Required columns: `t_s`, `x_m`, `i_a`, `f_n`; optional `v_m_s` (derived from `x_m` with a smoothing
-//! differentiator when absent), `i_meas_a`, `a_m_s2`, `temp_c`; any other column is kept as text. The
-//! metadata key `sample_rate_hz` must be a positive number that agrees with the clock (`t_s`).
+//! Required columns: `t_s`, `x_m`, `i_a`, `f_n`; optional `v_m_s` (else derived from `x_m`), `i_meas_a`,
+//! `a_m_s2`, `temp_c`; any other column is kept as text.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -19,14 +18,12 @@ pub(crate) const REQUIRED: [&str; 4] = ["t_s", "x_m", "i_a", "f_n"];
 /// Optional columns the tool understands.
 pub(crate) const OPTIONAL: [&str; 4] = ["v_m_s", "i_meas_a", "a_m_s2", "temp_c"];
 
-/// Largest magnitude a measured value may have (any column, its own unit): the model's force limit.
-/// Beyond it a sum of squares overflows and a fit's figures are not numbers; no instrument reads such a
-/// value.
+/// Largest magnitude a measured value may have (any column, its own unit): the model's force limit, beyond
+/// which a fit's sums of squares overflow.
 pub(crate) const MAGNITUDE_LIMIT: f64 = crate::device::model::FORCE_LIMIT_N;
 
-/// A column beyond the format's, kept as written (trimmed, unquoted). One string per column, the fields
-/// separated by NUL (which no input holds), so that thousands of such columns take about the file's own
-/// size in memory.
+/// A column beyond the format's, kept as written (trimmed, unquoted): one string, the fields separated by
+/// NUL (which no input holds), so that many such columns take about the file's own size in memory.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct TextColumn {
     text: String,
@@ -158,10 +155,9 @@ impl Measurement {
         crate::input::measurement::parse(bytes, path, true)
     }
 
-    /// A measurement from columns in memory (SI units), checked as a file's columns are: each as long as
-    /// `t_s`, every value a finite number within `MAGNITUDE_LIMIT` (the model's force limit), the time strictly increasing. `name`
-    /// stands for the file name; `v_m_s` is derived from `x_m` when not given; errors name the column and
-    /// the 0-based sample, and [`Measurement::lines`] holds 1-based sample numbers.
+    /// A measurement from columns in memory (SI units), checked as a file's columns are; `name` stands for
+    /// the file, errors name the column and the 0-based sample, and [`Measurement::lines`] holds 1-based
+    /// sample numbers.
     pub fn from_columns(
         name: &str,
         t_s: Vec<f64>,

@@ -1,8 +1,6 @@
-//! Scenario files (`scenarios/*.toml`): one headless run of the stick rig, wiring the rig ([`RigConfig`]),
-//! the device (a device file or a fitted `PARAMS.json`), the sensors and DAQ, the feel loop's controller and
-//! law, the pilot (hand model and task), faults, and optionally an aircraft, the pilot's outer loop on it
-//! and the feel system. The file is read and checked by `input::scenario`; paths in it are
-//! relative to it.
+//! Scenario files (`scenarios/*.toml`): one headless run of the stick rig (rig, device, sensors, feel
+//! controller and law, pilot, faults, and optionally an aircraft, the pilot's outer loop and the feel
+//! system), read and checked by `input::scenario`; paths in it are relative to it.
 
 use std::path::{Path, PathBuf};
 
@@ -77,10 +75,8 @@ pub struct OuterLoopConfig {
 pub enum PilotDesign {
     /// Gains given in the file (`gain`, `lead_s`, `lag_s`, `integral_per_s`, `delay_s`).
     Given(CrossoverPilotConfig),
-    /// McRuer's crossover model: the pilot adapts gain and equalisation to the aircraft at its trim so that
-    /// the open loop crosses over at `crossover_rad_s` with the effective delay `delay_s`; `stick_lag_s` is
-    /// the lag from the pilot's stick command to the stick (hand and feel), part of the controlled element
-    /// (`crate::aero::linear::adapted_pilot`).
+    /// McRuer's crossover model: gain and equalisation adapted to the aircraft at its trim so that the open
+    /// loop crosses over at `crossover_rad_s` (`crate::aero::linear::adapted_pilot`).
     Adapted {
         /// Open-loop crossover, rad/s.
         crossover_rad_s: f64,
@@ -91,9 +87,8 @@ pub enum PilotDesign {
     },
 }
 
-/// Most physics steps a run may take ([`Scenario::load`] refuses more). A run that keeps its rows (plots, a
-/// flight's metrics, [`crate::sim::run`]) holds ~300 bytes a step, 3 GB here; a streamed run's memory stays
-/// flat, but its CSV grows by ~370 bytes a step and 10⁷ steps take about ten minutes.
+/// Most physics steps a run may take ([`Scenario::load`] refuses more): a run that keeps its rows holds ~300
+/// bytes a step, 3 GB here.
 pub(crate) const MAX_PHYSICS_STEPS: f64 = 1e7;
 
 /// Lines of the scenario's keys that a run's own errors name (a trim with no solution, an integration that

@@ -190,53 +190,26 @@ fn estimated_keys(text: &str) -> Vec<String> {
 impl AircraftModel {
     /// Read and check an aircraft model file.
     pub fn load(path: &Path) -> Result<Self, InputError> {
-        let src = Source::read(path)?;
-        Self::from_toml(&src.text, path)
+        Self::from_toml(&Source::read(path)?.text, path)
     }
 
     /// Check an aircraft model's text; `path` places its errors.
     pub fn from_toml(text: &str, path: &Path) -> Result<Self, InputError> {
         let src = Source::new(path, text);
         let f: File = src.toml()?;
-        let n = |v: &S<f64>, field: &str, lo: f64, hi: f64| src.within(v, field, lo..=hi, "");
-        let (g, m, p, a, e, h, s, cert) = (
-            &f.geometry,
-            &f.mass,
-            &f.propulsion,
-            &f.aero,
-            &f.elevator,
-            &f.hinge,
-            &f.stick,
-            &f.certification,
-        );
+        let p = &f.propulsion;
         let feel_computer = match &f.feel_computer {
             None => None,
-            Some(fc) => Some(FeelComputer {
-                breakout_n: n(&fc.breakout_n, "feel_computer.breakout_n", 0.0, 500.0)?,
-                breakout_band_rad: n(
-                    &fc.breakout_band_rad,
-                    "feel_computer.breakout_band_rad",
-                    1e-4,
-                    0.2,
-                )?,
-                centering_n_per_rad: n(
-                    &fc.centering_n_per_rad,
-                    "feel_computer.centering_n_per_rad",
-                    0.0,
-                    1e5,
-                )?,
-                q_feel_n_per_rad_pa: n(
-                    &fc.q_feel_n_per_rad_pa,
-                    "feel_computer.q_feel_n_per_rad_pa",
-                    0.0,
-                    10.0,
-                )?,
-                mach_trim_start: n(&fc.mach_trim_start, "feel_computer.mach_trim_start", 0.0, 1.0)?,
-                mach_trim_stick_rad_per_mach: n(
-                    &fc.mach_trim_stick_rad_per_mach,
-                    "feel_computer.mach_trim_stick_rad_per_mach",
-                    0.0,
-                    5.0,
+            Some(feel_computer) => Some(FeelComputer {
+                breakout_n: within!(src, feel_computer.breakout_n, 0.0..=500.0)?,
+                breakout_band_rad: within!(src, feel_computer.breakout_band_rad, 1e-4..=0.2)?,
+                centering_n_per_rad: within!(src, feel_computer.centering_n_per_rad, 0.0..=1e5)?,
+                q_feel_n_per_rad_pa: within!(src, feel_computer.q_feel_n_per_rad_pa, 0.0..=10.0)?,
+                mach_trim_start: within!(src, feel_computer.mach_trim_start, 0.0..=1.0)?,
+                mach_trim_stick_rad_per_mach: within!(
+                    src,
+                    feel_computer.mach_trim_stick_rad_per_mach,
+                    0.0..=5.0
                 )?,
             }),
         };
@@ -244,7 +217,7 @@ impl AircraftModel {
         let need = |v: &Option<S<f64>>, key: &str, lo: f64, hi: f64| {
             let field = format!("propulsion.{key}");
             match v {
-                Some(v) => n(v, &field, lo, hi),
+                Some(v) => src.within(v, &field, lo..=hi, ""),
                 None => {
                     let kind = match *p.kind.get_ref() {
                         PropulsionKind::Propeller => "propeller",
@@ -266,47 +239,41 @@ impl AircraftModel {
                 max_thrust_n: need(&p.max_thrust_n, "max_thrust_n", 1.0, 1e12)?,
             },
         };
-        let htail_area_m2 = n(&g.htail_area_m2, "geometry.htail_area_m2", 0.01, 500.0)?;
-        let htail_span_m = n(&g.htail_span_m, "geometry.htail_span_m", 0.1, 50.0)?;
+        let htail_area_m2 = within!(src, f.geometry.htail_area_m2, 0.01..=500.0)?;
+        let htail_span_m = within!(src, f.geometry.htail_span_m, 0.1..=50.0)?;
         let elevator_geometry = ControlGeometry {
-            chord_ratio: n(&e.chord_ratio, "elevator.chord_ratio", 0.05, 0.6)?,
-            balance_ratio: n(&e.balance_ratio, "elevator.balance_ratio", 0.0, 0.6)?,
-            tab_chord_ratio: n(&e.tab_chord_ratio, "elevator.tab_chord_ratio", 0.0, 0.6)?,
-            tab_span_ratio: n(&e.tab_span_ratio, "elevator.tab_span_ratio", 0.0, 1.0)?,
+            chord_ratio: within!(src, f.elevator.chord_ratio, 0.05..=0.6)?,
+            balance_ratio: within!(src, f.elevator.balance_ratio, 0.0..=0.6)?,
+            tab_chord_ratio: within!(src, f.elevator.tab_chord_ratio, 0.0..=0.6)?,
+            tab_span_ratio: within!(src, f.elevator.tab_span_ratio, 0.0..=1.0)?,
             tail_aspect_ratio: htail_span_m * htail_span_m / htail_area_m2,
-            viscous_factor: n(&h.viscous_factor, "hinge.viscous_factor", 0.05, 1.0)?,
+            viscous_factor: within!(src, f.hinge.viscous_factor, 0.05..=1.0)?,
         };
         let derived = elevator_geometry
             .derivatives()
-            .map_err(|msg| src.err(&g.htail_span_m, "geometry.htail_span_m", msg))?;
+            .map_err(|msg| src.err(&f.geometry.htail_span_m, "geometry.htail_span_m", msg))?;
         let hinge = HingeModel {
             elevator_area_m2: elevator_geometry.chord_ratio * htail_area_m2,
             elevator_chord_m: elevator_geometry.chord_ratio * htail_area_m2 / htail_span_m,
-            ch0: n(&h.ch0, "hinge.ch0", -0.5, 0.5)?,
+            ch0: within!(src, f.hinge.ch0, -0.5..=0.5)?,
             ch_alpha_per_rad: derived.ch_alpha_per_rad,
             ch_elevator_per_rad: derived.ch_elevator_per_rad,
             ch_tab_per_rad: derived.ch_tab_per_rad,
-            tab_min_rad: n(&h.tab_min_rad, "hinge.tab_min_rad", -1.0, 0.0)?,
-            tab_max_rad: n(&h.tab_max_rad, "hinge.tab_max_rad", 0.0, 1.0)?,
-            tail_dynamic_pressure_ratio: n(
-                &h.tail_dynamic_pressure_ratio,
-                "hinge.tail_dynamic_pressure_ratio",
-                0.3,
-                1.5,
+            tab_min_rad: within!(src, f.hinge.tab_min_rad, -1.0..=0.0)?,
+            tab_max_rad: within!(src, f.hinge.tab_max_rad, 0.0..=1.0)?,
+            tail_dynamic_pressure_ratio: within!(src, f.hinge.tail_dynamic_pressure_ratio, 0.3..=1.5)?,
+            downwash_gradient: within!(src, f.hinge.downwash_gradient, 0.0..=0.9)?,
+            tail_arm_m: within!(src, f.geometry.htail_arm_m, 0.1..=100.0)?,
+            elevator_per_stick_rad_per_rad: within!(
+                src,
+                f.stick.elevator_per_stick_rad_per_rad,
+                0.05..=20.0
             )?,
-            downwash_gradient: n(&h.downwash_gradient, "hinge.downwash_gradient", 0.0, 0.9)?,
-            tail_arm_m: n(&g.htail_arm_m, "geometry.htail_arm_m", 0.1, 100.0)?,
-            elevator_per_stick_rad_per_rad: n(
-                &s.elevator_per_stick_rad_per_rad,
-                "stick.elevator_per_stick_rad_per_rad",
-                0.05,
-                20.0,
-            )?,
-            stick_arm_m: n(&s.arm_m, "stick.arm_m", 0.05, 2.0)?,
-            force_feedback_ratio: n(&s.force_feedback_ratio, "stick.force_feedback_ratio", 0.0, 1.0)?,
+            stick_arm_m: within!(src, f.stick.arm_m, 0.05..=2.0)?,
+            force_feedback_ratio: within!(src, f.stick.force_feedback_ratio, 0.0..=1.0)?,
             feel_computer,
-            elevator_min_rad: n(&e.min_rad, "elevator.min_rad", -1.0, 0.0)?,
-            elevator_max_rad: n(&e.max_rad, "elevator.max_rad", 0.0, 1.0)?,
+            elevator_min_rad: within!(src, f.elevator.min_rad, -1.0..=0.0)?,
+            elevator_max_rad: within!(src, f.elevator.max_rad, 0.0..=1.0)?,
         };
         if hinge.force_feedback_ratio < 1e-4 && hinge.feel_computer.is_none() {
             let msg = format!(
@@ -314,69 +281,59 @@ impl AircraftModel {
                  or add a [feel_computer] section (powered controls)",
                 hinge.force_feedback_ratio
             );
-            return Err(src.err(&s.force_feedback_ratio, "stick.force_feedback_ratio", msg));
+            return Err(src.err(&f.stick.force_feedback_ratio, "stick.force_feedback_ratio", msg));
         }
-        let mass_kg = n(&m.mass_kg, "mass.mass_kg", 1.0, 1e6)?;
-        let max_weight_kg = n(&cert.max_weight_kg, "certification.max_weight_kg", 1.0, 1e6)?;
+        let mass_kg = within!(src, f.mass.mass_kg, 1.0..=1e6)?;
+        let max_weight_kg = within!(src, f.certification.max_weight_kg, 1.0..=1e6)?;
         if mass_kg > max_weight_kg {
             let msg = format!(
                 "{mass_kg} kg exceeds certification.max_weight_kg = {max_weight_kg} kg (allowed range [1, \
                  max_weight_kg])"
             );
-            return Err(src.err(&m.mass_kg, "mass.mass_kg", msg));
+            return Err(src.err(&f.mass.mass_kg, "mass.mass_kg", msg));
         }
         Ok(AircraftModel {
             name: f.name.clone(),
             path: path.to_path_buf(),
-            wing_area_m2: n(&g.wing_area_m2, "geometry.wing_area_m2", 0.1, 2000.0)?,
-            chord_m: n(&g.chord_m, "geometry.chord_m", 0.05, 50.0)?,
-            span_m: n(&g.span_m, "geometry.span_m", 0.1, 100.0)?,
+            wing_area_m2: within!(src, f.geometry.wing_area_m2, 0.1..=2000.0)?,
+            chord_m: within!(src, f.geometry.chord_m, 0.05..=50.0)?,
+            span_m: within!(src, f.geometry.span_m, 0.1..=100.0)?,
             htail_area_m2,
             htail_span_m,
-            aero_ref_x_m: n(&g.aero_ref_x_m, "geometry.aero_ref_x_m", -100.0, 100.0)?,
-            aero_ref_z_m: n(&g.aero_ref_z_m, "geometry.aero_ref_z_m", -100.0, 100.0)?,
+            aero_ref_x_m: within!(src, f.geometry.aero_ref_x_m, -100.0..=100.0)?,
+            aero_ref_z_m: within!(src, f.geometry.aero_ref_z_m, -100.0..=100.0)?,
             mass_kg,
-            iyy_kg_m2: n(&m.iyy_kg_m2, "mass.iyy_kg_m2", 0.01, 1e9)?,
-            cg_x_m: n(&m.cg_x_m, "mass.cg_x_m", -100.0, 100.0)?,
-            cg_z_m: n(&m.cg_z_m, "mass.cg_z_m", -100.0, 100.0)?,
+            iyy_kg_m2: within!(src, f.mass.iyy_kg_m2, 0.01..=1e9)?,
+            cg_x_m: within!(src, f.mass.cg_x_m, -100.0..=100.0)?,
+            cg_z_m: within!(src, f.mass.cg_z_m, -100.0..=100.0)?,
             propulsion,
-            thrust_x_m: n(&p.thrust_x_m, "propulsion.thrust_x_m", -100.0, 100.0)?,
-            thrust_z_m: n(&p.thrust_z_m, "propulsion.thrust_z_m", -100.0, 100.0)?,
-            density_exponent: n(&p.density_exponent, "propulsion.density_exponent", 0.0, 2.0)?,
-            cl_alpha: table(&src, &a.cl_alpha, "aero.cl_alpha")?,
-            cl_elevator_per_rad: n(&a.cl_elevator_per_rad, "aero.cl_elevator_per_rad", -5.0, 5.0)?,
-            cl_q_per_rad: n(&a.cl_q_per_rad, "aero.cl_q_per_rad", -50.0, 50.0)?,
-            cl_alphadot_per_rad: n(&a.cl_alphadot_per_rad, "aero.cl_alphadot_per_rad", -50.0, 50.0)?,
-            cd0: n(&a.cd0, "aero.cd0", 0.0, 1.0)?,
-            cd_alpha: table(&src, &a.cd_alpha, "aero.cd_alpha")?,
-            cd_induced_per_cl2: n(&a.cd_induced_per_cl2, "aero.cd_induced_per_cl2", 0.0, 1.0)?,
-            cd_elevator_abs_per_rad: n(
-                &a.cd_elevator_abs_per_rad,
-                "aero.cd_elevator_abs_per_rad",
-                0.0,
-                1.0,
-            )?,
-            cd_mach: match &a.cd_mach {
+            thrust_x_m: within!(src, f.propulsion.thrust_x_m, -100.0..=100.0)?,
+            thrust_z_m: within!(src, f.propulsion.thrust_z_m, -100.0..=100.0)?,
+            density_exponent: within!(src, f.propulsion.density_exponent, 0.0..=2.0)?,
+            cl_alpha: table(&src, &f.aero.cl_alpha, "aero.cl_alpha")?,
+            cl_elevator_per_rad: within!(src, f.aero.cl_elevator_per_rad, -5.0..=5.0)?,
+            cl_q_per_rad: within!(src, f.aero.cl_q_per_rad, -50.0..=50.0)?,
+            cl_alphadot_per_rad: within!(src, f.aero.cl_alphadot_per_rad, -50.0..=50.0)?,
+            cd0: within!(src, f.aero.cd0, 0.0..=1.0)?,
+            cd_alpha: table(&src, &f.aero.cd_alpha, "aero.cd_alpha")?,
+            cd_induced_per_cl2: within!(src, f.aero.cd_induced_per_cl2, 0.0..=1.0)?,
+            cd_elevator_abs_per_rad: within!(src, f.aero.cd_elevator_abs_per_rad, 0.0..=1.0)?,
+            cd_mach: match &f.aero.cd_mach {
                 Some(t) => table(&src, t, "aero.cd_mach")?,
                 None => Table1::constant(0.0),
             },
-            cm0: n(&a.cm0, "aero.cm0", -1.0, 1.0)?,
-            cm_alpha_per_rad: n(&a.cm_alpha_per_rad, "aero.cm_alpha_per_rad", -20.0, 20.0)?,
-            cm_q_per_rad: n(&a.cm_q_per_rad, "aero.cm_q_per_rad", -200.0, 0.0)?,
-            cm_alphadot_per_rad: n(&a.cm_alphadot_per_rad, "aero.cm_alphadot_per_rad", -200.0, 50.0)?,
-            cm_elevator_per_rad: table(&src, &a.cm_elevator_per_rad, "aero.cm_elevator_per_rad")?,
-            elevator_in_slipstream: a.elevator_in_slipstream,
+            cm0: within!(src, f.aero.cm0, -1.0..=1.0)?,
+            cm_alpha_per_rad: within!(src, f.aero.cm_alpha_per_rad, -20.0..=20.0)?,
+            cm_q_per_rad: within!(src, f.aero.cm_q_per_rad, -200.0..=0.0)?,
+            cm_alphadot_per_rad: within!(src, f.aero.cm_alphadot_per_rad, -200.0..=50.0)?,
+            cm_elevator_per_rad: table(&src, &f.aero.cm_elevator_per_rad, "aero.cm_elevator_per_rad")?,
+            elevator_in_slipstream: f.aero.elevator_in_slipstream,
             elevator_geometry,
             hinge,
-            part: cert.part,
-            control: cert.control,
+            part: f.certification.part,
+            control: f.certification.control,
             max_weight_kg,
-            limit_load_factor: n(
-                &cert.limit_load_factor,
-                "certification.limit_load_factor",
-                1.5,
-                10.0,
-            )?,
+            limit_load_factor: within!(src, f.certification.limit_load_factor, 1.5..=10.0)?,
             estimates: estimated_keys(text),
         })
     }
@@ -453,15 +410,14 @@ impl FbwModel {
     /// The embedded model of a fly-by-wire aircraft's file, `None` if it has none (no `[airframe]`,
     /// `[aero_tables]` and `[fcs]`; all three or none).
     pub fn load(path: &Path) -> Result<Option<Self>, InputError> {
-        let src = Source::read(path)?;
-        Self::from_toml(&src.text, path)
+        Self::from_toml(&Source::read(path)?.text, path)
     }
 
     /// As [`FbwModel::load`], from text; `path` places its errors.
     pub fn from_toml(text: &str, path: &Path) -> Result<Option<Self>, InputError> {
         let src = Source::new(path, text);
         let f: FbwFile = src.toml()?;
-        let (g, a, c) = match (&f.airframe, &f.aero_tables, &f.fcs) {
+        let (airframe, a, fcs) = match (&f.airframe, &f.aero_tables, &f.fcs) {
             (None, None, None) => return Ok(None),
             (Some(g), Some(a), Some(c)) => (g, a, c),
             _ => {
@@ -483,7 +439,6 @@ impl FbwModel {
                 ));
             }
         };
-        let n = |v: &S<f64>, field: &str, lo: f64, hi: f64| src.within(v, field, lo..=hi, "");
         let alpha = a.alpha_rad.get_ref();
         let by_alpha = |v: &S<Vec<f64>>, field: &str| -> Result<Table1, InputError> {
             if v.get_ref().len() != alpha.len() {
@@ -512,31 +467,31 @@ impl FbwModel {
             .iter()
             .map(|r| (r.get_ref()[0], r.get_ref()[1]))
             .collect();
-        let elevator_max_rad = n(&c.elevator_max_rad, "fcs.elevator_max_rad", 0.01, 1.0)?;
-        let (cmin, cmax) = pair(&c.command_limits, "fcs.command_limits")?;
+        let elevator_max_rad = within!(src, fcs.elevator_max_rad, 0.01..=1.0)?;
+        let (cmin, cmax) = pair(&fcs.command_limits, "fcs.command_limits")?;
         if !(cmin < 0.0 && cmax > 0.0 && cmin >= -1.0 && cmax <= 1.0) {
             let msg = format!("[{cmin}, {cmax}]: needs -1 <= min < 0 < max <= 1");
-            return Err(src.err(&c.command_limits, "fcs.command_limits", msg));
+            return Err(src.err(&fcs.command_limits, "fcs.command_limits", msg));
         }
         Ok(Some(FbwModel {
             name: f.name.clone(),
-            wing_area_m2: n(&g.wing_area_m2, "airframe.wing_area_m2", 0.1, 2000.0)?,
-            chord_m: n(&g.chord_m, "airframe.chord_m", 0.05, 50.0)?,
+            wing_area_m2: within!(src, airframe.wing_area_m2, 0.1..=2000.0)?,
+            chord_m: within!(src, airframe.chord_m, 0.05..=50.0)?,
             airframe: Airframe {
-                mass_kg: n(&g.mass_kg, "airframe.mass_kg", 1.0, 1e6)?,
-                iyy_kg_m2: n(&g.iyy_kg_m2, "airframe.iyy_kg_m2", 0.01, 1e9)?,
-                cg_x_m: n(&g.cg_x_m, "airframe.cg_x_m", -100.0, 100.0)?,
-                cg_z_m: n(&g.cg_z_m, "airframe.cg_z_m", -100.0, 100.0)?,
-                aero_ref_x_m: n(&g.aero_ref_x_m, "airframe.aero_ref_x_m", -100.0, 100.0)?,
-                aero_ref_z_m: n(&g.aero_ref_z_m, "airframe.aero_ref_z_m", -100.0, 100.0)?,
-                thrust_z_m: n(&g.thrust_z_m, "airframe.thrust_z_m", -100.0, 100.0)?,
+                mass_kg: within!(src, airframe.mass_kg, 1.0..=1e6)?,
+                iyy_kg_m2: within!(src, airframe.iyy_kg_m2, 0.01..=1e9)?,
+                cg_x_m: within!(src, airframe.cg_x_m, -100.0..=100.0)?,
+                cg_z_m: within!(src, airframe.cg_z_m, -100.0..=100.0)?,
+                aero_ref_x_m: within!(src, airframe.aero_ref_x_m, -100.0..=100.0)?,
+                aero_ref_z_m: within!(src, airframe.aero_ref_z_m, -100.0..=100.0)?,
+                thrust_z_m: within!(src, airframe.thrust_z_m, -100.0..=100.0)?,
             },
             pilot_station_m: (
-                n(&g.pilot_x_m, "airframe.pilot_x_m", -100.0, 100.0)?,
-                n(&g.pilot_z_m, "airframe.pilot_z_m", -100.0, 100.0)?,
+                within!(src, airframe.pilot_x_m, -100.0..=100.0)?,
+                within!(src, airframe.pilot_z_m, -100.0..=100.0)?,
             ),
-            max_thrust_n: n(&g.max_thrust_n, "airframe.max_thrust_n", 1.0, 1e12)?,
-            density_exponent: n(&g.density_exponent, "airframe.density_exponent", 0.0, 2.0)?,
+            max_thrust_n: within!(src, airframe.max_thrust_n, 1.0..=1e12)?,
+            density_exponent: within!(src, airframe.density_exponent, 0.0..=2.0)?,
             aero: TableAero {
                 cl: table2(&a.cl, "aero_tables.cl")?,
                 cd: table2(&a.cd, "aero_tables.cd")?,
@@ -557,17 +512,12 @@ impl FbwModel {
             },
             fcs: PitchFcs {
                 command_limits: (cmin, cmax),
-                alpha_gain: table(&src, &c.alpha_gain, "fcs.alpha_gain")?,
-                alpha_limiter_per_rad: n(&c.alpha_limiter_per_rad, "fcs.alpha_limiter_per_rad", 0.0, 20.0)?,
-                pitch_rate_gain_s: n(&c.pitch_rate_gain_s, "fcs.pitch_rate_gain_s", 0.0, 100.0)?,
-                load_factor_gain_per_g: n(
-                    &c.load_factor_gain_per_g,
-                    "fcs.load_factor_gain_per_g",
-                    0.0,
-                    10.0,
-                )?,
-                proportional_gain: n(&c.proportional_gain, "fcs.proportional_gain", 0.0, 100.0)?,
-                full_travel_s: n(&c.full_travel_s, "fcs.full_travel_s", 1e-3, 60.0)?,
+                alpha_gain: table(&src, &fcs.alpha_gain, "fcs.alpha_gain")?,
+                alpha_limiter_per_rad: within!(src, fcs.alpha_limiter_per_rad, 0.0..=20.0)?,
+                pitch_rate_gain_s: within!(src, fcs.pitch_rate_gain_s, 0.0..=100.0)?,
+                load_factor_gain_per_g: within!(src, fcs.load_factor_gain_per_g, 0.0..=10.0)?,
+                proportional_gain: within!(src, fcs.proportional_gain, 0.0..=100.0)?,
+                full_travel_s: within!(src, fcs.full_travel_s, 1e-3..=60.0)?,
                 elevator_max_rad,
             },
         }))
@@ -608,42 +558,28 @@ pub fn is_fly_by_wire(text: &str) -> bool {
 impl FlyByWire {
     /// Read and check a fly-by-wire aircraft's model file.
     pub fn load(path: &Path) -> Result<Self, InputError> {
-        let src = Source::read(path)?;
-        Self::from_toml(&src.text, path)
+        Self::from_toml(&Source::read(path)?.text, path)
     }
 
     /// Check a fly-by-wire aircraft's model text; `path` places its errors.
     pub fn from_toml(text: &str, path: &Path) -> Result<Self, InputError> {
         let src = Source::new(path, text);
         let f: FbwFile = src.toml()?;
-        let n = |v: &S<f64>, field: &str, lo: f64, hi: f64, unit: &str| src.within(v, field, lo..=hi, unit);
-        let (s, d) = (&f.fly_by_wire, &f.design);
+        let (fly_by_wire, design) = (&f.fly_by_wire, &f.design);
         let (lo, hi) = BREAKOUT_RANGE_CLASS_IV_N;
         Ok(FlyByWire {
             name: f.name.clone(),
-            full_command_stick_rad: n(
-                &s.full_command_stick_rad,
-                "fly_by_wire.full_command_stick_rad",
-                1e-4,
-                1.0,
-                "rad",
-            )?,
+            full_command_stick_rad: within!(src, fly_by_wire.full_command_stick_rad, 1e-4..=1.0, "rad")?,
             // the design basis: MIL-F-8785C Table XII, pitch stick, Class IV
-            breakout_n: n(&s.breakout_n, "fly_by_wire.breakout_n", lo, hi, "N")?,
-            stick_force_per_g_n: n(
-                &s.stick_force_per_g_n,
-                "fly_by_wire.stick_force_per_g_n",
-                0.1,
-                500.0,
-                "N/g",
-            )?,
-            max_pull_n: n(&s.max_pull_n, "fly_by_wire.max_pull_n", 1.0, 2000.0, "N")?,
-            max_push_n: n(&s.max_push_n, "fly_by_wire.max_push_n", 1.0, 2000.0, "N")?,
-            airspeed_m_s: n(&d.airspeed_m_s, "design.airspeed_m_s", 1.0, 1000.0, "m/s")?,
-            altitude_m: n(&d.altitude_m, "design.altitude_m", -500.0, 30000.0, "m")?,
-            g_per_command: n(&d.g_per_command, "design.g_per_command", 0.1, 20.0, "g")?,
-            n_alpha_per_rad: n(&d.n_alpha_per_rad, "design.n_alpha_per_rad", 0.5, 200.0, "g/rad")?,
-            limit_load_factor: n(&d.limit_load_factor, "design.limit_load_factor", 1.5, 15.0, "g")?,
+            breakout_n: within!(src, fly_by_wire.breakout_n, lo..=hi, "N")?,
+            stick_force_per_g_n: within!(src, fly_by_wire.stick_force_per_g_n, 0.1..=500.0, "N/g")?,
+            max_pull_n: within!(src, fly_by_wire.max_pull_n, 1.0..=2000.0, "N")?,
+            max_push_n: within!(src, fly_by_wire.max_push_n, 1.0..=2000.0, "N")?,
+            airspeed_m_s: within!(src, design.airspeed_m_s, 1.0..=1000.0, "m/s")?,
+            altitude_m: within!(src, design.altitude_m, -500.0..=30000.0, "m")?,
+            g_per_command: within!(src, design.g_per_command, 0.1..=20.0, "g")?,
+            n_alpha_per_rad: within!(src, design.n_alpha_per_rad, 0.5..=200.0, "g/rad")?,
+            limit_load_factor: within!(src, design.limit_load_factor, 1.5..=15.0, "g")?,
             estimates: estimated_keys(text),
         })
     }

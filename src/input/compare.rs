@@ -113,7 +113,6 @@ impl CompareScenario {
     pub fn parse(text: &str, path: &Path) -> Result<Self, CompareError> {
         let src = Source::new(path, text);
         let f: File = src.toml()?;
-        let w = |v: &S<f64>, field: &str, lo: f64, hi: f64, unit: &str| src.within(v, field, lo..=hi, unit);
         let dir = path.parent().unwrap_or(Path::new("."));
         let no_active = "`active` needs an `[active]` section (model, or max_force_n and damping_n_s_per_m)";
         let systems = if f.systems.get_ref().is_empty() {
@@ -136,85 +135,47 @@ impl CompareScenario {
         let base_path = crate::builtin::resolve(dir, f.base.get_ref());
         let base = Scenario::load(&base_path).map_err(|e| named(&f.base, "base", &e))?;
         let devices = crate::sim::Devices::load(&base)?;
-        let coil_resistance_ohm = w(
-            &f.device.coil_resistance_ohm,
-            "device.coil_resistance_ohm",
-            0.0,
-            1000.0,
-            "Ω",
-        )?;
+        let coil_resistance_ohm = within!(src, f.device.coil_resistance_ohm, 0.0..=1000.0, "Ω")?;
         let springs_path = crate::builtin::resolve(dir, f.springs.file.get_ref());
         let springs =
             FeelSprings::load(&springs_path).map_err(|e| named(&f.springs.file, "springs.file", &e))?;
-        let s = &f.springs;
-        let spring_damping_n_s_per_m = w(
-            &s.damping_n_s_per_m,
-            "springs.damping_n_s_per_m",
-            0.0,
-            1e5,
-            "N·s/m",
-        )?;
-        let qbar_pa = w(&s.qbar_pa, "springs.qbar_pa", 0.0, 1e6, "Pa")?;
-        let hybrid_k_n_per_m = w(&s.hybrid_k_n_per_m, "springs.hybrid_k_n_per_m", 0.0, 1e6, "N/m")?;
-        let hybrid_return_damping_n_s_per_m = w(
-            &s.hybrid_return_damping_n_s_per_m,
-            "springs.hybrid_return_damping_n_s_per_m",
-            0.0,
-            1e5,
-            "N·s/m",
-        )?;
-        let t = &f.target;
+        let spring_damping_n_s_per_m = within!(src, f.springs.damping_n_s_per_m, 0.0..=1e5, "N·s/m")?;
+        let qbar_pa = within!(src, f.springs.qbar_pa, 0.0..=1e6, "Pa")?;
+        let hybrid_k_n_per_m = within!(src, f.springs.hybrid_k_n_per_m, 0.0..=1e6, "N/m")?;
+        let hybrid_return_damping_n_s_per_m =
+            within!(src, f.springs.hybrid_return_damping_n_s_per_m, 0.0..=1e5, "N·s/m")?;
         let target = TargetLaw {
-            breakout_n: w(&t.breakout_n, "target.breakout_n", 0.0, 250.0, "N")?,
-            gradient_n_per_m: w(&t.gradient_n_per_m, "target.gradient_n_per_m", 0.0, 1e6, "N/m")?,
-            max_force_n: w(&t.max_force_n, "target.max_force_n", 0.0, 250.0, "N")?,
+            breakout_n: within!(src, f.target.breakout_n, 0.0..=250.0, "N")?,
+            gradient_n_per_m: within!(src, f.target.gradient_n_per_m, 0.0..=1e6, "N/m")?,
+            max_force_n: within!(src, f.target.max_force_n, 0.0..=250.0, "N")?,
         };
-        let k = &f.task;
         let task = TaskSection {
-            sweep_amplitude_rad: w(
-                &k.sweep_amplitude_rad,
-                "task.sweep_amplitude_rad",
-                0.0,
-                1.0,
-                "rad",
-            )?,
-            sweep_frequency_hz: w(&k.sweep_frequency_hz, "task.sweep_frequency_hz", 0.01, 20.0, "Hz")?,
+            sweep_amplitude_rad: within!(src, f.task.sweep_amplitude_rad, 0.0..=1.0, "rad")?,
+            sweep_frequency_hz: within!(src, f.task.sweep_frequency_hz, 0.01..=20.0, "Hz")?,
             sweep_cycles: src
-                .within_int(&k.sweep_cycles, "task.sweep_cycles", 2..=100)
+                .within_int(&f.task.sweep_cycles, "task.sweep_cycles", 2..=100)
                 .map_err(|e| InputError {
                     msg: format!("{} (the first cycle is a run-in)", e.msg),
                     ..e
                 })? as usize,
-            release_angle_rad: w(&k.release_angle_rad, "task.release_angle_rad", -1.0, 1.0, "rad")?,
-            release_ramp_s: w(&k.release_ramp_s, "task.release_ramp_s", 0.01, 60.0, "s")?,
-            release_hold_s: w(&k.release_hold_s, "task.release_hold_s", 0.0, 60.0, "s")?,
-            release_observe_s: w(&k.release_observe_s, "task.release_observe_s", 0.1, 60.0, "s")?,
-            recentre_band_rad: w(&k.recentre_band_rad, "task.recentre_band_rad", 1e-5, 0.5, "rad")?,
-            breakout_ramp_n_per_s: w(
-                &k.breakout_ramp_n_per_s,
-                "task.breakout_ramp_n_per_s",
-                0.1,
-                1000.0,
-                "N/s",
-            )?,
-            breakout_duration_s: w(&k.breakout_duration_s, "task.breakout_duration_s", 0.1, 60.0, "s")?,
-            breakout_threshold_rad: w(
-                &k.breakout_threshold_rad,
-                "task.breakout_threshold_rad",
-                1e-5,
-                0.5,
-                "rad",
-            )?,
+            release_angle_rad: within!(src, f.task.release_angle_rad, -1.0..=1.0, "rad")?,
+            release_ramp_s: within!(src, f.task.release_ramp_s, 0.01..=60.0, "s")?,
+            release_hold_s: within!(src, f.task.release_hold_s, 0.0..=60.0, "s")?,
+            release_observe_s: within!(src, f.task.release_observe_s, 0.1..=60.0, "s")?,
+            recentre_band_rad: within!(src, f.task.recentre_band_rad, 1e-5..=0.5, "rad")?,
+            breakout_ramp_n_per_s: within!(src, f.task.breakout_ramp_n_per_s, 0.1..=1000.0, "N/s")?,
+            breakout_duration_s: within!(src, f.task.breakout_duration_s, 0.1..=60.0, "s")?,
+            breakout_threshold_rad: within!(src, f.task.breakout_threshold_rad, 1e-5..=0.5, "rad")?,
         };
-        let l = &f.limits;
-        let lbf = |v, field| w(v, field, 0.0, 500.0, "lbf");
         let limits = Limits {
-            part23_stick_pitch_temporary_lbf: lbf(
-                &l.part23_stick_pitch_temporary_lbf,
-                "limits.part23_stick_pitch_temporary_lbf",
+            part23_stick_pitch_temporary_lbf: within!(
+                src,
+                f.limits.part23_stick_pitch_temporary_lbf,
+                0.0..=500.0,
+                "lbf"
             )?,
-            pitch_prolonged_lbf: lbf(&l.pitch_prolonged_lbf, "limits.pitch_prolonged_lbf")?,
-            part25_pitch_one_hand_lbf: lbf(&l.part25_pitch_one_hand_lbf, "limits.part25_pitch_one_hand_lbf")?,
+            pitch_prolonged_lbf: within!(src, f.limits.pitch_prolonged_lbf, 0.0..=500.0, "lbf")?,
+            part25_pitch_one_hand_lbf: within!(src, f.limits.part25_pitch_one_hand_lbf, 0.0..=500.0, "lbf")?,
         };
         let task_s = main_task(&task).duration_s();
         let (start, end) = (&f.fault_test.start_s, &f.fault_test.end_s);
@@ -224,54 +185,11 @@ impl CompareScenario {
             let at = if key == "start_s" { start } else { end };
             return Err(src.err(at, &format!("fault_test.{key}"), msg).into());
         }
-        let active = match &f.active {
-            Some(a) => Some({
-                let physics_hz = match &a.physics_hz {
-                    Some(v) => Some(w(v, "active.physics_hz", 100.0, 100_000.0, "Hz")?),
-                    None => None,
-                };
-                let mut section = match &a.model {
-                    Some(p) => {
-                        let ideal = [
-                            ("max_force_n", &a.max_force_n),
-                            ("damping_n_s_per_m", &a.damping_n_s_per_m),
-                        ];
-                        if let Some((key, Some(v))) = ideal.into_iter().find(|(_, v)| v.is_some()) {
-                            let msg = "not used with `active.model` (the motor file gives the force limit and the friction)";
-                            return Err(src.err(v, &format!("active.{key}"), msg).into());
-                        }
-                        let path = src.named_file(p, "active.model", p.get_ref())?;
-                        let m = crate::control::active::ActiveStickConfig::load(&path)
-                            .map_err(|e| src.err(p, "active.model", e.to_string()))?;
-                        ActiveSection {
-                            max_force_n: m.max_force_n(),
-                            damping_n_s_per_m: m.rod_damping_n_s_per_m(),
-                            model: Some(m),
-                            physics_hz: None,
-                        }
-                    }
-                    None => {
-                        let need = |v: &Option<S<f64>>, key: &str, hi: f64, unit: &str| match v {
-                            Some(v) => w(v, &format!("active.{key}"), 0.0, hi, unit),
-                            None => Err(src.err(
-                                &f.systems,
-                                &format!("active.{key}"),
-                                "required without `active.model`",
-                            )),
-                        };
-                        ActiveSection {
-                            max_force_n: need(&a.max_force_n, "max_force_n", 1e4, "N")?,
-                            damping_n_s_per_m: need(&a.damping_n_s_per_m, "damping_n_s_per_m", 1e5, "N·s/m")?,
-                            model: None,
-                            physics_hz: None,
-                        }
-                    }
-                };
-                section.physics_hz = physics_hz;
-                section
-            }),
-            None => None,
-        };
+        let active = f
+            .active
+            .as_ref()
+            .map(|a| active(&src, a, &f.systems))
+            .transpose()?;
         let faults = super::faults::schedule(&src, &f.fault, task_s)?;
         Ok(Self {
             path: path.to_path_buf(),
@@ -301,4 +219,46 @@ impl CompareScenario {
             faults,
         })
     }
+}
+
+/// `[active]`: the modelled stick of an active-stick file (`model`), or an ideal force source with
+/// `max_force_n` and `damping_n_s_per_m` (whose absence is named at `systems`).
+fn active(src: &Source, a: &ActiveFile, systems: &S<Vec<String>>) -> Result<ActiveSection, InputError> {
+    let physics_hz = a
+        .physics_hz
+        .as_ref()
+        .map(|v| src.within(v, "active.physics_hz", 100.0..=100_000.0, "Hz"))
+        .transpose()?;
+    let Some(p) = &a.model else {
+        let need = |v: &Option<S<f64>>, key: &str, hi: f64, unit: &str| {
+            let field = format!("active.{key}");
+            let v = v
+                .as_ref()
+                .ok_or_else(|| src.err(systems, &field, "required without `active.model`"))?;
+            src.within(v, &field, 0.0..=hi, unit)
+        };
+        return Ok(ActiveSection {
+            max_force_n: need(&a.max_force_n, "max_force_n", 1e4, "N")?,
+            damping_n_s_per_m: need(&a.damping_n_s_per_m, "damping_n_s_per_m", 1e5, "N·s/m")?,
+            model: None,
+            physics_hz,
+        });
+    };
+    let ideal = [
+        ("max_force_n", &a.max_force_n),
+        ("damping_n_s_per_m", &a.damping_n_s_per_m),
+    ];
+    if let Some((key, Some(v))) = ideal.into_iter().find(|(_, v)| v.is_some()) {
+        let msg = "not used with `active.model` (the motor file gives the force limit and the friction)";
+        return Err(src.err(v, &format!("active.{key}"), msg));
+    }
+    let path = src.named_file(p, "active.model", p.get_ref())?;
+    let m = crate::control::active::ActiveStickConfig::load(&path)
+        .map_err(|e| src.err(p, "active.model", e.to_string()))?;
+    Ok(ActiveSection {
+        max_force_n: m.max_force_n(),
+        damping_n_s_per_m: m.rod_damping_n_s_per_m(),
+        model: Some(m),
+        physics_hz,
+    })
 }

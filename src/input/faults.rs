@@ -26,10 +26,8 @@ pub(crate) struct FaultTable {
     extra_latency_s: Option<Spanned<f64>>,
 }
 
-/// What is wrong with a fault window `start_s ≤ t < end_s` in a run of `run_s` seconds (`run`: "run" or
-/// "task" in the message), if anything: the key at fault and why. A window starts before the run ends and
-/// ends after it starts, no later than the run's end; otherwise the fault never acts, or acts where the
-/// run never goes. The one rule for a scenario's `[[fault]]` tables and a comparison's `[fault_test]`.
+/// What is wrong with a fault window `start_s ≤ t < end_s` in a run of `run_s` seconds (`run` names it), if
+/// anything: the key at fault and why (a fault that never acts, or acts where the run never goes).
 pub fn window_error(start_s: f64, end_s: f64, run_s: f64, run: &str) -> Option<(&'static str, String)> {
     if !(start_s.is_finite() && (0.0..=run_s).contains(&start_s)) {
         return Some((

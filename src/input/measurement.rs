@@ -24,9 +24,18 @@ pub(crate) fn read(path: &Path, force_required: bool) -> Result<Measurement, Inp
     parse(&bytes, path, force_required)
 }
 
-/// An error at `line` about a column or a metadata key (`what` is `column` or `metadata`).
-fn named(path: &Path, line: usize, what: &str, name: &str, msg: impl std::fmt::Display) -> InputError {
-    InputError::line(path, line, format!("{what} `{name}`: {msg}"))
+/// An error at `line` about the column `name`.
+fn column(path: &Path, line: usize, name: &str, msg: impl std::fmt::Display) -> InputError {
+    InputError::line(path, line, format!("column `{name}`: {msg}"))
+}
+
+/// An error at `line` about the declared sampling rate, whose value is `val`.
+fn rate_error(path: &Path, line: usize, why: impl std::fmt::Display, val: &str) -> InputError {
+    InputError::line(
+        path,
+        line,
+        format!("metadata `{RATE_KEY}`: {why} (value `{val}`)"),
+    )
 }
 
 fn not_csv(path: &Path, line: usize, why: impl std::fmt::Display) -> InputError {
@@ -47,11 +56,8 @@ pub(crate) fn parse(bytes: &[u8], path: &Path, force_required: bool) -> Result<M
     let text = super::text::decode(bytes).map_err(|e| not_csv(path, e.line, e.what()))?;
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     if let Some(nul) = text.find('\0') {
-        return Err(not_csv(
-            path,
-            super::text::line_of(text, nul),
-            "contains NUL bytes (a binary file?)",
-        ));
+        let line = super::text::line_of(text, nul);
+        return Err(not_csv(path, line, "contains NUL bytes (a binary file?)"));
     }
     if text.trim().is_empty() {
         return Err(empty());
@@ -87,15 +93,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path, force_required: bool) -> Result<M
             Some((key, val)) if !key.trim().is_empty() && !key.trim().contains(' ') => {
                 let (key, val) = (key.trim(), val.trim());
                 if key == RATE_KEY {
-                    let bad = |why: String| {
-                        named(
-                            path,
-                            header_line,
-                            "metadata",
-                            RATE_KEY,
-                            format!("{why} (value `{val}`)"),
-                        )
-                    };
+                    let bad = |why: String| rate_error(path, header_line, why, val);
                     let r = parse_rate(val).map_err(|why| bad(why.into()))?;
                     if let Some((first, at)) = rate.filter(|(first, _)| *first != r) {
                         return Err(bad(format!(
@@ -144,24 +142,15 @@ pub(crate) fn parse(bytes: &[u8], path: &Path, force_required: bool) -> Result<M
     let header: Vec<String> = rec.iter().map(|s| s.trim().to_string()).collect();
     if header.len() < 2 {
         let first = body.lines().next().unwrap_or_default();
-        return Err(not_csv(
-            path,
-            header_line,
-            format!(
-                "the header row `{}` has no comma-separated columns (expected t_s,x_m,i_a,f_n,...)",
-                quoted(first, 60)
-            ),
-        ));
+        let why = format!(
+            "the header row `{}` has no comma-separated columns (expected t_s,x_m,i_a,f_n,...)",
+            quoted(first, 60)
+        );
+        return Err(not_csv(path, header_line, why));
     }
     let mut seen = HashSet::with_capacity(header.len());
     if let Some(name) = header.iter().find(|name| !seen.insert(name.as_str())) {
-        return Err(named(
-            path,
-            header_line,
-            "column",
-            name,
-            "appears twice in the header",
-        ));
+        return Err(column(path, header_line, name, "appears twice in the header"));
     }
     let col = |name: &str| header.iter().position(|h| h == name);
     if let Some(req) = REQUIRED
@@ -190,11 +179,8 @@ pub(crate) fn parse(bytes: &[u8], path: &Path, force_required: bool) -> Result<M
         }
         let line = line_of(&rec);
         if rec.len() != header.len() {
-            return Err(InputError::line(
-                path,
-                line,
-                format!("row has {} fields, the header has {}", rec.len(), header.len()),
-            ));
+            let msg = format!("row has {} fields, the header has {}", rec.len(), header.len());
+            return Err(InputError::line(path, line, msg));
         }
         for (c, s) in rec.iter().map(str::trim).enumerate() {
             if !known[c] {
@@ -204,26 +190,19 @@ pub(crate) fn parse(bytes: &[u8], path: &Path, force_required: bool) -> Result<M
             if c == t_col {
                 t_resolution = t_resolution.min(written_resolution(s));
             }
-            let bad = |why: &str| {
-                named(
-                    path,
-                    line,
-                    "column",
-                    &header[c],
-                    format!("{why} (value `{}`)", quoted(s, 80)),
-                )
+            let why = match s.parse::<f64>() {
+                Ok(v) => match unmeasurable(v) {
+                    None => {
+                        cols[c].push(v);
+                        continue;
+                    }
+                    Some(why) => why,
+                },
+                Err(_) if s.is_empty() => "empty field".into(),
+                Err(_) => "not a number".into(),
             };
-            let v: f64 = s.parse().map_err(|_| {
-                bad(if s.is_empty() {
-                    "empty field"
-                } else {
-                    "not a number"
-                })
-            })?;
-            if let Some(why) = unmeasurable(v) {
-                return Err(bad(&why));
-            }
-            cols[c].push(v);
+            let msg = format!("{why} (value `{}`)", quoted(s, 80));
+            return Err(column(path, line, &header[c], msg));
         }
         m.lines.push(line);
     }
@@ -234,28 +213,16 @@ pub(crate) fn parse(bytes: &[u8], path: &Path, force_required: bool) -> Result<M
     let mut take = |name: &str| col(name).map(|c| std::mem::take(&mut cols[c]));
     m.t_s = take("t_s").unwrap_or_default();
     if let Some(w) = (1..m.t_s.len()).find(|&w| m.t_s[w] <= m.t_s[w - 1]) {
-        return Err(named(
-            path,
-            m.lines[w],
-            "column",
-            "t_s",
-            format!(
-                "time {} s is not after the previous sample's {} s (time must increase strictly)",
-                m.t_s[w],
-                m.t_s[w - 1]
-            ),
-        ));
+        let why = format!(
+            "time {} s is not after the previous sample's {} s (time must increase strictly)",
+            m.t_s[w],
+            m.t_s[w - 1]
+        );
+        return Err(column(path, m.lines[w], "t_s", why));
     }
     if let Some((r, line)) = rate {
         if let Some(why) = clock_contradicts(r, &m.t_s, t_resolution) {
-            let val = &m.meta[RATE_KEY];
-            return Err(named(
-                path,
-                line,
-                "metadata",
-                RATE_KEY,
-                format!("{why} (value `{val}`)"),
-            ));
+            return Err(rate_error(path, line, why, &m.meta[RATE_KEY]));
         }
     }
     m.x_m = take("x_m").unwrap_or_default();
@@ -311,10 +278,9 @@ fn refuse_spikes(m: &Measurement) -> Result<(), InputError> {
             }
         };
         let num = super::text::short_number;
-        return Err(named(
+        return Err(column(
             &m.path,
             m.lines[first.index],
-            "column",
             name,
             format!(
                 "looks like a spike: {} times the column's spread (its central 90 %) away from the median of its \

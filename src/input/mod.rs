@@ -5,6 +5,22 @@
 //! TOML files are read with serde into schemas whose values carry their place ([`toml::Spanned`]); a
 //! schema's range checks go through [`Source`], so that a value out of range names its own line.
 
+/// [`Source::within`] of the value at `section.key` (a local named after its section, or `f.section.key`),
+/// the field named by that path: `within!(src, geometry.chord_m, 0.05..=50.0, "m")`; no unit: `""`.
+macro_rules! within {
+    ($src:expr, $f:ident . $sec:ident . $key:ident, $($rest:tt)*) => {
+        within!(@ $src, $f.$sec.$key, concat!(stringify!($sec), ".", stringify!($key)), $($rest)*)
+    };
+    ($src:expr, $sec:ident . $key:ident, $($rest:tt)*) => {
+        within!(@ $src, $sec.$key, concat!(stringify!($sec), ".", stringify!($key)), $($rest)*)
+    };
+    (@ $src:expr, $v:expr, $field:expr, $range:expr $(, $unit:expr)?) => {
+        $src.within(&$v, $field, $range, within!(@unit $($unit)?))
+    };
+    (@unit) => { "" };
+    (@unit $unit:expr) => { $unit };
+}
+
 pub(crate) mod aircraft;
 pub mod compare;
 pub(crate) mod faults;

@@ -84,36 +84,27 @@ impl ActiveStickConfig {
     pub fn load(path: &Path) -> Result<Self, InputError> {
         let src = Source::read(path)?;
         let f: File = src.toml()?;
-        let w = |v: &S<f64>, field: &str, lo: f64, hi: f64, unit: &str| src.within(v, field, lo..=hi, unit);
-        let (m, d, s, a) = (&f.motor, &f.driver, &f.grip_sensor, &f.admittance);
         let admittance = AdmittanceParams {
-            rate_hz: w(&a.rate_hz, "admittance.rate_hz", 100.0, 1e5, "Hz")?,
-            virtual_mass_kg: w(&a.virtual_mass_kg, "admittance.virtual_mass_kg", 1e-3, 1e3, "kg")?,
-            virtual_damping_n_s_per_m: w(
-                &a.virtual_damping_n_s_per_m,
-                "admittance.virtual_damping_n_s_per_m",
-                0.0,
-                1e5,
-                "N·s/m",
+            rate_hz: within!(src, f.admittance.rate_hz, 100.0..=1e5, "Hz")?,
+            virtual_mass_kg: within!(src, f.admittance.virtual_mass_kg, 1e-3..=1e3, "kg")?,
+            virtual_damping_n_s_per_m: within!(
+                src,
+                f.admittance.virtual_damping_n_s_per_m,
+                0.0..=1e5,
+                "N·s/m"
             )?,
-            breakout_band_m: w(&a.breakout_band_m, "admittance.breakout_band_m", 1e-6, 0.01, "m")?,
-            travel_m: w(&a.travel_m, "admittance.travel_m", 1e-3, 1.0, "m")?,
-            kp_n_per_m: w(&a.kp_n_per_m, "admittance.kp_n_per_m", 0.0, 1e8, "N/m")?,
-            kd_n_s_per_m: w(&a.kd_n_s_per_m, "admittance.kd_n_s_per_m", 0.0, 1e6, "N·s/m")?,
-            velocity_filter_hz: w(
-                &a.velocity_filter_hz,
-                "admittance.velocity_filter_hz",
-                1.0,
-                1e5,
-                "Hz",
-            )?,
+            breakout_band_m: within!(src, f.admittance.breakout_band_m, 1e-6..=0.01, "m")?,
+            travel_m: within!(src, f.admittance.travel_m, 1e-3..=1.0, "m")?,
+            kp_n_per_m: within!(src, f.admittance.kp_n_per_m, 0.0..=1e8, "N/m")?,
+            kd_n_s_per_m: within!(src, f.admittance.kd_n_s_per_m, 0.0..=1e6, "N·s/m")?,
+            velocity_filter_hz: within!(src, f.admittance.velocity_filter_hz, 1.0..=1e5, "Hz")?,
             encoder_counts_per_rev: src.within_int(
-                &a.encoder_counts_per_rev,
+                &f.admittance.encoder_counts_per_rev,
                 "admittance.encoder_counts_per_rev",
                 4..=(1 << 32),
             )? as f64,
         };
-        let current_loop_hz = w(&d.current_loop_hz, "driver.current_loop_hz", 100.0, 1e6, "Hz")?;
+        let current_loop_hz = within!(src, f.driver.current_loop_hz, 100.0..=1e6, "Hz")?;
         let ratio = current_loop_hz / admittance.rate_hz;
         if ratio < 1.0 || (ratio - ratio.round()).abs() > 1e-9 * ratio {
             let msg = format!(
@@ -121,51 +112,38 @@ impl ActiveStickConfig {
                  loop ticks a whole number of times per admittance tick",
                 admittance.rate_hz
             );
-            return Err(src.err(&d.current_loop_hz, "driver.current_loop_hz", msg));
+            return Err(src.err(&f.driver.current_loop_hz, "driver.current_loop_hz", msg));
         }
         Ok(Self {
             motor: MotorParams {
-                torque_constant_nm_per_a: w(
-                    &m.torque_constant_nm_per_a,
-                    "motor.torque_constant_nm_per_a",
-                    1e-5,
-                    100.0,
-                    "N·m/A",
+                torque_constant_nm_per_a: within!(
+                    src,
+                    f.motor.torque_constant_nm_per_a,
+                    1e-5..=100.0,
+                    "N·m/A"
                 )?,
-                resistance_ohm: w(&m.resistance_ohm, "motor.resistance_ohm", 1e-4, 1e4, "Ω")?,
-                inductance_h: w(&m.inductance_h, "motor.inductance_h", 1e-8, 10.0, "H")?,
-                rotor_inertia_kg_m2: w(
-                    &m.rotor_inertia_kg_m2,
-                    "motor.rotor_inertia_kg_m2",
-                    0.0,
-                    10.0,
-                    "kg·m²",
-                )?,
-                viscous_nm_s_per_rad: w(
-                    &m.viscous_nm_s_per_rad,
-                    "motor.viscous_nm_s_per_rad",
-                    0.0,
-                    10.0,
-                    "N·m·s/rad",
-                )?,
+                resistance_ohm: within!(src, f.motor.resistance_ohm, 1e-4..=1e4, "Ω")?,
+                inductance_h: within!(src, f.motor.inductance_h, 1e-8..=10.0, "H")?,
+                rotor_inertia_kg_m2: within!(src, f.motor.rotor_inertia_kg_m2, 0.0..=10.0, "kg·m²")?,
+                viscous_nm_s_per_rad: within!(src, f.motor.viscous_nm_s_per_rad, 0.0..=10.0, "N·m·s/rad")?,
             },
             driver: DriverParams {
-                supply_v: w(&d.supply_v, "driver.supply_v", 1.0, 1000.0, "V")?,
-                current_limit_a: w(&d.current_limit_a, "driver.current_limit_a", 0.0, 1000.0, "A")?,
+                supply_v: within!(src, f.driver.supply_v, 1.0..=1000.0, "V")?,
+                current_limit_a: within!(src, f.driver.current_limit_a, 0.0..=1000.0, "A")?,
                 current_loop_hz,
-                kp_v_per_a: w(&d.kp_v_per_a, "driver.kp_v_per_a", 0.0, 1e4, "V/A")?,
-                ki_v_per_a_s: w(&d.ki_v_per_a_s, "driver.ki_v_per_a_s", 0.0, 1e8, "V/(A·s)")?,
+                kp_v_per_a: within!(src, f.driver.kp_v_per_a, 0.0..=1e4, "V/A")?,
+                ki_v_per_a_s: within!(src, f.driver.ki_v_per_a_s, 0.0..=1e8, "V/(A·s)")?,
             },
-            gear_rad_per_m: w(&f.gearing.rad_per_m, "gearing.rad_per_m", 1.0, 1e5, "rad/m")?,
+            gear_rad_per_m: within!(src, f.gearing.rad_per_m, 1.0..=1e5, "rad/m")?,
             sensor: GripSensor {
-                range_n: w(&s.range_n, "grip_sensor.range_n", 1.0, 1e5, "N")?,
-                gain: w(&s.gain, "grip_sensor.gain", 0.5, 2.0, "")?,
-                offset_n: w(&s.offset_n, "grip_sensor.offset_n", -1e3, 1e3, "N")?,
-                noise_rms_n: w(&s.noise_rms_n, "grip_sensor.noise_rms_n", 0.0, 1e3, "N")?,
-                adc_bits: src.within_int(&s.adc_bits, "grip_sensor.adc_bits", 0..=32)? as u32,
+                range_n: within!(src, f.grip_sensor.range_n, 1.0..=1e5, "N")?,
+                gain: within!(src, f.grip_sensor.gain, 0.5..=2.0)?,
+                offset_n: within!(src, f.grip_sensor.offset_n, -1e3..=1e3, "N")?,
+                noise_rms_n: within!(src, f.grip_sensor.noise_rms_n, 0.0..=1e3, "N")?,
+                adc_bits: src.within_int(&f.grip_sensor.adc_bits, "grip_sensor.adc_bits", 0..=32)? as u32,
             },
             admittance,
-            load_mass_kg: w(&f.load.mass_kg, "load.mass_kg", 1e-3, 1e3, "kg")?,
+            load_mass_kg: within!(src, f.load.mass_kg, 1e-3..=1e3, "kg")?,
         })
     }
 }

@@ -24,13 +24,6 @@ impl CommandTiming {
             Self::AtSample => "at-sample",
         }
     }
-
-    /// The timing of a name ([`CommandTiming::as_str`]).
-    pub fn from_name(name: &str) -> Option<Self> {
-        [Self::AfterSample, Self::AtSample]
-            .into_iter()
-            .find(|t| t.as_str() == name)
-    }
 }
 
 /// A parameter file's top-level keys, and each parameter's.
@@ -78,9 +71,10 @@ pub struct Param {
 
 /// The field a key path names: `te_s.unit` for `params.te_s.unit` (parameters are named as in a device
 /// file), the top-level keys as they are.
-fn field(path: &[String]) -> String {
-    match path {
-        [p, rest @ ..] if p == "params" && !rest.is_empty() => rest.join("."),
+fn field<S: AsRef<str>>(path: &[S]) -> String {
+    let path: Vec<&str> = path.iter().map(AsRef::as_ref).collect();
+    match path.as_slice() {
+        ["params", rest @ ..] if !rest.is_empty() => rest.join("."),
         all => all.join("."),
     }
 }
@@ -104,10 +98,7 @@ impl ParamsJson {
                 return Err(InputError::line(&src.path, 1, msg));
             }
         };
-        let err = |line, path: &[&str], msg: String| {
-            let path: Vec<String> = path.iter().map(|s| s.to_string()).collect();
-            InputError::field(&src.path, line, field(&path), msg)
-        };
+        let err = |line, path: &[&str], msg: String| InputError::field(&src.path, line, field(path), msg);
         let known = |o: &Object, keys: &[&str], within: &[&str], what: &str| {
             if let Some((e, first)) = o.duplicate() {
                 let msg = format!("given twice (first at line {first}); each key may appear once");
@@ -133,29 +124,24 @@ impl ParamsJson {
         let model = top
             .get("model")
             .ok_or_else(|| missing("model", "its model (`\"model\": \"bingham+hysteresis\"`)"))?;
-        let model = At {
-            value: typed(
-                src,
-                model,
-                &["model"],
-                "a model spec string such as \"bingham+hysteresis\"",
-            )?,
-            line: model.line,
-        };
+        let model = at(
+            src,
+            model,
+            &["model"],
+            "a model spec string such as \"bingham+hysteresis\"",
+        )?;
         let current_limit_a = match top.get("current_limit_a") {
             Some(e) => {
                 let limit: f64 = typed(src, e, &["current_limit_a"], "a number of amperes")?;
-                Some(At {
-                    value: current_limit(limit).map_err(|msg| err(e.line, &["current_limit_a"], msg))?,
-                    line: e.line,
-                })
+                let value = current_limit(limit).map_err(|msg| err(e.line, &["current_limit_a"], msg))?;
+                Some(At { value, line: e.line })
             }
             None => None,
         };
         let command_timing = match top.get("command_timing") {
             Some(e) => {
                 let name: String = typed(src, e, &["command_timing"], "\"after-sample\" or \"at-sample\"")?;
-                CommandTiming::from_name(&name).ok_or_else(|| {
+                serde_json::from_value(name.clone().into()).map_err(|_| {
                     let msg = format!(
                         "`{name}` is not a command timing: `after-sample` (a command acts after the sample it is \
                          logged with) or `at-sample` (in force at it)"
@@ -185,12 +171,8 @@ impl ParamsJson {
             }
             None => None,
         };
-        let params_entry = top.get("params").ok_or_else(|| {
-            missing(
-                "params",
-                "its parameters (`\"params\": {\"te_s\": {\"value\": …}}`)",
-            )
-        })?;
+        let params_what = "its parameters (`\"params\": {\"te_s\": {\"value\": …}}`)";
+        let params_entry = top.get("params").ok_or_else(|| missing("params", params_what))?;
         let Node::Object(params_obj) = &params_entry.value else {
             let msg = format!(
                 "expected an object of parameters, found {}",
@@ -211,14 +193,11 @@ impl ParamsJson {
                 return Err(err(p.line, &["params", name], msg));
             };
             known(obj, &PARAM_KEYS, &["params", name], "a parameter")?;
-            let value = obj.get("value").ok_or_else(|| {
-                err(
-                    p.line,
-                    &["params", name, "value"],
-                    "missing: every parameter has a value".into(),
-                )
-            })?;
-            let value: f64 = typed(src, value, &["params", name, "value"], "a number")?;
+            let key = ["params", name, "value"];
+            let value = obj
+                .get("value")
+                .ok_or_else(|| err(p.line, &key, "missing: every parameter has a value".into()))?;
+            let value: f64 = typed(src, value, &key, "a number")?;
             let std_err = match obj.get("std_err") {
                 Some(e) => {
                     let key = ["params", name, "std_err"];
@@ -233,19 +212,15 @@ impl ParamsJson {
                 }
                 None => None,
             };
-            let unit = match obj.get("unit") {
-                Some(e) => Some(At {
-                    value: typed(src, e, &["params", name, "unit"], "a unit string")?,
-                    line: e.line,
-                }),
-                None => None,
-            };
+            let unit = obj
+                .get("unit")
+                .map(|e| at(src, e, &["params", name, "unit"], "a unit string"));
             params.push(Param {
                 name: name.to_string(),
                 line: p.line,
                 value,
                 std_err,
-                unit,
+                unit: unit.transpose()?,
             });
         }
         Ok(Self {
@@ -273,13 +248,21 @@ fn typed<T: serde::de::DeserializeOwned>(
         Node::Object(_) => None,
     };
     value.ok_or_else(|| {
-        let path: Vec<String> = path.iter().map(|s| s.to_string()).collect();
-        InputError::field(
-            &src.path,
-            e.line,
-            field(&path),
-            format!("expected {want}, found {}", e.value.kind()),
-        )
+        let msg = format!("expected {want}, found {}", e.value.kind());
+        InputError::field(&src.path, e.line, field(path), msg)
+    })
+}
+
+/// [`typed`] with its line.
+fn at<T: serde::de::DeserializeOwned>(
+    src: &Source,
+    e: &Entry,
+    path: &[&str],
+    want: &str,
+) -> Result<At<T>, InputError> {
+    Ok(At {
+        value: typed(src, e, path, want)?,
+        line: e.line,
     })
 }
 

@@ -298,6 +298,9 @@ const RANGES: &[(&str, f64, f64, &str)] = &[
     ("pilot.cutoff_hz", 1e-3, 100.0, "Hz"),
 ];
 
+/// The unit of a rate whose range ends at the physics rate.
+const AT_MOST_PHYSICS: &str = "Hz (at most rig.physics_hz)";
+
 /// `v` checked against the range [`RANGES`] declares for `field`.
 fn num(src: &Source, v: &Num, field: &str) -> Result<f64, InputError> {
     let &(_, lo, hi, unit) = RANGES.iter().find(|r| r.0 == field).expect("a declared range");
@@ -359,19 +362,14 @@ fn schedule(
         return Err(src.err(pts, field, "needs at least one [t_s, value] point"));
     }
     for (i, q) in p.iter().enumerate() {
-        if !(q.1.is_finite() && (lo..=hi).contains(&q.1)) {
-            let msg = format!(
-                "point {i}: value {} outside the allowed range [{lo}, {hi}] {unit}",
-                q.1
-            );
+        let (t, v) = (q.0, q.1);
+        if !(v.is_finite() && (lo..=hi).contains(&v)) {
+            let msg = format!("point {i}: value {v} outside the allowed range [{lo}, {hi}] {unit}");
             return Err(src.err(pts, field, msg.trim_end()));
         }
-        if !q.0.is_finite() || (i > 0 && q.0 <= p[i - 1].0) {
-            return Err(src.err(
-                pts,
-                field,
-                format!("point {i}: times must be finite and increasing"),
-            ));
+        if !t.is_finite() || (i > 0 && t <= p[i - 1].0) {
+            let msg = format!("point {i}: times must be finite and increasing");
+            return Err(src.err(pts, field, msg));
         }
     }
     Ok(Schedule {
@@ -415,7 +413,6 @@ pub fn scenario(src: &Source) -> Result<Scenario, InputError> {
     let seed = src.within_int(&f.seed, "seed", 0..=i64::MAX)? as u64;
 
     let (lc, la, daq) = (&f.load_cell, &f.laser, &f.daq);
-    let at_most_physics = "Hz (at most rig.physics_hz)";
     let sensors = SensorsConfig {
         load_cell: LoadCellConfig {
             range_n: num(src, &lc.range_n, "load_cell.range_n")?,
@@ -429,12 +426,7 @@ pub fn scenario(src: &Source) -> Result<Scenario, InputError> {
             velocity_cutoff_hz: num(src, &la.velocity_cutoff_hz, "laser.velocity_cutoff_hz")?,
         },
         daq: DaqConfig {
-            sample_rate_hz: src.within(
-                &daq.sample_rate_hz,
-                "daq.sample_rate_hz",
-                1.0..=physics_hz,
-                at_most_physics,
-            )?,
+            sample_rate_hz: within!(src, f.daq.sample_rate_hz, 1.0..=physics_hz, AT_MOST_PHYSICS)?,
             latency_samples: src.within_int(&daq.latency_samples, "daq.latency_samples", 0..=1000)? as usize,
             adc_bits: src.within_int(&daq.adc_bits, "daq.adc_bits", 0..=32)? as u32,
         },
@@ -444,24 +436,15 @@ pub fn scenario(src: &Source) -> Result<Scenario, InputError> {
     let anti_windup = match src.variant(&k.anti_windup, "controller.anti_windup")? {
         AntiWindupName::None => AntiWindup::None,
         AntiWindupName::Clamping => AntiWindup::Clamping,
-        AntiWindupName::BackCalculation => AntiWindup::BackCalculation {
-            tracking_time_s: need(
-                src,
-                &k.tracking_time_s,
-                "controller.tracking_time_s",
-                &k.anti_windup,
-                "anti_windup = \"back-calculation\"",
-            )?,
-        },
+        AntiWindupName::BackCalculation => {
+            let (field, by) = ("controller.tracking_time_s", "anti_windup = \"back-calculation\"");
+            let tracking_time_s = need(src, &k.tracking_time_s, field, &k.anti_windup, by)?;
+            AntiWindup::BackCalculation { tracking_time_s }
+        }
     };
     let out_min = num(src, &k.current_min_a, "controller.current_min_a")?;
     let saturation = "A (the driver saturates at 14 A)";
-    let out_max = src.within(
-        &k.current_max_a,
-        "controller.current_max_a",
-        out_min..=14.0,
-        saturation,
-    )?;
+    let out_max = within!(src, f.controller.current_max_a, out_min..=14.0, saturation)?;
     let controller = ControllerConfig {
         gains: PidGains {
             kp: num(src, &k.kp_a_per_n, "controller.kp_a_per_n")?,
@@ -730,12 +713,7 @@ fn aircraft(src: &Source, a: &AircraftSection, physics_hz: f64) -> Result<Aircra
         airspeed_m_s: num(src, &a.airspeed_m_s, "aircraft.airspeed_m_s")?,
         altitude_m: num(src, &a.altitude_m, "aircraft.altitude_m")?,
         rate_hz: match &a.rate_hz {
-            Some(r) => src.within(
-                r,
-                "aircraft.rate_hz",
-                10.0..=physics_hz,
-                "Hz (at most rig.physics_hz)",
-            )?,
+            Some(r) => src.within(r, "aircraft.rate_hz", 10.0..=physics_hz, AT_MOST_PHYSICS)?,
             None => 120.0_f64.min(physics_hz),
         },
         throttle,

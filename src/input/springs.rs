@@ -44,30 +44,19 @@ impl FeelSprings {
     pub fn load(path: &Path) -> Result<Self, InputError> {
         let src = Source::read(path)?;
         let f: File = src.toml()?;
-        let (v, q) = (&f.variable_gradient, &f.q_feel);
         Ok(Self {
             centring: CentringSpring {
-                k_n_per_m: src.within(&f.centring.k_n_per_m, "centring.k_n_per_m", 0.0..=1e6, "N/m")?,
+                k_n_per_m: within!(src, f.centring.k_n_per_m, 0.0..=1e6, "N/m")?,
             },
             variable_gradient: VariableGradientSpring {
-                k_n_per_m: src.within(&v.k_n_per_m, "variable_gradient.k_n_per_m", 0.0..=1e6, "N/m")?,
-                nonlinearity: src.within(
-                    &v.nonlinearity,
-                    "variable_gradient.nonlinearity",
-                    0.0..=100.0,
-                    "",
-                )?,
-                x_ref_m: src.within(&v.x_ref_m, "variable_gradient.x_ref_m", 1e-4..=1.0, "m")?,
+                k_n_per_m: within!(src, f.variable_gradient.k_n_per_m, 0.0..=1e6, "N/m")?,
+                nonlinearity: within!(src, f.variable_gradient.nonlinearity, 0.0..=100.0)?,
+                x_ref_m: within!(src, f.variable_gradient.x_ref_m, 1e-4..=1.0, "m")?,
             },
             q_feel: QFeelSpring {
-                k0_n_per_m: src.within(&q.k0_n_per_m, "q_feel.k0_n_per_m", 0.0..=1e6, "N/m")?,
-                kq_n_per_m_per_pa: src.within(
-                    &q.kq_n_per_m_per_pa,
-                    "q_feel.kq_n_per_m_per_pa",
-                    0.0..=1e3,
-                    "N/m/Pa",
-                )?,
-                qbar_pa: match &q.qbar_pa {
+                k0_n_per_m: within!(src, f.q_feel.k0_n_per_m, 0.0..=1e6, "N/m")?,
+                kq_n_per_m_per_pa: within!(src, f.q_feel.kq_n_per_m_per_pa, 0.0..=1e3, "N/m/Pa")?,
+                qbar_pa: match &f.q_feel.qbar_pa {
                     Some(p) => src.within(p, "q_feel.qbar_pa", 0.0..=1e6, "Pa")?,
                     None => 0.0,
                 },

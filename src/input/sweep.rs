@@ -113,68 +113,37 @@ impl Plan {
     pub fn parse(text: &str, path: &Path) -> Result<Self, PlanError> {
         let src = Text::new(path, text);
         let f: PlanFile = src.toml()?;
-        let err = |at: usize, key: &str, msg: String| {
-            PlanError::from(InputError::field(path, src.line_of(at), key, msg))
-        };
-        let origin = |at: usize| Origin::File {
-            path: path.to_path_buf(),
-            line: src.line_of(at),
-        };
-        let dir = path.parent().unwrap_or(Path::new(""));
-        let scenario_path = dir.join(f.scenario.get_ref());
-        let scenario_text = crate::input::text::read_text(&scenario_path).map_err(|msg| {
-            err(
-                f.scenario.span().start,
-                "scenario",
-                format!("{}: {msg}", scenario_path.display()),
-            )
-        })?;
+        let scenario_path = path.parent().unwrap_or(Path::new("")).join(f.scenario.get_ref());
+        let at_scenario = |msg: String| src.err(&f.scenario, "scenario", msg);
+        let scenario_text = crate::input::text::read_text(&scenario_path)
+            .map_err(|msg| at_scenario(format!("{}: {msg}", scenario_path.display())))?;
         // The base itself must be a good scenario: its errors are its own, not the axes'.
-        Scenario::parse(&scenario_text, &scenario_path)
-            .map_err(|e| err(f.scenario.span().start, "scenario", e.to_string()))?;
+        Scenario::parse(&scenario_text, &scenario_path).map_err(|e| at_scenario(e.to_string()))?;
         let seed = *f.seed.get_ref();
         if seed < 0 {
-            return Err(err(
-                f.seed.span().start,
-                "seed",
-                format!("{seed} is negative: give 0 or more"),
-            ));
+            return Err(src
+                .err(&f.seed, "seed", format!("{seed} is negative: give 0 or more"))
+                .into());
         }
-        let mode = match (f.mode.as_ref().map(|m| *m.get_ref()), &f.runs) {
-            (None | Some(ModeName::Grid), None) => Mode::Grid,
-            (None | Some(ModeName::Grid), Some(r)) => {
-                return Err(err(
-                    r.span().start,
-                    "runs",
-                    "only with mode = \"sample\" (a grid runs every combination)".into(),
-                ))
+        let mode = match (f.mode.as_ref(), &f.runs) {
+            (None, None) => Mode::Grid,
+            (Some(m), None) if *m.get_ref() == ModeName::Grid => Mode::Grid,
+            (Some(m), None) => {
+                let msg = "required by mode = \"sample\" (how many runs to draw)";
+                return Err(src.err(m, "runs", msg).into());
             }
-            (Some(ModeName::Sample), Some(r)) => match u64::try_from(*r.get_ref()) {
-                Ok(n) if (1..=MAX_RUNS).contains(&n) => Mode::Sample { runs: n },
-                _ => {
-                    return Err(err(
-                        r.span().start,
-                        "runs",
-                        format!("{} outside the allowed range [1, {MAX_RUNS}]", r.get_ref()),
-                    ))
-                }
+            (Some(m), Some(r)) if *m.get_ref() == ModeName::Sample => Mode::Sample {
+                runs: count(*r.get_ref()).ok_or_else(|| src.err(r, "runs", outside(r.get_ref())))?,
             },
-            (Some(ModeName::Sample), None) => {
-                let at = f.mode.as_ref().map_or(0, |m| m.span().start);
-                return Err(err(
-                    at,
-                    "runs",
-                    "required by mode = \"sample\" (how many runs to draw)".into(),
-                ));
+            (_, Some(r)) => {
+                let msg = "only with mode = \"sample\" (a grid runs every combination)";
+                return Err(src.err(r, "runs", msg).into());
             }
         };
         let prolonged_window_s = match &f.prolonged_window_s {
             Some(w) if !(w.get_ref().is_finite() && (0.1..=600.0).contains(w.get_ref())) => {
-                return Err(err(
-                    w.span().start,
-                    "prolonged_window_s",
-                    format!("value {} outside the allowed range [0.1, 600] s", w.get_ref()),
-                ))
+                let msg = format!("value {} outside the allowed range [0.1, 600] s", w.get_ref());
+                return Err(src.err(w, "prolonged_window_s", msg).into());
             }
             Some(w) => *w.get_ref(),
             None => 5.0,
@@ -184,146 +153,7 @@ impl Plan {
         }
         let mut axes: Vec<Axis> = Vec::new();
         for a in &f.axis {
-            let at = a.span().start;
-            let a = a.get_ref();
-            let axis = match (&a.key, &a.name, &a.case) {
-                (Some(key), None, None) => {
-                    let k = key.get_ref().clone();
-                    let kat = key.span().start;
-                    let source = match (&a.values, &a.range, &a.draw) {
-                        (Some(v), None, None) => {
-                            if v.is_empty() {
-                                return Err(err(kat, "values", "an empty list: give at least one value".into()));
-                            }
-                            Source::List(v.iter().map(|x| (x.get_ref().clone(), src.line_of(x.span().start))).collect())
-                        }
-                        (None, Some(r), None) => {
-                            let rat = r.span().start;
-                            let r = r.get_ref();
-                            let n = match u64::try_from(r.count) {
-                                Ok(n) if (1..=MAX_RUNS).contains(&n) => n,
-                                _ => return Err(err(rat, "range.count", format!("{} outside the allowed range [1, {MAX_RUNS}]", r.count))),
-                            };
-                            if !(r.from.is_finite() && r.to.is_finite()) || (r.log && (r.from <= 0.0 || r.to <= 0.0)) {
-                                return Err(err(rat, "range", "from and to must be finite (and positive with log = true)".into()));
-                            }
-                            let line = src.line_of(rat);
-                            Source::List(
-                                (0..n)
-                                    .map(|i| {
-                                        let u = if n == 1 { 0.0 } else { i as f64 / (n - 1) as f64 };
-                                        let x = if r.log {
-                                            (r.from.ln() + u * (r.to.ln() - r.from.ln())).exp()
-                                        } else {
-                                            r.from + u * (r.to - r.from)
-                                        };
-                                        (toml::Value::Float(x), line)
-                                    })
-                                    .collect(),
-                            )
-                        }
-                        (None, None, Some(d)) => {
-                            let dat = d.span().start;
-                            let d = d.get_ref();
-                            let need = |v: Option<f64>, name: &str| {
-                                v.filter(|x| x.is_finite())
-                                    .ok_or_else(|| err(dat, &format!("draw.{name}"), format!("required (a finite number) by dist = \"{}\"", d.dist.as_str())))
-                            };
-                            let dist = match d.dist {
-                                DistName::Uniform | DistName::LogUniform => {
-                                    let (low, high) = (need(d.low, "low")?, need(d.high, "high")?);
-                                    if d.mean.is_some() || d.sd.is_some() {
-                                        return Err(err(dat, "draw", format!("mean and sd are not used by dist = \"{}\"", d.dist.as_str())));
-                                    }
-                                    if low > high || (d.dist == DistName::LogUniform && low <= 0.0) {
-                                        return Err(err(dat, "draw.low", format!("low {low} must be at most high {high} (and above 0 for log-uniform)")));
-                                    }
-                                    if d.dist == DistName::Uniform {
-                                        Dist::Uniform { low, high }
-                                    } else {
-                                        Dist::LogUniform { low, high }
-                                    }
-                                }
-                                DistName::Normal => {
-                                    let (mean, sd) = (need(d.mean, "mean")?, need(d.sd, "sd")?);
-                                    if d.low.is_some() || d.high.is_some() {
-                                        return Err(err(dat, "draw", "low and high are not used by dist = \"normal\"".into()));
-                                    }
-                                    if sd < 0.0 {
-                                        return Err(err(dat, "draw.sd", format!("{sd} is negative")));
-                                    }
-                                    Dist::Normal { mean, sd }
-                                }
-                            };
-                            let count = match (mode, d.count) {
-                                (Mode::Grid, Some(c)) => match u64::try_from(c) {
-                                    Ok(n) if (1..=MAX_RUNS).contains(&n) => Some(n),
-                                    _ => return Err(err(dat, "draw.count", format!("{c} outside the allowed range [1, {MAX_RUNS}]"))),
-                                },
-                                (Mode::Grid, None) => {
-                                    return Err(err(dat, "draw.count", "required in a grid (how many draws this axis takes)".into()))
-                                }
-                                (Mode::Sample { .. }, Some(_)) => {
-                                    return Err(err(dat, "draw.count", "not used by mode = \"sample\" (each run draws once)".into()))
-                                }
-                                (Mode::Sample { .. }, None) => None,
-                            };
-                            Source::Draw { dist, count }
-                        }
-                        _ => {
-                            return Err(err(kat, &k, "give exactly one of `values`, `range`, `draw`".into()));
-                        }
-                    };
-                    Axis {
-                        name: k.clone(),
-                        key: Some(k),
-                        source,
-                        line: src.line_of(kat),
-                    }
-                }
-                (None, Some(name), Some(cases)) => {
-                    if a.values.is_some() || a.range.is_some() || a.draw.is_some() {
-                        return Err(err(name.span().start, "case", "an axis of cases takes no values, range or draw".into()));
-                    }
-                    if cases.is_empty() {
-                        return Err(err(name.span().start, "case", "no cases: give at least one `[[axis.case]]`".into()));
-                    }
-                    let mut out = Vec::new();
-                    for c in cases {
-                        let c = c.get_ref();
-                        let label = c.label.get_ref().clone();
-                        if out.iter().any(|(l, _): &(String, _)| *l == label) {
-                            return Err(err(c.label.span().start, "label", format!("`{label}` given twice in this axis")));
-                        }
-                        let mut ov = Vec::new();
-                        if let Some(set) = &c.set {
-                            let o = origin(set.span().start);
-                            flatten("", set.get_ref(), &mut |k, v| ov.push(Override::set(&k, v.clone(), o.clone())));
-                        }
-                        for u in &c.unset {
-                            ov.push(Override {
-                                key: u.get_ref().clone(),
-                                value: None,
-                                origin: origin(u.span().start),
-                            });
-                        }
-                        out.push((label, ov));
-                    }
-                    Axis {
-                        name: name.get_ref().clone(),
-                        key: None,
-                        source: Source::Cases(out),
-                        line: src.line_of(name.span().start),
-                    }
-                }
-                _ => {
-                    return Err(err(
-                        at,
-                        "axis",
-                        "an axis is either `key` with `values`, `range` or `draw`, or `name` with `[[axis.case]]` tables".into(),
-                    ))
-                }
-            };
+            let axis = axis(&src, a, mode)?;
             if axes.iter().any(|b| b.name == axis.name) {
                 let msg = "a second axis of this name: one axis per key";
                 return Err(InputError::field(path, axis.line, &axis.name, msg).into());
@@ -337,11 +167,8 @@ impl Plan {
                 for s in std::iter::once(&m.x).chain([&m.y]).chain(&m.facets) {
                     if !axes.iter().any(|a| a.name == *s.get_ref()) {
                         let names: Vec<&str> = axes.iter().map(|a| a.name.as_str()).collect();
-                        return Err(err(
-                            s.span().start,
-                            "map",
-                            format!("`{}` is not an axis (axes: {})", s.get_ref(), names.join(", ")),
-                        ));
+                        let msg = format!("`{}` is not an axis (axes: {})", s.get_ref(), names.join(", "));
+                        return Err(src.err(s, "map", msg).into());
                     }
                 }
                 Some(MapSpec {
@@ -370,7 +197,7 @@ impl Plan {
             prolonged_window_s,
             map,
             digest,
-            seed_line: src.line_of(f.seed.span().start),
+            seed_line: src.line_at(f.seed.span()),
         };
         let n = plan.run_count();
         if n > MAX_RUNS {
@@ -379,6 +206,172 @@ impl Plan {
         }
         Ok(plan)
     }
+}
+
+/// A number of runs or draws, if it is in `[1, MAX_RUNS]`.
+fn count(n: i64) -> Option<u64> {
+    u64::try_from(n).ok().filter(|n| (1..=MAX_RUNS).contains(n))
+}
+
+fn outside(n: impl std::fmt::Display) -> String {
+    format!("{n} outside the allowed range [1, {MAX_RUNS}]")
+}
+
+/// One `[[axis]]`: a key with its values, range or draw, or a name with its cases.
+fn axis(src: &Text, at: &Spanned<AxisFile>, mode: Mode) -> Result<Axis, InputError> {
+    let a = at.get_ref();
+    let (key, name, cases) = match (&a.key, &a.name, &a.case) {
+        (Some(key), None, None) => (key, None, None),
+        (None, Some(name), Some(cases)) => (name, Some(name), Some(cases)),
+        _ => {
+            let msg = "an axis is either `key` with `values`, `range` or `draw`, or `name` with \
+                       `[[axis.case]]` tables";
+            return Err(src.err(at, "axis", msg));
+        }
+    };
+    let line = src.line_at(key.span());
+    let Some(cases) = cases else {
+        let k = key.get_ref();
+        let source = match (&a.values, &a.range, &a.draw) {
+            (Some(v), None, None) if v.is_empty() => {
+                return Err(src.err(key, "values", "an empty list: give at least one value"));
+            }
+            (Some(v), None, None) => Source::List(
+                v.iter()
+                    .map(|x| (x.get_ref().clone(), src.line_at(x.span())))
+                    .collect(),
+            ),
+            (None, Some(r), None) => range(src, r)?,
+            (None, None, Some(d)) => draw(src, d, mode)?,
+            _ => return Err(src.err(key, k, "give exactly one of `values`, `range`, `draw`")),
+        };
+        return Ok(Axis {
+            name: k.clone(),
+            key: Some(k.clone()),
+            source,
+            line,
+        });
+    };
+    let name = name.expect("an axis of cases has a name");
+    if a.values.is_some() || a.range.is_some() || a.draw.is_some() {
+        return Err(src.err(name, "case", "an axis of cases takes no values, range or draw"));
+    }
+    if cases.is_empty() {
+        return Err(src.err(name, "case", "no cases: give at least one `[[axis.case]]`"));
+    }
+    let origin = |span: std::ops::Range<usize>| Origin::File {
+        path: src.path.clone(),
+        line: src.line_at(span),
+    };
+    let mut out: Vec<(String, Vec<Override>)> = Vec::new();
+    for c in cases {
+        let c = c.get_ref();
+        let label = c.label.get_ref().clone();
+        if out.iter().any(|(l, _)| *l == label) {
+            return Err(src.err(&c.label, "label", format!("`{label}` given twice in this axis")));
+        }
+        let mut ov = Vec::new();
+        if let Some(set) = &c.set {
+            let o = origin(set.span());
+            flatten("", set.get_ref(), &mut |k, v| {
+                ov.push(Override::set(&k, v.clone(), o.clone()))
+            });
+        }
+        ov.extend(c.unset.iter().map(|u| Override {
+            key: u.get_ref().clone(),
+            value: None,
+            origin: origin(u.span()),
+        }));
+        out.push((label, ov));
+    }
+    Ok(Axis {
+        name: name.get_ref().clone(),
+        key: None,
+        source: Source::Cases(out),
+        line,
+    })
+}
+
+/// `count` values evenly spaced from `from` to `to` (on a log scale with `log`).
+fn range(src: &Text, at: &Spanned<RangeFile>) -> Result<Source, InputError> {
+    let r = at.get_ref();
+    let n = count(r.count).ok_or_else(|| src.err(at, "range.count", outside(r.count)))?;
+    if !(r.from.is_finite() && r.to.is_finite()) || (r.log && (r.from <= 0.0 || r.to <= 0.0)) {
+        return Err(src.err(
+            at,
+            "range",
+            "from and to must be finite (and positive with log = true)",
+        ));
+    }
+    let line = src.line_at(at.span());
+    let value = |i: u64| {
+        let u = if n == 1 { 0.0 } else { i as f64 / (n - 1) as f64 };
+        let x = if r.log {
+            (r.from.ln() + u * (r.to.ln() - r.from.ln())).exp()
+        } else {
+            r.from + u * (r.to - r.from)
+        };
+        (toml::Value::Float(x), line)
+    };
+    Ok(Source::List((0..n).map(value).collect()))
+}
+
+/// Values drawn from a distribution: `count` of them in a grid, one per run in a sample.
+fn draw(src: &Text, at: &Spanned<DrawFile>, mode: Mode) -> Result<Source, InputError> {
+    let d = at.get_ref();
+    let dist_name = d.dist.as_str();
+    let need = |v: Option<f64>, name: &str| {
+        let msg = format!("required (a finite number) by dist = \"{dist_name}\"");
+        v.filter(|x| x.is_finite())
+            .ok_or_else(|| src.err(at, &format!("draw.{name}"), msg))
+    };
+    let dist = match d.dist {
+        DistName::Uniform | DistName::LogUniform => {
+            let (low, high) = (need(d.low, "low")?, need(d.high, "high")?);
+            if d.mean.is_some() || d.sd.is_some() {
+                let msg = format!("mean and sd are not used by dist = \"{dist_name}\"");
+                return Err(src.err(at, "draw", msg));
+            }
+            if low > high || (d.dist == DistName::LogUniform && low <= 0.0) {
+                let msg = format!("low {low} must be at most high {high} (and above 0 for log-uniform)");
+                return Err(src.err(at, "draw.low", msg));
+            }
+            if d.dist == DistName::Uniform {
+                Dist::Uniform { low, high }
+            } else {
+                Dist::LogUniform { low, high }
+            }
+        }
+        DistName::Normal => {
+            let (mean, sd) = (need(d.mean, "mean")?, need(d.sd, "sd")?);
+            if d.low.is_some() || d.high.is_some() {
+                return Err(src.err(at, "draw", "low and high are not used by dist = \"normal\""));
+            }
+            if sd < 0.0 {
+                return Err(src.err(at, "draw.sd", format!("{sd} is negative")));
+            }
+            Dist::Normal { mean, sd }
+        }
+    };
+    let count = match (mode, d.count) {
+        (Mode::Grid, Some(c)) => Some(count(c).ok_or_else(|| src.err(at, "draw.count", outside(c)))?),
+        (Mode::Grid, None) => {
+            return Err(src.err(
+                at,
+                "draw.count",
+                "required in a grid (how many draws this axis takes)",
+            ));
+        }
+        (Mode::Sample { .. }, Some(_)) => {
+            return Err(src.err(
+                at,
+                "draw.count",
+                "not used by mode = \"sample\" (each run draws once)",
+            ));
+        }
+        (Mode::Sample { .. }, None) => None,
+    };
+    Ok(Source::Draw { dist, count })
 }
 
 /// Every leaf of a table as `dotted.key = value` (a table in a table is a deeper key; arrays are values).

@@ -2,8 +2,7 @@
 //! mrfeel extension that standard URDF parsers ignore) and link visuals, with errors that name the line.
 //!
 //! `urdf-rs` reports no position, so the text is first read with every element's and attribute's line
-//! (`scan_xml`, on quick-xml) and checked against what `urdf-rs` reads: required attributes, numbers,
-//! vectors, joint types, unique names; unknown attributes and elements are errors, not silently dropped.
+//! (`scan_xml`, on quick-xml) and checked against what `urdf-rs` reads (`SCHEMA`).
 
 use std::path::{Path, PathBuf};
 
@@ -172,14 +171,10 @@ impl UrdfModel {
                 .filter(|j| j.child.link == l.name)
                 .count();
             if parents > 1 {
-                return Err(self.field_error(
-                    "link",
-                    &l.name,
-                    "parent",
-                    format!(
-                        "{parents} joints have this link as child; close a kinematic loop with <loop_joint>"
-                    ),
-                ));
+                let msg = format!(
+                    "{parents} joints have this link as child; close a kinematic loop with <loop_joint>"
+                );
+                return Err(self.field_error("link", &l.name, "parent", msg));
             }
             let m = l.inertial.mass.value;
             if !m.is_finite() || m < 0.0 {
@@ -188,12 +183,8 @@ impl UrdfModel {
             let i = &l.inertial.inertia;
             for (name, v) in [("ixx", i.ixx), ("iyy", i.iyy), ("izz", i.izz)] {
                 if !v.is_finite() || v < 0.0 {
-                    return Err(self.inertial_error(
-                        &l.name,
-                        "inertia",
-                        &format!("inertial/inertia `{name}`"),
-                        format!("{v} must be ≥ 0"),
-                    ));
+                    let field = format!("inertial/inertia `{name}`");
+                    return Err(self.inertial_error(&l.name, "inertia", &field, format!("{v} must be ≥ 0")));
                 }
             }
             // Triangle inequality of principal moments (for the diagonal inertias used here).
@@ -201,12 +192,10 @@ impl UrdfModel {
                 let (a, b, c) = (i.ixx, i.iyy, i.izz);
                 let tol = 1e-9 * (a + b + c);
                 if a + b < c - tol || a + c < b - tol || b + c < a - tol {
-                    return Err(self.inertial_error(
-                        &l.name,
-                        "inertia",
-                        "inertial/inertia",
-                        format!("moments ixx={a}, iyy={b}, izz={c} violate the triangle inequality (not a physical body)"),
-                    ));
+                    let msg = format!(
+                        "moments ixx={a}, iyy={b}, izz={c} violate the triangle inequality (not a physical body)"
+                    );
+                    return Err(self.inertial_error(&l.name, "inertia", "inertial/inertia", msg));
                 }
             }
         }
@@ -286,11 +275,6 @@ pub(crate) fn urdf_error(path: &Path, line: usize, msg: impl Into<String>) -> In
     }
 }
 
-// ---------------------------------------------------------------------------------------------------
-// The URDF text read with positions: `urdf-rs` reports where nothing is, so the text is first read here,
-// every element and attribute with its line, and checked against the elements `urdf-rs` reads (their
-// required attributes, numbers, vectors and joint types). What passes here, `urdf-rs` reads.
-
 /// An element of the file, with the 1-based line of its start tag.
 #[derive(Debug, Clone, Default)]
 struct XmlElement {
@@ -342,14 +326,12 @@ impl Lines {
 
 type XmlError = (usize, String);
 
-/// The deepest nesting of elements read. A URDF nests a few levels (`robot/link/visual/geometry/box`); the
-/// tree is built, checked and dropped, and `urdf-rs` reads it, by recursion, which a file nesting tens of
-/// thousands of elements would take past the stack (a crash, not an error).
+/// The deepest nesting of elements read: the tree is walked by recursion (here and in `urdf-rs`), which a
+/// file nesting tens of thousands of elements would take past the stack.
 const MAX_DEPTH: usize = 256;
 
-/// Read the XML text into its element tree (the root element), or the line and reason it is not XML. The
-/// parsing is quick-xml's (the XML reader urdf-rs itself uses); this adds the lines of elements and
-/// attributes, which urdf-rs's errors do not give.
+/// Read the XML text (with quick-xml, as urdf-rs does) into its element tree, every element and attribute
+/// with its line, or the line and reason it is not XML.
 fn scan_xml(text: &str) -> Result<XmlElement, XmlError> {
     use quick_xml::events::{BytesStart, Event};
     let lines = Lines::new(text);
@@ -416,13 +398,9 @@ fn scan_xml(text: &str) -> Result<XmlElement, XmlError> {
                     return Err((line, format!("`</{name}>` closes no open element")));
                 };
                 if open.name != name {
-                    return Err((
-                        line,
-                        format!(
-                            "`</{name}>` does not close `<{}>` opened at line {}",
-                            open.name, open.line
-                        ),
-                    ));
+                    let (open, at) = (&open.name, open.line);
+                    let msg = format!("`</{name}>` does not close `<{open}>` opened at line {at}");
+                    return Err((line, msg));
                 }
                 Some(open)
             }
@@ -443,23 +421,17 @@ fn scan_xml(text: &str) -> Result<XmlElement, XmlError> {
             match stack.last_mut() {
                 Some(parent) => parent.children.push(el),
                 None if root.is_some() => {
-                    return Err((
-                        el.line,
-                        format!("a second root element `<{}>` after the first", el.name),
-                    ));
+                    let msg = format!("a second root element `<{}>` after the first", el.name);
+                    return Err((el.line, msg));
                 }
                 None => root = Some(el),
             }
         }
     }
     if let Some(open) = stack.last() {
-        return Err((
-            open.line,
-            format!(
-                "`<{}>` is never closed (the file ends inside it: truncated?)",
-                open.name
-            ),
-        ));
+        let name = &open.name;
+        let msg = format!("`<{name}>` is never closed (the file ends inside it: truncated?)");
+        return Err((open.line, msg));
     }
     root.ok_or((1, "no XML element at all (not a URDF file?)".to_string()))
 }
@@ -589,23 +561,17 @@ fn check_schema(root: &XmlElement) -> Result<(), SchemaError> {
         match el.name.as_str() {
             "link" => {
                 if let Some((_, first)) = links.iter().find(|(n, _)| *n == name) {
-                    return Err((
-                        el.line,
-                        owner,
-                        format!("name: a second link named `{name}` (the first is at line {first})"),
-                    ));
+                    let msg = format!("name: a second link named `{name}` (the first is at line {first})");
+                    return Err((el.line, owner, msg));
                 }
                 links.push((name, el.line));
             }
             "joint" | "loop_joint" => {
                 if let Some((_, kind, first)) = joints.iter().find(|(n, _, _)| *n == name) {
-                    return Err((
-                        el.line,
-                        owner,
-                        format!(
-                            "name: a second joint named `{name}` (the first, a <{kind}>, is at line {first})"
-                        ),
-                    ));
+                    let msg = format!(
+                        "name: a second joint named `{name}` (the first, a <{kind}>, is at line {first})"
+                    );
+                    return Err((el.line, owner, msg));
                 }
                 joints.push((name, &el.name, el.line));
             }
@@ -630,11 +596,8 @@ fn check_element(parent: &str, el: &XmlElement, owner: &str, path: &str) -> Resu
     for a in &el.attrs {
         let Some(&(_, kind, _)) = attrs.iter().find(|(n, _, _)| *n == a.name) else {
             let known = allowed(attrs.iter().map(|(n, _, _)| n.to_string()).collect());
-            return Err((
-                a.line,
-                here,
-                format!("unknown attribute `{}` (allowed: {known})", a.name),
-            ));
+            let msg = format!("unknown attribute `{}` (allowed: {known})", a.name);
+            return Err((a.line, here, msg));
         };
         check_value(kind, &a.value).map_err(|m| (a.line, here.clone(), format!("`{}`: {m}", a.name)))?;
     }
@@ -647,11 +610,8 @@ fn check_element(parent: &str, el: &XmlElement, owner: &str, path: &str) -> Resu
     for c in &el.children {
         let Some(&(_, repeats, _)) = children.iter().find(|(n, _, _)| *n == c.name) else {
             let known = allowed(children.iter().map(|(n, _, _)| format!("<{n}>")).collect());
-            return Err((
-                c.line,
-                here,
-                format!("unknown element <{}> (allowed here: {known})", c.name),
-            ));
+            let msg = format!("unknown element <{}> (allowed here: {known})", c.name);
+            return Err((c.line, here, msg));
         };
         let first = el.children.iter().find(|d| d.name == c.name).expect("c itself");
         if !repeats && !std::ptr::eq(first, c) {

@@ -1,11 +1,9 @@
 //! Scenario values replaced by dotted key (`feel.gradient_n_per_m = 900`): the axes of a sweep, `mrfeel run
 //! --set`, the overrides of the Python bindings.
 //!
-//! The scenario file's TOML document is edited (`toml_edit`, every other line left as written) and then read
-//! by the scenario's one checked parse ([`Scenario::parse`]), so the schema that checks a scenario checks its
-//! overrides: an unknown key, a wrong type or a value out of range is refused at the place the override was
-//! written (a plan's line, a `--set` argument), an error the override causes elsewhere (a DAQ rate above a
-//! lowered physics rate) at the scenario's own line, with the overrides named.
+//! The scenario's TOML document is edited (`toml_edit`) and read by [`Scenario::parse`], so the scenario's
+//! schema checks its overrides: an error is placed where the override was written (a plan's line, a
+//! `--set` argument), or, caused elsewhere, at the scenario's own line with the overrides named.
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -234,10 +232,8 @@ fn find<'a>(root: &'a Item, key: &str) -> Option<&'a Item> {
 fn apply(doc: &mut DocumentMut, o: &Override, value: Option<&toml::Value>) -> Result<bool, InputError> {
     let parts: Vec<&str> = o.key.split('.').collect();
     if parts.iter().any(|p| p.is_empty()) {
-        return Err(field_err(
-            o,
-            "not a dotted key (an empty part): write `table.key`, e.g. `feel.gradient_n_per_m`",
-        ));
+        let msg = "not a dotted key (an empty part): write `table.key`, e.g. `feel.gradient_n_per_m`";
+        return Err(field_err(o, msg));
     }
     let (last, path) = parts.split_last().expect("split gives at least one part");
     let mut table: &mut dyn TableLike = doc.as_table_mut();
@@ -254,18 +250,11 @@ fn apply(doc: &mut DocumentMut, o: &Override, value: Option<&toml::Value>) -> Re
         table = match table.get_mut(part).expect("inserted above") {
             Item::ArrayOfTables(aot) => {
                 let n = aot.len();
-                let k = match parts[i + 1].parse::<usize>() {
-                    Ok(k) if (1..=n).contains(&k) => k,
-                    _ => {
-                        return Err(field_err(
-                            o,
-                            format!(
-                                "`{here}` is a list of {n} tables: name one by its number, `{here}.1` to \
-                                 `{here}.{n}`"
-                            ),
-                        ))
-                    }
-                };
+                let msg = format!(
+                    "`{here}` is a list of {n} tables: name one by its number, `{here}.1` to `{here}.{n}`"
+                );
+                let k = parts[i + 1].parse::<usize>().ok().filter(|k| (1..=n).contains(k));
+                let k = k.ok_or_else(|| field_err(o, msg))?;
                 let t = aot.get_mut(k - 1).expect("index checked");
                 return match &parts[i + 2..] {
                     [key] => set_in(t, o, key, value),
