@@ -1564,16 +1564,8 @@ mod tests {
         for (k, inp) in inputs.iter_mut().enumerate() {
             inp.current_cmd_a = [0.0, 14.0, 3.5, 10.5, 7.0][(k / 250) % 5];
         }
-        vec![Test {
-            path: "stepped.csv".into(),
-            name: "stepped.csv".into(),
-            group: "stepped".into(),
-            f_n: model.simulate(&TRUTH, &inputs),
-            inputs,
-            velocity_measured: true,
-            velocity_noise_m_s: None,
-            drive: None,
-        }]
+        let f_n = model.simulate(&TRUTH, &inputs);
+        vec![Test::synthetic("stepped.csv", "stepped", inputs, f_n)]
     }
 
     #[test]
@@ -1629,16 +1621,7 @@ mod tests {
                     .iter()
                     .map(|f| scale * f)
                     .collect();
-                Test {
-                    path: format!("{name}.csv").into(),
-                    name: format!("{name}.csv"),
-                    group: name.into(),
-                    f_n,
-                    inputs,
-                    velocity_measured: true,
-                    velocity_noise_m_s: None,
-                    drive: None,
-                }
+                Test::synthetic(&format!("{name}.csv"), name, inputs, f_n)
             })
             .collect()
     }
@@ -1829,16 +1812,8 @@ mod tests {
             .iter()
             .map(|&(a, f, i)| {
                 let inputs = crate::device::effects::testkit::sine(a, f, i, 1e-3, 2.0);
-                Test {
-                    path: "two.csv".into(),
-                    name: "two.csv".into(),
-                    group: format!("{f}"),
-                    f_n: model.simulate(&truth, &inputs),
-                    inputs,
-                    velocity_measured: true,
-                    velocity_noise_m_s: None,
-                    drive: None,
-                }
+                let f_n = model.simulate(&truth, &inputs);
+                Test::synthetic("two.csv", &format!("{f}"), inputs, f_n)
             })
             .collect();
         let spans = all_spans(&tests);

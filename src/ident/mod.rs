@@ -157,4 +157,19 @@ impl Test {
     pub fn is_empty(&self) -> bool {
         self.f_n.is_empty()
     }
+
+    /// A synthetic test with a measured velocity, file `name` of group `group`.
+    #[cfg(test)]
+    pub(crate) fn synthetic(name: &str, group: &str, inputs: Vec<Inputs>, f_n: Vec<f64>) -> Self {
+        Self {
+            path: name.into(),
+            name: name.into(),
+            group: group.into(),
+            inputs,
+            f_n,
+            velocity_measured: true,
+            velocity_noise_m_s: None,
+            drive: None,
+        }
+    }
 }

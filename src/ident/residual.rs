@@ -574,16 +574,7 @@ mod tests {
                 ..Default::default()
             })
             .collect();
-        Test {
-            path: "t.csv".into(),
-            name: "t.csv".into(),
-            group: "t".into(),
-            inputs,
-            f_n: f,
-            velocity_measured: true,
-            velocity_noise_m_s: None,
-            drive: None,
-        }
+        Test::synthetic("t.csv", "t", inputs, f)
     }
 
     #[test]

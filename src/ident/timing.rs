@@ -203,16 +203,7 @@ mod tests {
             let cmd = inputs[next].current_cmd_a;
             ic = cmd + (ic - cmd) * decay;
         }
-        vec![Test {
-            path: "steps.csv".into(),
-            name: "steps.csv".into(),
-            group: "steps".into(),
-            f_n,
-            inputs,
-            velocity_measured: true,
-            velocity_noise_m_s: None,
-            drive: None,
-        }]
+        vec![Test::synthetic("steps.csv", "steps", inputs, f_n)]
     }
 
     fn lag_free(at_sample: bool, seed: u64) -> Vec<Test> {
