@@ -454,8 +454,8 @@ pub fn cross_validate(
     }
 }
 
-/// One candidate effect judged against the model it would extend.
-#[derive(Debug, Clone)]
+/// One candidate effect judged against the model it would extend (an entry of `candidates` in the JSON).
+#[derive(Debug, Clone, serde::Serialize)]
 pub struct Candidate {
     /// Effect name (`a+b` for a pair, the formula for an open-search term).
     pub effect: String,
@@ -468,34 +468,38 @@ pub struct Candidate {
     /// The signature in the residual that suggested the effect, in words.
     pub evidence: String,
     /// Folds in which it lowered the held-out error, of all folds.
+    #[serde(skip)]
     pub folds_better: usize,
     /// Folds judged.
+    #[serde(skip)]
     pub folds: usize,
 }
 
-/// One step of the search: the model and its held-out error.
-#[derive(Debug, Clone)]
+/// One step of the search: the model and its held-out error (an entry of `steps` in the JSON).
+#[derive(Debug, Clone, serde::Serialize)]
 pub struct StepResult {
     /// Model spec at this step.
     pub model: String,
     /// The effect this step added, if any.
+    #[serde(skip)]
     pub added: Option<String>,
     /// Held-out NRMSE of the model.
     pub heldout_nrmse: f64,
-    /// Held-out RMS force error of the model, N.
-    pub heldout_rmse_n: f64,
     /// Candidates tried at this step (best first).
+    #[serde(skip)]
     pub candidates: Vec<Candidate>,
     /// Pairs of effects tried at this step because no effect alone was significant (best first; `effect` is
     /// `a+b`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
     pub pairs: Vec<Candidate>,
     /// The term the open search proposed at this step, judged like the named effects (`effect` is its
     /// formula).
+    #[serde(skip)]
     pub term: Option<Candidate>,
 }
 
-/// A force term outside the vocabulary that the diagnosis added.
-#[derive(Debug, Clone)]
+/// A force term outside the vocabulary that the diagnosis added (an entry of `discovered` in the JSON).
+#[derive(Debug, Clone, serde::Serialize)]
 pub struct Discovered {
     /// The term's name, as `--save-effect` writes it.
     pub name: String,
@@ -510,6 +514,7 @@ pub struct Discovered {
     /// The physical family its strongest term most resembles.
     pub resembles: String,
     /// The effect, its guesses set to the final fit's values (what `--save-effect` writes).
+    #[serde(skip)]
     pub effect: FormulaEffect,
 }
 
@@ -612,7 +617,6 @@ impl StepResult {
             model,
             added,
             heldout_nrmse: cv.heldout_nrmse(),
-            heldout_rmse_n: cv.total.rmse_n(),
             candidates: Vec::new(),
             pairs: Vec::new(),
             term: None,
@@ -971,7 +975,6 @@ fn diagnose_from(
         }
         if let Some(last) = steps.last_mut() {
             last.heldout_nrmse = cur.heldout_nrmse();
-            last.heldout_rmse_n = cur.total.rmse_n();
             last.candidates = cands.clone();
             last.pairs = pair_cands.clone();
             last.term = term_cand.clone();

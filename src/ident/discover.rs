@@ -599,8 +599,9 @@ fn sig4(v: f64) -> String {
     }
 }
 
-/// What the final model's held-out residual is: structure a regressor predicts, or noise.
-#[derive(Debug, Clone)]
+/// What the final model's held-out residual is: structure a regressor predicts, or noise (`unexplained` in
+/// the JSON when structure).
+#[derive(Debug, Clone, serde::Serialize)]
 pub struct Verdict {
     /// Held-out NRMSE of the final model.
     pub heldout_nrmse: f64,
@@ -608,14 +609,24 @@ pub struct Verdict {
     pub floor_nrmse: f64,
     /// Share of the held-out residual's mean square the regressor predicts out of sample (pooled over folds).
     pub predictable_share: f64,
-    /// Signals whose features alone predict part of it, strongest first, with their shares.
+    /// Where the held-out residual lives (regions, as for the base model).
+    #[serde(rename = "where")]
+    pub where_: Vec<super::residual::Region>,
+    /// Signals whose features alone predict part of it (at least a fifth of the predictable share),
+    /// strongest first, with their shares (names only in the JSON).
+    #[serde(serialize_with = "names_only")]
     pub correlates_with: Vec<(String, f64)>,
     /// Structure is left (the residual is not noise).
+    #[serde(skip)]
     pub structure: bool,
     /// The regressor had enough samples for its columns (ten a column) for its share to be read.
+    #[serde(skip)]
     pub enough_samples: bool,
-    /// Where the held-out residual lives (regions, as for the base model).
-    pub where_: Vec<super::residual::Region>,
+}
+
+/// The names of `(name, share)` pairs, as a list.
+fn names_only<S: serde::Serializer>(pairs: &[(String, f64)], s: S) -> Result<S::Ok, S::Error> {
+    s.collect_seq(pairs.iter().map(|(name, _)| name))
 }
 
 impl Verdict {
@@ -696,22 +707,21 @@ pub(crate) fn verdict(
         }
     }
     let mut rows: Vec<Row> = Vec::new();
-    let lp_v = Formula::parse(&format!("lp(v,{})", num(s.tau.max(2.0 * s.dt))), &[]).ok();
-    let lp_x = Formula::parse(&format!("lp(x,{})", num(s.tau.max(2.0 * s.dt))), &[]).ok();
-    // The direction function through lags of three time constants (a yield force that builds up).
-    let lp_d: Vec<Option<Formula>> = [0.1, 0.3, 1.0]
-        .iter()
-        .map(|k| {
+    // Low-pass v and x, and the direction function through lags of three time constants (a yield force
+    // that builds up).
+    let tau = num(s.tau.max(2.0 * s.dt));
+    let low_pass: Vec<Option<Formula>> = [format!("lp(v,{tau})"), format!("lp(x,{tau})")]
+        .into_iter()
+        .chain([0.1, 0.3, 1.0].iter().map(|k| {
             let tau = num((k * s.tau).max(2.0 * s.dt));
-            Formula::parse(&format!("lp(tanh(v/{}),{tau})", num(0.15 * s.v)), &[]).ok()
-        })
+            format!("lp(tanh(v/{}),{tau})", num(0.15 * s.v))
+        }))
+        .map(|f| Formula::parse(&f, &[]).ok())
         .collect();
     let mut k_all = 0usize;
     for (j, t) in tests.iter().enumerate() {
         let dw = direction_weights(t);
-        let lv = lp_v.as_ref().map(|f| f.series(&t.inputs, &current[j]));
-        let lx = lp_x.as_ref().map(|f| f.series(&t.inputs, &current[j]));
-        let ld: Vec<Option<Vec<f64>>> = lp_d
+        let lp: Vec<Option<Vec<f64>>> = low_pass
             .iter()
             .map(|f| f.as_ref().map(|f| f.series(&t.inputs, &current[j])))
             .collect();
@@ -744,13 +754,7 @@ pub(crate) fn verdict(
                     inp.current_cmd_a,
                     inp.current_cmd_a.abs() - current[j][k].abs(),
                 ],
-                lp: [
-                    lv.as_ref().map_or(0.0, |l| l[k]),
-                    lx.as_ref().map_or(0.0, |l| l[k]),
-                    ld[0].as_ref().map_or(0.0, |l| l[k]),
-                    ld[1].as_ref().map_or(0.0, |l| l[k]),
-                    ld[2].as_ref().map_or(0.0, |l| l[k]),
-                ],
+                lp: std::array::from_fn(|q| lp[q].as_ref().map_or(0.0, |l| l[k])),
             });
         }
     }
