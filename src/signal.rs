@@ -26,9 +26,7 @@ pub fn uniform_interval(t: &[f64]) -> Option<f64> {
 
 /// Smoothing differentiator: the slope of a local least-squares cubic over a 7-sample window (the
 /// Savitzky–Golay derivative of order 3, generalised to uneven sampling), the window shifted inward at
-/// the ends of the record. For a sine sampled 20 times per period its gain error is about 0.2 % (a
-/// quadratic over the same window loses 11 %), and it amplifies white noise about 1.4× less than a
-/// central difference.
+/// the ends of the record.
 pub fn smooth_derivative(t: &[f64], y: &[f64]) -> Vec<f64> {
     const WINDOW: usize = 7;
     let n = t.len();
@@ -108,12 +106,10 @@ impl QuinticFit {
 
 /// The `order`-th derivative (1 or 2; 0 smooths) of `y` (white noise `sd_y`) by a local quintic fit whose
 /// window (11 to 81 samples) widens while the change a wider window makes stays within three sampling
-/// spreads of the noise it removes: beyond that the wider fit bends the signal (`docs/explanation/ident.md`, "Velocity
-/// and acceleration"). The first and last samples take off-centre fits widened by their own rule; a hole in
-/// the record (an interval over [`GAP_INTERVALS`] times the median one) splits it into pieces differentiated
-/// alone. Returns the derivative and its noise standard deviation at each sample; `fallback` and `None`
-/// when the noise is unknown or the record too short (20 samples or fewer; such a piece keeps `fallback`
-/// with the largest noise of the others).
+/// spreads of the noise it removes (`docs/explanation/ident.md`); the ends widen by their own rule, and a
+/// hole in the record ([`GAP_INTERVALS`]) splits it into pieces. Returns the derivative and its noise
+/// standard deviation at each sample; `fallback` and `None` when the noise is unknown or the record too
+/// short (a short piece keeps `fallback` with the largest noise of the others).
 pub(crate) fn widest_unbiased_derivative(
     t: &[f64],
     y: &[f64],
@@ -150,7 +146,7 @@ pub(crate) fn widest_unbiased_derivative(
 
 /// An interval this many times the median one is a hole in the record for [`widest_unbiased_derivative`]
 /// (the intervals of 2 or 3 that a DAQ dropping a sample leaves are bridged).
-pub(crate) const GAP_INTERVALS: f64 = 4.0;
+const GAP_INTERVALS: f64 = 4.0;
 
 /// [`widest_unbiased_derivative`] on a record without holes.
 fn derivative_of_one_piece(

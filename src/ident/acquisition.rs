@@ -14,15 +14,12 @@ use crate::device::Inputs;
 
 /// Comb frequencies checked per candidate window (the first ones, up to the Nyquist frequency).
 pub(crate) const NULLS: usize = 8;
-/// The depth of one comb frequency on white noise (`null_depth`: the least of three ordinates against
-/// the band's 20th percentile), measured over 2,731 of them in records of 450–8,000 samples: mean, decades.
+/// The depth of one comb frequency on white noise (`null_depth`), measured: mean, decades.
 const NOISE_MEAN: f64 = 0.04;
 /// ... and its spread, decades.
 const NOISE_SD: f64 = 0.64;
-/// Both channels' combs together must lie this many noise spreads of a mean below white noise's, over
-/// their `M` values (tests × channels × comb frequencies): `NOISE_MEAN − Z · NOISE_SD / √M` (−0.92 decades
-/// for one test of eight comb frequencies, −1.88 for one of two). On white noise the deepest comb of any
-/// candidate window, in one channel of 200 records, lay 5.4 spreads below.
+/// Both channels' combs together must lie this many noise spreads of a mean below white noise's over their
+/// `M` values: `NOISE_MEAN − Z · NOISE_SD / √M` (the deepest comb of any window on white noise: 5.4).
 pub(crate) const COMB_SIGMAS: f64 = 6.0;
 /// ... and each channel on its own this many: the motion and the force went through one filter.
 pub(crate) const CHANNEL_SIGMAS: f64 = 2.0;
@@ -32,8 +29,7 @@ pub(crate) const BELOW_SHARE: f64 = 2.0 / 3.0;
 /// ... and at least this share of the comb frequencies tried left to count in it (not beside a line).
 pub(crate) const COUNTED_SHARE: f64 = 0.75;
 /// A window predicted from other tests ([`window_law`]) is confirmed when both channels' combs together
-/// lie this many noise spreads below white noise's mean (one window tested, not the best of many: 3 of
-/// 800 tries passed on white noise, `tests::white_noise_rarely_confirms_a_predicted_window`).
+/// lie this many noise spreads below white noise's mean (one window tested, not the best of many).
 pub(crate) const CONFIRM_SIGMAS: f64 = 3.0;
 /// One comb frequency's depth counts down to this many decades (and up to one above): a single
 /// near-empty bin of white noise must not pass for a comb.
@@ -90,10 +86,8 @@ impl Drive {
 }
 
 /// Periodogram (|FFT|², 4-term Blackman–Harris window) of the first difference of `y`: the difference
-/// whitens a signal whose power falls with frequency, so a zero of the filter stands out against the band
-/// around it. The window's sidelobes (−92 dB) keep a damper force's harmonic lines out of the gaps between
-/// them: under a Hann window (−31 dB) their leakage filled the bands, and the gaps at the even harmonics
-/// looked like a comb for every window of a whole number of half periods.
+/// whitens the signal so a zero of the filter stands out against its band, and the window's −92 dB
+/// sidelobes keep a damper force's harmonic lines out of the gaps between them.
 fn periodogram_of_differences(y: &[f64]) -> Vec<f64> {
     let d: Vec<f64> = y.windows(2).map(|w| w[1] - w[0]).collect();
     power_spectrum(&d, |a| {
@@ -121,11 +115,8 @@ fn power_spectrum(y: &[f64], window: impl Fn(f64) -> f64) -> Vec<f64> {
 
 /// Depth, decades (negative = a dip), of the periodogram `p` (of `l` points) at `k/window` cycles per
 /// sample: the least of the three bins around it against the noise level of its band (half a comb spacing
-/// on either side, clipped at the Nyquist frequency, the nine bins of the window's main lobe left out;
-/// [`BAND_QUANTILE`]). `None` when fewer than `MIN_BAND_BINS` bins are left in the band, when the band is
-/// not noise, and within `HARMONIC_GUARD_BINS` of a multiple of `harmonics` (the drive frequency in
-/// bins, given for a channel whose own harmonics fill its spectrum), or with a line ([`LINE_FACTOR`])
-/// within as many bins of it.
+/// on either side, the window's main lobe left out). `None` where the band is too short or not noise, or
+/// within `HARMONIC_GUARD_BINS` of a multiple of `harmonics` (the drive frequency in bins) or of a line.
 fn null_depth(p: &[f64], l: usize, window: usize, k: usize, harmonics: Option<f64>) -> Option<f64> {
     let at = |f: f64| f * l as f64;
     let last = p.len() - 1;
@@ -306,10 +297,8 @@ fn sigmas(t: Tally) -> f64 {
 fn pooled_combs(records: &[Channels<'_>], keep: impl Fn(usize) -> bool + Copy) -> BTreeMap<usize, [Comb; 3]> {
     let mut pooled: BTreeMap<usize, [Comb; 3]> = BTreeMap::new();
     for r in records {
-        // The force's own harmonics of the drive (in bins of its differences' periodogram) are no evidence:
-        // a damper's force has lines at the odd ones and gaps at the even ones. The displacement of a sine
-        // test has neither, so it is the witness where the filter's zeros fall on the drive's harmonics
-        // (the UTFSM source's window is a tenth of the period: every zero on an even harmonic).
+        // The force's own harmonics of the drive are no evidence (lines at the odd ones, gaps at the even
+        // ones); a sine's displacement has neither, so it is the witness where the zeros fall on them.
         let dt = r.t[1] - r.t[0];
         let drive_bins = (r.x.len() - 1) as f64 * dt / dominant_period(r.x, dt);
         for (channel, y, harmonics) in [(X, r.x, None), (F, r.f, Some(drive_bins))] {
@@ -368,10 +357,8 @@ fn readable(records: &[Channels<'_>]) -> bool {
 }
 
 /// The moving average that every record of `records` (tests of one protocol, on one even clock) went
-/// through, from their combs pooled over the records; `None` without such a comb, on an uneven clock, or
-/// with fewer than 64 samples in a record. The displacement must show the comb on its own; a measured
-/// velocity that is the first difference of the filtered displacement (`is_first_difference`) may replace
-/// its evidence where it shows the comb more clearly (the same record of the motion, never added to it).
+/// through, from their combs pooled over the records; `None` without such a comb or without [`readable`]
+/// records. The displacement must show the comb on its own (see [`evidence`]).
 pub(crate) fn detect_moving_average(records: &[Channels<'_>]) -> Option<MovingAverage> {
     if !readable(records) {
         return None;
@@ -418,10 +405,8 @@ pub(crate) fn detect_moving_average(records: &[Channels<'_>]) -> Option<MovingAv
         .map(|(_, m)| m)
 }
 
-/// Whether the records show the comb of one window named beforehand (predicted from other tests, see
-/// [`window_law`]), with the witnesses [`detect_moving_average`] asks for but at [`CONFIRM_SIGMAS`]
-/// together: one hypothesis tested, not the best of every window a record allows, so the bar of the
-/// search is not needed (its 6 spreads stand for the deepest of some hundred windows of white noise).
+/// Whether the records show the comb of one window named beforehand ([`window_law`]), with the witnesses
+/// [`detect_moving_average`] asks for but at [`CONFIRM_SIGMAS`] together (one hypothesis, not the best of many).
 pub(crate) fn confirm_moving_average(records: &[Channels<'_>], window: usize) -> Option<MovingAverage> {
     if !readable(records) || window < 2 {
         return None;
@@ -436,12 +421,9 @@ pub(crate) fn confirm_moving_average(records: &[Channels<'_>], window: usize) ->
     })
 }
 
-/// The share of the drive period that the moving average of every protocol found in `found` (window,
-/// sample interval s, drive period s) spans, where there is one: two protocols or more, and each
-/// protocol's window within half a sample of that share of its period (the median of theirs). A source
-/// that filters each test over a fixed share of its period (the UTFSM tests: a tenth) is then known to
-/// do so, and a test of another protocol whose own comb is too short to show it alone can be checked
-/// for the window that share predicts ([`confirm_moving_average`]).
+/// The share of the drive period that the moving average of every protocol in `found` (window, sample
+/// interval s, drive period s) spans, where there is one: two protocols or more, each window within half a
+/// sample of the median share of its period (a source filtering over a fixed share: the UTFSM tests, a tenth).
 pub(crate) fn window_law(found: &[(usize, f64, f64)]) -> Option<f64> {
     if found.len() < 2 {
         return None;
@@ -455,11 +437,9 @@ pub(crate) fn window_law(found: &[(usize, f64, f64)]) -> Option<f64> {
     (share.is_finite() && share > 0.0 && fits).then_some(share)
 }
 
-/// Whether the velocity `v` is the backward first difference of the displacement `x` before its
-/// rounding (as the UTFSM source's is): closer to `(x[k] − x[k−1])/dt` by half in rms than to a difference
-/// over two samples or one a sample later. Only such a velocity carries the displacement's comb and no
-/// other: a difference over `N` samples has the zeros of an `N`-sample average of its own, and a velocity
-/// from a transducer none of the displacement's filter.
+/// Whether the velocity `v` is the backward first difference of the displacement `x` before its rounding:
+/// closer to it by half in rms than to a difference over two samples or one a sample later. Only such a
+/// velocity carries the displacement's comb and no other.
 fn is_first_difference(x: &[f64], v: &[f64], dt: f64) -> bool {
     if v.len() != x.len() || x.len() < 3 {
         return false;
@@ -505,10 +485,8 @@ pub(crate) fn dominant_period(x: &[f64], dt: f64) -> f64 {
 }
 
 /// The signal `u` (`y.len() + window − 1` samples, the first `window − 1` before `y`'s first) whose causal
-/// moving average of `window` samples is `y`: `min |A u − y|² + μ |Δ²u|²`, `μ = c (N/2π)⁴` with
-/// `c` = 0.01 (the penalty reaches the data's weight at the filter's first zero, and at the fundamental of
-/// a test whose window is a tenth of its period it is 10⁻⁶ of it), solved by a banded Cholesky
-/// factorisation (half-bandwidth `max(window − 1, 2)`).
+/// moving average of `window` samples is `y`: `min |A u − y|² + μ |Δ²u|²`, `μ = c (N/2π)⁴` ([`PENALTY`]),
+/// solved by a banded Cholesky factorisation (half-bandwidth `max(window − 1, 2)`).
 pub(crate) fn deconvolve_moving_average(y: &[f64], window: usize) -> Vec<f64> {
     let n = y.len();
     if window <= 1 || n == 0 {

@@ -1,19 +1,12 @@
 //! Clipped force channels: a load cell driven past its range logs the same extreme value sample after
-//! sample while the force it should read goes on changing. Those samples say only that the force was at
-//! least the rail; fitted as forces they pull every model toward a flat top. They are found here and
-//! left out of the fit's loss and of every score ([`super::residual::direction_weights`],
+//! sample. Those samples say only that the force was at least the rail, so they are found here and left
+//! out of the fit's loss and of every score ([`super::residual::direction_weights`],
 //! [`super::validate::figures`]).
 //!
 //! Rule: a run of at least [`MIN_RUN`] samples exactly equal to the channel's largest (or smallest) value,
-//! which on each side, within as many samples beyond its end as the run is long, falls more than [`DROP`]
-//! resolution steps below the rail (the resolution: the channel's white noise or its smallest step,
-//! whichever is larger). A natural peak that a coarse ADC logs as a run of equal values falls by less
-//! than about nine of its steps there (a parabola within one step over the run falls by (1 + 2)² steps at
-//! twice its half-width beyond); a signal cut at a rail δ below its peak falls by eight δ, so a clip is
-//! named when it cuts more than about four steps off the peak. The fall is looked for anywhere in the
-//! window, not only at its far end: a broadband force may dip off the rail and be back on it a run's
-//! length later. A flat top of a noiseless simulation that sits exactly at the channel's extreme is
-//! indistinguishable from a rail and is reported the same way.
+//! which on each side, within a run's length beyond its end, falls more than [`DROP`] resolution steps
+//! below the rail (the resolution: the channel's white noise or its smallest step, whichever is larger). A
+//! natural peak logged by a coarse ADC as a run of equal values falls by less than about nine steps there.
 
 use std::ops::Range;
 

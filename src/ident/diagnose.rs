@@ -32,17 +32,12 @@ pub struct DiagnoseOptions {
     pub current_limit_a: f64,
     /// Smallest fraction of the held-out mean-square error an effect must remove.
     pub min_gain: f64,
-    /// Smallest fraction of the held-out mean-square error above the noise floor an effect must remove.
-    /// A tenth: where the model's own form of an effect differs from the device's (mrfeel's Dahl hysteresis
-    /// against a Bouc–Wen one, when its shape is not fitted), that difference is most of what is left,
-    /// 10–15 times the noise, and a true second effect removes only 15 % of it (though in every fold): a fifth missed heating beside such a
-    /// hysteresis (`tests/independent_truth.rs`). The [`DiagnoseOptions::min_gain`] and every-fold rules
-    /// still keep out effects that merely reshape that difference.
+    /// Smallest fraction of the held-out mean-square error above the noise floor an effect must remove. A
+    /// tenth: where the model's form of an effect differs from the device's (Dahl against Bouc–Wen
+    /// hysteresis), that difference is most of what is left, and a true second effect removes little of it.
     pub min_excess_removed: f64,
-    /// Stop adding once held-out RMSE ≤ this × the noise floor. 1.05 (1.1 left a
-    /// real-scale 15 kg mass under a 20 N noise unnamed at 1.09×: test
-    /// `independent_moving_mass_near_the_noise_at_the_real_scale_is_named_inertia`); below it the
-    /// significance rules alone keep a right model from being "improved".
+    /// Stop adding once held-out RMSE ≤ this × the noise floor (1.05; below it the significance rules alone
+    /// keep a right model from being "improved").
     pub floor_ratio: f64,
     /// Time blocks for a single test.
     pub blocks: usize,
@@ -50,15 +45,13 @@ pub struct DiagnoseOptions {
     pub max_folds: usize,
     /// Options of the fits on all data (base and final model).
     pub fit: FitOptions,
-    /// Convergence tolerance of the cross-validation fits (relative reduction of the sum of squares in a
-    /// step): a held-out judgment at the [`DiagnoseOptions::min_gain`] level does not need the 1e-7 of a
-    /// reported fit, and each cross-validated candidate costs one fit per fold.
+    /// Convergence tolerance of the cross-validation fits: a held-out judgment at the
+    /// [`DiagnoseOptions::min_gain`] level does not need a reported fit's, and each candidate costs a fit per fold.
     pub cv_tol: f64,
     /// Show a progress bar on stderr (hidden when stderr is not a terminal).
     pub progress: bool,
-    /// Search the library of candidate force terms beside the named effects at each stage
-    /// ([`super::discover`]); `false`: the named effects only. `mrfeel diagnose` turns it on unless
-    /// `--named-only`; the library default keeps the named-only search.
+    /// Search the library of candidate force terms beside the named effects ([`super::discover`]);
+    /// `mrfeel diagnose` turns it on unless `--named-only`.
     pub open_search: bool,
 }
 
@@ -128,9 +121,8 @@ pub fn make_folds(tests: &[Test], blocks: usize, max_folds: usize) -> (Vec<Fold>
         }
     }
     let mut kind = "group";
-    // Names that group nothing (one group for all, or one per test): group the tests by their motion, when
-    // that groups some of them, so that a held-out fold is a motion the fit never saw, at every current
-    // (tests of one displacement protocol at several currents, as on an MTS machine). Else one per test.
+    // Names that group nothing: group by motion where that groups some tests (a held-out fold is then a motion
+    // the fit never saw, at every current), else one group per test.
     if groups.len() < 2 || groups.len() == tests.len() {
         let sig: Vec<(f64, f64)> = tests.iter().map(motion_signature).collect();
         let motion = motion_groups(&sig);
@@ -152,11 +144,8 @@ pub fn make_folds(tests: &[Test], blocks: usize, max_folds: usize) -> (Vec<Fold>
     }
     let ng = groups.len();
     if ng == 2 {
-        // Two groups: a fold fitted on one of them has seen one motion only (one sine frequency, one current),
-        // where effects that differ elsewhere are one signal (a spring and a mass on one sine; a yield force
-        // and its rise with current at one current) and cannot be told apart, so a model that has both
-        // predicts the other group no better than one with either. Hold out a time block of every test
-        // instead: each fold is fitted on both groups and judged on stretches of them it never saw.
+        // Two groups: a fold fitted on one has seen one motion only, where effects that differ elsewhere (a
+        // spring and a mass on one sine) cannot be told apart. Hold out a time block of every test instead.
         let (folds, k) = time_block_folds(tests, blocks);
         return (
             folds,
@@ -167,33 +156,16 @@ pub fn make_folds(tests: &[Test], blocks: usize, max_folds: usize) -> (Vec<Fold>
         );
     }
     let k = ng.min(max_folds.max(2));
+    let whole = super::fit::all_spans(tests);
     let folds = (0..k)
         .map(|f| {
-            let held: Vec<usize> = (0..tests.len()).filter(|&j| key[j] % k == f).collect();
+            let (test, train): (Vec<Span>, Vec<Span>) = whole.iter().partition(|s| key[s.test] % k == f);
             let label = if ng == k {
                 format!("{kind} {}", groups[f])
             } else {
                 format!("fold {}/{k}", f + 1)
             };
-            Fold {
-                train: (0..tests.len())
-                    .filter(|j| !held.contains(j))
-                    .map(|j| Span {
-                        test: j,
-                        start: 0,
-                        end: tests[j].len(),
-                    })
-                    .collect(),
-                test: held
-                    .iter()
-                    .map(|&j| Span {
-                        test: j,
-                        start: 0,
-                        end: tests[j].len(),
-                    })
-                    .collect(),
-                label,
-            }
+            Fold { train, test, label }
         })
         .collect();
     let how = if ng == k && kind != "test" {
@@ -277,8 +249,7 @@ pub struct CvResult {
     pub fold_params: Vec<Vec<f64>>,
     /// Each fold's fitted loss on its training samples ([`crate::ident::fit::FitResult::loss`]), N².
     pub fold_train_loss: Vec<f64>,
-    /// Out-of-fold prediction at every sample (each sample is scored by exactly one fold). Empty where the
-    /// diagnosis shed it: a candidate's is read again only if it is chosen.
+    /// Out-of-fold prediction at every sample (each scored by one fold); empty where shed (until chosen).
     pub oof: Vec<Vec<f64>>,
     /// The signatures of the held-out residual, kept when `oof` was shed.
     pub(crate) sig: Option<Signatures>,
@@ -290,9 +261,8 @@ impl CvResult {
         self.total.nrmse()
     }
 
-    /// The same model fitted again (`other`): in each fold the fit with the lower *training* error (the
-    /// held-out samples play no part in the choice), lower by more than `margin` (N²). `None` when no fold
-    /// of `other` fits better.
+    /// The same model fitted again (`other`): in each fold the fit with the lower *training* error, lower by
+    /// more than `margin` (N²). `None` when no fold of `other` fits better.
     fn better_fits(&self, other: &CvResult, folds: &[Fold], margin: f64) -> Option<CvResult> {
         let better: Vec<usize> = (0..folds.len())
             .filter(|&f| other.fold_train_loss[f] < self.fold_train_loss[f] * (1.0 - 1e-9) - margin)
@@ -310,15 +280,12 @@ impl CvResult {
                 out.oof[s.test][s.start..s.end].copy_from_slice(&other.oof[s.test][s.start..s.end]);
             }
         }
-        out.total = Figures::default();
-        for fig in &out.per_fold {
-            out.total.add(fig);
-        }
+        out.total = Figures::total(&out.per_fold);
         Some(out)
     }
 
-    /// Drop the per-sample held-out predictions, keeping their signatures: 8 bytes a sample for every
-    /// candidate of a step, of which at most one becomes the current model ([`CvResult::restore_oof`]).
+    /// Drop the per-sample held-out predictions, keeping their signatures (at most one candidate of a step
+    /// needs them again: [`CvResult::restore_oof`]).
     fn shed_oof(&mut self, tests: &[Test]) {
         if !self.oof.is_empty() {
             self.sig = Some(Signatures::of(tests, &self.oof));
@@ -333,8 +300,7 @@ impl CvResult {
         out
     }
 
-    /// The held-out predictions again where they were shed: each fold's model, `model` with that fold's
-    /// fitted parameters, simulated as [`cross_validate`] did (the same numbers).
+    /// The held-out predictions again where they were shed, simulated as [`cross_validate`] did.
     fn restore_oof(mut self, model: &Model, tests: &[Test], folds: &[Fold]) -> CvResult {
         if self.oof.is_empty() {
             let preds: Vec<Vec<(Span, Vec<f64>)>> = folds
@@ -385,8 +351,8 @@ fn start_from(
     Some(p)
 }
 
-/// Smallest fraction of the parent's training error that a candidate's first stage (its own parameters and
-/// the gains) must remove in a fold for the second stage (every parameter) to run there.
+/// Smallest fraction of the parent's training error a candidate's first stage must remove in a fold for the
+/// second stage (every parameter) to run there.
 const STAGE_TWO_MIN_GAIN: f64 = 0.01;
 
 /// A fold's fitted parameters, training loss, held-out figures and held-out predictions.
@@ -402,13 +368,24 @@ pub fn cross_validate(
     bar: &ProgressBar,
 ) -> CvResult {
     let weights: Vec<Vec<f64>> = tests.par_iter().map(direction_weights).collect();
-    // With a fold for every thread the folds are the parallel work: a fit that also ran its own tasks in
-    // parallel would, waiting for one, start another fold on the same thread and hold both folds' Jacobians
-    // (every fold's at once, at most). The same numbers either way.
+    // With a fold for every thread the folds are the parallel work (a fit running its own tasks in parallel
+    // would hold several folds' Jacobians at once). The same numbers either way.
     let opts = &FitOptions {
         parallel: opts.parallel && folds.len() < rayon::current_num_threads(),
         ..opts.clone()
     };
+    // The parent's parameters that the first stage holds: all but its linear gains.
+    let inherited: Vec<usize> = match parent {
+        Some((pm, _)) => model
+            .param_specs()
+            .iter()
+            .enumerate()
+            .filter(|(k, s)| pm.param_index(s.name).is_some() && !model.linear_gains().contains(k))
+            .map(|(k, _)| k)
+            .collect(),
+        None => Vec::new(),
+    };
+    let staged = !inherited.is_empty() && inherited.len() + model.linear_gains().len() < model.n_params();
     let out: Vec<FoldOutcome> = folds
         .par_iter()
         .enumerate()
@@ -419,74 +396,37 @@ pub fn cross_validate(
                 tests,
                 &fold.train,
             );
-            // Staged: first the new effect's parameters with the base's linear gains (the parameters an effect
-            // trades against most: yield force, its current gain, damping), the rest held at the parent's fit
-            // of this fold; then all from there. The first stage's Jacobians have a few columns where the
-            // whole model's have all, while the new parameters travel from their initial guess: 22.5 %
-            // fewer simulations in the `diagnose` bench, the same verdicts (holding the gains too made the
-            // current-dependent candidates stop short, and the independent-truth tests caught it).
-            let inherited: Vec<usize> = match parent {
-                Some((pm, _)) => model
-                    .param_specs()
-                    .iter()
-                    .enumerate()
-                    .filter(|(k, s)| pm.param_index(s.name).is_some() && !model.linear_gains().contains(k))
-                    .map(|(k, _)| k)
-                    .collect(),
-                None => Vec::new(),
+            let fit_from = |start: Option<Vec<f64>>, hold: Vec<usize>| {
+                let opts = FitOptions {
+                    start,
+                    hold,
+                    std_errors: false,
+                    ..opts.clone()
+                };
+                fit(model, tests, &fold.train, &opts)
             };
-            let whole = |start: Option<Vec<f64>>| {
-                fit(
-                    model,
-                    tests,
-                    &fold.train,
-                    &FitOptions {
-                        start,
-                        std_errors: false,
-                        ..opts.clone()
-                    },
-                )
-            };
+            // Staged: first the new effect's parameters with the base's linear gains (the rest held at the
+            // parent's fit of this fold), then all from there: fewer simulations, the same verdicts.
             let fr = match start {
-                Some(p0)
-                    if !inherited.is_empty()
-                        && inherited.len() + model.linear_gains().len() < model.n_params() =>
-                {
-                    let first = fit(
-                        model,
-                        tests,
-                        &fold.train,
-                        &FitOptions {
-                            start: Some(p0),
-                            hold: inherited,
-                            std_errors: false,
-                            ..opts.clone()
-                        },
-                    );
-                    // An effect that, with its own parameters and the gains free, removes less than
-                    // `STAGE_TWO_MIN_GAIN` of the parent's training error in this fold is not in these data:
-                    // freeing the parent's other parameters as well would not make it remove the
-                    // `min_gain` (5 %) of the held-out error that significance asks, and costs a whole-model
-                    // fit.
+                Some(p0) if staged => {
+                    let first = fit_from(Some(p0), inherited.clone());
+                    // An effect that removes less than `STAGE_TWO_MIN_GAIN` of the parent's training error with
+                    // its own parameters free is not in these data: no whole-model fit for it.
                     let parent_loss = parent.map(|(_, cv)| cv.fold_train_loss[fi]);
                     if parent_loss.is_some_and(|pl| first.loss > (1.0 - STAGE_TWO_MIN_GAIN) * pl) {
                         first
                     } else {
-                        whole(Some(first.params))
+                        fit_from(Some(first.params), opts.hold.clone())
                     }
                 }
-                other => whole(other),
+                other => fit_from(other, opts.hold.clone()),
             };
             let mut fig = Figures::default();
             let mut preds = Vec::new();
             for s in &fold.test {
-                let t = &tests[s.test];
                 let p = heldout_prediction(model, &fr.params, tests, s);
-                fig.add(&Figures::of_weighted(
-                    &p,
-                    &t.f_n[s.start..s.end],
-                    &weights[s.test][s.start..s.end],
-                ));
+                let w = &weights[s.test][s.start..s.end];
+                fig.add(&Figures::of_weighted(&p, &tests[s.test].f_n[s.start..s.end], w));
                 preds.push((*s, p));
             }
             bar.inc(1);
@@ -494,12 +434,8 @@ pub fn cross_validate(
         })
         .collect();
     let mut oof: Vec<Vec<f64>> = tests.iter().map(|t| vec![f64::NAN; t.len()]).collect();
-    let mut total = Figures::default();
-    let mut per_fold = Vec::new();
-    let mut fold_params = Vec::new();
-    let mut fold_train_loss = Vec::new();
+    let (mut per_fold, mut fold_params, mut fold_train_loss) = (Vec::new(), Vec::new(), Vec::new());
     for (p, loss, fig, preds) in out {
-        total.add(&fig);
         per_fold.push(fig);
         fold_params.push(p);
         fold_train_loss.push(loss);
@@ -509,8 +445,8 @@ pub fn cross_validate(
     }
     CvResult {
         spec: model.spec().clone(),
+        total: Figures::total(&per_fold),
         per_fold,
-        total,
         fold_params,
         fold_train_loss,
         oof,
@@ -518,8 +454,8 @@ pub fn cross_validate(
     }
 }
 
-/// One candidate effect judged against the model it would extend.
-#[derive(Debug, Clone)]
+/// One candidate effect judged against the model it would extend (an entry of `candidates` in the JSON).
+#[derive(Debug, Clone, serde::Serialize)]
 pub struct Candidate {
     /// Effect name (`a+b` for a pair, the formula for an open-search term).
     pub effect: String,
@@ -532,34 +468,38 @@ pub struct Candidate {
     /// The signature in the residual that suggested the effect, in words.
     pub evidence: String,
     /// Folds in which it lowered the held-out error, of all folds.
+    #[serde(skip)]
     pub folds_better: usize,
     /// Folds judged.
+    #[serde(skip)]
     pub folds: usize,
 }
 
-/// One step of the search: the model and its held-out error.
-#[derive(Debug, Clone)]
+/// One step of the search: the model and its held-out error (an entry of `steps` in the JSON).
+#[derive(Debug, Clone, serde::Serialize)]
 pub struct StepResult {
     /// Model spec at this step.
     pub model: String,
     /// The effect this step added, if any.
+    #[serde(skip)]
     pub added: Option<String>,
     /// Held-out NRMSE of the model.
     pub heldout_nrmse: f64,
-    /// Held-out RMS force error of the model, N.
-    pub heldout_rmse_n: f64,
     /// Candidates tried at this step (best first).
+    #[serde(skip)]
     pub candidates: Vec<Candidate>,
     /// Pairs of effects tried at this step because no effect alone was significant (best first; `effect` is
     /// `a+b`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
     pub pairs: Vec<Candidate>,
     /// The term the open search proposed at this step, judged like the named effects (`effect` is its
     /// formula).
+    #[serde(skip)]
     pub term: Option<Candidate>,
 }
 
-/// A force term outside the vocabulary that the diagnosis added.
-#[derive(Debug, Clone)]
+/// A force term outside the vocabulary that the diagnosis added (an entry of `discovered` in the JSON).
+#[derive(Debug, Clone, serde::Serialize)]
 pub struct Discovered {
     /// The term's name, as `--save-effect` writes it.
     pub name: String,
@@ -574,6 +514,7 @@ pub struct Discovered {
     /// The physical family its strongest term most resembles.
     pub resembles: String,
     /// The effect, its guesses set to the final fit's values (what `--save-effect` writes).
+    #[serde(skip)]
     pub effect: FormulaEffect,
 }
 
@@ -650,6 +591,39 @@ pub struct BaseTried {
     pub note: String,
 }
 
+impl BaseTried {
+    fn new(
+        spec: &ModelSpec,
+        heldout: Option<f64>,
+        ended: Option<&Diagnosis>,
+        chosen: bool,
+        note: String,
+    ) -> Self {
+        Self {
+            model: spec.to_string(),
+            heldout_nrmse: heldout,
+            final_model: ended.map(|d| d.final_model.clone()),
+            final_heldout_nrmse: ended.map(|d| d.final_heldout_nrmse),
+            chosen,
+            note,
+        }
+    }
+}
+
+impl StepResult {
+    /// A step at `model` judged by `cv`, its candidates still to be tried.
+    fn new(model: String, added: Option<String>, cv: &CvResult) -> Self {
+        Self {
+            model,
+            added,
+            heldout_nrmse: cv.heldout_nrmse(),
+            candidates: Vec::new(),
+            pairs: Vec::new(),
+            term: None,
+        }
+    }
+}
+
 impl Diagnosis {
     /// The verdict when structure is left (`unexplained` in the JSON), else `None`.
     pub fn unexplained(&self) -> Option<&Verdict> {
@@ -665,32 +639,23 @@ pub fn diagnose(
     opts: &DiagnoseOptions,
 ) -> Result<Diagnosis, IdentError> {
     let (mut d, _) = diagnose_path(tests, base, registry, opts, None)?;
-    d.bases = vec![BaseTried {
-        model: base.to_string(),
-        heldout_nrmse: Some(d.base_heldout_nrmse),
-        final_model: Some(d.final_model.clone()),
-        final_heldout_nrmse: Some(d.final_heldout_nrmse),
-        chosen: true,
-        note: "the base given".into(),
-    }];
+    let given = BaseTried::new(
+        base,
+        Some(d.base_heldout_nrmse),
+        Some(&d),
+        true,
+        "the base given".into(),
+    );
+    d.bases = vec![given];
     Ok(d)
 }
 
-/// The diagnosis from the base that ends best, when the user named none: from `bingham` first (the seed
-/// paper's model, whose effects name what is missing); then each further base ([`Base::ALL`]: `spencer`,
-/// the field's modified Bouc–Wen) is cross-validated alone on the same folds and carries the diagnosis on
-/// only when, alone, it is significantly better held out than the model the diagnosis so far ended with
-/// (over all folds, by the [`DiagnoseOptions::min_gain`] and [`DiagnoseOptions::min_excess_removed`] rules
-/// of an effect), and is kept when the diagnosis from it ends lower held out. Judged against the final
-/// model, not the first base alone: a Bouc–Wen base would beat `bingham` alone on any data with a
-/// hysteresis loop, and would then hide the `hysteresis` that `bingham+hysteresis` names as well. Not in
-/// every fold, as an added effect must be: an effect is one more term that may lower a fold by chance,
-/// where two rival models each fitted whole are ranked by their held-out error (on a broadband Bouc–Wen
-/// record, `spencer` alone held out 0.0130 against `bingham+hysteresis+stiffness+current_viscosity`'s
-/// 0.0185, the noise floor 0.0075, and was lower in 2 of 4 time blocks). A further base is not fitted
-/// when the model so far ends at the noise floor or its verdict finds no structure left in the held-out
-/// residual (nothing left for another base to explain: the cost of its stiff ODE fit is saved), nor when
-/// a test is too short for its parameters.
+/// The diagnosis from the base that ends best, when the user named none: from `bingham` first (whose effects
+/// name what is missing); each further base ([`Base::ALL`]) carries the diagnosis on only when, alone, it is
+/// significantly better held out overall (not in every fold: rival whole models are ranked by their held-out
+/// error) than the model the diagnosis so far ended with (not the first base: a Bouc–Wen base would hide
+/// the `hysteresis` that `bingham+hysteresis` names), and is kept when the diagnosis from it ends lower. A
+/// further base is not fitted when nothing is left for it to explain, or a test is too short for it.
 pub fn diagnose_choosing_base(
     tests: &[Test],
     registry: &Registry,
@@ -707,14 +672,14 @@ pub fn diagnose_choosing_base(
         return Err(IdentError::Other("no base model to start from".into()));
     };
     let (mut best, mut best_cv) = diagnose_path(tests, first, registry, opts, None)?;
-    let mut bases = vec![BaseTried {
-        model: first.to_string(),
-        heldout_nrmse: Some(best.base_heldout_nrmse),
-        final_model: Some(best.final_model.clone()),
-        final_heldout_nrmse: Some(best.final_heldout_nrmse),
-        chosen: true,
-        note: "the default base".into(),
-    }];
+    let default = BaseTried::new(
+        first,
+        Some(best.base_heldout_nrmse),
+        Some(&best),
+        true,
+        "the default base".into(),
+    );
+    let mut bases = vec![default];
     let (folds, _) = opts.folds(tests);
     let noise = noise_floor_n(tests);
     let bar = progress_bar(opts);
@@ -740,70 +705,37 @@ pub fn diagnose_choosing_base(
             None
         };
         if let Some(note) = skip {
-            bases.push(BaseTried {
-                model: spec.to_string(),
-                heldout_nrmse: None,
-                final_model: None,
-                final_heldout_nrmse: None,
-                chosen: false,
-                note,
-            });
+            bases.push(BaseTried::new(spec, None, None, false, note));
             continue;
         }
         bar.set_message(format!("trying the base {spec}"));
         let cv = cross_validate(&model, tests, &folds, None, &opts.cv_fit(), &bar);
         super::stop_if_asked()?;
         let better = enough_removed(&best_cv, &cv, noise * noise, opts);
-        let folds_better = (0..folds.len())
-            .filter(|&f| cv.per_fold[f].sse < best_cv.per_fold[f].sse)
-            .count();
-        let alone = cv.heldout_nrmse();
-        if !better {
-            bases.push(BaseTried {
-                model: spec.to_string(),
-                heldout_nrmse: Some(alone),
-                final_model: None,
-                final_heldout_nrmse: None,
-                chosen: false,
-                note: format!(
-                    "alone not significantly better held out than {} ({alone:.4} against {:.4}, lower in \
-                     {folds_better} of {} folds)",
-                    best.final_model,
-                    best_cv.heldout_nrmse(),
-                    folds.len()
-                ),
-            });
-            continue;
-        }
+        let alone = Some(cv.heldout_nrmse());
         let note = format!(
-            "alone significantly better held out than {} ({alone:.4} against {:.4}, lower in {folds_better} \
-             of {} folds)",
+            "alone {}significantly better held out than {} ({:.4} against {:.4}, lower in {} of {} folds)",
+            if better { "" } else { "not " },
             best.final_model,
+            cv.heldout_nrmse(),
             best_cv.heldout_nrmse(),
+            folds_better(&best_cv, &cv),
             folds.len()
         );
-        let (d, dcv) = diagnose_path(tests, spec, registry, opts, Some(cv))?;
-        if dcv.total.sse >= best_cv.total.sse {
-            bases.push(BaseTried {
-                model: spec.to_string(),
-                heldout_nrmse: Some(alone),
-                final_model: Some(d.final_model.clone()),
-                final_heldout_nrmse: Some(d.final_heldout_nrmse),
-                chosen: false,
-                note: format!("{note}; its diagnosis ended no lower held out"),
-            });
+        if !better {
+            bases.push(BaseTried::new(spec, alone, None, false, note));
             continue;
         }
-        bases.iter_mut().for_each(|b| b.chosen = false);
-        bases.push(BaseTried {
-            model: spec.to_string(),
-            heldout_nrmse: Some(alone),
-            final_model: Some(d.final_model.clone()),
-            final_heldout_nrmse: Some(d.final_heldout_nrmse),
-            chosen: true,
-            note,
-        });
-        (best, best_cv) = (d, dcv);
+        let (d, dcv) = diagnose_path(tests, spec, registry, opts, Some(cv))?;
+        let lower = dcv.total.sse < best_cv.total.sse;
+        if lower {
+            bases.iter_mut().for_each(|b| b.chosen = false);
+            bases.push(BaseTried::new(spec, alone, Some(&d), true, note));
+            (best, best_cv) = (d, dcv);
+        } else {
+            let note = format!("{note}; its diagnosis ended no lower held out");
+            bases.push(BaseTried::new(spec, alone, Some(&d), false, note));
+        }
     }
     bar.finish_and_clear();
     best.bases = bases;
@@ -824,13 +756,10 @@ fn progress_bar(opts: &DiagnoseOptions) -> ProgressBar {
     }
 }
 
-/// The diagnosis from `base`: named effects first, the open search only where none is significant (see
-/// [`diagnose_from`]). Where that path named an effect and still ends with structure left, a second path
-/// lets a term compete with the named effects at every step, and the diagnosis that ends significantly
-/// lower held out (by the [`DiagnoseOptions::min_gain`] and [`DiagnoseOptions::min_excess_removed`] rules)
-/// is kept. A named effect can be significant beside a cause it only partly mimics: `v|v|` drag on
-/// triangle waves, where current-dependent damping took a fifth of the error first and the term that then
-/// remained explained little of the rest.
+/// The diagnosis from `base`: named effects first, the open search only where none is significant. Where
+/// that path named an effect and still ends with structure left, a second path lets a term compete with the
+/// named effects at every step (a named effect can be significant beside a cause it only partly mimics), and
+/// it is kept when it ends significantly lower held out.
 fn diagnose_path(
     tests: &[Test],
     base: &ModelSpec,
@@ -880,9 +809,7 @@ fn diagnose_from(
     let f_rms = (f_ss / samples.max(1) as f64).sqrt();
     let noise = noise_floor_n(tests);
     let cv_fit = opts.cv_fit();
-    // The fits of candidates cross-validated side by side each keep to one thread (the candidates and
-    // their folds are the parallel work): a thread waiting for part of its fit would otherwise start another
-    // candidate's fit and hold both fits' buffers. A single model's cross-validation keeps `cv_fit`.
+    // Candidates cross-validated side by side keep each fit to one thread (see [`FitOptions::parallel`]).
     let side_by_side = FitOptions {
         parallel: false,
         ..cv_fit.clone()
@@ -904,16 +831,7 @@ fn diagnose_from(
         Some(cv) => cv,
         None => cross_validate(&cur_model, tests, &folds, None, &cv_fit, &bar),
     };
-    let base_heldout = cur.heldout_nrmse();
-    let mut steps = vec![StepResult {
-        model: base.to_string(),
-        added: None,
-        heldout_nrmse: base_heldout,
-        heldout_rmse_n: cur.total.rmse_n(),
-        candidates: Vec::new(),
-        pairs: Vec::new(),
-        term: None,
-    }];
+    let mut steps = vec![StepResult::new(base.to_string(), None, &cur)];
     let mut missing: Vec<String> = Vec::new();
     // The effects added at each step (one, or a pair), in order.
     let mut added_groups: Vec<Vec<String>> = Vec::new();
@@ -931,9 +849,8 @@ fn diagnose_from(
     };
 
     loop {
-        // At the noise floor no candidate can be significant (`judge`), so once an effect has brought the
-        // model there the search stops without fitting the rest: the base's own candidates are always
-        // ranked, for the contract's `candidates`.
+        // At the noise floor no candidate can be significant (`judge`): stop, once the base's own candidates
+        // are ranked (the contract's `candidates`).
         if steps.len() > 1 && search.at_floor(&cur) {
             break;
         }
@@ -945,23 +862,28 @@ fn diagnose_from(
         if names.is_empty() {
             break;
         }
+        // The extensions `specs` of the current model cross-validated from its fits, best first.
+        let extend = |specs: Vec<ModelSpec>, cur: &CvResult| -> Result<Vec<(Model, CvResult)>, IdentError> {
+            let done: Vec<Result<(Model, CvResult), IdentError>> = specs
+                .par_iter()
+                .map(|spec| {
+                    let m = build(spec, &reg)?;
+                    let cv = cache.get_or(&m, cur, registry, || {
+                        let parent = Some((&cur_model, cur));
+                        let mut cv = cross_validate(&m, tests, &folds, parent, &side_by_side, &bar);
+                        cv.shed_oof(tests);
+                        cv
+                    });
+                    Ok((m, cv))
+                })
+                .collect();
+            let mut done: Vec<(Model, CvResult)> = done.into_iter().collect::<Result<_, _>>()?;
+            done.sort_by(|a, b| a.1.total.sse.total_cmp(&b.1.total.sse));
+            Ok(done)
+        };
         bar.set_message(format!("trying {} effects on {}", names.len(), cur.spec));
-        let tried: Vec<Result<(Model, CvResult), IdentError>> = names
-            .par_iter()
-            .map(|n| {
-                let m = build(&cur.spec.with(n), &reg)?;
-                let cv = cache.get_or(&m, &cur, registry, || {
-                    let mut cv =
-                        cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &side_by_side, &bar);
-                    cv.shed_oof(tests);
-                    cv
-                });
-                Ok((m, cv))
-            })
-            .collect();
-        let mut tried: Vec<(Model, CvResult)> = tried.into_iter().collect::<Result<_, _>>()?;
+        let mut tried = extend(names.iter().map(|n| cur.spec.with(n)).collect(), &cur)?;
         super::stop_if_asked()?;
-        tried.sort_by(|a, b| a.1.total.sse.total_cmp(&b.1.total.sse));
         if search.refit_from_candidates(&mut cur, &cur_model, &tried) {
             path_cv.insert(cur.spec.to_string(), cur.shed(tests));
         }
@@ -969,16 +891,16 @@ fn diagnose_from(
         let mut pairs: Vec<(Model, CvResult)> = Vec::new();
         let mut pair_cands: Vec<Candidate> = Vec::new();
         if !cands.iter().any(|c| c.significant) {
-            // No effect alone lowers the held-out error in every fold. Two effects whose signatures coincide
-            // on these tests (a spring and a moving mass at one frequency per test group) are separable only
-            // together: each alone takes the other's part at the training groups' motion and mispredicts the
-            // held-out one. So when an effect removes enough of the error overall but fails a fold, it is
-            // tried again with each other effect beside it, under the same rule.
+            // No effect alone is significant. Effects whose signatures coincide on these tests (a spring and a
+            // mass at one frequency per group) are separable only together: an effect that removes enough of
+            // the error overall but fails a fold is tried again with each other effect beside it.
             let seeds: Vec<usize> = (0..tried.len())
                 .filter(|&i| search.promising(&cur, &tried[i].1))
                 .take(PAIR_SEEDS)
                 .collect();
-            let mut jobs: Vec<(usize, &'static str)> = Vec::new();
+            // From the current model's fits, both effects from their initial guesses: the seed's own fit has
+            // taken its partner's part, the very thing the pair undoes.
+            let mut jobs: Vec<ModelSpec> = Vec::new();
             for &si in &seeds {
                 let seed_spec = tried[si].0.spec();
                 for n in &names {
@@ -987,35 +909,13 @@ fn diagnose_from(
                         .take_while(|&&o| o != si)
                         .any(|&o| tried[o].0.spec().has(n));
                     if !seed_spec.has(n) && !twice {
-                        jobs.push((si, n));
+                        jobs.push(seed_spec.with(n));
                     }
                 }
             }
             if !jobs.is_empty() {
                 bar.set_message(format!("trying {} pairs of effects on {}", jobs.len(), cur.spec));
-                let done: Vec<Result<(Model, CvResult), IdentError>> = jobs
-                    .par_iter()
-                    .map(|&(si, n)| {
-                        // From the current model's fits, both effects from their initial guesses: the seed's
-                        // own fit has taken its partner's part, the very thing the pair undoes.
-                        let m = build(&tried[si].0.spec().with(n), &reg)?;
-                        let cv = cache.get_or(&m, &cur, registry, || {
-                            let mut cv = cross_validate(
-                                &m,
-                                tests,
-                                &folds,
-                                Some((&cur_model, &cur)),
-                                &side_by_side,
-                                &bar,
-                            );
-                            cv.shed_oof(tests);
-                            cv
-                        });
-                        Ok((m, cv))
-                    })
-                    .collect();
-                pairs = done.into_iter().collect::<Result<_, _>>()?;
-                pairs.sort_by(|a, b| a.1.total.sse.total_cmp(&b.1.total.sse));
+                pairs = extend(jobs, &cur)?;
                 if search.refit_from_candidates(&mut cur, &cur_model, &pairs) {
                     path_cv.insert(cur.spec.to_string(), cur.shed(tests));
                     cands = search.candidates(&cur, &tried, registry);
@@ -1039,14 +939,9 @@ fn diagnose_from(
                 None => None,
             },
         };
-        // The open search, where no named effect (or pair) is significant (on the second path of
-        // `diagnose_path`, at every step): a term from the library, fitted
-        // and judged on the same folds by the same rules. Named effects come first because a term is up to
-        // three library features fitted freely: it can take the parts of two named effects at once and beat
-        // each alone in one step although together they explain the data (hidden hysteresis and a spring:
-        // a term won the first step and the diagnosis ended above the noise floor without naming
-        // hysteresis). What the named effects leave is then the term's to find, and the backward pass drops
-        // a named effect that a later term makes redundant.
+        // The open search, where no named effect (or pair) is significant (on the second path, at every step):
+        // a library term judged on the same folds by the same rules. Named effects come first because a term
+        // fitted freely can take the parts of two named effects at once and beat each alone in one step.
         let mut term: Option<(Model, CvResult, FormulaEffect)> = None;
         let mut term_cand: Option<Candidate> = None;
         if opts.open_search && (named_choice.is_none() || term_competes) && !search.at_floor(&cur) {
@@ -1062,7 +957,7 @@ fn diagnose_from(
                 term_cand = Some(Candidate {
                     effect: format!("{name} = {}", effect.formula()),
                     heldout_nrmse: cv.heldout_nrmse(),
-                    improvement: 1.0 - cv.heldout_nrmse() / cur.heldout_nrmse().max(f64::MIN_POSITIVE),
+                    improvement: improvement(&cur, &cv),
                     significant,
                     evidence: format!(
                         "found by forward regression in the held-out residual; resembles {}; held-out RMSE \
@@ -1080,7 +975,6 @@ fn diagnose_from(
         }
         if let Some(last) = steps.last_mut() {
             last.heldout_nrmse = cur.heldout_nrmse();
-            last.heldout_rmse_n = cur.total.rmse_n();
             last.candidates = cands.clone();
             last.pairs = pair_cands.clone();
             last.term = term_cand.clone();
@@ -1090,27 +984,22 @@ fn diagnose_from(
         }
         // The term where it is significant and, beside a significant named effect (second path only),
         // lower held out; else the significant named effect (or pair).
-        let mut term_added: Option<FormulaEffect> = None;
-        let term_wins = term_cand.as_ref().is_some_and(|tc| tc.significant)
-            && match (&named_choice, &term) {
-                (Some((_, ncv)), Some((_, tcv, _))) => tcv.total.sse < ncv.total.sse,
-                _ => true,
-            };
-        let (m, cv) = match (named_choice, term) {
-            (_, Some((m, cv, effect))) if term_wins => {
+        let term_significant = term_cand.as_ref().is_some_and(|tc| tc.significant);
+        let (m, cv, term_added) = match (named_choice, term) {
+            (named, Some((m, cv, effect)))
+                if term_significant && named.as_ref().is_none_or(|(_, ncv)| cv.total.sse < ncv.total.sse) =>
+            {
                 reg.register(effect.clone());
-                term_added = Some(effect);
-                (m, cv)
+                (m, cv, Some(effect))
             }
             (Some((m, cv)), _) => {
                 let cv = cv.restore_oof(&m, tests, &folds);
-                (m, cv)
+                (m, cv, None)
             }
             _ => break,
         };
-        // Its folds were fitted from the current model's fits, staged; a fit from the data-derived start may end
-        // lower (on a real-scale triangle test the staged fits of hysteresis + spring stopped at 11x the noise
-        // held out, where a fresh fit reaches it). Each fold keeps the fit with the lower training error.
+        // Its folds were fitted from the current model's fits, staged; a fit from the data-derived start may
+        // end lower. Each fold keeps the fit with the lower training error.
         bar.set_message(format!("fitting {} afresh", m.spec()));
         let whole_fit = FitOptions {
             std_errors: false,
@@ -1122,30 +1011,18 @@ fn diagnose_from(
             .unwrap_or(cv);
         let added: Vec<String> = added_effects(&m, &cur.spec).into_iter().cloned().collect();
         match term_added {
-            Some(effect) => discovered.push((
-                effect,
-                cv.heldout_nrmse(),
-                1.0 - cv.heldout_nrmse() / cur.heldout_nrmse().max(f64::MIN_POSITIVE),
-            )),
+            Some(effect) => discovered.push((effect, cv.heldout_nrmse(), improvement(&cur, &cv))),
             None => missing.extend(added.iter().cloned()),
         }
         added_groups.push(added.clone());
-        steps.push(StepResult {
-            model: m.name(),
-            added: Some(added.join("+")),
-            heldout_nrmse: cv.heldout_nrmse(),
-            heldout_rmse_n: cv.total.rmse_n(),
-            candidates: Vec::new(),
-            pairs: Vec::new(),
-            term: None,
-        });
+        steps.push(StepResult::new(m.name(), Some(added.join("+")), &cv));
         path_cv.insert(m.name(), cv.shed(tests));
         cur_model = m;
         cur = cv;
     }
 
-    // Backward pass: drop an added effect whose removal does not significantly raise the held-out error. The
-    // two effects of a pair were judged together and go together: either alone had failed a fold.
+    // Backward pass: drop an added effect (or pair, as a whole) whose removal does not significantly raise the
+    // held-out error.
     let mut pruned = Vec::new();
     while added_groups.len() >= 2 {
         super::stop_if_asked()?;
@@ -1191,15 +1068,7 @@ fn diagnose_from(
         missing.retain(|x| !group.contains(x));
         discovered.retain(|(e, _, _)| !group.iter().any(|g| g == e.name()));
         pruned.extend(group);
-        steps.push(StepResult {
-            model: m.name(),
-            added: None,
-            heldout_nrmse: cv.heldout_nrmse(),
-            heldout_rmse_n: cv.total.rmse_n(),
-            candidates: Vec::new(),
-            pairs: Vec::new(),
-            term: None,
-        });
+        steps.push(StepResult::new(m.name(), None, &cv));
         cur = cv.restore_oof(&m, tests, &folds);
         cur_model = m;
     }
@@ -1304,20 +1173,15 @@ fn next_term_name(reg: &Registry) -> String {
 const PAIR_SEEDS: usize = 2;
 
 /// How much lower (N²) a second fit of `model` must end on a fold's training samples to replace the first:
-/// `p σ²`, what its `p` parameters can take out of noise of standard deviation `σ` (the expected fall of a
-/// least-squares loss, whose weights average 1, when `p` directions are fitted to noise). Closer fits are
-/// the same fit as far as the data can tell, and the one kept is the first: where the training samples
-/// leave a parameter free (the lags of a fold whose only current step is held out), a refit that moved it
-/// far for a fall below the noise predicted the held-out block at 4.3 times the first fit's error.
+/// `p σ²`, the expected fall of a least-squares loss when its `p` parameters are fitted to noise `σ`. Closer
+/// fits are the same fit as far as the data can tell (a refit may move a parameter they leave free).
 fn refit_margin(model: &Model, noise_n: f64) -> f64 {
     model.n_params() as f64 * noise_n * noise_n
 }
 
-/// The named candidates' cross-validations (held-out predictions shed) of one diagnosis, shared by the two
-/// paths of [`diagnose_path`]: the second repeats the first up to the step where a term first wins, and a
-/// candidate's cross-validation is a function of its model, the current model's fits it starts from and the
-/// settings, which are the same there, so those steps are not fitted twice. Only models of the given
-/// registry's effects are kept: a term of the same name may be another formula on the other path.
+/// The named candidates' cross-validations of one diagnosis, shared by the two paths of [`diagnose_path`]
+/// (the second repeats the first up to where a term first wins), keyed by model and parent fits. Only models
+/// of the given registry's effects: a term of the same name may be another formula on the other path.
 #[derive(Default)]
 struct CvCache(Mutex<HashMap<String, CvResult>>);
 
@@ -1379,13 +1243,10 @@ impl Search<'_> {
         !self.at_floor(cur) && enough_removed(cur, cand, self.noise * self.noise, self.opts)
     }
 
-    /// A candidate can beat the current model only because its fit left a local minimum that the current
-    /// model's own fit of a fold is stuck in (the sign: several effects lowering the held-out error by the
-    /// same amount). Before the best significant-looking candidate of `tried` (sorted best first) is
-    /// believed, the current model is fitted again in each fold from that candidate's fit (its effects'
-    /// parameters dropped), and each fold keeps whichever fit of the current model has the lower training
-    /// error; then all are judged again, until the best significant candidate is one the current model was
-    /// already refitted from. Returns whether `cur` changed.
+    /// A candidate may beat the current model only because its fit left a local minimum the current model's
+    /// fit of a fold is stuck in. So before the best significant candidate of `tried` (best first) is
+    /// believed, the current model is refitted in each fold from it, keeping the fit with the lower training
+    /// error, until the best is one it was already refitted from. Returns whether `cur` changed.
     fn refit_from_candidates(
         &self,
         cur: &mut CvResult,
@@ -1417,9 +1278,8 @@ impl Search<'_> {
         changed
     }
 
-    /// Does the pair `(m, cv)` (two effects added to `cur`) remove enough of the held-out error that each of
-    /// its effects alone (in `tried`) leaves? A pair of one effect that matters and one along for the ride
-    /// does not.
+    /// Does the pair `(m, cv)` remove enough of the held-out error that each of its effects alone (in `tried`)
+    /// leaves? (Not a pair of one effect that matters and one along for the ride.)
     fn beats_each_member(
         &self,
         cur: &CvResult,
@@ -1457,7 +1317,7 @@ impl Search<'_> {
                 };
                 Candidate {
                     heldout_nrmse: cv.heldout_nrmse(),
-                    improvement: 1.0 - cv.heldout_nrmse() / cur.heldout_nrmse().max(f64::MIN_POSITIVE),
+                    improvement: improvement(cur, cv),
                     significant,
                     evidence: evidence(&signature, &cur_sig, &sig, cur, cv, folds_better),
                     folds_better,
@@ -1493,14 +1353,23 @@ fn judge(
     opts: &DiagnoseOptions,
     at_floor: bool,
 ) -> (bool, usize) {
-    let folds_better = cur
-        .per_fold
+    let better = folds_better(cur, cand);
+    let ok = !at_floor && better == cur.per_fold.len() && enough_removed(cur, cand, noise_mse, opts);
+    (ok, better)
+}
+
+/// The folds in which `cand`'s held-out error is lower than `cur`'s.
+fn folds_better(cur: &CvResult, cand: &CvResult) -> usize {
+    cur.per_fold
         .iter()
         .zip(&cand.per_fold)
         .filter(|(a, b)| b.sse < a.sse)
-        .count();
-    let ok = !at_floor && folds_better == cur.per_fold.len() && enough_removed(cur, cand, noise_mse, opts);
-    (ok, folds_better)
+        .count()
+}
+
+/// 1 − `cand`'s held-out NRMSE over `cur`'s.
+fn improvement(cur: &CvResult, cand: &CvResult) -> f64 {
+    1.0 - cand.heldout_nrmse() / cur.heldout_nrmse().max(f64::MIN_POSITIVE)
 }
 
 /// The evidence for a candidate in words: its residual signature, and the measured signatures of the
@@ -1562,12 +1431,10 @@ mod tests {
                 f_ss: 100.0,
             })
             .collect();
-        let mut total = Figures::default();
-        per_fold.iter().for_each(|f| total.add(f));
         CvResult {
             spec: ModelSpec::parse("bingham").expect("spec"),
+            total: Figures::total(&per_fold),
             per_fold,
-            total,
             fold_params: folds.iter().map(|&(t, _, _)| vec![t]).collect(),
             fold_train_loss: folds.iter().map(|&(t, _, _)| t).collect(),
             oof: vec![vec![folds[0].2, folds[0].2, folds[1].2, folds[1].2]],
@@ -1638,16 +1505,8 @@ mod tests {
 
     fn sine_test(name: &str, group: &str, amp_m: f64, f_hz: f64, i_a: f64) -> Test {
         let inputs = crate::device::effects::testkit::sine(amp_m, f_hz, i_a, 1e-3, 1.999);
-        Test {
-            path: name.into(),
-            name: name.into(),
-            group: group.into(),
-            f_n: vec![0.0; inputs.len()],
-            inputs,
-            velocity_measured: true,
-            velocity_noise_m_s: None,
-            drive: None,
-        }
+        let f_n = vec![0.0; inputs.len()];
+        Test::synthetic(name, group, inputs, f_n)
     }
 
     /// Files whose names group nothing (each its own group): three motions at two currents each are held

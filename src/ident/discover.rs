@@ -1,23 +1,16 @@
 //! Beyond the vocabulary: a force term found in a library of candidates, and an honest verdict on what the
 //! final model leaves.
 //!
-//! **Term search.** A library of candidate force terms built from the measured and derived signals (odd and
-//! even functions of velocity at several scales, powers and saturations of displacement, products with the
-//! lagged current, low-pass states; `library`) is searched by forward-regression orthogonal least squares
-//! (FROLS, Billings' error-reduction ratio) on the current model's held-out residual. FROLS rather than
-//! sequential thresholded least squares or a Lasso path: the candidates have unrelated units and scales
-//! (`v³` in m³/s³ beside `tanh(v/0.01)`), and FROLS's criterion, the share of the residual's energy each
-//! term explains once orthogonalised against the terms already chosen, does not depend on them, where a
-//! threshold on coefficients or an L1 penalty does; and it names terms in the order of what they explain,
-//! which is the order a person reads. The few terms it keeps become one data-defined effect
-//! ([`crate::device::formula::FormulaEffect`]) that the diagnosis then cross-validates and judges exactly as
-//! it judges a named effect (same folds, same significance rules).
+//! **Term search.** A library of candidate force terms built from the measured and derived signals
+//! (`library`) is searched by forward-regression orthogonal least squares (FROLS, Billings' error-reduction
+//! ratio) on the current model's held-out residual: its criterion, the share of the residual's energy each
+//! term explains once orthogonalised against those already chosen, does not depend on the terms' unrelated
+//! units and scales, as a threshold on coefficients or an L1 penalty would. The few terms it keeps become one
+//! data-defined effect ([`crate::device::formula::FormulaEffect`]) judged exactly as a named effect is.
 //!
-//! **Verdict.** After the last stage, a flexible regressor (ridge regression on smooth functions of x, v,
-//! a, the lagged current i and t, time-shifted copies, low-pass states and piecewise-constant bins of each
-//! signal and of pairs of them) is fitted to the final model's held-out residual on the training folds and
-//! scored on the held-out fold: the share of the residual's mean square it predicts out of sample is
-//! structure the model lacks; noise is not predictable. `verdict`.
+//! **Verdict.** A ridge regression on smooth functions, shifted copies, low-pass states and bins of the
+//! signals (`verdict`) is fitted to the final model's held-out residual on training folds and scored on the
+//! held-out fold: the share of the residual it predicts out of sample is structure; noise is not predictable.
 
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
@@ -43,8 +36,13 @@ pub(crate) struct LibraryTerm {
 /// A positive number to two significant digits in plain decimal notation (the formula parser reads no
 /// exponents).
 fn num(x: f64) -> String {
+    plain(x, 2.0)
+}
+
+/// A positive number to `digits` significant digits in plain decimal notation.
+fn plain(x: f64, digits: f64) -> String {
     let x = if x.is_finite() && x > 0.0 { x } else { 1.0 };
-    let decimals = (1.0 - x.log10().floor()).max(0.0) as usize;
+    let decimals = (digits - 1.0 - x.log10().floor()).max(0.0) as usize;
     format!("{x:.decimals$}")
 }
 
@@ -88,56 +86,51 @@ pub(crate) fn library(s: Scales) -> Vec<LibraryTerm> {
         family,
     };
     let (v, x) = (s.v, s.x);
-    let mut l = vec![
-        t(
-            "v*abs(v)".into(),
-            "N s^2/m^2",
-            "quadratic (turbulent orifice) damping",
-        ),
-        t("v^3".into(), "N s^3/m^3", "cubic (hardening) damping"),
-        t(
-            "sign(v)*sqrt(abs(v))".into(),
+    let mut l: Vec<LibraryTerm> = [
+        ("v*abs(v)", "N s^2/m^2", "quadratic (turbulent orifice) damping"),
+        ("v^3", "N s^3/m^3", "cubic (hardening) damping"),
+        (
+            "sign(v)*sqrt(abs(v))",
             "N s^0.5/m^0.5",
             "shear-thinning (square-root) damping",
         ),
-        t(
-            "abs(v)".into(),
+        (
+            "abs(v)",
             "N s/m",
             "direction-independent velocity force (asymmetric orifice or valve)",
         ),
-        t(
-            "v^2".into(),
+        (
+            "v^2",
             "N s^2/m^2",
             "even quadratic velocity force (asymmetric orifice or valve)",
         ),
-        t("x*abs(x)".into(), "N/m^2", "progressive spring"),
-        t("x^3".into(), "N/m^3", "hardening spring (gas spring, bump stop)"),
-        t(
-            "x^2".into(),
+        ("x*abs(x)", "N/m^2", "progressive spring"),
+        ("x^3", "N/m^3", "hardening spring (gas spring, bump stop)"),
+        (
+            "x^2",
             "N/m^2",
             "even position force (gas spring's compression asymmetry)",
         ),
-        t(
-            "i*v*abs(v)".into(),
-            "N s^2/(m^2 A)",
-            "field-dependent quadratic damping",
-        ),
-        t(
-            "i*x".into(),
+        ("i*v*abs(v)", "N s^2/(m^2 A)", "field-dependent quadratic damping"),
+        (
+            "i*x",
             "N/(m A)",
             "field-dependent stiffness (pre-yield elasticity)",
         ),
-        t(
-            format!("sign(x)*max(abs(x)-{},0)", num(0.6 * x)),
-            "N/m",
-            "end stop / dead-zone spring (backlash)",
-        ),
-        t(
-            format!("tanh(x/{})", num(0.3 * x)),
-            "N",
-            "saturating centring force (detent)",
-        ),
-    ];
+    ]
+    .into_iter()
+    .map(|(f, unit, family)| t(f.into(), unit, family))
+    .collect();
+    l.push(t(
+        format!("sign(x)*max(abs(x)-{},0)", num(0.6 * x)),
+        "N/m",
+        "end stop / dead-zone spring (backlash)",
+    ));
+    l.push(t(
+        format!("tanh(x/{})", num(0.3 * x)),
+        "N",
+        "saturating centring force (detent)",
+    ));
     for k in [0.03, 0.15, 0.5] {
         l.push(t(
             format!("tanh(v/{})", num(k * v)),
@@ -237,17 +230,8 @@ pub(crate) fn library(s: Scales) -> Vec<LibraryTerm> {
     l
 }
 
-/// A positive number to four significant digits in plain decimal notation: a wavelength, whose error
-/// grows into a phase error over the stroke.
-fn num4(x: f64) -> String {
-    let x = if x.is_finite() && x > 0.0 { x } else { 1.0 };
-    let decimals = (3.0 - x.log10().floor()).max(0.0) as usize;
-    format!("{x:.decimals$}")
-}
-
-/// Wavelengths scanned for a force periodic in position, as fractions of the stroke scale `Scales::x`:
-/// from a ripple a few hundred times finer than the stroke to one a third of it (longer is a smooth
-/// function of position, which the library's powers cover).
+/// Wavelengths scanned for a force periodic in position, as fractions of the stroke scale `Scales::x`
+/// (longer is a smooth function of position, which the library's powers cover).
 const RIPPLE_SHORTEST: f64 = 1.0 / 300.0;
 const RIPPLE_LONGEST: f64 = 1.0 / 3.0;
 /// Steps of the scan's log grid, then of its refinement around the best wavelength.
@@ -256,10 +240,9 @@ const RIPPLE_REFINE: usize = 40;
 /// Most samples the wavelength scan reads (every k-th beyond).
 const RIPPLE_SAMPLES: usize = 20_000;
 
-/// The pair `sin(x/L)`, `cos(x/L)` of the force periodic in position (cogging, a screw's lead, a detent's
-/// ripple) whose wavelength `2πL` best explains `target` (weights `w`, over `tests` concatenated): the
-/// peak of the residual's periodogram against displacement, scanned on a log grid of wavelengths and
-/// refined around its peak.
+/// The pair `sin(x/L)`, `cos(x/L)` of a force periodic in position (cogging, a detent's ripple) whose
+/// wavelength `2πL` best explains `target` (weights `w`): the peak of the residual's periodogram against
+/// displacement on a log grid of wavelengths, refined around it.
 fn ripple_terms(s: Scales, tests: &[Test], target: &[f64], w: &[f64]) -> Vec<LibraryTerm> {
     let xs: Vec<f64> = tests
         .iter()
@@ -306,20 +289,16 @@ fn ripple_terms(s: Scales, tests: &[Test], target: &[f64], w: &[f64]) -> Vec<Lib
     let (_, lam) = best(grid(lo, hi, RIPPLE_GRID));
     let step = (hi / lo).powf(1.0 / (RIPPLE_GRID - 1) as f64);
     let (_, lam) = best(grid(lam / step, lam * step, RIPPLE_REFINE));
-    let l = num4(lam / std::f64::consts::TAU);
+    // Four digits: a wavelength's error grows into a phase error over the stroke.
+    let l = plain(lam / std::f64::consts::TAU, 4.0);
     let family = ripple_family("sin(x/").unwrap_or_default();
-    vec![
-        LibraryTerm {
-            feature: format!("sin(x/{l})"),
+    ["sin", "cos"]
+        .map(|f| LibraryTerm {
+            feature: format!("{f}(x/{l})"),
             coef_unit: "N".into(),
             family,
-        },
-        LibraryTerm {
-            feature: format!("cos(x/{l})"),
-            coef_unit: "N".into(),
-            family,
-        },
-    ]
+        })
+        .into()
 }
 
 /// The lagged current (the model's own excitation state) at every sample of every test.
@@ -434,14 +413,11 @@ pub(crate) fn propose_term(
                 .collect();
         }
         // The first candidate with the largest share, in library order.
-        let mut best: Option<(f64, usize)> = None;
-        for (ci, err) in errs.iter().enumerate() {
-            if let Some(err) = *err {
-                if !chosen.contains(&ci) && best.is_none_or(|b| err > b.0) {
-                    best = Some((err, ci));
-                }
-            }
-        }
+        let best = errs
+            .iter()
+            .enumerate()
+            .filter_map(|(ci, err)| err.filter(|_| !chosen.contains(&ci)).map(|err| (err, ci)))
+            .reduce(|a, b| if b.0 > a.0 { b } else { a });
         match best {
             Some((err, ci)) if err >= MIN_ERR => {
                 let Some(c) = weighted(valid[ci]) else { break };
@@ -623,8 +599,9 @@ fn sig4(v: f64) -> String {
     }
 }
 
-/// What the final model's held-out residual is: structure a regressor predicts, or noise.
-#[derive(Debug, Clone)]
+/// What the final model's held-out residual is: structure a regressor predicts, or noise (`unexplained` in
+/// the JSON when structure).
+#[derive(Debug, Clone, serde::Serialize)]
 pub struct Verdict {
     /// Held-out NRMSE of the final model.
     pub heldout_nrmse: f64,
@@ -632,14 +609,24 @@ pub struct Verdict {
     pub floor_nrmse: f64,
     /// Share of the held-out residual's mean square the regressor predicts out of sample (pooled over folds).
     pub predictable_share: f64,
-    /// Signals whose features alone predict part of it, strongest first, with their shares.
+    /// Where the held-out residual lives (regions, as for the base model).
+    #[serde(rename = "where")]
+    pub where_: Vec<super::residual::Region>,
+    /// Signals whose features alone predict part of it (at least a fifth of the predictable share),
+    /// strongest first, with their shares (names only in the JSON).
+    #[serde(serialize_with = "names_only")]
     pub correlates_with: Vec<(String, f64)>,
     /// Structure is left (the residual is not noise).
+    #[serde(skip)]
     pub structure: bool,
     /// The regressor had enough samples for its columns (ten a column) for its share to be read.
+    #[serde(skip)]
     pub enough_samples: bool,
-    /// Where the held-out residual lives (regions, as for the base model).
-    pub where_: Vec<super::residual::Region>,
+}
+
+/// The names of `(name, share)` pairs, as a list.
+fn names_only<S: serde::Serializer>(pairs: &[(String, f64)], s: S) -> Result<S::Ok, S::Error> {
+    s.collect_seq(pairs.iter().map(|(name, _)| name))
 }
 
 impl Verdict {
@@ -655,23 +642,14 @@ impl Verdict {
 pub(crate) const MIN_PREDICTABLE_SHARE: f64 = 0.05;
 
 /// Held-out error, as a multiple of the noise floor, beyond which what is left is structure whatever a
-/// regressor predicts of it: a residual the offered signals cannot represent (a ripple finer than their
-/// bins, a memory no feature carries) is still not noise. It is the issue's bar for a model that explains
-/// the data: within 1.3× of the truth's held-out error, which is the noise.
+/// regressor predicts of it (a residual the signals cannot represent is still not noise).
 pub(crate) const MAX_NOISE_RATIO: f64 = 1.3;
 
-/// Most samples the verdict's regressor uses (every k-th sample beyond): its figures are shares, which a
-/// regular subsample of 20 000 measures to about a percent.
+/// Most samples the verdict's regressor uses (every k-th beyond): a regular subsample measures its shares.
 const VERDICT_SAMPLES: usize = 20_000;
 
 /// Folds the verdict's regressor is cross-validated over.
 const VERDICT_BLOCKS: usize = 4;
-
-/// A signal of the verdict's regressor, with the columns made from it.
-struct Group {
-    name: String,
-    cols: Vec<usize>,
-}
 
 /// The verdict on the held-out residual `f − oof` of the final model (see the module documentation).
 pub(crate) fn verdict(
@@ -684,12 +662,9 @@ pub(crate) fn verdict(
     at_floor: bool,
 ) -> Verdict {
     let s = Scales::of(tests);
-    // The residual is the diagnosis's held-out one (each sample predicted by the fold that held it out);
-    // samples held out nowhere are left out. The regressor itself is judged on interleaved stretches of
-    // every test, each the motion's characteristic time long, dealt to the folds in turn: whether the
-    // residual is predictable from the signals where they take values seen in training (a current step, a
-    // reversal, a stroke end of the same test), not whether a regressor extrapolates to a motion it never
-    // saw (the diagnosis's leave-one-group-out folds) or to a stretch of time unlike the others.
+    // The diagnosis's held-out residual (samples held out nowhere left out). The regressor is judged on
+    // interleaved stretches of every test, each the motion's characteristic time long, dealt to the folds in
+    // turn: whether the residual is predictable where the signals take values seen in training.
     let chunk = ((s.tau / s.dt).round() as usize).max(1);
     let mut fold_of: Vec<Vec<usize>> = tests.iter().map(|t| vec![usize::MAX; t.len()]).collect();
     for fold in folds {
@@ -714,25 +689,39 @@ pub(crate) fn verdict(
         sig: [f64; 11],
         lp: [f64; 5],
     }
-    /// A regressor column: a function of one sample's signals.
+    /// The regressor's columns (functions of one sample's signals), and their indices by signal.
     type RowFeature = Box<dyn Fn(&Row) -> f64>;
+    #[derive(Default)]
+    struct Columns {
+        groups: Vec<(String, Vec<usize>)>,
+        feats: Vec<RowFeature>,
+    }
+    impl Columns {
+        fn add(&mut self, g: &str, f: impl Fn(&Row) -> f64 + 'static) {
+            let c = self.feats.len();
+            self.feats.push(Box::new(f));
+            match self.groups.iter_mut().find(|x| x.0 == g) {
+                Some(x) => x.1.push(c),
+                None => self.groups.push((g.to_string(), vec![c])),
+            }
+        }
+    }
     let mut rows: Vec<Row> = Vec::new();
-    let lp_v = Formula::parse(&format!("lp(v,{})", num(s.tau.max(2.0 * s.dt))), &[]).ok();
-    let lp_x = Formula::parse(&format!("lp(x,{})", num(s.tau.max(2.0 * s.dt))), &[]).ok();
-    // The direction function through lags of three time constants (a yield force that builds up).
-    let lp_d: Vec<Option<Formula>> = [0.1, 0.3, 1.0]
-        .iter()
-        .map(|k| {
+    // Low-pass v and x, and the direction function through lags of three time constants (a yield force
+    // that builds up).
+    let tau = num(s.tau.max(2.0 * s.dt));
+    let low_pass: Vec<Option<Formula>> = [format!("lp(v,{tau})"), format!("lp(x,{tau})")]
+        .into_iter()
+        .chain([0.1, 0.3, 1.0].iter().map(|k| {
             let tau = num((k * s.tau).max(2.0 * s.dt));
-            Formula::parse(&format!("lp(tanh(v/{}),{tau})", num(0.15 * s.v)), &[]).ok()
-        })
+            format!("lp(tanh(v/{}),{tau})", num(0.15 * s.v))
+        }))
+        .map(|f| Formula::parse(&f, &[]).ok())
         .collect();
     let mut k_all = 0usize;
     for (j, t) in tests.iter().enumerate() {
         let dw = direction_weights(t);
-        let lv = lp_v.as_ref().map(|f| f.series(&t.inputs, &current[j]));
-        let lx = lp_x.as_ref().map(|f| f.series(&t.inputs, &current[j]));
-        let ld: Vec<Option<Vec<f64>>> = lp_d
+        let lp: Vec<Option<Vec<f64>>> = low_pass
             .iter()
             .map(|f| f.as_ref().map(|f| f.series(&t.inputs, &current[j])))
             .collect();
@@ -765,80 +754,42 @@ pub(crate) fn verdict(
                     inp.current_cmd_a,
                     inp.current_cmd_a.abs() - current[j][k].abs(),
                 ],
-                lp: [
-                    lv.as_ref().map_or(0.0, |l| l[k]),
-                    lx.as_ref().map_or(0.0, |l| l[k]),
-                    ld[0].as_ref().map_or(0.0, |l| l[k]),
-                    ld[1].as_ref().map_or(0.0, |l| l[k]),
-                    ld[2].as_ref().map_or(0.0, |l| l[k]),
-                ],
+                lp: std::array::from_fn(|q| lp[q].as_ref().map_or(0.0, |l| l[k])),
             });
         }
     }
-    let mut groups: Vec<Group> = Vec::new();
-    let mut feats: Vec<RowFeature> = Vec::new();
-    let mut add = |g: &str, f: Box<dyn Fn(&Row) -> f64>, groups: &mut Vec<Group>| {
-        let c = feats.len();
-        feats.push(f);
-        match groups.iter_mut().find(|x| x.name == g) {
-            Some(x) => x.cols.push(c),
-            None => groups.push(Group {
-                name: g.to_string(),
-                cols: vec![c],
-            }),
-        }
-    };
+    let mut cols = Columns::default();
     let names = ["x", "v", "a", "i", "t"];
     let (vs, xs) = (s.v, s.x);
     // Smooth functions of each signal.
     for (k, g) in names.iter().enumerate() {
-        add(g, Box::new(move |r: &Row| r.sig[k]), &mut groups);
-        add(g, Box::new(move |r: &Row| r.sig[k].abs()), &mut groups);
-        add(g, Box::new(move |r: &Row| r.sig[k] * r.sig[k].abs()), &mut groups);
-        add(g, Box::new(move |r: &Row| r.sig[k].powi(3)), &mut groups);
+        cols.add(g, move |r| r.sig[k]);
+        cols.add(g, move |r| r.sig[k].abs());
+        cols.add(g, move |r| r.sig[k] * r.sig[k].abs());
+        cols.add(g, move |r| r.sig[k].powi(3));
     }
     for sc in [0.03, 0.15, 0.5] {
-        add(
-            "v",
-            Box::new(move |r: &Row| (r.sig[1] / (sc * vs)).tanh()),
-            &mut groups,
-        );
-        add(
-            "v",
-            Box::new(move |r: &Row| r.sig[3].abs() * (r.sig[1] / (sc * vs)).tanh()),
-            &mut groups,
-        );
+        cols.add("v", move |r| (r.sig[1] / (sc * vs)).tanh());
+        cols.add("v", move |r| r.sig[3].abs() * (r.sig[1] / (sc * vs)).tanh());
     }
-    add(
-        "x",
-        Box::new(move |r: &Row| (r.sig[0] / (0.3 * xs)).tanh()),
-        &mut groups,
-    );
-    add("i", Box::new(|r: &Row| r.sig[3] * r.sig[1]), &mut groups);
-    add("i", Box::new(|r: &Row| r.sig[3] * r.sig[0]), &mut groups);
+    cols.add("x", move |r| (r.sig[0] / (0.3 * xs)).tanh());
+    cols.add("i", |r| r.sig[3] * r.sig[1]);
+    cols.add("i", |r| r.sig[3] * r.sig[0]);
     // The command and its lead over the lagged current (the lags' error at a current step).
-    add("i (command)", Box::new(|r: &Row| r.sig[9]), &mut groups);
-    add("i (command)", Box::new(|r: &Row| r.sig[10]), &mut groups);
-    add(
-        "i (command)",
-        Box::new(|r: &Row| r.sig[10] * r.sig[1].signum()),
-        &mut groups,
-    );
-    add("i (command)", Box::new(|r: &Row| r.sig[10].abs()), &mut groups);
+    cols.add("i (command)", |r| r.sig[9]);
+    cols.add("i (command)", |r| r.sig[10]);
+    cols.add("i (command)", |r| r.sig[10] * r.sig[1].signum());
+    cols.add("i (command)", |r| r.sig[10].abs());
     // Time-shifted copies and low-pass states: the force lagging or leading the motion.
-    add("v (shifted)", Box::new(|r: &Row| r.sig[5]), &mut groups);
-    add("v (shifted)", Box::new(|r: &Row| r.sig[6]), &mut groups);
-    add("x (shifted)", Box::new(|r: &Row| r.sig[7]), &mut groups);
-    add("x (shifted)", Box::new(|r: &Row| r.sig[8]), &mut groups);
-    add("v (low-pass)", Box::new(|r: &Row| r.lp[0]), &mut groups);
-    add("x (low-pass)", Box::new(|r: &Row| r.lp[1]), &mut groups);
+    cols.add("v (shifted)", |r| r.sig[5]);
+    cols.add("v (shifted)", |r| r.sig[6]);
+    cols.add("x (shifted)", |r| r.sig[7]);
+    cols.add("x (shifted)", |r| r.sig[8]);
+    cols.add("v (low-pass)", |r| r.lp[0]);
+    cols.add("x (low-pass)", |r| r.lp[1]);
     for q in 2..5 {
-        add("v (low-pass)", Box::new(move |r: &Row| r.lp[q]), &mut groups);
-        add(
-            "v (low-pass)",
-            Box::new(move |r: &Row| r.sig[3].abs() * r.lp[q]),
-            &mut groups,
-        );
+        cols.add("v (low-pass)", move |r| r.lp[q]);
+        cols.add("v (low-pass)", move |r| r.sig[3].abs() * r.lp[q]);
     }
     // Piecewise-constant bins of each signal and of pairs of them.
     const B1: usize = 10;
@@ -857,11 +808,7 @@ pub(crate) fn verdict(
         let e = edges(k, B1);
         for b in 0..B1 {
             let e = e.clone();
-            add(
-                g,
-                Box::new(move |r: &Row| f64::from(u8::from(bin(&e, r.sig[k]) == b))),
-                &mut groups,
-            );
+            cols.add(g, move |r| f64::from(u8::from(bin(&e, r.sig[k]) == b)));
         }
     }
     for (k1, k2) in [(1usize, 0usize), (1, 3), (1, 2), (0, 4)] {
@@ -870,16 +817,13 @@ pub(crate) fn verdict(
         for b1 in 0..B2 {
             for b2 in 0..B2 {
                 let (e1, e2) = (e1.clone(), e2.clone());
-                add(
-                    &g,
-                    Box::new(move |r: &Row| {
-                        f64::from(u8::from(bin(&e1, r.sig[k1]) == b1 && bin(&e2, r.sig[k2]) == b2))
-                    }),
-                    &mut groups,
-                );
+                cols.add(&g, move |r| {
+                    f64::from(u8::from(bin(&e1, r.sig[k1]) == b1 && bin(&e2, r.sig[k2]) == b2))
+                });
             }
         }
     }
+    let Columns { groups, feats } = cols;
     let p = feats.len();
     let nf = VERDICT_BLOCKS;
     // Column scales (RMS), so one ridge penalty suits every column.
@@ -974,7 +918,7 @@ pub(crate) fn verdict(
     let predictable_share = share(&sse);
     let mut correlates_with: Vec<(String, f64)> = groups
         .iter()
-        .map(|g| (g.name.clone(), share(&sse_with(&g.cols))))
+        .map(|(name, cols)| (name.clone(), share(&sse_with(cols))))
         .filter(|(_, sh)| *sh >= 0.2 * predictable_share && *sh > 0.01)
         .collect();
     correlates_with.sort_by(|a, b| b.1.total_cmp(&a.1));
@@ -1030,16 +974,8 @@ mod tests {
                         }
                     })
                     .collect();
-                Test {
-                    path: format!("g{j}.csv").into(),
-                    name: format!("g{j}.csv"),
-                    group: format!("g{j}"),
-                    f_n: vec![0.0; inputs.len()],
-                    inputs,
-                    velocity_measured: true,
-                    velocity_noise_m_s: None,
-                    drive: None,
-                }
+                let f_n = vec![0.0; inputs.len()];
+                Test::synthetic(&format!("g{j}.csv"), &format!("g{j}"), inputs, f_n)
             })
             .collect();
         let current: Vec<Vec<f64>> = tests
@@ -1092,16 +1028,7 @@ mod tests {
                 0.8 * (std::f64::consts::TAU * i.x_m / lam + 0.4).sin() + 3.0 * i.v_m_s.signum() + u
             })
             .collect();
-        let t = Test {
-            path: "r.csv".into(),
-            name: "r.csv".into(),
-            group: "r".into(),
-            f_n: target.clone(),
-            inputs,
-            velocity_measured: true,
-            velocity_noise_m_s: None,
-            drive: None,
-        };
+        let t = Test::synthetic("r.csv", "r", inputs, target.clone());
         let tests = [t];
         let terms = ripple_terms(Scales::of(&tests), &tests, &target, &vec![1.0; target.len()]);
         assert_eq!(terms.len(), 2);

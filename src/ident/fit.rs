@@ -1,22 +1,16 @@
 //! Nonlinear least squares on the simulated force of one or many tests, each integrated from its own start.
 //!
-//! - Bounds through smooth transforms: `p = lo + e^z` for a lower bound, `p = lo + (hi − lo)/(1 + e^−z)` for
-//!   two bounds, so the Levenberg–Marquardt search (`levenberg-marquardt` crate) is unconstrained in `z`.
-//! - Starting values from [`Model::initial_guess`] on the data's [`DataStats`], then a linear least-squares
-//!   warm start of the base model's linear gains (yield force at zero current, yield force per ampere,
-//!   viscous damping: Eq. 2 and 6 are linear in them), with non-negativity kept.
-//! - Residuals are computed in parallel over tests, the forward-difference Jacobian over tests and, within a
-//!   test, over parameters a block of samples at a time, each block going into the Jacobian's triangular
-//!   factor before the next is made (`Factor`), so a fit's memory does not grow with its parameters
-//!   (rayon, results taken in a fixed order: deterministic).
-//! - Samples where the velocity is within its noise of zero (its sign unknown) do not count in the loss
-//!   ([`direction_weights`]); every sample is still simulated, so states carry through them.
-//! - Each test counts once in the loss, whatever its length and logging rate ([`Weighting::Tests`], the
-//!   default): its squared residuals are weighted by the inverse of its number of counted samples. The
-//!   figures reported (`sse`, NRMSE) are the plain sums over samples, as the contract defines them.
-//! - Standard errors `s² (JᵀJ)⁻¹`. A parameter the data do not determine (a zero Jacobian column, e.g. the
-//!   lag time constants when the current never changes, or an enormous standard error) is held at its
-//!   initial value and reported with no standard error and a note.
+//! - Bounds through smooth transforms (`p = lo + e^z`, `p = lo + (hi − lo)/(1 + e^−z)`), so the
+//!   Levenberg–Marquardt search (`levenberg-marquardt` crate) is unconstrained in `z`.
+//! - Starting values from [`Model::initial_guess`], then a linear least-squares warm start of the base
+//!   model's linear gains (Eq. 2 and 6 are linear in them), with non-negativity kept.
+//! - The forward-difference Jacobian in parallel over tests and parameters, a block of samples at a time,
+//!   each block going into the Jacobian's triangular factor (`Factor`) before the next is made, so a fit's
+//!   memory does not grow with its parameters (results taken in a fixed order: deterministic).
+//! - Samples whose velocity sign is unknown do not count in the loss ([`direction_weights`]); each test
+//!   counts once whatever its length ([`Weighting::Tests`]). The figures reported (`sse`, NRMSE) are the
+//!   plain sums over samples, as the contract defines them.
+//! - Standard errors `s² (JᵀJ)⁻¹`. A parameter the data do not determine is held and reported with a note.
 
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
@@ -68,15 +62,10 @@ pub fn all_spans(tests: &[Test]) -> Vec<Span> {
 
 /// How the tests of a joint fit share the loss.
 ///
-/// A plain sum over samples lets the longest test, or the one logged at the highest rate, decide the fit:
-/// on the UTFSM damper the five 10 mm 1 Hz tests (1 kHz, 12 s each) hold 69 % of the samples and the five
-/// 2 mm 5 Hz tests (200 Hz, 2 s) 3 %. That is the maximum-likelihood loss only if the residual is white
-/// noise. A measured damper's residual is not: each test has its own force scale (its temperature, the
-/// fluid's settling, the fixture; ±10 % between tests of the same damper at the same current, see the
-/// README), an error shared by every sample of the test, so a test's samples together carry about one
-/// test's worth of evidence on it, not one per sample. The generalised least-squares weight of a test
-/// with such a shared error, `1/(σ²_noise + n·σ²_test)`, tends to `1/n` per sample as `n` grows: each test
-/// counts once. Where the tests have as many counted samples the two losses are the same.
+/// A plain sum over samples lets the longest test, or the one logged at the highest rate, decide the fit;
+/// it is the maximum-likelihood loss only for a white residual. A measured damper's tests each have their own
+/// force scale, an error shared by every sample of the test, and the generalised least-squares weight of a
+/// test with such an error, `1/(σ²_noise + n·σ²_test)`, tends to `1/n` per sample: each test counts once.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Weighting {
     /// Each test counts once: its squared residuals are weighted by `N / (T·n)`, where `n` is its number
@@ -177,10 +166,9 @@ pub struct FitOptions {
     pub std_errors: bool,
     /// How the tests share the loss.
     pub weighting: Weighting,
-    /// Spread the fit's simulations over threads (tests, Jacobian columns). A caller that runs many fits side
-    /// by side turns it off: each fit then keeps to one thread, so that a thread waiting for a share of its
-    /// own fit's work never starts another fit meanwhile (each fit holds its Jacobian and states, several
-    /// values per sample). The numbers are the same either way.
+    /// Spread the fit's simulations over threads (tests, Jacobian columns). A caller running many fits side by
+    /// side turns it off, so that a thread waiting for its own fit's work never starts (and holds) another
+    /// fit meanwhile. The numbers are the same either way.
     pub parallel: bool,
 }
 
@@ -465,11 +453,9 @@ impl<'a> Problem<'a> {
             }
             (out, states)
         };
-        if self.parallel {
-            (0..self.tests.len()).into_par_iter().map(one).unzip()
-        } else {
-            (0..self.tests.len()).map(one).unzip()
-        }
+        each_span(self.parallel, self.tests.len(), one)
+            .into_iter()
+            .unzip()
     }
 
     fn update(&mut self) {
@@ -621,13 +607,8 @@ impl<'a> Problem<'a> {
             }
             factor
         };
-        let factors: Vec<Factor> = if self.parallel {
-            used.par_iter().map(|&j| of_test(j)).collect()
-        } else {
-            used.iter().map(|&j| of_test(j)).collect()
-        };
         let mut factor = Factor::new(width);
-        for f in &factors {
+        for f in &each_span(self.parallel, used.len(), |u| of_test(used[u])) {
             factor.join(f);
         }
         factor
@@ -984,10 +965,8 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
                 z_start = z_lin;
                 continue;
             }
-            // The same holds for every parameter: one the search left on a bound may be there only because
-            // another parameter took its part on the way (a staged fit's first stage drove a spring rate to
-            // 0 while it held a mass that the second stage then freed), and on the transform's flat tail the
-            // search no longer sees the data pull it back. A step in the parameter itself shows it.
+            // Any parameter the search left on a bound may be there only because another took its part on the
+            // way, and on the transform's flat tail the search no longer sees the data pull it back.
             let stuck: Vec<usize> = free.iter().copied().filter(|&k| on_bound(k)).collect();
             if !stuck.is_empty() {
                 let guess = model.initial_guess(&stats);
@@ -1037,13 +1016,9 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
 }
 
 /// Where a parameter is held that the data barely determine at the point the search reached (an enormous
-/// standard error), and why. The loss (weighted sum of squares) there is `sse`. In order, the first that fits as well (within
-/// 10⁻⁶ of `sse`; one simulation each):
+/// standard error), and why, the loss there being `sse`. The first that fits as well (within 10⁻⁶ of `sse`):
 /// - its initial value `z_init`: the force does not depend on it over that range either;
-/// - its nearest bound: the force is flat only because the parameter's effect is spent. A coil lag far
-///   shorter than a sample acts on the force as no lag at all, and the bound says what the data say; held
-///   at its initial value instead (5 sample intervals), the lag cost a fit of steps in force at their own
-///   sample 13× its sum of squares (test `ident::timing::tests::a_lag_far_shorter_than_a_sample_is_held_on_its_bound`);
+/// - its nearest bound: the parameter's effect is spent (a coil lag far shorter than a sample);
 /// - where the search left it.
 fn where_to_hold(prob: &Problem<'_>, k: usize, z_init: f64, sse: f64) -> (f64, String, usize) {
     let spec = &prob.model.param_specs()[k];
@@ -1077,12 +1052,10 @@ fn where_to_hold(prob: &Problem<'_>, k: usize, z_init: f64, sse: f64) -> (f64, S
     (prob.z[k], note.into(), 2)
 }
 
-/// Whether the data pull a parameter that sits on a bound back inside: for each of `stuck`, the residual's
-/// sensitivity to the parameter itself (a forward difference inwards of a thousandth of its data-derived
-/// initial guess, `guess`, or of its bounds' span where the guess is 0) gives the Gauss–Newton step in it
-/// alone; the parameter whose step points inside and promises most is moved there, or a half, a quarter, an
-/// eighth of the way. Returns the search vector to refit from when that lowers the loss `sse` by
-/// more than 10⁻⁴ of it (else `None`), and the simulations spent.
+/// Whether the data pull a parameter that sits on a bound back inside: for each of `stuck`, a forward
+/// difference inwards gives the Gauss–Newton step in it alone; the one whose step points inside and promises
+/// most is moved there, or a half, a quarter, an eighth of the way. Returns the search vector to refit from
+/// when that lowers the loss `sse` by more than 10⁻⁴ of it (else `None`), and the simulations spent.
 fn step_off_bound(prob: &Problem<'_>, stuck: &[usize], guess: &[f64], sse: f64) -> (Option<Vec<f64>>, usize) {
     let specs = prob.model.param_specs();
     let params = prob.params_of(&prob.z);
@@ -1564,16 +1537,8 @@ mod tests {
         for (k, inp) in inputs.iter_mut().enumerate() {
             inp.current_cmd_a = [0.0, 14.0, 3.5, 10.5, 7.0][(k / 250) % 5];
         }
-        vec![Test {
-            path: "stepped.csv".into(),
-            name: "stepped.csv".into(),
-            group: "stepped".into(),
-            f_n: model.simulate(&TRUTH, &inputs),
-            inputs,
-            velocity_measured: true,
-            velocity_noise_m_s: None,
-            drive: None,
-        }]
+        let f_n = model.simulate(&TRUTH, &inputs);
+        vec![Test::synthetic("stepped.csv", "stepped", inputs, f_n)]
     }
 
     #[test]
@@ -1629,16 +1594,7 @@ mod tests {
                     .iter()
                     .map(|f| scale * f)
                     .collect();
-                Test {
-                    path: format!("{name}.csv").into(),
-                    name: format!("{name}.csv"),
-                    group: name.into(),
-                    f_n,
-                    inputs,
-                    velocity_measured: true,
-                    velocity_noise_m_s: None,
-                    drive: None,
-                }
+                Test::synthetic(&format!("{name}.csv"), name, inputs, f_n)
             })
             .collect()
     }
@@ -1829,16 +1785,8 @@ mod tests {
             .iter()
             .map(|&(a, f, i)| {
                 let inputs = crate::device::effects::testkit::sine(a, f, i, 1e-3, 2.0);
-                Test {
-                    path: "two.csv".into(),
-                    name: "two.csv".into(),
-                    group: format!("{f}"),
-                    f_n: model.simulate(&truth, &inputs),
-                    inputs,
-                    velocity_measured: true,
-                    velocity_noise_m_s: None,
-                    drive: None,
-                }
+                let f_n = model.simulate(&truth, &inputs);
+                Test::synthetic("two.csv", &format!("{f}"), inputs, f_n)
             })
             .collect();
         let spans = all_spans(&tests);

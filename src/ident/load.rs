@@ -8,7 +8,6 @@ use std::path::PathBuf;
 use rayon::prelude::*;
 
 use super::{acquisition, IdentError, Test};
-use crate::device::params::TestSignals;
 use crate::device::{DataStats, Inputs};
 use crate::measurement::Measurement;
 use crate::signal::{quintic_derivative_weights, white_noise_std_on, widest_unbiased_derivative};
@@ -31,23 +30,10 @@ fn channels<'a>(ms: &[&'a Measurement]) -> Vec<acquisition::Channels<'a>> {
         .collect()
 }
 
-/// Whether the measurements `ms` (tests of one protocol) show the comb of a moving average of `window`
-/// samples, predicted for them ([`acquisition::confirm_moving_average`]).
-fn confirm_filter(ms: &[&Measurement], window: usize) -> Option<acquisition::MovingAverage> {
-    acquisition::confirm_moving_average(&channels(ms), window)
-}
-
-/// Whether the seed paper's model (`bingham`, fitted to the measurements `ms` of one protocol) follows the
-/// measured force more closely through `through` (the same measurements read with a filter undone) than
-/// with the files read as logged. A comb in the
-/// spectra is a hypothesis about the acquisition chain, and a drive that is smooth by design has one of
-/// its own: a triangle wave's corners rounded over a share of its period put a comb of zeros in its
-/// displacement at that share, with no filter anywhere. Undoing a filter that is not there drives the
-/// model with a motion that never happened (on such triangles the diagnosis ended at 48 times the noise
-/// floor), so a filter found in a protocol's own spectra is taken only where the data agree with it. A
-/// window predicted from the share of the period that other protocols' filters span is not judged again:
-/// two protocols' filters agreeing on one share are evidence of their own, and on a short test the
-/// model's own misfit can outweigh a filter of a few samples.
+/// Whether `bingham`, fitted to the measurements `ms` of one protocol, follows the measured force more
+/// closely through `through` (the same measurements with a filter undone) than as logged. A comb in the
+/// spectra is only a hypothesis: a drive smooth by design (a triangle's rounded corners) has one of its own,
+/// and undoing a filter that is not there drives the model with a motion that never happened.
 fn undoing_fits_better(ms: &[&Measurement], through: &[Test]) -> bool {
     use crate::device::{Base, Model, ModelSpec, Registry, PAPER_CURRENT_LIMIT_A};
     let spec = ModelSpec {
@@ -64,12 +50,9 @@ fn undoing_fits_better(ms: &[&Measurement], through: &[Test]) -> bool {
     rmse(through) < rmse(&as_logged)
 }
 
-/// The model's drive for a file whose displacement and force went through the moving average `filter`:
-/// the displacement before the filter
-/// ([`acquisition::deconvolve_moving_average`]), with `window − 1` samples before the first, on the file's
-/// clock extended backwards; velocity and acceleration derived from it as for a file without them
-/// ([`inputs_and_velocity_noise`]: a velocity or acceleration column went through the filter too); the
-/// current command of the first sample over the lead-in.
+/// The model's drive for a file whose displacement and force went through the moving average `filter`: the
+/// displacement before the filter with `window − 1` samples before the first (on the clock extended
+/// backwards), its derivatives as for a file without them, the first current command over the lead-in.
 pub(crate) fn drive_of(m: &Measurement, filter: acquisition::MovingAverage) -> Option<acquisition::Drive> {
     let lead = filter.window - 1;
     let dt = crate::signal::uniform_interval(&m.t_s)?;
@@ -111,12 +94,10 @@ pub fn inputs_of(m: &Measurement) -> Vec<Inputs> {
 
 /// [`inputs_of`], and the noise standard deviation of the velocity when it was derived here.
 ///
-/// A missing velocity is derived from the displacement, and the displacement smoothed, by the widest
-/// local quintic that leaves the signal unbent (`widest_unbiased_derivative`): the file reader's
-/// 7-sample differentiator is too noisy at high sample rates. A missing acceleration comes from the
-/// measured velocity once or the displacement twice, whichever route is quieter (each signal's white noise
-/// carried through the differentiator's weights): a noisy acceleration hides `inertia` (errors in the
-/// variables). Everything on the file's own time grid, even or not (`docs/explanation/ident.md`).
+/// A missing velocity is derived from the displacement, and the displacement smoothed, by the widest local
+/// quintic that leaves the signal unbent (`widest_unbiased_derivative`); a missing acceleration from the
+/// measured velocity once or the displacement twice, whichever is quieter (a noisy acceleration hides
+/// `inertia`). Everything on the file's own time grid (`docs/explanation/ident.md`).
 pub fn inputs_and_velocity_noise(m: &Measurement) -> (Vec<Inputs>, Option<Vec<f64>>) {
     let mut inputs = m.inputs();
     if m.len() < 32 {
@@ -226,11 +207,9 @@ pub fn tests_from(ms: &[Measurement]) -> Vec<Test> {
     tests_predicting(ms, None).0
 }
 
-/// [`tests_from`], and where a protocol's tests do not show a filter themselves, the window that a share
-/// of the drive period predicts for them is checked in their spectra (`acquisition::confirm_moving_average`):
-/// the share found across the protocols that do show theirs (`acquisition::window_law`), else `share`
-/// (one saved with a model, `PARAMS.json`'s `acquisition_window_periods`). Returns the tests and the share
-/// found in these measurements, if any.
+/// [`tests_from`], and where a protocol's tests do not show a filter themselves, the window predicted by the
+/// share of the drive period found across the protocols that do (`acquisition::window_law`), else by
+/// `share` (saved with a model), is checked in their spectra. Returns the tests and the share found, if any.
 pub(crate) fn tests_predicting(ms: &[Measurement], share: Option<f64>) -> (Vec<Test>, Option<f64>) {
     let mut protocols: Vec<(ProtocolKey, Vec<usize>)> = Vec::new();
     for (k, m) in ms.iter().enumerate() {
@@ -274,7 +253,9 @@ pub(crate) fn tests_predicting(ms: &[Measurement], share: Option<f64>) -> (Vec<T
             let share = law.or(share)?;
             let window = (share * key.period / key.interval?).round();
             (window >= 2.0 && window.is_finite())
-                .then(|| confirm_filter(&measurements_of(members), window as usize))
+                .then(|| {
+                    acquisition::confirm_moving_average(&channels(&measurements_of(members)), window as usize)
+                })
                 .flatten()
         });
         for &k in members {
@@ -457,31 +438,7 @@ fn protocol_key(m: &Measurement) -> ProtocolKey {
 
 /// Statistics the elements derive their initial guesses from.
 pub fn data_stats(tests: &[Test]) -> DataStats {
-    let cols: Vec<[Vec<f64>; 5]> = tests
-        .iter()
-        .map(|t| {
-            [
-                t.inputs.iter().map(|i| i.t_s).collect(),
-                t.inputs.iter().map(|i| i.x_m).collect(),
-                t.inputs.iter().map(|i| i.v_m_s).collect(),
-                t.inputs.iter().map(|i| i.a_m_s2).collect(),
-                t.inputs.iter().map(|i| i.current_cmd_a).collect(),
-            ]
-        })
-        .collect();
-    let sig: Vec<TestSignals<'_>> = cols
-        .iter()
-        .zip(tests)
-        .map(|(c, t)| TestSignals {
-            t_s: &c[0],
-            x_m: &c[1],
-            v_m_s: &c[2],
-            a_m_s2: &c[3],
-            i_a: &c[4],
-            f_n: &t.f_n,
-        })
-        .collect();
-    DataStats::from_tests(&sig)
+    super::fit::span_stats(tests, &super::fit::all_spans(tests))
 }
 
 /// Driver saturation to build models with when the user gives none: the paper's 14 A, or the largest

@@ -81,14 +81,11 @@ pub struct Test {
     pub f_n: Vec<f64>,
     /// Whether the velocity was logged (else derived from the displacement).
     pub velocity_measured: bool,
-    /// Noise standard deviation, at each sample, of a velocity derived here from the displacement (the
-    /// displacement's noise through the differentiator used at that sample, see [`inputs_of`]: the centred
-    /// window inside, the noisier off-centre ones at the ends), m/s; `None`: estimated from the data by
-    /// `residual::velocity_noise_std`.
+    /// Noise standard deviation, at each sample, of a velocity derived here from the displacement (through
+    /// the differentiator used at that sample, see [`inputs_of`]), m/s; `None`: estimated from the data.
     pub velocity_noise_m_s: Option<Vec<f64>>,
-    /// When the file's displacement and force went through a moving average before they were logged: the
-    /// motion before it, which drives the model, and the window the model's force goes through before it
-    /// is compared ([`acquisition`]). `None`: the model is driven by [`Test::inputs`] and compared as it is.
+    /// When the file went through a moving average before it was logged: the motion before it, which drives
+    /// the model, and the window the model's force goes through ([`acquisition`]). `None`: as logged.
     pub drive: Option<acquisition::Drive>,
 }
 
@@ -156,5 +153,20 @@ impl Test {
     /// Whether the test has no samples.
     pub fn is_empty(&self) -> bool {
         self.f_n.is_empty()
+    }
+
+    /// A synthetic test with a measured velocity, file `name` of group `group`.
+    #[cfg(test)]
+    pub(crate) fn synthetic(name: &str, group: &str, inputs: Vec<Inputs>, f_n: Vec<f64>) -> Self {
+        Self {
+            path: name.into(),
+            name: name.into(),
+            group: group.into(),
+            inputs,
+            f_n,
+            velocity_measured: true,
+            velocity_noise_m_s: None,
+            drive: None,
+        }
     }
 }

@@ -21,35 +21,32 @@ fn e2s<E: std::fmt::Display>(e: E) -> IdentError {
     IdentError::Other(format!("plot: {e}"))
 }
 
-/// Draw the same figure into `NAME.png` and `NAME.svg`, each whole or not at all
+/// Draw a figure through `$backend` into the file `$path`, whole or not at all
 /// ([`crate::outputs::write_whole`]).
+macro_rules! draw_to {
+    ($backend:ident, $path:expr, $size:expr, |$root:ident| $body:expr) => {
+        crate::outputs::write_whole(
+            &$path,
+            |tmp| -> Result<(), IdentError> {
+                let $root = $backend::new(tmp, $size).into_drawing_area();
+                $root.fill(&WHITE).map_err(e2s)?;
+                $body?;
+                $root.present().map_err(e2s)
+            },
+            e2s,
+        )?
+    };
+}
+
+/// Draw the same figure into `NAME.png` and `NAME.svg` and list both in `$out`.
 macro_rules! both {
     ($dir:expr, $name:expr, $size:expr, $out:expr, |$root:ident| $body:expr) => {{
         font();
         let png = $dir.join(format!("{}.png", $name));
-        crate::outputs::write_whole(
-            &png,
-            |tmp| -> Result<(), IdentError> {
-                let $root = BitMapBackend::new(tmp, $size).into_drawing_area();
-                $root.fill(&WHITE).map_err(e2s)?;
-                $body?;
-                $root.present().map_err(e2s)
-            },
-            e2s,
-        )?;
+        draw_to!(BitMapBackend, png, $size, |$root| $body);
         let svg = $dir.join(format!("{}.svg", $name));
-        crate::outputs::write_whole(
-            &svg,
-            |tmp| -> Result<(), IdentError> {
-                let $root = SVGBackend::new(tmp, $size).into_drawing_area();
-                $root.fill(&WHITE).map_err(e2s)?;
-                $body?;
-                $root.present().map_err(e2s)
-            },
-            e2s,
-        )?;
-        $out.push(png);
-        $out.push(svg);
+        draw_to!(SVGBackend, svg, $size, |$root| $body);
+        $out.extend([png, svg]);
     }};
 }
 
@@ -105,28 +102,18 @@ fn draw_panels<DB: DrawingBackend>(
             .draw()
             .map_err(e2s)?;
         for (k, color) in [(1usize, RGBColor(90, 90, 90)), (2usize, RGBColor(220, 40, 30))] {
-            let mut seg: Vec<(f64, f64)> = Vec::new();
-            let mut segs = Vec::new();
-            for q in &p.pts {
-                if q.0.is_nan() {
-                    segs.push(std::mem::take(&mut seg));
-                    continue;
-                }
-                seg.push((q.0, if k == 1 { q.1 } else { q.2 }));
-            }
-            segs.push(seg);
-            let mut first = true;
-            for s in segs {
+            // One line per stretch between the NaN breaks.
+            for (i, s) in p.pts.split(|q| q.0.is_nan()).enumerate() {
+                let line = s.iter().map(|q| (q.0, if k == 1 { q.1 } else { q.2 }));
                 let series = chart
-                    .draw_series(LineSeries::new(s, color.stroke_width(1)))
+                    .draw_series(LineSeries::new(line, color.stroke_width(1)))
                     .map_err(e2s)?;
-                if first {
+                if i == 0 {
                     series
                         .label(if k == 1 { "measured" } else { "model" })
                         .legend(move |(x, y)| {
                             PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2))
                         });
-                    first = false;
                 }
             }
         }
@@ -194,6 +181,9 @@ fn panels_by_current(
         .collect()
 }
 
+/// The abscissa of a sample of a test in a panel.
+type Abscissa = fn(&Test, usize) -> f64;
+
 /// Measured vs model plots and residual maps for one model on some tests. Returns the files written.
 pub fn plot_model(
     dir: &Path,
@@ -210,35 +200,37 @@ pub fn plot_model(
     } else {
         format!("{prefix}_")
     };
-    let ft = panels_by_current(tests, pred, |t, k| t.inputs[k].t_s, true);
-    both!(dir, format!("{pfx}force_time"), size, out, |root| draw_panels(
-        &root,
-        &format!("{model}: measured vs model force over time"),
-        "time, s",
-        &ft
-    ));
-    let fx = panels_by_current(tests, pred, |t, k| t.inputs[k].x_m * 1e3, false);
-    both!(dir, format!("{pfx}force_displacement"), size, out, |root| {
-        draw_panels(
-            &root,
-            &format!("{model}: force vs displacement"),
+    // Measured vs model force over time (the test with most samples at each current), displacement, velocity.
+    let views: [(&str, Abscissa, bool, &str, &str); 3] = [
+        (
+            "force_time",
+            |t, k| t.inputs[k].t_s,
+            true,
+            "measured vs model force over time",
+            "time, s",
+        ),
+        (
+            "force_displacement",
+            |t, k| t.inputs[k].x_m * 1e3,
+            false,
+            "force vs displacement",
             "displacement, mm",
-            &fx,
-        )
-    });
-    let fv = panels_by_current(tests, pred, |t, k| t.inputs[k].v_m_s, false);
-    both!(
-        dir,
-        format!("{pfx}force_velocity"),
-        size,
-        out,
-        |root| draw_panels(
-            &root,
-            &format!("{model}: force vs velocity"),
+        ),
+        (
+            "force_velocity",
+            |t, k| t.inputs[k].v_m_s,
+            false,
+            "force vs velocity",
             "velocity, m/s",
-            &fv
-        )
-    );
+        ),
+    ];
+    for (name, x_of, one_test, what, xlabel) in views {
+        let panels = panels_by_current(tests, pred, x_of, one_test);
+        let caption = format!("{model}: {what}");
+        both!(dir, format!("{pfx}{name}"), size, out, |root| draw_panels(
+            &root, &caption, xlabel, &panels
+        ));
+    }
     let hm = heatmap(tests, pred, 12);
     both!(dir, format!("{pfx}residual_heatmap"), (1000, 600), out, |root| {
         draw_heatmap(&root, model, &hm)

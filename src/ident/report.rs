@@ -5,7 +5,8 @@ use std::fmt::Write as _;
 
 use serde::Serialize;
 
-use super::diagnose::{BaseTried, Candidate, Diagnosis};
+use super::diagnose::{BaseTried, Candidate, Diagnosis, Discovered, StepResult};
+use super::discover::Verdict;
 use super::fit::FitResult;
 use super::residual::{direction_weights, where_regions, Region};
 use super::validate::{figures, Figures};
@@ -171,19 +172,24 @@ impl FitJson {
                 force(f.rmse_n)
             );
         }
-        if !self.r#where.is_empty() {
-            let _ = writeln!(s, "\nwhere the error is:");
-            for r in &self.r#where {
-                let _ = writeln!(
-                    s,
-                    "  {:<44} {:>5.1} % of the squared error, RMSE {} N",
-                    r.region,
-                    100.0 * r.share_of_error,
-                    force(r.rmse_n)
-                );
-            }
-        }
+        region_rows(&mut s, "where the error is", &self.r#where);
         s
+    }
+}
+
+/// The regions under a heading, one row each; nothing without regions.
+fn region_rows(s: &mut String, heading: &str, regions: &[Region]) {
+    if !regions.is_empty() {
+        let _ = writeln!(s, "\n{heading}:");
+    }
+    for r in regions {
+        let _ = writeln!(
+            s,
+            "  {:<44} {:>5.1} % of the squared error, RMSE {} N",
+            r.region,
+            100.0 * r.share_of_error,
+            force(r.rmse_n)
+        );
     }
 }
 
@@ -207,33 +213,6 @@ pub struct BaseJson {
     pub heldout_nrmse: f64,
 }
 
-/// One effect tried in `candidates`.
-#[derive(Debug, Clone, Serialize)]
-pub struct CandidateJson {
-    /// Effect name.
-    pub effect: String,
-    /// Held-out NRMSE of the model with the effect.
-    pub heldout_nrmse: f64,
-    /// 1 − held-out NRMSE / the held-out NRMSE of the model it extends.
-    pub improvement: f64,
-    /// Whether the improvement passed the significance test over the folds.
-    pub significant: bool,
-    /// The signature in the residual that suggested the effect, in words.
-    pub evidence: String,
-}
-
-impl CandidateJson {
-    fn new(c: &Candidate) -> Self {
-        Self {
-            effect: c.effect.clone(),
-            heldout_nrmse: c.heldout_nrmse,
-            improvement: c.improvement,
-            significant: c.significant,
-            evidence: c.evidence.clone(),
-        }
-    }
-}
-
 /// `final`: the model the diagnosis ends with.
 #[derive(Debug, Clone, Serialize)]
 pub struct FinalJson {
@@ -241,18 +220,6 @@ pub struct FinalJson {
     pub model: String,
     /// Its held-out NRMSE.
     pub heldout_nrmse: f64,
-}
-
-/// One step of the search.
-#[derive(Debug, Clone, Serialize)]
-pub struct StepJson {
-    /// Model spec at this step.
-    pub model: String,
-    /// Its held-out NRMSE.
-    pub heldout_nrmse: f64,
-    /// Pairs of effects tried from this model because no effect alone was significant.
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub pairs: Vec<CandidateJson>,
 }
 
 /// `diagnose --json`: the contract's keys, then a few extra ones (`steps`, `cross_validation`,
@@ -268,14 +235,14 @@ pub struct DiagnoseJson {
     /// Where in the motion the starting model's error concentrates.
     pub r#where: Vec<Region>,
     /// Effects tried on the starting model, best first.
-    pub candidates: Vec<CandidateJson>,
+    pub candidates: Vec<Candidate>,
     /// Effects the diagnosis adds, in the order added (empty: the residual is noise).
     pub missing: Vec<String>,
     /// The final model.
     #[serde(rename = "final")]
     pub final_: FinalJson,
     /// Every step of the search.
-    pub steps: Vec<StepJson>,
+    pub steps: Vec<StepResult>,
     /// How the data was split for held-out errors.
     pub cross_validation: String,
     /// Held-out NRMSE the measurement noise alone would give.
@@ -283,44 +250,12 @@ pub struct DiagnoseJson {
     /// Effects removed at the end because dropping them did not raise the held-out error.
     pub pruned: Vec<String>,
     /// Terms outside the vocabulary the diagnosis added, in the order added.
-    pub discovered: Vec<DiscoveredJson>,
+    pub discovered: Vec<Discovered>,
     /// Present only when the final model's held-out residual is structure, not noise.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub unexplained: Option<UnexplainedJson>,
+    pub unexplained: Option<Verdict>,
     /// The bases tried, with their held-out figures; `chosen` marks the one the diagnosis carried on from.
     pub bases_tried: Vec<BaseTried>,
-}
-
-/// One entry of `discovered`.
-#[derive(Debug, Clone, Serialize)]
-pub struct DiscoveredJson {
-    /// The term's name, as `--save-effect` writes it.
-    pub name: String,
-    /// The term's formula in the motion and current signals.
-    pub formula: String,
-    /// The signals the formula uses.
-    pub features: Vec<String>,
-    /// Held-out NRMSE of the model with the term.
-    pub heldout_nrmse: f64,
-    /// 1 − held-out NRMSE / the held-out NRMSE of the model it extends.
-    pub improvement: f64,
-    /// The known effect the term looks like, in words (empty if none).
-    pub resembles: String,
-}
-
-/// `unexplained`: what is left when it is structure.
-#[derive(Debug, Clone, Serialize)]
-pub struct UnexplainedJson {
-    /// Held-out NRMSE of the final model.
-    pub heldout_nrmse: f64,
-    /// Held-out NRMSE the measurement noise alone would give.
-    pub floor_nrmse: f64,
-    /// Share of the held-out residual the signals predict (structure, not noise).
-    pub predictable_share: f64,
-    /// Where in the motion the residual concentrates.
-    pub r#where: Vec<Region>,
-    /// Signals whose inputs alone predict at least a fifth of the predictable residual.
-    pub correlates_with: Vec<String>,
 }
 
 impl DiagnoseJson {
@@ -335,43 +270,18 @@ impl DiagnoseJson {
                 heldout_nrmse: d.base_heldout_nrmse,
             },
             r#where: d.where_.clone(),
-            candidates: d.candidates.iter().map(CandidateJson::new).collect(),
+            candidates: d.candidates.clone(),
             missing: d.missing.clone(),
             final_: FinalJson {
                 model: d.final_model.clone(),
                 heldout_nrmse: d.final_heldout_nrmse,
             },
-            steps: d
-                .steps
-                .iter()
-                .map(|s| StepJson {
-                    model: s.model.clone(),
-                    heldout_nrmse: s.heldout_nrmse,
-                    pairs: s.pairs.iter().map(CandidateJson::new).collect(),
-                })
-                .collect(),
+            steps: d.steps.clone(),
             cross_validation: d.cv_scheme.clone(),
             noise_floor_nrmse: d.noise_floor_nrmse,
             pruned: d.pruned.clone(),
-            discovered: d
-                .discovered
-                .iter()
-                .map(|t| DiscoveredJson {
-                    name: t.name.clone(),
-                    formula: t.formula.clone(),
-                    features: t.features.clone(),
-                    heldout_nrmse: t.heldout_nrmse,
-                    improvement: t.improvement,
-                    resembles: t.resembles.clone(),
-                })
-                .collect(),
-            unexplained: d.unexplained().map(|v| UnexplainedJson {
-                heldout_nrmse: v.heldout_nrmse,
-                floor_nrmse: v.floor_nrmse,
-                predictable_share: v.predictable_share,
-                r#where: v.where_.clone(),
-                correlates_with: v.correlates_with.iter().map(|c| c.0.clone()).collect(),
-            }),
+            discovered: d.discovered.clone(),
+            unexplained: d.unexplained().cloned(),
             bases_tried: d.bases.clone(),
         }
     }
@@ -437,18 +347,7 @@ pub fn diagnose_table(d: &Diagnosis) -> String {
             tried.join("; ")
         );
     }
-    if !d.where_.is_empty() {
-        let _ = writeln!(s, "\nwhere {} fails:", d.base_model);
-        for r in &d.where_ {
-            let _ = writeln!(
-                s,
-                "  {:<44} {:>5.1} % of the squared error, RMSE {} N",
-                r.region,
-                100.0 * r.share_of_error,
-                force(r.rmse_n)
-            );
-        }
-    }
+    region_rows(&mut s, &format!("where {} fails", d.base_model), &d.where_);
     for st in &d.steps {
         if st.candidates.is_empty() {
             continue;

@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use rerun::{Points2D, RecordingStreamBuilder, Scalars, TimeColumn};
+use rerun::{Points2D, RecordingStream, RecordingStreamBuilder, Scalars, TimeColumn};
 
 use super::{IdentError, Test};
 
@@ -58,66 +58,50 @@ fn record_into(
     }
     for (j, t) in tests.iter().enumerate() {
         let base = format!("tests/{}", ent(&t.name));
-        let times = || TimeColumn::new_duration_secs("t", t.inputs.iter().map(|i| i.t_s));
-        rec.send_columns(
-            format!("{base}/force/measured"),
-            [times()],
-            Scalars::new(t.f_n.iter().copied())
-                .columns_of_unit_batches()
-                .map_err(rr)?,
-        )
-        .map_err(rr)?;
-        rec.send_columns(
+        series(&rec, format!("{base}/force/measured"), t, t.f_n.iter().copied())?;
+        series(
+            &rec,
             format!("{base}/current_a"),
-            [times()],
-            Scalars::new(t.inputs.iter().map(|i| i.current_cmd_a))
-                .columns_of_unit_batches()
-                .map_err(rr)?,
-        )
-        .map_err(rr)?;
-        let fv: Vec<(f32, f32)> = t
-            .inputs
-            .iter()
-            .zip(&t.f_n)
-            .map(|(i, f)| (i.v_m_s as f32, *f as f32))
-            .collect();
-        rec.log_static(
-            format!("{base}/force_velocity/measured"),
-            &Points2D::new(fv).with_radii([0.5f32]),
-        )
-        .map_err(rr)?;
+            t,
+            t.inputs.iter().map(|i| i.current_cmd_a),
+        )?;
+        cloud(&rec, format!("{base}/force_velocity/measured"), t, &t.f_n)?;
         for (label, pred) in models {
-            let p = &pred[j];
-            let l = ent(label);
-            rec.send_columns(
-                format!("{base}/force/{l}"),
-                [times()],
-                Scalars::new(p.iter().copied())
-                    .columns_of_unit_batches()
-                    .map_err(rr)?,
-            )
-            .map_err(rr)?;
-            rec.send_columns(
+            let (p, l) = (&pred[j], ent(label));
+            series(&rec, format!("{base}/force/{l}"), t, p.iter().copied())?;
+            series(
+                &rec,
                 format!("{base}/residual/{l}"),
-                [times()],
-                Scalars::new(p.iter().zip(&t.f_n).map(|(m, f)| m - f))
-                    .columns_of_unit_batches()
-                    .map_err(rr)?,
-            )
-            .map_err(rr)?;
-            let fv: Vec<(f32, f32)> = t
-                .inputs
-                .iter()
-                .zip(p)
-                .map(|(i, f)| (i.v_m_s as f32, *f as f32))
-                .collect();
-            rec.log_static(
-                format!("{base}/force_velocity/{l}"),
-                &Points2D::new(fv).with_radii([0.5f32]),
-            )
-            .map_err(rr)?;
+                t,
+                p.iter().zip(&t.f_n).map(|(m, f)| m - f),
+            )?;
+            cloud(&rec, format!("{base}/force_velocity/{l}"), t, p)?;
         }
     }
     rec.flush_blocking().map_err(rr)?;
     Ok(())
+}
+
+/// A time series over the test's samples (timeline `t`).
+fn series(
+    rec: &RecordingStream,
+    path: String,
+    t: &Test,
+    values: impl Iterator<Item = f64>,
+) -> Result<(), IdentError> {
+    let times = TimeColumn::new_duration_secs("t", t.inputs.iter().map(|i| i.t_s));
+    let scalars = Scalars::new(values).columns_of_unit_batches().map_err(rr)?;
+    rec.send_columns(path, [times], scalars).map_err(rr)
+}
+
+/// The force–velocity cloud of a force over the test's samples.
+fn cloud(rec: &RecordingStream, path: String, t: &Test, force: &[f64]) -> Result<(), IdentError> {
+    let fv: Vec<(f32, f32)> = t
+        .inputs
+        .iter()
+        .zip(force)
+        .map(|(i, f)| (i.v_m_s as f32, *f as f32))
+        .collect();
+    rec.log_static(path, &Points2D::new(fv).with_radii([0.5f32]))
+        .map_err(rr)
 }

@@ -479,19 +479,10 @@ pub(crate) fn noise_floor_n(tests: &[Test]) -> f64 {
 pub(crate) const DIRECTION_SIGMAS: f64 = 4.0;
 
 /// Weight of each sample of a test in a fit's loss and a held-out score: 0 where the velocity the model is
-/// given (measured or derived) is within `DIRECTION_SIGMAS` noise standard deviations of zero, 1 elsewhere.
-///
-/// Why: every model of the vocabulary takes the direction of the yield force from the sign of the velocity
-/// (Eq. 2) or from the displacement (hysteresis). Where the measured velocity is closer to zero than its
-/// noise, its sign is a coin toss: a model evaluated on it predicts `±Fy` at random while the device felt
-/// the true direction, a residual of `2 Fy` that no physical effect explains and that the data cannot
-/// determine. Left in, these few samples (a millisecond or two per reversal) dominate the residual of a
-/// correct model with noisy velocity, and any effect that happens to soften the reversal (hysteresis driven
-/// by displacement, inertia) removes part of them consistently and looks significant. Taken out, the
-/// residual of a correct model is the load-cell noise again. The noise of the velocity is estimated from
-/// the data (`velocity_noise_std`), so noise-free velocity loses almost no samples.
-///
-/// Samples where the force channel is stuck at a rail (`ident::clipping`) weigh 0 too.
+/// given is within `DIRECTION_SIGMAS` noise standard deviations of zero, or the force is stuck at a rail
+/// (`ident::clipping`), 1 elsewhere. Why: the models take the yield force's direction from the sign of the
+/// velocity; where that sign is a coin toss, a residual of `2 Fy` no effect explains would dominate the
+/// residual of a correct model, and any effect that softens the reversal would look significant.
 pub fn direction_weights(t: &Test) -> Vec<f64> {
     let mut w = sign_weights(t);
     for (w, c) in w.iter_mut().zip(super::clipping::unclipped(&t.f_n)) {
@@ -519,12 +510,8 @@ fn sign_weights(t: &Test) -> Vec<f64> {
 }
 
 /// Standard deviation of the noise in the velocity a test's model is given: [`Test::velocity_noise_m_s`]
-/// when the velocity was derived with a known differentiator; else a measured velocity carries its
-/// transducer's white noise ([`crate::signal::white_noise_std`]). A velocity derived from the displacement
-/// ([`smooth_derivative`]) is smooth, so differences of it do not show its noise,
-/// which is still there at low frequencies (a slowly wandering error, as uncertain in sign near `v = 0`):
-/// it is the displacement's white noise times the differentiator's noise gain, the root-sum-square of its
-/// response to a unit impulse on the test's own time grid.
+/// when known; a measured velocity's white noise; or, for one derived by [`smooth_derivative`] (whose
+/// differences hide its noise), the displacement's white noise times the differentiator's noise gain.
 pub(crate) fn velocity_noise_std(t: &Test) -> f64 {
     if let Some(sd) = t.velocity_noise_m_s.as_ref().filter(|sd| !sd.is_empty()) {
         // Inside the test, where the centred window is used.
@@ -574,16 +561,7 @@ mod tests {
                 ..Default::default()
             })
             .collect();
-        Test {
-            path: "t.csv".into(),
-            name: "t.csv".into(),
-            group: "t".into(),
-            inputs,
-            f_n: f,
-            velocity_measured: true,
-            velocity_noise_m_s: None,
-            drive: None,
-        }
+        Test::synthetic("t.csv", "t", inputs, f)
     }
 
     #[test]

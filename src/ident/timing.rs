@@ -1,14 +1,11 @@
-//! When a logged current command takes effect: after its own sample, or at it.
-//!
-//! A row pairs the sensors read at `t_k` with the command logged at `t_k`, and nothing in the file says how:
+//! When a logged current command takes effect. A row pairs the sensors read at `t_k` with the command
+//! logged at `t_k`, and nothing in the file says how:
 //! - **after its sample** ([`CommandTiming::AfterSample`], the default): a DAQ loop reads, then writes, so
 //!   the command of row `k` acts over `(t_k, t_{k+1}]` (the paper's rig, `mrfeel mts`);
-//! - **at its sample** ([`CommandTiming::AtSample`]): a programmed step logged where it is already in force;
-//!   the command of row `k` acted over `(t_{k−1}, t_k]`.
+//! - **at its sample** ([`CommandTiming::AtSample`]): the command of row `k` acted over `(t_{k−1}, t_k]`.
 //!
-//! Where the device has no lag of its own, each current step read the wrong way leaves one sample off by the
-//! whole change of the yield force; where the command never changes inside a test both readings are one
-//! model. `auto` fits both ways where some test's command changes and keeps the smaller sum of squares.
+//! Each current step read the wrong way leaves a sample off by the whole change of the yield force. `auto`
+//! fits both ways where some test's command changes and keeps the smaller loss.
 #![warn(missing_docs)]
 
 use super::fit::{all_spans, fit, FitOptions, FitResult};
@@ -129,41 +126,37 @@ impl TimingDecision {
 }
 
 /// Decide the reading for `tests` (as loaded): the one asked for, or under `auto` the one whose fit of
-/// `model` on every sample has the smaller loss ([`super::fit::FitResult::loss`]; after-sample on a tie, and without fitting where
-/// no command changes). Returns the tests as the model reads them.
+/// `model` on every sample has the smaller loss (after-sample on a tie, and without fitting where no command
+/// changes). Returns the tests as the model reads them.
 pub fn decide(
     model: &Model,
     tests: Vec<Test>,
     choice: TimingChoice,
     opts: &FitOptions,
 ) -> (Vec<Test>, TimingDecision) {
-    let fixed = |timing| TimingDecision { timing, fits: None };
-    let decision = match choice {
-        TimingChoice::AfterSample => fixed(CommandTiming::AfterSample),
-        TimingChoice::AtSample => fixed(CommandTiming::AtSample),
-        TimingChoice::Auto if !commands_change(&tests) => fixed(CommandTiming::AfterSample),
+    let timing = match choice {
+        TimingChoice::AfterSample => CommandTiming::AfterSample,
+        TimingChoice::AtSample => CommandTiming::AtSample,
+        TimingChoice::Auto if !commands_change(&tests) => CommandTiming::AfterSample,
         TimingChoice::Auto => {
-            let at = retimed(tests.clone(), CommandTiming::AtSample);
             let spans = all_spans(&tests);
             let fa = fit(model, &tests, &spans, opts);
-            let fb = fit(model, &at, &spans, opts);
-            if fb.loss < fa.loss {
-                let fits = Some((fa, fb));
-                return (
-                    at,
-                    TimingDecision {
-                        timing: CommandTiming::AtSample,
-                        fits,
-                    },
-                );
-            }
-            TimingDecision {
-                timing: CommandTiming::AfterSample,
-                fits: Some((fa, fb)),
-            }
+            let fb = fit(
+                model,
+                &retimed(tests.clone(), CommandTiming::AtSample),
+                &spans,
+                opts,
+            );
+            let timing = if fb.loss < fa.loss {
+                CommandTiming::AtSample
+            } else {
+                CommandTiming::AfterSample
+            };
+            let fits = Some((fa, fb));
+            return (retimed(tests, timing), TimingDecision { timing, fits });
         }
     };
-    (retimed(tests, decision.timing), decision)
+    (retimed(tests, timing), TimingDecision { timing, fits: None })
 }
 
 #[cfg(test)]
@@ -203,16 +196,7 @@ mod tests {
             let cmd = inputs[next].current_cmd_a;
             ic = cmd + (ic - cmd) * decay;
         }
-        vec![Test {
-            path: "steps.csv".into(),
-            name: "steps.csv".into(),
-            group: "steps".into(),
-            f_n,
-            inputs,
-            velocity_measured: true,
-            velocity_noise_m_s: None,
-            drive: None,
-        }]
+        vec![Test::synthetic("steps.csv", "steps", inputs, f_n)]
     }
 
     fn lag_free(at_sample: bool, seed: u64) -> Vec<Test> {

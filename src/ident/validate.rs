@@ -26,20 +26,6 @@ pub struct Figures {
 }
 
 impl Figures {
-    /// The figures of `model_n` against `measured_n`, N.
-    pub fn of(model_n: &[f64], measured_n: &[f64]) -> Self {
-        let mut f = Figures {
-            samples: model_n.len(),
-            ..Default::default()
-        };
-        for (m, y) in model_n.iter().zip(measured_n) {
-            let r = m - y;
-            f.sse += if r.is_finite() { r * r } else { f64::INFINITY };
-            f.f_ss += y * y;
-        }
-        f
-    }
-
     /// Figures over the samples with a non-zero weight only (see
     /// [`super::residual::direction_weights`]).
     pub fn of_weighted(model_n: &[f64], measured_n: &[f64], weights: &[f64]) -> Self {
@@ -61,6 +47,13 @@ impl Figures {
         self.samples += o.samples;
         self.sse += o.sse;
         self.f_ss += o.f_ss;
+    }
+
+    /// The figures of all of `figs`, added in order.
+    pub fn total(figs: &[Figures]) -> Figures {
+        let mut t = Figures::default();
+        figs.iter().for_each(|f| t.add(f));
+        t
     }
 
     /// RMS force error, N.
@@ -87,10 +80,7 @@ pub fn figures(pred: &[Vec<f64>], tests: &[Test]) -> (Vec<Figures>, Figures) {
         .zip(tests)
         .map(|(p, t)| Figures::of_weighted(p, &t.f_n, &super::clipping::unclipped(&t.f_n)))
         .collect();
-    let mut tot = Figures::default();
-    for f in &per {
-        tot.add(f);
-    }
+    let tot = Figures::total(&per);
     (per, tot)
 }
 
@@ -159,16 +149,7 @@ mod trust_tests {
                 current_cmd_a: if k == 7 { 1e300 } else { 1.0 },
             })
             .collect();
-        let t = Test {
-            path: "probe.csv".into(),
-            name: "probe.csv".into(),
-            group: "g".into(),
-            inputs,
-            f_n: vec![10.0; 20],
-            velocity_measured: true,
-            velocity_noise_m_s: None,
-            drive: None,
-        };
+        let t = Test::synthetic("probe.csv", "g", inputs, vec![10.0; 20]);
         let mut pred = vec![vec![10.5; 20]];
         pred[0][7] = f64::INFINITY;
         let (_, total) = figures(&pred, std::slice::from_ref(&t));
