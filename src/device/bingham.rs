@@ -1,7 +1,6 @@
 //! The seed paper's base model: Bingham plastic force (Eq. 2) whose yield force follows the coil current
 //! through the coil's electrical lag (Eq. 3) and the fluid's lag (Eq. 4), i.e. Eq. (6), behind the current
 //! driver's saturation.
-#![warn(missing_docs)]
 
 use super::effect::{Inputs, Stage};
 use super::lag::{advance_two_lags_in, DecayMemo};

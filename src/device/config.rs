@@ -1,7 +1,6 @@
 //! Device files: the damper's model, parameters, driver and geometry, as a user edits them
 //! (`models/*.toml`) or as `mrfeel fit --save` writes them (`PARAMS.json`). Both load into the same
 //! [`DeviceConfig`], so a fitted model drops straight into the MTS machine or a stick-rig scenario.
-#![warn(missing_docs)]
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

@@ -149,13 +149,7 @@ impl DataStats {
                 nf += 1;
                 f2 += f * f;
                 s.f_max_n = s.f_max_n.max(f.abs());
-                let sg = if v > 0.0 {
-                    1.0
-                } else if v < 0.0 {
-                    -1.0
-                } else {
-                    0.0
-                };
+                let sg = super::bingham::sgn(v);
                 let row = [sg, sg * i, v];
                 for a in 0..3 {
                     atb[a] += row[a] * f;

@@ -3,7 +3,6 @@
 //! `z/zₛ`, a damping `r c0` and an additive force, so effects compose with it as with the Bingham base; the
 //! stiff `z` equation is integrated by Runge–Kutta on substeps set from its Jacobian bound (deterministic on
 //! any thread). Equations and choices: `docs/explanation/damper-models.md`.
-#![warn(missing_docs)]
 
 use super::bingham::saturate;
 use super::effect::{Inputs, Stage, Step};
@@ -129,12 +128,9 @@ pub(crate) const LINEAR_GAINS: [usize; 1] = [K1];
 /// The command filter's time constant: it acts only where the command changes.
 pub(crate) const LAG_PARAMS: [usize; 1] = [TAU];
 
-/// Most RK4 substeps in one sample interval: `λ h` up to 64, a `z` transition 64 times shorter than a
-/// sample, which the samples cannot tell from a faster one. The 1997 device at its highest command needs
-/// 46 at 500 Hz and 23 at 1 kHz.
-/// Parameters stiffer than that give a force the fit rejects as unusable, so a fit that drifts towards an
-/// ever thinner yield transition (as on a record of bristle friction) stops there instead of paying up to
-/// 4096 substeps a sample for a difference the data do not hold.
+/// Most RK4 substeps in one sample interval: a `z` transition 64 times shorter than a sample, which the
+/// samples cannot tell from a faster one (the 1997 device needs 46 at 500 Hz), so a fit drifting towards an
+/// ever thinner yield transition stops paying for a difference the data do not hold.
 const MAX_SUBSTEPS: usize = 64;
 
 /// The bound of `|z|`, `(A/(β+γ))^(1/n)`, or 1 m where `β + γ = 0` (no bound; the direction is then `z`).
@@ -265,18 +261,11 @@ pub fn advance(p: &[f64], s: &mut [f64], inp: &Inputs, limit_a: f64, step: Step)
     s[2] = z;
 }
 
-/// Starting values from the data's linear Bingham estimate: `A = 1`, `n = 2` and `β = γ` with `z`'s bound
-/// at a fiftieth of the largest displacement (the yield transition's travel); `α zₛ` the yield force and its
-/// rise with current, `c0` the post-yield damping, `c1` ten times the yield force over the rms velocity (a
-/// pre-yield slope steep beside the motion), with its rise with current in the yield force's proportion; a
-/// tenth of `c0` per ampere of the largest command; the springs `k0` and `k1` at a tenth and a hundredth of
-/// the yield force (and rms force) over the largest displacement, `x0` at 0; the command filter at a few
-/// sample intervals.
-///
-/// No parameter starts on its bound of 0: the fit searches a logarithm of each (`ident::fit`), where a
-/// start on the bound is a start at its flat end (a parameter there stays at 0), and `x0` moves the force
-/// only through `k1`: from `k1 = 0`, the offset `−k1 x0` was out of reach (a broadband record of a
-/// Spencer damper fitted to 14 times its noise, `k1` and the current's share of `c0` and `c1` left at 0).
+/// Starting values from the data's linear Bingham estimate: `A = 1`, `n = 2`, `β = γ` with `z`'s bound at a
+/// fiftieth of the largest displacement, `α zₛ` the yield force, `c1` ten times the yield force over the rms
+/// velocity, the springs and current gains at small fractions of their scales, the filter at a few samples.
+/// No parameter starts on its bound of 0: the fit searches a logarithm of each (`ident::fit`), where a start
+/// on the bound would stay there.
 pub fn initial_guess(stats: &DataStats) -> Vec<f64> {
     let d = (0.02 * stats.x_max_m).max(1e-6);
     let bg = 1.0 / (d * d);
