@@ -42,6 +42,11 @@ impl ParamSpec {
         }
     }
 
+    /// A parameter every file must give, from 0 up without bound (a gain, a damping, a stiffness).
+    pub const fn non_negative(name: &'static str, unit: &'static str, doc: &'static str) -> Self {
+        Self::new(name, unit, 0.0, f64::INFINITY, doc)
+    }
+
     /// The value that a parameter file without this parameter means (see [`ParamSpec::absent`]).
     pub const fn absent_means(mut self, v: f64) -> Self {
         self.absent = Some(v);

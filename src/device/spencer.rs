@@ -28,32 +28,24 @@ pub const TAU: usize = 13;
 
 /// Parameters, in vector order (SI; the 1997 paper's are in cm and V).
 pub const PARAMS: [ParamSpec; 14] = [
-    ParamSpec::new(
+    ParamSpec::non_negative(
         "spencer_alpha_a_n_per_m",
         "N/m",
-        0.0,
-        f64::INFINITY,
         "Bouc–Wen gain α at zero command (α = αa + αb u)",
     ),
-    ParamSpec::new(
+    ParamSpec::non_negative(
         "spencer_alpha_b_n_per_m_a",
         "N/(m·A)",
-        0.0,
-        f64::INFINITY,
         "Bouc–Wen gain α per ampere of filtered command",
     ),
-    ParamSpec::new(
+    ParamSpec::non_negative(
         "spencer_c0a_n_s_per_m",
         "N·s/m",
-        0.0,
-        f64::INFINITY,
         "viscous damping c0 at large velocity, zero command",
     ),
-    ParamSpec::new(
+    ParamSpec::non_negative(
         "spencer_c0b_n_s_per_m_a",
         "N·s/(m·A)",
-        0.0,
-        f64::INFINITY,
         "c0 per ampere of filtered command",
     ),
     ParamSpec::new(
@@ -63,27 +55,17 @@ pub const PARAMS: [ParamSpec; 14] = [
         f64::INFINITY,
         "dashpot c1 that gives the roll-off at low velocity, zero command",
     ),
-    ParamSpec::new(
+    ParamSpec::non_negative(
         "spencer_c1b_n_s_per_m_a",
         "N·s/(m·A)",
-        0.0,
-        f64::INFINITY,
         "c1 per ampere of filtered command",
     ),
-    ParamSpec::new(
+    ParamSpec::non_negative(
         "spencer_k0_n_per_m",
         "N/m",
-        0.0,
-        f64::INFINITY,
         "stiffness k0 at large velocity (in series with c1)",
     ),
-    ParamSpec::new(
-        "spencer_k1_n_per_m",
-        "N/m",
-        0.0,
-        f64::INFINITY,
-        "accumulator stiffness k1",
-    ),
+    ParamSpec::non_negative("spencer_k1_n_per_m", "N/m", "accumulator stiffness k1"),
     ParamSpec::new(
         "spencer_x0_m",
         "m",
@@ -91,20 +73,8 @@ pub const PARAMS: [ParamSpec; 14] = [
         1.0,
         "initial displacement x0 of the accumulator spring k1",
     ),
-    ParamSpec::new(
-        "spencer_beta_per_m_n",
-        "m^-n",
-        0.0,
-        f64::INFINITY,
-        "Bouc–Wen shape β",
-    ),
-    ParamSpec::new(
-        "spencer_gamma_per_m_n",
-        "m^-n",
-        0.0,
-        f64::INFINITY,
-        "Bouc–Wen shape γ",
-    ),
+    ParamSpec::non_negative("spencer_beta_per_m_n", "m^-n", "Bouc–Wen shape β"),
+    ParamSpec::non_negative("spencer_gamma_per_m_n", "m^-n", "Bouc–Wen shape γ"),
     ParamSpec::new("spencer_a", "1", 0.0, f64::INFINITY, "Bouc–Wen gain A"),
     ParamSpec::new("spencer_n", "1", 1.0, 8.0, "Bouc–Wen exponent n"),
     ParamSpec::new(

@@ -37,7 +37,7 @@ use crate::device::{Damper, Inputs};
 use crate::input::urdf::{self, UrdfModel};
 use crate::units::G0_M_S2;
 use damper_joint::DamperJoint;
-use frames::{neutral_frames, Frame, V3};
+use frames::{neutral_frames, Frame, V3Ext, V3};
 pub use linkage::Linkage;
 
 /// Errors building the rig: its URDF refused (file, line, element), or its configuration out of range.
@@ -412,7 +412,7 @@ impl Rig {
             return fail("joint", &piston_j.name, "limit", &msg);
         }
         for (j, element) in [(stick_j, "joint"), (piston_j, "joint"), (loop_j, "loop_joint")] {
-            if V3::from_array(j.axis.xyz.0).norm() < 1e-9 {
+            if V3::from(j.axis.xyz.0).norm() < 1e-9 {
                 return fail(element, &j.name, "axis", "zero axis");
             }
         }
@@ -451,14 +451,14 @@ impl Rig {
             return fail("loop_joint", &loop_j.name, "child", &msg);
         }
         let clevis = frame_of(&rod_link).p;
-        let pin = frame_of(&loop_j.parent.link).apply(V3::from_array(loop_j.origin.xyz.0));
+        let pin = frame_of(&loop_j.parent.link).apply(V3::from(loop_j.origin.xyz.0));
         let linkage = Linkage::new(
             &pivot,
-            V3::from_array(stick_j.axis.xyz.0),
+            V3::from(stick_j.axis.xyz.0),
             clevis,
             pin,
             &slide,
-            V3::from_array(piston_j.axis.xyz.0),
+            V3::from(piston_j.axis.xyz.0),
         );
         check_stops_agree(model, stick_j, piston_j, &linkage)?;
 
@@ -504,10 +504,10 @@ impl Rig {
                     format!("no <visual name=\"{}\"> marking the grip", roles.grip_visual),
                 )
             })?;
-        let grip_local_f64 = V3::from_array(grip.origin.xyz.0);
+        let grip_local_f64 = V3::from(grip.origin.xyz.0);
         let stick_frame = frame_of(&stick_link);
         let r = stick_frame.apply(grip_local_f64) - linkage.pivot;
-        let r_perp = r - linkage.pivot_axis * r.dot(linkage.pivot_axis);
+        let r_perp = r - linkage.pivot_axis * r.dot(&linkage.pivot_axis);
         let grip_lever_m = r_perp.norm();
         if grip_lever_m < 1e-6 {
             return fail(
@@ -665,11 +665,9 @@ impl Rig {
         let pose1 = *world.bodies[load_cell_body].position();
         let pose2 = *world.bodies[rod_body].position();
         let o = &loop_j.origin;
-        let origin = rapier3d::math::Pose::from_parts(
-            f32v(V3::from_array(o.xyz.0)),
-            quat(urdf::rpy_to_quat_xyzw(o.rpy.0)),
-        );
-        let axis = f32v(V3::from_array(loop_j.axis.xyz.0)).normalize();
+        let origin =
+            rapier3d::math::Pose::from_parts(f32v(V3::from(o.xyz.0)), quat(urdf::rpy_to_quat_xyzw(o.rpy.0)));
+        let axis = f32v(V3::from(loop_j.axis.xyz.0)).normalize();
         let basis = rapier3d::math::Pose::from_rotation(GenericJoint::complete_ang_frame(axis));
         let frame1 = pose_f32(&load_cell_offset) * origin * basis;
         let frame2 = pose2.inverse() * pose1 * frame1;
@@ -678,12 +676,10 @@ impl Rig {
         // Jacobians, so only the two in-plane translations are constrained (the joint frame's x is the pin axis).
         let loop_axis_w = frame_of(&loop_j.parent.link)
             .compose(&Frame::from_urdf(&loop_j.origin))
-            .rotate(V3::from_array(loop_j.axis.xyz.0))
+            .rotate(V3::from(loop_j.axis.xyz.0))
             .unit();
-        let rod_axis_w = frame_of(&rod_link)
-            .rotate(V3::from_array(rod_joint.axis.xyz.0))
-            .unit();
-        let parallel = |a: V3| a.unit().cross(loop_axis_w).norm() < 1e-9;
+        let rod_axis_w = frame_of(&rod_link).rotate(V3::from(rod_joint.axis.xyz.0)).unit();
+        let parallel = |a: V3| a.unit().cross(&loop_axis_w).norm() < 1e-9;
         let grounded = |link: &str| fused.body_of(link).map(|(b, _)| b.to_string());
         let planar = cfg.planar_loop_rows
             && parallel(linkage.pivot_axis)
@@ -692,7 +688,7 @@ impl Rig {
                 rod_joint.joint_type,
                 urdf_rs::JointType::Revolute | urdf_rs::JointType::Continuous
             )
-            && linkage.slide_axis.unit().dot(loop_axis_w).abs() < 1e-9
+            && linkage.slide_axis.unit().dot(&loop_axis_w).abs() < 1e-9
             && grounded(&stick_j.parent.link) == grounded(&piston_j.parent.link);
         let locked = match loop_j.joint_type {
             urdf_rs::JointType::Revolute | urdf_rs::JointType::Continuous if planar => {
@@ -859,8 +855,8 @@ impl Rig {
         s.external_force_n = self.external_force_n + spring_n;
         s.external_work_j = before.external_work_j + (self.external_force_n + spring_n) * dx;
         self.damper.end_step(self.dt_s, dx);
-        s.coil_current_a = self.damper.coil_current_a();
-        s.fluid_current_a = self.damper.fluid_current_a();
+        let d = self.damper.damper();
+        (s.coil_current_a, s.fluid_current_a) = (d.coil_current_a(), d.fluid_excitation_a());
         self.state = s;
     }
 
@@ -894,8 +890,8 @@ impl Rig {
             .map(|l| b[l.body].kinetic_energy() as f64)
             .sum();
         s.potential_energy_j = self.potential_energy_abs_j() - self.pe0_j;
-        s.coil_current_a = self.damper.coil_current_a();
-        s.fluid_current_a = self.damper.fluid_current_a();
+        let d = self.damper.damper();
+        (s.coil_current_a, s.fluid_current_a) = (d.coil_current_a(), d.fluid_excitation_a());
         s
     }
 

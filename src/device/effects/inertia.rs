@@ -10,12 +10,10 @@ pub(crate) struct Inertia;
 /// Index of the parameter in the effect's slice.
 pub(crate) const MASS: usize = 0;
 
-const PARAMS: [ParamSpec; 1] = [ParamSpec::new(
+const PARAMS: [ParamSpec; 1] = [ParamSpec::non_negative(
     "inertia_mass_kg",
     "kg",
     // A mass is not negative; this also keeps inertia from imitating a spring on a single-frequency sine.
-    0.0,
-    f64::INFINITY,
     "effective moving mass of piston, rod and entrained fluid",
 )];
 

@@ -14,13 +14,11 @@ pub(crate) const PRELOAD: usize = 1;
 pub(crate) const K3: usize = 2;
 
 const PARAMS: [ParamSpec; 3] = [
-    ParamSpec::new(
+    ParamSpec::non_negative(
         "stiff_k_n_per_m",
         "N/m",
         // A passive element is stable about mid-stroke (k ≥ 0). This also keeps stiffness from imitating
         // inertia, which on a single-frequency sine is a negative stiffness −m ω².
-        0.0,
-        f64::INFINITY,
         "spring rate over the whole stroke (gas accumulator, foam, centring spring)",
     ),
     ParamSpec::new(
@@ -30,11 +28,9 @@ const PARAMS: [ParamSpec; 3] = [
         f64::INFINITY,
         "force at mid-stroke (accumulator pressure on the rod area, spring preload), either sign",
     ),
-    ParamSpec::new(
+    ParamSpec::non_negative(
         "stiff_k3_n_per_m3",
         "N/m³",
-        0.0,
-        f64::INFINITY,
         "cubic hardening towards the ends of the stroke (gas compression, foam densification), k3 x³",
     ),
 ];
