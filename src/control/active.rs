@@ -9,31 +9,19 @@
 //!                                         ▲ encoder x, v (motor shaft / N) ◄──────────────────────────────┘
 //! ```
 //!
-//! **Admittance, not impedance.** The measured grip force drives a virtual mass–spring–damper (the feel
-//! law: gradient, breakout, damping, plus a virtual mass and damping of the rendering) whose motion a stiff
-//! position loop makes the motor track. An impedance loop (command the law's force, close a force loop on
-//! the grip sensor) must cancel the motor's rotor inertia and friction through the force loop; a geared
-//! servo motor has both (the rotor alone reflects about a kilogram to the push rod here), and the force
-//! loop's gain is bounded by the stiff hand at the grip. Admittance hides them inside the position loop, so
-//! the stick feels stiff at the stops and free in between: what most control-loading systems use.
+//! **Admittance, not impedance**: the measured grip force drives a virtual mass–spring–damper (the feel law)
+//! whose motion a stiff position loop makes the motor track, which hides the geared motor's rotor inertia
+//! and friction inside the position loop (an impedance loop would have to cancel them through a force loop).
 //!
-//! Rates: the admittance loop at `rate_hz` (4 kHz in `models/active-stick.toml`), the current loop at
-//! `current_loop_hz` (20 kHz). Both tick inside the rig's physics step: the rig's mechanics are integrated
-//! at the scenario's physics rate, and between two physics steps the encoder sees the push rod move at the
-//! velocity of the step's start. The motor's force on the push rod is its electromagnetic force averaged
-//! over the step, minus the rotor's inertial force (`J N² a`, from the rod's last acceleration); the
-//! rotor's viscous friction (`b N²`) is the rig's viscous damper ([`ActiveStickConfig::rod_damping_n_s_per_m`]).
+//! Both loops tick inside the rig's physics step, the encoder seeing the push rod move at the step's
+//! starting velocity. The motor's force on the push rod is its electromagnetic force averaged over the step
+//! minus the rotor's inertial force (`J N² a`); the rotor's viscous friction (`b N²`) is the rig's viscous
+//! damper ([`ActiveStickConfig::rod_damping_n_s_per_m`]). Faults ([`crate::faults`]) act on the stick's own
+//! paths: `driver_stuck` freezes the motor current, `coil_open` removes it, the `load_cell_*` faults act on
+//! the grip sensor, `displacement_dropout` holds the encoder; `latency_spike` has no effect here.
 //!
-//! Faults (the schedule of [`crate::faults`]) act on the stick's own paths:
-//! - `driver_stuck`: the motor current (hence torque) freezes at its value at the onset;
-//! - `coil_open`: the driver's bridge is off, no current;
-//! - `load_cell_stuck` / `load_cell_zero` / `load_cell_noisy`: on the grip force sensor;
-//! - `displacement_dropout`: the encoder reading holds;
-//! - `latency_spike`: acts on the DAQ of the feel controller, not on the stick's own loop (no effect).
-//!
-//! [`margins`] computes the current loop's and the outer loop's gain and phase margins from the linearised
-//! loops evaluated on a frequency grid; [`motion_bandwidth_hz`] measures the position-tracking bandwidth
-//! of the admittance's motion loop by a sine sweep of the nonlinear, sampled model.
+//! [`margins`] gives both loops' gain and phase margins from their linearised responses; [`motion_bandwidth_hz`]
+//! measures the motion loop's bandwidth by a sine sweep of the nonlinear, sampled model.
 
 use nalgebra::Complex;
 use rand::SeedableRng;
@@ -159,6 +147,12 @@ impl ActiveStickConfig {
         self.motor.viscous_nm_s_per_rad * self.gear_rad_per_m.powi(2)
     }
 
+    /// The current loop's rate, Hz: a whole multiple (at least 1) of the admittance rate.
+    fn inner_rate_hz(&self) -> f64 {
+        let a = self.admittance.rate_hz;
+        a * (self.driver.current_loop_hz / a).round().max(1.0)
+    }
+
     /// The same stick with every loop gain scaled (`current`: the current PI's; `outer`: the PD's).
     pub fn with_gains_scaled(mut self, current: f64, outer: f64) -> Self {
         self.driver.kp_v_per_a *= current;
@@ -248,18 +242,9 @@ impl ActiveStick {
         &self.cfg
     }
 
-    /// The virtual model's position, m at the push rod (where the admittance wants the stick).
-    pub fn reference_m(&self) -> f64 {
-        self.x_r_m
-    }
-
     /// Motor current, A.
     pub fn current_a(&self) -> f64 {
         self.current_a
-    }
-
-    fn inner_period_s(&self) -> f64 {
-        1.0 / (self.cfg.admittance.rate_hz * self.inner_per_outer as f64)
     }
 
     /// The grip sensor's reading at `t_s`, N along the grip path, after its faults.
@@ -328,7 +313,7 @@ impl ActiveStick {
     /// mean current, A.
     fn inner_tick(&mut self, t_s: f64, shaft_rad_s: f64, faults: &FaultSchedule) -> f64 {
         let (m, d) = (self.cfg.motor, self.cfg.driver);
-        let dt = self.inner_period_s();
+        let dt = 1.0 / self.cfg.inner_rate_hz();
         if faults.active(FaultKind::DriverStuck, t_s).is_some() {
             let i = *self.held_current_a.get_or_insert(self.current_a);
             self.current_a = i;
@@ -372,7 +357,7 @@ impl ActiveStick {
             self.rod_accel_m_s2 = (rod.v_m_s - v0) / dt_s;
         }
         self.last_rod_v_m_s = Some(rod.v_m_s);
-        let t_inner = self.inner_period_s();
+        let t_inner = 1.0 / self.cfg.inner_rate_hz();
         let (mut sum, mut n) = (0.0, 0u32);
         loop {
             let t = self.inner_ticks as f64 * t_inner;
@@ -432,7 +417,7 @@ pub struct LoopMargins {
 /// mechanics are three decades slower).
 pub fn current_open_loop(cfg: &ActiveStickConfig, w: f64) -> Complex<f64> {
     let (m, d) = (cfg.motor, cfg.driver);
-    let t = 1.0 / (cfg.admittance.rate_hz * (d.current_loop_hz / cfg.admittance.rate_hz).round().max(1.0));
+    let t = 1.0 / cfg.inner_rate_hz();
     let z = Complex::from_polar(1.0, w * t);
     let a = (-t / m.electrical_time_constant_s()).exp();
     let plant = Complex::from((1.0 - a) / m.resistance_ohm) / (z - a);
@@ -497,12 +482,13 @@ pub fn margins_of(l: impl Fn(f64) -> Complex<f64>, f_lo_hz: f64, f_hi_hz: f64, n
 
 /// Both loops' margins, each up to its own Nyquist frequency.
 pub fn margins(cfg: &ActiveStickConfig) -> LoopMargins {
-    let n_inner = cfg.admittance.rate_hz
-        * (cfg.driver.current_loop_hz / cfg.admittance.rate_hz)
-            .round()
-            .max(1.0);
     LoopMargins {
-        current: margins_of(|w| current_open_loop(cfg, w), 1.0, 0.5 * n_inner, 20_000),
+        current: margins_of(
+            |w| current_open_loop(cfg, w),
+            1.0,
+            0.5 * cfg.inner_rate_hz(),
+            20_000,
+        ),
         outer: margins_of(
             |w| outer_open_loop(cfg, w),
             0.1,

@@ -223,20 +223,20 @@ mod tests {
         FeelController::new(law, pid, Some(ff), 0.002, 1.0)
     }
 
+    fn sample(force_n: f64, x_m: f64, v_m_s: f64) -> DaqSample {
+        DaqSample {
+            sampled_t_s: 0.0,
+            force_n,
+            x_m,
+            v_m_s,
+        }
+    }
+
     #[test]
     fn returning_to_centre_commands_zero_current() {
         // x > 0 moving back (v < 0): the spring law asks for +F, the damper can only give -F.
         let mut c = ctl();
-        let out = c.update(
-            0.0,
-            &DaqSample {
-                sampled_t_s: 0.0,
-                force_n: -3.0,
-                x_m: 0.03,
-                v_m_s: -0.05,
-            },
-            1e-3,
-        );
+        let out = c.update(0.0, &sample(-3.0, 0.03, -0.05), 1e-3);
         assert_eq!(out.mode, LoopMode::Released);
         assert_eq!(out.current_cmd_a, 0.0);
     }
@@ -245,16 +245,7 @@ mod tests {
     fn moving_away_tracks_with_feedforward_from_the_models_inverse() {
         let mut c = ctl();
         // x = 0.03 m: F* = 5 + 30 = 35 N; measured exactly 35 N: output = feedforward (35-1-20·0.05)/5 = 6.6 A.
-        let out = c.update(
-            0.0,
-            &DaqSample {
-                sampled_t_s: 0.0,
-                force_n: 35.0,
-                x_m: 0.03,
-                v_m_s: 0.05,
-            },
-            1e-3,
-        );
+        let out = c.update(0.0, &sample(35.0, 0.03, 0.05), 1e-3);
         assert_eq!(out.mode, LoopMode::Tracking);
         assert!((out.current_cmd_a - 6.6).abs() < 1e-9, "{}", out.current_cmd_a);
     }
@@ -263,41 +254,14 @@ mod tests {
     fn at_rest_holds_with_the_static_current() {
         let mut c = ctl();
         // x = -0.02 m: F* = -25 N. The pilot pushes outwards (load cell -2 N): hold with (25 - 1)/5 = 4.8 A.
-        let out = c.update(
-            0.0,
-            &DaqSample {
-                sampled_t_s: 0.0,
-                force_n: -2.0,
-                x_m: -0.02,
-                v_m_s: 0.0005,
-            },
-            1e-3,
-        );
+        let out = c.update(0.0, &sample(-2.0, -0.02, 0.0005), 1e-3);
         assert_eq!(out.mode, LoopMode::Holding);
         assert!((out.current_cmd_a - 4.8).abs() < 1e-9);
         // Not pushing (0.5 N < rest force): hold the same.
-        let out = c.update(
-            0.0,
-            &DaqSample {
-                sampled_t_s: 0.0,
-                force_n: 0.5,
-                x_m: -0.02,
-                v_m_s: 0.0,
-            },
-            1e-3,
-        );
+        let out = c.update(0.0, &sample(0.5, -0.02, 0.0), 1e-3);
         assert!((out.current_cmd_a - 4.8).abs() < 1e-9);
         // Pushing back towards centre (+2 N) from rest: release, so the stick can return.
-        let out = c.update(
-            0.0,
-            &DaqSample {
-                sampled_t_s: 0.0,
-                force_n: 2.0,
-                x_m: -0.02,
-                v_m_s: 0.0,
-            },
-            1e-3,
-        );
+        let out = c.update(0.0, &sample(2.0, -0.02, 0.0), 1e-3);
         assert_eq!(out.mode, LoopMode::Released);
         assert_eq!(out.current_cmd_a, 0.0);
     }

@@ -1,21 +1,11 @@
 //! Feel laws: the force the pilot should feel, as a function of stick deflection and velocity, expressed as
 //! the force along +x on the piston (the load cell's sign convention, the measurement format's `f_n`).
 //!
-//! An MR damper is passive: its force always opposes the piston's motion relative to the cylinder, so it can
-//! only give a force with the sign of the piston velocity (`F·v ≥ 0`, Eq. 2). A centring spring law
-//! `F = breakout·sgn(x) + k x` therefore splits the stroke into two halves of each cycle:
-//! - moving **away** from centre (`x v > 0`): the law's force has the sign of `v`; the damper can give it,
-//!   the loop tracks it;
-//! - moving **back** towards centre (`x v < 0`): the law asks the stick to push the hand; a damper cannot, so
-//!   the controller commands 0 A and the pilot feels only the damper's zero-current friction.
-//!
-//! At rest the damper holds the stick up to its yield force in either direction; the controller then uses
-//! the direction the pilot pushes (the load cell's sign) in place of the velocity's, so a stick held at a
-//! deflection resists being pushed further out and is released when pushed back (see
-//! [`super::controller`]).
-//!
-//! The pilot feels a force that rises with deflection on the way out and vanishes on the way back: the
-//! feel of a spring with no stored energy, as a passive device must give.
+//! An MR damper is passive (`F·v ≥ 0`, Eq. 2), so a centring spring law `F = breakout·sgn(x) + k x` can be
+//! tracked only moving **away** from centre (`x v > 0`); moving **back** the law would need the stick to push
+//! the hand, so the controller commands 0 A. At rest the damper holds up to its yield force either way and
+//! the direction the pilot pushes stands in for the velocity's ([`super::controller`]): the feel of a spring
+//! with no stored energy, as a passive device must give.
 
 /// Desired-force law.
 #[derive(Debug, Clone, PartialEq)]
@@ -54,11 +44,8 @@ pub enum FeelLaw {
 
 impl FeelLaw {
     /// Desired force at time `t_s`, deflection `x_m`, velocity `v_m_s`; `dir` is the direction of motion
-    /// (or of the pilot's push at rest), used by laws that always resist.
-    ///
-    /// `breakout_band_m`: a spring's breakout rises linearly from 0 to full over ±this deflection instead
-    /// of stepping at the centre (`sgn x`). A model that integrates the law (the active stick's virtual
-    /// mass) needs it continuous; a loop that only tracks it takes the step (`None`).
+    /// (or of the pilot's push at rest), used by laws that always resist. With `breakout_band_m` a spring's
+    /// breakout ramps over ±this deflection instead of stepping at the centre (for a model that integrates it).
     pub fn force_n(&self, t_s: f64, x_m: f64, v_m_s: f64, dir: f64, breakout_band_m: Option<f64>) -> f64 {
         match *self {
             FeelLaw::Spring {
@@ -124,16 +111,7 @@ impl FeelLaw {
     }
 }
 
-/// `sgn`, zero at zero.
-pub fn sgn(v: f64) -> f64 {
-    if v > 0.0 {
-        1.0
-    } else if v < 0.0 {
-        -1.0
-    } else {
-        0.0
-    }
-}
+pub(crate) use crate::device::bingham::sgn;
 
 #[cfg(test)]
 mod tests {

@@ -40,11 +40,6 @@ impl FeelSystem {
     /// The system `config` describes, run by `controller`; `seed` (the scenario's) seeds the modelled
     /// active stick's grip-sensor noise.
     pub fn new(config: &FeelSystemConfig, mut controller: FeelController, seed: u64) -> Self {
-        let (coil, motor) = match config.kind {
-            FeelKind::Mr | FeelKind::MrSpring => (true, None),
-            FeelKind::Active => (false, Some(config.motor_max_force_n)),
-            FeelKind::CentringSpring | FeelKind::VariableGradientSpring | FeelKind::QFeel => (false, None),
-        };
         if config.kind == FeelKind::MrSpring {
             controller.hybrid = config.spring.map(|spring| Hybrid {
                 spring,
@@ -55,10 +50,10 @@ impl FeelSystem {
             controller,
             spring: config.spring,
             q_from_aircraft: config.q_from_aircraft,
-            coil,
+            coil: config.kind.has_coil(),
             current_cmd_a: 0.0,
-            motor: motor.map(|max_force_n| Motor {
-                max_force_n,
+            motor: (config.kind == FeelKind::Active).then_some(Motor {
+                max_force_n: config.motor_max_force_n,
                 cmd_n: 0.0,
                 force_n: 0.0,
             }),

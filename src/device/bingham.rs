@@ -1,7 +1,6 @@
 //! The seed paper's base model: Bingham plastic force (Eq. 2) whose yield force follows the coil current
 //! through the coil's electrical lag (Eq. 3) and the fluid's lag (Eq. 4), i.e. Eq. (6), behind the current
 //! driver's saturation.
-#![warn(missing_docs)]
 
 use super::effect::{Inputs, Stage};
 use super::lag::{advance_two_lags_in, DecayMemo};
@@ -25,27 +24,17 @@ pub(crate) const LINEAR_GAINS: [usize; 3] = [FC0, FC_GAIN, C0];
 /// ampere of (lagged) coil current. `fc0_n` is the yield force at zero current: the seal and foam friction a
 /// real damper shows with the coil off (Eq. 2's `Fc` at `H = 0`).
 pub const PARAMS: [ParamSpec; 5] = [
-    ParamSpec::new(
+    ParamSpec::non_negative(
         "fc0_n",
         "N",
-        0.0,
-        f64::INFINITY,
         "yield (Coulomb) force at zero coil current, Eq. (2)",
     ),
-    ParamSpec::new(
+    ParamSpec::non_negative(
         "fc_gain_n_per_a",
         "N/A",
-        0.0,
-        f64::INFINITY,
         "yield force per ampere of lagged coil current, bH·kH of Eq. (6)",
     ),
-    ParamSpec::new(
-        "c0_n_s_per_m",
-        "N·s/m",
-        0.0,
-        f64::INFINITY,
-        "post-yield viscous damping C0, Eq. (2)",
-    ),
+    ParamSpec::non_negative("c0_n_s_per_m", "N·s/m", "post-yield viscous damping C0, Eq. (2)"),
     ParamSpec::new(
         "te_s",
         "s",

@@ -1,7 +1,6 @@
 //! Device files: the damper's model, parameters, driver and geometry, as a user edits them
 //! (`models/*.toml`) or as `mrfeel fit --save` writes them (`PARAMS.json`). Both load into the same
 //! [`DeviceConfig`], so a fitted model drops straight into the MTS machine or a stick-rig scenario.
-#![warn(missing_docs)]
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -127,29 +126,23 @@ impl DeviceConfig {
             Some(v) => current_limit(*v.get_ref()).map_err(|m| src.err(v, "driver.current_limit_a", m))?,
             None => PAPER_CURRENT_LIMIT_A,
         };
-        let supply_limit_a = match &file.driver.supply_limit_a {
-            Some(v) => {
+        let supply_limit_a = (file.driver.supply_limit_a.as_ref())
+            .map(|v| {
                 let field = "driver.supply_limit_a";
                 let supply = positive(v, "A", &src, field)?;
                 if supply < limit {
-                    return Err(src
-                        .err(
-                            v,
-                            field,
-                            format!(
-                                "value {} A is below the driver's saturation current_limit_a = {} A: the driver \
-                                 saturates at a current the supply can give (the paper's 14 A from a 17 A \
-                                 supply), so the supply's limit is at least the saturation",
-                                num(supply),
-                                num(limit)
-                            ),
-                        )
-                        .into());
+                    let msg = format!(
+                        "value {} A is below the driver's saturation current_limit_a = {} A: the driver \
+                         saturates at a current the supply can give (the paper's 14 A from a 17 A \
+                         supply), so the supply's limit is at least the saturation",
+                        num(supply),
+                        num(limit)
+                    );
+                    return Err(src.err(v, field, msg));
                 }
-                Some(supply)
-            }
-            None => None,
-        };
+                Ok(supply)
+            })
+            .transpose()?;
         // Effect files the spec names (`bingham+drag.toml`) are read relative to this file.
         let mut registry = registry.clone();
         let model_err = |e: DeviceError| DeviceError::from(src.err(&file.model, "model", e.to_string()));
@@ -172,14 +165,10 @@ impl DeviceConfig {
             })
             .collect();
         let params = assign_params(&model, &values, path, params_line)?;
-        let geometry = match &file.geometry {
-            Some(g) => Some(g.check(&src)?),
-            None => None,
-        };
-        let load_cell_range_n = match &file.load_cell {
-            Some(l) => Some(positive(&l.range_n, "N", &src, "load_cell.range_n")?),
-            None => None,
-        };
+        let geometry = file.geometry.as_ref().map(|g| g.check(&src)).transpose()?;
+        let load_cell_range_n = (file.load_cell.as_ref())
+            .map(|l| positive(&l.range_n, "N", &src, "load_cell.range_n"))
+            .transpose()?;
         Ok(Self {
             supply_limit_a,
             geometry,

@@ -2,7 +2,6 @@
 //! stages, `F = yield_n · direction + damping_n_s_per_m · v + extra_n`; effects apply in the order of their
 //! [`EffectStage`], so `bingham+a+b` is `bingham+b+a`. A new effect is one `impl Effect` and one
 //! `Registry::register` call (`docs/reference/effects.md`).
-#![warn(missing_docs)]
 
 use super::params::{DataStats, ParamSpec};
 
@@ -28,9 +27,8 @@ pub struct Stage {
     pub current_a: f64,
     /// Yield (Coulomb) force magnitude, N, ≥ 0.
     pub yield_n: f64,
-    /// The part of `yield_n` that the magnetic field produces (`fc_gain·|h|` in the base model), N, so that
-    /// an effect can reshape the field-driven yield (saturation) without knowing the base parameters.
-    /// Effects that scale `yield_n` scale this part with it.
+    /// The part of `yield_n` the magnetic field produces (`fc_gain·|h|` in the base model), N, for effects
+    /// that reshape it (saturation); effects that scale `yield_n` scale this part with it.
     pub yield_field_n: f64,
     /// Direction function in [-1, 1]: `sgn v` for the Bingham model.
     pub direction: f64,
@@ -73,10 +71,8 @@ pub struct Step {
     pub dx_m: f64,
 }
 
-/// A physical effect that composes with the Bingham base model.
-///
-/// `p` is this effect's slice of the parameter vector, in the order of [`Effect::params`]; `s` its slice
-/// of the state vector (length [`Effect::n_states`]).
+/// A physical effect that composes with the Bingham base model. `p` is this effect's slice of the parameter
+/// vector, in [`Effect::params`] order; `s` its slice of the state vector (length [`Effect::n_states`]).
 pub trait Effect: Send + Sync {
     /// Canonical name used in model specs (`bingham+NAME`).
     fn name(&self) -> &'static str;
@@ -98,22 +94,15 @@ pub trait Effect: Send + Sync {
     fn n_states(&self) -> usize {
         0
     }
-    /// Whether [`Effect::init_states`] or [`Effect::advance`] read `stage` or `force_n`, through which the
-    /// parameters of the base model and of the other effects reach this effect's states. The default, `true`,
-    /// is always right. An effect whose states follow only its own parameters and the inputs (the hysteresis
-    /// state follows the piston) may return `false`: the fitter then takes the force's sensitivity to every
-    /// parameter that no state depends on from the states of the pass it already made, without integrating the
-    /// test again (the same numbers, faster; `Model::state_params`). Returning `false` while reading either
-    /// makes the fit's Jacobian wrong.
+    /// Whether [`Effect::init_states`] or [`Effect::advance`] read `stage` or `force_n` (through which other
+    /// parameters reach this effect's states). `true` is always right; `false` lets the fitter reuse recorded
+    /// states for parameters no state depends on (`Model::state_params`), and is wrong if either is read.
     fn states_read_the_force(&self) -> bool {
         true
     }
-    /// Which of this effect's parameters its states can depend on, one flag per parameter in the order of
-    /// [`Effect::params`] (read only when [`Effect::states_read_the_force`] is `false`). The default, every
-    /// one, is always right. An effect whose states follow only some of its parameters (a data-defined
-    /// effect's low-pass states read no coefficient) may leave the others out: the fitter then takes the
-    /// force's sensitivity to them from the states it kept, as for the parameters of effects without states.
-    /// Leaving out a parameter a state reads makes the fit's Jacobian wrong.
+    /// Which of this effect's parameters its states can depend on, one flag each in [`Effect::params`] order
+    /// (read only when [`Effect::states_read_the_force`] is `false`). Every one is always right; leaving out
+    /// one a state reads makes the fit's Jacobian wrong.
     fn params_the_states_read(&self) -> Vec<bool> {
         vec![true; self.params().len()]
     }

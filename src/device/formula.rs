@@ -4,7 +4,6 @@
 //! tau_s)` is a first-order low-pass state, and the memory features `s` (travel since the last reversal) and
 //! `tc` (time since the command last changed) are states the formula keeps when it reads them. Features,
 //! functions and file format: `docs/spec/model-discovery.md`.
-#![warn(missing_docs)]
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -12,6 +11,7 @@ use std::path::{Path, PathBuf};
 use evalexpr::{DefaultNumericTypes, Node, Operator, Value};
 use serde::Deserialize;
 
+use super::bingham::sgn;
 use super::effect::{Effect, EffectStage, Inputs, Stage, Step};
 use super::model::Registry;
 use super::params::{DataStats, ParamSpec};
@@ -89,36 +89,14 @@ enum Expr {
     Op2(Op2, Box<Expr>, Box<Expr>),
 }
 
-/// The signals at one sample.
-#[derive(Debug, Clone, Copy)]
-struct Signals {
-    x: f64,
-    v: f64,
-    a: f64,
-    i: f64,
-    t: f64,
-    s: f64,
-    tc: f64,
-}
-
-/// The sign of a velocity, 0 at rest.
-fn direction(v: f64) -> f64 {
-    f64::from(u8::from(v > 0.0)) - f64::from(u8::from(v < 0.0))
-}
+/// The signals at one sample, indexed by [`Feature`] (in the order of [`Feature::ALL`]).
+type Signals = [f64; 7];
 
 impl Expr {
     fn eval(&self, p: &[f64], s: &[f64], sig: &Signals) -> f64 {
         match self {
             Expr::Const(c) => *c,
-            Expr::Feature(f) => match f {
-                Feature::X => sig.x,
-                Feature::V => sig.v,
-                Feature::A => sig.a,
-                Feature::I => sig.i,
-                Feature::T => sig.t,
-                Feature::S => sig.s,
-                Feature::Tc => sig.tc,
-            },
+            Expr::Feature(f) => sig[*f as usize],
             Expr::Param(k) => p[*k],
             Expr::State(k) => s[*k],
             Expr::Neg(e) => -e.eval(p, s, sig),
@@ -126,7 +104,7 @@ impl Expr {
                 let u = e.eval(p, s, sig);
                 match f {
                     Fn1::Abs => u.abs(),
-                    Fn1::Sign => direction(u),
+                    Fn1::Sign => sgn(u),
                     Fn1::Tanh => u.tanh(),
                     Fn1::Exp => u.exp(),
                     Fn1::Ln => u.ln(),
@@ -217,7 +195,7 @@ impl Formula {
     /// new command.
     fn signals(&self, s: &[f64], inp: &Inputs, current_a: f64) -> Signals {
         let travel = self.travel.map_or(0.0, |k| {
-            let d = direction(inp.v_m_s);
+            let d = sgn(inp.v_m_s);
             if d != 0.0 && d != s[k + 1] {
                 0.0
             } else {
@@ -227,15 +205,7 @@ impl Formula {
         let held = self
             .held
             .map_or(0.0, |k| if inp.current_cmd_a != s[k + 1] { 0.0 } else { s[k] });
-        Signals {
-            x: inp.x_m,
-            v: inp.v_m_s,
-            a: inp.a_m_s2,
-            i: current_a,
-            t: inp.t_s,
-            s: travel,
-            tc: held,
-        }
+        [inp.x_m, inp.v_m_s, inp.a_m_s2, current_a, inp.t_s, travel, held]
     }
 
     /// The memory states at a test's first sample: no travel yet in the first direction of motion (a start
@@ -243,7 +213,7 @@ impl Formula {
     fn init_memory(&self, s: &mut [f64], inp: &Inputs) {
         if let Some(k) = self.travel {
             s[k] = 0.0;
-            s[k + 1] = direction(inp.v_m_s);
+            s[k + 1] = sgn(inp.v_m_s);
         }
         if let Some(k) = self.held {
             s[k] = TC_SETTLED_S;
@@ -256,15 +226,15 @@ impl Formula {
     fn advance_memory(&self, s: &mut [f64], inp: &Inputs, sig: &Signals, dt_s: f64) {
         let dt = dt_s.max(0.0);
         if let Some(k) = self.travel {
-            let d = direction(inp.v_m_s);
+            let d = sgn(inp.v_m_s);
             if d != 0.0 {
                 s[k + 1] = d;
             }
-            s[k] = sig.s + inp.v_m_s.abs() * dt;
+            s[k] = sig[Feature::S as usize] + inp.v_m_s.abs() * dt;
         }
         if let Some(k) = self.held {
             s[k + 1] = inp.current_cmd_a;
-            s[k] = sig.tc + dt;
+            s[k] = sig[Feature::Tc as usize] + dt;
         }
     }
 
@@ -754,11 +724,6 @@ impl Effect for FormulaEffect {
     }
 }
 
-/// Does this model-spec part name an effect file rather than an effect?
-pub(crate) fn is_effect_file(part: &str) -> bool {
-    part.trim().ends_with(".toml")
-}
-
 /// Load the effect file `path` into `registry` (replacing an effect of the same name); returns its name.
 pub fn register_file(registry: &mut Registry, path: &Path) -> Result<&'static str, DeviceError> {
     let e = FormulaEffect::load(path)?;
@@ -773,7 +738,7 @@ pub fn resolve_spec(spec: &str, registry: &mut Registry, dir: Option<&Path>) -> 
     let mut parts = Vec::new();
     for part in spec.split('+') {
         let part = part.trim();
-        if is_effect_file(part) {
+        if part.ends_with(".toml") {
             let p = PathBuf::from(part);
             let p = match dir {
                 Some(d) if p.is_relative() => d.join(p),

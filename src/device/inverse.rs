@@ -2,11 +2,9 @@
 //! the plant): an observer of the model's internal states and the inverse that gives the coil current for
 //! a wanted force.
 //!
-//! The inverse asks the model itself ([`Model::eval`], as the plant and the fitter do) for the force at a
-//! candidate current with the coil and fluid lags settled, and solves for the current by regula falsi
-//! (Illinois): one step for a force affine in the current, a few for a saturating yield map. States
-//! (hysteresis, heating) advance on the measured motion and the commanded currents, never the plant's;
-//! holding uses the fully yielded force.
+//! The inverse asks the model itself ([`Model::eval`]) for the force at a candidate current with the lags
+//! settled and solves for the current by Illinois regula falsi. States (hysteresis, heating) advance on the
+//! measured motion and the commanded currents, never the plant's; holding uses the fully yielded force.
 
 use std::sync::Arc;
 
@@ -42,15 +40,15 @@ impl ForceInverse {
     /// follows its own filtered-command and Bouc–Wen states) is refused.
     pub fn new(device: &DeviceConfig) -> Result<Self, DeviceError> {
         if device.model.base() != Base::Bingham {
-            return Err(DeviceError::BadSpec {
-                spec: device.model.name(),
-                why: format!(
+            return Err(DeviceError::bad_spec(
+                device.model.name(),
+                format!(
                     "the feel controller's inverse needs a `{}` base model ({}); give the controller a \
                      bingham-based model or set `controller.feedforward = false`",
                     Base::Bingham.name(),
                     device.path.display()
                 ),
-            });
+            ));
         }
         Ok(Self {
             model: device.model.clone(),

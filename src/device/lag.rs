@@ -3,7 +3,6 @@
 //!
 //! Exact integration means the result does not depend on the step size for a piecewise-constant command:
 //! one step of 10 ms equals ten steps of 1 ms to rounding, and no step size is unstable.
-#![warn(missing_docs)]
 
 /// Advance the cascade `u -> 1/(Te s + 1) -> i -> 1/(Tm s + 1) -> h` by `dt_s` with `u` held constant.
 ///

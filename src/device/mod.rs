@@ -52,3 +52,13 @@ pub enum DeviceError {
     #[error(transparent)]
     Input(#[from] crate::input::InputError),
 }
+
+impl DeviceError {
+    /// [`DeviceError::BadSpec`] of `spec` for the reason `why`.
+    pub(crate) fn bad_spec(spec: impl ToString, why: impl Into<String>) -> Self {
+        Self::BadSpec {
+            spec: spec.to_string(),
+            why: why.into(),
+        }
+    }
+}

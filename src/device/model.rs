@@ -192,16 +192,10 @@ impl ModelSpec {
         let mut effects: Vec<String> = Vec::new();
         for p in parts {
             if p.is_empty() {
-                return Err(DeviceError::BadSpec {
-                    spec: spec.to_string(),
-                    why: "empty effect name".into(),
-                });
+                return Err(DeviceError::bad_spec(spec, "empty effect name"));
             }
             if effects.iter().any(|e| e == p) {
-                return Err(DeviceError::BadSpec {
-                    spec: spec.to_string(),
-                    why: format!("effect `{p}` named twice"),
-                });
+                return Err(DeviceError::bad_spec(spec, format!("effect `{p}` named twice")));
             }
             effects.push(p.to_string());
         }
@@ -210,12 +204,9 @@ impl ModelSpec {
 
     /// The spec with one more effect.
     pub fn with(&self, effect: &str) -> Self {
-        let mut e = self.effects.clone();
-        e.push(effect.to_string());
-        Self {
-            base: self.base,
-            effects: e,
-        }
+        let mut spec = self.clone();
+        spec.effects.push(effect.to_string());
+        spec
     }
 
     /// Whether the spec names `effect`.
@@ -265,13 +256,13 @@ impl Model {
     /// Build a model from a spec; unknown effects are an error that lists the known ones.
     pub fn new(spec: &ModelSpec, registry: &Registry, current_limit_a: f64) -> Result<Self, DeviceError> {
         if !(current_limit_a.is_finite() && current_limit_a > 0.0) {
-            return Err(DeviceError::BadSpec {
-                spec: spec.to_string(),
-                why: format!(
+            return Err(DeviceError::bad_spec(
+                spec,
+                format!(
                     "current limit {current_limit_a} A: the driver's saturation limits the command to \
                      ±current_limit_a, a positive, finite number of amperes"
                 ),
-            });
+            ));
         }
         let base = spec.base;
         let mut param_specs: Vec<ParamSpec> = base.params().to_vec();
@@ -283,25 +274,22 @@ impl Model {
                 known: registry.names().join(", "),
             })?;
             if !base.admits(effect.stage()) {
-                return Err(DeviceError::BadSpec {
-                    spec: spec.to_string(),
-                    why: format!(
+                return Err(DeviceError::bad_spec(spec, format!(
                         "`{name}` replaces the direction of the yield force, which the `{}` base takes from its \
                          own Bouc–Wen state: the two do not compose",
                         base.name()
-                    ),
-                });
+                    )));
             }
             let p0 = param_specs.len();
             for ps in effect.params() {
                 if param_specs.iter().any(|q| q.name == ps.name) {
-                    return Err(DeviceError::BadSpec {
-                        spec: spec.to_string(),
-                        why: format!(
+                    return Err(DeviceError::bad_spec(
+                        spec,
+                        format!(
                             "parameter `{}` of `{name}` clashes with another element's",
                             ps.name
                         ),
-                    });
+                    ));
                 }
                 param_specs.push(ps.clone());
             }
@@ -403,27 +391,27 @@ impl Model {
     pub fn typical_params(&self, base: &[f64], stats: &DataStats) -> Result<Vec<f64>, DeviceError> {
         let n_base = self.spec.base.params().len();
         if base.len() != n_base {
-            return Err(DeviceError::BadSpec {
-                spec: self.name(),
-                why: format!(
+            return Err(DeviceError::bad_spec(
+                self.name(),
+                format!(
                     "{} base parameter values for {n_base} base parameters",
                     base.len()
                 ),
-            });
+            ));
         }
         let mut p = base.to_vec();
         for slot in &self.slots {
             let g = slot.effect.typical_params(stats);
             if g.len() != slot.params.len() {
-                return Err(DeviceError::BadSpec {
-                    spec: self.name(),
-                    why: format!(
+                return Err(DeviceError::bad_spec(
+                    self.name(),
+                    format!(
                         "effect `{}` gives {} typical values for {} parameters",
                         slot.effect.name(),
                         g.len(),
                         slot.params.len()
                     ),
-                });
+                ));
             }
             p.extend(g);
         }
@@ -472,14 +460,9 @@ impl Model {
         base.init_states(p, &mut s, first, self.current_limit_a);
         let stage = base.stage(p, &s, first);
         for slot in &self.slots {
-            let (head, tail) = s.split_at_mut(slot.states.start);
-            let _ = head;
-            slot.effect.init_states(
-                &p[slot.params.clone()],
-                &mut tail[..slot.states.len()],
-                first,
-                &stage,
-            );
+            let states = &mut s[slot.states.clone()];
+            slot.effect
+                .init_states(&p[slot.params.clone()], states, first, &stage);
         }
         s
     }
@@ -682,14 +665,14 @@ impl Damper {
     /// A damper of `model` with parameter values `params` (in [`Model::param_specs`] order), at rest.
     pub fn new(model: Arc<Model>, params: Vec<f64>) -> Result<Self, DeviceError> {
         if params.len() != model.n_params() {
-            return Err(DeviceError::BadSpec {
-                spec: model.name(),
-                why: format!(
+            return Err(DeviceError::bad_spec(
+                model.name(),
+                format!(
                     "{} parameter values for {} parameters",
                     params.len(),
                     model.n_params()
                 ),
-            });
+            ));
         }
         let state = vec![0.0; model.n_states()];
         Ok(Self {

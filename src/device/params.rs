@@ -42,6 +42,11 @@ impl ParamSpec {
         }
     }
 
+    /// A parameter every file must give, from 0 up without bound (a gain, a damping, a stiffness).
+    pub const fn non_negative(name: &'static str, unit: &'static str, doc: &'static str) -> Self {
+        Self::new(name, unit, 0.0, f64::INFINITY, doc)
+    }
+
     /// The value that a parameter file without this parameter means (see [`ParamSpec::absent`]).
     pub const fn absent_means(mut self, v: f64) -> Self {
         self.absent = Some(v);
@@ -149,13 +154,7 @@ impl DataStats {
                 nf += 1;
                 f2 += f * f;
                 s.f_max_n = s.f_max_n.max(f.abs());
-                let sg = if v > 0.0 {
-                    1.0
-                } else if v < 0.0 {
-                    -1.0
-                } else {
-                    0.0
-                };
+                let sg = super::bingham::sgn(v);
                 let row = [sg, sg * i, v];
                 for a in 0..3 {
                     atb[a] += row[a] * f;

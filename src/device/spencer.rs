@@ -3,7 +3,6 @@
 //! `z/zₛ`, a damping `r c0` and an additive force, so effects compose with it as with the Bingham base; the
 //! stiff `z` equation is integrated by Runge–Kutta on substeps set from its Jacobian bound (deterministic on
 //! any thread). Equations and choices: `docs/explanation/damper-models.md`.
-#![warn(missing_docs)]
 
 use super::bingham::saturate;
 use super::effect::{Inputs, Stage, Step};
@@ -29,32 +28,24 @@ pub const TAU: usize = 13;
 
 /// Parameters, in vector order (SI; the 1997 paper's are in cm and V).
 pub const PARAMS: [ParamSpec; 14] = [
-    ParamSpec::new(
+    ParamSpec::non_negative(
         "spencer_alpha_a_n_per_m",
         "N/m",
-        0.0,
-        f64::INFINITY,
         "Bouc–Wen gain α at zero command (α = αa + αb u)",
     ),
-    ParamSpec::new(
+    ParamSpec::non_negative(
         "spencer_alpha_b_n_per_m_a",
         "N/(m·A)",
-        0.0,
-        f64::INFINITY,
         "Bouc–Wen gain α per ampere of filtered command",
     ),
-    ParamSpec::new(
+    ParamSpec::non_negative(
         "spencer_c0a_n_s_per_m",
         "N·s/m",
-        0.0,
-        f64::INFINITY,
         "viscous damping c0 at large velocity, zero command",
     ),
-    ParamSpec::new(
+    ParamSpec::non_negative(
         "spencer_c0b_n_s_per_m_a",
         "N·s/(m·A)",
-        0.0,
-        f64::INFINITY,
         "c0 per ampere of filtered command",
     ),
     ParamSpec::new(
@@ -64,27 +55,17 @@ pub const PARAMS: [ParamSpec; 14] = [
         f64::INFINITY,
         "dashpot c1 that gives the roll-off at low velocity, zero command",
     ),
-    ParamSpec::new(
+    ParamSpec::non_negative(
         "spencer_c1b_n_s_per_m_a",
         "N·s/(m·A)",
-        0.0,
-        f64::INFINITY,
         "c1 per ampere of filtered command",
     ),
-    ParamSpec::new(
+    ParamSpec::non_negative(
         "spencer_k0_n_per_m",
         "N/m",
-        0.0,
-        f64::INFINITY,
         "stiffness k0 at large velocity (in series with c1)",
     ),
-    ParamSpec::new(
-        "spencer_k1_n_per_m",
-        "N/m",
-        0.0,
-        f64::INFINITY,
-        "accumulator stiffness k1",
-    ),
+    ParamSpec::non_negative("spencer_k1_n_per_m", "N/m", "accumulator stiffness k1"),
     ParamSpec::new(
         "spencer_x0_m",
         "m",
@@ -92,20 +73,8 @@ pub const PARAMS: [ParamSpec; 14] = [
         1.0,
         "initial displacement x0 of the accumulator spring k1",
     ),
-    ParamSpec::new(
-        "spencer_beta_per_m_n",
-        "m^-n",
-        0.0,
-        f64::INFINITY,
-        "Bouc–Wen shape β",
-    ),
-    ParamSpec::new(
-        "spencer_gamma_per_m_n",
-        "m^-n",
-        0.0,
-        f64::INFINITY,
-        "Bouc–Wen shape γ",
-    ),
+    ParamSpec::non_negative("spencer_beta_per_m_n", "m^-n", "Bouc–Wen shape β"),
+    ParamSpec::non_negative("spencer_gamma_per_m_n", "m^-n", "Bouc–Wen shape γ"),
     ParamSpec::new("spencer_a", "1", 0.0, f64::INFINITY, "Bouc–Wen gain A"),
     ParamSpec::new("spencer_n", "1", 1.0, 8.0, "Bouc–Wen exponent n"),
     ParamSpec::new(
@@ -129,12 +98,9 @@ pub(crate) const LINEAR_GAINS: [usize; 1] = [K1];
 /// The command filter's time constant: it acts only where the command changes.
 pub(crate) const LAG_PARAMS: [usize; 1] = [TAU];
 
-/// Most RK4 substeps in one sample interval: `λ h` up to 64, a `z` transition 64 times shorter than a
-/// sample, which the samples cannot tell from a faster one. The 1997 device at its highest command needs
-/// 46 at 500 Hz and 23 at 1 kHz.
-/// Parameters stiffer than that give a force the fit rejects as unusable, so a fit that drifts towards an
-/// ever thinner yield transition (as on a record of bristle friction) stops there instead of paying up to
-/// 4096 substeps a sample for a difference the data do not hold.
+/// Most RK4 substeps in one sample interval: a `z` transition 64 times shorter than a sample, which the
+/// samples cannot tell from a faster one (the 1997 device needs 46 at 500 Hz), so a fit drifting towards an
+/// ever thinner yield transition stops paying for a difference the data do not hold.
 const MAX_SUBSTEPS: usize = 64;
 
 /// The bound of `|z|`, `(A/(β+γ))^(1/n)`, or 1 m where `β + γ = 0` (no bound; the direction is then `z`).
@@ -265,18 +231,11 @@ pub fn advance(p: &[f64], s: &mut [f64], inp: &Inputs, limit_a: f64, step: Step)
     s[2] = z;
 }
 
-/// Starting values from the data's linear Bingham estimate: `A = 1`, `n = 2` and `β = γ` with `z`'s bound
-/// at a fiftieth of the largest displacement (the yield transition's travel); `α zₛ` the yield force and its
-/// rise with current, `c0` the post-yield damping, `c1` ten times the yield force over the rms velocity (a
-/// pre-yield slope steep beside the motion), with its rise with current in the yield force's proportion; a
-/// tenth of `c0` per ampere of the largest command; the springs `k0` and `k1` at a tenth and a hundredth of
-/// the yield force (and rms force) over the largest displacement, `x0` at 0; the command filter at a few
-/// sample intervals.
-///
-/// No parameter starts on its bound of 0: the fit searches a logarithm of each (`ident::fit`), where a
-/// start on the bound is a start at its flat end (a parameter there stays at 0), and `x0` moves the force
-/// only through `k1`: from `k1 = 0`, the offset `−k1 x0` was out of reach (a broadband record of a
-/// Spencer damper fitted to 14 times its noise, `k1` and the current's share of `c0` and `c1` left at 0).
+/// Starting values from the data's linear Bingham estimate: `A = 1`, `n = 2`, `β = γ` with `z`'s bound at a
+/// fiftieth of the largest displacement, `α zₛ` the yield force, `c1` ten times the yield force over the rms
+/// velocity, the springs and current gains at small fractions of their scales, the filter at a few samples.
+/// No parameter starts on its bound of 0: the fit searches a logarithm of each (`ident::fit`), where a start
+/// on the bound would stay there.
 pub fn initial_guess(stats: &DataStats) -> Vec<f64> {
     let d = (0.02 * stats.x_max_m).max(1e-6);
     let bg = 1.0 / (d * d);

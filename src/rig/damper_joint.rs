@@ -1,20 +1,14 @@
 //! The MR damper as a force element on the piston's prismatic joint, computed every physics step by the
 //! same [`crate::device::Damper`] the fitter integrates.
 //!
-//! The paper's Eq. (2), `Fd = Fc sgn(ẋ) + C0 ẋ`, with Eq. (6)'s lagged yield force, is split by how stiff
-//! each part is:
+//! The paper's Eq. (2), `Fd = Fc sgn(ẋ) + C0 ẋ`, is split by how stiff each part is:
 //!
-//! * the **yield (Coulomb) part** `Fc sgn(ẋ)` is a set-valued law at `ẋ = 0` (the fluid holds any force
-//!   below `Fc`). Written explicitly (`sgn`, or a steep `tanh`) it chatters at the physics rate or creeps.
-//!   It is therefore solved **implicitly** as the multibody's dry-friction constraint on the piston DoF
-//!   (rapier's per-DoF `frictions`, MuJoCo's `frictionloss`): a velocity constraint `ẋ⁺ = 0` whose force is
-//!   bounded by `Fc`. Below `Fc` it holds the piston still; above it, it slides with exactly `Fc` opposing
-//!   the new velocity. It can only remove energy.
-//! * the **viscous part** `C0 ẋ` is the multibody's per-DoF implicit damping (`−C0 ẋ⁺`, backward Euler,
-//!   unconditionally stable and dissipative).
-//! * **additive forces** of effects (`extra_n`: springs, inertia) are applied explicitly; they are smooth.
-//! * a model whose direction function is an internal state (an effect at [`EffectStage::Direction`], e.g.
-//!   hysteresis) has no discontinuity to treat implicitly: its `yield_n · direction` is applied explicitly.
+//! * the **yield part** `Fc sgn(ẋ)`, set-valued at `ẋ = 0`, would chatter or creep written explicitly: it is
+//!   the multibody's implicit dry-friction constraint on the piston DoF (rapier's per-DoF `frictions`), which
+//!   holds the piston below `Fc` and slides with exactly `Fc` above it, only removing energy;
+//! * the **viscous part** `C0 ẋ` is the per-DoF implicit damping (backward Euler, dissipative);
+//! * **additive forces** of effects (`extra_n`) are smooth and applied explicitly, as is `yield_n · direction`
+//!   of a model whose direction is a state (an effect at [`EffectStage::Direction`], e.g. hysteresis).
 
 use crate::device::{Damper, EffectStage, Inputs, Stage, Step};
 
@@ -91,16 +85,6 @@ impl DamperJoint {
     pub(crate) fn end_step(&mut self, dt_s: f64, dx_m: f64) {
         let (inp, stage) = (self.inp, self.stage);
         self.damper.advance(&inp, &stage, Step { dt_s, dx_m });
-    }
-
-    /// Coil current (Eq. 3 state), A.
-    pub(crate) fn coil_current_a(&self) -> f64 {
-        self.damper.coil_current_a()
-    }
-
-    /// Fluid excitation (Eq. 4 state), A.
-    pub(crate) fn fluid_current_a(&self) -> f64 {
-        self.damper.fluid_excitation_a()
     }
 }
 

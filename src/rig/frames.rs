@@ -1,52 +1,18 @@
 //! Small f64 vector and rigid-frame helpers for the URDF's geometry (rapier itself runs in f32).
 
-use std::ops::{Add, Mul, Neg, Sub};
-
 /// A 3-vector, f64.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct V3 {
-    pub x: f64,
-    pub y: f64,
-    pub z: f64,
+pub type V3 = nalgebra::Vector3<f64>;
+
+/// What the rig's geometry needs beyond nalgebra's vector algebra.
+pub trait V3Ext {
+    /// Unit vector (zero stays zero).
+    fn unit(self) -> V3;
+    /// Rodrigues rotation about the unit axis `k` by `angle` (right-handed).
+    fn rotated_about(self, k: V3, angle: f64) -> V3;
 }
 
-impl V3 {
-    pub const ZERO: V3 = V3 {
-        x: 0.0,
-        y: 0.0,
-        z: 0.0,
-    };
-
-    pub const fn new(x: f64, y: f64, z: f64) -> Self {
-        Self { x, y, z }
-    }
-
-    pub fn from_array(a: [f64; 3]) -> Self {
-        Self::new(a[0], a[1], a[2])
-    }
-
-    pub fn to_array(self) -> [f64; 3] {
-        [self.x, self.y, self.z]
-    }
-
-    pub fn dot(self, o: V3) -> f64 {
-        self.x * o.x + self.y * o.y + self.z * o.z
-    }
-
-    pub fn cross(self, o: V3) -> V3 {
-        V3::new(
-            self.y * o.z - self.z * o.y,
-            self.z * o.x - self.x * o.z,
-            self.x * o.y - self.y * o.x,
-        )
-    }
-
-    pub fn norm(self) -> f64 {
-        self.dot(self).sqrt()
-    }
-
-    /// Unit vector (zero stays zero).
-    pub fn unit(self) -> V3 {
+impl V3Ext for V3 {
+    fn unit(self) -> V3 {
         let n = self.norm();
         if n > 0.0 {
             self * (1.0 / n)
@@ -55,38 +21,9 @@ impl V3 {
         }
     }
 
-    /// Rodrigues rotation about the unit axis `k` by `angle` (right-handed).
-    pub fn rotated_about(self, k: V3, angle: f64) -> V3 {
+    fn rotated_about(self, k: V3, angle: f64) -> V3 {
         let (s, c) = angle.sin_cos();
-        self * c + k.cross(self) * s + k * (k.dot(self) * (1.0 - c))
-    }
-}
-
-impl Add for V3 {
-    type Output = V3;
-    fn add(self, o: V3) -> V3 {
-        V3::new(self.x + o.x, self.y + o.y, self.z + o.z)
-    }
-}
-
-impl Sub for V3 {
-    type Output = V3;
-    fn sub(self, o: V3) -> V3 {
-        V3::new(self.x - o.x, self.y - o.y, self.z - o.z)
-    }
-}
-
-impl Neg for V3 {
-    type Output = V3;
-    fn neg(self) -> V3 {
-        V3::new(-self.x, -self.y, -self.z)
-    }
-}
-
-impl Mul<f64> for V3 {
-    type Output = V3;
-    fn mul(self, s: f64) -> V3 {
-        V3::new(self.x * s, self.y * s, self.z * s)
+        self * c + k.cross(&self) * s + k * (k.dot(&self) * (1.0 - c))
     }
 }
 
@@ -100,7 +37,7 @@ pub struct Frame {
 impl Frame {
     pub const IDENTITY: Frame = Frame {
         r: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-        p: V3::ZERO,
+        p: V3::new(0.0, 0.0, 0.0),
     };
 
     /// A URDF `<origin xyz rpy>`: `R = Rz(yaw) Ry(pitch) Rx(roll)`.
@@ -115,7 +52,7 @@ impl Frame {
         ];
         Self {
             r,
-            p: V3::from_array(pose.xyz.0),
+            p: V3::from(pose.xyz.0),
         }
     }
 

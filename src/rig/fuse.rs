@@ -1,13 +1,10 @@
 //! Links joined by `fixed` joints are one rigid body: fold them into their parent before the tree goes to
 //! rapier (MuJoCo's `fusestatic`, Drake's and PyBullet's "merge fixed links").
 //!
-//! The URDF keeps every part as its own link (the cylinder and the load cell of Table 1, with their own
-//! masses and visuals), but a multibody link costs the solver the same whether its joint has one DoF or
-//! none: forward kinematics, Jacobians and the mass matrix are computed per link every step. Folding the
-//! rig's two fixed links (cylinder into the base, load cell into the piston) takes the multibody from six
-//! links to four with the same three DoFs and the same dynamics: the fused link carries the combined mass,
-//! centre of mass and inertia (parallel-axis theorem), and every original link keeps its frame as a fixed
-//! offset in its body, for poses, the loop joint's anchor and the grip point.
+//! A multibody link costs the solver the same whether its joint has one DoF or none; folding the rig's two
+//! fixed links (cylinder into the base, load cell into the piston) keeps the dynamics: the fused link carries
+//! the combined mass, centre of mass and inertia (parallel-axis theorem), and every original link keeps its
+//! frame as a fixed offset in its body (for poses, the loop joint's anchor and the grip point).
 
 use super::frames::{Frame, V3};
 
@@ -142,14 +139,14 @@ fn combined_inertial(members: &[(&urdf_rs::Link, Frame)]) -> urdf_rs::Inertial {
     let com = if mass > 0.0 {
         parts
             .iter()
-            .fold(V3::ZERO, |acc, (m, c, _)| acc + *c * (*m / mass))
+            .fold(V3::zeros(), |acc, (m, c, _)| acc + *c * (*m / mass))
     } else {
-        V3::ZERO
+        V3::zeros()
     };
     let mut inertia = [[0.0; 3]; 3];
     for (m, c, ic) in &parts {
         // Parallel-axis theorem: I_com + m (|d|² E − d dᵀ).
-        let d = (*c - com).to_array();
+        let d: [f64; 3] = (*c - com).into();
         let d2: f64 = d.iter().map(|x| x * x).sum();
         for a in 0..3 {
             for b in 0..3 {
@@ -160,7 +157,7 @@ fn combined_inertial(members: &[(&urdf_rs::Link, Frame)]) -> urdf_rs::Inertial {
     }
     urdf_rs::Inertial {
         origin: urdf_rs::Pose {
-            xyz: urdf_rs::Vec3(com.to_array()),
+            xyz: urdf_rs::Vec3(com.into()),
             rpy: urdf_rs::Vec3([0.0; 3]),
         },
         mass: urdf_rs::Mass { value: mass },
@@ -200,7 +197,7 @@ fn pose_of(f: &Frame) -> urdf_rs::Pose {
         ((-r[1][2]).atan2(r[1][1]), 0.0)
     };
     urdf_rs::Pose {
-        xyz: urdf_rs::Vec3(f.p.to_array()),
+        xyz: urdf_rs::Vec3(f.p.into()),
         rpy: urdf_rs::Vec3([roll, pitch, yaw]),
     }
 }

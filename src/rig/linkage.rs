@@ -4,7 +4,7 @@
 //! Used to check that the stick stops and the piston stops agree, to report the gearing, and by tests as
 //! an independent reference for the multibody.
 
-use super::frames::{Frame, V3};
+use super::frames::{Frame, V3Ext, V3};
 
 /// The slider-crank as it stands at neutral (all joint coordinates zero).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -54,8 +54,8 @@ impl Linkage {
     /// on the branch through `x = 0` at `θ = 0`. `None` if the push rod cannot reach the piston's line.
     pub fn piston_x_m(&self, theta_rad: f64) -> Option<f64> {
         let d = self.pin - self.clevis_at(theta_rad);
-        let b = d.dot(self.slide_axis);
-        let disc = b * b - d.dot(d) + self.rod_m * self.rod_m;
+        let b = d.dot(&self.slide_axis);
+        let disc = b * b - d.dot(&d) + self.rod_m * self.rod_m;
         if disc < 0.0 {
             return None;
         }

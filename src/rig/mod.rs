@@ -37,7 +37,7 @@ use crate::device::{Damper, Inputs};
 use crate::input::urdf::{self, UrdfModel};
 use crate::units::G0_M_S2;
 use damper_joint::DamperJoint;
-use frames::{neutral_frames, Frame, V3};
+use frames::{neutral_frames, Frame, V3Ext, V3};
 pub use linkage::Linkage;
 
 /// Errors building the rig: its URDF refused (file, line, element), or its configuration out of range.
@@ -97,30 +97,24 @@ pub struct RigConfig {
     /// Gravity on (−z, standard gravity) or off.
     #[serde(default = "default_true")]
     pub gravity: bool,
-    /// Solver substeps per physics step (rapier's `num_solver_iterations`, allowed 1 ..= 64). One substep
-    /// is the fast default; two halve the overshoot of a stop hit at speed.
+    /// Solver substeps per physics step (rapier's `num_solver_iterations`, allowed 1 ..= 64).
     #[serde(default = "default_solver_iterations")]
     pub solver_iterations: usize,
     /// Gauss-Seidel sweeps per substep (rapier's `num_internal_pgs_iterations`, allowed 1 ..= 64): they
-    /// converge the yield (dry friction) constraint together with the loop closure, so that the stick
-    /// holds without chatter below the yield force. Default 3, the least that passes `tests/rig.rs`: with
-    /// 2 a piston stuck under gravity flips its velocity sign every step and a 300 N slam overshoots the
-    /// stroke (0.0511 m of 0.0508); 3 holds still (0 flips) and keeps the slam at 0.0503 m; each sweep
-    /// costs ≈2 % of a step.
+    /// converge the yield constraint with the loop closure so the stick holds without chatter; 3 is the
+    /// least that passes `tests/rig.rs`.
     #[serde(default = "default_pgs_iterations")]
     pub pgs_iterations: usize,
-    /// Natural frequency of the stops' constraint regularisation, Hz, critically damped (allowed 10 ..=
-    /// 1e6): the stops behave as stiff elastomer bumpers. 300 Hz at 1 kHz physics removes about half a
-    /// penetration per step; a rigid stop (1e6 Hz) limit-cycles against the yield constraint when the
-    /// hand holds the stick on its stop with one substep.
+    /// Natural frequency of the stops' critically damped constraint regularisation, Hz (allowed 10 ..= 1e6):
+    /// stiff elastomer bumpers; a rigid stop limit-cycles against the yield constraint.
     #[serde(default = "default_stop_natural_hz")]
     pub stop_natural_hz: f64,
-    /// Fold links joined by fixed joints into one rigid body before the multibody is built (same dynamics,
-    /// fewer links: about 18 % fewer instructions per step for this rig; see `rig::fuse`). Off only to compare.
+    /// Fold links joined by fixed joints into one rigid body (same dynamics, fewer links; `rig::fuse`).
+    /// Off only to compare.
     #[serde(default = "default_true")]
     pub fuse_fixed_links: bool,
-    /// When the linkage is planar, constrain only the loop pin's two in-plane translations (the other three
-    /// rows are identically zero in the tree's coordinates). Off only to compare.
+    /// When the linkage is planar, constrain only the loop pin's two in-plane translations. Off only to
+    /// compare.
     #[serde(default = "default_true")]
     pub planar_loop_rows: bool,
     /// Which URDF links and joints are the stick, the linkage and the damper.
@@ -382,37 +376,44 @@ impl Rig {
     }
 
     fn from_model(cfg: &RigConfig, model: &UrdfModel, damper: Damper) -> Result<Rig, RigError> {
+        let fail = |element: &str, name: &str, field: &str, msg: &str| -> Result<Rig, RigError> {
+            Err(model.field_error(element, name, field, msg).into())
+        };
         let roles = &cfg.roles;
         let stick_j = model.joint(&roles.stick_joint)?;
         let piston_j = model.joint(&roles.piston_joint)?;
         let loop_j = model.loop_joint(&roles.load_cell_joint)?;
         if !matches!(stick_j.joint_type, urdf_rs::JointType::Revolute) {
-            let msg = "the stick joint must be `revolute` (with stops)";
-            return Err(model.field_error("joint", &stick_j.name, "type", msg).into());
+            return fail(
+                "joint",
+                &stick_j.name,
+                "type",
+                "the stick joint must be `revolute` (with stops)",
+            );
         }
         if !matches!(piston_j.joint_type, urdf_rs::JointType::Prismatic) {
-            let msg = "the piston joint must be `prismatic`";
-            return Err(model.field_error("joint", &piston_j.name, "type", msg).into());
+            return fail(
+                "joint",
+                &piston_j.name,
+                "type",
+                "the piston joint must be `prismatic`",
+            );
         }
         let stick_limits = (stick_j.limit.lower, stick_j.limit.upper);
         if !(stick_limits.0 < 0.0 && stick_limits.1 > 0.0) {
-            let msg = format!(
-                "stops [{}, {}] rad must bracket the neutral angle 0",
-                stick_limits.0, stick_limits.1
-            );
-            return Err(model.field_error("joint", &stick_j.name, "limit", msg).into());
+            let (lo, hi) = stick_limits;
+            let msg = format!("stops [{lo}, {hi}] rad must bracket the neutral angle 0");
+            return fail("joint", &stick_j.name, "limit", &msg);
         }
         let stroke_limits = (piston_j.limit.lower, piston_j.limit.upper);
         if !(stroke_limits.0 < 0.0 && stroke_limits.1 > 0.0) {
-            let msg = format!(
-                "stroke [{}, {}] m must bracket mid-stroke 0",
-                stroke_limits.0, stroke_limits.1
-            );
-            return Err(model.field_error("joint", &piston_j.name, "limit", msg).into());
+            let (lo, hi) = stroke_limits;
+            let msg = format!("stroke [{lo}, {hi}] m must bracket mid-stroke 0");
+            return fail("joint", &piston_j.name, "limit", &msg);
         }
         for (j, element) in [(stick_j, "joint"), (piston_j, "joint"), (loop_j, "loop_joint")] {
-            if V3::from_array(j.axis.xyz.0).norm() < 1e-9 {
-                return Err(model.field_error(element, &j.name, "axis", "zero axis").into());
+            if V3::from(j.axis.xyz.0).norm() < 1e-9 {
+                return fail(element, &j.name, "axis", "zero axis");
             }
         }
 
@@ -447,17 +448,17 @@ impl Rig {
                 "`{rod_link}` must hang on the stick `{stick_link}` (it hangs on `{}`)",
                 rod_joint.parent.link
             );
-            return Err(model.field_error("loop_joint", &loop_j.name, "child", msg).into());
+            return fail("loop_joint", &loop_j.name, "child", &msg);
         }
         let clevis = frame_of(&rod_link).p;
-        let pin = frame_of(&loop_j.parent.link).apply(V3::from_array(loop_j.origin.xyz.0));
+        let pin = frame_of(&loop_j.parent.link).apply(V3::from(loop_j.origin.xyz.0));
         let linkage = Linkage::new(
             &pivot,
-            V3::from_array(stick_j.axis.xyz.0),
+            V3::from(stick_j.axis.xyz.0),
             clevis,
             pin,
             &slide,
-            V3::from_array(piston_j.axis.xyz.0),
+            V3::from(piston_j.axis.xyz.0),
         );
         check_stops_agree(model, stick_j, piston_j, &linkage)?;
 
@@ -469,14 +470,8 @@ impl Rig {
                 break;
             };
             if !matches!(j.joint_type, urdf_rs::JointType::Fixed) {
-                return Err(model
-                    .field_error(
-                        "joint",
-                        &j.name,
-                        "type",
-                        format!("the cylinder must be fixed to the base; `{}` moves it", j.name),
-                    )
-                    .into());
+                let msg = format!("the cylinder must be fixed to the base; `{}` moves it", j.name);
+                return fail("joint", &j.name, "type", &msg);
             }
             link = j.parent.link.clone();
         }
@@ -488,9 +483,7 @@ impl Rig {
                 "`{}` must be fixed to the piston `{}`",
                 loop_j.parent.link, piston_j.child.link
             );
-            return Err(model
-                .field_error("loop_joint", &loop_j.name, "parent", msg)
-                .into());
+            return fail("loop_joint", &loop_j.name, "parent", &msg);
         }
         let piston_group_mass_kg: f64 = group
             .iter()
@@ -511,16 +504,18 @@ impl Rig {
                     format!("no <visual name=\"{}\"> marking the grip", roles.grip_visual),
                 )
             })?;
-        let grip_local_f64 = V3::from_array(grip.origin.xyz.0);
+        let grip_local_f64 = V3::from(grip.origin.xyz.0);
         let stick_frame = frame_of(&stick_link);
         let r = stick_frame.apply(grip_local_f64) - linkage.pivot;
-        let r_perp = r - linkage.pivot_axis * r.dot(linkage.pivot_axis);
+        let r_perp = r - linkage.pivot_axis * r.dot(&linkage.pivot_axis);
         let grip_lever_m = r_perp.norm();
         if grip_lever_m < 1e-6 {
-            let msg = "the grip lies on the pivot axis";
-            return Err(model
-                .field_error("link", &stick_link, "visual grip/origin", msg)
-                .into());
+            return fail(
+                "link",
+                &stick_link,
+                "visual grip/origin",
+                "the grip lies on the pivot axis",
+            );
         }
 
         // Rapier world from the tree.
@@ -631,7 +626,7 @@ impl Rig {
         let (rod_body, rod_offset) = body_of(&rod_link)?;
         if rod_offset != Frame::IDENTITY {
             let msg = format!("`{rod_link}` must be a moving link (it is fixed to its parent)");
-            return Err(model.field_error("loop_joint", &loop_j.name, "child", msg).into());
+            return fail("loop_joint", &loop_j.name, "child", &msg);
         }
         let stick_joint = joint_of(&stick_j.name)?;
         let piston_joint = joint_of(&piston_j.name)?;
@@ -657,10 +652,8 @@ impl Rig {
             }
         }
         let piston_dyn = piston_j.dynamics.clone().unwrap_or_default();
-        // Stick stops: critically damped regularisation at `stop_natural_hz` (an elastomer bumper). Only on
-        // the stick joint: rapier uses a joint's softness for its dry-friction constraint too, and the
-        // piston's (the yield force) must stay rigid or the stick creeps. The piston's own stops are never
-        // reached through the linkage (checked above).
+        // Stick stops: critically damped at `stop_natural_hz`. Not on the piston: rapier softens its
+        // dry-friction (yield) constraint too, and the stick would creep; its stops are never reached (checked).
         if let Some((mb, link_id)) = world.multibody_joints.get_mut(stick_joint) {
             if let Some(link) = mb.link_mut(link_id) {
                 link.joint.data.softness = SpringCoefficients::new(cfg.stop_natural_hz as f32, 1.0);
@@ -672,27 +665,21 @@ impl Rig {
         let pose1 = *world.bodies[load_cell_body].position();
         let pose2 = *world.bodies[rod_body].position();
         let o = &loop_j.origin;
-        let origin = rapier3d::math::Pose::from_parts(
-            f32v(V3::from_array(o.xyz.0)),
-            quat(urdf::rpy_to_quat_xyzw(o.rpy.0)),
-        );
-        let axis = f32v(V3::from_array(loop_j.axis.xyz.0)).normalize();
+        let origin =
+            rapier3d::math::Pose::from_parts(f32v(V3::from(o.xyz.0)), quat(urdf::rpy_to_quat_xyzw(o.rpy.0)));
+        let axis = f32v(V3::from(loop_j.axis.xyz.0)).normalize();
         let basis = rapier3d::math::Pose::from_rotation(GenericJoint::complete_ang_frame(axis));
         let frame1 = pose_f32(&load_cell_offset) * origin * basis;
         let frame2 = pose2.inverse() * pose1 * frame1;
         // A planar linkage (pin, pivot and clevis axes parallel, slide across them, pivot and cylinder on
-        // the same grounded body) moves only in its plane: of the pin's five locked rows, the out-of-plane
-        // translation and the two tilts have identically zero Jacobians in the tree's coordinates. Only
-        // the two in-plane translations are constrained (the joint frame's x is the pin axis); the load
-        // cell's force is the same, the solver does 40 % of the work.
+        // one grounded body) moves only in its plane: the pin's other three locked rows have identically zero
+        // Jacobians, so only the two in-plane translations are constrained (the joint frame's x is the pin axis).
         let loop_axis_w = frame_of(&loop_j.parent.link)
             .compose(&Frame::from_urdf(&loop_j.origin))
-            .rotate(V3::from_array(loop_j.axis.xyz.0))
+            .rotate(V3::from(loop_j.axis.xyz.0))
             .unit();
-        let rod_axis_w = frame_of(&rod_link)
-            .rotate(V3::from_array(rod_joint.axis.xyz.0))
-            .unit();
-        let parallel = |a: V3| a.unit().cross(loop_axis_w).norm() < 1e-9;
+        let rod_axis_w = frame_of(&rod_link).rotate(V3::from(rod_joint.axis.xyz.0)).unit();
+        let parallel = |a: V3| a.unit().cross(&loop_axis_w).norm() < 1e-9;
         let grounded = |link: &str| fused.body_of(link).map(|(b, _)| b.to_string());
         let planar = cfg.planar_loop_rows
             && parallel(linkage.pivot_axis)
@@ -701,7 +688,7 @@ impl Rig {
                 rod_joint.joint_type,
                 urdf_rs::JointType::Revolute | urdf_rs::JointType::Continuous
             )
-            && linkage.slide_axis.unit().dot(loop_axis_w).abs() < 1e-9
+            && linkage.slide_axis.unit().dot(&loop_axis_w).abs() < 1e-9
             && grounded(&stick_j.parent.link) == grounded(&piston_j.parent.link);
         let locked = match loop_j.joint_type {
             urdf_rs::JointType::Revolute | urdf_rs::JointType::Continuous if planar => {
@@ -713,14 +700,8 @@ impl Rig {
             urdf_rs::JointType::Spherical => JointAxesMask::LOCKED_SPHERICAL_AXES,
             urdf_rs::JointType::Fixed => JointAxesMask::LOCKED_FIXED_AXES,
             _ => {
-                return Err(model
-                    .field_error(
-                        "loop_joint",
-                        &loop_j.name,
-                        "type",
-                        "a loop joint must be revolute, continuous, spherical or fixed",
-                    )
-                    .into())
+                let msg = "a loop joint must be revolute, continuous, spherical or fixed";
+                return fail("loop_joint", &loop_j.name, "type", msg);
             }
         };
         let joint = GenericJointBuilder::new(locked)
@@ -853,9 +834,8 @@ impl Rig {
         let dx = s.piston_x_m - x0;
         let dv = s.piston_v_m_s - v0;
         s.piston_a_m_s2 = dv / self.dt_s;
-        // The stick's rate as its motion over the step (an encoder's view). The solver's generalized
-        // velocity equals it in smooth motion, but holds a spurious value while the soft stop is loaded
-        // (the stop's compliance term), with the stick at rest.
+        // The stick's rate as its motion over the step (an encoder's view): the solver's generalized velocity
+        // holds a spurious value while the soft stop is loaded.
         s.stick_rate_rad_s = (s.stick_angle_rad - theta0) / self.dt_s;
         // The fluid's force on the piston from the piston group's momentum balance along the slide:
         // m Δv/Δt = F_load_cell + F_fluid + F_external + m g·u.
@@ -875,8 +855,8 @@ impl Rig {
         s.external_force_n = self.external_force_n + spring_n;
         s.external_work_j = before.external_work_j + (self.external_force_n + spring_n) * dx;
         self.damper.end_step(self.dt_s, dx);
-        s.coil_current_a = self.damper.coil_current_a();
-        s.fluid_current_a = self.damper.fluid_current_a();
+        let d = self.damper.damper();
+        (s.coil_current_a, s.fluid_current_a) = (d.coil_current_a(), d.fluid_excitation_a());
         self.state = s;
     }
 
@@ -910,8 +890,8 @@ impl Rig {
             .map(|l| b[l.body].kinetic_energy() as f64)
             .sum();
         s.potential_energy_j = self.potential_energy_abs_j() - self.pe0_j;
-        s.coil_current_a = self.damper.coil_current_a();
-        s.fluid_current_a = self.damper.fluid_current_a();
+        let d = self.damper.damper();
+        (s.coil_current_a, s.fluid_current_a) = (d.coil_current_a(), d.fluid_excitation_a());
         s
     }
 
@@ -951,10 +931,8 @@ impl Rig {
         self.stroke_limits_m.1.min(-self.stroke_limits_m.0)
     }
 
-    /// The piston's stops are the device's stroke ±`stroke_half_m` (its `geometry.stroke_half_in`, where
-    /// `device` says: `file:line`, asked for only to name it in the error), within [`STROKE_TOLERANCE_M`].
-    /// The rig's piston is the device's damper: a stroke in the device file that the URDF contradicts is an
-    /// error naming both, not a value one of them silently overrides.
+    /// The piston's stops are the device's stroke ±`stroke_half_m` within [`STROKE_TOLERANCE_M`]; else an
+    /// error naming both (`device` says where the device gives it, `file:line`).
     pub(crate) fn check_device_stroke(
         &self,
         stroke_half_m: f64,
@@ -1008,11 +986,8 @@ impl Rig {
         self.external_force_n = force_n;
     }
 
-    /// For spring feel systems: a linear spring on the piston joint, `F = −k (x − rest)`
-    /// along +x, integrated implicitly by the multibody (backward Euler: it can store and return energy
-    /// but never inject it, whatever `k` and the step). Held until set again; `k = 0` removes it. A
-    /// nonlinear spring is applied as its tangent at the present displacement (see
-    /// `crate::control::feel::apply`).
+    /// For spring feel systems: a linear spring `F = −k (x − rest)` on the piston joint, integrated implicitly
+    /// (it never injects energy). Held until set again; `k = 0` removes it.
     pub(crate) fn set_external_spring(&mut self, stiffness_n_per_m: f64, rest_x_m: f64) {
         self.spring_k_n_per_m = stiffness_n_per_m.max(0.0);
         self.spring_rest_m = rest_x_m;

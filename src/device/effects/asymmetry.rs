@@ -3,8 +3,7 @@
 //! function, `w` whether the scale follows the motion (a seal, 1) or the yield state (the fluid's path, 0).
 //! Physics and sources: `docs/explanation/damper-models.md`.
 
-use crate::device::effect::{Effect, EffectStage, Inputs, Stage};
-use crate::device::params::{DataStats, ParamSpec};
+use super::*;
 
 /// Direction-dependent yield force, see the module documentation.
 #[derive(Debug, Clone, Copy, Default)]
@@ -38,24 +37,17 @@ const PARAMS: [ParamSpec; 2] = [
 ];
 
 impl Effect for Asymmetry {
-    fn name(&self) -> &'static str {
-        "asymmetry"
-    }
-
-    fn describe(&self) -> &'static str {
+    effect_constants!(
+        "asymmetry",
+        DirectionDependence,
         "Direction-dependent yield force from misalignment or seal drag: Fy(1 + a s), s = d + w (sgn v - d) \
          with d the direction function (the hysteresis state, or sgn v), so |F(+v)|/|F(-v)| = (1 + a)/(1 - a) on \
          the yield branches; the seed paper measured 70 N one way and 100 N the other at 14 A (a = -0.18). w \
-         is the share that switches with the motion (a seal) rather than with the yield state (the fluid)."
-    }
-
-    fn stage(&self) -> EffectStage {
-        EffectStage::DirectionDependence
-    }
-
-    fn params(&self) -> &'static [ParamSpec] {
-        &PARAMS
-    }
+         is the share that switches with the motion (a seal) rather than with the yield state (the fluid).",
+        "|F| larger in one direction: a model without it has mean residual of opposite sign for v > 0 and v < 0 \
+         relative to the force magnitude (a signed offset a·Fy on both yield branches), proportional to the \
+         yield force and so growing linearly with current; zero at zero current if the seal friction is small",
+    );
 
     /// A symmetric damper: the sign of the asymmetry is not known before the fit, and zero is the nested
     /// base model (the force is smooth in `a` there, so the fit moves off it in either direction). The share
@@ -77,12 +69,6 @@ impl Effect for Asymmetry {
         let scale = 1.0 + p[FRACTION] * s;
         stage.yield_n *= scale;
         stage.yield_field_n *= scale;
-    }
-
-    fn residual_signature(&self) -> &'static str {
-        "|F| larger in one direction: a model without it has mean residual of opposite sign for v > 0 and v < 0 \
-         relative to the force magnitude (a signed offset a·Fy on both yield branches), proportional to the \
-         yield force and so growing linearly with current; zero at zero current if the seal friction is small"
     }
 }
 

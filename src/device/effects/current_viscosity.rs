@@ -2,10 +2,7 @@
 //! al. 1997's `c0 = c0a + c0b u` for `n = 1`): the plastic viscosity of an MR fluid grows with the field.
 //! Physics and sources: `docs/explanation/damper-models.md`.
 
-use crate::device::effect::{Effect, EffectStage, Inputs, Stage};
-use crate::device::params::{DataStats, ParamSpec};
-
-use super::Scales;
+use super::*;
 
 /// Damping rising with current, see the module documentation.
 #[derive(Debug, Clone, Copy, Default)]
@@ -16,12 +13,10 @@ pub(crate) const C1: usize = 0;
 pub(crate) const EXPONENT: usize = 1;
 
 const PARAMS: [ParamSpec; 2] = [
-    ParamSpec::new(
+    ParamSpec::non_negative(
         "visc_c1_n_s_per_m_per_a",
         "N·s/m/A",
         // The field thickens the fluid, it does not thin it: c1 ≥ 0 keeps the damping positive at any current.
-        0.0,
-        f64::INFINITY,
         "increase of post-yield damping per ampere of lagged coil current at 1 A, C = C0 + c1|h|(|h|/1 A)^(n-1)          (Spencer et al. 1997 for n = 1)",
     ),
     ParamSpec::new(
@@ -36,22 +31,15 @@ const PARAMS: [ParamSpec; 2] = [
 ];
 
 impl Effect for CurrentViscosity {
-    fn name(&self) -> &'static str {
-        "current_viscosity"
-    }
-
-    fn describe(&self) -> &'static str {
+    effect_constants!(
+        "current_viscosity",
+        Damping,
         "Post-yield damping rising with current (field-thickened plastic viscosity): C = C0 + c1|h|(|h|/1 A)^(n-1) \
-         with h the lagged excitation; n = 1 is Spencer et al. 1997's linear c0 = c0a + c0b u."
-    }
-
-    fn stage(&self) -> EffectStage {
-        EffectStage::Damping
-    }
-
-    fn params(&self) -> &'static [ParamSpec] {
-        &PARAMS
-    }
+         with h the lagged excitation; n = 1 is Spencer et al. 1997's linear c0 = c0a + c0b u.",
+        "residual slope versus velocity that changes with current: a constant-C0 model is too steep at low \
+         current and too flat at high current; the residual is odd in velocity, zero at v = 0, and its slope \
+         grows with current (linearly, or faster or slower)",
+    );
 
     /// Adds 2 % of the force scale at the largest velocity and current, linearly: a small, non-zero start.
     fn initial_guess(&self, stats: &DataStats) -> Vec<f64> {
@@ -73,12 +61,6 @@ impl Effect for CurrentViscosity {
             h.powf(p[EXPONENT])
         };
         stage.damping_n_s_per_m += p[C1] * rise;
-    }
-
-    fn residual_signature(&self) -> &'static str {
-        "residual slope versus velocity that changes with current: a constant-C0 model is too steep at low \
-         current and too flat at high current; the residual is odd in velocity, zero at v = 0, and its slope \
-         grows with current (linearly, or faster or slower)"
     }
 }
 

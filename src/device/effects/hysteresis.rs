@@ -4,10 +4,7 @@
 //! in sub-steps blended so the force is continuous in every parameter; [`step`] is the Dahl shape's closed
 //! form. Equations: `docs/explanation/damper-models.md`; choice and evidence: `docs/explanation/hysteresis.md`.
 
-use crate::device::effect::{Effect, EffectStage, Inputs, Stage, Step};
-use crate::device::params::{DataStats, ParamSpec};
-
-use super::Scales;
+use super::*;
 
 /// Pre-yield hysteresis (Spencer et al. 1997 reduced: a normalised Bouc–Wen element in series with a viscous
 /// pre-yield dashpot), see the module documentation.
@@ -24,9 +21,8 @@ const PARAMS: [ParamSpec; 4] = [
     ParamSpec::new(
         "hyst_x_yield_m",
         "m",
-        // 0.1 µm: below any displacement sensor's resolution, i.e. the Bingham limit; 10 mm: beyond any pre-yield
-        // deformation of a fluid gap or seal (estimates: pre-yield displacements of MR dampers are 0.01–1 mm;
-        // 0.19 mm fitted on the UTFSM damper). A larger value would act as a current-dependent spring.
+        // 0.1 µm: below any sensor's resolution (the Bingham limit); 10 mm: beyond any pre-yield deformation
+        // of a fluid gap or seal (a larger value would act as a current-dependent spring).
         1e-7,
         0.01,
         "elastic pre-yield displacement: without viscous pre-yield the force crosses zero x_y·ln2 after a \
@@ -35,9 +31,8 @@ const PARAMS: [ParamSpec; 4] = [
     ParamSpec::new(
         "hyst_v_yield_m_s",
         "m/s",
-        // 0: no viscous pre-yield (Dahl). 0.05 m/s: estimate of the largest pre-yield (bi-viscous knee) velocity
-        // of an MR damper (0.01 m/s fitted on the UTFSM damper); a larger knee would turn the whole force into
-        // a current-proportional damping, which is `current_viscosity`, not hysteresis.
+        // 0: Dahl. 0.05 m/s: the largest bi-viscous knee of an MR damper; a larger one would be a
+        // current-proportional damping, which is `current_viscosity`.
         0.0,
         0.05,
         "viscous pre-yield velocity: below it the damper is a dashpot Fy/v_y (Spencer et al. 1997's series \
@@ -46,9 +41,8 @@ const PARAMS: [ParamSpec; 4] = [
     ParamSpec::new(
         "hyst_knee",
         "",
-        // ψ(q) = q (1 − κ + κ q) keeps ψ(1) = 1 and the loading rate 1 − ψ ≥ 0 on [0, 1] within these bounds;
-        // −0.5 is softer than Bouc–Wen n = 1 (the UTFSM damper's n fitted in the prototype: 0.65), 2 sharper
-        // than n = 2. The n = 2 of most MR damper studies is 1, inside the bounds, so a fit can reach it.
+        // ψ(q) = q (1 − κ + κ q) keeps ψ(1) = 1 and the loading rate 1 − ψ ≥ 0 on [0, 1] within these
+        // bounds: softer than Bouc–Wen n = 1 up to sharper than n = 2 (κ = 1).
         -0.5,
         2.0,
         "knee of the pre-yield branch: Bouc-Wen |z|^n written z(1 - k + k|z|), 0 for n = 1 (Dahl), 1 for \
@@ -58,9 +52,8 @@ const PARAMS: [ParamSpec; 4] = [
     ParamSpec::new(
         "hyst_gamma_share",
         "",
-        // 0: Dahl (β = 1, γ = 0); ½: Spencer et al. 1997's γ = β, inside the bounds; −0.5: β = 1.5, γ = −0.5,
-        // a return faster than Dahl's; ¾: β = ¼, the return at a rate of ½ where it starts. Not 1 (β = 0):
-        // the return would start at rate 0, the old branch an unstable rest, and no loop would remain.
+        // 0: Dahl (β = 1, γ = 0); ½: Spencer et al. 1997's γ = β. Not 1 (β = 0): the return would start at
+        // rate 0, the old branch an unstable rest, and no loop would remain.
         -0.5,
         0.75,
         "Bouc-Wen gamma/(beta + gamma): how the force leaves the old branch after a reversal, 0 Dahl, 0.5 \
@@ -128,12 +121,8 @@ pub fn step(z: f64, dx_m: f64, dt_s: f64, x_yield_m: f64, v_yield_m_s: f64) -> f
     (r - s * e).clamp(-1.0, 1.0)
 }
 
-/// Largest slip travel of one Runge–Kutta sub-step, in yield displacements: away from the law's kinks
-/// (`z = 0`, `ω = 0`) the error of a sub-step grows as the fifth power of its travel, at a kink as the
-/// square. At half a yield displacement every shape within the bounds follows a fine integration to within
-/// 3e-3 in `z` (0.15 % of the swing from `−Fy` to `Fy`) at 100 samples a cycle and 6e-3 at 30 (unit test
-/// `shaped_step_follows_a_fine_integration_of_bouc_wen`), the sub-steps shortened for laws steeper than
-/// Bouc–Wen `n = 2`; the scheme is far inside its stability limit.
+/// Largest slip travel of one Runge–Kutta sub-step, in yield displacements: every shape within the bounds
+/// then follows a fine integration (`shaped_step_follows_a_fine_integration_of_bouc_wen`).
 const MAX_SUBSTEP_TRAVEL: f64 = 0.5;
 
 /// Distance of the state from its post-yield limit `±1` within which a sample moving on in the same
@@ -144,10 +133,9 @@ const SETTLED: f64 = 1e-12;
 /// (within `e^-16` of it for the Dahl shape, closer for sharper knees).
 const SATURATING_TRAVEL: f64 = 16.0;
 
-/// Width, in sub-steps, of the band past each whole number of sub-steps over which the result is blended
-/// from the smaller count to the larger: the count is a step function of the parameters, and without the
-/// blend the force would jump where a sample's travel crosses a multiple of [`MAX_SUBSTEP_TRAVEL`], which a
-/// finite-difference Jacobian reads as a huge slope.
+/// Width, in sub-steps, of the band past each whole sub-step count over which the result is blended from
+/// the smaller count to the larger, so the force does not jump (a huge finite-difference slope) where the
+/// count changes.
 const BLEND_BAND: f64 = 0.1;
 
 /// The law's parameters (see the module documentation).
@@ -163,17 +151,11 @@ struct Law {
 /// unit of a sub-step the law is `(ω − ψ(|z|) ((1 − g)|ω| sgn z + g ω)) / x_y` in the slip increment
 /// `ω = dx − v_y z dt` (so it also holds for `dt = 0`).
 fn runge_kutta(z: f64, n: usize, dx_m: f64, dt_s: f64, law: &Law) -> f64 {
-    let Law {
-        x_yield_m,
-        v_yield_m_s,
-        knee,
-        g,
-    } = *law;
-    // The slip increment of a sub-step in yield displacements: `ω / x_y = a − b z`. (`n` is known only once
-    // the state is; the reciprocal of `x_y` is not, so the sample's chain of dependent operations holds one
-    // multiplication here instead of a division.)
-    let per_xy = (1.0 / x_yield_m) * reciprocal(n);
-    let (a, b) = (dx_m * per_xy, v_yield_m_s * dt_s * per_xy);
+    let Law { knee, g, .. } = *law;
+    // The slip increment of a sub-step in yield displacements: `ω / x_y = a − b z` (a multiplication by
+    // `1/x_y`, not a division, on the sample's chain of dependent operations).
+    let per_xy = (1.0 / law.x_yield_m) * reciprocal(n);
+    let (a, b) = (dx_m * per_xy, law.v_yield_m_s * dt_s * per_xy);
     let (beta, lin) = (1.0 - g, 1.0 - knee);
     let f = |z: f64| {
         let omega = a - b * z;
@@ -236,13 +218,9 @@ pub(crate) fn shaped_step(
     if x_yield_m <= 0.0 {
         return step(z, dx_m, dt_s, x_yield_m, v_yield_m_s);
     }
-    // Over the sample z moves monotonically from its start towards a rest of the law (v/v_y, where the slip
-    // ω stops, or the limit sgn ω), so |ω| stays between its value at the start and at that limit.
-    //
-    // On the post-yield branch (the piston faster than v_y, so the rest is the limit sgn ω = sgn dx) a state
-    // already within [`SETTLED`] of that limit moves less than that over the sample: it is left as it is. At
-    // a steady stroke most samples of a test are there (about half of the real damper's 1 kHz tests), and
-    // integrating them would only add rounding.
+    // Over the sample z moves monotonically towards a rest of the law (v/v_y, or the limit sgn ω), so |ω|
+    // stays between its values at the start and at that rest. On the post-yield branch a state within
+    // [`SETTLED`] of the limit moves less than that: it is left as it is (most samples of a steady stroke).
     let limit = dx_m.signum();
     if (z - limit).abs() <= SETTLED && dx_m.abs() > v_yield_m_s * dt_s {
         return z;
@@ -284,26 +262,20 @@ pub(crate) fn shaped_step(
 }
 
 impl Effect for Hysteresis {
-    fn name(&self) -> &'static str {
-        "hysteresis"
-    }
-
-    fn describe(&self) -> &'static str {
+    effect_constants!(
+        "hysteresis",
+        Direction,
         "Pre-yield visco-elastic hysteresis: sgn(v) of Eq. (2) is replaced by a state z in [-1, 1], a \
          normalised Bouc-Wen element of yield displacement x_y in series with a viscous pre-yield dashpot Fy/v_y \
          (Spencer et al. 1997 reduced): dz/dt = (w - (1-g)|w| sgn(z) psi(|z|) - g w psi(|z|))/x_y, \
          w = v - v_y z, psi(q) = q(1 - k + k q) (k = g = 0: Dahl; k = 1: Bouc-Wen n = 2). The force ramps \
          from -Fy to +Fy over a few x_y after each reversal, follows Fy v/v_y below v_y, and the loop widens \
-         with frequency."
-    }
-
-    fn stage(&self) -> EffectStage {
-        EffectStage::Direction
-    }
-
-    fn params(&self) -> &'static [ParamSpec] {
-        &PARAMS
-    }
+         with frequency.",
+        "loops in force-velocity near v = 0: after each velocity reversal the measured force is still on the old \
+         branch for a small displacement (a few x_y), so the residual of a model without it is a spike of \
+         about 2·Fy that decays after every reversal, largest at high current; and below a knee velocity v_y \
+         the measured force rises with velocity (pre-yield slope Fy/v_y) instead of jumping to Fy",
+    );
 
     /// 2 % of the largest displacement and 10 % of the largest velocity: a loop and a knee the data can see,
     /// so the gradient is informative (the fit on the UTFSM damper converges from here); the Dahl shape
@@ -359,13 +331,6 @@ impl Effect for Hysteresis {
             p[KNEE],
             p[GAMMA_SHARE],
         );
-    }
-
-    fn residual_signature(&self) -> &'static str {
-        "loops in force-velocity near v = 0: after each velocity reversal the measured force is still on the old \
-         branch for a small displacement (a few x_y), so the residual of a model without it is a spike of \
-         about 2·Fy that decays after every reversal, largest at high current; and below a knee velocity v_y \
-         the measured force rises with velocity (pre-yield slope Fy/v_y) instead of jumping to Fy"
     }
 }
 

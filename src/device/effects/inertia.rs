@@ -1,10 +1,7 @@
 //! Inertia of the moving parts: `F_extra = m a`, `m` the fitted mass of piston, rod and the fluid they
 //! push, `a` the piston acceleration.
 
-use crate::device::effect::{Effect, EffectStage, Inputs, Stage};
-use crate::device::params::{DataStats, ParamSpec};
-
-use super::Scales;
+use super::*;
 
 /// Moving mass, see the module documentation.
 #[derive(Debug, Clone, Copy, Default)]
@@ -13,32 +10,23 @@ pub(crate) struct Inertia;
 /// Index of the parameter in the effect's slice.
 pub(crate) const MASS: usize = 0;
 
-const PARAMS: [ParamSpec; 1] = [ParamSpec::new(
+const PARAMS: [ParamSpec; 1] = [ParamSpec::non_negative(
     "inertia_mass_kg",
     "kg",
     // A mass is not negative; this also keeps inertia from imitating a spring on a single-frequency sine.
-    0.0,
-    f64::INFINITY,
     "effective moving mass of piston, rod and entrained fluid",
 )];
 
 impl Effect for Inertia {
-    fn name(&self) -> &'static str {
-        "inertia"
-    }
-
-    fn describe(&self) -> &'static str {
+    effect_constants!(
+        "inertia",
+        Additive,
         "Moving mass of piston, rod and entrained fluid: m a added to the damper force (Newton's second law on \
-         the moving parts between actuator and load cell)."
-    }
-
-    fn stage(&self) -> EffectStage {
-        EffectStage::Additive
-    }
-
-    fn params(&self) -> &'static [ParamSpec] {
-        &PARAMS
-    }
+         the moving parts between actuator and load cell).",
+        "residual proportional to acceleration: largest at the ends of the stroke where the velocity reverses, \
+         growing with the square of frequency at a given amplitude, the same at every current; on one sine it \
+         looks like a negative stiffness, so it separates from stiffness only across frequencies",
+    );
 
     /// A mass giving 1 % of the force scale at the largest acceleration.
     fn initial_guess(&self, stats: &DataStats) -> Vec<f64> {
@@ -54,12 +42,6 @@ impl Effect for Inertia {
 
     fn apply(&self, p: &[f64], _s: &[f64], inp: &Inputs, stage: &mut Stage) {
         stage.extra_n += p[MASS] * inp.a_m_s2;
-    }
-
-    fn residual_signature(&self) -> &'static str {
-        "residual proportional to acceleration: largest at the ends of the stroke where the velocity reverses, \
-         growing with the square of frequency at a given amplitude, the same at every current; on one sine it \
-         looks like a negative stiffness, so it separates from stiffness only across frequencies"
     }
 }
 

@@ -2,10 +2,7 @@
 //! linear at small current and bounded at high current (fluid and steel saturate). Physics and sources:
 //! `docs/explanation/damper-models.md`.
 
-use crate::device::effect::{Effect, EffectStage, Inputs, Stage};
-use crate::device::params::{DataStats, ParamSpec};
-
-use super::Scales;
+use super::*;
 
 /// Yield force saturating with current, see the module documentation.
 #[derive(Debug, Clone, Copy, Default)]
@@ -34,22 +31,15 @@ fn tanh_ratio(u: f64) -> f64 {
 }
 
 impl Effect for MagneticSaturation {
-    fn name(&self) -> &'static str {
-        "magnetic_saturation"
-    }
-
-    fn describe(&self) -> &'static str {
+    effect_constants!(
+        "magnetic_saturation",
+        YieldMap,
         "Yield force saturating with coil current (fluid and steel magnetisation): the field part k|h| of \
-         Eq. (6) becomes k i_sat tanh(|h|/i_sat), slope k at small current and limit k i_sat at large current."
-    }
-
-    fn stage(&self) -> EffectStage {
-        EffectStage::YieldMap
-    }
-
-    fn params(&self) -> &'static [ParamSpec] {
-        &PARAMS
-    }
+         Eq. (6) becomes k i_sat tanh(|h|/i_sat), slope k at small current and limit k i_sat at large current.",
+        "residual versus current is curved: a linear-in-current model fitted to it over-predicts the yield force \
+         at the highest currents and under-predicts in the middle; the same at every velocity (a yield-force, \
+         not a damping, error)",
+    );
 
     /// Four times the largest current: a 2 % curvature at the top of the data, close to the linear model.
     fn initial_guess(&self, stats: &DataStats) -> Vec<f64> {
@@ -66,12 +56,6 @@ impl Effect for MagneticSaturation {
         let field = stage.yield_field_n * tanh_ratio(u);
         stage.yield_n += field - stage.yield_field_n;
         stage.yield_field_n = field;
-    }
-
-    fn residual_signature(&self) -> &'static str {
-        "residual versus current is curved: a linear-in-current model fitted to it over-predicts the yield force \
-         at the highest currents and under-predicts in the middle; the same at every velocity (a yield-force, \
-         not a damping, error)"
     }
 }
 

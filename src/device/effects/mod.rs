@@ -1,7 +1,28 @@
 //! The effect library: one file per physical effect of the model-discovery vocabulary (table:
 //! `docs/reference/effects.md`). Each derives its initial guess and its typical strength (the hidden truth of synthetic
 //! tests) from [`DataStats`] through `Scales`, never from numbers tuned to one data set.
-#![warn(missing_docs)]
+
+/// The `Effect` methods of a built-in effect that only return its constants: its name, description, stage,
+/// the module's `PARAMS` and its residual signature.
+macro_rules! effect_constants {
+    ($name:literal, $stage:ident, $describe:expr, $signature:expr $(,)?) => {
+        fn name(&self) -> &'static str {
+            $name
+        }
+        fn describe(&self) -> &'static str {
+            $describe
+        }
+        fn stage(&self) -> EffectStage {
+            EffectStage::$stage
+        }
+        fn params(&self) -> &'static [ParamSpec] {
+            &PARAMS
+        }
+        fn residual_signature(&self) -> &'static str {
+            $signature
+        }
+    };
+}
 
 pub(crate) mod asymmetry;
 pub(crate) mod current_viscosity;
@@ -11,8 +32,9 @@ pub(crate) mod magnetic_saturation;
 pub(crate) mod stiffness;
 pub(crate) mod thermal_drift;
 
+use super::effect::{Effect, EffectStage, Inputs, Stage, Step};
 use super::model::Registry;
-use super::params::DataStats;
+use super::params::{DataStats, ParamSpec};
 
 pub(crate) use asymmetry::Asymmetry;
 pub(crate) use current_viscosity::CurrentViscosity;

@@ -2,10 +2,7 @@
 //! centring spring, with a Duffing hardening towards the ends. Both rates are non-negative (a negative rate on
 //! a sine test is `inertia`'s). Physics and sources: `docs/explanation/damper-models.md`.
 
-use crate::device::effect::{Effect, EffectStage, Inputs, Stage};
-use crate::device::params::{DataStats, ParamSpec};
-
-use super::Scales;
+use super::*;
 
 /// Spring with preload over the whole stroke, see the module documentation.
 #[derive(Debug, Clone, Copy, Default)]
@@ -17,13 +14,11 @@ pub(crate) const PRELOAD: usize = 1;
 pub(crate) const K3: usize = 2;
 
 const PARAMS: [ParamSpec; 3] = [
-    ParamSpec::new(
+    ParamSpec::non_negative(
         "stiff_k_n_per_m",
         "N/m",
         // A passive element is stable about mid-stroke (k ≥ 0). This also keeps stiffness from imitating
         // inertia, which on a single-frequency sine is a negative stiffness −m ω².
-        0.0,
-        f64::INFINITY,
         "spring rate over the whole stroke (gas accumulator, foam, centring spring)",
     ),
     ParamSpec::new(
@@ -33,33 +28,24 @@ const PARAMS: [ParamSpec; 3] = [
         f64::INFINITY,
         "force at mid-stroke (accumulator pressure on the rod area, spring preload), either sign",
     ),
-    ParamSpec::new(
+    ParamSpec::non_negative(
         "stiff_k3_n_per_m3",
         "N/m³",
-        0.0,
-        f64::INFINITY,
         "cubic hardening towards the ends of the stroke (gas compression, foam densification), k3 x³",
     ),
 ];
 
 impl Effect for Stiffness {
-    fn name(&self) -> &'static str {
-        "stiffness"
-    }
-
-    fn describe(&self) -> &'static str {
+    effect_constants!(
+        "stiffness",
+        Additive,
         "Position force from a gas accumulator, foam or centring spring: k x + k3 x³ + F0 with x from \
          mid-stroke, over the whole stroke (the k1(x - x0) term of Spencer et al. 1997, hardening towards the \
-         ends)."
-    }
-
-    fn stage(&self) -> EffectStage {
-        EffectStage::Additive
-    }
-
-    fn params(&self) -> &'static [ParamSpec] {
-        &PARAMS
-    }
+         ends).",
+        "residual proportional to displacement over the whole stroke (a straight line in residual versus x, \
+         steepening towards the ends for a hardening spring, the same at every current and velocity), plus a \
+         constant offset from the preload that, unlike asymmetry, does not grow with current",
+    );
 
     /// A spring giving 2 % of the force scale at the largest displacement, no preload (its sign is unknown),
     /// and a hardening adding 0.5 % there.
@@ -78,12 +64,6 @@ impl Effect for Stiffness {
     fn apply(&self, p: &[f64], _s: &[f64], inp: &Inputs, stage: &mut Stage) {
         let x = inp.x_m;
         stage.extra_n += (p[K] + p[K3] * x * x) * x + p[PRELOAD];
-    }
-
-    fn residual_signature(&self) -> &'static str {
-        "residual proportional to displacement over the whole stroke (a straight line in residual versus x, \
-         steepening towards the ends for a hardening spring, the same at every current and velocity), plus a \
-         constant offset from the preload that, unlike asymmetry, does not grow with current"
     }
 }
 
@@ -104,16 +84,17 @@ mod tests {
                 ("stiff_k3_n_per_m3", k3),
             ],
         );
-        for x in [-0.02, -0.005, 0.0, 0.013] {
-            let rest = [Inputs {
-                t_s: 0.0,
+        let rest = |x: f64| {
+            let at = Inputs {
                 x_m: x,
-                v_m_s: 0.0,
-                a_m_s2: 0.0,
                 current_cmd_a: 7.0,
-            }];
-            let f = m.simulate(&p, &rest)[0];
+                ..Inputs::default()
+            };
+            m.simulate(&p, &[at])[0]
+        };
+        for x in [-0.02, -0.005, 0.0, 0.013] {
             // At v = 0 the Bingham yield has no direction: only the spring remains.
+            let f = rest(x);
             assert!(
                 (f - (k * x + k3 * x.powi(3) + f0)).abs() < 1e-9,
                 "at x = {x}: {f}"
@@ -121,18 +102,6 @@ mod tests {
         }
         // Hardening: at 20 mm the cubic term (320 N) outweighs the linear one (40 N), and the spring's rate
         // there (k + 3 k3 x² = 50 kN/m) is 25× its rate at mid-stroke.
-        let rest = |x: f64| {
-            m.simulate(
-                &p,
-                &[Inputs {
-                    t_s: 0.0,
-                    x_m: x,
-                    v_m_s: 0.0,
-                    a_m_s2: 0.0,
-                    current_cmd_a: 7.0,
-                }],
-            )[0]
-        };
         let rate = |x: f64| (rest(x + 1e-5) - rest(x - 1e-5)) / 2e-5;
         assert!(
             (rate(0.02) / rate(0.0) - 25.0).abs() < 1e-3,

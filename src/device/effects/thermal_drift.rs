@@ -2,10 +2,7 @@
 //! start) and the yield force falls as `Fy · max(0, 1 − E/E_th)`; integrated exactly for a power held over
 //! a step. Physics and sources: `docs/explanation/damper-models.md`.
 
-use crate::device::effect::{Effect, EffectStage, Inputs, Stage, Step};
-use crate::device::params::{DataStats, ParamSpec};
-
-use super::Scales;
+use super::*;
 
 /// Yield force falling with dissipated heat, see the module documentation.
 #[derive(Debug, Clone, Copy, Default)]
@@ -48,23 +45,16 @@ pub(crate) fn heat_step(e_j: f64, power_w: f64, tau_s: f64, dt_s: f64) -> f64 {
 }
 
 impl Effect for ThermalDrift {
-    fn name(&self) -> &'static str {
-        "thermal_drift"
-    }
-
-    fn describe(&self) -> &'static str {
+    effect_constants!(
+        "thermal_drift",
+        YieldScale,
         "Yield force falling as dissipated energy heats the fluid: stored heat dE/dt = P - E/tau from the \
          dissipated power P, yield scaled by 1 - E/E_th (lumped thermal model, Gordaninejad & Breese 1999), \
-         starting at ambient at each test's first sample."
-    }
-
-    fn stage(&self) -> EffectStage {
-        EffectStage::YieldScale
-    }
-
-    fn params(&self) -> &'static [ParamSpec] {
-        &PARAMS
-    }
+         starting at ambient at each test's first sample.",
+        "residual that drifts with time within each test (and with cumulative dissipated energy): the measured \
+         force amplitude falls cycle after cycle, faster at high current and speed, and a model without it is \
+         too weak early and too strong late in every test",
+    );
 
     /// Heat for a full loss 20× the energy dissipated in the longest test (a drift of a few %), cooling
     /// over three test durations.
@@ -98,12 +88,6 @@ impl Effect for ThermalDrift {
         let v = inp.v_m_s;
         let power = ((stage.yield_n * stage.direction + stage.damping_n_s_per_m * v) * v).max(0.0);
         s[0] = heat_step(s[0], power, p[TAU], step.dt_s);
-    }
-
-    fn residual_signature(&self) -> &'static str {
-        "residual that drifts with time within each test (and with cumulative dissipated energy): the measured \
-         force amplitude falls cycle after cycle, faster at high current and speed, and a model without it is \
-         too weak early and too strong late in every test"
     }
 }
 
@@ -148,22 +132,14 @@ mod tests {
         let mut inputs = triangle(0.01, 0.05, 10.0, 1e-3, 4.0);
         // Hold still for 3τ, then move again for one sample.
         let t_end = inputs.last().expect("samples").t_s;
-        for k in 1..=15000 {
-            inputs.push(Inputs {
-                t_s: t_end + k as f64 * 1e-3,
-                x_m: 0.0,
-                v_m_s: 0.0,
-                a_m_s2: 0.0,
-                current_cmd_a: 10.0,
-            });
-        }
-        inputs.push(Inputs {
-            t_s: t_end + 15.001,
-            x_m: 0.0,
-            v_m_s: 0.05,
-            a_m_s2: 0.0,
+        let at = |t_s: f64, v_m_s: f64| Inputs {
+            t_s,
+            v_m_s,
             current_cmd_a: 10.0,
-        });
+            ..Inputs::default()
+        };
+        inputs.extend((1..=15000).map(|k| at(t_end + k as f64 * 1e-3, 0.0)));
+        inputs.push(at(t_end + 15.001, 0.05));
         let f = m.simulate(&p, &inputs);
         let fy0 = BASE[0] + BASE[1] * 10.0;
         let heated = f[3999].abs();
