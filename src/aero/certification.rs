@@ -242,7 +242,7 @@ pub(crate) fn per_g_load_factor(
 ) -> Result<f64, AeroError> {
     let air = super::atmosphere::isa(altitude_m);
     let cl_1g = m.mass_kg * G0_M_S2 / (0.5 * air.density_kg_m3 * airspeed_m_s.powi(2) * m.wing_area_m2);
-    let n_stall = m.cl_max() / cl_1g;
+    let n_stall = m.cl_alpha.max_value() / cl_1g;
     let n_ref = 2.0_f64.min(m.limit_load_factor).min(1.0 + 0.8 * (n_stall - 1.0));
     if n_ref <= 1.05 {
         return Err(AeroError::Refused {

@@ -113,8 +113,7 @@ pub(crate) struct JsbsimBridge {
 }
 
 impl JsbsimBridge {
-    /// Start the bridge for aircraft `name` (JSBSim's folder name, `c172p`, `737`); the hinge and
-    /// stick gearing come from the embedded model of the same name.
+    /// Start the bridge for aircraft `name` (`c172p`, `737`) with the hinge and stick gearing of `model`.
     pub fn spawn(name: &str, model: Arc<AircraftModel>) -> Result<Self, AeroError> {
         Self::start(name, Some(model.hinge.clone()), None, model.estimates.clone())
     }
@@ -166,16 +165,10 @@ impl JsbsimBridge {
         let stderr = child.stderr.take().ok_or_else(|| fail("no stderr pipe".into()))?;
         let (tx, rx) = mpsc::channel();
         std::thread::spawn(move || {
-            for line in BufReader::new(stdout).lines() {
-                match line {
-                    Ok(l) => {
-                        if tx.send(l).is_err() {
-                            break;
-                        }
-                    }
-                    Err(_) => break,
-                }
-            }
+            BufReader::new(stdout)
+                .lines()
+                .map_while(Result::ok)
+                .try_for_each(|l| tx.send(l))
         });
         let tail = Arc::new(Mutex::new(Vec::new()));
         let tail_w = Arc::clone(&tail);
@@ -252,14 +245,9 @@ impl JsbsimBridge {
         if let Err(e) = io {
             return Err(self.error(format!("cannot write to the bridge: {e}")));
         }
-        let reply = self.read_line(timeout);
-        let reply = match reply {
-            Ok(r) => r,
-            Err(e) => {
-                let _ = self.child.kill();
-                return Err(e);
-            }
-        };
+        let reply = self.read_line(timeout).inspect_err(|_| {
+            let _ = self.child.kill();
+        })?;
         let us = sent.elapsed().as_secs_f64() * 1e6;
         let Some(body) = reply.strip_prefix("ok ") else {
             let msg = reply.strip_prefix("error ").unwrap_or(&reply).to_string();
