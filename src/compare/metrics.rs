@@ -52,16 +52,9 @@ fn sweep_rows(tr: &Trace) -> (&[Row], f64) {
         Some(Segment::Sine { frequency_hz, .. }) => *frequency_hz,
         _ => return (&[], 0.0),
     };
-    let t0 = 1.0 / f;
-    let rows: Vec<usize> = tr
-        .rows
-        .iter()
-        .enumerate()
-        .filter(|(_, r)| r.segment == 0 && r.t_s >= t0)
-        .map(|(k, _)| k)
-        .collect();
-    match (rows.first(), rows.last()) {
-        (Some(&a), Some(&b)) => (&tr.rows[a..=b], f),
+    let inside = |r: &Row| r.segment == 0 && r.t_s >= 1.0 / f;
+    match (tr.rows.iter().position(inside), tr.rows.iter().rposition(inside)) {
+        (Some(a), Some(b)) => (&tr.rows[a..=b], f),
         _ => (&[], f),
     }
 }
