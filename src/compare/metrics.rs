@@ -84,7 +84,7 @@ pub fn slope(pts: impl Iterator<Item = (f64, f64)> + Clone) -> f64 {
 }
 
 /// Phase (rad) of the fundamental at `freq_hz` of samples `(t, y)` (over whole cycles).
-pub(crate) fn fundamental_phase(pts: impl Iterator<Item = (f64, f64)>, freq_hz: f64) -> f64 {
+fn fundamental_phase(pts: impl Iterator<Item = (f64, f64)>, freq_hz: f64) -> f64 {
     let w = 2.0 * std::f64::consts::PI * freq_hz;
     let (re, im) = pts.fold((0.0, 0.0), |(re, im), (t, y)| {
         (re + y * (w * t).sin(), im + y * (w * t).cos())
