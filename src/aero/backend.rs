@@ -1,4 +1,4 @@
-//! Aircraft backends behind one trait: the embedded Rust model ([`Embedded`], the default, no Python)
+//! Aircraft backends behind one trait: the embedded Rust models ([`Embedded`], the default, no Python)
 //! and the live JSBSim co-simulation (`super::jsbsim_bridge::JsbsimBridge`, a Python subprocess).
 //!
 //! A scenario names its backend with one string: `"c172p"` (embedded, `models/aircraft/c172p.toml`; a
