@@ -19,7 +19,8 @@ use metrics::{fault_metrics, system_metrics, FaultRow, SystemMetrics};
 
 pub use crate::control::feel::FeelKind;
 
-/// Parse a comma-separated list of feel systems (`--feel a,b`), in the order given ([`feel_kinds`]).
+/// Parse a comma-separated list of feel systems (`--feel a,b`), in the order given; an empty name or a
+/// system named twice is an error.
 pub fn parse_feel_list(s: &str) -> Result<Vec<FeelKind>, CompareError> {
     let names: Vec<&str> = s.split(',').map(str::trim).collect();
     if names.iter().all(|n| n.is_empty()) {
