@@ -1,4 +1,4 @@
-//! Aircraft backends behind one trait: the embedded Rust model ([`Embedded`], the default, no Python)
+//! Aircraft backends behind one trait: the embedded Rust models ([`Embedded`], the default, no Python)
 //! and the live JSBSim co-simulation (`super::jsbsim_bridge::JsbsimBridge`, a Python subprocess).
 //!
 //! A scenario names its backend with one string: `"c172p"` (embedded, `models/aircraft/c172p.toml`; a
@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use super::fbw::FlyByWire;
-use super::fcs::{EmbeddedFbw, FbwModel};
+use super::fcs::{FbwAircraft, FbwModel};
 use super::jsbsim_bridge::JsbsimBridge;
 use super::{AeroError, Aircraft, AircraftModel, AircraftState, HingeModel};
 
@@ -33,13 +33,7 @@ pub trait AircraftBackend {
     /// positive trailing edge down) and the throttle as a ratio of the trim throttle held over it.
     fn step(&mut self, elevator_rad: f64, throttle_ratio: f64) -> Result<AircraftState, AeroError>;
     /// One step of a fly-by-wire aircraft with its stick's normalised FCS command (pull +, in [-1, 1]).
-    fn step_command(&mut self, command: f64, throttle_ratio: f64) -> Result<AircraftState, AeroError> {
-        let _ = (command, throttle_ratio);
-        Err(AeroError::Refused {
-            what: format!("aircraft `{}`", self.label()),
-            why: "not fly-by-wire: its stick drives the elevator".into(),
-        })
-    }
+    fn step_command(&mut self, command: f64, throttle_ratio: f64) -> Result<AircraftState, AeroError>;
     /// Round trips of the `step` requests for a co-simulation: (count, mean µs, max µs).
     fn round_trip_us(&self) -> Option<(u64, f64, f64)> {
         None
@@ -123,10 +117,11 @@ pub fn open(spec: &str) -> Result<Box<dyn AircraftBackend>, AeroError> {
                         ),
                     });
                 };
-                return Ok(Box::new(EmbeddedFbw::new(spec, model, FlyByWire::load(&path)?)));
+                let flown = Flown::FlyByWire(Box::new(FbwAircraft::new(model)), FlyByWire::load(&path)?);
+                return Ok(Box::new(Embedded::new(spec, flown)));
             }
             let model = Arc::new(AircraftModel::load_builtin(spec)?);
-            Ok(Box::new(Embedded::new(spec, model)))
+            Ok(Box::new(Embedded::new(spec, Flown::Linked(Aircraft::new(model)))))
         }
     }
 }
@@ -137,22 +132,37 @@ pub fn is_fly_by_wire_file(path: &Path) -> Result<bool, AeroError> {
     Ok(crate::input::aircraft::is_fly_by_wire(&src.text))
 }
 
-/// The embedded nonlinear 3-DOF model ([`Aircraft`]).
+/// An embedded model flown without Python.
+pub enum Flown {
+    /// The nonlinear 3-DOF model ([`Aircraft`]), its stick linked to the elevator.
+    Linked(Aircraft),
+    /// A fly-by-wire aircraft ([`FbwAircraft`]) behind its designed stick.
+    FlyByWire(Box<FbwAircraft>, FlyByWire),
+}
+
+/// The embedded backend: a [`Flown`] model with the throttle of its trim.
 pub struct Embedded {
     label: String,
-    aircraft: Aircraft,
+    aircraft: Flown,
     trim_throttle: f64,
     dt_s: f64,
 }
 
 impl Embedded {
-    /// The embedded model of `model`, named `label` in outputs.
-    pub fn new(label: &str, model: Arc<AircraftModel>) -> Self {
+    /// The embedded model `aircraft`, named `label` in outputs.
+    pub fn new(label: &str, aircraft: Flown) -> Self {
         Self {
             label: label.to_string(),
-            aircraft: Aircraft::new(model),
+            aircraft,
             trim_throttle: 0.0,
             dt_s: 1.0 / 120.0,
+        }
+    }
+
+    fn refused(&self, why: &str) -> AeroError {
+        AeroError::Refused {
+            what: format!("aircraft `{}`", self.label),
+            why: why.into(),
         }
     }
 }
@@ -163,24 +173,52 @@ impl AircraftBackend for Embedded {
     }
 
     fn hinge(&self) -> Option<&HingeModel> {
-        Some(self.aircraft.hinge())
+        match &self.aircraft {
+            Flown::Linked(a) => Some(a.hinge()),
+            Flown::FlyByWire(..) => None,
+        }
+    }
+
+    fn fly_by_wire(&self) -> Option<&FlyByWire> {
+        match &self.aircraft {
+            Flown::Linked(_) => None,
+            Flown::FlyByWire(_, stick) => Some(stick),
+        }
     }
 
     fn estimates(&self) -> &[String] {
-        &self.aircraft.model().estimates
+        match &self.aircraft {
+            Flown::Linked(a) => &a.model().estimates,
+            Flown::FlyByWire(_, stick) => &stick.estimates,
+        }
     }
 
     fn trim(&mut self, airspeed_m_s: f64, altitude_m: f64, dt_s: f64) -> Result<AircraftState, AeroError> {
-        let s = self.aircraft.trim(airspeed_m_s, altitude_m)?;
+        let s = match &mut self.aircraft {
+            Flown::Linked(a) => a.trim(airspeed_m_s, altitude_m)?,
+            Flown::FlyByWire(a, _) => a.trim(airspeed_m_s, altitude_m)?,
+        };
         self.trim_throttle = s.throttle;
         self.dt_s = dt_s;
         Ok(s)
     }
 
     fn step(&mut self, elevator_rad: f64, throttle_ratio: f64) -> Result<AircraftState, AeroError> {
-        Ok(*self
-            .aircraft
-            .step(elevator_rad, self.trim_throttle * throttle_ratio, self.dt_s))
+        match &mut self.aircraft {
+            Flown::Linked(a) => Ok(*a.step(elevator_rad, self.trim_throttle * throttle_ratio, self.dt_s)),
+            Flown::FlyByWire(..) => {
+                Err(self
+                    .refused("fly-by-wire: its stick commands the flight control system, not the elevator"))
+            }
+        }
+    }
+
+    fn step_command(&mut self, command: f64, throttle_ratio: f64) -> Result<AircraftState, AeroError> {
+        match &mut self.aircraft {
+            // the stick's command is pull +, JSBSim's elevator command push +
+            Flown::FlyByWire(a, _) => Ok(*a.step(-command, self.trim_throttle * throttle_ratio, self.dt_s)),
+            Flown::Linked(_) => Err(self.refused("not fly-by-wire: its stick drives the elevator")),
+        }
     }
 }
 

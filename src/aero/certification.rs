@@ -49,45 +49,31 @@ impl CertificationBasis {
     /// The limits for a part, control type and maximum weight.
     pub fn new(part: CertificationPart, control: ControlType, max_weight_kg: f64) -> Self {
         let w_lbf = max_weight_kg * G0_M_S2 / LBF_TO_N;
-        match part {
-            CertificationPart::Part23 => {
-                let (two, one, min_lbf) = match control {
-                    // 23.143(c): wheel 75 (two hands) / 50 (one hand); 23.155(a)(1)
-                    ControlType::Wheel => (75.0, 50.0, (w_lbf / 100.0).clamp(20.0, 50.0)),
-                    // 23.143(c): stick 60; 23.155(a)(2)
-                    ControlType::Stick => (60.0, 60.0, (w_lbf / 140.0).clamp(15.0, 35.0)),
-                };
-                Self {
-                    part,
-                    control,
-                    short_term_two_hands_n: two * LBF_TO_N,
-                    short_term_one_hand_n: one * LBF_TO_N,
-                    long_term_n: 10.0 * LBF_TO_N,
-                    min_force_at_limit_n: Some(min_lbf * LBF_TO_N),
-                    min_speed_gradient_n_per_m_s: None,
-                }
+        // short term two hands, one hand, long term, the minimum at the limit load factor; lbf
+        let (two, one, long, min_at_limit) = match (part, control) {
+            // 23.143(c): wheel 75 (two hands) / 50 (one hand); 23.155(a)(1)
+            (CertificationPart::Part23, ControlType::Wheel) => {
+                (75.0, 50.0, 10.0, Some((w_lbf / 100.0).clamp(20.0, 50.0)))
             }
+            // 23.143(c): stick 60; 23.155(a)(2)
+            (CertificationPart::Part23, ControlType::Stick) => {
+                (60.0, 60.0, 10.0, Some((w_lbf / 140.0).clamp(15.0, 35.0)))
+            }
+            // 25.143(d)
+            (CertificationPart::Part25, _) => (75.0, 50.0, 10.0, None),
             // MIL-F-8785C bounds the gradient (per flight condition, FeelAssessment), not the force
-            CertificationPart::MilF8785C => Self {
-                part,
-                control,
-                short_term_two_hands_n: f64::INFINITY,
-                short_term_one_hand_n: f64::INFINITY,
-                long_term_n: f64::INFINITY,
-                min_force_at_limit_n: None,
-                min_speed_gradient_n_per_m_s: None,
-            },
-            CertificationPart::Part25 => Self {
-                part,
-                control,
-                // 25.143(d)
-                short_term_two_hands_n: 75.0 * LBF_TO_N,
-                short_term_one_hand_n: 50.0 * LBF_TO_N,
-                long_term_n: 10.0 * LBF_TO_N,
-                min_force_at_limit_n: None,
-                // 25.173(c): 1 lbf per 6 kt
-                min_speed_gradient_n_per_m_s: Some(LBF_TO_N / (6.0 * KT_TO_M_S)),
-            },
+            (CertificationPart::MilF8785C, _) => (f64::INFINITY, f64::INFINITY, f64::INFINITY, None),
+        };
+        Self {
+            part,
+            control,
+            short_term_two_hands_n: two * LBF_TO_N,
+            short_term_one_hand_n: one * LBF_TO_N,
+            long_term_n: long * LBF_TO_N,
+            min_force_at_limit_n: min_at_limit.map(|f| f * LBF_TO_N),
+            // 25.173(c): 1 lbf per 6 kt
+            min_speed_gradient_n_per_m_s: (part == CertificationPart::Part25)
+                .then(|| LBF_TO_N / (6.0 * KT_TO_M_S)),
         }
     }
 
@@ -242,7 +228,7 @@ pub(crate) fn per_g_load_factor(
 ) -> Result<f64, AeroError> {
     let air = super::atmosphere::isa(altitude_m);
     let cl_1g = m.mass_kg * G0_M_S2 / (0.5 * air.density_kg_m3 * airspeed_m_s.powi(2) * m.wing_area_m2);
-    let n_stall = m.cl_max() / cl_1g;
+    let n_stall = m.cl_alpha.max_value() / cl_1g;
     let n_ref = 2.0_f64.min(m.limit_load_factor).min(1.0 + 0.8 * (n_stall - 1.0));
     if n_ref <= 1.05 {
         return Err(AeroError::Refused {

@@ -1,22 +1,15 @@
 //! A fly-by-wire aircraft's stick: no hinge moment reaches it, so its feel is designed, and the pilot's
 //! force on it commands the flight control system (FCS), as on the F-16's force-sensing sidestick.
 //!
-//! - **Command.** The stick's own force sensor (in its base, measuring the hand's force on the grip; not
-//!   the feel loop's load cell) gives the FCS its normalised pitch command past the breakout,
-//!   `c = sgn(F) max(|F| − F_b, 0) / F_c` clipped to [-1, 1] (pull +), `F_c = (F/n) g_c` the force of full
-//!   command. A fault in the feel loop (coil, driver, load cell) changes how the stick moves under the
-//!   hand, what the pilot feels, never what the FCS is told; the MR damper is passive and cannot move the
-//!   stick, and no force on the grip commands nothing.
-//! - **Feel law.** The stick's small travel is the tactile cue: `F(θ) = F_b sgn(θ) + K θ` at the grip
-//!   (pull +), full command at the aft stop `θ_full`, designed from two figures:
-//!   the breakout `F_b` (MIL-F-8785C §3.5.2.1, Table XII: pitch, stick, Class IV, 0.5 to 3 lbf) and the
-//!   stick force per g `F/n` (MIL-F-8785C §3.2.2.2.1, Table V, Level 1). The gradient follows from the
-//!   FCS's steady response at the design condition, `g_c` load factor per unit command:
-//!   `K = (F/n) g_c / θ_full`, so a steady pull to `n` asks `F_b + (F/n)(n − 1)`.
-//! - **Level 1 band.** Table V's limits for the aircraft's `n/α` and limit load factor
-//!   ([`super::certification`]): at most `240/(n/α)` lbf/g (not above 28, not below `56/(n_L − 1)`), at least
-//!   `21/(n_L − 1)` lbf/g (not below 3.0). Table V is written for centre sticks and wheels; the sidestick
-//!   limits of MIL-STD-1797A §4.2.8.2 could not be consulted, so the centre-stick band is the design band.
+//! - **Command.** The stick's own force sensor (not the feel loop's load cell) gives the FCS
+//!   `c = sgn(F) max(|F| − F_b, 0) / F_c` clipped to [-1, 1] (pull +), `F_c = (F/n) g_c`. A fault in the feel
+//!   loop changes what the pilot feels, never what the FCS is told: the MR damper cannot move the stick.
+//! - **Feel law.** `F(θ) = F_b sgn(θ) + K θ` at the grip (pull +), full command at the aft stop `θ_full`, from
+//!   the breakout `F_b` (MIL-F-8785C §3.5.2.1, Table XII: pitch, stick, Class IV, 0.5 to 3 lbf) and the stick
+//!   force per g `F/n` (MIL-F-8785C §3.2.2.2.1, Table V, Level 1): `K = (F/n) g_c / θ_full`, `g_c` the FCS's
+//!   steady load factor per unit command, so a steady pull to `n` asks `F_b + (F/n)(n − 1)`.
+//! - **Level 1 band.** Table V's centre-stick limits ([`super::certification`]); the sidestick limits of
+//!   MIL-STD-1797A §4.2.8.2 could not be consulted, so the centre-stick band is the design band.
 
 use super::certification::centre_stick_per_g_bounds;
 use crate::units::LBF_TO_N;
@@ -62,14 +55,7 @@ impl FlyByWire {
 
     /// The designed stick force at the grip at stick angle `stick_rad` from neutral (pull +), N.
     pub fn stick_force_n(&self, stick_rad: f64) -> f64 {
-        let sgn = if stick_rad > 0.0 {
-            1.0
-        } else if stick_rad < 0.0 {
-            -1.0
-        } else {
-            0.0
-        };
-        self.breakout_n * sgn + self.gradient_n_per_rad() * stick_rad
+        self.breakout_n * sgn(stick_rad) + self.gradient_n_per_rad() * stick_rad
     }
 
     /// The force of full command at the grip beyond the breakout, N: `(F/n) g_c`.
@@ -87,7 +73,7 @@ impl FlyByWire {
     /// The designed steady stick force to hold `nz_g` at the design condition, N.
     pub fn designed_force_n(&self, nz_g: f64) -> f64 {
         let dn = nz_g - 1.0;
-        self.breakout_n * dn.signum() * f64::from(dn != 0.0) + self.stick_force_per_g_n * dn
+        self.breakout_n * sgn(dn) + self.stick_force_per_g_n * dn
     }
 
     /// MIL-F-8785C Table V Level 1 stick force per g at the design condition: [min, max] N/g.
@@ -95,6 +81,11 @@ impl FlyByWire {
         let level1 = centre_stick_per_g_bounds(self.limit_load_factor, self.n_alpha_per_rad)[0];
         (level1.min_n_per_g, level1.max_n_per_g)
     }
+}
+
+/// The sign of `v`: 1, −1, or 0 at zero (and NaN).
+fn sgn(v: f64) -> f64 {
+    f64::from(u8::from(v > 0.0)) - f64::from(u8::from(v < 0.0))
 }
 
 #[cfg(test)]

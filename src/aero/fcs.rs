@@ -32,9 +32,9 @@
 use nalgebra::{Complex, SMatrix, SVector, Vector3};
 
 use super::atmosphere::{isa, RHO0_KG_M3};
-use super::longitudinal::{newton3, rk4, Airframe, Loads, X};
+use super::longitudinal::{newton3, rk4, Airframe, Eval, Loads, X};
 use super::table::{Table1, Table2};
-use super::{AeroError, AircraftState, FlyByWire};
+use super::{AeroError, AircraftState};
 use crate::pilot::attitude::PilotLoop;
 use crate::units::G0_M_S2;
 
@@ -126,17 +126,6 @@ pub struct FbwModel {
     pub fcs: PitchFcs,
 }
 
-/// What one evaluation of the model gives.
-struct Eval {
-    dx: X,
-    alpha: f64,
-    airspeed: f64,
-    qbar: f64,
-    mach: f64,
-    nz: f64,
-    thrust: f64,
-}
-
 impl FbwModel {
     fn eval(&self, x: &X, elevator_rad: f64, lef_rad: f64, throttle: f64) -> Eval {
         let a = &self.aero;
@@ -167,8 +156,10 @@ impl FbwModel {
         Eval {
             dx,
             alpha,
+            alphadot: (u * dx[1] - w * dx[0]) / (v * v),
             airspeed: v,
             qbar,
+            qbar_e: qbar,
             mach,
             nz,
             thrust,
@@ -261,32 +252,12 @@ impl FbwAircraft {
         let e = self
             .model
             .eval(&self.x, self.elevator_rad(), self.lef_rad(), self.throttle);
-        let [u, w, q, theta, h] = self.x;
-        let [du, dw, ..] = e.dx;
         self.now = Sensed {
             alpha: e.alpha,
-            q,
+            q: self.x[2],
             pilot_nz: self.model.pilot_nz(&self.x, &e),
         };
-        self.state = AircraftState {
-            t_s: self.t_s,
-            u_m_s: u,
-            w_m_s: w,
-            q_rad_s: q,
-            theta_rad: theta,
-            altitude_m: h,
-            airspeed_m_s: e.airspeed,
-            alpha_rad: e.alpha,
-            alphadot_rad_s: (u * dw - w * du) / (e.airspeed * e.airspeed),
-            qbar_pa: e.qbar,
-            qbar_elevator_pa: e.qbar,
-            mach: e.mach,
-            nz_g: e.nz,
-            elevator_rad: self.elevator_rad(),
-            throttle: self.throttle,
-            thrust_n: e.thrust,
-            ..AircraftState::default()
-        };
+        self.state = AircraftState::at(self.t_s, &self.x, &e, self.elevator_rad(), self.throttle);
     }
 
     /// Trim in wings-level, unaccelerated level flight at a true airspeed and altitude: the airframe's
@@ -439,66 +410,5 @@ impl FbwAircraft {
         m.lu()
             .solve(&b)
             .map_or(Complex::new(f64::NAN, f64::NAN), |x| (c * x)[0])
-    }
-}
-
-/// The embedded fly-by-wire backend: [`FbwAircraft`] behind its designed stick ([`FlyByWire`]).
-pub struct EmbeddedFbw {
-    label: String,
-    aircraft: FbwAircraft,
-    stick: FlyByWire,
-    trim_throttle: f64,
-    dt_s: f64,
-}
-
-impl EmbeddedFbw {
-    /// The embedded model `model` flown through the stick `stick`, named `label` in outputs.
-    pub fn new(label: &str, model: FbwModel, stick: FlyByWire) -> Self {
-        Self {
-            label: label.to_string(),
-            aircraft: FbwAircraft::new(model),
-            stick,
-            trim_throttle: 0.0,
-            dt_s: 1.0 / 120.0,
-        }
-    }
-}
-
-impl super::backend::AircraftBackend for EmbeddedFbw {
-    fn label(&self) -> &str {
-        &self.label
-    }
-
-    fn hinge(&self) -> Option<&super::HingeModel> {
-        None
-    }
-
-    fn fly_by_wire(&self) -> Option<&FlyByWire> {
-        Some(&self.stick)
-    }
-
-    fn estimates(&self) -> &[String] {
-        &self.stick.estimates
-    }
-
-    fn trim(&mut self, airspeed_m_s: f64, altitude_m: f64, dt_s: f64) -> Result<AircraftState, AeroError> {
-        let s = self.aircraft.trim(airspeed_m_s, altitude_m)?;
-        self.trim_throttle = s.throttle;
-        self.dt_s = dt_s;
-        Ok(s)
-    }
-
-    fn step(&mut self, _elevator_rad: f64, _throttle_ratio: f64) -> Result<AircraftState, AeroError> {
-        Err(AeroError::Refused {
-            what: format!("aircraft `{}`", self.label),
-            why: "fly-by-wire: its stick commands the flight control system, not the elevator".into(),
-        })
-    }
-
-    fn step_command(&mut self, command: f64, throttle_ratio: f64) -> Result<AircraftState, AeroError> {
-        // the stick's command is pull +, JSBSim's elevator command push +
-        Ok(*self
-            .aircraft
-            .step(-command, self.trim_throttle * throttle_ratio, self.dt_s))
     }
 }

@@ -285,10 +285,6 @@ mod tests {
             let (cl_a, b1) = lumped_vortex(n, 1.0, |_| 0.0, x_h, x_b);
             let (cl_d, b2) = lumped_vortex(n, 0.0, |x| if x > x_b { -1.0 } else { 0.0 }, x_h, x_b);
             let (cl_t, b3) = lumped_vortex(n, 0.0, |x| if x > x_t { -1.0 } else { 0.0 }, x_h, x_b);
-            eprintln!(
-                "c_e/c {e}, balance {bal}, tab {tab}: b1 {:.4} (vortices {b1:.4}), b2 {:.4} ({b2:.4}), b3 {:.4} ({b3:.4}), tau {:.4} ({:.4})",
-                s.b1, s.b2, s.b3, s.tau, cl_d / cl_a
-            );
             assert!(
                 (cl_a / (2.0 * PI) - 1.0).abs() < 1e-3,
                 "flat plate lift slope {cl_a}"

@@ -1,15 +1,12 @@
 //! Live JSBSim co-simulation: `python/jsbsim_bridge.py` in a child process, stepped in lock-step with
 //! the rig over stdin/stdout lines (one request line → one reply line; protocol in the script's
-//! docstring). JSBSim runs at its own frame (the scenario's aircraft rate, 120 Hz by default) and the
-//! rig at its physics rate; the flight loop sends one `step` per aircraft frame.
+//! docstring), one `step` per aircraft frame (the scenario's aircraft rate, 120 Hz by default).
 //!
 //! The Python interpreter is the first of `$MRFEEL_PYTHON`, the `.venv/bin/python` of the mrfeel
-//! checkout the command runs in (the current directory or a folder above it; `bash scripts/python-env.sh`
-//! creates it with the pinned jsbsim), and `python3` on the `PATH`; the bridge says on stderr which it
-//! used. The bridge scripts are built into the binary ([`crate::builtin`]) and written to a temporary
-//! folder for the child. A missing interpreter or jsbsim is an error that says so and how to install it;
-//! every read has a timeout (never a hang); the child is killed when the bridge is dropped. The round trip of
-//! every per-frame request (`step`, `cmd`) is timed; the trim's is not.
+//! checkout the command runs in (here or a folder above; `bash scripts/python-env.sh` creates it), and
+//! `python3` on the `PATH`. The bridge scripts are built into the binary ([`crate::builtin`]) and written
+//! to a temporary folder. A missing interpreter or jsbsim is an error saying how to install it; every read
+//! has a timeout; the child is killed when the bridge is dropped.
 
 use std::io::{BufRead, BufReader, Write};
 use std::path::PathBuf;
@@ -83,15 +80,6 @@ fn write_scripts() -> std::io::Result<(tempfile::TempDir, PathBuf)> {
     Ok((dir, bridge))
 }
 
-/// Round-trip statistics of the per-frame requests (`step` with an elevator, `cmd` with a fly-by-wire
-/// command; not the trim), request written → reply parsed, µs.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub(crate) struct RoundTrip {
-    pub count: u64,
-    pub mean_us: f64,
-    pub max_us: f64,
-}
-
 pub(crate) struct JsbsimBridge {
     label: String,
     name: String,
@@ -106,15 +94,15 @@ pub(crate) struct JsbsimBridge {
     tab_rad: f64,
     /// Feel computer's column neutral set at trim (powered controls), stick rad.
     feel_trim_rad: f64,
-    rt_sum_us: f64,
-    rt: RoundTrip,
+    /// Round trips of the per-frame requests (`step`, `cmd`; not the trim), request written → reply
+    /// parsed: count, sum and largest, µs.
+    round_trips: (u64, f64, f64),
     /// The folder the bridge scripts were written to, removed with the bridge.
     _scripts: tempfile::TempDir,
 }
 
 impl JsbsimBridge {
-    /// Start the bridge for aircraft `name` (JSBSim's folder name, `c172p`, `737`); the hinge and
-    /// stick gearing come from the embedded model of the same name.
+    /// Start the bridge for aircraft `name` (`c172p`, `737`) with the hinge and stick gearing of `model`.
     pub fn spawn(name: &str, model: Arc<AircraftModel>) -> Result<Self, AeroError> {
         Self::start(name, Some(model.hinge.clone()), None, model.estimates.clone())
     }
@@ -166,16 +154,10 @@ impl JsbsimBridge {
         let stderr = child.stderr.take().ok_or_else(|| fail("no stderr pipe".into()))?;
         let (tx, rx) = mpsc::channel();
         std::thread::spawn(move || {
-            for line in BufReader::new(stdout).lines() {
-                match line {
-                    Ok(l) => {
-                        if tx.send(l).is_err() {
-                            break;
-                        }
-                    }
-                    Err(_) => break,
-                }
-            }
+            BufReader::new(stdout)
+                .lines()
+                .map_while(Result::ok)
+                .try_for_each(|l| tx.send(l))
         });
         let tail = Arc::new(Mutex::new(Vec::new()));
         let tail_w = Arc::clone(&tail);
@@ -202,8 +184,7 @@ impl JsbsimBridge {
             stderr_tail: tail,
             tab_rad: 0.0,
             feel_trim_rad: 0.0,
-            rt_sum_us: 0.0,
-            rt: RoundTrip::default(),
+            round_trips: (0, 0.0, 0.0),
             _scripts: scripts,
         };
         let hello = b.read_line(START_TIMEOUT)?;
@@ -252,14 +233,9 @@ impl JsbsimBridge {
         if let Err(e) = io {
             return Err(self.error(format!("cannot write to the bridge: {e}")));
         }
-        let reply = self.read_line(timeout);
-        let reply = match reply {
-            Ok(r) => r,
-            Err(e) => {
-                let _ = self.child.kill();
-                return Err(e);
-            }
-        };
+        let reply = self.read_line(timeout).inspect_err(|_| {
+            let _ = self.child.kill();
+        })?;
         let us = sent.elapsed().as_secs_f64() * 1e6;
         let Some(body) = reply.strip_prefix("ok ") else {
             let msg = reply.strip_prefix("error ").unwrap_or(&reply).to_string();
@@ -273,10 +249,8 @@ impl JsbsimBridge {
             )));
         }
         if line.starts_with("step ") || line.starts_with("cmd ") {
-            self.rt.count += 1;
-            self.rt_sum_us += us;
-            self.rt.mean_us = self.rt_sum_us / self.rt.count as f64;
-            self.rt.max_us = self.rt.max_us.max(us);
+            let (n, sum, max) = &mut self.round_trips;
+            (*n, *sum, *max) = (*n + 1, *sum + us, max.max(us));
         }
         let s = AircraftState {
             t_s: v[0],
@@ -364,7 +338,8 @@ impl AircraftBackend for JsbsimBridge {
     }
 
     fn round_trip_us(&self) -> Option<(u64, f64, f64)> {
-        Some((self.rt.count, self.rt.mean_us, self.rt.max_us))
+        let (n, sum, max) = self.round_trips;
+        Some((n, if n == 0 { 0.0 } else { sum / n as f64 }, max))
     }
 }
 

@@ -68,42 +68,42 @@ impl LinearLongitudinal {
         }
     }
 
-    /// Frequency response from the elevator (rad, trailing edge down) to the output at `omega_rad_s`:
-    /// pitch in rad/rad, load factor in g/rad.
-    pub(crate) fn elevator_response(&self, output: PilotLoop, omega_rad_s: f64) -> Complex<f64> {
+    /// Frequency response from the stick (rad, aft positive) to the output at `omega_rad_s`: the controlled
+    /// element `Y_c(jω)` of the pilot's loop, pitch in rad per stick rad, load factor in g per stick rad.
+    pub(crate) fn stick_response(&self, output: PilotLoop, omega_rad_s: f64) -> Complex<f64> {
         let jw = Complex::new(0.0, omega_rad_s);
         let m = Matrix4::<Complex<f64>>::identity() * jw - self.a.map(|v| Complex::new(v, 0.0));
         let b = self.b.map(|v| Complex::new(v, 0.0));
         // (jωI − A) is singular only at an eigenvalue on the imaginary axis (neutral mode)
         let Some(x) = m.lu().solve(&b) else {
-            return Complex::new(f64::INFINITY, 0.0);
+            return Complex::new(f64::INFINITY, 0.0) * self.elevator_per_stick;
         };
-        match output {
+        let per_elevator = match output {
             PilotLoop::Pitch => x[3],
-            PilotLoop::LoadFactor => {
-                let c = self.c_nz.map(|v| Complex::new(v, 0.0));
-                (c * x)[0] + self.d_nz
-            }
-        }
-    }
-
-    /// Frequency response from the stick (rad, aft positive) to the output: the controlled element
-    /// `Y_c(jω)` of the pilot's loop, pitch in rad per stick rad, load factor in g per stick rad.
-    pub(crate) fn stick_response(&self, output: PilotLoop, omega_rad_s: f64) -> Complex<f64> {
-        self.elevator_response(output, omega_rad_s) * self.elevator_per_stick
+            PilotLoop::LoadFactor => (self.c_nz.map(|v| Complex::new(v, 0.0)) * x)[0] + self.d_nz,
+        };
+        per_elevator * self.elevator_per_stick
     }
 }
 
 /// McRuer's crossover pilot adapted to `aircraft` about its present (trimmed) state for the loop
-/// `output`: the controlled element is the linearised stick response (`LinearLongitudinal`) times
-/// a first-order lag `1/(stick_lag_s s + 1)` between the pilot's stick command and the stick: the
-/// hand's activation lag alone (0.1 s, `models/pilot-hand.toml`) when the stick moves freely, or the
-/// lag measured on the rig (stick command → stick angle; ≈ 1 s for the c172p pitch task with the
-/// paper's MR brake, docs/explanation/aero.md §4); 0 when the stick follows the command directly. Equalised and
-/// scaled by `CrossoverPilotConfig::adapted_with`.
+/// `output`: the controlled element is the linearised stick response behind a first-order lag
+/// `1/(stick_lag_s s + 1)` from the pilot's stick command to the stick: the hand's activation lag
+/// (0.1 s, `models/pilot-hand.toml`), or the lag measured on the rig (≈ 1 s for the c172p pitch task with
+/// the paper's MR brake, docs/explanation/aero.md §4), or 0.
 pub fn adapted_pilot(
     aircraft: &Aircraft,
     output: PilotLoop,
+    design: &CrossoverDesign,
+    stick_lag_s: f64,
+) -> Result<CrossoverPilotConfig, CrossoverDesignError> {
+    let lin = aircraft.linearise();
+    adapted_behind_lag(|w| lin.stick_response(output, w), design, stick_lag_s)
+}
+
+/// The crossover pilot for the controlled element `yc` behind the stick's lag `stick_lag_s` (finite, ≥ 0).
+fn adapted_behind_lag(
+    yc: impl Fn(f64) -> Complex<f64>,
     design: &CrossoverDesign,
     stick_lag_s: f64,
 ) -> Result<CrossoverPilotConfig, CrossoverDesignError> {
@@ -112,11 +112,7 @@ pub fn adapted_pilot(
             "stick lag {stick_lag_s} s must be finite and >= 0"
         )));
     }
-    let lin = aircraft.linearise();
-    CrossoverPilotConfig::adapted_with(
-        |w| lin.stick_response(output, w) / Complex::new(1.0, w * stick_lag_s),
-        design,
-    )
+    CrossoverPilotConfig::adapted_with(|w| yc(w) / Complex::new(1.0, w * stick_lag_s), design)
 }
 
 /// McRuer's adapted pilot for a fly-by-wire aircraft's embedded model, trimmed: the controlled element is
@@ -131,26 +127,15 @@ pub fn adapted_fly_by_wire_pilot(
     command_per_output: f64,
     dt_s: f64,
 ) -> Result<CrossoverPilotConfig, CrossoverDesignError> {
-    if !(stick_lag_s.is_finite() && stick_lag_s >= 0.0) {
-        return Err(CrossoverDesignError(format!(
-            "stick lag {stick_lag_s} s must be finite and >= 0"
-        )));
-    }
-    CrossoverPilotConfig::adapted_with(
-        |w| {
-            aircraft.command_response(output, w, dt_s) * command_per_output
-                / Complex::new(1.0, w * stick_lag_s)
-        },
+    adapted_behind_lag(
+        |w| aircraft.command_response(output, w, dt_s) * command_per_output,
         design,
+        stick_lag_s,
     )
 }
 
-/// The stick-to-output response of the **nonlinear** aircraft at `omega_rad_s`, measured by
-/// simulation from its present (trimmed) state: a stick sinusoid of `stick_amplitude_rad` about the
-/// present elevator, faded in over two periods (raised cosine, so the slow phugoid is barely
-/// excited), then eight periods fitted by least squares with `a sin ωt + b cos ωt` plus a quadratic
-/// trend (what is left of the phugoid). Steps of `dt_s` (a few hundred per period are plenty).
-/// Returns the complex ratio output/stick (rad/rad or g/rad).
+/// The stick-to-output response (rad/rad or g/rad) of the **nonlinear** aircraft at `omega_rad_s`, measured
+/// from its present (trimmed) state with a stick sinusoid of `stick_amplitude_rad` ([`simulated_response`]).
 pub fn simulated_stick_response(
     aircraft: &Aircraft,
     output: PilotLoop,
@@ -171,9 +156,10 @@ pub fn simulated_stick_response(
     )
 }
 
-/// The response measured as [`simulated_stick_response`] does, for any aircraft: `step` flies one step of
-/// `dt_s` with the input (relative to trim) held and returns the state; `s0` is the state at the start.
-/// Returns the complex ratio output/input.
+/// The complex ratio output/input at `omega_rad_s` measured by simulation: `step` flies one step of `dt_s`
+/// with the input (relative to trim) held; `s0` is the start. The sinusoid fades in over two periods (raised
+/// cosine, so the phugoid is barely excited), then eight periods are fitted by least squares with
+/// `a sin ωt + b cos ωt` plus a quadratic trend (what is left of the phugoid).
 pub fn simulated_response(
     mut step: impl FnMut(f64) -> super::AircraftState,
     s0: &super::AircraftState,

@@ -24,6 +24,7 @@ use std::sync::Arc;
 use nalgebra::{Matrix3, Vector3};
 
 use super::atmosphere::{isa, RHO0_KG_M3};
+use super::backend::with_hinge;
 use super::hinge::HingeModel;
 use super::model::{AircraftModel, Propulsion};
 use super::AeroError;
@@ -147,17 +148,45 @@ pub(crate) fn rk4(x: &X, dt_s: f64, f: impl Fn(&X) -> X) -> X {
     std::array::from_fn(|i| x[i] + dt_s / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]))
 }
 
+/// What one evaluation of a model's right-hand side gives besides the derivatives `dx`.
 #[derive(Debug, Clone, Copy)]
-struct Eval {
-    dx: X,
-    alpha: f64,
-    alphadot: f64,
-    airspeed: f64,
-    qbar: f64,
-    qbar_e: f64,
-    mach: f64,
-    nz: f64,
-    thrust: f64,
+pub(crate) struct Eval {
+    pub dx: X,
+    pub alpha: f64,
+    pub alphadot: f64,
+    pub airspeed: f64,
+    pub qbar: f64,
+    /// Dynamic pressure at the elevator, Pa.
+    pub qbar_e: f64,
+    pub mach: f64,
+    pub nz: f64,
+    pub thrust: f64,
+}
+
+impl AircraftState {
+    /// The state at `x` evaluated as `e` with the elevator and throttle held (no tab, hinge or feel).
+    pub(crate) fn at(t_s: f64, x: &X, e: &Eval, elevator_rad: f64, throttle: f64) -> Self {
+        let [u_m_s, w_m_s, q_rad_s, theta_rad, altitude_m] = *x;
+        Self {
+            t_s,
+            u_m_s,
+            w_m_s,
+            q_rad_s,
+            theta_rad,
+            altitude_m,
+            airspeed_m_s: e.airspeed,
+            alpha_rad: e.alpha,
+            alphadot_rad_s: e.alphadot,
+            qbar_pa: e.qbar,
+            qbar_elevator_pa: e.qbar_e,
+            mach: e.mach,
+            nz_g: e.nz,
+            elevator_rad,
+            throttle,
+            thrust_n: e.thrust,
+            ..Self::default()
+        }
+    }
 }
 
 /// An aircraft flying its longitudinal model, with its elevator hinge and stick.
@@ -273,21 +302,26 @@ impl Aircraft {
         altitude_m: f64,
         nz_g: f64,
     ) -> Result<f64, AeroError> {
-        let mut trimmed = self.clone();
-        trimmed.trim(airspeed_m_s, altitude_m)?;
-        let throttle = trimmed.controls.throttle;
-        let (x, c) = trimmed.solve_trim(airspeed_m_s, altitude_m, nz_g, Throttle::Held(throttle))?;
-        trimmed.x = x;
-        trimmed.controls = c;
-        trimmed.refresh();
-        Ok(trimmed.state.stick_force_n)
+        Ok(self.pull_up(airspeed_m_s, altitude_m, nz_g)?[1].stick_force_n)
+    }
+
+    /// The 1-g trim and the steady pull-up at `nz_g` from it, tab and throttle left at that trim.
+    fn pull_up(
+        &self,
+        airspeed_m_s: f64,
+        altitude_m: f64,
+        nz_g: f64,
+    ) -> Result<[AircraftState; 2], AeroError> {
+        let mut a = self.clone();
+        let s1 = a.trim(airspeed_m_s, altitude_m)?;
+        (a.x, a.controls) = a.solve_trim(airspeed_m_s, altitude_m, nz_g, Throttle::Held(s1.throttle))?;
+        a.refresh();
+        Ok([s1, a.state])
     }
 
     /// The symmetric steady state at a true airspeed, altitude and load factor with the throttle trimmed
-    /// too (level flight at 1 g; the bottom of a steady pull-up otherwise), as JSBSim's own trims
-    /// (`do_trim(1)`, `do_trim(3)`) solve it. The throttle is whatever balances the drag, even beyond the
-    /// stand-in engine's maximum (JSBSim's engines give more thrust at speed and altitude than the
-    /// constant-power or constant-thrust law here). Tab and feel trim are left as they are.
+    /// too, as JSBSim's own trims (`do_trim(1)`, `do_trim(3)`) solve it: the throttle balances the drag even
+    /// beyond the stand-in engine's maximum (JSBSim's engines give more). Tab and feel trim are kept.
     pub fn steady_state(
         &self,
         airspeed_m_s: f64,
@@ -295,23 +329,18 @@ impl Aircraft {
         nz_g: f64,
     ) -> Result<AircraftState, AeroError> {
         let mut a = self.clone();
-        let (x, c) = a.solve_trim(airspeed_m_s, altitude_m, nz_g, Throttle::Unbounded)?;
-        a.x = x;
-        a.controls = c;
+        (a.x, a.controls) = a.solve_trim(airspeed_m_s, altitude_m, nz_g, Throttle::Unbounded)?;
         a.refresh();
         Ok(a.state)
     }
 
     /// Stick displacement per g, rad of stick (aft positive) per g: the secant between the 1-g trim and
-    /// a steady pull-up at `nz_g` (tab and throttle at the 1-g trim), what a pilot learns as "so much
-    /// column for so much g" (the pursuit pilot's feedforward, [`crate::pilot::attitude::PursuitPilot`]).
+    /// a steady pull-up at `nz_g`, "so much column for so much g" (the pursuit pilot's feedforward).
     pub fn stick_per_g_rad(&self, airspeed_m_s: f64, altitude_m: f64, nz_g: f64) -> Result<f64, AeroError> {
-        let mut trimmed = self.clone();
-        let s1 = trimmed.trim(airspeed_m_s, altitude_m)?;
-        let (_, c) = trimmed.solve_trim(airspeed_m_s, altitude_m, nz_g, Throttle::Held(s1.throttle))?;
+        let [s1, s] = self.pull_up(airspeed_m_s, altitude_m, nz_g)?;
         let h = &self.model.hinge;
         Ok(
-            (h.stick_from_elevator_rad(c.elevator_rad) - h.stick_from_elevator_rad(s1.elevator_rad))
+            (h.stick_from_elevator_rad(s.elevator_rad) - h.stick_from_elevator_rad(s1.elevator_rad))
                 / (nz_g - 1.0),
         )
     }
@@ -384,37 +413,17 @@ impl Aircraft {
     // ---------------------------------------------------------------------------------------
 
     fn refresh(&mut self) {
-        let e = self.eval(&self.x, self.controls);
-        let [u, w, q, theta, h] = self.x;
-        let alpha_t = self.model.hinge.alpha_tail_rad(e.alpha, q, e.airspeed);
-        let hm =
-            self.model
-                .hinge
-                .hinge_moment_nm(e.qbar_e, alpha_t, self.controls.elevator_rad, self.tab_rad);
-        self.state = AircraftState {
-            t_s: self.t_s,
-            u_m_s: u,
-            w_m_s: w,
-            q_rad_s: q,
-            theta_rad: theta,
-            altitude_m: h,
-            airspeed_m_s: e.airspeed,
-            alpha_rad: e.alpha,
-            alphadot_rad_s: e.alphadot,
-            qbar_pa: e.qbar,
-            qbar_elevator_pa: e.qbar_e,
-            mach: e.mach,
-            nz_g: e.nz,
-            elevator_rad: self.controls.elevator_rad,
-            tab_rad: self.tab_rad,
-            throttle: self.controls.throttle,
-            thrust_n: e.thrust,
-            alpha_tail_rad: alpha_t,
-            hinge_moment_nm: hm,
-            feel_trim_rad: self.feel_trim_rad,
-            stick_force_n: 0.0,
-        };
-        self.state.stick_force_n = self.model.hinge.stick_force_n(&self.state);
+        let (c, e) = (self.controls, self.eval(&self.x, self.controls));
+        let s = AircraftState::at(self.t_s, &self.x, &e, c.elevator_rad, c.throttle);
+        let (tab_rad, feel_trim_rad) = (self.tab_rad, self.feel_trim_rad);
+        self.state = with_hinge(
+            &self.model.hinge,
+            AircraftState {
+                tab_rad,
+                feel_trim_rad,
+                ..s
+            },
+        );
     }
 
     fn thrust_n(&self, throttle: f64, airspeed: f64, rho: f64) -> f64 {

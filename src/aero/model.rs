@@ -157,23 +157,15 @@ pub struct AircraftModel {
 }
 
 impl AircraftModel {
-    /// The file of the model `name` (`c172p`, `737`): the data directory's `models/aircraft/<name>.toml`
-    /// or the built-in one ([`crate::builtin::aircraft`]). The name is not checked: see
-    /// [`AircraftModel::builtin`] for a name a user gave.
+    /// The file of the model `name` (`c172p`, `737`), unchecked: [`AircraftModel::builtin`] checks a user's.
     pub fn builtin_path(name: &str) -> PathBuf {
         crate::builtin::aircraft(name).unwrap_or_else(|| PathBuf::from(format!("{name}.toml")))
     }
 
-    /// Names of the aircraft models there are (`crate::builtin::aircraft_names`).
-    pub fn builtin_names() -> Vec<String> {
-        crate::builtin::aircraft_names()
-    }
-
-    /// The file of a model a user names (`c172p`, `737`), never a path. A name with a path separator,
-    /// `..`, a leading `.` or characters other than letters, digits, `_`, `-` and `.` is refused (it would
-    /// reach files outside the models), as is a name with no model.
+    /// The file of a model a user names (`c172p`, `737`), never a path: a name that could reach files outside
+    /// the models (separators, `..`, a leading `.`, characters beyond `[A-Za-z0-9_.-]`) is refused.
     pub fn builtin(name: &str) -> Result<PathBuf, AeroError> {
-        let available = || Self::builtin_names().join(", ");
+        let available = || crate::builtin::aircraft_names().join(", ");
         let plain = !name.is_empty()
             && !name.starts_with('.')
             && !name.contains("..")
@@ -206,11 +198,6 @@ impl AircraftModel {
         Ok(Self::load(&Self::builtin(name)?)?)
     }
 
-    /// Maximum lift coefficient of the unstalled lift curve (largest value of `cl_alpha`).
-    pub fn cl_max(&self) -> f64 {
-        self.cl_alpha.max_value()
-    }
-
     /// Acceleration sensitivity `n/α = q̄ S C_Lα / W` at angle of attack `alpha`, g/rad (`C_Lα` the lift
     /// table's slope there, over ±0.01 rad).
     pub fn n_per_alpha_g_per_rad(&self, alpha: f64, qbar_pa: f64) -> f64 {
@@ -230,11 +217,6 @@ impl AircraftModel {
             aero_ref_z_m: self.aero_ref_z_m,
             thrust_z_m: self.thrust_z_m,
         }
-    }
-
-    /// Aspect ratio b²/S.
-    pub fn aspect_ratio(&self) -> f64 {
-        self.span_m * self.span_m / self.wing_area_m2
     }
 }
 

@@ -52,16 +52,9 @@ fn sweep_rows(tr: &Trace) -> (&[Row], f64) {
         Some(Segment::Sine { frequency_hz, .. }) => *frequency_hz,
         _ => return (&[], 0.0),
     };
-    let t0 = 1.0 / f;
-    let rows: Vec<usize> = tr
-        .rows
-        .iter()
-        .enumerate()
-        .filter(|(_, r)| r.segment == 0 && r.t_s >= t0)
-        .map(|(k, _)| k)
-        .collect();
-    match (rows.first(), rows.last()) {
-        (Some(&a), Some(&b)) => (&tr.rows[a..=b], f),
+    let inside = |r: &Row| r.segment == 0 && r.t_s >= 1.0 / f;
+    match (tr.rows.iter().position(inside), tr.rows.iter().rposition(inside)) {
+        (Some(a), Some(b)) => (&tr.rows[a..=b], f),
         _ => (&[], f),
     }
 }
@@ -91,7 +84,7 @@ pub fn slope(pts: impl Iterator<Item = (f64, f64)> + Clone) -> f64 {
 }
 
 /// Phase (rad) of the fundamental at `freq_hz` of samples `(t, y)` (over whole cycles).
-pub(crate) fn fundamental_phase(pts: impl Iterator<Item = (f64, f64)>, freq_hz: f64) -> f64 {
+fn fundamental_phase(pts: impl Iterator<Item = (f64, f64)>, freq_hz: f64) -> f64 {
     let w = 2.0 * std::f64::consts::PI * freq_hz;
     let (re, im) = pts.fold((0.0, 0.0), |(re, im), (t, y)| {
         (re + y * (w * t).sin(), im + y * (w * t).cos())

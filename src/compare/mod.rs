@@ -39,17 +39,14 @@ pub(crate) fn feel_kinds(names: &[&str]) -> Result<Vec<FeelKind>, String> {
         if name.is_empty() {
             return Err(format!("empty name at position {}", pos + 1));
         }
-        let k = FeelKind::from_name(name).ok_or_else(|| unknown_feel(name))?;
+        let k = FeelKind::from_name(name)
+            .ok_or_else(|| format!("`{name}` is not one of: {}", FeelKind::names()))?;
         if out.contains(&k) {
             return Err(format!("`{name}` named twice; name each system once"));
         }
         out.push(k);
     }
     Ok(out)
-}
-
-fn unknown_feel(name: &str) -> String {
-    format!("`{name}` is not one of: {}", FeelKind::names())
 }
 
 /// A comparison refused: its file, a feel-system list, or what it loads.
@@ -324,10 +321,10 @@ impl Segment {
     /// Length of the segment, s.
     pub fn duration_s(&self) -> f64 {
         match *self {
-            Segment::Sine { duration_s, .. } => duration_s,
             Segment::MoveHold { ramp_s, hold_s, .. } => ramp_s + hold_s,
-            Segment::LetGo { duration_s } => duration_s,
-            Segment::ForceRamp { duration_s, .. } => duration_s,
+            Segment::Sine { duration_s, .. }
+            | Segment::LetGo { duration_s }
+            | Segment::ForceRamp { duration_s, .. } => duration_s,
         }
     }
 }
@@ -335,13 +332,8 @@ impl Segment {
 /// What the pilot does at one instant.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum PilotCmd {
-    /// Follow this stick angle (rad) and rate (rad/s).
-    Angle {
-        /// Stick angle, rad.
-        theta_rad: f64,
-        /// Stick rate, rad/s.
-        rate_rad_s: f64,
-    },
+    /// Follow this stick angle, rad.
+    Angle(f64),
     /// Push the grip with this force, N.
     Force(f64),
     /// Hands off.
@@ -386,28 +378,13 @@ impl Task {
                 amplitude_rad,
                 frequency_hz,
                 ..
-            } => {
-                let w = 2.0 * std::f64::consts::PI * frequency_hz;
-                PilotCmd::Angle {
-                    theta_rad: amplitude_rad * (w * tau).sin(),
-                    rate_rad_s: amplitude_rad * w * (w * tau).cos(),
-                }
-            }
+            } => PilotCmd::Angle(amplitude_rad * (2.0 * std::f64::consts::PI * frequency_hz * tau).sin()),
             Segment::MoveHold {
                 angle_rad, ramp_s, ..
             } => {
                 // Smoothstep ramp: zero rate at both ends.
                 let u = (tau / ramp_s).clamp(0.0, 1.0);
-                let s = u * u * (3.0 - 2.0 * u);
-                let ds = if u < 1.0 {
-                    6.0 * u * (1.0 - u) / ramp_s
-                } else {
-                    0.0
-                };
-                PilotCmd::Angle {
-                    theta_rad: angle_rad * s,
-                    rate_rad_s: angle_rad * ds,
-                }
+                PilotCmd::Angle(angle_rad * (u * u * (3.0 - 2.0 * u)))
             }
             Segment::LetGo { .. } => PilotCmd::Off,
             Segment::ForceRamp { rate_n_per_s, .. } => PilotCmd::Force(rate_n_per_s * tau),
@@ -482,7 +459,7 @@ fn pilot_command(task: &Task, dt_s: f64) -> Result<(crate::pilot::Task, Vec<f64>
     let mut samples = Vec::with_capacity(n + 1);
     for k in 0..=n {
         let (v, this) = match task.command(k as f64 * dt_s) {
-            PilotCmd::Angle { theta_rad, .. } => (theta_rad, Some(crate::pilot::Task::Position)),
+            PilotCmd::Angle(theta_rad) => (theta_rad, Some(crate::pilot::Task::Position)),
             PilotCmd::Force(f) => (f, Some(crate::pilot::Task::Force)),
             PilotCmd::Off => (f64::NAN, None),
         };

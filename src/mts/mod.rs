@@ -52,6 +52,15 @@ fn cfg_err(field: &str, msg: impl Into<String>) -> MtsError {
     }
 }
 
+/// `Ok` where `ok`, else the error of `field` with the message `msg` makes.
+fn require(ok: bool, field: &str, msg: impl FnOnce() -> String) -> Result<(), MtsError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(cfg_err(field, msg()))
+    }
+}
+
 /// Displacement protocol of the actuator.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Protocol {
@@ -134,32 +143,25 @@ impl Protocol {
     }
 
     fn validate(&self) -> Result<(), MtsError> {
-        let a = self.amplitude_m();
-        if !(a.is_finite() && a > 0.0) {
-            return Err(cfg_err(
-                "amplitude_m",
-                format!("{a} must be a positive length in metres"),
-            ));
-        }
-        let f = self.base_frequency_hz();
-        if !(f.is_finite() && f > 0.0 && f <= 200.0) {
-            return Err(cfg_err("frequency_hz", format!("{f} must be in (0, 200] Hz")));
-        }
-        if let Protocol::Multisine {
-            f_min_hz,
-            f_max_hz,
-            tones,
-            ..
-        } = *self
-        {
-            if f_max_hz.partial_cmp(&f_min_hz) != Some(std::cmp::Ordering::Greater) || tones == 0 {
-                return Err(cfg_err(
-                    "multisine",
-                    "needs f_max_hz > f_min_hz and at least one tone",
-                ));
-            }
-        }
-        Ok(())
+        let (a, f) = (self.amplitude_m(), self.base_frequency_hz());
+        require(a.is_finite() && a > 0.0, "amplitude_m", || {
+            format!("{a} must be a positive length in metres")
+        })?;
+        require(f.is_finite() && f > 0.0 && f <= 200.0, "frequency_hz", || {
+            format!("{f} must be in (0, 200] Hz")
+        })?;
+        let multisine_ok = match *self {
+            Protocol::Multisine {
+                f_min_hz,
+                f_max_hz,
+                tones,
+                ..
+            } => f_max_hz > f_min_hz && tones > 0,
+            _ => true,
+        };
+        require(multisine_ok, "multisine", || {
+            "needs f_max_hz > f_min_hz and at least one tone".into()
+        })
     }
 
     /// The highest frequency of the motion's fundamentals, Hz (a multisine's top tone).
@@ -344,82 +346,69 @@ impl MtsTest {
 
     fn validate(&self) -> Result<(), MtsError> {
         self.protocol.validate()?;
-        if self.currents_a.is_empty() {
-            return Err(cfg_err("current", "give at least one current level"));
-        }
-        if let Some(c) = self.currents_a.iter().find(|c| !c.is_finite() || **c < 0.0) {
+        let currents = &self.currents_a;
+        require(!currents.is_empty(), "current", || {
+            "give at least one current level".into()
+        })?;
+        if let Some(c) = currents.iter().find(|c| !c.is_finite() || **c < 0.0) {
             return Err(cfg_err(
                 "current",
                 format!("{c} A: current levels must be finite and ≥ 0"),
             ));
         }
-        if let Some(c) = self.currents_a.iter().find(|c| **c > MAGNITUDE_LIMIT) {
+        if let Some(c) = currents.iter().find(|c| **c > MAGNITUDE_LIMIT) {
             return Err(cfg_err(
                 "current",
                 format!("{c:e} A: beyond the ±{MAGNITUDE_LIMIT:e} a measurement file may hold"),
             ));
         }
-        if !(self.cycles_per_block.is_finite() && self.cycles_per_block > 0.0) {
-            return Err(cfg_err("cycles", "must be positive"));
-        }
-        if !(self.sample_rate_hz.is_finite() && self.sample_rate_hz >= 1.0 && self.sample_rate_hz <= 1e6) {
-            return Err(cfg_err(
-                "sample_rate_hz",
-                format!("{} must be in [1, 1e6] Hz", self.sample_rate_hz),
-            ));
-        }
-        if !(self.physics_hz.is_finite() && self.physics_hz > 0.0 && self.physics_hz <= 1e7) {
-            return Err(cfg_err(
-                "physics_hz",
-                format!("{} must be in (0, 1e7] Hz", self.physics_hz),
-            ));
-        }
-        if self.physics_hz < self.sample_rate_hz {
-            return Err(cfg_err(
-                "physics_hz",
-                format!(
-                    "{} Hz is below the sample rate {} Hz: the device model is integrated at least once a \
-                     sample (give a physics rate ≥ the sample rate)",
-                    self.physics_hz, self.sample_rate_hz
-                ),
-            ));
-        }
+        let (cycles, rate, physics) = (self.cycles_per_block, self.sample_rate_hz, self.physics_hz);
+        require(cycles.is_finite() && cycles > 0.0, "cycles", || {
+            "must be positive".into()
+        })?;
+        require(
+            rate.is_finite() && (1.0..=1e6).contains(&rate),
+            "sample_rate_hz",
+            || format!("{rate} must be in [1, 1e6] Hz"),
+        )?;
+        require(
+            physics.is_finite() && physics > 0.0 && physics <= 1e7,
+            "physics_hz",
+            || format!("{physics} must be in (0, 1e7] Hz"),
+        )?;
+        require(physics >= rate, "physics_hz", || {
+            format!(
+                "{physics} Hz is below the sample rate {rate} Hz: the device model is integrated at least once a \
+                 sample (give a physics rate ≥ the sample rate)"
+            )
+        })?;
         let top = self.protocol.highest_frequency_hz();
-        if self.sample_rate_hz < 2.0 * top {
-            return Err(cfg_err(
-                "sample_rate_hz",
-                format!(
-                    "{} Hz cannot record a motion of {top} Hz: at least two samples a period are needed (the \
-                     Nyquist rate, {} Hz)",
-                    self.sample_rate_hz,
-                    2.0 * top
-                ),
-            ));
-        }
+        require(rate >= 2.0 * top, "sample_rate_hz", || {
+            format!(
+                "{rate} Hz cannot record a motion of {top} Hz: at least two samples a period are needed (the \
+                 Nyquist rate, {} Hz)",
+                2.0 * top
+            )
+        })?;
         let n = self.samples();
-        if !(n >= MIN_SAMPLES as f64 && n <= MAX_SAMPLES as f64) {
-            return Err(cfg_err(
-                "cycles",
+        require(
+            n >= MIN_SAMPLES as f64 && n <= MAX_SAMPLES as f64,
+            "cycles",
+            || {
                 format!(
-                    "{} cycles a block × {} blocks at {} Hz give {n:.0} samples: a test holds {MIN_SAMPLES} to \
-                     {MAX_SAMPLES:e} samples (change the cycles, the frequency or the sample rate)",
-                    self.cycles_per_block,
-                    self.currents_a.len(),
-                    self.sample_rate_hz
-                ),
-            ));
-        }
+                "{cycles} cycles a block × {} blocks at {rate} Hz give {n:.0} samples: a test holds {MIN_SAMPLES} to \
+                 {MAX_SAMPLES:e} samples (change the cycles, the frequency or the sample rate)",
+                currents.len()
+            )
+            },
+        )?;
         let steps = n * self.substeps();
-        if steps > MAX_PHYSICS_STEPS {
-            return Err(cfg_err(
-                "physics_hz",
-                format!(
-                    "{} Hz over {n:.0} samples is {steps:.0} integration steps: at most {MAX_PHYSICS_STEPS:e} (hours \
-                     of computing); lower the physics rate or shorten the test",
-                    self.physics_hz
-                ),
-            ));
-        }
+        require(steps <= MAX_PHYSICS_STEPS, "physics_hz", || {
+            format!(
+                "{physics} Hz over {n:.0} samples is {steps:.0} integration steps: at most {MAX_PHYSICS_STEPS:e} \
+                 (hours of computing); lower the physics rate or shorten the test"
+            )
+        })?;
         for (name, s) in [
             ("load_cell", &self.load_cell),
             ("displacement", &self.displacement),
@@ -440,6 +429,14 @@ impl MtsTest {
     /// Integration steps of the device model per sample (at least one).
     fn substeps(&self) -> f64 {
         (self.physics_hz / self.sample_rate_hz).ceil().max(1.0)
+    }
+
+    /// The same test with noise-free sensors.
+    pub(crate) fn noise_free(mut self) -> Self {
+        for s in [&mut self.load_cell, &mut self.displacement, &mut self.velocity] {
+            s.noise_std = 0.0;
+        }
+        self
     }
 
     /// Duration of one current block, s.
@@ -495,8 +492,7 @@ impl MtsTest {
             let f = stage.force_n(inp.v_m_s);
             m.t_s.push(t);
             m.x_m.push(self.displacement.read(inp.x_m, &mut rng));
-            let v_read = self.velocity.read(inp.v_m_s, &mut rng);
-            m.v_m_s.push(v_read);
+            m.v_m_s.push(self.velocity.read(inp.v_m_s, &mut rng));
             m.i_a.push(inp.current_cmd_a);
             m.f_n.push(self.load_cell.read(f, &mut rng));
             coil.push(damper.coil_current_a());
@@ -526,26 +522,24 @@ impl MtsTest {
         if self.record_coil_current {
             m.i_meas_a = Some(coil);
         }
-        let mut meta = BTreeMap::new();
-        meta.insert(
-            "source".to_string(),
-            format!("mrfeel {} virtual MTS machine", env!("CARGO_PKG_VERSION")),
-        );
         // No `model`: data made with hidden effects must not name them (the device file keeps the truth).
-        meta.insert(
-            "test".to_string(),
-            format!(
-                "{} displacement, amplitude {} m, frequency {} Hz, {} cycles per block, currents {:?} A",
-                self.protocol.name(),
-                self.protocol.amplitude_m(),
-                self.protocol.base_frequency_hz(),
-                self.cycles_per_block,
-                self.currents_a
-            ),
+        let test = format!(
+            "{} displacement, amplitude {} m, frequency {} Hz, {} cycles per block, currents {:?} A",
+            self.protocol.name(),
+            self.protocol.amplitude_m(),
+            self.protocol.base_frequency_hz(),
+            self.cycles_per_block,
+            self.currents_a
         );
-        meta.insert("sample_rate_hz".to_string(), format!("{}", self.sample_rate_hz));
-        meta.insert("seed".to_string(), format!("{}", self.seed));
-        m.meta = meta;
+        m.meta = BTreeMap::from([
+            (
+                "source".into(),
+                format!("mrfeel {} virtual MTS machine", env!("CARGO_PKG_VERSION")),
+            ),
+            ("test".into(), test),
+            ("sample_rate_hz".into(), self.sample_rate_hz.to_string()),
+            ("seed".into(), self.seed.to_string()),
+        ]);
         Ok(m)
     }
 }
@@ -569,10 +563,7 @@ pub fn with_hidden_effects(
     }
     let model = Model::new(&spec, registry, base_model.current_limit_a)?;
     // Statistics of the base device under this test, noise-free.
-    let mut quiet = test.clone();
-    quiet.load_cell.noise_std = 0.0;
-    quiet.displacement.noise_std = 0.0;
-    quiet.velocity.noise_std = 0.0;
+    let quiet = test.clone().noise_free();
     let mut base = Damper::new(
         std::sync::Arc::new(Model::new(
             base_model.spec(),
@@ -630,13 +621,11 @@ mod tests {
         .unwrap()
     }
 
-    fn quiet(mut t: MtsTest) -> MtsTest {
-        t.load_cell.noise_std = 0.0;
-        t.displacement.noise_std = 0.0;
-        t.velocity.noise_std = 0.0;
-        t.load_cell.bits = 0;
-        t.displacement.bits = 0;
-        t.velocity.bits = 0;
+    fn quiet(t: MtsTest) -> MtsTest {
+        let mut t = t.noise_free();
+        for s in [&mut t.load_cell, &mut t.displacement, &mut t.velocity] {
+            s.bits = 0;
+        }
         t
     }
 

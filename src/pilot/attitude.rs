@@ -90,40 +90,32 @@ impl CrossoverPilotConfig {
         yc: impl Fn(f64) -> Complex<f64>,
         d: &CrossoverDesign,
     ) -> Result<Self, CrossoverDesignError> {
-        let err = |m: String| Err(CrossoverDesignError(m));
-        let w = d.crossover_rad_s;
-        if !(w.is_finite() && w > 0.0) {
-            return err(format!(
-                "crossover frequency {w} rad/s must be positive and finite"
-            ));
-        }
-        if !(d.delay_s.is_finite() && d.delay_s >= 0.0) {
-            return err(format!("delay {} s must be finite and >= 0", d.delay_s));
-        }
-        if d.ideal_phase_margin_rad() <= 0.0 {
-            return err(format!(
+        let require =
+            |ok: bool, msg: &dyn Fn() -> String| ok.then_some(()).ok_or_else(|| CrossoverDesignError(msg()));
+        let (w, tau) = (d.crossover_rad_s, d.delay_s);
+        require(w.is_finite() && w > 0.0, &|| {
+            format!("crossover frequency {w} rad/s must be positive and finite")
+        })?;
+        require(tau.is_finite() && tau >= 0.0, &|| {
+            format!("delay {tau} s must be finite and >= 0")
+        })?;
+        require(d.ideal_phase_margin_rad() > 0.0, &|| {
+            format!(
                 "ω_c τ_e = {:.3} rad >= π/2: the crossover model has no phase margin (lower ω_c or τ_e)",
-                w * d.delay_s
-            ));
-        }
-        if !(0.0..1.0).contains(&d.integral_corner_ratio) {
-            return err(format!(
-                "integral corner ratio {} outside [0, 1)",
-                d.integral_corner_ratio
-            ));
-        }
-        if !(0.0..=1.5).contains(&d.max_equalisation_phase_rad) {
-            return err(format!(
-                "max equalisation phase {} rad outside [0, 1.5]",
-                d.max_equalisation_phase_rad
-            ));
-        }
+                w * tau
+            )
+        })?;
+        let (ratio, cap) = (d.integral_corner_ratio, d.max_equalisation_phase_rad);
+        require((0.0..1.0).contains(&ratio), &|| {
+            format!("integral corner ratio {ratio} outside [0, 1)")
+        })?;
+        require((0.0..=1.5).contains(&cap), &|| {
+            format!("max equalisation phase {cap} rad outside [0, 1.5]")
+        })?;
         let y0 = yc(w);
-        if !(y0.norm().is_finite() && y0.norm() > 0.0) {
-            return err(format!(
-                "the controlled element's response at {w} rad/s is zero or not finite ({y0})"
-            ));
-        }
+        require(y0.norm().is_finite() && y0.norm() > 0.0, &|| {
+            format!("the controlled element's response at {w} rad/s is zero or not finite ({y0})")
+        })?;
         // Y_p(jω_c) must be ω_c e^{−jω_cτ} / (jω_c Y_c(jω_c)): the equaliser supplies the phase
         // −90° − arg Y_c (delay aside), a lead when positive, a lag (as an integral) when negative;
         // within ±5° the pilot is a pure gain.
@@ -134,7 +126,6 @@ impl CrossoverPilotConfig {
         } else if phi > pi {
             phi -= 2.0 * pi;
         }
-        let cap = d.max_equalisation_phase_rad;
         let trim_integral = d.integral_corner_ratio * w;
         let dead_band = 5f64.to_radians();
         let (lead_s, integral_corner) = if phi > dead_band {
@@ -157,12 +148,12 @@ impl CrossoverPilotConfig {
         // the open loop (delay aside) must lag by 0..180 deg at crossover: otherwise the stick acts
         // the wrong way (sign of the gearing) or the element is beyond what the pilot can equalise
         let phase = (unit.describing_function(w) * Complex::from_polar(1.0, w * d.delay_s) * y0).arg();
-        if !(phase < 0.0 && phase > -std::f64::consts::PI) {
-            return err(format!(
+        require(phase < 0.0 && phase > -std::f64::consts::PI, &|| {
+            format!(
                 "the equalised open loop's phase at {w} rad/s is {:.0} deg (delay aside); the crossover model                  needs -180..0 deg (a positive stick gain): check the sign of the controlled element",
                 phase.to_degrees()
-            ));
-        }
+            )
+        })?;
         let gain = 1.0 / l.norm();
         Ok(Self {
             gain,

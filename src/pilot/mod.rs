@@ -95,16 +95,13 @@ impl Hand {
         let c = self.cfg;
         if !self.started {
             // Start relaxed at the grip, the activation settled on the first command.
-            self.x_h = grip_x_m;
-            self.v_h = grip_v_m_s;
-            self.act = match self.task {
-                Task::Position => cmd,
-                Task::Force => cmd,
+            // A force task pre-loads the palm so the first force is the command (no start-up transient).
+            self.x_h = match self.task {
+                Task::Position => grip_x_m,
+                Task::Force => grip_x_m + cmd / c.grip_stiffness_n_per_m,
             };
-            if self.task == Task::Force {
-                // Pre-load the palm so the first force is the command (no start-up transient).
-                self.x_h = grip_x_m + cmd / c.grip_stiffness_n_per_m;
-            }
+            self.v_h = grip_v_m_s;
+            self.act = cmd;
             self.started = true;
         }
         let f_grip = self.grip_force_n(grip_x_m, grip_v_m_s);

@@ -44,29 +44,21 @@ pub struct Series {
 }
 
 impl Series {
+    fn of(kind: Kind, name: impl Into<String>, points: Vec<(f64, f64)>) -> Self {
+        let name = name.into();
+        Self { name, points, kind }
+    }
     /// A solid line through `points`.
     pub fn line(name: impl Into<String>, points: Vec<(f64, f64)>) -> Self {
-        Self {
-            name: name.into(),
-            points,
-            kind: Kind::Line,
-        }
+        Self::of(Kind::Line, name, points)
     }
     /// Markers at `points`.
     pub fn points(name: impl Into<String>, points: Vec<(f64, f64)>) -> Self {
-        Self {
-            name: name.into(),
-            points,
-            kind: Kind::Points,
-        }
+        Self::of(Kind::Points, name, points)
     }
     /// A dashed reference line through `points`.
     pub fn dashed(name: impl Into<String>, points: Vec<(f64, f64)>) -> Self {
-        Self {
-            name: name.into(),
-            points,
-            kind: Kind::Dashed,
-        }
+        Self::of(Kind::Dashed, name, points)
     }
 }
 
@@ -162,57 +154,31 @@ pub(crate) fn palette(k: usize) -> RGBColor {
     C[k % C.len()]
 }
 
-fn plot_error(path: &Path, msg: String) -> PlotError {
-    PlotError {
-        path: path.into(),
-        msg,
-    }
-}
-
-/// Draw a figure into `DIR/STEM.png` and `DIR/STEM.svg`.
-fn save_both(
-    charts: &[Chart],
-    rows: usize,
-    cols: usize,
-    size: (u32, u32),
-    dir: &Path,
-    stem: &str,
-) -> Result<Vec<PathBuf>, PlotError> {
-    register_font();
-    std::fs::create_dir_all(dir).map_err(|e| PlotError {
-        path: dir.into(),
-        msg: e.to_string(),
-    })?;
-    let png = dir.join(format!("{stem}.png"));
-    let svg = dir.join(format!("{stem}.svg"));
-    // Each file whole or not at all (`write_whole`); errors name the file asked for, not the temporary one.
-    crate::outputs::write_whole(
-        &png,
-        |tmp| {
-            let root = BitMapBackend::new(tmp, size).into_drawing_area();
-            draw_grid(&root, charts, rows, cols).map_err(|m| plot_error(&png, m))?;
-            root.present().map_err(|e| plot_error(&png, e.to_string()))
-        },
-        |e| plot_error(&png, e.to_string()),
-    )?;
-    crate::outputs::write_whole(
-        &svg,
-        |tmp| {
-            let root = SVGBackend::new(tmp, size).into_drawing_area();
-            draw_grid(&root, charts, rows, cols).map_err(|m| plot_error(&svg, m))?;
-            root.present().map_err(|e| plot_error(&svg, e.to_string()))
-        },
-        |e| plot_error(&svg, e.to_string()),
-    )?;
-    Ok(vec![png, svg])
-}
-
-/// Write charts as a grid of panels (`cols` wide) to `DIR/STEM.png` and `DIR/STEM.svg`.
+/// Write charts as a grid of panels (`cols` wide) to `DIR/STEM.png` and `DIR/STEM.svg`, each file whole or
+/// not at all (`write_whole`); errors name the file asked for, not the temporary one.
 pub fn save_charts(charts: &[Chart], cols: usize, dir: &Path, stem: &str) -> Result<Vec<PathBuf>, PlotError> {
     let cols = cols.max(1).min(charts.len().max(1));
     let rows = charts.len().div_ceil(cols).max(1);
     let size = (560 * cols as u32, 420 * rows as u32);
-    save_both(charts, rows, cols, size, dir, stem)
+    register_font();
+    let fail = |path: &Path, msg: String| PlotError {
+        path: path.into(),
+        msg,
+    };
+    std::fs::create_dir_all(dir).map_err(|e| fail(dir, e.to_string()))?;
+    let files = [dir.join(format!("{stem}.png")), dir.join(format!("{stem}.svg"))];
+    for (k, path) in files.iter().enumerate() {
+        let draw = |tmp: &Path| match k {
+            0 => render(BitMapBackend::new(tmp, size).into_drawing_area(), charts, cols),
+            _ => render(SVGBackend::new(tmp, size).into_drawing_area(), charts, cols),
+        };
+        crate::outputs::write_whole(
+            path,
+            |tmp| draw(tmp).map_err(|m| fail(path, m)),
+            |e| fail(path, e.to_string()),
+        )?;
+    }
+    Ok(files.into())
 }
 
 fn bounds(points: impl Iterator<Item = f64>) -> (f64, f64) {
@@ -232,18 +198,18 @@ fn bounds(points: impl Iterator<Item = f64>) -> (f64, f64) {
     (lo - pad, hi + pad)
 }
 
-fn draw_grid<DB: DrawingBackend>(
-    root: &DrawingArea<DB, Shift>,
+/// Draw the charts as a grid of panels `cols` wide onto `root` and finish it.
+fn render<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
     charts: &[Chart],
-    rows: usize,
     cols: usize,
 ) -> Result<(), String> {
     root.fill(&WHITE).map_err(|e| e.to_string())?;
-    let areas = root.split_evenly((rows, cols));
-    for (chart, area) in charts.iter().zip(areas.iter()) {
+    let rows = charts.len().div_ceil(cols).max(1);
+    for (chart, area) in charts.iter().zip(root.split_evenly((rows, cols)).iter()) {
         draw_chart(area, chart)?;
     }
-    Ok(())
+    root.present().map_err(|e| e.to_string())
 }
 
 fn draw_chart<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, chart: &Chart) -> Result<(), String> {
@@ -414,11 +380,12 @@ mod tests {
         register_font();
         let (w, h) = (560u32, 420u32);
         let mut buf = vec![0u8; (w * h * 3) as usize];
-        {
-            let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
-            draw_grid(&root, &[chart], 1, 1).unwrap();
-            root.present().unwrap();
-        }
+        render(
+            BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area(),
+            &[chart],
+            1,
+        )
+        .unwrap();
         let blue = palette(0);
         let px = |x: u32, y: u32| {
             let i = ((y * w + x) * 3) as usize;

@@ -44,19 +44,13 @@ pub fn to_file(path: &Path) -> Result<RecordingStream, VizError> {
         .map_err(err)
 }
 
-/// A recording stream into a freshly spawned viewer; fails with a clear message if none is installed.
-pub fn spawn() -> Result<RecordingStream, VizError> {
-    spawn_on_port(rerun::DEFAULT_SERVER_PORT)
-}
-
-/// [`spawn`] with the viewer's gRPC port (a viewer already listening there is reused, as by `spawn`).
+/// A recording stream into a freshly spawned viewer on gRPC port `port` (one already listening there is
+/// reused); fails with a clear message if none is installed.
 pub fn spawn_on_port(port: u16) -> Result<RecordingStream, VizError> {
-    let exe = "rerun";
     let found = std::env::var_os("PATH")
-        .map(|p| std::env::split_paths(&p).any(|d| d.join(exe).is_file()))
-        .unwrap_or(false);
+        .is_some_and(|p| std::env::split_paths(&p).any(|d| d.join("rerun").is_file()));
     if !found {
-        return Err(VizError::Spawn(format!("no `{exe}` executable on PATH")));
+        return Err(VizError::Spawn("no `rerun` executable on PATH".into()));
     }
     let opts = rerun::SpawnOptions {
         port,
@@ -263,9 +257,17 @@ impl<'a> RunLogger<'a> {
     }
 }
 
+/// A rigid transform from a translation, m, and a rotation quaternion `[x, y, z, w]`.
+fn transform(translation_m: [f64; 3], rotation_xyzw: [f64; 4]) -> rerun::Transform3D {
+    rerun::Transform3D::from_translation_rotation(
+        f32s(translation_m),
+        rerun::Quaternion::from_xyzw(f32s(rotation_xyzw)),
+    )
+}
+
 /// Each link's visual shapes, static, under `PREFIX/<link>/visual_<k>`, posed in the link's frame (the
-/// link's own transform is logged over time by [`log_link_poses`]). Shared by run and flight recordings.
-pub(crate) fn log_link_visuals(
+/// link's own transform is logged over time by [`log_link_poses`]).
+fn log_link_visuals(
     rec: &RecordingStream,
     prefix: &str,
     visuals: &[LinkVisuals],
@@ -273,14 +275,10 @@ pub(crate) fn log_link_visuals(
     for link in visuals {
         for (k, v) in link.visuals.iter().enumerate() {
             let path = format!("{prefix}/{}/visual_{k}", link.name);
-            let local = rerun::Transform3D::from_translation_rotation(
-                f32x3(v.translation_m),
-                rerun::Quaternion::from_xyzw(f32x4(v.rotation_xyzw)),
-            );
-            rec.log_static(path.as_str(), &local)?;
+            rec.log_static(path.as_str(), &transform(v.translation_m, v.rotation_xyzw))?;
             match &v.shape {
                 VisualShape::Box { size_m } => {
-                    rec.log_static(path.as_str(), &rerun::Boxes3D::from_sizes([f32x3(*size_m)]))?
+                    rec.log_static(path.as_str(), &rerun::Boxes3D::from_sizes([f32s(*size_m)]))?
                 }
                 VisualShape::Cylinder { radius_m, length_m }
                 | VisualShape::Capsule { radius_m, length_m } => rec.log_static(
@@ -299,18 +297,11 @@ pub(crate) fn log_link_visuals(
 }
 
 /// The links' world poses at the recording's current time, under `PREFIX/<link>`.
-pub(crate) fn log_link_poses(
-    rec: &RecordingStream,
-    prefix: &str,
-    poses: &[BodyPose],
-) -> RecordingStreamResult<()> {
+fn log_link_poses(rec: &RecordingStream, prefix: &str, poses: &[BodyPose]) -> RecordingStreamResult<()> {
     for p in poses {
         rec.log(
             format!("{prefix}/{}", p.name),
-            &rerun::Transform3D::from_translation_rotation(
-                f32x3(p.translation_m),
-                rerun::Quaternion::from_xyzw(f32x4(p.rotation_xyzw)),
-            ),
+            &transform(p.translation_m, p.rotation_xyzw),
         )?;
     }
     Ok(())
@@ -356,18 +347,15 @@ fn log_frame(
     rec.set_duration_secs("time", t);
     log_link_poses(rec, "rig", poses).map_err(err)?;
     if let Some(piston) = poses.iter().find(|p| p.name == "piston") {
-        let at = [f32x3(piston.translation_m)];
-        let along_x = |f_n: f64| [[(f_n * f64::from(ARROW_M_PER_N)) as f32, 0.0, 0.0]];
-        rec.log(
-            "forces/load_cell",
-            &rerun::Arrows3D::from_vectors(along_x(row.series[LOAD_CELL_TRUE])).with_origins(at),
-        )
-        .map_err(err)?;
-        rec.log(
-            "forces/damper",
-            &rerun::Arrows3D::from_vectors(along_x(-row.series[DAMPER])).with_origins(at),
-        )
-        .map_err(err)?;
+        let at = [f32s(piston.translation_m)];
+        for (path, f_n) in [
+            ("forces/load_cell", row.series[LOAD_CELL_TRUE]),
+            ("forces/damper", -row.series[DAMPER]),
+        ] {
+            let along_x = [[(f_n * f64::from(ARROW_M_PER_N)) as f32, 0.0, 0.0]];
+            rec.log(path, &rerun::Arrows3D::from_vectors(along_x).with_origins(at))
+                .map_err(err)?;
+        }
     }
     if let Some((link, offset)) = grip {
         if let Some(pose) = poses.iter().find(|p| &p.name == link) {
@@ -379,7 +367,7 @@ fn log_frame(
             );
             rec.log(
                 "forces/hand",
-                &rerun::Arrows3D::from_vectors([f32x3(dir)]).with_origins([f32x3(origin)]),
+                &rerun::Arrows3D::from_vectors([f32s(dir)]).with_origins([f32s(origin)]),
             )
             .map_err(err)?;
         }
@@ -418,12 +406,8 @@ fn in_world(pose: &BodyPose, local: [f64; 3], along: [f64; 3]) -> ([f64; 3], [f6
     (at.into(), (q * Vector3::from(along)).into())
 }
 
-pub(crate) fn f32x3(a: [f64; 3]) -> [f32; 3] {
-    [a[0] as f32, a[1] as f32, a[2] as f32]
-}
-
-pub(crate) fn f32x4(a: [f64; 4]) -> [f32; 4] {
-    [a[0] as f32, a[1] as f32, a[2] as f32, a[3] as f32]
+fn f32s<const N: usize>(a: [f64; N]) -> [f32; N] {
+    a.map(|v| v as f32)
 }
 
 #[cfg(test)]
