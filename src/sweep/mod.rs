@@ -50,15 +50,17 @@ fn record(run: &Run, outcome: Outcome) -> Record {
 /// verdict of the design: its figures and verdicts are kept, with `load_cell_ok = false` and the peak.
 /// Every other invariant (every number finite, the energy balance) still fails the run.
 fn run_scenario(scn: &crate::scenario::Scenario, path: &std::path::Path, window_s: f64) -> Outcome {
+    match run_kept(scn, path) {
+        Ok(res) => Outcome::of(&res, scn, window_s),
+        Err(msg) => Outcome::failed(msg),
+    }
+}
+
+/// The run of [`run_scenario`], its rows kept; an error is the run's failure, in words.
+fn run_kept(scn: &crate::scenario::Scenario, path: &std::path::Path) -> Result<crate::sim::Results, String> {
     use crate::sim::{Event, SimError};
-    let devices = match crate::sim::Devices::load(scn) {
-        Ok(d) => d,
-        Err(e) => return Outcome::failed(format!("{e:#}")),
-    };
-    let rig = match crate::sim::build_rig(scn, &devices.plant) {
-        Ok(r) => r,
-        Err(e) => return Outcome::failed(format!("{e:#}")),
-    };
+    let devices = crate::sim::Devices::load(scn).map_err(|e| format!("{e:#}"))?;
+    let rig = crate::sim::build_rig(scn, &devices.plant).map_err(|e| format!("{e:#}"))?;
     let stops_rad = rig.stick_limits_rad();
     let steps = (scn.duration_s * scn.physics_rate_hz()).round() as usize;
     let mut head = None;
@@ -79,12 +81,11 @@ fn run_scenario(scn: &crate::scenario::Scenario, path: &std::path::Path, window_
             Ok::<(), SimError>(())
         },
     );
-    let failed =
-        |e: &dyn std::fmt::Display| Outcome::failed(format!("running scenario {}: {e}", path.display()));
-    let res = match (run, head) {
+    let failed = |e: &dyn std::fmt::Display| format!("running scenario {}: {e}", path.display());
+    match (run, head) {
         (Ok((mut res, _)), _) => {
             res.rows = rows;
-            res
+            Ok(res)
         }
         // Run to its end (the range is judged there): the other invariants judged with the range lifted.
         (Err(e @ SimError::Invariant { .. }), Some(mut res)) if rows.len() == steps => {
@@ -98,15 +99,11 @@ fn run_scenario(scn: &crate::scenario::Scenario, path: &std::path::Path, window_
                 .iter()
                 .try_for_each(|r| check.push(r))
                 .and_then(|()| check.finish(res.summary()));
-            match judged {
-                Ok(summary) => res.stops_j = summary.stops_j,
-                Err(_) => return failed(&e),
-            }
-            res
+            res.stops_j = judged.map_err(|_| failed(&e))?.stops_j;
+            Ok(res)
         }
-        (Err(e), _) => return failed(&e),
-    };
-    Outcome::of(&res, scn, window_s)
+        (Err(e), _) => Err(failed(&e)),
+    }
 }
 
 /// Run `shard` of `plan` into `store`: every run of the shard not in it yet, on `jobs` threads, each

@@ -239,20 +239,18 @@ pub fn maps(
         Some(Param::Num(x)) => *x,
         _ => f64::NAN,
     };
-    let mut xs: Vec<f64> = records
-        .iter()
-        .map(|r| num(r, ix))
-        .filter(|x| x.is_finite())
-        .collect();
-    let mut ys: Vec<f64> = records
-        .iter()
-        .map(|r| num(r, iy))
-        .filter(|x| x.is_finite())
-        .collect();
-    for v in [&mut xs, &mut ys] {
+    // An axis's distinct finite values, in order.
+    let values = |k: usize| {
+        let mut v: Vec<f64> = records
+            .iter()
+            .map(|r| num(r, k))
+            .filter(|x| x.is_finite())
+            .collect();
         v.sort_by(f64::total_cmp);
         v.dedup();
-    }
+        v
+    };
+    let (xs, ys) = (values(ix), values(iy));
     if xs.is_empty() || ys.is_empty() {
         return Err(format!(
             "the map's axes `{}` and `{}` must be numeric",
@@ -296,24 +294,22 @@ pub fn maps(
     let grid = Grid { xs, ys };
     let png = dir.join("map-level.png");
     let svg = dir.join("map-level.svg");
-    crate::outputs::write_whole(
-        &png,
-        |tmp| {
-            let root = BitMapBackend::new(tmp, size).into_drawing_area();
-            draw_panels(root.clone(), &panels, &grid, spec)?;
-            root.present().map_err(|e| e.to_string())
-        },
-        |e| e.to_string(),
-    )?;
-    crate::outputs::write_whole(
-        &svg,
-        |tmp| {
-            let root = SVGBackend::new(tmp, size).into_drawing_area();
-            draw_panels(root.clone(), &panels, &grid, spec)?;
-            root.present().map_err(|e| e.to_string())
-        },
-        |e| e.to_string(),
-    )?;
+    // Each file whole or not at all, drawn by the backend of its format.
+    macro_rules! write_map {
+        ($path:expr, $backend:ident) => {
+            crate::outputs::write_whole(
+                &$path,
+                |tmp| {
+                    let root = $backend::new(tmp, size).into_drawing_area();
+                    draw_panels(root.clone(), &panels, &grid, spec)?;
+                    root.present().map_err(|e| e.to_string())
+                },
+                |e| e.to_string(),
+            )?
+        };
+    }
+    write_map!(png, BitMapBackend);
+    write_map!(svg, SVGBackend);
     Ok(vec![png, svg])
 }
 
