@@ -102,25 +102,22 @@ fn check_output(option: &str, path: &Path, kind: Kind) -> Result<(), String> {
                     }
                 }
             }
-            for (n, p) in path.ancestors().enumerate() {
+            // The nearest ancestor that exists (the rest is created with the directory).
+            let found = path.ancestors().enumerate().find_map(|(n, p)| {
                 let p = or_here(p);
-                let Ok(m) = std::fs::metadata(p) else {
-                    continue; // does not exist (yet): created with the directory
-                };
-                let what = if n == 0 {
-                    "exists and is not a directory".to_string()
-                } else {
-                    format!(
-                        "cannot create the directory: `{}` is not a directory",
-                        p.display()
-                    )
-                };
-                if !m.is_dir() {
-                    return fail(what);
+                std::fs::metadata(p).ok().map(|m| (n, p, m))
+            });
+            match found {
+                None => Ok(()),
+                Some((0, _, m)) if !m.is_dir() => fail("exists and is not a directory".into()),
+                Some((_, p, m)) if !m.is_dir() => fail(format!(
+                    "cannot create the directory: `{}` is not a directory",
+                    p.display()
+                )),
+                Some((_, p, _)) => {
+                    probe_dir(p).or_else(|e| fail(format!("cannot write into `{}`: {e}", p.display())))
                 }
-                return probe_dir(p).or_else(|e| fail(format!("cannot write into `{}`: {e}", p.display())));
             }
-            Ok(())
         }
     }
 }

@@ -27,13 +27,13 @@ pub struct CompareArgs {
     pub faults: bool,
 }
 
-/// Every file `mrfeel compare` of the comparison scenario `path` reads, each with what it is, which no
-/// output may overwrite: the comparison scenario, its base scenario and the files that names
-/// ([`mrfeel::scenario::Scenario::named_files`]), and its feel-spring file. `scn` is the comparison as
-/// loaded from `path` (once: a file read from a pipe cannot be read again).
+/// Every file `mrfeel compare` of the comparison `scn` (loaded from `path`) reads, which no output may
+/// overwrite: the comparison, its base scenario and the files that names, and its feel-spring file.
 pub fn input_files(path: &Path, scn: &CompareScenario) -> Vec<(&'static str, PathBuf)> {
-    let mut files = vec![("comparison scenario", path.to_path_buf())];
-    files.push(("base scenario", scn.base.path.clone()));
+    let mut files = vec![
+        ("comparison scenario", path.to_path_buf()),
+        ("base scenario", scn.base.path.clone()),
+    ];
     files.extend(scn.base.named_files());
     files.push(("feel-spring file", scn.springs_path.clone()));
     files

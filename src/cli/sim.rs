@@ -84,10 +84,8 @@ pub struct DaqSweepArgs {
     pub json: bool,
 }
 
-/// Every file `mrfeel run` or `daq-sweep` of `scenario` reads, each with what it is, which no output may
-/// overwrite: the scenario and the files it names ([`Scenario::named_files`]), flying `aircraft`
-/// (`--aircraft`) instead of its own aircraft where given. `scn` is the scenario as loaded from `path`
-/// (once: a scenario read from a pipe cannot be read again).
+/// Every file `mrfeel run` or `daq-sweep` of the scenario `scn` (loaded from `path`) reads, which no output
+/// may overwrite: the scenario and the files it names, flying `aircraft` (`--aircraft`) where given.
 pub fn input_files(path: &Path, scn: &Scenario, aircraft: Option<&str>) -> Vec<(&'static str, PathBuf)> {
     let mut files = vec![("scenario", path.to_path_buf())];
     match aircraft.and_then(|m| scn.with_aircraft_model(m)) {
@@ -413,15 +411,17 @@ pub fn daq_sweep_cmd(args: &DaqSweepArgs, scn: Scenario) -> anyhow::Result<()> {
         mrfeel::outln!("{}", serde_json::to_string_pretty(&points)?)?;
     } else {
         mrfeel::out!("{}", response::markdown_table(&points))?;
-        if let Some(dir) = &args.plot {
-            mrfeel::outln!(
-                "plots: {}/daq-sweep.png, {}/daq-sweep.svg",
-                dir.display(),
-                dir.display()
-            )?;
-        }
+        plots_line(args.plot.as_deref(), "daq-sweep")?;
     }
     Ok(())
+}
+
+/// The line naming the plots `DIR/STEM.png` and `.svg`, where they were asked for.
+fn plots_line(dir: Option<&Path>, stem: &str) -> std::io::Result<()> {
+    match dir {
+        Some(d) => mrfeel::outln!("plots: {}/{stem}.png, {}/{stem}.svg", d.display(), d.display()),
+        None => Ok(()),
+    }
 }
 
 /// `mrfeel loop-study SCENARIO --data DIR`: discovery to feel.
@@ -497,13 +497,7 @@ pub fn loop_study_cmd(args: &LoopStudyArgs, mut scn: Scenario) -> anyhow::Result
              controller's)",
             100.0 * mrfeel::sim::loop_study::RENDERABLE_SHARE
         )?;
-        if let Some(dir) = &args.plot {
-            mrfeel::outln!(
-                "plots: {}/loop-study.png, {}/loop-study.svg",
-                dir.display(),
-                dir.display()
-            )?;
-        }
+        plots_line(args.plot.as_deref(), "loop-study")?;
     }
     Ok(())
 }

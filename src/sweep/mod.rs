@@ -43,12 +43,9 @@ fn record(run: &Run, outcome: Outcome) -> Record {
     }
 }
 
-/// A run as `mrfeel run` runs it (device, rig, loop, invariants) to its outcome, with one difference: a
-/// run whose only broken invariant is the load cell's range is a design point, not a failed run. The
-/// force through the cell beyond its rating (a stick slammed into its stop drives the piston assembly's
-/// momentum through it, or a law asks more than the cell carries) is what a real rig would do and a
-/// verdict of the design: its figures and verdicts are kept, with `load_cell_ok = false` and the peak.
-/// Every other invariant (every number finite, the energy balance) still fails the run.
+/// A run as `mrfeel run` runs it to its outcome, except that a run whose only broken invariant is the load
+/// cell's range is a design point (a real rig would do the same), not a failed run: its figures are kept,
+/// with `load_cell_ok = false` and the peak. Every other invariant still fails the run.
 fn run_scenario(scn: &crate::scenario::Scenario, path: &std::path::Path, window_s: f64) -> Outcome {
     match run_kept(scn, path) {
         Ok(res) => Outcome::of(&res, scn, window_s),
@@ -107,9 +104,7 @@ fn run_kept(scn: &crate::scenario::Scenario, path: &std::path::Path) -> Result<c
 }
 
 /// Run `shard` of `plan` into `store`: every run of the shard not in it yet, on `jobs` threads, each
-/// appended to the journal as it finishes; then the results of the whole shard. `progress` is told of each
-/// run finished. Every run's scenario is checked before any runs, so a bad axis value stops nothing
-/// half-way.
+/// appended to the journal as it finishes (`progress` told of it); then the results of the whole shard.
 pub fn execute(
     plan: &Plan,
     store: Store,

@@ -215,11 +215,9 @@ impl MapCell {
     }
 }
 
-/// Maps of the stick-force-per-g Level over (x, y), one panel per combination of the facet axes, a cell
-/// per (x, y) value pair; where other axes vary, a cell shows the worst Level of its runs. Each cell is coloured by its Level and
-/// labelled with it and the stick force per g; a thick line runs where the Level changes between cells
-/// (the Level boundaries), and `overload` marks a cell where a run drove the load cell past its range.
-/// Written to `DIR/map-level.png` and `.svg`.
+/// Maps of the stick-force-per-g Level over (x, y), one panel per combination of the facet axes, each cell
+/// the worst run at its (x, y), coloured and labelled by Level and N/g; thick lines mark Level boundaries
+/// and `overload` a run past the load cell's range. Written to `DIR/map-level.png` and `.svg`.
 pub fn maps(
     dir: &Path,
     spec: &MapSpec,
