@@ -25,14 +25,12 @@ pub mod units;
 pub mod viz;
 
 /// `eprintln!` that never panics: a note on stderr (progress, what was written where, the final error) is
-/// dropped if stderr cannot be written (a full disk, a closed stream), where `eprintln!` panics. The
-/// results go to files and stdout, whose errors are checked; the exit status still tells a failed run.
+/// dropped if stderr cannot be written, where `eprintln!` panics (results go to checked files and stdout).
 #[macro_export]
 macro_rules! noteln {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stderr(), $($arg)*);
-    }};
+    ($($arg:tt)*) => {
+        $crate::note!("{}\n", format_args!($($arg)*))
+    };
 }
 
 /// `eprint!` that never panics (see [`noteln!`]).
@@ -45,7 +43,7 @@ macro_rules! note {
 }
 
 /// `print!` to stdout that returns the write's error (a full disk, a closed stream) to the caller instead
-/// of panicking as `print!` does: `out!(...)?`.
+/// of panicking as `print!` does: `out!(...)?`. The files a command reports are put in place first.
 #[macro_export]
 macro_rules! out {
     ($($arg:tt)*) => {{
@@ -60,12 +58,7 @@ macro_rules! out {
 /// `println!` that returns the write's error instead of panicking: `outln!(...)?`.
 #[macro_export]
 macro_rules! outln {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        // The files a command reports are in place before it reports them.
-        $crate::outputs::commit_open_set().and_then(|()| {
-            writeln!(std::io::stdout(), $($arg)*)
-                .map_err(|e| std::io::Error::new(e.kind(), format!("writing to stdout: {e}")))
-        })
-    }};
+    ($($arg:tt)*) => {
+        $crate::out!("{}\n", format_args!($($arg)*))
+    };
 }

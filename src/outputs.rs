@@ -43,8 +43,7 @@ fn probe_dir(dir: &Path) -> std::io::Result<()> {
 const PLOT_EXTENSIONS: [&str; 2] = ["png", "svg"];
 
 /// Check that one output can be written, without writing it: a file's directory exists and takes a new
-/// file (an existing file is opened for writing, unchanged); a directory exists or can be created (its
-/// nearest existing ancestor is a directory that takes a new file).
+/// file (an existing file opens for writing); a directory exists or its nearest existing ancestor takes one.
 fn check_output(option: &str, path: &Path, kind: Kind) -> Result<(), String> {
     let fail = |why: String| Err(format!("{option} {}: {why} (nothing was run)", path.display()));
     match kind {
@@ -103,25 +102,22 @@ fn check_output(option: &str, path: &Path, kind: Kind) -> Result<(), String> {
                     }
                 }
             }
-            for (n, p) in path.ancestors().enumerate() {
+            // The nearest ancestor that exists (the rest is created with the directory).
+            let found = path.ancestors().enumerate().find_map(|(n, p)| {
                 let p = or_here(p);
-                let Ok(m) = std::fs::metadata(p) else {
-                    continue; // does not exist (yet): created with the directory
-                };
-                let what = if n == 0 {
-                    "exists and is not a directory".to_string()
-                } else {
-                    format!(
-                        "cannot create the directory: `{}` is not a directory",
-                        p.display()
-                    )
-                };
-                if !m.is_dir() {
-                    return fail(what);
+                std::fs::metadata(p).ok().map(|m| (n, p, m))
+            });
+            match found {
+                None => Ok(()),
+                Some((0, _, m)) if !m.is_dir() => fail("exists and is not a directory".into()),
+                Some((_, p, m)) if !m.is_dir() => fail(format!(
+                    "cannot create the directory: `{}` is not a directory",
+                    p.display()
+                )),
+                Some((_, p, _)) => {
+                    probe_dir(p).or_else(|e| fail(format!("cannot write into `{}`: {e}", p.display())))
                 }
-                return probe_dir(p).or_else(|e| fail(format!("cannot write into `{}`: {e}", p.display())));
             }
-            Ok(())
         }
     }
 }
@@ -146,10 +142,9 @@ fn is_stream(target: &Path) -> bool {
 /// What the name of every temporary file beside an output holds, after a dot and the output's stem.
 const PARTIAL_MARK: &str = ".mrfeel-partial-";
 
-/// A temporary file beside `target` for [`write_whole`]: hidden, created exclusively under a name no one
-/// can predict (`.out.mrfeel-partial-XXXXXXXX.csv`: a planted file or link there is never written through),
-/// with `target`'s extension (plot backends choose the image format by it), and locked while its run
-/// lives, which tells the next run that it is not a stale one ([`remove_stale_partials`]).
+/// A temporary file beside `target` for [`write_whole`]: hidden, made exclusively under an unpredictable
+/// name (`.out.mrfeel-partial-XXXXXXXXXX.csv`: nothing planted there is written through), with `target`'s
+/// extension (plot backends choose the format by it), locked so the next run knows it is not stale.
 fn new_partial(target: &Path) -> std::io::Result<tempfile::NamedTempFile> {
     let name = target
         .file_name()
@@ -160,18 +155,22 @@ fn new_partial(target: &Path) -> std::io::Result<tempfile::NamedTempFile> {
         _ => (name, String::new()),
     };
     let dir = or_here(target.parent().unwrap_or(Path::new("")));
+    locked_temp(dir, &format!(".{stem}{PARTIAL_MARK}"), &ext)
+}
+
+/// A new file in `dir` named `prefix`, ten random characters and `suffix`, locked while this run lives.
+fn locked_temp(dir: &Path, prefix: &str, suffix: &str) -> std::io::Result<tempfile::NamedTempFile> {
     let tmp = tempfile::Builder::new()
-        .prefix(&format!(".{stem}{PARTIAL_MARK}"))
-        .suffix(&ext)
+        .prefix(prefix)
+        .suffix(suffix)
         .rand_bytes(10)
         .tempfile_in(dir)?;
     tmp.as_file().lock()?;
     Ok(tmp)
 }
 
-/// Least age of an empty, unlocked temporary file before it counts as stale: a run locks its file as soon
-/// as it has made it, before writing a byte, so only in that instant is a live run's file empty and
-/// unlocked.
+/// Least age of an empty, unlocked temporary file before it counts as stale (a live run's file is empty
+/// and unlocked only between making and locking it).
 const EMPTY_PARTIAL_AGE: std::time::Duration = std::time::Duration::from_secs(60);
 
 /// Whether a temporary file ([`new_partial`], a set's journal) that no run holds locked may be one a live
@@ -206,10 +205,8 @@ fn marked_files(dir: &Path, mark: &str) -> Vec<(PathBuf, std::fs::Metadata)> {
     found
 }
 
-/// Remove the temporary files ([`new_partial`]) in `dir` that runs killed while writing left behind:
-/// those no live run holds locked. First, finish the output sets ([`OutputSet`]) such a run had begun to
-/// rename into `dir`, so that their files are not taken for leftovers. Best effort: one that cannot be
-/// removed stays.
+/// Remove the temporary files ([`new_partial`]) in `dir` that killed runs left behind (none locked), after
+/// finishing the output sets ([`OutputSet`]) such a run had begun to rename into `dir`. Best effort.
 fn remove_stale_partials(dir: &Path) {
     for (journal, meta) in marked_files(dir, SET_MARK) {
         if !maybe_unlocked_yet(&meta) {
@@ -230,11 +227,9 @@ fn remove_stale_partials(dir: &Path) {
 }
 
 /// Write the file `path` whole or not at all: `write` fills a temporary file beside it (the path it is
-/// given), flushed and renamed over `path` only once `write` succeeds; a failure or a crash leaves the old
-/// file, and the next run into that directory removes a killed run's leftover. Links are followed (the
-/// file replaced keeps its permissions); a stream (`/dev/null`, a pipe) is written directly. In an
-/// [`OutputSet`] the rename waits for its commit. `io_error` turns a failure to make, flush or rename the
-/// temporary file into `E`.
+/// given), flushed and renamed over `path` once `write` succeeds (in an [`OutputSet`], at its commit); a
+/// failure leaves the old file. Links are followed, permissions kept; a stream (`/dev/null`, a pipe) is
+/// written directly. `io_error` turns a failure to make, flush or rename the temporary file into `E`.
 pub fn write_whole<T, E>(
     path: &Path,
     write: impl FnOnce(&Path) -> Result<T, E>,
@@ -300,9 +295,9 @@ thread_local! {
 }
 
 /// A command's outputs written as one set: while a set is open on a thread, [`write_whole`] stages its
-/// flushed temporary file; [`OutputSet::commit`] renames them all and dropping the set uncommitted removes
-/// them. A commit of several files journals the renames (`.mrfeel-set-*.json` in each target's directory,
-/// locked while the run lives) so that the next run finishes a killed one's set: never part new, part old.
+/// flushed temporary file; [`OutputSet::commit`] renames them all, dropping the set uncommitted removes
+/// them. Several files' renames are journalled (`.mrfeel-set-*.json`, locked while the run lives) so that
+/// the next run finishes a killed one's set: never part new, part old.
 pub struct OutputSet(());
 
 impl OutputSet {
@@ -397,22 +392,16 @@ fn commit(staged: Vec<Staged>) -> std::io::Result<()> {
 /// A set's journal in `dir`: made, locked, written and flushed; removed when the returned file drops.
 fn write_journal(dir: &Path, text: &str) -> std::io::Result<tempfile::NamedTempFile> {
     use std::io::Write as _;
-    let mut j = tempfile::Builder::new()
-        .prefix(&format!(".{SET_MARK}"))
-        .suffix(".json")
-        .rand_bytes(10)
-        .tempfile_in(dir)?;
-    j.as_file().lock()?;
+    let mut j = locked_temp(dir, &format!(".{SET_MARK}"), ".json")?;
     j.write_all(text.as_bytes())?;
     j.as_file().sync_all()?;
     sync_dir(dir)?;
     Ok(j)
 }
 
-/// Finish the set whose journal a killed run left at `journal` (no live run holds it locked): rename each
-/// temporary file it lists that is still there over its target, then remove the journal. A journal that
-/// does not parse was being written when its run died, before any rename: it is removed with nothing
-/// renamed, and its temporary files are left for [`remove_stale_partials`].
+/// Finish the set whose journal a killed run left at `journal` (unless a live run holds it locked): rename
+/// each temporary file it lists that is still there, then remove the journal (one that does not parse was
+/// cut short before any rename: removed, nothing renamed).
 fn finish_killed_set(journal: &Path) {
     let Ok(f) = std::fs::File::open(journal) else {
         return;
@@ -432,9 +421,9 @@ fn finish_killed_set(journal: &Path) {
     let _ = std::fs::remove_file(journal);
 }
 
-/// What a path names on disk, to tell whether two paths are one file: an existing file by its device and
-/// inode (so a hard link, a symlink or `a/../b` spelling is the same file), otherwise the canonical path of
-/// its nearest existing ancestor with the rest appended.
+/// What a path names on disk, to tell whether two paths are one file: an existing file by device and inode
+/// (hard links, symlinks, `a/../b` alike), else the canonical path of its nearest existing ancestor and the
+/// rest.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub(crate) enum FileId {
     Inode(u64, u64),
@@ -464,9 +453,8 @@ pub(crate) fn file_id(path: &Path) -> FileId {
     }
 }
 
-/// Check every output of a command before it runs, so that a run either writes all it was asked to or fails
-/// before it writes or prints anything: each path must be writable, no two options may name the same path
-/// (however it is spelled), and no output may be one of the command's `inputs` (the files it reads).
+/// Check every output of a command before it runs: each path writable, no two options naming one file
+/// (however spelled), and no output one of the command's `inputs` (the files it reads).
 pub fn check_outputs(outs: &[Output<'_>], inputs: &[(&'static str, &Path)]) -> Result<(), String> {
     let ids: Vec<FileId> = outs.iter().map(|(_, p, _)| file_id(p)).collect();
     let input_ids: Vec<FileId> = inputs.iter().map(|(_, p)| file_id(p)).collect();
@@ -506,9 +494,8 @@ fn is_plot_file(path: &Path) -> bool {
         .is_some_and(|e| PLOT_EXTENSIONS.iter().any(|p| e.eq_ignore_ascii_case(p)))
 }
 
-/// The files a command writes into the plot directory `dir` must not be anything else it reads or writes:
-/// no input and no other output may lie in it with a plot file's name, and none of its plot files may be a
-/// link to one.
+/// No input or other output may lie in the plot directory `dir` with a plot file's name, nor be one of its
+/// plot files by a link.
 fn check_plot_dir(
     opt: &str,
     dir: &Path,

@@ -4,7 +4,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use mrfeel::compare::{CompareScenario, Comparison};
+use mrfeel::compare::{CompareScenario, Comparison, Row, Trace};
 use mrfeel::faults::FaultKind;
 use mrfeel::viz::plot::{save_charts, Chart, Series};
 
@@ -27,13 +27,13 @@ pub struct CompareArgs {
     pub faults: bool,
 }
 
-/// Every file `mrfeel compare` of the comparison scenario `path` reads, each with what it is, which no
-/// output may overwrite: the comparison scenario, its base scenario and the files that names
-/// ([`mrfeel::scenario::Scenario::named_files`]), and its feel-spring file. `scn` is the comparison as
-/// loaded from `path` (once: a file read from a pipe cannot be read again).
+/// Every file `mrfeel compare` of the comparison `scn` (loaded from `path`) reads, which no output may
+/// overwrite: the comparison, its base scenario and the files that names, and its feel-spring file.
 pub fn input_files(path: &Path, scn: &CompareScenario) -> Vec<(&'static str, PathBuf)> {
-    let mut files = vec![("comparison scenario", path.to_path_buf())];
-    files.push(("base scenario", scn.base.path.clone()));
+    let mut files = vec![
+        ("comparison scenario", path.to_path_buf()),
+        ("base scenario", scn.base.path.clone()),
+    ];
     files.extend(scn.base.named_files());
     files.push(("feel-spring file", scn.springs_path.clone()));
     files
@@ -162,6 +162,10 @@ fn plots(c: &Comparison, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     let mut cur = Chart::new("Coil current", "time (s)", "coil current (A)");
     let mut brk = Chart::new("Breakout: slow force ramp", "grip force (N)", "stick angle (deg)");
     let every = 5;
+    // Every fifth row of a trace, as a point.
+    let line = |name: &str, tr: &Trace, f: fn(&Row) -> (f64, f64)| {
+        Series::line(name, tr.rows.iter().step_by(every).map(f).collect())
+    };
     for (k, _, main, b) in &c.systems {
         let sweep: Vec<(f64, f64)> = main
             .rows
@@ -171,32 +175,14 @@ fn plots(c: &Comparison, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
             .map(|r| (r.theta_rad.to_degrees(), r.hand_force_n))
             .collect();
         fd.series.push(Series::line(k.name(), sweep));
-        rel.series.push(Series::line(
-            k.name(),
-            main.rows
-                .iter()
-                .step_by(every)
-                .map(|r| (r.t_s, r.theta_rad.to_degrees()))
-                .collect(),
-        ));
+        rel.series
+            .push(line(k.name(), main, |r| (r.t_s, r.theta_rad.to_degrees())));
         if k.has_coil() {
-            cur.series.push(Series::line(
-                k.name(),
-                main.rows
-                    .iter()
-                    .step_by(every)
-                    .map(|r| (r.t_s, r.coil_current_a))
-                    .collect(),
-            ));
+            cur.series
+                .push(line(k.name(), main, |r| (r.t_s, r.coil_current_a)));
         }
-        brk.series.push(Series::line(
-            k.name(),
-            b.rows
-                .iter()
-                .step_by(every)
-                .map(|r| (r.hand_force_n, r.theta_rad.to_degrees()))
-                .collect(),
-        ));
+        brk.series
+            .push(line(k.name(), b, |r| (r.hand_force_n, r.theta_rad.to_degrees())));
     }
     if let Some((_, _, main, _)) = c.systems.first() {
         let mut tgt: Vec<(f64, f64)> = main
@@ -219,14 +205,8 @@ fn plots(c: &Comparison, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
                 "stick angle (deg)",
             );
             for (r, tr) in c.faults.iter().filter(|(r, _)| r.fault == f) {
-                ch.series.push(Series::line(
-                    r.system.name(),
-                    tr.rows
-                        .iter()
-                        .step_by(every)
-                        .map(|q| (q.t_s, q.theta_rad.to_degrees()))
-                        .collect(),
-                ));
+                ch.series
+                    .push(line(r.system.name(), tr, |q| (q.t_s, q.theta_rad.to_degrees())));
             }
             charts.push(ch);
         }

@@ -9,7 +9,7 @@ use indicatif::ProgressBar;
 use mrfeel::device::{DeviceConfig, Registry};
 use mrfeel::scenario::Scenario;
 use mrfeel::sim::response;
-use mrfeel::sim::{build_rig, run, Devices, Plant, Results, RunOptions};
+use mrfeel::sim::{build_rig, Devices, Plant, Results, RunOptions};
 
 /// `mrfeel run SCENARIO`: run a stick-rig scenario headless.
 #[derive(Debug, clap::Args)]
@@ -84,10 +84,8 @@ pub struct DaqSweepArgs {
     pub json: bool,
 }
 
-/// Every file `mrfeel run` or `daq-sweep` of `scenario` reads, each with what it is, which no output may
-/// overwrite: the scenario and the files it names ([`Scenario::named_files`]), flying `aircraft`
-/// (`--aircraft`) instead of its own aircraft where given. `scn` is the scenario as loaded from `path`
-/// (once: a scenario read from a pipe cannot be read again).
+/// Every file `mrfeel run` or `daq-sweep` of the scenario `scn` (loaded from `path`) reads, which no output
+/// may overwrite: the scenario and the files it names, flying `aircraft` (`--aircraft`) where given.
 pub fn input_files(path: &Path, scn: &Scenario, aircraft: Option<&str>) -> Vec<(&'static str, PathBuf)> {
     let mut files = vec![("scenario", path.to_path_buf())];
     match aircraft.and_then(|m| scn.with_aircraft_model(m)) {
@@ -102,21 +100,6 @@ fn progress_bar(len: u64, msg: &str) -> ProgressBar {
     let pb = super::progress_bar(len, "{msg} [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}");
     pb.set_message(msg.to_string());
     pb
-}
-
-/// Run a loaded scenario with a progress bar.
-pub fn run_with_progress<P: Plant>(
-    scn: &Scenario,
-    devices: &Devices,
-    plant: P,
-    opts: RunOptions,
-) -> Result<Results, mrfeel::sim::SimError> {
-    let pb = progress_bar(1000, &scn.name);
-    let res = run(scn, devices, plant, opts, |f| {
-        pb.set_position((f * 1000.0) as u64)
-    });
-    pb.finish_and_clear();
-    res
 }
 
 /// `mrfeel run` of the scenario loaded from `args.scenario`.
@@ -138,9 +121,7 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
             )
         })?;
     }
-    let want_viz = args.output.rerun.is_some() || args.spawn;
-    // A viewer is spawned before the run (it shows the run as it comes); a recording file is made after it,
-    // so that a run that fails leaves no file behind.
+    // A viewer is spawned before the run and shown the whole run after it.
     #[cfg(feature = "rerun")]
     let rec = if args.spawn {
         Some(mrfeel::viz::rerun_rig::spawn_on_port(args.spawn_port)?)
@@ -148,101 +129,66 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
         None
     };
     let opts = RunOptions {
-        frames_hz: want_viz.then_some(60.0),
+        frames_hz: (args.output.rerun.is_some() || args.spawn).then_some(60.0),
     };
-    // Nothing needs the whole run (no plots, no aircraft's metrics, no viewer): its rows go to the CSV and
-    // the recording as they are made, so that memory does not grow with the run's length.
+    // The rows are kept only where something needs the whole run (plots, an aircraft's metrics, a viewer):
+    // otherwise memory does not grow with the run's length.
+    let keep = args.output.plot.is_some() || scn.aircraft.is_some() || args.spawn;
+    let (res, summary) = run_streamed(args, &scn, &devices, rig, opts, keep)?;
     #[cfg(feature = "rerun")]
-    let streamed = rec.is_none();
-    #[cfg(not(feature = "rerun"))]
-    let streamed = true;
-    if streamed && args.output.plot.is_none() && scn.aircraft.is_none() {
-        let summary = run_streamed(args, &scn, &devices, rig, opts)?;
-        if args.output.json {
-            mrfeel::outln!("{}", serde_json::to_string_pretty(&summary)?)?;
-        } else {
-            mrfeel::outln!("{summary}")?;
-            if let Some(p) = &args.out {
-                mrfeel::outln!("  results: {}", p.display())?;
-            }
-            if let Some(p) = &args.output.rerun {
-                mrfeel::outln!("  recording: {} (open with `rerun {}`)", p.display(), p.display())?;
-            }
-        }
-        return Ok(());
+    if let (Some(rec), Some(res)) = (&rec, &res) {
+        mrfeel::sim::log_rerun(rec, res)?;
     }
-    let res = run_with_progress(&scn, &devices, rig, opts)?;
-    if let Some(path) = &args.out {
-        let writing = || format!("writing {}", path.display());
-        mrfeel::outputs::write_whole(
-            path,
-            |tmp| -> anyhow::Result<()> {
-                let f = std::fs::File::create(tmp).with_context(|| format!("creating {}", path.display()))?;
-                let mut w = std::io::BufWriter::new(f);
-                res.write_csv(&mut w).with_context(writing)?;
-                // A buffered writer drops its last failure: flush it here, where the error can be reported.
-                w.flush().with_context(writing)
-            },
-            |e| anyhow::Error::new(e).context(writing()),
-        )?;
-    }
-    #[cfg(feature = "rerun")]
-    match (&rec, &args.output.rerun) {
-        (Some(rec), _) => mrfeel::sim::log_rerun(rec, &res)?,
-        (None, Some(p)) => mrfeel::outputs::write_whole(
-            p,
-            |tmp| -> anyhow::Result<()> {
-                mrfeel::sim::log_rerun(&mrfeel::viz::rerun_rig::to_file(tmp)?, &res)?;
-                Ok(())
-            },
-            |e| anyhow::Error::new(e).context(format!("--rerun {}", p.display())),
-        )?,
-        (None, None) => {}
-    }
-    let mut plotted = match &args.output.plot {
-        Some(dir) => run_plots(&res, dir)?,
-        None => Vec::new(),
+    let mut plotted = match (&args.output.plot, &res) {
+        (Some(dir), Some(res)) => run_plots(res, dir)?,
+        _ => Vec::new(),
     };
-    if let (Some(dir), Some(chart)) = (
-        &args.output.plot,
-        mrfeel::sim::flight::stick_force_per_g_chart(&res)?,
-    ) {
+    // Made for a flight with or without `--plot`: a flight whose chart cannot be made fails.
+    let chart = match &res {
+        Some(res) => mrfeel::sim::flight::stick_force_per_g_chart(res)?,
+        None => None,
+    };
+    if let (Some(dir), Some(chart)) = (&args.output.plot, chart) {
         let name = format!("{}-stick-force-per-g", scn.name);
         plotted.extend(
             mrfeel::viz::plot::save_charts(&[chart], 1, dir, &name)
                 .with_context(|| format!("--plot {}", dir.display()))?,
         );
     }
-    let summary = res.summary();
-    let flight = mrfeel::sim::metrics::FlightMetrics::of(&res, &scn);
     if args.output.json {
-        let v = mrfeel::prelude::run_summary(&res, &scn)?;
-        mrfeel::outln!("{}", serde_json::to_string_pretty(&v)?)?;
-    } else {
-        mrfeel::outln!("{summary}")?;
-        if let Some(m) = &flight {
-            mrfeel::outln!("{m}")?;
-        }
-        if let Some(f) = &res.flight {
-            mrfeel::outln!(
-                "  aircraft {}: {} parameters are estimates ([EST] in its model file, no source): {}",
-                f.aircraft,
-                f.estimates.len(),
-                f.estimates.join(", ")
-            )?;
-        }
-        if let Some(p) = &args.out {
-            mrfeel::outln!("  results: {}", p.display())?;
-        }
-        if let Some(p) = &args.output.rerun {
-            mrfeel::outln!("  recording: {} (open with `rerun {}`)", p.display(), p.display())?;
-        }
-        for p in plotted
-            .iter()
-            .filter(|p| p.extension().is_some_and(|e| e == "png"))
-        {
-            mrfeel::outln!("  plot: {} and its .svg", p.display())?;
-        }
+        // A kept run's JSON adds its flight's figures (`prelude::run_summary`).
+        let text = match &res {
+            Some(res) => serde_json::to_string_pretty(&mrfeel::prelude::run_summary(res, &scn)?)?,
+            None => serde_json::to_string_pretty(&summary)?,
+        };
+        return Ok(mrfeel::outln!("{text}")?);
+    }
+    mrfeel::outln!("{summary}")?;
+    if let Some(m) = res
+        .as_ref()
+        .and_then(|res| mrfeel::sim::metrics::FlightMetrics::of(res, &scn))
+    {
+        mrfeel::outln!("{m}")?;
+    }
+    if let Some(f) = res.as_ref().and_then(|res| res.flight.as_ref()) {
+        mrfeel::outln!(
+            "  aircraft {}: {} parameters are estimates ([EST] in its model file, no source): {}",
+            f.aircraft,
+            f.estimates.len(),
+            f.estimates.join(", ")
+        )?;
+    }
+    if let Some(p) = &args.out {
+        mrfeel::outln!("  results: {}", p.display())?;
+    }
+    if let Some(p) = &args.output.rerun {
+        mrfeel::outln!("  recording: {} (open with `rerun {}`)", p.display(), p.display())?;
+    }
+    for p in plotted
+        .iter()
+        .filter(|p| p.extension().is_some_and(|e| e == "png"))
+    {
+        mrfeel::outln!("  plot: {} and its .svg", p.display())?;
     }
     Ok(())
 }
@@ -263,17 +209,19 @@ fn maybe_whole<T>(
     }
 }
 
-/// A run whose rows go to its CSV (`--out`) and its recording (`--rerun FILE`) as they are made
-/// ([`mrfeel::sim::run_streaming`]), none kept; each file is whole or not written. Returns the run's summary.
+/// A run whose rows go to its CSV (`--out`) and its recording (`--rerun FILE`, unless a viewer is spawned)
+/// as they are made ([`mrfeel::sim::run_streaming`]), each file whole or not written. Returns the run's
+/// summary, and the run with its rows and frames where `keep`.
 fn run_streamed<P: Plant>(
     args: &RunArgs,
     scn: &Scenario,
     devices: &Devices,
     plant: P,
     opts: RunOptions,
-) -> anyhow::Result<mrfeel::sim::Summary> {
+    keep: bool,
+) -> anyhow::Result<(Option<Results>, mrfeel::sim::Summary)> {
     #[cfg(feature = "rerun")]
-    let rrd = args.output.rerun.as_deref();
+    let rrd = args.output.rerun.as_deref().filter(|_| !args.spawn);
     #[cfg(not(feature = "rerun"))]
     let rrd: Option<&Path> = None;
     let pb = progress_bar(1000, &scn.name);
@@ -283,7 +231,13 @@ fn run_streamed<P: Plant>(
             args.out.as_deref().unwrap_or(Path::new("")).display()
         )
     };
-    let summary = maybe_whole(args.out.as_deref(), "writing", |csv_tmp| {
+    let n = if keep {
+        (scn.duration_s * scn.physics_rate_hz()).round() as usize + 1
+    } else {
+        0
+    };
+    let (mut rows, mut frames) = (Vec::with_capacity(n), Vec::new());
+    let run = maybe_whole(args.out.as_deref(), "writing", |csv_tmp| {
         maybe_whole(rrd, "--rerun", |_rrd_tmp| {
             let mut csv = match csv_tmp {
                 Some(p) => Some(std::io::BufWriter::new(
@@ -299,7 +253,7 @@ fn run_streamed<P: Plant>(
             #[cfg(feature = "rerun")]
             let mut logger: Option<mrfeel::viz::rerun_rig::RunLogger<'_>> = None;
             let mut head: Option<Results> = None;
-            let (_, summary) = mrfeel::sim::run_streaming(
+            let run = mrfeel::sim::run_streaming(
                 scn,
                 devices,
                 plant,
@@ -321,11 +275,13 @@ fn run_streamed<P: Plant>(
                             }
                             head = Some(h.clone());
                         }
-                        mrfeel::sim::Event::Frame(_t, _poses) =>
-                        {
+                        mrfeel::sim::Event::Frame(t, poses) => {
                             #[cfg(feature = "rerun")]
                             if let Some(l) = logger.as_mut() {
-                                l.frame(_t, _poses);
+                                l.frame(t, poses);
+                            }
+                            if keep {
+                                frames.push((t, poses.to_vec()));
                             }
                         }
                         mrfeel::sim::Event::Row(r) => {
@@ -335,6 +291,9 @@ fn run_streamed<P: Plant>(
                             #[cfg(feature = "rerun")]
                             if let Some(l) = logger.as_mut() {
                                 l.sample(&mrfeel::sim::rerun_sample(r))?;
+                            }
+                            if keep {
+                                rows.push(*r);
                             }
                         }
                     }
@@ -349,11 +308,19 @@ fn run_streamed<P: Plant>(
                 // A buffered writer drops its last failure: flush it here, where the error can be reported.
                 w.flush().with_context(writing)?;
             }
-            Ok(summary)
+            Ok(run)
         })
     });
     pb.finish_and_clear();
-    summary
+    let (mut res, summary) = run?;
+    Ok((
+        keep.then(|| {
+            res.rows = rows;
+            res.frames = frames;
+            res
+        }),
+        summary,
+    ))
 }
 
 /// The run drawn for `run --plot DIR`: `DIR/run.png` and `DIR/run.svg`.
@@ -444,15 +411,17 @@ pub fn daq_sweep_cmd(args: &DaqSweepArgs, scn: Scenario) -> anyhow::Result<()> {
         mrfeel::outln!("{}", serde_json::to_string_pretty(&points)?)?;
     } else {
         mrfeel::out!("{}", response::markdown_table(&points))?;
-        if let Some(dir) = &args.plot {
-            mrfeel::outln!(
-                "plots: {}/daq-sweep.png, {}/daq-sweep.svg",
-                dir.display(),
-                dir.display()
-            )?;
-        }
+        plots_line(args.plot.as_deref(), "daq-sweep")?;
     }
     Ok(())
+}
+
+/// The line naming the plots `DIR/STEM.png` and `.svg`, where they were asked for.
+fn plots_line(dir: Option<&Path>, stem: &str) -> std::io::Result<()> {
+    match dir {
+        Some(d) => mrfeel::outln!("plots: {}/{stem}.png, {}/{stem}.svg", d.display(), d.display()),
+        None => Ok(()),
+    }
 }
 
 /// `mrfeel loop-study SCENARIO --data DIR`: discovery to feel.
@@ -528,13 +497,7 @@ pub fn loop_study_cmd(args: &LoopStudyArgs, mut scn: Scenario) -> anyhow::Result
              controller's)",
             100.0 * mrfeel::sim::loop_study::RENDERABLE_SHARE
         )?;
-        if let Some(dir) = &args.plot {
-            mrfeel::outln!(
-                "plots: {}/loop-study.png, {}/loop-study.svg",
-                dir.display(),
-                dir.display()
-            )?;
-        }
+        plots_line(args.plot.as_deref(), "loop-study")?;
     }
     Ok(())
 }

@@ -4,8 +4,8 @@
 use std::path::{Path, PathBuf};
 
 use mrfeel::sweep::plan::Plan;
+use mrfeel::sweep::report;
 use mrfeel::sweep::store::{self, Shard, Store};
-use mrfeel::sweep::{report, Record};
 
 /// `mrfeel sweep`.
 #[derive(Debug, clap::Args)]
@@ -76,19 +76,18 @@ pub fn run_cmd(args: &SweepArgs) -> anyhow::Result<()> {
         anyhow::bail!("give a plan and --out DIR (or `mrfeel sweep merge DIR... --out OUT`)");
     };
     let plan = Plan::load(plan_path)?;
-    if let Some(address) = &args.ray {
-        for i in 0..plan.run_count() {
-            plan.scenario(&plan.run(i))?;
-        }
-        return run_ray(args, plan_path, &plan, out, address);
-    }
+    // (`--shard` conflicts with `--ray`: a sweep on Ray checks every run.)
     let shard = args.shard.unwrap_or(Shard::ALL);
+    let runs = || (0..plan.run_count()).filter(|&i| shard.contains(i));
     // Every run's scenario checked before the output directory is made: a refused plan writes nothing.
-    for i in (0..plan.run_count()).filter(|&i| shard.contains(i)) {
+    for i in runs() {
         plan.scenario(&plan.run(i))?;
     }
+    if let Some(address) = &args.ray {
+        return run_ray(args, plan_path, &plan, out, address);
+    }
     let store = Store::open(out, &plan, shard)?;
-    let total = (0..plan.run_count()).filter(|&i| shard.contains(i)).count() as u64;
+    let total = runs().count() as u64;
     let already = store.done.len() as u64;
     let jobs = args.jobs.unwrap_or_else(rayon::current_num_threads);
     anyhow::ensure!(jobs >= 1, "--jobs 0: give at least 1");
@@ -105,11 +104,7 @@ pub fn run_cmd(args: &SweepArgs) -> anyhow::Result<()> {
         records.len(),
         already,
         out.join(store::JOURNAL).display(),
-        if shard == Shard::ALL {
-            "all".to_string()
-        } else {
-            format!("{}/{}", shard.k, shard.n)
-        }
+        shard.label()
     )?;
     if shard == Shard::ALL {
         finish(out, Some(&plan))
@@ -261,7 +256,8 @@ fn finish(dir: &Path, plan: Option<&Plan>) -> anyhow::Result<()> {
     };
     let text = report::report(&name, &columns, &records, &maps);
     std::fs::write(dir.join("report.md"), &text)?;
-    print_summary(&columns, &records)?;
+    let by = report::group_axis(&columns, &records);
+    mrfeel::out!("{}", report::summary_table(&columns, &records, by))?;
     mrfeel::outln!(
         "  results: {}, {}; report: {}",
         dir.join(store::RESULTS_PARQUET).display(),
@@ -271,11 +267,5 @@ fn finish(dir: &Path, plan: Option<&Plan>) -> anyhow::Result<()> {
     for m in &maps {
         mrfeel::outln!("  map: {}", m.display())?;
     }
-    Ok(())
-}
-
-fn print_summary(columns: &[String], records: &[Record]) -> anyhow::Result<()> {
-    let by = report::group_axis(columns, records);
-    mrfeel::out!("{}", report::summary_table(columns, records, by))?;
     Ok(())
 }

@@ -324,102 +324,90 @@ impl Flight {
 }
 
 /// Stick force against load factor for a flight, with what it is judged by: the flown samples (every
-/// tenth row), the steady pull-up of the embedded model at the trim speed and altitude (tab and throttle
-/// at trim), and the boundaries `F = F/g (n − 1)` of the allowed stick force per g of the aircraft's
-/// basis at that condition (MIL-F-8785C Level 1, or the 14 CFR 23 / 25 force limits over the limit load
-/// factor; [`crate::aero::FeelAssessment`]). `None` for a run without an aircraft.
+/// tenth row), the steady pull-up of the embedded model at the trim (or a fly-by-wire stick's designed
+/// law), and the boundaries `F = F/g (n − 1)` of the allowed stick force per g of the aircraft's basis
+/// (MIL-F-8785C Level 1, or the 14 CFR 23 / 25 limits; [`crate::aero::FeelAssessment`]). `None` without
+/// an aircraft.
 pub fn stick_force_per_g_chart(res: &super::Results) -> Result<Option<crate::viz::plot::Chart>, AeroError> {
-    use crate::viz::plot::{Chart, Series};
     let Some(f) = &res.flight else { return Ok(None) };
     let name = f.aircraft.strip_prefix("jsbsim:").unwrap_or(&f.aircraft);
     let file = crate::aero::backend::model_file(name)?;
+    let flown = |force: fn(&super::Row, &AeroRow) -> f64| -> Vec<(f64, f64)> {
+        let rows = res.rows.iter().step_by(10);
+        rows.filter_map(|r| r.aero.map(|a| (a.nz_g, force(r, &a))))
+            .collect()
+    };
+    let (v, h) = (f.trim.airspeed_m_s, f.trim.altitude_m);
     if crate::aero::backend::is_fly_by_wire_file(&file)? {
-        return Ok(Some(fly_by_wire_chart(res, f, &FlyByWire::load(&file)?)));
+        // The hand's force on the grip, which the stick's force sensor hands to the FCS.
+        let fbw = FlyByWire::load(&file)?;
+        let designed = format!(
+            "designed: {:.1} N breakout + {:.1} N/g",
+            fbw.breakout_n, fbw.stick_force_per_g_n
+        );
+        return Ok(Some(per_g_chart(
+            format!(
+                "{} (fly-by-wire): stick force vs load factor, trim {v:.0} m/s at {h:.0} m",
+                f.aircraft
+            ),
+            (
+                "flown: the hand's force (the FCS's input)",
+                flown(|r, _| r.pilot_force_n),
+            ),
+            fbw.limit_load_factor,
+            (designed, &|n| Some(fbw.designed_force_n(n))),
+            "MIL-F-8785C Level 1",
+            fbw.level1_per_g_n(),
+        )));
     }
     let a = crate::aero::Aircraft::new(std::sync::Arc::new(crate::aero::AircraftModel::load_builtin(
         name,
     )?));
-    let (v, h) = (f.trim.airspeed_m_s, f.trim.altitude_m);
     let assess = crate::aero::FeelAssessment::assess(&a, v, h)?;
-    let flown: Vec<(f64, f64)> = res
-        .rows
-        .iter()
-        .step_by(10)
-        .filter_map(|x| x.aero)
-        .map(|x| (x.nz_g, x.stick_force_n))
-        .collect();
-    let nz_flown = flown.iter().map(|p| p.0).fold(1.0, f64::max);
-    let n_top = (nz_flown + 0.5).max(2.0).min(assess.limit_load_factor);
-    let ns: Vec<f64> = (0..=20).map(|k| 1.0 + (n_top - 1.0) * k as f64 / 20.0).collect();
-    // a condition past the stall or the elevator stop has no steady pull-up: the curve stops there
-    let steady: Vec<(f64, f64)> = ns
-        .iter()
-        .map_while(|&n| a.pull_up_stick_force_n(v, h, n).ok().map(|fs| (n, fs)))
-        .collect();
-    let (lo, hi) = assess.allowed_per_g_n;
-    let part = assess.basis.part.label();
-    let chart = Chart::new(
+    Ok(Some(per_g_chart(
         format!(
             "{}: stick force vs load factor, trim {v:.0} m/s at {h:.0} m",
             f.aircraft
         ),
-        "load factor n_z (g)",
-        "stick force at the grip (N, pull +)",
-    )
-    .with(Series::points("flown", flown))
-    .with(Series::line("steady pull-up (embedded model)", steady))
-    .with(Series::dashed(
-        format!("{part}: minimum {lo:.1} N/g"),
-        ns.iter().map(|&n| (n, lo * (n - 1.0))).collect(),
-    ))
-    .with(Series::dashed(
-        format!("{part}: maximum {hi:.1} N/g"),
-        ns.iter().map(|&n| (n, hi * (n - 1.0))).collect(),
-    ));
-    Ok(Some(chart))
+        ("flown", flown(|_, a| a.stick_force_n)),
+        assess.limit_load_factor,
+        ("steady pull-up (embedded model)".into(), &|n| {
+            a.pull_up_stick_force_n(v, h, n).ok()
+        }),
+        assess.basis.part.label(),
+        assess.allowed_per_g_n,
+    )))
 }
 
-/// [`stick_force_per_g_chart`] of a fly-by-wire aircraft: the flown samples (the hand's force on the grip,
-/// which its stick's force sensor hands to the FCS), the designed law and the
-/// MIL-F-8785C Table V Level 1 boundaries at its design condition.
-fn fly_by_wire_chart(
-    res: &super::Results,
-    f: &super::FlightInfo,
-    fbw: &FlyByWire,
+/// The chart of [`stick_force_per_g_chart`]: the flown points, a reference `curve` of the load factor (up
+/// to where it has none), and the `basis`'s bounds `(lo, hi)` in N/g, from 1 g to near the most flown.
+fn per_g_chart(
+    title: String,
+    (flown_name, flown): (&str, Vec<(f64, f64)>),
+    limit_load_factor: f64,
+    (curve_name, curve): (String, &dyn Fn(f64) -> Option<f64>),
+    basis: &str,
+    (lo, hi): (f64, f64),
 ) -> crate::viz::plot::Chart {
     use crate::viz::plot::{Chart, Series};
-    let flown: Vec<(f64, f64)> = res
-        .rows
-        .iter()
-        .step_by(10)
-        .filter_map(|x| x.aero.map(|a| (a.nz_g, x.pilot_force_n)))
-        .collect();
     let nz_flown = flown.iter().map(|p| p.0).fold(1.0, f64::max);
-    let n_top = (nz_flown + 0.5).max(2.0).min(fbw.limit_load_factor);
+    let n_top = (nz_flown + 0.5).max(2.0).min(limit_load_factor);
     let ns: Vec<f64> = (0..=20).map(|k| 1.0 + (n_top - 1.0) * k as f64 / 20.0).collect();
-    let (lo, hi) = fbw.level1_per_g_n();
+    // a condition past the stall or the elevator stop has no steady pull-up: the curve stops there
+    let along = ns.iter().map_while(|&n| curve(n).map(|f| (n, f))).collect();
+    let bound = |which: &str, per_g: f64| {
+        Series::dashed(
+            format!("{basis}: {which} {per_g:.1} N/g"),
+            ns.iter().map(|&n| (n, per_g * (n - 1.0))).collect(),
+        )
+    };
     Chart::new(
-        format!(
-            "{} (fly-by-wire): stick force vs load factor, trim {:.0} m/s at {:.0} m",
-            f.aircraft, f.trim.airspeed_m_s, f.trim.altitude_m
-        ),
+        title,
         "load factor n_z (g)",
         "stick force at the grip (N, pull +)",
     )
-    .with(Series::points("flown: the hand's force (the FCS's input)", flown))
-    .with(Series::line(
-        format!(
-            "designed: {:.1} N breakout + {:.1} N/g",
-            fbw.breakout_n, fbw.stick_force_per_g_n
-        ),
-        ns.iter().map(|&n| (n, fbw.designed_force_n(n))).collect(),
-    ))
-    .with(Series::dashed(
-        format!("MIL-F-8785C Level 1: minimum {lo:.1} N/g"),
-        ns.iter().map(|&n| (n, lo * (n - 1.0))).collect(),
-    ))
-    .with(Series::dashed(
-        format!("MIL-F-8785C Level 1: maximum {hi:.1} N/g"),
-        ns.iter().map(|&n| (n, hi * (n - 1.0))).collect(),
-    ))
+    .with(Series::points(flown_name, flown))
+    .with(Series::line(curve_name, along))
+    .with(bound("minimum", lo))
+    .with(bound("maximum", hi))
 }

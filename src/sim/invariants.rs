@@ -1,27 +1,21 @@
-//! What a finished run must satisfy before its results are reported or written (docs/reference/invariants.md): every
-//! number finite, the energy balance closed, the load cell within its range. A run that breaks one is an
-//! error naming the invariant, the time and the scenario's setting that most likely caused it.
+//! What a run must satisfy before its results are reported or written (docs/reference/invariants.md): every
+//! number finite, the energy balance closed, the load cell within its range. A breach is an error naming the
+//! invariant, the time and the scenario's setting most likely to blame.
 
-use super::{Results, Row, SimError};
+use super::{Row, SimError};
 use crate::pilot::Signal;
 use crate::scenario::Scenario;
 
-/// Largest |energy residual| of a run (pilot and motor work against the change of kinetic, potential and
-/// spring energy plus the energy dissipated, relative to the work exchanged, [`Summary::work_exchanged_j`]),
-/// at its end and at every row on the way: the rig's shipped scenarios close it within 1 %; a physics step
-/// too coarse for the motion leaves tens of per cent.
-///
-/// [`Summary::work_exchanged_j`]: super::Summary::work_exchanged_j
+/// Largest |energy residual| of a run relative to the work exchanged ([`super::Summary::energy_residual`]),
+/// at its end and at every row: shipped scenarios close it within 1 %; a too coarse step leaves tens of %.
 pub(crate) const ENERGY_RESIDUAL_TOLERANCE: f64 = 0.05;
 
-/// Imbalance, J, below which the energy balance is not judged whatever the work done: a stick held at rest
-/// by the damper's yield force does microjoules of work, against which the integrator's rounding is a large
-/// share but no error (a millijoule is 10 N over 0.1 mm).
+/// Imbalance, J, below which the energy balance is not judged: a stick held at rest does microjoules of
+/// work, of which rounding is a large share but no error (a millijoule is 10 N over 0.1 mm).
 pub(crate) const ENERGY_FLOOR_J: f64 = 1e-3;
 
-/// Physics steps per period of the pilot's command below which the command, rather than the physics rate,
-/// is named as the likely cause: the hand's work over a step is `F·Δx` with `F` held, exact only when the
-/// motion is smooth on the step.
+/// Physics steps per period of the pilot's command below which the command is named as the likely cause
+/// (the hand's work over a step is `F·Δx` with `F` held, exact only for a motion smooth on the step).
 const STEPS_PER_COMMAND_PERIOD: f64 = 100.0;
 
 /// The hand's neuromuscular bandwidth, Hz: a command faster than `1/(2π·activation_tau_s)` is beyond what a
@@ -112,17 +106,13 @@ fn not_finite(r: &Row) -> Option<(&'static str, f64)> {
     cols.into_iter().find(|(_, v)| !v.is_finite())
 }
 
-/// How long an impact on a stop lasts after the stick leaves it, s. The bumper is a soft constraint:
-/// rapier moves the stick out of it by position correction, which carries no kinetic energy, and the
-/// linkage's loop pin, loaded hard at the impact, is corrected the same way over the following steps,
-/// so that for about 15 ms after a 1.35 rad/s impact (`tests` below) the measured kinetic energy and the
-/// hand's work disagree by a quarter of the work per step. The impact's energy is counted over the steps
-/// on the stop and this long after.
+/// How long an impact on a stop lasts after the stick leaves it, s: rapier's position correction of the
+/// bumper and the linkage's loop pin carries no kinetic energy, so for about 15 ms after a 1.35 rad/s
+/// impact (`tests`) energy and work disagree; the impact is counted on the stop and this long after.
 const IMPACT_SETTLE_S: f64 = 0.02;
 
-/// Margin, rad, inside which the stick counts as on a stop: the stop constraint acts on a step that starts
-/// beyond the stop (rapier's joint limit); the angle is stored in single precision (a 0.3 rad stop is
-/// resolved to 3e-8 rad), so a microradian is rounding, not travel.
+/// Margin, rad, inside which the stick counts as on a stop (the angle is single precision: a microradian
+/// is rounding, not travel).
 const STOP_MARGIN_RAD: f64 = 1e-6;
 
 /// The energy balance's terms of one row, relative to nothing: work in minus the energy stored and
@@ -138,14 +128,10 @@ fn balance_j(r: &Row) -> f64 {
 /// The invariants checked row by row as a run goes ([`Checker::push`]) and over the whole run at its end
 /// ([`Checker::finish`]), so that a run streamed to its outputs keeps no rows.
 ///
-/// The stick's stops are elastomer bumpers (`rig.stop_natural_hz`, critically damped): an impact on one
-/// takes mechanical energy the rows carry no term for. With the stops known ([`Checker::with_stops`]), the
-/// balance's change over an impact (the steps that start with the stick on a stop, and the
-/// [`IMPACT_SETTLE_S`] after it leaves) is the energy the stop took: the rig's measured mechanical energy
-/// change across the impact, net of the work and the damper's dissipation over those steps. The balance
-/// is judged on the rest. A stop is passive: over the run
-/// it takes energy, never gives it, so energy the stops would have created breaks the balance as any
-/// other would.
+/// The stick's stops are elastomer bumpers whose impacts take energy the rows have no term for: with the
+/// stops known ([`Checker::with_stops`]), the balance's change over an impact (on the stop and
+/// [`IMPACT_SETTLE_S`] after) is the energy the stop took. A stop is passive: energy it would have created
+/// breaks the balance as any other.
 pub(crate) struct Checker<'a> {
     scn: &'a Scenario,
     first: Option<Row>,
@@ -301,19 +287,10 @@ impl<'a> Checker<'a> {
     }
 }
 
-/// Check a finished run of `scn` (`Checker`).
-pub fn check(res: &Results, scn: &Scenario) -> Result<(), SimError> {
-    let mut c = Checker::new(scn);
-    for r in &res.rows {
-        c.push(r)?;
-    }
-    c.finish(res.summary()).map(|_| ())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::{self, RunOptions};
+    use crate::sim::{self, Results, RunOptions};
 
     /// The sidestick (`models/sidestick.urdf`, stops at −0.0025 and +0.0476 rad) with the coil open from
     /// the start, the hand stepping to a 15 N pull at 0.2 s: nothing but the damper's zero-field yield

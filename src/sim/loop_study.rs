@@ -2,18 +2,11 @@
 //! feel controller's model (the base model, then the base with each effect in the order the diagnosis
 //! added it), so the feel error can be read falling stage by stage.
 //!
-//! Figures per stage, from the run's rows (forces on the piston, N):
-//! - force RMS error where the law resists the motion, absolute and relative ([`super::Summary`]);
-//! - breakout error: the same RMS over the resisting samples within 5 % of the stroke of centre, where a
-//!   spring law's force is its breakout (NaN for a law without one);
-//! - the share of resisting samples within the flight-simulator feel tolerance of 14 CFR Part 60
-//!   (Appendix A, control force: ±2 lbf or ±10 % of the force, whichever is larger; 2 lbf at the grip,
-//!   taken to the piston through the linkage at centre);
-//! - the force RMS error over the resisting samples the plant can render ([`Renderable`]): where the
-//!   desired force lies between the plant's force at zero current and 90 % of its force at the driver's
-//!   limit, at the sample's speed on the steady branch. Outside that band no controller reaches the force
-//!   (a viscous pre-yield branch at a slow stroke end, a saturated driver), so the band is where a better
-//!   controller model can show.
+//! Figures per stage, over the samples where the law resists the motion (forces on the piston, N): the
+//! force RMS error ([`super::Summary`]); the breakout error within 5 % of the stroke of centre (spring laws
+//! with a breakout); the share within 14 CFR Part 60's feel tolerance (±2 lbf at the grip or ±10 %,
+//! whichever is larger); and the error where the plant can render the force at all ([`Renderable`]), where
+//! a better controller model can show.
 
 use serde::Serialize;
 
@@ -102,16 +95,16 @@ impl Renderable {
     /// Samples, RMS error, N, and RMS error relative to the RMS desired force over the resisting samples
     /// of `res` inside the band.
     pub fn error(&self, res: &Results) -> (usize, f64, f64) {
-        let (mut se, mut sd, mut n) = (0.0, 0.0, 0usize);
-        for r in res
-            .rows
-            .iter()
-            .filter(|r| resists(r) && self.contains(r.desired_force_n, r.piston_v_m_s, r.piston_x_m))
-        {
-            se += (r.load_cell_true_n - r.desired_force_n).powi(2);
-            sd += r.desired_force_n.powi(2);
-            n += 1;
-        }
+        let rows = res.rows.iter();
+        let inside =
+            rows.filter(|r| resists(r) && self.contains(r.desired_force_n, r.piston_v_m_s, r.piston_x_m));
+        let (se, sd, n) = inside.fold((0.0, 0.0, 0usize), |(se, sd, n), r| {
+            (
+                se + (r.load_cell_true_n - r.desired_force_n).powi(2),
+                sd + r.desired_force_n.powi(2),
+                n + 1,
+            )
+        });
         if n == 0 {
             return (0, f64::NAN, f64::NAN);
         }
@@ -122,13 +115,15 @@ impl Renderable {
     /// at the sample's speed (0 A to the driver's limit, steady branch), N: the error no current removes
     /// on that motion.
     pub fn out_of_reach_n(&self, res: &Results) -> f64 {
-        let (mut se, mut n) = (0.0, 0usize);
-        for r in res.rows.iter().filter(|r| resists(r)) {
-            let (lo, hi) = self.range_n(r.piston_v_m_s, r.piston_x_m);
-            let f = r.desired_force_n.abs();
-            se += (f - hi).max(lo - f).max(0.0).powi(2);
-            n += 1;
-        }
+        let (se, n) = res
+            .rows
+            .iter()
+            .filter(|r| resists(r))
+            .fold((0.0, 0usize), |(se, n), r| {
+                let (lo, hi) = self.range_n(r.piston_v_m_s, r.piston_x_m);
+                let f = r.desired_force_n.abs();
+                (se + (f - hi).max(lo - f).max(0.0).powi(2), n + 1)
+            });
         (se / n.max(1) as f64).sqrt()
     }
 }
@@ -211,16 +206,13 @@ pub fn figures(
         Renderable::new(plant, scn.controller.gains.out_max)?.error(res);
     let band = BREAKOUT_BAND * res.stroke_half_m;
     let has_breakout = matches!(scn.feel, FeelLaw::Spring { breakout_n, .. } if breakout_n > 0.0);
-    let (mut se, mut n) = (0.0, 0usize);
-    for r in res
+    let near = res
         .rows
         .iter()
-        .filter(|r| resists(r))
-        .filter(|r| r.piston_x_m.abs() < band)
-    {
-        se += (r.load_cell_true_n - r.desired_force_n).powi(2);
-        n += 1;
-    }
+        .filter(|r| resists(r) && r.piston_x_m.abs() < band);
+    let (se, n) = near.fold((0.0, 0usize), |(se, n), r| {
+        (se + (r.load_cell_true_n - r.desired_force_n).powi(2), n + 1)
+    });
     let breakout_rmse_n = if has_breakout && n > 0 {
         (se / n as f64).sqrt()
     } else {
@@ -228,12 +220,17 @@ pub fn figures(
     };
     // 2 lbf at the grip, on the piston: F_piston = F_grip · arm / gearing.
     let abs_tol_n = 2.0 * crate::units::LBF_TO_N * res.grip_arm_m / res.gearing_at_centre_m_per_rad;
-    let (mut within, mut total) = (0usize, 0usize);
-    for r in res.rows.iter().filter(|r| resists(r)) {
-        let tol = abs_tol_n.max(0.1 * r.desired_force_n.abs());
-        within += usize::from((r.load_cell_true_n - r.desired_force_n).abs() <= tol);
-        total += 1;
-    }
+    let (within, total) = res
+        .rows
+        .iter()
+        .filter(|r| resists(r))
+        .fold((0usize, 0usize), |(w, t), r| {
+            let tol = abs_tol_n.max(0.1 * r.desired_force_n.abs());
+            (
+                w + usize::from((r.load_cell_true_n - r.desired_force_n).abs() <= tol),
+                t + 1,
+            )
+        });
     Ok(StageFigures {
         model: model.to_string(),
         resisting_samples: s.resisting_samples,

@@ -1,6 +1,5 @@
-//! Figures of merit of a flight run (issue 5): how well the pilot flew the task, the stick force per g the
-//! pilot felt, and how well the load cell follows the desired force where
-//! the damper can provide it.
+//! Figures of merit of a flight run: how well the pilot flew the task, the stick force per g the pilot
+//! felt, and how well the load cell follows the desired force where the damper can provide it.
 
 use serde::Serialize;
 
@@ -17,10 +16,8 @@ pub struct FlightMetrics {
     pub tracking_rms: f64,
     /// Largest command change of the schedule, same unit (the scale of the task).
     pub command_span: f64,
-    /// The stick force per g the pilot felt, N/g: the least-squares slope of the hand's force on the grip
-    /// against the load factor, over the rows from the first command change (all rows without an outer
-    /// loop); NaN where the load factor does not vary. A flown figure, set by the aircraft, its feel and
-    /// how the damper renders it, to hold against the aircraft's designed or certified figure.
+    /// The stick force per g the pilot felt, N/g: the least-squares slope of the hand's force against the
+    /// load factor from the first command change (all rows without an outer loop); NaN where nz is constant.
     pub hand_force_per_g_n: f64,
     /// Where the loop tracks (the desired force resists the motion), the stick moves, and the desired
     /// force is inside the damper's range: RMS of (true load cell − desired), N.
@@ -149,28 +146,12 @@ impl std::fmt::Display for FlightMetrics {
 }
 
 /// Least-squares slope of `y` on `x` (NaN when `x` is constant or empty).
-pub fn slope(x: &[f64], y: &[f64]) -> f64 {
+fn slope(x: &[f64], y: &[f64]) -> f64 {
     let n = x.len().min(y.len()) as f64;
     let mx = x.iter().sum::<f64>() / n;
     let my = y.iter().sum::<f64>() / n;
-    let (mut sxy, mut sxx) = (0.0, 0.0);
-    for (a, b) in x.iter().zip(y) {
-        sxy += (a - mx) * (b - my);
-        sxx += (a - mx) * (a - mx);
-    }
+    let (sxy, sxx) = x.iter().zip(y).fold((0.0, 0.0), |(sxy, sxx), (a, b)| {
+        (sxy + (a - mx) * (b - my), sxx + (a - mx) * (a - mx))
+    });
     sxy / sxx
-}
-
-/// Pearson correlation coefficient (NaN when either series is constant).
-pub fn correlation(a: &[f64], b: &[f64]) -> f64 {
-    let n = a.len().min(b.len()) as f64;
-    let ma = a.iter().sum::<f64>() / n;
-    let mb = b.iter().sum::<f64>() / n;
-    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
-    for (x, y) in a.iter().zip(b) {
-        sab += (x - ma) * (y - mb);
-        saa += (x - ma) * (x - ma);
-        sbb += (y - mb) * (y - mb);
-    }
-    sab / (saa * sbb).sqrt()
 }

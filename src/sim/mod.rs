@@ -31,7 +31,7 @@ use std::collections::VecDeque;
 
 use crate::control::feel::Spring;
 use crate::control::{FeelController, FeelLaw, FeelSystem, LoopMode, Pid};
-use crate::device::{DeviceConfig, ForceInverse};
+use crate::device::{DeviceConfig, DeviceError, ForceInverse};
 use crate::pilot::{Hand, Task};
 use crate::scenario::Scenario;
 use crate::sensors::{Daq, DaqSample};
@@ -39,10 +39,8 @@ use crate::sensors::{Daq, DaqSample};
 /// Errors of a run (the scenario itself was validated when loaded).
 #[derive(Debug, thiserror::Error)]
 pub enum SimError {
-    /// The aircraft's error is part of the message, not a source in the chain: printed with `{:#}`, a
-    /// source would repeat it.
-    /// `line` is the scenario's `aircraft.airspeed_m_s` for a trim that failed, its `aircraft.model` for an
-    /// error in flight.
+    /// The aircraft's error, in the message rather than as a source (`{:#}` would repeat it); `line` is
+    /// `aircraft.airspeed_m_s` for a failed trim, `aircraft.model` for an error in flight.
     #[error("{}:{line}: aircraft: {error}", scenario.display())]
     Aero {
         /// The scenario file.
@@ -108,9 +106,8 @@ pub enum SimError {
     Interrupted,
 }
 
-/// Why a step's row shows that the integration has blown up, if it does: a state that is not a number,
-/// or the piston beyond twice its stroke (its end stops hold it within the stroke; the solver's overshoot
-/// is a fraction of a millimetre).
+/// Why a step's row shows the integration has blown up, if it does: a state that is not a number, or the
+/// piston beyond twice its stroke (the stops hold it within the stroke, give or take a fraction of a mm).
 fn diverged(row: &Row, stroke_half_m: f64) -> Option<String> {
     let states = [
         ("piston position", row.piston_x_m),
@@ -141,18 +138,27 @@ pub struct Devices {
     pub controller_is_plant: bool,
 }
 
+/// A device file the scenario names at `key` (line `line`) refused.
+fn device_error<'a>(
+    scn: &'a Scenario,
+    line: usize,
+    key: &'static str,
+) -> impl FnOnce(DeviceError) -> SimError + 'a {
+    move |error| SimError::Device {
+        scenario: scn.path.clone(),
+        line,
+        key,
+        error: Box::new(error),
+    }
+}
+
 impl Devices {
     /// The plant a scenario names (`[device] file`) and the model its controller believes
     /// (`[controller] model`, else the plant's file).
     pub fn load(scn: &Scenario) -> Result<Self, SimError> {
         let registry = crate::device::Registry::builtin();
         let load = |path: &std::path::Path, line: usize, key: &'static str| {
-            DeviceConfig::load(path, &registry).map_err(|error| SimError::Device {
-                scenario: scn.path.clone(),
-                line,
-                key,
-                error: Box::new(error),
-            })
+            DeviceConfig::load(path, &registry).map_err(device_error(scn, line, key))
         };
         let plant = load(&scn.device_path, scn.lines.device_file, "device.file")?;
         match &scn.controller_model_path {
@@ -239,14 +245,7 @@ impl<P: Plant> Loop<P> {
             } else {
                 (scn.lines.controller_model, "controller.model")
             };
-            Some(
-                ForceInverse::new(&devices.controller).map_err(|error| SimError::Device {
-                    scenario: scn.path.clone(),
-                    line,
-                    key,
-                    error: Box::new(error),
-                })?,
-            )
+            Some(ForceInverse::new(&devices.controller).map_err(device_error(scn, line, key))?)
         } else {
             None
         };
@@ -498,10 +497,8 @@ pub enum Event<'a> {
 }
 
 /// Run a scenario on a plant to its end, handing every row and drawing frame to `sink` as it is made and
-/// keeping none: memory stays bounded whatever the run's length. Every row is checked
-/// (`invariants::Checker`) before it is handed on, and the whole run at its end. Returns the run's facts
-/// (no rows, no frames; the flight's round-trip times filled in) and its summary. `progress` is called with
-/// the fraction done.
+/// keeping none (bounded memory); each row is checked (`invariants::Checker`) before it is handed on.
+/// Returns the run's facts (no rows or frames) and its summary; `progress` gets the fraction done.
 pub fn run_streaming<P: Plant, E: From<SimError>>(
     scn: &Scenario,
     devices: &Devices,
@@ -531,11 +528,7 @@ pub fn run_streaming<P: Plant, E: From<SimError>>(
         stroke_half_m: lp.plant.stroke_half_m(),
         current_max_a: scn.controller.gains.out_max,
         rows: Vec::new(),
-        visuals: if frame_every.is_some() {
-            lp.plant.visuals()
-        } else {
-            Vec::new()
-        },
+        visuals: frame_every.map_or_else(Vec::new, |_| lp.plant.visuals()),
         frames: Vec::new(),
         feel_ceiling_n: devices.plant.ceiling_force_n(scn.controller.gains.out_max),
         controller_model: if scn.feel_system.kind.has_coil() {

@@ -50,14 +50,10 @@ pub(crate) fn step_responses(res: &Results, law: &FeelLaw) -> Vec<StepResponse> 
         return Vec::new();
     };
     let rows = &res.rows;
-    let Some(last) = rows.last() else {
+    let (Some(last), [first, second, ..]) = (rows.last(), &rows[..]) else {
         return Vec::new();
     };
-    let dt = if rows.len() > 1 {
-        rows[1].t_s - rows[0].t_s
-    } else {
-        return Vec::new();
-    };
+    let dt = second.t_s - first.t_s;
     let mut out = Vec::new();
     for t_k in law.step_times_s(last.t_s) {
         let f0 = law.step_level_n(t_k - 0.5 * dt);

@@ -267,17 +267,17 @@ impl SummaryAcc {
         let (se, sd, n) = (self.se, self.sd, self.n);
         let rmse = (n > 0).then(|| (se / n as f64).sqrt());
         let nrmse = (n > 0 && sd > 0.0).then(|| (se / sd).sqrt());
-        let first = self.first.unwrap_or_else(Row::zero);
-        let last = self.last.unwrap_or_else(Row::zero);
-        let w = last.pilot_work_j - first.pilot_work_j;
-        let dke = last.kinetic_energy_j - first.kinetic_energy_j;
-        let dpe = last.potential_energy_j - first.potential_energy_j;
-        let diss = last.dissipated_j - first.dissipated_j;
-        let dspring = last.spring_energy_j - first.spring_energy_j;
-        let wa = last.actuator_work_j - first.actuator_work_j;
+        // A quantity's change from the first row to the last (0 without rows).
+        let change = |f: fn(&Row) -> f64| self.first.zip(self.last).map_or(0.0, |(a, b)| f(&b) - f(&a));
+        let w = change(|r| r.pilot_work_j);
+        let dke = change(|r| r.kinetic_energy_j);
+        let dpe = change(|r| r.potential_energy_j);
+        let diss = change(|r| r.dissipated_j);
+        let dspring = change(|r| r.spring_energy_j);
+        let wa = change(|r| r.actuator_work_j);
         Summary {
             scenario: head.scenario.clone(),
-            duration_s: last.t_s - first.t_s,
+            duration_s: change(|r| r.t_s),
             controller_model: head.controller_model.clone(),
             resisting_samples: n,
             tracking_rmse_n: rmse,
@@ -361,26 +361,20 @@ impl Results {
 
     /// One row of the CSV ([`Results::write_csv`]).
     pub fn write_csv_row(&self, mut w: impl Write, r: &Row) -> std::io::Result<()> {
-        let aero = self.flight.is_some();
-        {
-            for (k, v) in r.values().iter().enumerate() {
-                if k > 0 {
-                    w.write_all(b",")?;
-                }
-                write!(w, "{v}")?;
+        for (k, v) in r.values().iter().enumerate() {
+            if k > 0 {
+                w.write_all(b",")?;
             }
-            if aero {
-                for v in r.aero.unwrap_or_default().values() {
-                    write!(w, ",{v}")?;
-                }
-            }
-            writeln!(w)?;
+            write!(w, "{v}")?;
         }
-        Ok(())
+        if self.flight.is_some() {
+            for v in r.aero.unwrap_or_default().values() {
+                write!(w, ",{v}")?;
+            }
+        }
+        writeln!(w)
     }
-}
 
-impl Results {
     /// The CSV's columns ([`Results::write_csv`]), by name: `CSV_COLUMNS`, then `AERO_COLUMNS` when the
     /// scenario flies an aircraft. The same values the CSV holds (it prints these numbers).
     pub fn columns(&self) -> Vec<(&'static str, Vec<f64>)> {
@@ -457,36 +451,6 @@ impl Row {
             self.actuator_force_n,
             self.actuator_work_j,
         ]
-    }
-
-    fn zero() -> Self {
-        Row {
-            t_s: 0.0,
-            stick_angle_rad: 0.0,
-            stick_rate_rad_s: 0.0,
-            piston_x_m: 0.0,
-            piston_v_m_s: 0.0,
-            load_cell_n: 0.0,
-            load_cell_true_n: 0.0,
-            desired_force_n: 0.0,
-            current_a: 0.0,
-            pilot_force_n: 0.0,
-            pilot_cmd: 0.0,
-            damper_force_n: 0.0,
-            yield_force_n: 0.0,
-            mode: LoopMode::Holding,
-            kinetic_energy_j: 0.0,
-            potential_energy_j: 0.0,
-            dissipated_j: 0.0,
-            pilot_work_j: 0.0,
-            faults: 0,
-            current_applied_a: 0.0,
-            coil_current_a: 0.0,
-            spring_energy_j: 0.0,
-            actuator_force_n: 0.0,
-            actuator_work_j: 0.0,
-            aero: None,
-        }
     }
 }
 

@@ -43,22 +43,21 @@ fn record(run: &Run, outcome: Outcome) -> Record {
     }
 }
 
-/// A run as `mrfeel run` runs it (device, rig, loop, invariants) to its outcome, with one difference: a
-/// run whose only broken invariant is the load cell's range is a design point, not a failed run. The
-/// force through the cell beyond its rating (a stick slammed into its stop drives the piston assembly's
-/// momentum through it, or a law asks more than the cell carries) is what a real rig would do and a
-/// verdict of the design: its figures and verdicts are kept, with `load_cell_ok = false` and the peak.
-/// Every other invariant (every number finite, the energy balance) still fails the run.
+/// A run as `mrfeel run` runs it to its outcome, except that a run whose only broken invariant is the load
+/// cell's range is a design point (a real rig would do the same), not a failed run: its figures are kept,
+/// with `load_cell_ok = false` and the peak. Every other invariant still fails the run.
 fn run_scenario(scn: &crate::scenario::Scenario, path: &std::path::Path, window_s: f64) -> Outcome {
+    match run_kept(scn, path) {
+        Ok(res) => Outcome::of(&res, scn, window_s),
+        Err(msg) => Outcome::failed(msg),
+    }
+}
+
+/// The run of [`run_scenario`], its rows kept; an error is the run's failure, in words.
+fn run_kept(scn: &crate::scenario::Scenario, path: &std::path::Path) -> Result<crate::sim::Results, String> {
     use crate::sim::{Event, SimError};
-    let devices = match crate::sim::Devices::load(scn) {
-        Ok(d) => d,
-        Err(e) => return Outcome::failed(format!("{e:#}")),
-    };
-    let rig = match crate::sim::build_rig(scn, &devices.plant) {
-        Ok(r) => r,
-        Err(e) => return Outcome::failed(format!("{e:#}")),
-    };
+    let devices = crate::sim::Devices::load(scn).map_err(|e| format!("{e:#}"))?;
+    let rig = crate::sim::build_rig(scn, &devices.plant).map_err(|e| format!("{e:#}"))?;
     let stops_rad = rig.stick_limits_rad();
     let steps = (scn.duration_s * scn.physics_rate_hz()).round() as usize;
     let mut head = None;
@@ -79,12 +78,11 @@ fn run_scenario(scn: &crate::scenario::Scenario, path: &std::path::Path, window_
             Ok::<(), SimError>(())
         },
     );
-    let failed =
-        |e: &dyn std::fmt::Display| Outcome::failed(format!("running scenario {}: {e}", path.display()));
-    let res = match (run, head) {
+    let failed = |e: &dyn std::fmt::Display| format!("running scenario {}: {e}", path.display());
+    match (run, head) {
         (Ok((mut res, _)), _) => {
             res.rows = rows;
-            res
+            Ok(res)
         }
         // Run to its end (the range is judged there): the other invariants judged with the range lifted.
         (Err(e @ SimError::Invariant { .. }), Some(mut res)) if rows.len() == steps => {
@@ -98,21 +96,15 @@ fn run_scenario(scn: &crate::scenario::Scenario, path: &std::path::Path, window_
                 .iter()
                 .try_for_each(|r| check.push(r))
                 .and_then(|()| check.finish(res.summary()));
-            match judged {
-                Ok(summary) => res.stops_j = summary.stops_j,
-                Err(_) => return failed(&e),
-            }
-            res
+            res.stops_j = judged.map_err(|_| failed(&e))?.stops_j;
+            Ok(res)
         }
-        (Err(e), _) => return failed(&e),
-    };
-    Outcome::of(&res, scn, window_s)
+        (Err(e), _) => Err(failed(&e)),
+    }
 }
 
 /// Run `shard` of `plan` into `store`: every run of the shard not in it yet, on `jobs` threads, each
-/// appended to the journal as it finishes; then the results of the whole shard. `progress` is told of each
-/// run finished. Every run's scenario is checked before any runs, so a bad axis value stops nothing
-/// half-way.
+/// appended to the journal as it finishes (`progress` told of it); then the results of the whole shard.
 pub fn execute(
     plan: &Plan,
     store: Store,

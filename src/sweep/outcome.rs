@@ -25,64 +25,80 @@ pub enum Cell {
     S(Option<String>),
 }
 
-/// One run's figures and verdicts. Non-finite figures are `None`.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Outcome {
+/// Declares [`Outcome`] and its results columns from one list, so that the two keep one order.
+macro_rules! outcome {
+    ($($(#[doc = $doc:literal])* $name:ident: $cell:ident($ty:ty),)*) => {
+        /// One run's figures and verdicts. Non-finite figures are `None`.
+        #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+        #[serde(deny_unknown_fields)]
+        pub struct Outcome {
+            $($(#[doc = $doc])* pub $name: Option<$ty>,)*
+        }
+
+        impl Outcome {
+            /// The columns, in the results' order.
+            pub fn columns(&self) -> Vec<(&'static str, Cell)> {
+                vec![$((stringify!($name), Cell::$cell(self.$name.to_owned())),)*]
+            }
+        }
+    };
+}
+
+outcome! {
     /// RMS of (load cell − desired force) where the loop resists the motion, N (the feel loop's tracking).
-    pub force_tracking_rmse_n: Option<f64>,
+    force_tracking_rmse_n: F(f64),
     /// `force_tracking_rmse_n` over the RMS desired force there.
-    pub force_tracking_nrmse: Option<f64>,
+    force_tracking_nrmse: F(f64),
     /// RMS of the pilot's task error (pitch, rad; load factor, g) with an outer loop.
-    pub task_tracking_rms: Option<f64>,
+    task_tracking_rms: F(f64),
     /// RMS of (true load cell − desired) where the damper can follow, N (flight runs).
-    pub follow_rms_n: Option<f64>,
+    follow_rms_n: F(f64),
     /// Largest |pilot force at the grip|, N.
-    pub grip_force_peak_n: Option<f64>,
+    grip_force_peak_n: F(f64),
     /// The largest grip force held over the prolonged window, N.
-    pub grip_force_prolonged_n: Option<f64>,
+    grip_force_prolonged_n: F(f64),
     /// Largest |aircraft stick force| asked for at the grip, N.
-    pub stick_force_peak_n: Option<f64>,
+    stick_force_peak_n: F(f64),
     /// Largest coil current command, A.
-    pub current_max_a: Option<f64>,
+    current_max_a: F(f64),
     /// Largest |force through the load cell|, N (the true force, not the clipped reading).
-    pub load_cell_peak_n: Option<f64>,
+    load_cell_peak_n: F(f64),
     /// Stick deflection per g of the aircraft's steady pull-up (1 g to `nz`: 2 g, or less near the stall),
     /// rad.
-    pub stick_per_g_rad: Option<f64>,
+    stick_per_g_rad: F(f64),
     /// Stick force per g the feel system holds in that steady pull-up, N/g (breakout excluded): the
     /// MIL-F-8785C quantity, from the feel system's design (`sweep::steady`).
-    pub stick_force_per_g_n: Option<f64>,
+    stick_force_per_g_n: F(f64),
     /// The same deflection per g times the force–deflection gradient the feel rendered in the run (the
     /// outward samples' least-squares line), N/g.
-    pub stick_force_per_g_rendered_n: Option<f64>,
+    stick_force_per_g_rendered_n: F(f64),
     /// Span of the load factor flown, g.
-    pub nz_span_g: Option<f64>,
+    nz_span_g: F(f64),
     /// The felt pull force per g over the load factor flown (least squares over the task, a dynamic figure, not the verdict's), N/g.
-    pub stick_force_per_g_flown_n: Option<f64>,
+    stick_force_per_g_flown_n: F(f64),
     /// Acceleration sensitivity at trim, g/rad.
-    pub n_per_alpha_g_per_rad: Option<f64>,
+    n_per_alpha_g_per_rad: F(f64),
     /// Largest |felt − aircraft stick force| as a ratio of the Part 60 tolerance.
-    pub part60_force_ratio: Option<f64>,
+    part60_force_ratio: F(f64),
     /// Breakout the pilot felt (the intercept at centre of the force–deflection line rendered moving out), N at the grip.
-    pub breakout_n: Option<f64>,
+    breakout_n: F(f64),
     /// Breakout of the feel target (the aircraft's feel unit, or the law's), N at the grip.
-    pub breakout_ref_n: Option<f64>,
+    breakout_ref_n: F(f64),
     /// 14 CFR 23.143 / 25.143: peak within the temporary limit.
-    pub far_temporary_ok: Option<bool>,
+    far_temporary_ok: B(bool),
     /// 14 CFR 23.143 / 25.143: prolonged force within the prolonged limit.
-    pub far_prolonged_ok: Option<bool>,
+    far_prolonged_ok: B(bool),
     /// MIL-F-8785C Table V Level of the stick force per g (4: outside Level 3): of the steady pull-up's, or
     /// for a fly-by-wire aircraft of the force per g flown.
-    pub per_g_level: Option<u8>,
+    per_g_level: U(u8),
     /// 14 CFR Part 60 force tolerance met throughout.
-    pub part60_force_ok: Option<bool>,
+    part60_force_ok: B(bool),
     /// 14 CFR Part 60 breakout tolerance (±2 lbf of the target's breakout) met.
-    pub part60_breakout_ok: Option<bool>,
+    part60_breakout_ok: B(bool),
     /// The force through the load cell stayed within its rated range (`load_cell.range_n`) all run.
-    pub load_cell_ok: Option<bool>,
+    load_cell_ok: B(bool),
     /// Why the run stopped, if it did (its figures are then empty).
-    pub error: Option<String>,
+    error: S(String),
 }
 
 /// A load-factor span below this gives no flown stick force per g (the slope would be noise), g.
@@ -253,40 +269,5 @@ impl Outcome {
     pub fn per_g_judged_n(&self) -> Option<f64> {
         self.per_g_level
             .and(self.stick_force_per_g_n.or(self.stick_force_per_g_flown_n))
-    }
-
-    /// The columns, in the results' order.
-    pub fn columns(&self) -> Vec<(&'static str, Cell)> {
-        use Cell::{B, F, S, U};
-        vec![
-            ("force_tracking_rmse_n", F(self.force_tracking_rmse_n)),
-            ("force_tracking_nrmse", F(self.force_tracking_nrmse)),
-            ("task_tracking_rms", F(self.task_tracking_rms)),
-            ("follow_rms_n", F(self.follow_rms_n)),
-            ("grip_force_peak_n", F(self.grip_force_peak_n)),
-            ("grip_force_prolonged_n", F(self.grip_force_prolonged_n)),
-            ("stick_force_peak_n", F(self.stick_force_peak_n)),
-            ("current_max_a", F(self.current_max_a)),
-            ("load_cell_peak_n", F(self.load_cell_peak_n)),
-            ("stick_per_g_rad", F(self.stick_per_g_rad)),
-            ("stick_force_per_g_n", F(self.stick_force_per_g_n)),
-            (
-                "stick_force_per_g_rendered_n",
-                F(self.stick_force_per_g_rendered_n),
-            ),
-            ("nz_span_g", F(self.nz_span_g)),
-            ("stick_force_per_g_flown_n", F(self.stick_force_per_g_flown_n)),
-            ("n_per_alpha_g_per_rad", F(self.n_per_alpha_g_per_rad)),
-            ("part60_force_ratio", F(self.part60_force_ratio)),
-            ("breakout_n", F(self.breakout_n)),
-            ("breakout_ref_n", F(self.breakout_ref_n)),
-            ("far_temporary_ok", B(self.far_temporary_ok)),
-            ("far_prolonged_ok", B(self.far_prolonged_ok)),
-            ("per_g_level", U(self.per_g_level)),
-            ("part60_force_ok", B(self.part60_force_ok)),
-            ("part60_breakout_ok", B(self.part60_breakout_ok)),
-            ("load_cell_ok", B(self.load_cell_ok)),
-            ("error", S(self.error.clone())),
-        ]
     }
 }

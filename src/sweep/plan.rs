@@ -197,14 +197,15 @@ impl Plan {
         // Stream 0: the runs' seeds and sampled draws, 1024 words per run; stream 1 + axis: a grid's draws.
         let mut rng = self.rng(index, 0);
         let seed = rng.next_u64() >> 1;
+        let at = |line: usize| Origin::File {
+            path: self.path.clone(),
+            line,
+        };
         let mut params = Vec::new();
         let mut overrides = vec![Override::set(
             "seed",
             toml::Value::Integer(seed as i64),
-            Origin::File {
-                path: self.path.clone(),
-                line: self.seed_line,
-            },
+            at(self.seed_line),
         )];
         let mut rest = index;
         let sizes: Vec<u64> = self.axes.iter().map(Axis::grid_len).collect();
@@ -218,10 +219,6 @@ impl Plan {
                 Mode::Grid => grid_pos[k],
                 Mode::Sample { .. } => rng.random_range(0..sizes[k]),
             };
-            let origin = Origin::File {
-                path: self.path.clone(),
-                line: a.line,
-            };
             match &a.source {
                 Source::List(v) => {
                     let (value, line) = &v[pick as usize];
@@ -234,10 +231,7 @@ impl Plan {
                     overrides.push(Override::set(
                         a.key.as_deref().unwrap_or(&a.name),
                         value.clone(),
-                        Origin::File {
-                            path: self.path.clone(),
-                            line: *line,
-                        },
+                        at(*line),
                     ));
                 }
                 Source::Cases(c) => {
@@ -254,7 +248,7 @@ impl Plan {
                     overrides.push(Override::set(
                         a.key.as_deref().unwrap_or(&a.name),
                         toml::Value::Float(x),
-                        origin,
+                        at(a.line),
                     ));
                 }
             }

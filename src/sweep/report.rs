@@ -215,11 +215,9 @@ impl MapCell {
     }
 }
 
-/// Maps of the stick-force-per-g Level over (x, y), one panel per combination of the facet axes, a cell
-/// per (x, y) value pair; where other axes vary, a cell shows the worst Level of its runs. Each cell is coloured by its Level and
-/// labelled with it and the stick force per g; a thick line runs where the Level changes between cells
-/// (the Level boundaries), and `overload` marks a cell where a run drove the load cell past its range.
-/// Written to `DIR/map-level.png` and `.svg`.
+/// Maps of the stick-force-per-g Level over (x, y), one panel per combination of the facet axes, each cell
+/// the worst run at its (x, y), coloured and labelled by Level and N/g; thick lines mark Level boundaries
+/// and `overload` a run past the load cell's range. Written to `DIR/map-level.png` and `.svg`.
 pub fn maps(
     dir: &Path,
     spec: &MapSpec,
@@ -239,20 +237,18 @@ pub fn maps(
         Some(Param::Num(x)) => *x,
         _ => f64::NAN,
     };
-    let mut xs: Vec<f64> = records
-        .iter()
-        .map(|r| num(r, ix))
-        .filter(|x| x.is_finite())
-        .collect();
-    let mut ys: Vec<f64> = records
-        .iter()
-        .map(|r| num(r, iy))
-        .filter(|x| x.is_finite())
-        .collect();
-    for v in [&mut xs, &mut ys] {
+    // An axis's distinct finite values, in order.
+    let values = |k: usize| {
+        let mut v: Vec<f64> = records
+            .iter()
+            .map(|r| num(r, k))
+            .filter(|x| x.is_finite())
+            .collect();
         v.sort_by(f64::total_cmp);
         v.dedup();
-    }
+        v
+    };
+    let (xs, ys) = (values(ix), values(iy));
     if xs.is_empty() || ys.is_empty() {
         return Err(format!(
             "the map's axes `{}` and `{}` must be numeric",
@@ -296,24 +292,22 @@ pub fn maps(
     let grid = Grid { xs, ys };
     let png = dir.join("map-level.png");
     let svg = dir.join("map-level.svg");
-    crate::outputs::write_whole(
-        &png,
-        |tmp| {
-            let root = BitMapBackend::new(tmp, size).into_drawing_area();
-            draw_panels(root.clone(), &panels, &grid, spec)?;
-            root.present().map_err(|e| e.to_string())
-        },
-        |e| e.to_string(),
-    )?;
-    crate::outputs::write_whole(
-        &svg,
-        |tmp| {
-            let root = SVGBackend::new(tmp, size).into_drawing_area();
-            draw_panels(root.clone(), &panels, &grid, spec)?;
-            root.present().map_err(|e| e.to_string())
-        },
-        |e| e.to_string(),
-    )?;
+    // Each file whole or not at all, drawn by the backend of its format.
+    macro_rules! write_map {
+        ($path:expr, $backend:ident) => {
+            crate::outputs::write_whole(
+                &$path,
+                |tmp| {
+                    let root = $backend::new(tmp, size).into_drawing_area();
+                    draw_panels(root.clone(), &panels, &grid, spec)?;
+                    root.present().map_err(|e| e.to_string())
+                },
+                |e| e.to_string(),
+            )?
+        };
+    }
+    write_map!(png, BitMapBackend);
+    write_map!(svg, SVGBackend);
     Ok(vec![png, svg])
 }
 

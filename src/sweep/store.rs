@@ -69,7 +69,8 @@ impl Shard {
         index % self.n == self.k
     }
 
-    fn label(&self) -> String {
+    /// `all`, or `K/N`.
+    pub fn label(&self) -> String {
         if *self == Self::ALL {
             "all".into()
         } else {
@@ -364,35 +365,23 @@ fn parquet_bytes(m: &Manifest, records: &[Record]) -> Result<Vec<u8>, String> {
     let per_run: Vec<Vec<(&'static str, Cell)>> = records.iter().map(|r| r.outcome.columns()).collect();
     for (j, (name, kind)) in Outcome::default().columns().into_iter().enumerate() {
         let col = per_run.iter().map(|c| &c[j].1);
-        let (dt, arr): (DataType, ArrayRef) = match kind {
-            Cell::F(_) => (
-                DataType::Float64,
-                Arc::new(Float64Array::from_iter(col.map(|c| match c {
-                    Cell::F(v) => *v,
-                    _ => None,
-                }))),
-            ),
-            Cell::B(_) => (
-                DataType::Boolean,
-                Arc::new(BooleanArray::from_iter(col.map(|c| match c {
-                    Cell::B(v) => *v,
-                    _ => None,
-                }))),
-            ),
-            Cell::U(_) => (
-                DataType::UInt8,
-                Arc::new(UInt8Array::from_iter(col.map(|c| match c {
-                    Cell::U(v) => *v,
-                    _ => None,
-                }))),
-            ),
-            Cell::S(_) => (
-                DataType::Utf8,
-                Arc::new(StringArray::from_iter(col.map(|c| match c {
-                    Cell::S(v) => v.clone(),
-                    _ => None,
-                }))),
-            ),
+        // The column of one kind of cell, as the Arrow array of that kind.
+        macro_rules! column {
+            ($cell:ident, $dt:ident, $array:ident) => {
+                (
+                    DataType::$dt,
+                    Arc::new($array::from_iter(col.map(|c| match c {
+                        Cell::$cell(v) => v.to_owned(),
+                        _ => None,
+                    }))) as ArrayRef,
+                )
+            };
+        }
+        let (dt, arr) = match kind {
+            Cell::F(_) => column!(F, Float64, Float64Array),
+            Cell::B(_) => column!(B, Boolean, BooleanArray),
+            Cell::U(_) => column!(U, UInt8, UInt8Array),
+            Cell::S(_) => column!(S, Utf8, StringArray),
         };
         fields.push(Field::new(name, dt, true));
         cols.push(arr);
