@@ -1253,3 +1253,22 @@ fn a_rig_written_with_dotted_keys_runs_as_its_table() {
         ],
     );
 }
+
+/// `--spawn` streams to a viewer and writes no file, so asking for a recording file beside it is refused
+/// by the argument parser (exit 2, both options named) instead of printing a recording that never comes.
+#[test]
+fn run_refuses_a_recording_file_beside_a_spawned_viewer() {
+    let d = tempfile::tempdir().expect("temp dir");
+    let rrd = d.path().join("run.rrd");
+    let o = mrfeel(&[
+        "run",
+        &scenario("paper-feel-loop.toml"),
+        "--spawn",
+        "--rerun",
+        &s(&rrd),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("--spawn") && err.contains("--rerun"), "{err}");
+    assert!(o.stdout.is_empty() && !rrd.exists(), "{err}");
+}

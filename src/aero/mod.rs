@@ -8,7 +8,8 @@
 //! - [`HingeModel`]: `H = qbar_t S_e c_e (Ch0 + Ch_alpha alpha_t + Ch_delta delta_e + Ch_tab delta_tab)`
 //!   and the stick force `F = H * gearing / arm * feedback` (pull = positive aft force).
 //! - `certification`: 14 CFR 23/25 control-force limits and where an aircraft sits.
-//! - [`FlyByWire`]: a fly-by-wire aircraft's stick: designed feel law and FCS command (JSBSim live only).
+//! - [`FlyByWire`]: a fly-by-wire aircraft's stick: designed feel law and FCS command, flown live in JSBSim
+//!   or embedded (`model = "f16"`, `fcs`).
 //!
 //! Axes: body x forward, z down; pitch rate, pitch angle and angle of attack positive nose-up;
 //! elevator positive trailing edge down (JSBSim's convention: positive elevator pitches nose-down).

@@ -32,7 +32,7 @@ pub struct RunArgs {
     #[command(flatten)]
     pub output: super::OutputArgs,
     /// Stream the recording to a newly spawned Rerun viewer.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "rerun")]
     pub spawn: bool,
     /// gRPC port of the viewer `--spawn` starts (or reuses, if one listens there).
     #[arg(long, default_value_t = 9876, requires = "spawn")]
@@ -209,7 +209,7 @@ fn maybe_whole<T>(
     }
 }
 
-/// A run whose rows go to its CSV (`--out`) and its recording (`--rerun FILE`, unless a viewer is spawned)
+/// A run whose rows go to its CSV (`--out`) and its recording (`--rerun FILE`)
 /// as they are made ([`mrfeel::sim::run_streaming`]), each file whole or not written. Returns the run's
 /// summary, and the run with its rows and frames where `keep`.
 fn run_streamed<P: Plant>(
@@ -221,7 +221,7 @@ fn run_streamed<P: Plant>(
     keep: bool,
 ) -> anyhow::Result<(Option<Results>, mrfeel::sim::Summary)> {
     #[cfg(feature = "rerun")]
-    let rrd = args.output.rerun.as_deref().filter(|_| !args.spawn);
+    let rrd = args.output.rerun.as_deref();
     #[cfg(not(feature = "rerun"))]
     let rrd: Option<&Path> = None;
     let pb = progress_bar(1000, &scn.name);

@@ -150,7 +150,7 @@ impl CrossoverPilotConfig {
         let phase = (unit.describing_function(w) * Complex::from_polar(1.0, w * d.delay_s) * y0).arg();
         require(phase < 0.0 && phase > -std::f64::consts::PI, &|| {
             format!(
-                "the equalised open loop's phase at {w} rad/s is {:.0} deg (delay aside); the crossover model                  needs -180..0 deg (a positive stick gain): check the sign of the controlled element",
+                "the equalised open loop's phase at {w} rad/s is {:.0} deg (delay aside); the crossover model needs -180..0 deg (a positive stick gain): check the sign of the controlled element",
                 phase.to_degrees()
             )
         })?;
