@@ -403,20 +403,26 @@ impl RollingMean {
             out.extend_from_slice(f);
             return;
         }
-        self.held.extend_from_slice(f);
+        // The held samples and then `f`, read in place: only the last `w − 1` are kept for the next call.
+        let (h, len) = (self.held.len(), self.held.len() + f.len());
+        let held = &self.held;
+        let x = |k: usize| if k < h { held[k] } else { f[k - h] };
         let mut sum = match self.sum {
             Some(sum) => sum,
-            None if self.held.len() >= w - 1 => self.held[..w - 1].iter().sum(),
-            None => return,
+            None if len >= w - 1 => (0..w - 1).map(x).sum(),
+            None => {
+                self.held.extend_from_slice(f);
+                return;
+            }
         };
-        for k in w - 1..self.held.len() {
-            sum += self.held[k];
+        for k in w - 1..len {
+            sum += x(k);
             out.push(sum / w as f64);
-            sum -= self.held[k + 1 - w];
+            sum -= x(k + 1 - w);
         }
+        let kept: Vec<f64> = (len + 1 - w..len).map(x).collect();
         self.sum = Some(sum);
-        let spent = self.held.len() - (w - 1);
-        self.held.drain(..spent);
+        self.held = kept;
     }
 }
 
