@@ -1254,8 +1254,8 @@ fn a_rig_written_with_dotted_keys_runs_as_its_table() {
     );
 }
 
-/// `--spawn` streams to a viewer and writes no file, so asking for a recording file beside it is refused
-/// by the argument parser (exit 2, both options named) instead of printing a recording that never comes.
+/// `--spawn` streams to a viewer and writes no file, so a recording file asked for beside it is refused by
+/// the argument parser (exit 2, both options named): nothing printed, no file written.
 #[test]
 fn run_refuses_a_recording_file_beside_a_spawned_viewer() {
     let d = tempfile::tempdir().expect("temp dir");

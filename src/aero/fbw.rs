@@ -12,6 +12,7 @@
 //!   MIL-STD-1797A §4.2.8.2 could not be consulted, so the centre-stick band is the design band.
 
 use super::certification::centre_stick_per_g_bounds;
+use crate::device::bingham::sgn;
 use crate::units::LBF_TO_N;
 
 /// MIL-F-8785C §3.5.2.1, Table XII: pitch breakout of a stick, Class IV aircraft, N (0.5 to 3 lbf).
@@ -81,11 +82,6 @@ impl FlyByWire {
         let level1 = centre_stick_per_g_bounds(self.limit_load_factor, self.n_alpha_per_rad)[0];
         (level1.min_n_per_g, level1.max_n_per_g)
     }
-}
-
-/// The sign of `v`: 1, −1, or 0 at zero (and NaN).
-fn sgn(v: f64) -> f64 {
-    f64::from(u8::from(v > 0.0)) - f64::from(u8::from(v < 0.0))
 }
 
 #[cfg(test)]

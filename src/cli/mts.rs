@@ -179,30 +179,19 @@ fn check_record(m: &mrfeel::measurement::Measurement, test: &MtsTest) -> Result<
             "the load cell saturated at ±{range_n} N on {n} samples: raise --load-cell-range-n or lower the current/velocity (nothing written)"
         );
     }
-    let motion = [
-        (
-            "displacement",
-            &m.x_m,
-            test.displacement.range,
-            "m",
-            "--position-noise-m",
-            true,
-        ),
-        (
-            "velocity",
-            &m.v_m_s,
-            test.velocity.range,
-            "m/s",
-            "--velocity-noise-m-s",
-            m.velocity_measured,
-        ),
-    ];
-    for (what, y, range, unit, option, recorded) in motion {
-        let n = clipped(y, range);
-        if recorded && n > 0 {
+    let n = clipped(&m.x_m, test.displacement.range);
+    if n > 0 {
+        bail!(
+            "the displacement reading reached the sensor's ±{} m on {n} samples (clipped there): lower --position-noise-m or raise --adc-bits (nothing written)",
+            short(test.displacement.range)
+        );
+    }
+    if m.velocity_measured {
+        let n = clipped(&m.v_m_s, test.velocity.range);
+        if n > 0 {
             bail!(
-                "the {what} reading reached the sensor's ±{} {unit} on {n} samples (clipped there): lower {option} or raise --adc-bits (nothing written)",
-                short(range)
+                "the velocity reading reached the sensor's ±{} m/s on {n} samples (clipped there): lower --velocity-noise-m-s or raise --adc-bits (nothing written)",
+                short(test.velocity.range)
             );
         }
     }

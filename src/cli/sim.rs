@@ -211,7 +211,7 @@ fn maybe_whole<T>(
 
 /// A run whose rows go to its CSV (`--out`) and its recording (`--rerun FILE`)
 /// as they are made ([`mrfeel::sim::run_streaming`]), each file whole or not written. Returns the run's
-/// summary, and the run with its rows and frames where `keep`.
+/// summary, and the run with its rows where `keep` (and its frames for a spawned viewer).
 fn run_streamed<P: Plant>(
     args: &RunArgs,
     scn: &Scenario,
@@ -280,7 +280,7 @@ fn run_streamed<P: Plant>(
                             if let Some(l) = logger.as_mut() {
                                 l.frame(t, poses);
                             }
-                            if keep {
+                            if keep && args.spawn {
                                 frames.push((t, poses.to_vec()));
                             }
                         }

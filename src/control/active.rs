@@ -147,10 +147,16 @@ impl ActiveStickConfig {
         self.motor.viscous_nm_s_per_rad * self.gear_rad_per_m.powi(2)
     }
 
-    /// The current loop's rate, Hz: a whole multiple (at least 1) of the admittance rate.
+    /// Current-loop ticks per admittance tick: a whole number, at least 1.
+    fn inner_per_outer(&self) -> f64 {
+        (self.driver.current_loop_hz / self.admittance.rate_hz)
+            .round()
+            .max(1.0)
+    }
+
+    /// The current loop's rate, Hz: a whole multiple of the admittance rate.
     fn inner_rate_hz(&self) -> f64 {
-        let a = self.admittance.rate_hz;
-        a * (self.driver.current_loop_hz / a).round().max(1.0)
+        self.admittance.rate_hz * self.inner_per_outer()
     }
 
     /// The same stick with every loop gain scaled (`current`: the current PI's; `outer`: the PD's).
@@ -210,9 +216,7 @@ pub struct ActiveStick {
 impl ActiveStick {
     /// A stick at rest at the centre; `seed` seeds the grip sensor's noise.
     pub fn new(cfg: ActiveStickConfig, seed: u64) -> Self {
-        let ratio = (cfg.driver.current_loop_hz / cfg.admittance.rate_hz)
-            .round()
-            .max(1.0) as u64;
+        let ratio = cfg.inner_per_outer() as u64;
         Self {
             cfg,
             current_a: 0.0,

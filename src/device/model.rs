@@ -274,11 +274,12 @@ impl Model {
                 known: registry.names().join(", "),
             })?;
             if !base.admits(effect.stage()) {
-                return Err(DeviceError::bad_spec(spec, format!(
-                        "`{name}` replaces the direction of the yield force, which the `{}` base takes from its \
-                         own Bouc–Wen state: the two do not compose",
-                        base.name()
-                    )));
+                let why = format!(
+                    "`{name}` replaces the direction of the yield force, which the `{}` base takes from its \
+                     own Bouc–Wen state: the two do not compose",
+                    base.name()
+                );
+                return Err(DeviceError::bad_spec(spec, why));
             }
             let p0 = param_specs.len();
             for ps in effect.params() {

@@ -75,7 +75,7 @@ pub const PARAMS: [ParamSpec; 14] = [
     ),
     ParamSpec::non_negative("spencer_beta_per_m_n", "m^-n", "Bouc–Wen shape β"),
     ParamSpec::non_negative("spencer_gamma_per_m_n", "m^-n", "Bouc–Wen shape γ"),
-    ParamSpec::new("spencer_a", "1", 0.0, f64::INFINITY, "Bouc–Wen gain A"),
+    ParamSpec::non_negative("spencer_a", "1", "Bouc–Wen gain A"),
     ParamSpec::new("spencer_n", "1", 1.0, 8.0, "Bouc–Wen exponent n"),
     ParamSpec::new(
         "spencer_tau_s",

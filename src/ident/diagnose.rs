@@ -368,8 +368,8 @@ pub fn cross_validate(
     bar: &ProgressBar,
 ) -> CvResult {
     let weights: Vec<Vec<f64>> = tests.par_iter().map(direction_weights).collect();
-    // With a fold for every thread the folds are the parallel work (a fit running its own tasks in parallel
-    // would hold several folds' Jacobians at once). The same numbers either way.
+    // With a fold for every thread the folds are the parallel work (see [`FitOptions::parallel`]). The same
+    // numbers either way.
     let opts = &FitOptions {
         parallel: opts.parallel && folds.len() < rayon::current_num_threads(),
         ..opts.clone()

@@ -833,7 +833,7 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
         opts.parallel,
     );
     // One column per movable parameter, in their order: a held parameter's column would be zero and is
-    // never searched, and a full-width matrix per fit is the largest buffer of a staged fit.
+    // never searched, so it is not simulated.
     let movable: Vec<usize> = (0..n).filter(|&k| !held[k]).collect();
     let j0 = prob.jacobian_cols(&movable);
     let f_norm = spans

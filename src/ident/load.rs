@@ -578,11 +578,9 @@ mod tests {
         );
     }
 
-    /// 2 mm at 5 Hz sampled at 500 Hz, the first reversal 25 samples in: the 61-sample quintic that is
-    /// unbiased at its centre bent the signal over the first and last 30 samples (0.65 mm/s rms, 20× its
-    /// noise), a velocity of −0.27 mm/s at the reversal counted as a known direction, and a right model there
-    /// was 1.96 kN off (a real-scale data set with a hidden mass held out at 1.7× the noise floor, the mass
-    /// missed). The ends now take their own window, and the noise they report covers their error.
+    /// 2 mm at 5 Hz sampled at 500 Hz, the first reversal 25 samples in: a centred 61-sample quintic would
+    /// bend the first and last 30 samples (0.65 mm/s rms, 20× the noise), so the ends take their own window;
+    /// they keep the velocity's sign at the reversal and report noise that covers their error.
     #[test]
     fn the_ends_of_a_short_fast_test_keep_their_velocity_sign_and_its_noise() {
         let (amp, f_hz, rate, n) = (0.002, 5.0, 500.0, 400usize);

@@ -426,7 +426,7 @@ pub fn scenario(src: &Source) -> Result<Scenario, InputError> {
             velocity_cutoff_hz: num(src, &la.velocity_cutoff_hz, "laser.velocity_cutoff_hz")?,
         },
         daq: DaqConfig {
-            sample_rate_hz: within!(src, f.daq.sample_rate_hz, 1.0..=physics_hz, AT_MOST_PHYSICS)?,
+            sample_rate_hz: within!(src, daq.sample_rate_hz, 1.0..=physics_hz, AT_MOST_PHYSICS)?,
             latency_samples: src.within_int(&daq.latency_samples, "daq.latency_samples", 0..=1000)? as usize,
             adc_bits: src.within_int(&daq.adc_bits, "daq.adc_bits", 0..=32)? as u32,
         },

@@ -125,17 +125,16 @@ impl Plan {
                 .err(&f.seed, "seed", format!("{seed} is negative: give 0 or more"))
                 .into());
         }
-        let mode = match (f.mode.as_ref(), &f.runs) {
-            (None, None) => Mode::Grid,
-            (Some(m), None) if *m.get_ref() == ModeName::Grid => Mode::Grid,
-            (Some(m), None) => {
+        let mode = match (f.mode.as_ref().map(|m| (*m.get_ref(), m)), &f.runs) {
+            (None | Some((ModeName::Grid, _)), None) => Mode::Grid,
+            (Some((ModeName::Sample, m)), None) => {
                 let msg = "required by mode = \"sample\" (how many runs to draw)";
                 return Err(src.err(m, "runs", msg).into());
             }
-            (Some(m), Some(r)) if *m.get_ref() == ModeName::Sample => Mode::Sample {
+            (Some((ModeName::Sample, _)), Some(r)) => Mode::Sample {
                 runs: count(*r.get_ref()).ok_or_else(|| src.err(r, "runs", outside(r.get_ref())))?,
             },
-            (_, Some(r)) => {
+            (None | Some((ModeName::Grid, _)), Some(r)) => {
                 let msg = "only with mode = \"sample\" (a grid runs every combination)";
                 return Err(src.err(r, "runs", msg).into());
             }
@@ -220,39 +219,44 @@ fn outside(n: impl std::fmt::Display) -> String {
 /// One `[[axis]]`: a key with its values, range or draw, or a name with its cases.
 fn axis(src: &Text, at: &Spanned<AxisFile>, mode: Mode) -> Result<Axis, InputError> {
     let a = at.get_ref();
-    let (key, name, cases) = match (&a.key, &a.name, &a.case) {
-        (Some(key), None, None) => (key, None, None),
-        (None, Some(name), Some(cases)) => (name, Some(name), Some(cases)),
+    let key = match (&a.key, &a.name, &a.case) {
+        (Some(key), None, None) => key,
+        (None, Some(name), Some(cases)) => return cases_axis(src, a, name, cases),
         _ => {
             let msg = "an axis is either `key` with `values`, `range` or `draw`, or `name` with \
                        `[[axis.case]]` tables";
             return Err(src.err(at, "axis", msg));
         }
     };
-    let line = src.line_at(key.span());
-    let Some(cases) = cases else {
-        let k = key.get_ref();
-        let source = match (&a.values, &a.range, &a.draw) {
-            (Some(v), None, None) if v.is_empty() => {
-                return Err(src.err(key, "values", "an empty list: give at least one value"));
-            }
-            (Some(v), None, None) => Source::List(
-                v.iter()
-                    .map(|x| (x.get_ref().clone(), src.line_at(x.span())))
-                    .collect(),
-            ),
-            (None, Some(r), None) => range(src, r)?,
-            (None, None, Some(d)) => draw(src, d, mode)?,
-            _ => return Err(src.err(key, k, "give exactly one of `values`, `range`, `draw`")),
-        };
-        return Ok(Axis {
-            name: k.clone(),
-            key: Some(k.clone()),
-            source,
-            line,
-        });
+    let k = key.get_ref();
+    let source = match (&a.values, &a.range, &a.draw) {
+        (Some(v), None, None) if v.is_empty() => {
+            return Err(src.err(key, "values", "an empty list: give at least one value"));
+        }
+        (Some(v), None, None) => Source::List(
+            v.iter()
+                .map(|x| (x.get_ref().clone(), src.line_at(x.span())))
+                .collect(),
+        ),
+        (None, Some(r), None) => range(src, r)?,
+        (None, None, Some(d)) => draw(src, d, mode)?,
+        _ => return Err(src.err(key, k, "give exactly one of `values`, `range`, `draw`")),
     };
-    let name = name.expect("an axis of cases has a name");
+    Ok(Axis {
+        name: k.clone(),
+        key: Some(k.clone()),
+        source,
+        line: src.line_at(key.span()),
+    })
+}
+
+/// An axis of named cases, each a set of overrides.
+fn cases_axis(
+    src: &Text,
+    a: &AxisFile,
+    name: &Spanned<String>,
+    cases: &[Spanned<CaseFile>],
+) -> Result<Axis, InputError> {
     if a.values.is_some() || a.range.is_some() || a.draw.is_some() {
         return Err(src.err(name, "case", "an axis of cases takes no values, range or draw"));
     }
@@ -288,7 +292,7 @@ fn axis(src: &Text, at: &Spanned<AxisFile>, mode: Mode) -> Result<Axis, InputErr
         name: name.get_ref().clone(),
         key: None,
         source: Source::Cases(out),
-        line,
+        line: src.line_at(name.span()),
     })
 }
 
@@ -321,9 +325,10 @@ fn draw(src: &Text, at: &Spanned<DrawFile>, mode: Mode) -> Result<Source, InputE
     let d = at.get_ref();
     let dist_name = d.dist.as_str();
     let need = |v: Option<f64>, name: &str| {
-        let msg = format!("required (a finite number) by dist = \"{dist_name}\"");
-        v.filter(|x| x.is_finite())
-            .ok_or_else(|| src.err(at, &format!("draw.{name}"), msg))
+        v.filter(|x| x.is_finite()).ok_or_else(|| {
+            let msg = format!("required (a finite number) by dist = \"{dist_name}\"");
+            src.err(at, &format!("draw.{name}"), msg)
+        })
     };
     let dist = match d.dist {
         DistName::Uniform | DistName::LogUniform => {

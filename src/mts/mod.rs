@@ -432,7 +432,7 @@ impl MtsTest {
     }
 
     /// The same test with noise-free sensors.
-    pub(crate) fn noise_free(mut self) -> Self {
+    fn noise_free(mut self) -> Self {
         for s in [&mut self.load_cell, &mut self.displacement, &mut self.velocity] {
             s.noise_std = 0.0;
         }

@@ -11,7 +11,6 @@
 //! - hand mass: `m v_h' = F_m − F_g`.
 //!
 //! The parameters live in `models/pilot-hand.toml` with their sources.
-#![warn(missing_docs)]
 
 pub mod attitude; // flight engineer: McRuer crossover pilot (outer loop on pitch / load factor)
 pub mod signal;

@@ -250,11 +250,13 @@ fn apply(doc: &mut DocumentMut, o: &Override, value: Option<&toml::Value>) -> Re
         table = match table.get_mut(part).expect("inserted above") {
             Item::ArrayOfTables(aot) => {
                 let n = aot.len();
-                let msg = format!(
-                    "`{here}` is a list of {n} tables: name one by its number, `{here}.1` to `{here}.{n}`"
-                );
                 let k = parts[i + 1].parse::<usize>().ok().filter(|k| (1..=n).contains(k));
-                let k = k.ok_or_else(|| field_err(o, msg))?;
+                let k = k.ok_or_else(|| {
+                    let msg = format!(
+                        "`{here}` is a list of {n} tables: name one by its number, `{here}.1` to `{here}.{n}`"
+                    );
+                    field_err(o, msg)
+                })?;
                 let t = aot.get_mut(k - 1).expect("index checked");
                 return match &parts[i + 2..] {
                     [key] => set_in(t, o, key, value),

@@ -21,8 +21,7 @@
 //! Reading used here: a force held for at least the prolonged window (mean |force| over a sliding window,
 //! 5 s by default) is a prolonged application; the largest |force| anywhere is a temporary one.
 
-use crate::aero::certification::CertificationBasis;
-use crate::aero::certification::PerGBounds;
+use crate::aero::certification::{CertificationBasis, PerGBounds};
 use crate::units::LBF_TO_N;
 
 /// Handling-qualities Level of the stick force per g (MIL-F-8785C 1.5): 1 satisfactory, 2 acceptable,
