@@ -17,7 +17,7 @@ const PARAMS: [ParamSpec; 2] = [
         "visc_c1_n_s_per_m_per_a",
         "N·s/m/A",
         // The field thickens the fluid, it does not thin it: c1 ≥ 0 keeps the damping positive at any current.
-        "increase of post-yield damping per ampere of lagged coil current at 1 A, C = C0 + c1|h|(|h|/1 A)^(n-1)          (Spencer et al. 1997 for n = 1)",
+        "increase of post-yield damping per ampere of lagged coil current at 1 A, C = C0 + c1|h|(|h|/1 A)^(n-1) (Spencer et al. 1997 for n = 1)",
     ),
     ParamSpec::new(
         "visc_exponent",

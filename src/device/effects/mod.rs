@@ -250,9 +250,14 @@ mod tests {
                 !e.describe().is_empty() && !e.residual_signature().is_empty(),
                 "{name} undocumented"
             );
+            for text in [e.describe(), e.residual_signature()] {
+                assert!(!text.contains("  "), "{name}: run of spaces in {text:?}");
+            }
             for p in e.params() {
                 assert!(p.name.starts_with(tag), "{} lacks the tag {tag}", p.name);
                 assert!(p.lower < p.upper, "{}: empty bounds", p.name);
+                // The docs are printed in reports: a broken string continuation shows as a run of spaces.
+                assert!(!p.doc.contains("  "), "{}: run of spaces in its doc", p.name);
                 all.push(p.name);
             }
         }
