@@ -222,17 +222,6 @@ impl AircraftBackend for Embedded {
     }
 }
 
-/// Fill the hinge-moment fields of a state from the hinge model (for backends without hinge moments):
-/// tail angle of attack, hinge moment at the elevator's dynamic pressure and the stick force (with the
-/// feel trim `s.feel_trim_rad` for a feel computer).
-pub fn with_hinge(hinge: &HingeModel, mut s: AircraftState) -> AircraftState {
-    s.alpha_tail_rad = hinge.alpha_tail_rad(s.alpha_rad, s.q_rad_s, s.airspeed_m_s);
-    s.hinge_moment_nm =
-        hinge.hinge_moment_nm(s.qbar_elevator_pa, s.alpha_tail_rad, s.elevator_rad, s.tab_rad);
-    s.stick_force_n = hinge.stick_force_n(&s);
-    s
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -24,7 +24,6 @@ use std::sync::Arc;
 use nalgebra::{Matrix3, Vector3};
 
 use super::atmosphere::{isa, RHO0_KG_M3};
-use super::backend::with_hinge;
 use super::hinge::HingeModel;
 use super::model::{AircraftModel, Propulsion};
 use super::AeroError;
@@ -416,14 +415,11 @@ impl Aircraft {
         let (c, e) = (self.controls, self.eval(&self.x, self.controls));
         let s = AircraftState::at(self.t_s, &self.x, &e, c.elevator_rad, c.throttle);
         let (tab_rad, feel_trim_rad) = (self.tab_rad, self.feel_trim_rad);
-        self.state = with_hinge(
-            &self.model.hinge,
-            AircraftState {
-                tab_rad,
-                feel_trim_rad,
-                ..s
-            },
-        );
+        self.state = self.model.hinge.fill(AircraftState {
+            tab_rad,
+            feel_trim_rad,
+            ..s
+        });
     }
 
     fn thrust_n(&self, throttle: f64, airspeed: f64, rho: f64) -> f64 {
