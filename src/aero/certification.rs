@@ -18,7 +18,7 @@
 //! stay within the short-term two-hand limit; the stick force per g must be positive; Part 23's
 //! minimum applies at the limit load factor.
 
-use super::longitudinal::Aircraft;
+use super::longitudinal::{n_per_alpha, Aircraft};
 use super::model::{AircraftModel, CertificationPart, ControlType};
 use super::AeroError;
 use crate::units::{G0_M_S2, LBF_TO_N};
@@ -136,8 +136,8 @@ impl FeelAssessment {
             CertificationPart::MilF8785C => {
                 // n/α at the trim: the lift slope there times the dynamic pressure over the weight
                 let trim = aircraft.steady_state(airspeed_m_s, altitude_m, 1.0)?;
-                let n_alpha =
-                    trim.qbar_pa * m.wing_area_m2 * m.cl_alpha.slope(trim.alpha_rad) / (m.mass_kg * G0_M_S2);
+                let cl_alpha = m.cl_alpha.slope(trim.alpha_rad);
+                let n_alpha = n_per_alpha(trim.qbar_pa, m.wing_area_m2, cl_alpha, m.mass_kg);
                 PerGBounds::level1(n_lim, n_alpha)
             }
             _ => (
