@@ -146,6 +146,14 @@ impl HingeModel {
         -elevator_rad / self.elevator_per_stick_rad_per_rad
     }
 
+    /// The column neutral that zeroes the feel computer's force with the elevator at `elevator_rad` at
+    /// `mach`; 0 without a feel computer.
+    pub fn feel_trim_rad(&self, elevator_rad: f64, mach: f64) -> f64 {
+        self.feel_computer.map_or(0.0, |fc| {
+            fc.trim_rad(self.stick_from_elevator_rad(elevator_rad), mach)
+        })
+    }
+
     /// Tab angle that zeroes the hinge moment (and so the stick force) at a flight condition.
     /// `None` when that angle lies outside the tab's travel.
     pub fn trim_tab_rad(&self, alpha_tail_rad: f64, elevator_rad: f64) -> Option<f64> {

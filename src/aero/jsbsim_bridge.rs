@@ -315,10 +315,7 @@ impl AircraftBackend for JsbsimBridge {
                 nz_g: 1.0,
                 why: "the tab cannot zero the stick force at JSBSim's trim".into(),
             })?;
-        self.feel_trim_rad = match &hinge.feel_computer {
-            Some(fc) => fc.trim_rad(hinge.stick_from_elevator_rad(s.elevator_rad), s.mach),
-            None => 0.0,
-        };
+        self.feel_trim_rad = hinge.feel_trim_rad(s.elevator_rad, s.mach);
         Ok(hinge.fill(AircraftState {
             tab_rad: self.tab_rad,
             feel_trim_rad: self.feel_trim_rad,

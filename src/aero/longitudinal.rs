@@ -284,9 +284,8 @@ impl Aircraft {
             })?;
         self.feel_trim_rad = 0.0;
         self.refresh();
-        if let Some(fc) = &self.model.hinge.feel_computer {
-            let stick = self.model.hinge.stick_from_elevator_rad(c.elevator_rad);
-            self.feel_trim_rad = fc.trim_rad(stick, self.state.mach);
+        if self.model.hinge.feel_computer.is_some() {
+            self.feel_trim_rad = self.model.hinge.feel_trim_rad(c.elevator_rad, self.state.mach);
             self.refresh();
         }
         Ok(self.state)
