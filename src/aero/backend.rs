@@ -11,9 +11,11 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use super::fbw::FlyByWire;
-use super::fcs::{FbwAircraft, FbwModel};
+use super::fcs::FbwAircraft;
 use super::jsbsim_bridge::JsbsimBridge;
 use super::{AeroError, Aircraft, AircraftModel, AircraftState, HingeModel};
+use crate::input::aircraft::{is_fly_by_wire, FlyByWireFile};
+use crate::input::Source;
 
 /// What the flight loop needs from an aircraft.
 pub trait AircraftBackend {
@@ -94,11 +96,12 @@ pub fn open(spec: &str) -> Result<Box<dyn AircraftBackend>, AeroError> {
     match spec.split_once(':') {
         Some(("jsbsim", name)) => {
             let path = model_file(name)?;
-            if is_fly_by_wire_file(&path)? {
-                let fbw = FlyByWire::load(&path)?;
+            let src = Source::read(&path)?;
+            if is_fly_by_wire(&src.text) {
+                let fbw = FlyByWireFile::parse(src)?.stick()?;
                 return Ok(Box::new(JsbsimBridge::spawn_fly_by_wire(name, fbw)?));
             }
-            let model = Arc::new(AircraftModel::load(&path)?);
+            let model = Arc::new(AircraftModel::from_toml(&src.text, &path)?);
             Ok(Box::new(JsbsimBridge::spawn(name, model)?))
         }
         Some((other, _)) => Err(AeroError::Refused {
@@ -107,8 +110,10 @@ pub fn open(spec: &str) -> Result<Box<dyn AircraftBackend>, AeroError> {
         }),
         None => {
             let path = AircraftModel::builtin(spec)?;
-            if is_fly_by_wire_file(&path)? {
-                let Some(model) = FbwModel::load(&path)? else {
+            let src = Source::read(&path)?;
+            if is_fly_by_wire(&src.text) {
+                let file = FlyByWireFile::parse(src)?;
+                let Some(model) = file.model()? else {
                     return Err(AeroError::Refused {
                         what: format!("aircraft `{spec}`"),
                         why: format!(
@@ -117,10 +122,10 @@ pub fn open(spec: &str) -> Result<Box<dyn AircraftBackend>, AeroError> {
                         ),
                     });
                 };
-                let flown = Flown::FlyByWire(Box::new(FbwAircraft::new(model)), FlyByWire::load(&path)?);
+                let flown = Flown::FlyByWire(Box::new(FbwAircraft::new(model)), file.stick()?);
                 return Ok(Box::new(Embedded::new(spec, flown)));
             }
-            let model = Arc::new(AircraftModel::load_builtin(spec)?);
+            let model = Arc::new(AircraftModel::from_toml(&src.text, &path)?);
             Ok(Box::new(Embedded::new(spec, Flown::Linked(Aircraft::new(model)))))
         }
     }
@@ -128,8 +133,7 @@ pub fn open(spec: &str) -> Result<Box<dyn AircraftBackend>, AeroError> {
 
 /// Whether the model file at `path` is a fly-by-wire aircraft's (`[fly_by_wire]`, [`FlyByWire`]).
 pub fn is_fly_by_wire_file(path: &Path) -> Result<bool, AeroError> {
-    let src = crate::input::Source::read(path)?;
-    Ok(crate::input::aircraft::is_fly_by_wire(&src.text))
+    Ok(is_fly_by_wire(&Source::read(path)?.text))
 }
 
 /// An embedded model flown without Python.
@@ -220,17 +224,6 @@ impl AircraftBackend for Embedded {
             Flown::Linked(_) => Err(self.refused("not fly-by-wire: its stick drives the elevator")),
         }
     }
-}
-
-/// Fill the hinge-moment fields of a state from the hinge model (for backends without hinge moments):
-/// tail angle of attack, hinge moment at the elevator's dynamic pressure and the stick force (with the
-/// feel trim `s.feel_trim_rad` for a feel computer).
-pub fn with_hinge(hinge: &HingeModel, mut s: AircraftState) -> AircraftState {
-    s.alpha_tail_rad = hinge.alpha_tail_rad(s.alpha_rad, s.q_rad_s, s.airspeed_m_s);
-    s.hinge_moment_nm =
-        hinge.hinge_moment_nm(s.qbar_elevator_pa, s.alpha_tail_rad, s.elevator_rad, s.tab_rad);
-    s.stick_force_n = hinge.stick_force_n(&s);
-    s
 }
 
 #[cfg(test)]

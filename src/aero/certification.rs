@@ -18,7 +18,7 @@
 //! stay within the short-term two-hand limit; the stick force per g must be positive; Part 23's
 //! minimum applies at the limit load factor.
 
-use super::longitudinal::Aircraft;
+use super::longitudinal::{n_per_alpha, Aircraft};
 use super::model::{AircraftModel, CertificationPart, ControlType};
 use super::AeroError;
 use crate::units::{G0_M_S2, LBF_TO_N};
@@ -136,10 +136,9 @@ impl FeelAssessment {
             CertificationPart::MilF8785C => {
                 // n/α at the trim: the lift slope there times the dynamic pressure over the weight
                 let trim = aircraft.steady_state(airspeed_m_s, altitude_m, 1.0)?;
-                let n_alpha =
-                    trim.qbar_pa * m.wing_area_m2 * m.cl_alpha.slope(trim.alpha_rad) / (m.mass_kg * G0_M_S2);
-                let level1 = centre_stick_per_g_bounds(n_lim, n_alpha)[0];
-                (level1.min_n_per_g, level1.max_n_per_g)
+                let cl_alpha = m.cl_alpha.slope(trim.alpha_rad);
+                let n_alpha = n_per_alpha(trim.qbar_pa, m.wing_area_m2, cl_alpha, m.mass_kg);
+                PerGBounds::level1(n_lim, n_alpha)
             }
             _ => (
                 basis
@@ -244,6 +243,14 @@ pub(crate) fn per_g_load_factor(
 pub(crate) struct PerGBounds {
     pub min_n_per_g: f64,
     pub max_n_per_g: f64,
+}
+
+impl PerGBounds {
+    /// Table V's Level 1 band for a centre stick ([`centre_stick_per_g_bounds`]) as (min, max), N/g.
+    pub(crate) fn level1(n_limit: f64, n_per_alpha: f64) -> (f64, f64) {
+        let b = centre_stick_per_g_bounds(n_limit, n_per_alpha)[0];
+        (b.min_n_per_g, b.max_n_per_g)
+    }
 }
 
 /// MIL-F-8785C Table V for a centre stick: the bounds of Levels 1, 2 and 3, N/g, for limit load factor

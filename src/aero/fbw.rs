@@ -11,7 +11,7 @@
 //! - **Level 1 band.** Table V's centre-stick limits ([`super::certification`]); the sidestick limits of
 //!   MIL-STD-1797A §4.2.8.2 could not be consulted, so the centre-stick band is the design band.
 
-use super::certification::centre_stick_per_g_bounds;
+use super::certification::PerGBounds;
 use crate::device::bingham::sgn;
 use crate::units::LBF_TO_N;
 
@@ -79,8 +79,7 @@ impl FlyByWire {
 
     /// MIL-F-8785C Table V Level 1 stick force per g at the design condition: [min, max] N/g.
     pub fn level1_per_g_n(&self) -> (f64, f64) {
-        let level1 = centre_stick_per_g_bounds(self.limit_load_factor, self.n_alpha_per_rad)[0];
-        (level1.min_n_per_g, level1.max_n_per_g)
+        PerGBounds::level1(self.limit_load_factor, self.n_alpha_per_rad)
     }
 }
 

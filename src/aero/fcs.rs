@@ -32,7 +32,9 @@
 use nalgebra::{Complex, SMatrix, SVector, Vector3};
 
 use super::atmosphere::{isa, RHO0_KG_M3};
-use super::longitudinal::{newton3, rk4, Airframe, Eval, Loads, X};
+use super::longitudinal::{
+    airspeed_and_alpha, lift_slope, n_per_alpha, newton3, rk4, Airframe, Eval, Loads, X,
+};
 use super::table::{Table1, Table2};
 use super::{AeroError, AircraftState};
 use crate::pilot::attitude::PilotLoop;
@@ -130,8 +132,7 @@ impl FbwModel {
     fn eval(&self, x: &X, elevator_rad: f64, lef_rad: f64, throttle: f64) -> Eval {
         let a = &self.aero;
         let [u, w, q, _, h] = *x;
-        let v = (u * u + w * w).sqrt().max(1e-3);
-        let alpha = w.atan2(u);
+        let (v, alpha) = airspeed_and_alpha(x);
         let air = isa(h);
         let qbar = 0.5 * air.density_kg_m3 * v * v;
         let mach = v / air.speed_of_sound_m_s;
@@ -169,10 +170,8 @@ impl FbwModel {
     /// Acceleration sensitivity `n/α = q̄ S C_Lα / W` at angle of attack `alpha` and tail `elevator_rad`,
     /// g/rad (`C_Lα` the lift table's slope there, over ±0.01 rad).
     pub fn n_per_alpha_g_per_rad(&self, alpha: f64, elevator_rad: f64, qbar_pa: f64) -> f64 {
-        let d = 0.01;
-        let cl = |a: f64| self.aero.cl.eval(a, elevator_rad);
-        let cl_alpha = (cl(alpha + d) - cl(alpha - d)) / (2.0 * d);
-        qbar_pa * self.wing_area_m2 * cl_alpha / (self.airframe.mass_kg * G0_M_S2)
+        let cl_alpha = lift_slope(|a| self.aero.cl.eval(a, elevator_rad), alpha);
+        n_per_alpha(qbar_pa, self.wing_area_m2, cl_alpha, self.airframe.mass_kg)
     }
 
     /// The pilot station's normal specific force, g (z body down: about −1 in level flight).
@@ -243,9 +242,10 @@ impl FbwAircraft {
     }
 
     fn lef_rad(&self) -> f64 {
-        let v = (self.x[0].powi(2) + self.x[1].powi(2)).sqrt().max(1e-3);
-        let mach = v / isa(self.x[4]).speed_of_sound_m_s;
-        self.model.aero.lef_rad(self.x[1].atan2(self.x[0]), mach)
+        let (v, alpha) = airspeed_and_alpha(&self.x);
+        self.model
+            .aero
+            .lef_rad(alpha, v / isa(self.x[4]).speed_of_sound_m_s)
     }
 
     fn refresh(&mut self) {

@@ -123,6 +123,17 @@ impl HingeModel {
         }
     }
 
+    /// The state `s` with its hinge fields filled from this model (for backends without hinge moments):
+    /// tail angle of attack, hinge moment at the elevator's dynamic pressure and the stick force (with the
+    /// feel trim `s.feel_trim_rad` for a feel computer).
+    pub fn fill(&self, mut s: AircraftState) -> AircraftState {
+        s.alpha_tail_rad = self.alpha_tail_rad(s.alpha_rad, s.q_rad_s, s.airspeed_m_s);
+        s.hinge_moment_nm =
+            self.hinge_moment_nm(s.qbar_elevator_pa, s.alpha_tail_rad, s.elevator_rad, s.tab_rad);
+        s.stick_force_n = self.stick_force_n(&s);
+        s
+    }
+
     /// Elevator angle (positive trailing edge down) commanded by a stick angle (positive aft),
     /// held at the elevator stops.
     pub fn elevator_from_stick_rad(&self, stick_angle_rad: f64) -> f64 {
@@ -133,6 +144,14 @@ impl HingeModel {
     /// Stick angle (positive aft) that puts the elevator at `elevator_rad`.
     pub fn stick_from_elevator_rad(&self, elevator_rad: f64) -> f64 {
         -elevator_rad / self.elevator_per_stick_rad_per_rad
+    }
+
+    /// The column neutral that zeroes the feel computer's force with the elevator at `elevator_rad` at
+    /// `mach`; 0 without a feel computer.
+    pub fn feel_trim_rad(&self, elevator_rad: f64, mach: f64) -> f64 {
+        self.feel_computer.map_or(0.0, |fc| {
+            fc.trim_rad(self.stick_from_elevator_rad(elevator_rad), mach)
+        })
     }
 
     /// Tab angle that zeroes the hinge moment (and so the stick force) at a flight condition.

@@ -15,7 +15,7 @@ use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use super::backend::{with_hinge, AircraftBackend};
+use super::backend::AircraftBackend;
 use super::fbw::FlyByWire;
 use super::{AeroError, AircraftModel, AircraftState, HingeModel};
 
@@ -274,7 +274,7 @@ impl JsbsimBridge {
             ..AircraftState::default()
         };
         Ok(match &self.hinge {
-            Some(h) => with_hinge(h, s),
+            Some(h) => h.fill(s),
             None => s,
         })
     }
@@ -315,18 +315,12 @@ impl AircraftBackend for JsbsimBridge {
                 nz_g: 1.0,
                 why: "the tab cannot zero the stick force at JSBSim's trim".into(),
             })?;
-        self.feel_trim_rad = match &hinge.feel_computer {
-            Some(fc) => fc.trim_rad(hinge.stick_from_elevator_rad(s.elevator_rad), s.mach),
-            None => 0.0,
-        };
-        Ok(with_hinge(
-            &hinge,
-            AircraftState {
-                tab_rad: self.tab_rad,
-                feel_trim_rad: self.feel_trim_rad,
-                ..s
-            },
-        ))
+        self.feel_trim_rad = hinge.feel_trim_rad(s.elevator_rad, s.mach);
+        Ok(hinge.fill(AircraftState {
+            tab_rad: self.tab_rad,
+            feel_trim_rad: self.feel_trim_rad,
+            ..s
+        }))
     }
 
     fn step(&mut self, elevator_rad: f64, throttle_ratio: f64) -> Result<AircraftState, AeroError> {

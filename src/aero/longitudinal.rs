@@ -24,7 +24,6 @@ use std::sync::Arc;
 use nalgebra::{Matrix3, Vector3};
 
 use super::atmosphere::{isa, RHO0_KG_M3};
-use super::backend::with_hinge;
 use super::hinge::HingeModel;
 use super::model::{AircraftModel, Propulsion};
 use super::AeroError;
@@ -136,6 +135,23 @@ impl Airframe {
         let dh = u * st - w * ct;
         ([du, dw, dq, q, dh], -za / (self.mass_kg * g))
     }
+}
+
+/// Airspeed, m/s (at least 1 mm/s), and angle of attack, rad, of the body velocity `(u, w)` of `x`.
+pub(crate) fn airspeed_and_alpha(x: &X) -> (f64, f64) {
+    let [u, w, ..] = *x;
+    ((u * u + w * w).sqrt().max(1e-3), w.atan2(u))
+}
+
+/// Acceleration sensitivity `n/α = q̄ S C_Lα / W`, g/rad, for the lift-curve slope `cl_alpha_per_rad`.
+pub(crate) fn n_per_alpha(qbar_pa: f64, wing_area_m2: f64, cl_alpha_per_rad: f64, mass_kg: f64) -> f64 {
+    qbar_pa * wing_area_m2 * cl_alpha_per_rad / (mass_kg * G0_M_S2)
+}
+
+/// The slope of `cl` at `alpha` by central differences over ±0.01 rad, per rad.
+pub(crate) fn lift_slope(cl: impl Fn(f64) -> f64, alpha: f64) -> f64 {
+    let d = 0.01;
+    (cl(alpha + d) - cl(alpha - d)) / (2.0 * d)
 }
 
 /// One classical Runge–Kutta 4 step of `dx/dt = f(x)` over `dt_s`.
@@ -251,7 +267,7 @@ impl Aircraft {
         let alpha_t = self
             .model
             .hinge
-            .alpha_tail_rad(x[1].atan2(x[0]), x[2], airspeed_m_s);
+            .alpha_tail_rad(airspeed_and_alpha(&x).1, x[2], airspeed_m_s);
         self.tab_rad = self
             .model
             .hinge
@@ -268,9 +284,8 @@ impl Aircraft {
             })?;
         self.feel_trim_rad = 0.0;
         self.refresh();
-        if let Some(fc) = &self.model.hinge.feel_computer {
-            let stick = self.model.hinge.stick_from_elevator_rad(c.elevator_rad);
-            self.feel_trim_rad = fc.trim_rad(stick, self.state.mach);
+        if self.model.hinge.feel_computer.is_some() {
+            self.feel_trim_rad = self.model.hinge.feel_trim_rad(c.elevator_rad, self.state.mach);
             self.refresh();
         }
         Ok(self.state)
@@ -416,14 +431,11 @@ impl Aircraft {
         let (c, e) = (self.controls, self.eval(&self.x, self.controls));
         let s = AircraftState::at(self.t_s, &self.x, &e, c.elevator_rad, c.throttle);
         let (tab_rad, feel_trim_rad) = (self.tab_rad, self.feel_trim_rad);
-        self.state = with_hinge(
-            &self.model.hinge,
-            AircraftState {
-                tab_rad,
-                feel_trim_rad,
-                ..s
-            },
-        );
+        self.state = self.model.hinge.fill(AircraftState {
+            tab_rad,
+            feel_trim_rad,
+            ..s
+        });
     }
 
     fn thrust_n(&self, throttle: f64, airspeed: f64, rho: f64) -> f64 {
@@ -461,8 +473,7 @@ impl Aircraft {
     fn eval_with_alphadot(&self, x: &X, c: Controls, alphadot: f64) -> EvalAd {
         let m = &*self.model;
         let [u, w, q, _, h] = *x;
-        let v = (u * u + w * w).sqrt().max(1e-3);
-        let alpha = w.atan2(u);
+        let (v, alpha) = airspeed_and_alpha(x);
         let air = isa(h);
         let rho = air.density_kg_m3;
         let qbar = 0.5 * rho * v * v;

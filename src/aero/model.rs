@@ -8,9 +8,9 @@ use serde::Deserialize;
 
 use super::hinge::HingeModel;
 use super::hinge_theory::ControlGeometry;
+use super::longitudinal::{lift_slope, n_per_alpha};
 use super::table::Table1;
 use super::AeroError;
-use crate::units::G0_M_S2;
 
 /// Which certification basis the aircraft's control forces are checked against.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
@@ -201,9 +201,8 @@ impl AircraftModel {
     /// Acceleration sensitivity `n/α = q̄ S C_Lα / W` at angle of attack `alpha`, g/rad (`C_Lα` the lift
     /// table's slope there, over ±0.01 rad).
     pub fn n_per_alpha_g_per_rad(&self, alpha: f64, qbar_pa: f64) -> f64 {
-        let d = 0.01;
-        let cl_alpha = (self.cl_alpha.eval(alpha + d) - self.cl_alpha.eval(alpha - d)) / (2.0 * d);
-        qbar_pa * self.wing_area_m2 * cl_alpha / (self.mass_kg * G0_M_S2)
+        let cl_alpha = lift_slope(|a| self.cl_alpha.eval(a), alpha);
+        n_per_alpha(qbar_pa, self.wing_area_m2, cl_alpha, self.mass_kg)
     }
 
     /// Mass, inertia and load points for the equations of motion.

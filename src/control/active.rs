@@ -199,8 +199,10 @@ pub struct ActiveStick {
     v_filt_m_s: f64,
     outer_ticks: u64,
     inner_ticks: u64,
-    /// Outer ticks per inner tick count (`current_loop_hz / rate_hz`, ≥ 1).
+    /// Current-loop ticks per admittance tick (`current_loop_hz / rate_hz`, ≥ 1).
     inner_per_outer: u64,
+    /// The current loop's period, s.
+    inner_dt_s: f64,
     held_current_a: Option<f64>,
     held_sensor_n: Option<f64>,
     last_sensor_n: f64,
@@ -230,6 +232,7 @@ impl ActiveStick {
             outer_ticks: 0,
             inner_ticks: 0,
             inner_per_outer: ratio,
+            inner_dt_s: 1.0 / cfg.inner_rate_hz(),
             held_current_a: None,
             held_sensor_n: None,
             last_sensor_n: 0.0,
@@ -316,8 +319,7 @@ impl ActiveStick {
     /// integrated exactly over the period with the present voltage and back-EMF. Returns the period's
     /// mean current, A.
     fn inner_tick(&mut self, t_s: f64, shaft_rad_s: f64, faults: &FaultSchedule) -> f64 {
-        let (m, d) = (self.cfg.motor, self.cfg.driver);
-        let dt = 1.0 / self.cfg.inner_rate_hz();
+        let (m, d, dt) = (self.cfg.motor, self.cfg.driver, self.inner_dt_s);
         if faults.active(FaultKind::DriverStuck, t_s).is_some() {
             let i = *self.held_current_a.get_or_insert(self.current_a);
             self.current_a = i;
@@ -361,7 +363,7 @@ impl ActiveStick {
             self.rod_accel_m_s2 = (rod.v_m_s - v0) / dt_s;
         }
         self.last_rod_v_m_s = Some(rod.v_m_s);
-        let t_inner = 1.0 / self.cfg.inner_rate_hz();
+        let t_inner = self.inner_dt_s;
         let (mut sum, mut n) = (0.0, 0u32);
         loop {
             let t = self.inner_ticks as f64 * t_inner;

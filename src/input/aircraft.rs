@@ -410,13 +410,38 @@ impl FbwModel {
     /// The embedded model of a fly-by-wire aircraft's file, `None` if it has none (no `[airframe]`,
     /// `[aero_tables]` and `[fcs]`; all three or none).
     pub fn load(path: &Path) -> Result<Option<Self>, InputError> {
-        Self::from_toml(&Source::read(path)?.text, path)
+        FlyByWireFile::read(path)?.model()
     }
 
     /// As [`FbwModel::load`], from text; `path` places its errors.
     pub fn from_toml(text: &str, path: &Path) -> Result<Option<Self>, InputError> {
-        let src = Source::new(path, text);
-        let f: FbwFile = src.toml()?;
+        FlyByWireFile::parse(Source::new(path, text))?.model()
+    }
+}
+
+/// A fly-by-wire aircraft's model file parsed once: its stick ([`FlyByWireFile::stick`]) and its embedded
+/// model ([`FlyByWireFile::model`]) are built from the one parse.
+pub struct FlyByWireFile {
+    src: Source,
+    file: FbwFile,
+}
+
+impl FlyByWireFile {
+    /// Read and parse the file at `path`.
+    pub fn read(path: &Path) -> Result<Self, InputError> {
+        Self::parse(Source::read(path)?)
+    }
+
+    /// Parse a text already read: a syntax error, an unknown key or a value of the wrong type names its
+    /// line and key.
+    pub fn parse(src: Source) -> Result<Self, InputError> {
+        let file = src.toml()?;
+        Ok(Self { src, file })
+    }
+
+    /// The embedded model ([`FbwModel::load`]).
+    pub fn model(&self) -> Result<Option<FbwModel>, InputError> {
+        let (src, f, path) = (&self.src, &self.file, self.src.path.as_path());
         let (airframe, a, fcs) = match (&f.airframe, &f.aero_tables, &f.fcs) {
             (None, None, None) => return Ok(None),
             (Some(g), Some(a), Some(c)) => (g, a, c),
@@ -460,7 +485,7 @@ impl FbwModel {
             other => Err(src.err(v, field, format!("{} values, expected 2", other.len()))),
         };
         // rows of two values with increasing thresholds, as a table's
-        table(&src, &a.lef_alpha_steps, "aero_tables.lef_alpha_steps")?;
+        table(src, &a.lef_alpha_steps, "aero_tables.lef_alpha_steps")?;
         let lef_alpha_steps = a
             .lef_alpha_steps
             .get_ref()
@@ -502,8 +527,8 @@ impl FbwModel {
                 cd_q: by_alpha(&a.cd_q, "aero_tables.cd_q")?,
                 cd_q_lef: by_alpha(&a.cd_q_lef_per_rad, "aero_tables.cd_q_lef_per_rad")?,
                 cm_q: by_alpha(&a.cm_q, "aero_tables.cm_q")?,
-                cd_mach: table(&src, &a.cd_mach, "aero_tables.cd_mach")?,
-                cm_alpha_mach: table(&src, &a.cm_alpha_mach, "aero_tables.cm_alpha_mach")?,
+                cd_mach: table(src, &a.cd_mach, "aero_tables.cd_mach")?,
+                cm_alpha_mach: table(src, &a.cm_alpha_mach, "aero_tables.cm_alpha_mach")?,
                 lef_alpha_steps,
                 lef_above_mach: match &a.lef_above_mach {
                     Some(v) => Some(pair(v, "aero_tables.lef_above_mach")?),
@@ -512,7 +537,7 @@ impl FbwModel {
             },
             fcs: PitchFcs {
                 command_limits: (cmin, cmax),
-                alpha_gain: table(&src, &fcs.alpha_gain, "fcs.alpha_gain")?,
+                alpha_gain: table(src, &fcs.alpha_gain, "fcs.alpha_gain")?,
                 alpha_limiter_per_rad: within!(src, fcs.alpha_limiter_per_rad, 0.0..=20.0)?,
                 pitch_rate_gain_s: within!(src, fcs.pitch_rate_gain_s, 0.0..=100.0)?,
                 load_factor_gain_per_g: within!(src, fcs.load_factor_gain_per_g, 0.0..=10.0)?,
@@ -558,13 +583,19 @@ pub fn is_fly_by_wire(text: &str) -> bool {
 impl FlyByWire {
     /// Read and check a fly-by-wire aircraft's model file.
     pub fn load(path: &Path) -> Result<Self, InputError> {
-        Self::from_toml(&Source::read(path)?.text, path)
+        FlyByWireFile::read(path)?.stick()
     }
 
     /// Check a fly-by-wire aircraft's model text; `path` places its errors.
     pub fn from_toml(text: &str, path: &Path) -> Result<Self, InputError> {
-        let src = Source::new(path, text);
-        let f: FbwFile = src.toml()?;
+        FlyByWireFile::parse(Source::new(path, text))?.stick()
+    }
+}
+
+impl FlyByWireFile {
+    /// The stick and its design condition ([`FlyByWire::load`]).
+    pub fn stick(&self) -> Result<FlyByWire, InputError> {
+        let (src, f) = (&self.src, &self.file);
         let (fly_by_wire, design) = (&f.fly_by_wire, &f.design);
         let (lo, hi) = BREAKOUT_RANGE_CLASS_IV_N;
         Ok(FlyByWire {
@@ -580,7 +611,7 @@ impl FlyByWire {
             g_per_command: within!(src, design.g_per_command, 0.1..=20.0, "g")?,
             n_alpha_per_rad: within!(src, design.n_alpha_per_rad, 0.5..=200.0, "g/rad")?,
             limit_load_factor: within!(src, design.limit_load_factor, 1.5..=15.0, "g")?,
-            estimates: estimated_keys(text),
+            estimates: estimated_keys(&src.text),
         })
     }
 }

@@ -265,16 +265,12 @@ fn transform(translation_m: [f64; 3], rotation_xyzw: [f64; 4]) -> rerun::Transfo
     )
 }
 
-/// Each link's visual shapes, static, under `PREFIX/<link>/visual_<k>`, posed in the link's frame (the
+/// Each link's visual shapes, static, under `rig/<link>/visual_<k>`, posed in the link's frame (the
 /// link's own transform is logged over time by [`log_link_poses`]).
-fn log_link_visuals(
-    rec: &RecordingStream,
-    prefix: &str,
-    visuals: &[LinkVisuals],
-) -> RecordingStreamResult<()> {
+fn log_link_visuals(rec: &RecordingStream, visuals: &[LinkVisuals]) -> RecordingStreamResult<()> {
     for link in visuals {
         for (k, v) in link.visuals.iter().enumerate() {
-            let path = format!("{prefix}/{}/visual_{k}", link.name);
+            let path = format!("rig/{}/visual_{k}", link.name);
             rec.log_static(path.as_str(), &transform(v.translation_m, v.rotation_xyzw))?;
             match &v.shape {
                 VisualShape::Box { size_m } => {
@@ -296,11 +292,11 @@ fn log_link_visuals(
     Ok(())
 }
 
-/// The links' world poses at the recording's current time, under `PREFIX/<link>`.
-fn log_link_poses(rec: &RecordingStream, prefix: &str, poses: &[BodyPose]) -> RecordingStreamResult<()> {
+/// The links' world poses at the recording's current time, under `rig/<link>`.
+fn log_link_poses(rec: &RecordingStream, poses: &[BodyPose]) -> RecordingStreamResult<()> {
     for p in poses {
         rec.log(
-            format!("{prefix}/{}", p.name),
+            format!("rig/{}", p.name),
             &transform(p.translation_m, p.rotation_xyzw),
         )?;
     }
@@ -309,7 +305,7 @@ fn log_link_poses(rec: &RecordingStream, prefix: &str, poses: &[BodyPose]) -> Re
 
 /// The static shapes of a run: the links' visuals and, when it flies, the airframe.
 fn log_shapes(rec: &RecordingStream, visuals: &[LinkVisuals], flight: bool) -> Result<(), VizError> {
-    log_link_visuals(rec, "rig", visuals).map_err(err)?;
+    log_link_visuals(rec, visuals).map_err(err)?;
     if flight {
         // Airframe: fuselage, wing, tailplane and fin boxes, nose towards −x (forward), 1:20 scale.
         rec.log_static(
@@ -345,7 +341,7 @@ fn log_frame(
     grip: Option<&(String, [f64; 3])>,
 ) -> Result<(), VizError> {
     rec.set_duration_secs("time", t);
-    log_link_poses(rec, "rig", poses).map_err(err)?;
+    log_link_poses(rec, poses).map_err(err)?;
     if let Some(piston) = poses.iter().find(|p| p.name == "piston") {
         let at = [f32s(piston.translation_m)];
         for (path, f_n) in [
