@@ -55,38 +55,20 @@ fn run_scenario(scn: &crate::scenario::Scenario, path: &std::path::Path, window_
 
 /// The run of [`run_scenario`], its rows kept; an error is the run's failure, in words.
 fn run_kept(scn: &crate::scenario::Scenario, path: &std::path::Path) -> Result<crate::sim::Results, String> {
-    use crate::sim::{Event, SimError};
+    use crate::sim::{CollectError, SimError};
     let devices = crate::sim::Devices::load(scn).map_err(|e| format!("{e:#}"))?;
     let rig = crate::sim::build_rig(scn, &devices.plant).map_err(|e| format!("{e:#}"))?;
     let stops_rad = rig.stick_limits_rad();
     let steps = (scn.duration_s * scn.physics_rate_hz()).round() as usize;
-    let mut head = None;
-    let mut rows = Vec::with_capacity(steps + 1);
-    let opts = crate::sim::RunOptions { frames_hz: None };
-    let run = crate::sim::run_streaming(
-        scn,
-        &devices,
-        rig,
-        opts,
-        |_| {},
-        |e| {
-            match e {
-                Event::Start(h) => head = Some(h.clone()),
-                Event::Frame(..) => {}
-                Event::Row(r) => rows.push(*r),
-            }
-            Ok::<(), SimError>(())
-        },
-    );
+    let mut collector = crate::sim::Collector::keeping(true, false);
+    let run = collector.run(scn, &devices, rig, crate::sim::RunOptions::default(), |_| {});
     let failed = |e: &dyn std::fmt::Display| format!("running scenario {}: {e}", path.display());
-    match (run, head) {
-        (Ok((mut res, _)), _) => {
-            res.rows = rows;
-            Ok(res)
-        }
+    match (run, collector.stopped()) {
+        (Ok((res, _)), _) => Ok(res),
         // Run to its end (the range is judged there): the other invariants judged with the range lifted.
-        (Err(e @ SimError::Invariant { .. }), Some(mut res)) if rows.len() == steps => {
-            res.rows = rows;
+        (Err(CollectError::Run(e @ SimError::Invariant { .. })), Some(mut res))
+            if res.rows.len() == steps =>
+        {
             // The stick's end stops take energy at an impact, as in the run's own check.
             let mut check = crate::sim::invariants::Checker::new(scn)
                 .with_stops(stops_rad)
