@@ -138,21 +138,19 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
     if let (Some(rec), Some(res)) = (&rec, &res) {
         mrfeel::sim::log_rerun(rec, res)?;
     }
-    let mut plotted = match (&args.output.plot, &res) {
-        (Some(dir), Some(res)) => run_plots(res, dir)?,
-        _ => Vec::new(),
-    };
-    // Made for a flight with or without `--plot`: a flight whose chart cannot be made fails.
-    let chart = match &res {
-        Some(res) => mrfeel::sim::flight::stick_force_per_g_chart(res)?,
-        None => None,
-    };
-    if let (Some(dir), Some(chart)) = (&args.output.plot, chart) {
-        let name = format!("{}-stick-force-per-g", scn.name);
-        plotted.extend(
-            mrfeel::viz::plot::save_charts(&[chart], 1, dir, &name)
-                .with_context(|| format!("--plot {}", dir.display()))?,
-        );
+    let mut plotted = Vec::new();
+    if let (Some(dir), Some(res)) = (&args.output.plot, &res) {
+        plotted = run_plots(res, dir)?;
+        // A flight's chart reads its aircraft's model file again: only where it is drawn.
+        let chart = mrfeel::sim::flight::stick_force_per_g_chart(res)
+            .with_context(|| format!("--plot {}: the stick force per g chart", dir.display()))?;
+        if let Some(chart) = chart {
+            let name = format!("{}-stick-force-per-g", scn.name);
+            plotted.extend(
+                mrfeel::viz::plot::save_charts(&[chart], 1, dir, &name)
+                    .with_context(|| format!("--plot {}", dir.display()))?,
+            );
+        }
     }
     if args.output.json {
         // A kept run's JSON adds its flight's figures (`prelude::run_summary`).

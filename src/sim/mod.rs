@@ -559,6 +559,7 @@ impl<'a> Collector<'a> {
         let flight_info = |lp: &Loop<P>| {
             lp.flight.as_ref().map(|f| FlightInfo {
                 aircraft: f.label().to_string(),
+                model_file: f.model_file().to_path_buf(),
                 trim: f.trim,
                 trim_stick_rad: f.trim_stick_rad,
                 round_trip_us: f.round_trip_us(),

@@ -114,6 +114,8 @@ pub(crate) const AERO_COLUMNS: [&str; 13] = [
 pub struct FlightInfo {
     /// Backend label (`"c172p"`, `"jsbsim:c172p"`).
     pub aircraft: String,
+    /// The aircraft's mrfeel model file the flight flew.
+    pub model_file: std::path::PathBuf,
     /// The trimmed state the run starts from.
     pub trim: AircraftState,
     /// Stick angle of the trim (aircraft convention), rad: the rig's neutral.
