@@ -85,26 +85,35 @@ fn run_kept(scn: &crate::scenario::Scenario, path: &std::path::Path) -> Result<c
     }
 }
 
-/// Run `shard` of `plan` into `store`: every run of the shard not in it yet, on `jobs` threads, each
-/// appended to the journal as it finishes (`progress` told of it); then the results of the whole shard.
+/// The runs of `shard` of `plan`, each with its scenario built and checked: a bad value stops a sweep
+/// before it starts.
+pub fn checked_runs(plan: &Plan, shard: Shard) -> Result<Vec<(Run, crate::scenario::Scenario)>, PlanError> {
+    (0..plan.run_count())
+        .filter(|&i| shard.contains(i))
+        .map(|i| {
+            let run = plan.run(i);
+            plan.scenario(&run).map(|scn| (run, scn))
+        })
+        .collect()
+}
+
+/// Run the `runs` of a shard of `plan` ([`checked_runs`]) into `store`: every one not in it yet, on `jobs`
+/// threads, each appended to the journal as it finishes (`progress` told of it); then the results of the
+/// whole shard.
 pub fn execute(
     plan: &Plan,
     store: Store,
-    shard: Shard,
+    runs: Vec<(Run, crate::scenario::Scenario)>,
     jobs: usize,
     progress: &(dyn Fn(u64) + Sync),
 ) -> anyhow::Result<Vec<Record>> {
     use rayon::prelude::*;
     use std::sync::Mutex;
     let done: std::collections::HashSet<u64> = store.done.iter().map(|r| r.index).collect();
-    // Every scenario built once, before any run: a bad value stops the sweep before it starts.
-    let todo = (0..plan.run_count())
-        .filter(|&i| shard.contains(i) && !done.contains(&i))
-        .map(|i| {
-            let run = plan.run(i);
-            plan.scenario(&run).map(|scn| (run, scn))
-        })
-        .collect::<Result<Vec<_>, _>>()?;
+    let todo: Vec<_> = runs
+        .into_iter()
+        .filter(|(run, _)| !done.contains(&run.index))
+        .collect();
     let pool = rayon::ThreadPoolBuilder::new().num_threads(jobs.max(1)).build()?;
     let store = Mutex::new(store);
     let fresh = Mutex::new(Vec::with_capacity(todo.len()));
