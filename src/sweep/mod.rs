@@ -20,18 +20,11 @@ pub use store::{Record, Shard, Store};
 
 /// Run one run of a plan to its outcome (an error of the run itself is its outcome, not the sweep's).
 pub fn run_one(plan: &Plan, run: &Run) -> Record {
-    match plan.scenario(run) {
-        Err(e) => record(run, Outcome::failed(e.to_string())),
-        Ok(scn) => run_checked(plan, run, &scn),
-    }
-}
-
-/// Run one run whose scenario `plan.scenario(run)` has already built.
-fn run_checked(plan: &Plan, run: &Run, scn: &crate::scenario::Scenario) -> Record {
-    record(
-        run,
-        run_scenario(scn, &plan.scenario_path, plan.prolonged_window_s),
-    )
+    let outcome = match plan.scenario(run) {
+        Err(e) => Outcome::failed(e.to_string()),
+        Ok(scn) => outcome(plan, &scn),
+    };
+    record(run, outcome)
 }
 
 fn record(run: &Run, outcome: Outcome) -> Record {
@@ -43,17 +36,18 @@ fn record(run: &Run, outcome: Outcome) -> Record {
     }
 }
 
-/// A run as `mrfeel run` runs it to its outcome, except that a run whose only broken invariant is the load
-/// cell's range is a design point (a real rig would do the same), not a failed run: its figures are kept,
-/// with `load_cell_ok = false` and the peak. Every other invariant still fails the run.
-fn run_scenario(scn: &crate::scenario::Scenario, path: &std::path::Path, window_s: f64) -> Outcome {
-    match run_kept(scn, path) {
-        Ok(res) => Outcome::of(&res, scn, window_s),
+/// A run of `plan` with its scenario `scn`, as `mrfeel run` runs it, to its outcome, except that a run
+/// whose only broken invariant is the load cell's range is a design point (a real rig would do the same),
+/// not a failed run: its figures are kept, with `load_cell_ok = false` and the peak. Every other invariant
+/// still fails the run.
+fn outcome(plan: &Plan, scn: &crate::scenario::Scenario) -> Outcome {
+    match run_kept(scn, &plan.scenario_path) {
+        Ok(res) => Outcome::of(&res, scn, plan.prolonged_window_s),
         Err(msg) => Outcome::failed(msg),
     }
 }
 
-/// The run of [`run_scenario`], its rows kept; an error is the run's failure, in words.
+/// The run of [`outcome`], its rows kept; an error is the run's failure, in words.
 fn run_kept(scn: &crate::scenario::Scenario, path: &std::path::Path) -> Result<crate::sim::Results, String> {
     use crate::sim::{CollectError, SimError};
     let devices = crate::sim::Devices::load(scn).map_err(|e| format!("{e:#}"))?;
@@ -119,7 +113,7 @@ pub fn execute(
     let fresh = Mutex::new(Vec::with_capacity(todo.len()));
     pool.install(|| {
         todo.par_iter().try_for_each(|(run, scn)| -> anyhow::Result<()> {
-            let rec = run_checked(plan, run, scn);
+            let rec = record(run, outcome(plan, scn));
             store
                 .lock()
                 .map_err(|_| anyhow::anyhow!("a worker failed while writing the journal"))?
