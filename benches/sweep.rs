@@ -54,7 +54,8 @@ fn bench(c: &mut Criterion) {
                 || tempfile::tempdir().unwrap(),
                 |dir| {
                     let store = Store::open(dir.path(), &plan, Shard::ALL).unwrap();
-                    black_box(sweep::execute(&plan, store, Shard::ALL, jobs, &|_| {}).unwrap());
+                    let runs = sweep::checked_runs(&plan, Shard::ALL).unwrap();
+                    black_box(sweep::execute(&plan, store, runs, jobs, &|_| {}).unwrap());
                     dir
                 },
                 criterion::BatchSize::PerIteration,

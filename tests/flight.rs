@@ -563,3 +563,98 @@ fn a_jsbsim_aircraft_folder_flies_as_the_named_aircraft() {
         .fold(0.0, f64::max);
     assert!(peak > 1.0, "peak stick force {peak} N");
 }
+
+/// `mrfeel --data-dir D run` of a flight of `D/models/aircraft/myplane.toml` (the C172P's file) whose model
+/// file is deleted once the flight has opened it (after the CSV's first line reaches the pipe `--out`
+/// names): the CSV streamed to the pipe, the run's exit status and stderr, and the deleted file's path.
+#[cfg(unix)]
+fn fly_and_lose_the_model_file(plot: bool) -> (String, std::process::Output, PathBuf) {
+    use std::io::{BufRead, Read};
+    let tmp = tempfile::tempdir().unwrap();
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let aircraft = tmp.path().join("data/models/aircraft");
+    std::fs::create_dir_all(&aircraft).unwrap();
+    let model = aircraft.join("myplane.toml");
+    std::fs::copy(repo.join("models/aircraft/c172p.toml"), &model).unwrap();
+    let text = std::fs::read_to_string(scenario_path("c172p-pitch-tracking.toml"))
+        .unwrap()
+        .replace("duration_s = 26.0", "duration_s = 3.0")
+        .replace("model = \"c172p\"", "model = \"myplane\"")
+        .replace("\"../models/", &format!("\"{}/models/", repo.display()));
+    let scn = tmp.path().join("flight.toml");
+    std::fs::write(&scn, text).unwrap();
+    let fifo = tmp.path().join("run.csv");
+    let made = std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .expect("mkfifo runs");
+    assert!(made.success());
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let mut args = vec![
+        "--data-dir".into(),
+        s(&tmp.path().join("data")),
+        "run".into(),
+        s(&scn),
+    ];
+    args.extend(["--out".into(), s(&fifo)]);
+    if plot {
+        args.extend(["--plot".into(), s(tmp.path())]);
+    }
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_mrfeel"))
+        .args(&args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The CSV is written from the first step on, after the flight has loaded and trimmed its model.
+    let reader = {
+        let (fifo, model) = (fifo.clone(), model.clone());
+        std::thread::spawn(move || {
+            let mut csv = std::io::BufReader::new(std::fs::File::open(fifo).unwrap());
+            let mut text = String::new();
+            csv.read_line(&mut text).unwrap();
+            std::fs::remove_file(model).unwrap();
+            csv.read_to_string(&mut text).unwrap();
+            text
+        })
+    };
+    let out = child.wait_with_output().unwrap();
+    // A run that failed before opening the pipe leaves the reader waiting: its output tells why.
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(30);
+    while !reader.is_finished() && std::time::Instant::now() < deadline {
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    let csv = match reader.is_finished() {
+        true => reader.join().expect("the CSV's reader"),
+        false => String::new(),
+    };
+    (csv, out, model)
+}
+
+/// A flight's stick-force-per-g chart is made only for `--plot`: a run without it finishes and streams its
+/// whole CSV although the aircraft's model file, which the chart reads again, is gone by the end; with
+/// `--plot` the chart cannot be made and the error names that file.
+#[test]
+#[cfg(unix)]
+fn a_flight_reads_its_model_again_only_for_the_plot() {
+    let (csv, out, model) = fly_and_lose_the_model_file(false);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(!model.exists());
+    let header = csv.lines().find(|l| l.starts_with("t_s,")).expect("a header");
+    assert!(header.contains("stick_force_n"), "{header}");
+    // 3 s at 1 kHz: every step's row, the last 1 ms before the end.
+    let rows: Vec<&str> = csv
+        .lines()
+        .skip_while(|l| !l.starts_with("t_s,"))
+        .skip(1)
+        .collect();
+    assert_eq!(rows.len(), 3000);
+    let last_t: f64 = rows[2999].split(',').next().unwrap().parse().unwrap();
+    assert!((last_t - 2.999).abs() < 1e-9, "{last_t}");
+
+    let (_, out, model) = fly_and_lose_the_model_file(true);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "the chart was made without its model file");
+    assert!(err.contains(&model.display().to_string()), "{err}");
+}

@@ -1,6 +1,5 @@
 //! The `run` and `daq-sweep` subcommands.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
@@ -9,7 +8,7 @@ use indicatif::ProgressBar;
 use mrfeel::device::{DeviceConfig, Registry};
 use mrfeel::scenario::Scenario;
 use mrfeel::sim::response;
-use mrfeel::sim::{build_rig, Devices, Plant, Results, RunOptions};
+use mrfeel::sim::{build_rig, CollectError, Collector, Devices, Plant, Results, RunOptions};
 
 /// `mrfeel run SCENARIO`: run a stick-rig scenario headless.
 #[derive(Debug, clap::Args)]
@@ -139,21 +138,19 @@ pub fn run_cmd(args: &RunArgs, mut scn: Scenario) -> anyhow::Result<()> {
     if let (Some(rec), Some(res)) = (&rec, &res) {
         mrfeel::sim::log_rerun(rec, res)?;
     }
-    let mut plotted = match (&args.output.plot, &res) {
-        (Some(dir), Some(res)) => run_plots(res, dir)?,
-        _ => Vec::new(),
-    };
-    // Made for a flight with or without `--plot`: a flight whose chart cannot be made fails.
-    let chart = match &res {
-        Some(res) => mrfeel::sim::flight::stick_force_per_g_chart(res)?,
-        None => None,
-    };
-    if let (Some(dir), Some(chart)) = (&args.output.plot, chart) {
-        let name = format!("{}-stick-force-per-g", scn.name);
-        plotted.extend(
-            mrfeel::viz::plot::save_charts(&[chart], 1, dir, &name)
-                .with_context(|| format!("--plot {}", dir.display()))?,
-        );
+    let mut plotted = Vec::new();
+    if let (Some(dir), Some(res)) = (&args.output.plot, &res) {
+        plotted = run_plots(res, dir)?;
+        // A flight's chart reads its aircraft's model file again: only where it is drawn.
+        let chart = mrfeel::sim::flight::stick_force_per_g_chart(res)
+            .with_context(|| format!("--plot {}: the stick force per g chart", dir.display()))?;
+        if let Some(chart) = chart {
+            let name = format!("{}-stick-force-per-g", scn.name);
+            plotted.extend(
+                mrfeel::viz::plot::save_charts(&[chart], 1, dir, &name)
+                    .with_context(|| format!("--plot {}", dir.display()))?,
+            );
+        }
     }
     if args.output.json {
         // A kept run's JSON adds its flight's figures (`prelude::run_summary`).
@@ -209,9 +206,9 @@ fn maybe_whole<T>(
     }
 }
 
-/// A run whose rows go to its CSV (`--out`) and its recording (`--rerun FILE`)
-/// as they are made ([`mrfeel::sim::run_streaming`]), each file whole or not written. Returns the run's
-/// summary, and the run with its rows where `keep` (and its frames for a spawned viewer).
+/// A run whose rows go to its CSV (`--out`) and its recording (`--rerun FILE`) as they are made
+/// ([`Collector`]), each file whole or not written. Returns the run's summary, and the run with its rows
+/// where `keep` (and its frames for a spawned viewer).
 fn run_streamed<P: Plant>(
     args: &RunArgs,
     scn: &Scenario,
@@ -225,18 +222,6 @@ fn run_streamed<P: Plant>(
     #[cfg(not(feature = "rerun"))]
     let rrd: Option<&Path> = None;
     let pb = progress_bar(1000, &scn.name);
-    let writing = || {
-        format!(
-            "writing {}",
-            args.out.as_deref().unwrap_or(Path::new("")).display()
-        )
-    };
-    let n = if keep {
-        (scn.duration_s * scn.physics_rate_hz()).round() as usize + 1
-    } else {
-        0
-    };
-    let (mut rows, mut frames) = (Vec::with_capacity(n), Vec::new());
     let run = maybe_whole(args.out.as_deref(), "writing", |csv_tmp| {
         maybe_whole(rrd, "--rerun", |_rrd_tmp| {
             let mut csv = match csv_tmp {
@@ -250,77 +235,32 @@ fn run_streamed<P: Plant>(
                 Some(p) => Some(mrfeel::viz::rerun_rig::to_file(p)?),
                 None => None,
             };
-            #[cfg(feature = "rerun")]
-            let mut logger: Option<mrfeel::viz::rerun_rig::RunLogger<'_>> = None;
-            let mut head: Option<Results> = None;
-            let run = mrfeel::sim::run_streaming(
-                scn,
-                devices,
-                plant,
-                opts,
-                |f| pb.set_position((f * 1000.0) as u64),
-                |e| -> anyhow::Result<()> {
-                    match e {
-                        mrfeel::sim::Event::Start(h) => {
-                            if let Some(w) = csv.as_mut() {
-                                h.write_csv_head(w).with_context(writing)?;
-                            }
-                            #[cfg(feature = "rerun")]
-                            if let Some(rec) = &file_rec {
-                                logger = Some(mrfeel::viz::rerun_rig::RunLogger::new(
-                                    rec,
-                                    &h.visuals,
-                                    h.flight.is_some(),
-                                )?);
-                            }
-                            head = Some(h.clone());
-                        }
-                        mrfeel::sim::Event::Frame(t, poses) => {
-                            #[cfg(feature = "rerun")]
-                            if let Some(l) = logger.as_mut() {
-                                l.frame(t, poses);
-                            }
-                            if keep && args.spawn {
-                                frames.push((t, poses.to_vec()));
-                            }
-                        }
-                        mrfeel::sim::Event::Row(r) => {
-                            if let (Some(w), Some(h)) = (csv.as_mut(), &head) {
-                                h.write_csv_row(w, r).with_context(writing)?;
-                            }
-                            #[cfg(feature = "rerun")]
-                            if let Some(l) = logger.as_mut() {
-                                l.sample(&mrfeel::sim::rerun_sample(r))?;
-                            }
-                            if keep {
-                                rows.push(*r);
-                            }
-                        }
-                    }
-                    Ok(())
-                },
-            )?;
-            #[cfg(feature = "rerun")]
-            if let Some(l) = logger {
-                l.finish()?;
+            let mut collector = Collector::keeping(keep, keep && args.spawn);
+            if let Some(w) = csv.as_mut() {
+                collector = collector.with_csv(w);
             }
-            if let Some(mut w) = csv {
-                // A buffered writer drops its last failure: flush it here, where the error can be reported.
-                w.flush().with_context(writing)?;
+            #[cfg(feature = "rerun")]
+            if let Some(rec) = &file_rec {
+                collector = collector.with_recording(rec);
             }
-            Ok(run)
+            collector
+                .run(scn, devices, plant, opts, |f| {
+                    pb.set_position((f * 1000.0) as u64)
+                })
+                .map_err(|e| match e {
+                    CollectError::Csv(e) => anyhow::Error::new(e).context(format!(
+                        "writing {}",
+                        args.out.as_deref().unwrap_or(Path::new("")).display()
+                    )),
+                    CollectError::Run(e) => e.into(),
+                    #[cfg(feature = "rerun")]
+                    CollectError::Recording(e) => e.into(),
+                })
         })
     });
     pb.finish_and_clear();
-    let (mut res, summary) = run?;
-    Ok((
-        keep.then(|| {
-            res.rows = rows;
-            res.frames = frames;
-            res
-        }),
-        summary,
-    ))
+    let (res, summary) = run?;
+    Ok((keep.then_some(res), summary))
 }
 
 /// The run drawn for `run --plot DIR`: `DIR/run.png` and `DIR/run.svg`.

@@ -78,16 +78,13 @@ pub fn run_cmd(args: &SweepArgs) -> anyhow::Result<()> {
     let plan = Plan::load(plan_path)?;
     // (`--shard` conflicts with `--ray`: a sweep on Ray checks every run.)
     let shard = args.shard.unwrap_or(Shard::ALL);
-    let runs = || (0..plan.run_count()).filter(|&i| shard.contains(i));
     // Every run's scenario checked before the output directory is made: a refused plan writes nothing.
-    for i in runs() {
-        plan.scenario(&plan.run(i))?;
-    }
+    let runs = mrfeel::sweep::checked_runs(&plan, shard)?;
     if let Some(address) = &args.ray {
         return run_ray(args, plan_path, &plan, out, address);
     }
     let store = Store::open(out, &plan, shard)?;
-    let total = runs().count() as u64;
+    let total = runs.len() as u64;
     let already = store.done.len() as u64;
     let jobs = args.jobs.unwrap_or_else(rayon::current_num_threads);
     anyhow::ensure!(jobs >= 1, "--jobs 0: give at least 1");
@@ -96,7 +93,7 @@ pub fn run_cmd(args: &SweepArgs) -> anyhow::Result<()> {
         "sweep [{bar:40}] {pos}/{len} runs {elapsed_precise} eta {eta}",
     );
     pb.set_position(already);
-    let records = mrfeel::sweep::execute(&plan, store, shard, jobs, &|_| pb.inc(1))?;
+    let records = mrfeel::sweep::execute(&plan, store, runs, jobs, &|_| pb.inc(1))?;
     pb.finish_and_clear();
     mrfeel::outln!(
         "{}: {} runs ({} resumed from {}), shard {}",

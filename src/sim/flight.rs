@@ -56,22 +56,21 @@ pub struct AeroRow {
 /// command per unit of the pilot's output, for a fly-by-wire aircraft (its embedded model with the FCS).
 fn adapted(
     cfg: &AircraftConfig,
+    file: &std::path::Path,
     kind: PilotLoop,
     (crossover_rad_s, delay_s, stick_lag_s): (f64, f64, f64),
     fly_by_wire: Option<f64>,
     dt_s: f64,
 ) -> Result<CrossoverPilotConfig, AeroError> {
-    let name = cfg.model.strip_prefix("jsbsim:").unwrap_or(&cfg.model);
-    let file = crate::aero::backend::model_file(name)?;
     let design = crate::pilot::attitude::CrossoverDesign::new(crossover_rad_s, delay_s);
     let pilot = match fly_by_wire {
         None => {
-            let mut ac = crate::aero::Aircraft::load(&file)?;
+            let mut ac = crate::aero::Aircraft::load(file)?;
             ac.trim(cfg.airspeed_m_s, cfg.altitude_m)?;
             crate::aero::linear::adapted_pilot(&ac, kind, &design, stick_lag_s)
         }
         Some(command_per_output) => {
-            let Some(model) = crate::aero::FbwModel::load(&file)? else {
+            let Some(model) = crate::aero::FbwModel::load(file)? else {
                 return Err(AeroError::Refused {
                     what: format!("adapted pilot for `{}`", cfg.model),
                     why: "the adapted pilot is designed on an embedded model ([airframe], [aero_tables], \
@@ -110,6 +109,8 @@ enum Controls {
 /// An aircraft stepped in lock-step with the rig.
 pub struct Flight {
     backend: Box<dyn AircraftBackend>,
+    /// The aircraft's mrfeel model file ([`backend::model_file`]).
+    model_file: std::path::PathBuf,
     controls: Controls,
     /// The trimmed state the flight starts from.
     pub trim: AircraftState,
@@ -135,6 +136,7 @@ impl Flight {
         force_task: bool,
     ) -> Result<Self, AeroError> {
         let mut backend = backend::open(&cfg.model)?;
+        let model_file = backend::model_file(cfg.model.strip_prefix("jsbsim:").unwrap_or(&cfg.model))?;
         let dt_s = 1.0 / cfg.rate_hz;
         let trim = backend.trim(cfg.airspeed_m_s, cfg.altitude_m, dt_s)?;
         let controls = match (backend.hinge(), backend.fly_by_wire()) {
@@ -184,7 +186,7 @@ impl Flight {
                             Controls::Hinge(_) => None,
                         };
                         let design = (crossover_rad_s, delay_s, stick_lag_s);
-                        adapted(cfg, o.loop_kind, design, fly_by_wire, dt_s)?
+                        adapted(cfg, &model_file, o.loop_kind, design, fly_by_wire, dt_s)?
                     }
                 };
                 Some(Outer {
@@ -204,6 +206,7 @@ impl Flight {
         };
         Ok(Self {
             backend,
+            model_file,
             controls,
             trim,
             trim_stick_rad,
@@ -220,6 +223,11 @@ impl Flight {
     /// The backend's label (`"c172p"`, `"jsbsim:c172p"`).
     pub fn label(&self) -> &str {
         self.backend.label()
+    }
+
+    /// The aircraft's mrfeel model file (`models/aircraft/<name>.toml`, a JSBSim folder's `mrfeel.toml`).
+    pub fn model_file(&self) -> &std::path::Path {
+        &self.model_file
     }
 
     /// The aircraft model's parameters marked `[EST]` (estimates without a source).
@@ -326,21 +334,20 @@ impl Flight {
 /// Stick force against load factor for a flight, with what it is judged by: the flown samples (every
 /// tenth row), the steady pull-up of the embedded model at the trim (or a fly-by-wire stick's designed
 /// law), and the boundaries `F = F/g (n − 1)` of the allowed stick force per g of the aircraft's basis
-/// (MIL-F-8785C Level 1, or the 14 CFR 23 / 25 limits; [`crate::aero::FeelAssessment`]). `None` without
-/// an aircraft.
+/// (MIL-F-8785C Level 1, or the 14 CFR 23 / 25 limits; [`crate::aero::FeelAssessment`]), read from the
+/// model file the flight flew. `None` without an aircraft.
 pub fn stick_force_per_g_chart(res: &super::Results) -> Result<Option<crate::viz::plot::Chart>, AeroError> {
     let Some(f) = &res.flight else { return Ok(None) };
-    let name = f.aircraft.strip_prefix("jsbsim:").unwrap_or(&f.aircraft);
-    let file = crate::aero::backend::model_file(name)?;
+    let file = &f.model_file;
     let flown = |force: fn(&super::Row, &AeroRow) -> f64| -> Vec<(f64, f64)> {
         let rows = res.rows.iter().step_by(10);
         rows.filter_map(|r| r.aero.map(|a| (a.nz_g, force(r, &a))))
             .collect()
     };
     let (v, h) = (f.trim.airspeed_m_s, f.trim.altitude_m);
-    if crate::aero::backend::is_fly_by_wire_file(&file)? {
+    if crate::aero::backend::is_fly_by_wire_file(file)? {
         // The hand's force on the grip, which the stick's force sensor hands to the FCS.
-        let fbw = FlyByWire::load(&file)?;
+        let fbw = FlyByWire::load(file)?;
         let designed = format!(
             "designed: {:.1} N breakout + {:.1} N/g",
             fbw.breakout_n, fbw.stick_force_per_g_n
@@ -360,9 +367,7 @@ pub fn stick_force_per_g_chart(res: &super::Results) -> Result<Option<crate::viz
             fbw.level1_per_g_n(),
         )));
     }
-    let a = crate::aero::Aircraft::new(std::sync::Arc::new(crate::aero::AircraftModel::load_builtin(
-        name,
-    )?));
+    let a = crate::aero::Aircraft::load(file)?;
     let assess = crate::aero::FeelAssessment::assess(&a, v, h)?;
     Ok(Some(per_g_chart(
         format!(

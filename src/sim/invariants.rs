@@ -72,38 +72,12 @@ fn broken(scn: &Scenario, invariant: String, t_s: f64) -> SimError {
     }
 }
 
-/// The first value of a row that is not a number, by its column (the pilot's command excepted: NaN there
-/// means hands off the stick).
+/// The first value of a row that is not a finite number, by its CSV column; NaN is no breach in the
+/// commands where it means none ([`super::results::NAN_MEANS_NONE`]: hands off, no outer loop).
 fn not_finite(r: &Row) -> Option<(&'static str, f64)> {
-    let mut cols = vec![
-        ("stick_rate_rad_s", r.stick_rate_rad_s),
-        ("load_cell_n", r.load_cell_n),
-        ("desired_force_n", r.desired_force_n),
-        ("current_a", r.current_a),
-        ("pilot_force_n", r.pilot_force_n),
-        ("damper_force_n", r.damper_force_n),
-        ("yield_force_n", r.yield_force_n),
-        ("kinetic_energy_j", r.kinetic_energy_j),
-        ("potential_energy_j", r.potential_energy_j),
-        ("dissipated_j", r.dissipated_j),
-        ("pilot_work_j", r.pilot_work_j),
-        ("current_applied_a", r.current_applied_a),
-        ("coil_current_a", r.coil_current_a),
-        ("spring_energy_j", r.spring_energy_j),
-        ("actuator_force_n", r.actuator_force_n),
-        ("actuator_work_j", r.actuator_work_j),
-    ];
-    if let Some(a) = &r.aero {
-        cols.extend([
-            ("qbar_pa", a.qbar_pa),
-            ("elevator_rad", a.elevator_rad),
-            ("hinge_moment_nm", a.hinge_moment_nm),
-            ("pitch_rad", a.pitch_rad),
-            ("nz_g", a.nz_g),
-            ("stick_force_n", a.stick_force_n),
-        ]);
-    }
-    cols.into_iter().find(|(_, v)| !v.is_finite())
+    r.named_values()
+        .filter(|(col, v)| !(v.is_nan() && super::results::NAN_MEANS_NONE.contains(col)))
+        .find(|(_, v)| !v.is_finite())
 }
 
 /// How long an impact on a stop lasts after the stick leaves it, s: rapier's position correction of the
@@ -361,6 +335,48 @@ end_s = 1.5
     }
 
     const SIDESTICK_STOPS_RAD: (f64, f64) = (-0.0025, 0.047625);
+
+    /// A number that is not finite in any column of a row, the aircraft's included, breaks the run at once
+    /// and is named by its column; a NaN command that means none (hands off, no outer loop) does not.
+    #[test]
+    fn a_value_not_finite_in_any_column_is_named_but_a_command_of_none_is_not() {
+        let (scn, res) = stop_impact_run();
+        let row = Row {
+            aero: Some(crate::sim::AeroRow::default()),
+            ..res.rows[100]
+        };
+        let push = |r: &Row| Checker::new(&scn).push(r).map_err(|e| e.to_string());
+        assert_eq!(push(&row), Ok(()));
+        type Spoil = fn(&mut Row);
+        let spoilt: [(&str, Spoil); 8] = [
+            ("stick_angle_rad", |r| r.stick_angle_rad = f64::NAN),
+            ("piston_x_m", |r| r.piston_x_m = f64::NAN),
+            ("piston_v_m_s", |r| r.piston_v_m_s = f64::INFINITY),
+            ("q_rad_s", |r| r.aero.as_mut().unwrap().q_rad_s = f64::NAN),
+            ("alpha_rad", |r| r.aero.as_mut().unwrap().alpha_rad = f64::NAN),
+            ("airspeed_m_s", |r| {
+                r.aero.as_mut().unwrap().airspeed_m_s = f64::NAN
+            }),
+            ("altitude_m", |r| {
+                r.aero.as_mut().unwrap().altitude_m = f64::NEG_INFINITY
+            }),
+            ("pilot_cmd", |r| r.pilot_cmd = f64::INFINITY),
+        ];
+        for (col, spoil) in spoilt {
+            let mut r = row;
+            spoil(&mut r);
+            let e = push(&r).unwrap_err();
+            assert!(
+                e.contains(&format!("every number finite: `{col}` is ")),
+                "{col}: {e}"
+            );
+        }
+        let mut none = row;
+        none.pilot_cmd = f64::NAN;
+        let a = none.aero.as_mut().unwrap();
+        (a.pitch_cmd_rad, a.nz_cmd_g, a.stick_cmd_rad) = (f64::NAN, f64::NAN, f64::NAN);
+        assert_eq!(push(&none), Ok(()));
+    }
 
     fn check_rows(
         scn: &crate::scenario::Scenario,

@@ -486,93 +486,173 @@ pub fn load(path: &std::path::Path) -> anyhow::Result<(Scenario, Devices, crate:
     Ok((scn, devices, rig))
 }
 
-/// What a run hands to its outputs as it goes ([`run_streaming`]).
-pub enum Event<'a> {
-    /// Once, before the first row: the run's facts ([`Results`] without rows or frames).
-    Start(&'a Results),
-    /// The bodies' poses at a drawing frame, before the row of the same step.
-    Frame(f64, &'a [crate::rig::BodyPose]),
-    /// One physics step's row.
-    Row(&'a Row),
+/// Why a collected run stopped ([`Collector::run`]): the run itself, or one of its outputs.
+#[derive(Debug, thiserror::Error)]
+pub enum CollectError {
+    /// The run failed.
+    #[error(transparent)]
+    Run(#[from] SimError),
+    /// Writing the CSV failed.
+    #[error("writing the CSV")]
+    Csv(#[source] std::io::Error),
+    /// Writing the recording failed.
+    #[cfg(feature = "rerun")]
+    #[error(transparent)]
+    Recording(#[from] crate::viz::rerun_rig::VizError),
 }
 
-/// Run a scenario on a plant to its end, handing every row and drawing frame to `sink` as it is made and
-/// keeping none (bounded memory); each row is checked (`invariants::Checker`) before it is handed on.
-/// Returns the run's facts (no rows or frames) and its summary; `progress` gets the fraction done.
-pub fn run_streaming<P: Plant, E: From<SimError>>(
-    scn: &Scenario,
-    devices: &Devices,
-    plant: P,
-    opts: RunOptions,
-    mut progress: impl FnMut(f64),
-    mut sink: impl FnMut(Event<'_>) -> Result<(), E>,
-) -> Result<(Results, Summary), E> {
-    let mut lp = Loop::new(scn, devices, plant)?;
-    let dt = lp.plant.dt_s();
-    let n = (scn.duration_s / dt).round() as usize;
-    let frame_every = opts
-        .frames_hz
-        .map(|hz| ((1.0 / (hz * dt)).round() as usize).max(1));
-    let flight_info = |lp: &Loop<P>| {
-        lp.flight.as_ref().map(|f| FlightInfo {
-            aircraft: f.label().to_string(),
-            trim: f.trim,
-            trim_stick_rad: f.trim_stick_rad,
-            round_trip_us: f.round_trip_us(),
-            estimates: f.estimates().to_vec(),
-        })
-    };
-    let mut head = Results {
-        scenario: scn.name.clone(),
-        rest_speed_m_s: scn.controller.rest_speed_m_s,
-        stroke_half_m: lp.plant.stroke_half_m(),
-        current_max_a: scn.controller.gains.out_max,
-        rows: Vec::new(),
-        visuals: frame_every.map_or_else(Vec::new, |_| lp.plant.visuals()),
-        frames: Vec::new(),
-        feel_ceiling_n: devices.plant.ceiling_force_n(scn.controller.gains.out_max),
-        controller_model: if scn.feel_system.kind.has_coil() {
-            devices.controller_label()
-        } else {
-            format!(
-                "none: the {} has no MR damper controller",
-                scn.feel_system.kind.name()
-            )
-        },
-        grip_arm_m: lp.plant.grip_arm_m(),
-        gearing_at_centre_m_per_rad: lp.plant.gearing_m_per_rad(0.0),
-        flight: flight_info(&lp),
-        stops_j: 0.0,
-    };
-    sink(Event::Start(&head))?;
-    let mut check = invariants::Checker::new(scn).with_stops(lp.plant.stick_limits_rad());
-    let mut summary = results::SummaryAcc::default();
-    let report_every = (n / 200).max(1);
-    for k in 0..n {
-        if let Some(every) = frame_every {
-            if k % every == 0 {
-                sink(Event::Frame(k as f64 * dt, &lp.plant.poses()))?;
-            }
-        }
-        let row = lp.step()?;
-        check.push(&row)?;
-        summary.push(&row);
-        sink(Event::Row(&row))?;
-        if k % report_every == 0 {
-            if crate::interrupt::requested() {
-                return Err(SimError::Interrupted.into());
-            }
-            progress(k as f64 / n as f64);
+/// What a run keeps and writes as it goes ([`Collector::run`]): its rows streamed to a CSV, kept in
+/// memory, or neither (then memory does not grow with the run); its drawing frames kept for a viewer;
+/// with the `rerun` feature, a recording made as it goes.
+#[derive(Default)]
+pub struct Collector<'a> {
+    csv: Option<&'a mut dyn std::io::Write>,
+    keep_rows: bool,
+    keep_frames: bool,
+    #[cfg(feature = "rerun")]
+    recording: Option<&'a rerun::RecordingStream>,
+    /// The run's facts from its start, with the rows and frames kept so far.
+    head: Option<Results>,
+}
+
+impl<'a> Collector<'a> {
+    /// A collector that keeps the rows where `rows`, and the drawing frames where `frames`.
+    pub fn keeping(rows: bool, frames: bool) -> Self {
+        Self {
+            keep_rows: rows,
+            keep_frames: frames,
+            ..Self::default()
         }
     }
-    progress(1.0);
-    let summary = check.finish(summary.finish(&head))?;
-    head.flight = flight_info(&lp);
-    head.stops_j = summary.stops_j;
-    Ok((head, summary))
+
+    /// Also write the run's CSV ([`Results::write_csv`]) to `w` as it goes, flushed at the end.
+    pub fn with_csv(self, w: &'a mut dyn std::io::Write) -> Self {
+        Self { csv: Some(w), ..self }
+    }
+
+    /// Also log the run to the recording `rec` as it goes.
+    #[cfg(feature = "rerun")]
+    pub fn with_recording(self, rec: &'a rerun::RecordingStream) -> Self {
+        Self {
+            recording: Some(rec),
+            ..self
+        }
+    }
+
+    /// Run a scenario on a plant to its end; each row is checked (`invariants::Checker`) before it is
+    /// written or kept. Returns the run with the rows and frames kept, and its summary; `progress` gets
+    /// the fraction done.
+    pub fn run<P: Plant>(
+        &mut self,
+        scn: &Scenario,
+        devices: &Devices,
+        plant: P,
+        opts: RunOptions,
+        mut progress: impl FnMut(f64),
+    ) -> Result<(Results, Summary), CollectError> {
+        let mut lp = Loop::new(scn, devices, plant)?;
+        let dt = lp.plant.dt_s();
+        let n = (scn.duration_s / dt).round() as usize;
+        let frame_every = opts
+            .frames_hz
+            .map(|hz| ((1.0 / (hz * dt)).round() as usize).max(1));
+        let flight_info = |lp: &Loop<P>| {
+            lp.flight.as_ref().map(|f| FlightInfo {
+                aircraft: f.label().to_string(),
+                model_file: f.model_file().to_path_buf(),
+                trim: f.trim,
+                trim_stick_rad: f.trim_stick_rad,
+                round_trip_us: f.round_trip_us(),
+                estimates: f.estimates().to_vec(),
+            })
+        };
+        let head = self.head.insert(Results {
+            scenario: scn.name.clone(),
+            rest_speed_m_s: scn.controller.rest_speed_m_s,
+            stroke_half_m: lp.plant.stroke_half_m(),
+            current_max_a: scn.controller.gains.out_max,
+            rows: Vec::with_capacity(if self.keep_rows { n + 1 } else { 0 }),
+            visuals: frame_every.map_or_else(Vec::new, |_| lp.plant.visuals()),
+            frames: Vec::new(),
+            feel_ceiling_n: devices.plant.ceiling_force_n(scn.controller.gains.out_max),
+            controller_model: if scn.feel_system.kind.has_coil() {
+                devices.controller_label()
+            } else {
+                format!(
+                    "none: the {} has no MR damper controller",
+                    scn.feel_system.kind.name()
+                )
+            },
+            grip_arm_m: lp.plant.grip_arm_m(),
+            gearing_at_centre_m_per_rad: lp.plant.gearing_m_per_rad(0.0),
+            flight: flight_info(&lp),
+            stops_j: 0.0,
+        });
+        if let Some(w) = self.csv.as_mut() {
+            head.write_csv_head(&mut **w).map_err(CollectError::Csv)?;
+        }
+        #[cfg(feature = "rerun")]
+        let mut logger = self
+            .recording
+            .map(|rec| crate::viz::rerun_rig::RunLogger::new(rec, &head.visuals, head.flight.is_some()))
+            .transpose()?;
+        let mut check = invariants::Checker::new(scn).with_stops(lp.plant.stick_limits_rad());
+        let mut summary = results::SummaryAcc::default();
+        let report_every = (n / 200).max(1);
+        for k in 0..n {
+            if frame_every.is_some_and(|every| k % every == 0) {
+                let (t, poses) = (k as f64 * dt, lp.plant.poses());
+                #[cfg(feature = "rerun")]
+                if let Some(l) = logger.as_mut() {
+                    l.frame(t, &poses);
+                }
+                if self.keep_frames {
+                    head.frames.push((t, poses));
+                }
+            }
+            let row = lp.step()?;
+            check.push(&row)?;
+            summary.push(&row);
+            if let Some(w) = self.csv.as_mut() {
+                head.write_csv_row(&mut **w, &row).map_err(CollectError::Csv)?;
+            }
+            #[cfg(feature = "rerun")]
+            if let Some(l) = logger.as_mut() {
+                l.sample(&rerun_sample(&row))?;
+            }
+            if self.keep_rows {
+                head.rows.push(row);
+            }
+            if k % report_every == 0 {
+                if crate::interrupt::requested() {
+                    return Err(SimError::Interrupted.into());
+                }
+                progress(k as f64 / n as f64);
+            }
+        }
+        progress(1.0);
+        let summary = check.finish(summary.finish(head))?;
+        #[cfg(feature = "rerun")]
+        if let Some(l) = logger {
+            l.finish()?;
+        }
+        if let Some(w) = self.csv.as_mut() {
+            // A buffered writer drops its last failure: flush it here, where the error can be reported.
+            w.flush().map_err(CollectError::Csv)?;
+        }
+        let mut res = self.head.take().expect("set at the start of the run");
+        res.flight = flight_info(&lp);
+        res.stops_j = summary.stops_j;
+        Ok((res, summary))
+    }
+
+    /// The run's facts and the rows kept up to the error that stopped it ([`Collector::run`]).
+    pub(crate) fn stopped(self) -> Option<Results> {
+        self.head
+    }
 }
 
-/// Run a scenario on a plant to its end, keeping every row and drawing frame ([`run_streaming`]);
+/// Run a scenario on a plant to its end, keeping every row and drawing frame ([`Collector`]);
 /// `progress` is called with the fraction done.
 pub fn run<P: Plant>(
     scn: &Scenario,
@@ -581,18 +661,10 @@ pub fn run<P: Plant>(
     opts: RunOptions,
     progress: impl FnMut(f64),
 ) -> Result<Results, SimError> {
-    let n = (scn.duration_s * scn.physics_rate_hz()).round() as usize;
-    let mut rows = Vec::with_capacity(n + 1);
-    let mut frames = Vec::new();
-    let (mut res, _) = run_streaming(scn, devices, plant, opts, progress, |e| {
-        match e {
-            Event::Start(_) => {}
-            Event::Frame(t, poses) => frames.push((t, poses.to_vec())),
-            Event::Row(r) => rows.push(*r),
-        }
-        Ok::<(), SimError>(())
-    })?;
-    res.rows = rows;
-    res.frames = frames;
-    Ok(res)
+    match Collector::keeping(true, true).run(scn, devices, plant, opts, progress) {
+        Ok((res, _)) => Ok(res),
+        Err(CollectError::Run(e)) => Err(e),
+        // Nothing is written: no output can fail.
+        Err(e) => unreachable!("{e}"),
+    }
 }

@@ -109,11 +109,17 @@ pub(crate) const AERO_COLUMNS: [&str; 13] = [
     "stick_cmd_rad",
 ];
 
+/// Columns where NaN means none rather than a failed number: the pilot's command (hands off the stick)
+/// and the outer loop's commands (the other loop's, or no outer loop).
+pub(crate) const NAN_MEANS_NONE: [&str; 4] = ["pilot_cmd", "pitch_cmd_rad", "nz_cmd_g", "stick_cmd_rad"];
+
 /// The aircraft of a flight run.
 #[derive(Debug, Clone)]
 pub struct FlightInfo {
     /// Backend label (`"c172p"`, `"jsbsim:c172p"`).
     pub aircraft: String,
+    /// The aircraft's mrfeel model file the flight flew.
+    pub model_file: std::path::PathBuf,
     /// The trimmed state the run starts from.
     pub trim: AircraftState,
     /// Stick angle of the trim (aircraft convention), rad: the rig's neutral.
@@ -422,6 +428,16 @@ impl AeroRow {
 }
 
 impl Row {
+    /// Every number of the row by its CSV column: [`CSV_COLUMNS`], then [`AERO_COLUMNS`] where the row has
+    /// the aircraft's.
+    pub(crate) fn named_values(&self) -> impl Iterator<Item = (&'static str, f64)> {
+        let aero = self.aero.map(|a| AERO_COLUMNS.into_iter().zip(a.values()));
+        CSV_COLUMNS
+            .into_iter()
+            .zip(self.values())
+            .chain(aero.into_iter().flatten())
+    }
+
     /// The row's values in the order of [`CSV_COLUMNS`] (the loop mode and the fault mask as the integers
     /// they are, which print alike as `f64`).
     fn values(&self) -> [f64; CSV_COLUMNS.len()] {

@@ -20,18 +20,11 @@ pub use store::{Record, Shard, Store};
 
 /// Run one run of a plan to its outcome (an error of the run itself is its outcome, not the sweep's).
 pub fn run_one(plan: &Plan, run: &Run) -> Record {
-    match plan.scenario(run) {
-        Err(e) => record(run, Outcome::failed(e.to_string())),
-        Ok(scn) => run_checked(plan, run, &scn),
-    }
-}
-
-/// Run one run whose scenario `plan.scenario(run)` has already built.
-fn run_checked(plan: &Plan, run: &Run, scn: &crate::scenario::Scenario) -> Record {
-    record(
-        run,
-        run_scenario(scn, &plan.scenario_path, plan.prolonged_window_s),
-    )
+    let outcome = match plan.scenario(run) {
+        Err(e) => Outcome::failed(e.to_string()),
+        Ok(scn) => outcome(plan, &scn),
+    };
+    record(run, outcome)
 }
 
 fn record(run: &Run, outcome: Outcome) -> Record {
@@ -43,50 +36,33 @@ fn record(run: &Run, outcome: Outcome) -> Record {
     }
 }
 
-/// A run as `mrfeel run` runs it to its outcome, except that a run whose only broken invariant is the load
-/// cell's range is a design point (a real rig would do the same), not a failed run: its figures are kept,
-/// with `load_cell_ok = false` and the peak. Every other invariant still fails the run.
-fn run_scenario(scn: &crate::scenario::Scenario, path: &std::path::Path, window_s: f64) -> Outcome {
-    match run_kept(scn, path) {
-        Ok(res) => Outcome::of(&res, scn, window_s),
+/// A run of `plan` with its scenario `scn`, as `mrfeel run` runs it, to its outcome, except that a run
+/// whose only broken invariant is the load cell's range is a design point (a real rig would do the same),
+/// not a failed run: its figures are kept, with `load_cell_ok = false` and the peak. Every other invariant
+/// still fails the run.
+fn outcome(plan: &Plan, scn: &crate::scenario::Scenario) -> Outcome {
+    match run_kept(scn, &plan.scenario_path) {
+        Ok(res) => Outcome::of(&res, scn, plan.prolonged_window_s),
         Err(msg) => Outcome::failed(msg),
     }
 }
 
-/// The run of [`run_scenario`], its rows kept; an error is the run's failure, in words.
+/// The run of [`outcome`], its rows kept; an error is the run's failure, in words.
 fn run_kept(scn: &crate::scenario::Scenario, path: &std::path::Path) -> Result<crate::sim::Results, String> {
-    use crate::sim::{Event, SimError};
+    use crate::sim::{CollectError, SimError};
     let devices = crate::sim::Devices::load(scn).map_err(|e| format!("{e:#}"))?;
     let rig = crate::sim::build_rig(scn, &devices.plant).map_err(|e| format!("{e:#}"))?;
     let stops_rad = rig.stick_limits_rad();
     let steps = (scn.duration_s * scn.physics_rate_hz()).round() as usize;
-    let mut head = None;
-    let mut rows = Vec::with_capacity(steps + 1);
-    let opts = crate::sim::RunOptions { frames_hz: None };
-    let run = crate::sim::run_streaming(
-        scn,
-        &devices,
-        rig,
-        opts,
-        |_| {},
-        |e| {
-            match e {
-                Event::Start(h) => head = Some(h.clone()),
-                Event::Frame(..) => {}
-                Event::Row(r) => rows.push(*r),
-            }
-            Ok::<(), SimError>(())
-        },
-    );
+    let mut collector = crate::sim::Collector::keeping(true, false);
+    let run = collector.run(scn, &devices, rig, crate::sim::RunOptions::default(), |_| {});
     let failed = |e: &dyn std::fmt::Display| format!("running scenario {}: {e}", path.display());
-    match (run, head) {
-        (Ok((mut res, _)), _) => {
-            res.rows = rows;
-            Ok(res)
-        }
+    match (run, collector.stopped()) {
+        (Ok((res, _)), _) => Ok(res),
         // Run to its end (the range is judged there): the other invariants judged with the range lifted.
-        (Err(e @ SimError::Invariant { .. }), Some(mut res)) if rows.len() == steps => {
-            res.rows = rows;
+        (Err(CollectError::Run(e @ SimError::Invariant { .. })), Some(mut res))
+            if res.rows.len() == steps =>
+        {
             // The stick's end stops take energy at an impact, as in the run's own check.
             let mut check = crate::sim::invariants::Checker::new(scn)
                 .with_stops(stops_rad)
@@ -103,32 +79,41 @@ fn run_kept(scn: &crate::scenario::Scenario, path: &std::path::Path) -> Result<c
     }
 }
 
-/// Run `shard` of `plan` into `store`: every run of the shard not in it yet, on `jobs` threads, each
-/// appended to the journal as it finishes (`progress` told of it); then the results of the whole shard.
+/// The runs of `shard` of `plan`, each with its scenario built and checked: a bad value stops a sweep
+/// before it starts.
+pub fn checked_runs(plan: &Plan, shard: Shard) -> Result<Vec<(Run, crate::scenario::Scenario)>, PlanError> {
+    (0..plan.run_count())
+        .filter(|&i| shard.contains(i))
+        .map(|i| {
+            let run = plan.run(i);
+            plan.scenario(&run).map(|scn| (run, scn))
+        })
+        .collect()
+}
+
+/// Run the `runs` of a shard of `plan` ([`checked_runs`]) into `store`: every one not in it yet, on `jobs`
+/// threads, each appended to the journal as it finishes (`progress` told of it); then the results of the
+/// whole shard.
 pub fn execute(
     plan: &Plan,
     store: Store,
-    shard: Shard,
+    runs: Vec<(Run, crate::scenario::Scenario)>,
     jobs: usize,
     progress: &(dyn Fn(u64) + Sync),
 ) -> anyhow::Result<Vec<Record>> {
     use rayon::prelude::*;
     use std::sync::Mutex;
     let done: std::collections::HashSet<u64> = store.done.iter().map(|r| r.index).collect();
-    // Every scenario built once, before any run: a bad value stops the sweep before it starts.
-    let todo = (0..plan.run_count())
-        .filter(|&i| shard.contains(i) && !done.contains(&i))
-        .map(|i| {
-            let run = plan.run(i);
-            plan.scenario(&run).map(|scn| (run, scn))
-        })
-        .collect::<Result<Vec<_>, _>>()?;
+    let todo: Vec<_> = runs
+        .into_iter()
+        .filter(|(run, _)| !done.contains(&run.index))
+        .collect();
     let pool = rayon::ThreadPoolBuilder::new().num_threads(jobs.max(1)).build()?;
     let store = Mutex::new(store);
     let fresh = Mutex::new(Vec::with_capacity(todo.len()));
     pool.install(|| {
         todo.par_iter().try_for_each(|(run, scn)| -> anyhow::Result<()> {
-            let rec = run_checked(plan, run, scn);
+            let rec = record(run, outcome(plan, scn));
             store
                 .lock()
                 .map_err(|_| anyhow::anyhow!("a worker failed while writing the journal"))?

@@ -282,33 +282,22 @@ pub fn maps(
         }
         e.overload = overload;
     }
-    crate::viz::plot::register_font();
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let n = panels.len().max(1);
     let cols = n.min(3);
     let rows = n.div_ceil(cols);
     // at least the header's width: its title and legend are one line each
     let size = ((460 * cols as u32).max(1000), 360 * rows as u32 + HEADER_PX);
-    let grid = Grid { xs, ys };
-    let png = dir.join("map-level.png");
-    let svg = dir.join("map-level.svg");
-    // Each file whole or not at all, drawn by the backend of its format.
-    macro_rules! write_map {
-        ($path:expr, $backend:ident) => {
-            crate::outputs::write_whole(
-                &$path,
-                |tmp| {
-                    let root = $backend::new(tmp, size).into_drawing_area();
-                    draw_panels(root.clone(), &panels, &grid, spec)?;
-                    root.present().map_err(|e| e.to_string())
-                },
-                |e| e.to_string(),
-            )?
-        };
+    struct Map<'a>(&'a Panels, Grid, &'a MapSpec);
+    impl crate::viz::plot::Picture for Map<'_> {
+        fn draw<DB: DrawingBackend>(
+            &self,
+            root: DrawingArea<DB, plotters::coord::Shift>,
+        ) -> Result<(), String> {
+            draw_panels(root, self.0, &self.1, self.2)
+        }
     }
-    write_map!(png, BitMapBackend);
-    write_map!(svg, SVGBackend);
-    Ok(vec![png, svg])
+    let map = Map(&panels, Grid { xs, ys }, spec);
+    crate::viz::plot::save_pair(dir, "map-level", size, &map).map_err(|e| e.to_string())
 }
 
 /// Height of the maps' title and legend, px.

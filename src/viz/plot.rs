@@ -155,11 +155,34 @@ pub(crate) fn palette(k: usize) -> RGBColor {
 }
 
 /// Write charts as a grid of panels (`cols` wide) to `DIR/STEM.png` and `DIR/STEM.svg`, each file whole or
-/// not at all (`write_whole`); errors name the file asked for, not the temporary one.
+/// not at all; errors name the file asked for, not the temporary one.
 pub fn save_charts(charts: &[Chart], cols: usize, dir: &Path, stem: &str) -> Result<Vec<PathBuf>, PlotError> {
     let cols = cols.max(1).min(charts.len().max(1));
     let rows = charts.len().div_ceil(cols).max(1);
     let size = (560 * cols as u32, 420 * rows as u32);
+    struct Grid<'a>(&'a [Chart], usize);
+    impl Picture for Grid<'_> {
+        fn draw<DB: DrawingBackend>(&self, root: DrawingArea<DB, Shift>) -> Result<(), String> {
+            render(root, self.0, self.1)
+        }
+    }
+    save_pair(dir, stem, size, &Grid(charts, cols))
+}
+
+/// A picture drawn alike on any plotters backend (the PNG's and the SVG's).
+pub(crate) trait Picture {
+    /// Draw on `root` (presented by the caller).
+    fn draw<DB: DrawingBackend>(&self, root: DrawingArea<DB, Shift>) -> Result<(), String>;
+}
+
+/// Draw `picture` at `size` px to `DIR/STEM.png` and `DIR/STEM.svg`, each file whole or not at all
+/// (`write_whole`); errors name the file asked for, not the temporary one.
+pub(crate) fn save_pair(
+    dir: &Path,
+    stem: &str,
+    size: (u32, u32),
+    picture: &impl Picture,
+) -> Result<Vec<PathBuf>, PlotError> {
     register_font();
     let fail = |path: &Path, msg: String| PlotError {
         path: path.into(),
@@ -168,9 +191,13 @@ pub fn save_charts(charts: &[Chart], cols: usize, dir: &Path, stem: &str) -> Res
     std::fs::create_dir_all(dir).map_err(|e| fail(dir, e.to_string()))?;
     let files = [dir.join(format!("{stem}.png")), dir.join(format!("{stem}.svg"))];
     for (k, path) in files.iter().enumerate() {
+        fn present<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, p: &impl Picture) -> Result<(), String> {
+            p.draw(root.clone())?;
+            root.present().map_err(|e| e.to_string())
+        }
         let draw = |tmp: &Path| match k {
-            0 => render(BitMapBackend::new(tmp, size).into_drawing_area(), charts, cols),
-            _ => render(SVGBackend::new(tmp, size).into_drawing_area(), charts, cols),
+            0 => present(BitMapBackend::new(tmp, size).into_drawing_area(), picture),
+            _ => present(SVGBackend::new(tmp, size).into_drawing_area(), picture),
         };
         crate::outputs::write_whole(
             path,
@@ -209,7 +236,7 @@ fn render<DB: DrawingBackend>(
     for (chart, area) in charts.iter().zip(root.split_evenly((rows, cols)).iter()) {
         draw_chart(area, chart)?;
     }
-    root.present().map_err(|e| e.to_string())
+    Ok(())
 }
 
 fn draw_chart<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, chart: &Chart) -> Result<(), String> {
