@@ -359,6 +359,20 @@ fn std_from_third_differences(d: Vec<f64>) -> f64 {
     1.4826 * quantile(d, 0.5) / 20f64.sqrt()
 }
 
+/// Least-squares slope of y on x over the pairs `(x, y)` (NaN for fewer than two pairs or a constant x).
+pub fn slope(pts: impl Iterator<Item = (f64, f64)> + Clone) -> f64 {
+    let n = pts.clone().count() as f64;
+    if n < 2.0 {
+        return f64::NAN;
+    }
+    let (sx, sy) = pts.clone().fold((0.0, 0.0), |(a, b), (x, y)| (a + x, b + y));
+    let (mx, my) = (sx / n, sy / n);
+    let (sxy, sxx) = pts.fold((0.0, 0.0), |(a, b), (x, y)| {
+        (a + (x - mx) * (y - my), b + (x - mx) * (x - mx))
+    });
+    sxy / sxx
+}
+
 /// The `q`-quantile of `a` (the sample of rank `round((n − 1) q)`, by selection, not a full sort); `a` must
 /// not be empty.
 pub(crate) fn quantile(mut a: Vec<f64>, q: f64) -> f64 {
@@ -472,6 +486,15 @@ mod tests {
     use super::*;
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};
+
+    /// A line's slope comes back through any offset; a constant x or a single point has none.
+    #[test]
+    fn slope_recovers_a_line_and_refuses_a_constant_x() {
+        let line = (0..50).map(|k| (k as f64 * 0.01, 3.0 + 7.0 * k as f64 * 0.01));
+        assert!((slope(line) - 7.0).abs() < 1e-9);
+        assert!(slope((0..5).map(|k| (1.0, k as f64))).is_nan());
+        assert!(slope(std::iter::once((1.0, 2.0))).is_nan());
+    }
 
     /// The mean taken in pieces of any size is, to the bit, the mean of the whole, and each value is the
     /// mean of the `window` samples that end at it.

@@ -4,10 +4,11 @@
 
 use std::path::Path;
 
-use mrfeel::compare::metrics::{slope, system_metrics};
+use mrfeel::compare::metrics::system_metrics;
 use mrfeel::compare::{run, CompareScenario, FeelKind, Trace};
 use mrfeel::control::active::{margins, model_bandwidth_hz, motion_bandwidth_hz, ActiveStickConfig};
 use mrfeel::faults::{Fault, FaultKind, FaultSchedule};
+use mrfeel::signal::slope;
 
 fn stick() -> ActiveStickConfig {
     ActiveStickConfig::load(Path::new(concat!(

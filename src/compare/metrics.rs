@@ -8,6 +8,7 @@ use serde::Serialize;
 
 use super::{CompareScenario, FeelKind, Row, Segment, Trace};
 use crate::faults::FaultKind;
+use crate::signal::slope;
 
 /// The comparison figures of one feel system.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -66,21 +67,6 @@ fn rms(it: impl Iterator<Item = f64>) -> f64 {
     } else {
         (s / n as f64).sqrt()
     }
-}
-
-/// Least-squares slope of y on x.
-pub fn slope(pts: impl Iterator<Item = (f64, f64)> + Clone) -> f64 {
-    let n = pts.clone().count() as f64;
-    if n < 2.0 {
-        return f64::NAN;
-    }
-    let (mx, my) = pts
-        .clone()
-        .fold((0.0, 0.0), |(a, b), (x, y)| (a + x / n, b + y / n));
-    let (sxy, sxx) = pts.fold((0.0, 0.0), |(a, b), (x, y)| {
-        (a + (x - mx) * (y - my), b + (x - mx) * (x - mx))
-    });
-    sxy / sxx
 }
 
 /// Phase (rad) of the fundamental at `freq_hz` of samples `(t, y)` (over whole cycles).
@@ -323,13 +309,5 @@ mod tests {
             })
             .collect();
         assert!(phase_lag_deg(&spring, f).abs() < 0.5);
-    }
-
-    #[test]
-    fn slope_recovers_a_line() {
-        let pts: Vec<(f64, f64)> = (0..50)
-            .map(|k| (k as f64 * 0.01, 3.0 + 7.0 * k as f64 * 0.01))
-            .collect();
-        assert!((slope(pts.iter().copied()) - 7.0).abs() < 1e-9);
     }
 }

@@ -7,6 +7,7 @@ use super::Results;
 use crate::control::LoopMode;
 use crate::pilot::attitude::PilotLoop;
 use crate::scenario::Scenario;
+use crate::signal::slope;
 
 /// How well a flight's feel followed the aircraft, and the pilot the task.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -93,7 +94,7 @@ impl FlightMetrics {
         Some(Self {
             tracking_rms,
             command_span,
-            hand_force_per_g_n: slope(&nz, &hand),
+            hand_force_per_g_n: slope(nz.iter().copied().zip(hand.iter().copied())),
             follow_rms_n: rms(&e),
             follow_desired_rms_n: rms(&d),
             follow_fraction: follow.len() as f64 / rows.len().max(1) as f64,
@@ -143,15 +144,4 @@ impl std::fmt::Display for FlightMetrics {
         }
         Ok(())
     }
-}
-
-/// Least-squares slope of `y` on `x` (NaN when `x` is constant or empty).
-fn slope(x: &[f64], y: &[f64]) -> f64 {
-    let n = x.len().min(y.len()) as f64;
-    let mx = x.iter().sum::<f64>() / n;
-    let my = y.iter().sum::<f64>() / n;
-    let (sxy, sxx) = x.iter().zip(y).fold((0.0, 0.0), |(sxy, sxx), (a, b)| {
-        (sxy + (a - mx) * (b - my), sxx + (a - mx) * (a - mx))
-    });
-    sxy / sxx
 }

@@ -7,8 +7,9 @@ use super::hq;
 use super::steady::{steady_per_g, Lever};
 use crate::aero::certification::{centre_stick_per_g_bounds, CertificationBasis};
 use crate::aero::model::{AircraftModel, CertificationPart, ControlType};
-use crate::aero::{Aircraft, FbwModel, FlyByWire};
+use crate::aero::Aircraft;
 use crate::control::law::FeelLaw;
+use crate::input::aircraft::FlyByWireFile;
 use crate::scenario::Scenario;
 use crate::sim::Results;
 
@@ -132,9 +133,9 @@ impl Outcome {
         let model = name.and_then(|n| AircraftModel::load_builtin(n).ok());
         // A fly-by-wire aircraft: its stick's design and, where its file has one, its embedded model.
         let fbw = match (&model, name.and_then(|n| AircraftModel::builtin(n).ok())) {
-            (None, Some(path)) => FlyByWire::load(&path)
+            (None, Some(path)) => FlyByWireFile::read(&path)
                 .ok()
-                .map(|stick| (stick, FbwModel::load(&path).ok().flatten())),
+                .and_then(|f| Some((f.stick().ok()?, f.model().ok().flatten()))),
             _ => None,
         };
         let basis = match (&model, &fbw) {
@@ -243,8 +244,7 @@ impl Outcome {
             };
             o.n_per_alpha_g_per_rad = finite(n_alpha);
             if nz_hi - nz_lo >= MIN_NZ_SPAN_G {
-                let per_g =
-                    crate::compare::metrics::slope(aero.iter().zip(&felt).map(|((_, a), f)| (a.nz_g, *f)));
+                let per_g = crate::signal::slope(aero.iter().zip(&felt).map(|((_, a), f)| (a.nz_g, *f)));
                 o.stick_force_per_g_flown_n = finite(per_g);
             }
             // The verdict's force per g: the feel's steady pull-up, or for a fly-by-wire aircraft (no steady
