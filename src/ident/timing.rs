@@ -141,19 +141,15 @@ pub fn decide(
         TimingChoice::Auto => {
             let spans = all_spans(&tests);
             let fa = fit(model, &tests, &spans, opts);
-            let fb = fit(
-                model,
-                &retimed(tests.clone(), CommandTiming::AtSample),
-                &spans,
-                opts,
-            );
-            let timing = if fb.loss < fa.loss {
-                CommandTiming::AtSample
+            let at = retimed(tests.clone(), CommandTiming::AtSample);
+            let fb = fit(model, &at, &spans, opts);
+            let (timing, read) = if fb.loss < fa.loss {
+                (CommandTiming::AtSample, at)
             } else {
-                CommandTiming::AfterSample
+                (CommandTiming::AfterSample, tests)
             };
             let fits = Some((fa, fb));
-            return (retimed(tests, timing), TimingDecision { timing, fits });
+            return (read, TimingDecision { timing, fits });
         }
     };
     (retimed(tests, timing), TimingDecision { timing, fits: None })
