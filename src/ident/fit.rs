@@ -453,7 +453,7 @@ impl<'a> Problem<'a> {
             }
             (out, states)
         };
-        each_span(self.parallel, self.tests.len(), one)
+        each_index(self.parallel, self.tests.len(), one)
             .into_iter()
             .unzip()
     }
@@ -608,7 +608,7 @@ impl<'a> Problem<'a> {
             factor
         };
         let mut factor = Factor::new(width);
-        for f in &each_span(self.parallel, used.len(), |u| of_test(used[u])) {
+        for f in &each_index(self.parallel, used.len(), |u| of_test(used[u])) {
             factor.join(f);
         }
         factor
@@ -1307,7 +1307,7 @@ fn linear_warm_start(
         };
         let total = |columns: bool| -> Option<Share> {
             let (mut rr, mut ata, mut atb) = (0.0, [[0.0; 3]; 3], [0.0; 3]);
-            for part in each_span(parallel, spans.len(), |si| share(si, columns)) {
+            for part in each_index(parallel, spans.len(), |si| share(si, columns)) {
                 let (r, a, b) = part?;
                 rr += r;
                 for i in 0..3 {
@@ -1343,8 +1343,9 @@ fn linear_warm_start(
     }
 }
 
-/// `f(0)`, …, `f(n − 1)` in order, computed in parallel or on this thread.
-fn each_span<T: Send>(parallel: bool, n: usize, f: impl Fn(usize) -> T + Sync + Send) -> Vec<T> {
+/// `f(0)`, …, `f(n − 1)` over the indices of spans or tests, in order, computed in parallel or on this
+/// thread.
+fn each_index<T: Send>(parallel: bool, n: usize, f: impl Fn(usize) -> T + Sync + Send) -> Vec<T> {
     if parallel {
         (0..n).into_par_iter().map(f).collect()
     } else {
