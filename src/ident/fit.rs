@@ -863,7 +863,6 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
     let mut evaluations = 0;
     let mut columns = [0usize; 2];
     let mut termination = String::from("no free parameters");
-    let mut bound_note = vec![String::new(); n];
     let mut j0 = Some(j0);
     for round in 0..4 {
         let free: Vec<usize> = (0..n).filter(|&k| !held[k]).collect();
@@ -981,19 +980,14 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
         let mut std_err = vec![None; n];
         for (c, &k) in free.iter().enumerate() {
             std_err[k] = se_z[c].map(|s| s * tf[k].dp_dz(prob.z[k]).abs());
-            if on_bound(k) && std_err[k].is_none() {
+            if on_bound(k) && std_err[k].is_none() && notes[k].is_empty() {
                 let s = &specs[k];
                 let b = if (params[k] - s.lower).abs() <= (params[k] - s.upper).abs() {
                     s.lower
                 } else {
                     s.upper
                 };
-                bound_note[k] = format!("at its bound {b} {}: the data push it beyond", s.unit);
-            }
-        }
-        for k in 0..n {
-            if notes[k].is_empty() {
-                notes[k] = std::mem::take(&mut bound_note[k]);
+                notes[k] = format!("at its bound {b} {}: the data push it beyond", s.unit);
             }
         }
         return FitResult {
@@ -1163,13 +1157,14 @@ fn std_errors(
             a[(r, c)] = gram[(cr, cc)] / (norms[cr] * norms[cc]);
         }
     }
-    if a.iter().any(|v| !v.is_finite()) {
-        return (vec![None; nf], Vec::new());
-    }
-    let Some(svd) = a.try_svd(true, true, 1e-15, 500) else {
-        return (vec![None; nf], Vec::new());
-    };
-    let (Some(v), sv) = (svd.v_t.map(|vt| vt.transpose()), svd.singular_values) else {
+    let svd = a
+        .iter()
+        .all(|v| v.is_finite())
+        .then(|| a.try_svd(true, true, 1e-15, 500));
+    let Some((v, sv)) = svd
+        .flatten()
+        .and_then(|svd| Some((svd.v_t?.transpose(), svd.singular_values)))
+    else {
         return (vec![None; nf], Vec::new());
     };
     let smax = sv.max().max(1e-300);
@@ -1442,6 +1437,7 @@ fn termination_words(t: &levenberg_marquardt::TerminationReason) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::device::effects::testkit;
     use crate::device::{bingham, Registry};
     use crate::ident::validate::Figures;
 
@@ -1534,7 +1530,7 @@ mod tests {
     const TRUTH: [f64; 5] = [20.0, 4.83, 60.0, 0.015, 0.008];
 
     fn stepped_sine(model: &Model) -> Vec<Test> {
-        let mut inputs = crate::device::effects::testkit::sine(0.02, 1.0, 0.0, 1e-3, 3.999);
+        let mut inputs = testkit::sine(0.02, 1.0, 0.0, 1e-3, 3.999);
         for (k, inp) in inputs.iter_mut().enumerate() {
             inp.current_cmd_a = [0.0, 14.0, 3.5, 10.5, 7.0][(k / 250) % 5];
         }
@@ -1544,7 +1540,7 @@ mod tests {
 
     #[test]
     fn a_held_parameter_stays_at_its_start_and_a_free_one_finds_the_truth() {
-        let model = Model::from_spec("bingham", &Registry::builtin(), 14.0).expect("model");
+        let model = testkit::model("bingham");
         let tests = stepped_sine(&model);
         let spans = all_spans(&tests);
         // Coil lag started at twice its value, gains 30 % off.
@@ -1589,7 +1585,7 @@ mod tests {
         [(1e-3, 10.0, 1.1, "long"), (5e-3, 2.0, 0.9, "short")]
             .iter()
             .map(|&(dt, dur, scale, name)| {
-                let inputs = crate::device::effects::testkit::sine(0.02, 1.0, 7.0, dt, dur);
+                let inputs = testkit::sine(0.02, 1.0, 7.0, dt, dur);
                 let f_n = model
                     .simulate(&TRUTH, &inputs)
                     .iter()
@@ -1617,7 +1613,7 @@ mod tests {
     /// difference.
     #[test]
     fn each_test_counts_once_in_the_loss_whatever_its_length_and_rate() {
-        let model = Model::from_spec("bingham", &Registry::builtin(), 14.0).expect("model");
+        let model = testkit::model("bingham");
         let tests = long_and_short_tests(&model);
         let ratio = tests[0].len() as f64 / tests[1].len() as f64;
         assert!(
@@ -1662,7 +1658,7 @@ mod tests {
     /// the fitted parameters; the weighted loss the search minimised is reported apart.
     #[test]
     fn a_fit_reports_its_error_over_samples_and_its_weighted_loss_apart() {
-        let model = Model::from_spec("bingham", &Registry::builtin(), 14.0).expect("model");
+        let model = testkit::model("bingham");
         let tests = long_and_short_tests(&model);
         let fr = fit(&model, &tests, &all_spans(&tests), &FitOptions::default());
         let mut total = Figures::default();
@@ -1698,7 +1694,7 @@ mod tests {
     /// Tests of equal length: both losses are the same and so are the fits, to the bit.
     #[test]
     fn tests_of_equal_length_are_fitted_the_same_either_way() {
-        let model = Model::from_spec("bingham", &Registry::builtin(), 14.0).expect("model");
+        let model = testkit::model("bingham");
         let mut tests = long_and_short_tests(&model);
         tests.truncate(1);
         let mut other = tests[0].clone();
@@ -1745,7 +1741,7 @@ mod tests {
     /// takes no share.
     #[test]
     fn loss_weights_share_the_counted_samples_equally_between_tests() {
-        let model = Model::from_spec("bingham", &Registry::builtin(), 14.0).expect("model");
+        let model = testkit::model("bingham");
         let mut tests = long_and_short_tests(&model);
         tests.push(tests[1].clone());
         let spans: Vec<Span> = all_spans(&tests).into_iter().take(2).collect();
@@ -1769,12 +1765,11 @@ mod tests {
 
     /// A spring and a mass seen at two frequencies, the fit started with the spring rate on its bound (0) and
     /// the mass at half its value, as a staged fit's first stage leaves them when it held the mass: on the log
-    /// transform's flat tail the search did not see the data pull the rate back, and the rate stayed at 0 (in
-    /// a diagnosis's cross-validation fold, a hardening and a mass then stood in for it, at 14× the truth's
-    /// sum of squares).
+    /// transform's flat tail the search alone does not see the data pull the rate back, so the step off the
+    /// bound must, or a hardening and a mass stand in for the spring.
     #[test]
     fn a_parameter_left_on_its_bound_comes_back_when_the_data_pull_it_inside() {
-        let model = Model::from_spec("bingham+stiffness+inertia", &Registry::builtin(), 14.0).expect("model");
+        let model = testkit::model("bingham+stiffness+inertia");
         let idx = |n: &str| model.param_index(n).expect(n);
         let mut truth = TRUTH.to_vec();
         truth.resize(model.n_params(), 0.0);
@@ -1785,7 +1780,7 @@ mod tests {
         let tests: Vec<Test> = [(0.015, 1.5, 7.0), (0.008, 3.0, 14.0)]
             .iter()
             .map(|&(a, f, i)| {
-                let inputs = crate::device::effects::testkit::sine(a, f, i, 1e-3, 2.0);
+                let inputs = testkit::sine(a, f, i, 1e-3, 2.0);
                 let f_n = model.simulate(&truth, &inputs);
                 Test::synthetic("two.csv", &format!("{f}"), inputs, f_n)
             })
@@ -1814,7 +1809,7 @@ mod tests {
     #[test]
     fn a_shape_parameter_guessed_at_zero_comes_back_from_its_bound() {
         use crate::device::effects::hysteresis::{GAMMA_SHARE, KNEE};
-        let model = Model::from_spec("bingham+hysteresis", &Registry::builtin(), 14.0).expect("model");
+        let model = testkit::model("bingham+hysteresis");
         let (mut tests, mut truth) = typical(&model);
         let (knee, share) = (model.n_params() - 4 + KNEE, model.n_params() - 4 + GAMMA_SHARE);
         truth[knee] = 1.0;
@@ -1894,7 +1889,7 @@ mod tests {
 
     /// The truth of `stepped_sine` with every effect at its typical strength.
     fn typical(model: &Model) -> (Vec<Test>, Vec<f64>) {
-        let base = Model::from_spec("bingham", &Registry::builtin(), 14.0).expect("model");
+        let base = testkit::model("bingham");
         let mut tests = stepped_sine(&base);
         let p = model
             .typical_params(&TRUTH, &span_stats(&tests, &all_spans(&tests)))
@@ -2001,7 +1996,7 @@ mod tests {
     fn the_warm_start_solves_the_base_models_linear_gains_exactly() {
         // Eq. (2) is linear in the zero-current yield force, its current gain and C0: from any start, one
         // least-squares step lands on them (the lags at their true values).
-        let model = Model::from_spec("bingham", &Registry::builtin(), 14.0).expect("model");
+        let model = testkit::model("bingham");
         let tests = stepped_sine(&model);
         let spans = all_spans(&tests);
         let weights: Vec<Vec<f64>> = tests.iter().map(direction_weights).collect();
@@ -2080,10 +2075,10 @@ mod tests {
 
     /// The lags start settled on the first command and stay there while it never changes: a time constant's
     /// column is then exactly zero, and the Jacobian takes it without a simulation. Where the current steps it
-    /// is integrated as before, and the matrix is the same to the bit either way.
+    /// is integrated, and the matrix is the same to the bit either way.
     #[test]
     fn a_lag_constant_where_the_current_never_changes_costs_no_simulation() {
-        let model = Model::from_spec("bingham+hysteresis", &Registry::builtin(), 14.0).expect("model");
+        let model = testkit::model("bingham+hysteresis");
         let (stepped, p) = typical(&model);
         let mut steady = stepped[0].clone();
         for inp in &mut steady.inputs {
@@ -2116,7 +2111,7 @@ mod tests {
     /// those of a fit with it fixed there.
     #[test]
     fn a_parameter_on_its_bound_gets_no_standard_error_and_costs_no_column() {
-        let model = Model::from_spec("bingham+hysteresis", &Registry::builtin(), 14.0).expect("model");
+        let model = testkit::model("bingham+hysteresis");
         let (mut tests, p) = typical(&model);
         // Noise, so that the residual (and every standard error) is not zero.
         for (k, f) in tests[0].f_n.iter_mut().enumerate() {
