@@ -560,8 +560,6 @@ pub struct Diagnosis {
     pub steps: Vec<StepResult>,
     /// How the data was split for held-out errors.
     pub cv_scheme: String,
-    /// RMS measurement noise of the force, N.
-    pub noise_floor_n: f64,
     /// Held-out NRMSE the measurement noise alone would give.
     pub noise_floor_nrmse: f64,
     /// The final model's held-out prediction at every sample (each sample from the fold that held it out).
@@ -611,6 +609,11 @@ impl BaseTried {
             note,
         }
     }
+
+    /// The base a diagnosis started from, chosen, with where it ended.
+    fn started(spec: &ModelSpec, d: &Diagnosis, note: &str) -> Self {
+        Self::new(spec, Some(d.base_heldout_nrmse), Some(d), true, note.into())
+    }
 }
 
 impl StepResult {
@@ -642,14 +645,7 @@ pub fn diagnose(
     opts: &DiagnoseOptions,
 ) -> Result<Diagnosis, IdentError> {
     let (mut d, _) = diagnose_path(tests, base, registry, opts, None)?;
-    let given = BaseTried::new(
-        base,
-        Some(d.base_heldout_nrmse),
-        Some(&d),
-        true,
-        "the base given".into(),
-    );
-    d.bases = vec![given];
+    d.bases = vec![BaseTried::started(base, &d, "the base given")];
     Ok(d)
 }
 
@@ -675,14 +671,7 @@ pub fn diagnose_choosing_base(
         return Err(IdentError::Other("no base model to start from".into()));
     };
     let (mut best, mut best_cv) = diagnose_path(tests, first, registry, opts, None)?;
-    let default = BaseTried::new(
-        first,
-        Some(best.base_heldout_nrmse),
-        Some(&best),
-        true,
-        "the default base".into(),
-    );
-    let mut bases = vec![default];
+    let mut bases = vec![BaseTried::started(first, &best, "the default base")];
     let (folds, _) = opts.folds(tests);
     let noise = noise_floor_n(tests);
     let bar = progress_bar(opts);
@@ -1140,7 +1129,6 @@ fn diagnose_from(
         final_pred,
         steps,
         cv_scheme,
-        noise_floor_n: noise,
         noise_floor_nrmse,
         final_oof: cur.oof.clone(),
         discovered,
