@@ -241,13 +241,15 @@ pub(crate) enum Transform {
 }
 
 impl Transform {
-    pub(crate) fn for_bounds(lo: f64, hi: f64) -> Self {
-        match (lo.is_finite(), hi.is_finite()) {
-            (true, true) => Transform::Both(lo, hi),
-            (true, false) => Transform::Lower(lo),
-            (false, true) => Transform::Upper(hi),
+    /// The transform of each of `model`'s parameters, from its bounds.
+    fn of_model(model: &Model) -> Vec<Self> {
+        let for_bounds = |s: &ParamSpec| match (s.lower.is_finite(), s.upper.is_finite()) {
+            (true, true) => Transform::Both(s.lower, s.upper),
+            (true, false) => Transform::Lower(s.lower),
+            (false, true) => Transform::Upper(s.upper),
             (false, false) => Transform::Free,
-        }
+        };
+        model.param_specs().iter().map(for_bounds).collect()
     }
 
     pub fn p(&self, z: f64) -> f64 {
@@ -340,7 +342,6 @@ impl<'a> Problem<'a> {
         tests: &'a [Test],
         spans: &'a [Span],
         weights: &'a [Vec<f64>],
-        tf: Vec<Transform>,
         z: Vec<f64>,
         parallel: bool,
     ) -> Self {
@@ -374,7 +375,7 @@ impl<'a> Problem<'a> {
             sim_len,
             offsets,
             n_res,
-            tf,
+            tf: Transform::of_model(model),
             free: Vec::new(),
             z,
             sims: Vec::new(),
@@ -394,18 +395,9 @@ impl<'a> Problem<'a> {
         p
     }
 
-    /// The same problem (tests, spans, weights, transforms) evaluated at another search vector: one
-    /// simulation.
+    /// The same problem (tests, spans, weights) evaluated at another search vector: one simulation.
     fn at(&self, z: Vec<f64>) -> Self {
-        Problem::new(
-            self.model,
-            self.tests,
-            self.spans,
-            self.weights,
-            self.tf.clone(),
-            z,
-            self.parallel,
-        )
+        Problem::new(self.model, self.tests, self.spans, self.weights, z, self.parallel)
     }
 
     /// The plain sum of squared residuals over the samples that count (non-zero weight) at `z`.
@@ -798,10 +790,7 @@ fn on_bound(s: &ParamSpec, p: f64) -> bool {
 pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> FitResult {
     let stats = span_stats(tests, spans);
     let specs = model.param_specs();
-    let tf: Vec<Transform> = specs
-        .iter()
-        .map(|s| Transform::for_bounds(s.lower, s.upper))
-        .collect();
+    let tf = Transform::of_model(model);
     let mut p0 = match &opts.start {
         Some(p) if p.len() == model.n_params() => p.iter().zip(specs).map(|(v, s)| s.clamp(*v)).collect(),
         _ => model.initial_guess(&stats),
@@ -823,15 +812,7 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
     }
 
     // Parameters the force does not depend on in these data: a zero Jacobian column at the start.
-    let mut prob = Problem::new(
-        model,
-        tests,
-        spans,
-        &weights,
-        tf.clone(),
-        z0.clone(),
-        opts.parallel,
-    );
+    let mut prob = Problem::new(model, tests, spans, &weights, z0.clone(), opts.parallel);
     // One column per movable parameter, in their order: a held parameter's column would be zero and is
     // never searched, so it is not simulated.
     let movable: Vec<usize> = (0..n).filter(|&k| !held[k]).collect();
@@ -2064,13 +2045,9 @@ mod tests {
         weights: &'a [Vec<f64>],
         p: &[f64],
     ) -> Problem<'a> {
-        let tf: Vec<Transform> = model
-            .param_specs()
-            .iter()
-            .map(|s| Transform::for_bounds(s.lower, s.upper))
-            .collect();
+        let tf = Transform::of_model(model);
         let z: Vec<f64> = p.iter().zip(&tf).map(|(p, t)| t.z(*p) * 0.9 + 0.01).collect();
-        Problem::new(model, tests, spans, weights, tf, z, true)
+        Problem::new(model, tests, spans, weights, z, true)
     }
 
     /// The lags start settled on the first command and stay there while it never changes: a time constant's
