@@ -126,7 +126,7 @@ impl Test {
     }
 
     /// The force the file would show, from the model's force over [`Test::drive_inputs`]: itself, or its
-    /// moving average over the acquisition's window ([`Test::observer`] fed all of it at once).
+    /// moving average over the acquisition's window (the crate's `Test::observer` fed all of it at once).
     pub fn observed(&self, model_force: Vec<f64>) -> Vec<f64> {
         let Some(mut mean) = self.observer() else {
             return model_force;
