@@ -313,10 +313,7 @@ impl CvResult {
                         .collect()
                 })
                 .collect();
-            self.oof = tests.iter().map(|t| vec![f64::NAN; t.len()]).collect();
-            for (s, p) in preds.into_iter().flatten() {
-                self.oof[s.test][s.start..s.end].copy_from_slice(&p);
-            }
+            self.oof = out_of_fold(tests, preds.into_iter().flatten());
             self.sig = None;
         }
         self
@@ -326,6 +323,15 @@ impl CvResult {
     fn signatures(&self, tests: &[Test]) -> Signatures {
         self.sig.unwrap_or_else(|| Signatures::of(tests, &self.oof))
     }
+}
+
+/// Every sample of `tests` at NaN but those `preds` gives, each over its held-out span.
+fn out_of_fold(tests: &[Test], preds: impl IntoIterator<Item = (Span, Vec<f64>)>) -> Vec<Vec<f64>> {
+    let mut oof: Vec<Vec<f64>> = tests.iter().map(|t| vec![f64::NAN; t.len()]).collect();
+    for (s, p) in preds {
+        oof[s.test][s.start..s.end].copy_from_slice(&p);
+    }
+    oof
 }
 
 /// The prediction of `model` with parameters `p` over the held-out span `s`.
@@ -433,15 +439,12 @@ pub fn cross_validate(
             (fr.params, fr.loss, fig, preds)
         })
         .collect();
-    let mut oof: Vec<Vec<f64>> = tests.iter().map(|t| vec![f64::NAN; t.len()]).collect();
-    let (mut per_fold, mut fold_params, mut fold_train_loss) = (Vec::new(), Vec::new(), Vec::new());
-    for (p, loss, fig, preds) in out {
+    let (mut per_fold, mut fold_params, mut fold_train_loss, mut preds) = (vec![], vec![], vec![], vec![]);
+    for (p, loss, fig, pr) in out {
         per_fold.push(fig);
         fold_params.push(p);
         fold_train_loss.push(loss);
-        for (s, pr) in preds {
-            oof[s.test][s.start..s.end].copy_from_slice(&pr);
-        }
+        preds.extend(pr);
     }
     CvResult {
         spec: model.spec().clone(),
@@ -449,7 +452,7 @@ pub fn cross_validate(
         per_fold,
         fold_params,
         fold_train_loss,
-        oof,
+        oof: out_of_fold(tests, preds),
         sig: None,
     }
 }
@@ -557,8 +560,6 @@ pub struct Diagnosis {
     pub steps: Vec<StepResult>,
     /// How the data was split for held-out errors.
     pub cv_scheme: String,
-    /// RMS measurement noise of the force, N.
-    pub noise_floor_n: f64,
     /// Held-out NRMSE the measurement noise alone would give.
     pub noise_floor_nrmse: f64,
     /// The final model's held-out prediction at every sample (each sample from the fold that held it out).
@@ -608,6 +609,11 @@ impl BaseTried {
             note,
         }
     }
+
+    /// The base a diagnosis started from, chosen, with where it ended.
+    fn started(spec: &ModelSpec, d: &Diagnosis, note: &str) -> Self {
+        Self::new(spec, Some(d.base_heldout_nrmse), Some(d), true, note.into())
+    }
 }
 
 impl StepResult {
@@ -639,14 +645,7 @@ pub fn diagnose(
     opts: &DiagnoseOptions,
 ) -> Result<Diagnosis, IdentError> {
     let (mut d, _) = diagnose_path(tests, base, registry, opts, None)?;
-    let given = BaseTried::new(
-        base,
-        Some(d.base_heldout_nrmse),
-        Some(&d),
-        true,
-        "the base given".into(),
-    );
-    d.bases = vec![given];
+    d.bases = vec![BaseTried::started(base, &d, "the base given")];
     Ok(d)
 }
 
@@ -672,14 +671,7 @@ pub fn diagnose_choosing_base(
         return Err(IdentError::Other("no base model to start from".into()));
     };
     let (mut best, mut best_cv) = diagnose_path(tests, first, registry, opts, None)?;
-    let default = BaseTried::new(
-        first,
-        Some(best.base_heldout_nrmse),
-        Some(&best),
-        true,
-        "the default base".into(),
-    );
-    let mut bases = vec![default];
+    let mut bases = vec![BaseTried::started(first, &best, "the default base")];
     let (folds, _) = opts.folds(tests);
     let noise = noise_floor_n(tests);
     let bar = progress_bar(opts);
@@ -835,7 +827,6 @@ fn diagnose_from(
     let mut missing: Vec<String> = Vec::new();
     // The effects added at each step (one, or a pair), in order.
     let mut added_groups: Vec<Vec<String>> = Vec::new();
-    let mut first_candidates: Option<Vec<Candidate>> = None;
     // Held-out results of the models on the path, by spec, for the backward pass.
     let mut path_cv: BTreeMap<String, CvResult> = BTreeMap::new();
     path_cv.insert(cur.spec.to_string(), cur.shed(tests));
@@ -953,38 +944,25 @@ fn diagnose_from(
                 with.register(effect.clone());
                 let m = build(&cur.spec.with(&name), &with)?;
                 let cv = cross_validate(&m, tests, &folds, Some((&cur_model, &cur)), &cv_fit, &bar);
-                let (significant, folds_better) = search.judge(&cur, &cv);
-                term_cand = Some(Candidate {
-                    effect: format!("{name} = {}", effect.formula()),
-                    heldout_nrmse: cv.heldout_nrmse(),
-                    improvement: improvement(&cur, &cv),
-                    significant,
-                    evidence: format!(
-                        "found by forward regression in the held-out residual; resembles {}; held-out RMSE \
-                         {:.4} → {:.4} N, lower in {folds_better} of {} folds",
-                        effect.resembles(),
-                        cur.total.rmse_n(),
-                        cv.total.rmse_n(),
-                        folds.len()
+                term_cand = Some(search.candidate(
+                    &cur,
+                    &cv,
+                    format!("{name} = {}", effect.formula()),
+                    format!(
+                        "found by forward regression in the held-out residual; resembles {}",
+                        effect.resembles()
                     ),
-                    folds_better,
-                    folds: folds.len(),
-                });
+                ));
                 term = Some((m, cv, effect));
             }
-        }
-        if let Some(last) = steps.last_mut() {
-            last.heldout_nrmse = cur.heldout_nrmse();
-            last.candidates = cands.clone();
-            last.pairs = pair_cands.clone();
-            last.term = term_cand.clone();
-        }
-        if first_candidates.is_none() {
-            first_candidates = Some(cands.clone());
         }
         // The term where it is significant and, beside a significant named effect (second path only),
         // lower held out; else the significant named effect (or pair).
         let term_significant = term_cand.as_ref().is_some_and(|tc| tc.significant);
+        if let Some(last) = steps.last_mut() {
+            last.heldout_nrmse = cur.heldout_nrmse();
+            (last.candidates, last.pairs, last.term) = (cands, pair_cands, term_cand);
+        }
         let (m, cv, term_added) = match (named_choice, term) {
             (named, Some((m, cv, effect)))
                 if term_significant && named.as_ref().is_none_or(|(_, ncv)| cv.total.sse < ncv.total.sse) =>
@@ -1140,7 +1118,8 @@ fn diagnose_from(
         base_params: base_fit.params,
         base_pred,
         where_,
-        candidates: first_candidates.unwrap_or_default(),
+        // The base's candidates (the first step's).
+        candidates: steps[0].candidates.clone(),
         missing,
         pruned,
         final_model: cur.spec.to_string(),
@@ -1150,7 +1129,6 @@ fn diagnose_from(
         final_pred,
         steps,
         cv_scheme,
-        noise_floor_n: noise,
         noise_floor_nrmse,
         final_oof: cur.oof.clone(),
         discovered,
@@ -1234,8 +1212,14 @@ impl Search<'_> {
         cv.total.rmse_n() <= self.opts.floor_ratio * self.noise
     }
 
+    /// Is `cand` significantly better than `cur` on held-out data? Returns the verdict and the number of
+    /// folds in which it was better.
     fn judge(&self, cur: &CvResult, cand: &CvResult) -> (bool, usize) {
-        judge(cur, cand, self.noise * self.noise, self.opts, self.at_floor(cur))
+        let better = folds_better(cur, cand);
+        let ok = !self.at_floor(cur)
+            && better == cur.per_fold.len()
+            && enough_removed(cur, cand, self.noise * self.noise, self.opts);
+        (ok, better)
     }
 
     /// Removes enough of `cur`'s held-out error overall, though perhaps not in every fold.
@@ -1302,7 +1286,6 @@ impl Search<'_> {
             .iter()
             .map(|(m, cv)| {
                 let names: Vec<&str> = added_effects(m, &cur.spec).into_iter().map(String::as_str).collect();
-                let (significant, folds_better) = self.judge(cur, cv);
                 let sig = cv.signatures(self.tests);
                 let signature = match names.as_slice() {
                     [one] => registry
@@ -1315,17 +1298,29 @@ impl Search<'_> {
                         several.join(" and ")
                     ),
                 };
-                Candidate {
-                    heldout_nrmse: cv.heldout_nrmse(),
-                    improvement: improvement(cur, cv),
-                    significant,
-                    evidence: evidence(&signature, &cur_sig, &sig, cur, cv, folds_better),
-                    folds_better,
-                    folds: self.folds.len(),
-                    effect: names.join("+"),
-                }
+                self.candidate(cur, cv, names.join("+"), evidence(&signature, &cur_sig, &sig))
             })
             .collect()
+    }
+
+    /// `cand` judged against `cur` as the candidate `effect`: its evidence `why`, then the change of the
+    /// held-out error.
+    fn candidate(&self, cur: &CvResult, cand: &CvResult, effect: String, why: String) -> Candidate {
+        let (significant, folds_better) = self.judge(cur, cand);
+        let folds = self.folds.len();
+        Candidate {
+            effect,
+            heldout_nrmse: cand.heldout_nrmse(),
+            improvement: improvement(cur, cand),
+            significant,
+            evidence: format!(
+                "{why}; held-out RMSE {:.4} → {:.4} N, lower in {folds_better} of {folds} folds",
+                cur.total.rmse_n(),
+                cand.total.rmse_n(),
+            ),
+            folds_better,
+            folds,
+        }
     }
 }
 
@@ -1344,20 +1339,6 @@ fn enough_removed(cur: &CvResult, cand: &CvResult, noise_mse: f64, opts: &Diagno
     gain >= opts.min_gain && removed >= opts.min_excess_removed
 }
 
-/// Is `cand` significantly better than `cur` on held-out data? Returns the verdict and the number of folds
-/// in which it was better.
-fn judge(
-    cur: &CvResult,
-    cand: &CvResult,
-    noise_mse: f64,
-    opts: &DiagnoseOptions,
-    at_floor: bool,
-) -> (bool, usize) {
-    let better = folds_better(cur, cand);
-    let ok = !at_floor && better == cur.per_fold.len() && enough_removed(cur, cand, noise_mse, opts);
-    (ok, better)
-}
-
 /// The folds in which `cand`'s held-out error is lower than `cur`'s.
 fn folds_better(cur: &CvResult, cand: &CvResult) -> usize {
     cur.per_fold
@@ -1374,14 +1355,7 @@ fn improvement(cur: &CvResult, cand: &CvResult) -> f64 {
 
 /// The evidence for a candidate in words: its residual signature, and the measured signatures of the
 /// held-out residual it removes.
-fn evidence(
-    signature: &str,
-    before: &Signatures,
-    after: &Signatures,
-    cur: &CvResult,
-    cand: &CvResult,
-    folds_better: usize,
-) -> String {
+fn evidence(signature: &str, before: &Signatures, after: &Signatures) -> String {
     let mut changes: Vec<(f64, &str, f64, f64)> = before
         .named()
         .iter()
@@ -1407,12 +1381,6 @@ fn evidence(
             shown.join("; ")
         ));
     }
-    s.push_str(&format!(
-        "; held-out RMSE {:.4} → {:.4} N, lower in {folds_better} of {} folds",
-        cur.total.rmse_n(),
-        cand.total.rmse_n(),
-        cur.per_fold.len()
-    ));
     s
 }
 
@@ -1561,7 +1529,7 @@ mod tests {
             }
             assert!(held.iter().all(|&h| h == 1), "test {j}: {how}");
         }
-        // Every test its own motion: one test per fold, as before.
+        // Every test its own motion: one test per fold.
         let distinct: Vec<Test> = (0..4)
             .map(|j| {
                 sine_test(

@@ -35,12 +35,9 @@ fn channels<'a>(ms: &[&'a Measurement]) -> Vec<acquisition::Channels<'a>> {
 /// spectra is only a hypothesis: a drive smooth by design (a triangle's rounded corners) has one of its own,
 /// and undoing a filter that is not there drives the model with a motion that never happened.
 fn undoing_fits_better(ms: &[&Measurement], through: &[Test]) -> bool {
-    use crate::device::{Base, Model, ModelSpec, Registry, PAPER_CURRENT_LIMIT_A};
-    let spec = ModelSpec {
-        base: Base::Bingham,
-        effects: Vec::new(),
-    };
-    let model = Model::new(&spec, &Registry::builtin(), PAPER_CURRENT_LIMIT_A).expect("bingham builds");
+    use crate::device::{Model, Registry, PAPER_CURRENT_LIMIT_A};
+    let model =
+        Model::from_spec("bingham", &Registry::builtin(), PAPER_CURRENT_LIMIT_A).expect("bingham builds");
     let opts = super::FitOptions {
         std_errors: false,
         ..Default::default()

@@ -126,15 +126,18 @@ impl Test {
     }
 
     /// The force the file would show, from the model's force over [`Test::drive_inputs`]: itself, or its
-    /// moving average over the acquisition's window.
+    /// moving average over the acquisition's window (the crate's `Test::observer` fed all of it at once).
     pub fn observed(&self, model_force: Vec<f64>) -> Vec<f64> {
-        match &self.drive {
-            Some(d) => crate::signal::moving_average(&model_force, d.window()),
-            None => model_force,
-        }
+        let Some(mut mean) = self.observer() else {
+            return model_force;
+        };
+        let mut out = Vec::with_capacity(model_force.len());
+        mean.feed(&model_force, &mut out);
+        out
     }
 
-    /// [`Test::observed`] taken piece by piece, or none where the file's force is the model's itself.
+    /// The acquisition's moving average, to be fed the model's force piece by piece, or none where the
+    /// file's force is the model's itself.
     pub(crate) fn observer(&self) -> Option<crate::signal::RollingMean> {
         let window = self.drive.as_ref().map_or(1, |d| d.window());
         (window > 1).then(|| crate::signal::RollingMean::new(window))

@@ -328,8 +328,8 @@ impl Signatures {
         let mut pos = vec![(0.0, 0usize); nb];
         let mut neg = vec![(0.0, 0usize); nb];
         let mut odd = vec![(0.0, 0usize); nb];
-        // per current bin: sums for slope of r on v: n, Σv, Σr, Σvv, Σvr
-        let mut sl = vec![[0.0f64; 5]; nb];
+        // Per current bin: the residual against the velocity, for its slope.
+        let mut sl: Vec<Corr> = (0..nb).map(|_| Corr::default()).collect();
         let mut cx = Corr::default();
         let mut ca = Corr::default();
         let mut ce = Corr::default();
@@ -358,12 +358,7 @@ impl Signatures {
                 }
                 odd[b].0 += r * sv;
                 odd[b].1 += 1;
-                let s = &mut sl[b];
-                s[0] += 1.0;
-                s[1] += inp.v_m_s;
-                s[2] += r;
-                s[3] += inp.v_m_s * inp.v_m_s;
-                s[4] += inp.v_m_s * r;
+                sl[b].add(inp.v_m_s, r);
                 cx.add(r, inp.x_m);
                 ca.add(r, inp.a_m_s2);
                 if k > 0 {
@@ -393,16 +388,7 @@ impl Signatures {
             let (lo, hi) = (order[0], order[order.len() - 1]);
             let off = |b: usize| 0.5 * (mean(pos[b]) + mean(neg[b]));
             sig.direction_offset_vs_current = (off(hi) - off(lo)) / frms;
-            let slope = |b: usize| {
-                let s = sl[b];
-                let d = s[0] * s[3] - s[1] * s[1];
-                if d.abs() < 1e-300 {
-                    0.0
-                } else {
-                    (s[0] * s[4] - s[1] * s[2]) / d
-                }
-            };
-            sig.velocity_slope_vs_current = (slope(hi) - slope(lo)) * vrms / frms;
+            sig.velocity_slope_vs_current = (sl[hi].slope() - sl[lo].slope()) * vrms / frms;
         }
         if order.len() >= 3 {
             let xs: Vec<f64> = order.iter().map(|&b| cb.centre(b)).collect();
@@ -432,7 +418,7 @@ fn quadratic_coefficient(x: &[f64], y: &[f64]) -> Option<f64> {
     a.lu().solve(&b).map(|s| s[2])
 }
 
-/// Running Pearson correlation.
+/// Running Pearson correlation of `y` with `x`, and the least-squares slope of `y` on `x`.
 #[derive(Default)]
 struct Corr {
     n: f64,
@@ -460,6 +446,15 @@ impl Corr {
             return 0.0;
         }
         (self.n * self.sxy - self.sx * self.sy) / (vx * vy).sqrt()
+    }
+
+    fn slope(&self) -> f64 {
+        let d = self.n * self.sxx - self.sx * self.sx;
+        if d.abs() < 1e-300 {
+            0.0
+        } else {
+            (self.n * self.sxy - self.sx * self.sy) / d
+        }
     }
 }
 

@@ -141,19 +141,15 @@ pub fn decide(
         TimingChoice::Auto => {
             let spans = all_spans(&tests);
             let fa = fit(model, &tests, &spans, opts);
-            let fb = fit(
-                model,
-                &retimed(tests.clone(), CommandTiming::AtSample),
-                &spans,
-                opts,
-            );
-            let timing = if fb.loss < fa.loss {
-                CommandTiming::AtSample
+            let at = retimed(tests.clone(), CommandTiming::AtSample);
+            let fb = fit(model, &at, &spans, opts);
+            let (timing, read) = if fb.loss < fa.loss {
+                (CommandTiming::AtSample, at)
             } else {
-                CommandTiming::AfterSample
+                (CommandTiming::AfterSample, tests)
             };
             let fits = Some((fa, fb));
-            return (retimed(tests, timing), TimingDecision { timing, fits });
+            return (read, TimingDecision { timing, fits });
         }
     };
     (retimed(tests, timing), TimingDecision { timing, fits: None })
@@ -270,9 +266,9 @@ mod tests {
     #[test]
     fn a_lag_far_shorter_than_a_sample_is_held_on_its_bound() {
         // Read at their sample, the steps of a device without lags are fitted by lags that run to ~0, where
-        // the force stops depending on them and their standard errors become enormous. Held at their initial
-        // value (5 sample intervals) they spoiled the fit; on their bound the force is the same as where the
-        // search left them.
+        // the force stops depending on them and their standard errors become enormous. They are held on their
+        // bound, where the force is the same as where the search left them, not at their initial value
+        // (5 sample intervals), which would spoil the fit.
         let model = testkit::model("bingham");
         let tests = retimed(lag_free(true, 5), CommandTiming::AtSample);
         let fr = fit(&model, &tests, &all_spans(&tests), &FitOptions::default());
@@ -289,8 +285,8 @@ mod tests {
 
     #[test]
     fn a_coil_lag_as_short_as_a_sample_is_read_at_its_sample_when_so_logged() {
-        // One lag of a sample interval: the step response is still mostly in the first sample. Read after
-        // their sample, independent sets like it ended at 1.6-2.0x the noise floor.
+        // One lag of a sample interval: the step response is still mostly in the first sample, so the
+        // reading still decides the fit.
         let model = testkit::model("bingham");
         for (at_sample, want) in [
             (true, CommandTiming::AtSample),
