@@ -37,7 +37,7 @@
 //! position; the Mach trim actuator repositions the feel and centring unit above `M_mt` (0.615 on
 //! the 737, FCOM), which moves the column neutral aft as the speed rises.
 
-use super::longitudinal::AircraftState;
+use super::state::AircraftState;
 
 /// An aircraft's elevator hinge, tail and stick gearing (part of its [`super::AircraftModel`]).
 #[derive(Debug, Clone, PartialEq)]

@@ -25,14 +25,16 @@ pub mod jsbsim_bridge;
 pub mod linear;
 pub(crate) mod longitudinal;
 pub mod model;
+pub(crate) mod state;
 pub(crate) mod table;
 
 pub use certification::{CertificationBasis, FeelAssessment};
 pub use fbw::FlyByWire;
 pub use fcs::{FbwAircraft, FbwModel};
 pub use hinge::HingeModel;
-pub use longitudinal::{Aircraft, AircraftState};
+pub use longitudinal::Aircraft;
 pub use model::AircraftModel;
+pub use state::AircraftState;
 pub use table::{Table1, Table2};
 
 /// An aircraft refused: its file, its name, or a flight condition it cannot trim at.
