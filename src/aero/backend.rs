@@ -131,11 +131,6 @@ pub fn open(spec: &str) -> Result<Box<dyn AircraftBackend>, AeroError> {
     }
 }
 
-/// Whether the model file at `path` is a fly-by-wire aircraft's (`[fly_by_wire]`, [`FlyByWire`]).
-pub fn is_fly_by_wire_file(path: &Path) -> Result<bool, AeroError> {
-    Ok(is_fly_by_wire(&Source::read(path)?.text))
-}
-
 /// An embedded model flown without Python.
 pub enum Flown {
     /// The nonlinear 3-DOF model ([`Aircraft`]), its stick linked to the elevator.

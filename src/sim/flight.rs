@@ -345,9 +345,11 @@ pub fn stick_force_per_g_chart(res: &super::Results) -> Result<Option<crate::viz
             .collect()
     };
     let (v, h) = (f.trim.airspeed_m_s, f.trim.altitude_m);
-    if crate::aero::backend::is_fly_by_wire_file(file)? {
+    // The file read once: a fly-by-wire stick's design, or an aircraft model.
+    let src = crate::input::Source::read(file)?;
+    if crate::input::aircraft::is_fly_by_wire(&src.text) {
         // The hand's force on the grip, which the stick's force sensor hands to the FCS.
-        let fbw = FlyByWire::load(file)?;
+        let fbw = FlyByWire::from_toml(&src.text, file)?;
         let designed = format!(
             "designed: {:.1} N breakout + {:.1} N/g",
             fbw.breakout_n, fbw.stick_force_per_g_n
@@ -367,7 +369,8 @@ pub fn stick_force_per_g_chart(res: &super::Results) -> Result<Option<crate::viz
             fbw.level1_per_g_n(),
         )));
     }
-    let a = crate::aero::Aircraft::load(file)?;
+    let model = crate::aero::AircraftModel::from_toml(&src.text, file)?;
+    let a = crate::aero::Aircraft::new(std::sync::Arc::new(model));
     let assess = crate::aero::FeelAssessment::assess(&a, v, h)?;
     Ok(Some(per_g_chart(
         format!(
