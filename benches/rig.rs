@@ -1,5 +1,7 @@
-//! One full rig step (rapier multibody + loop closure + MR damper device model) against a baseline
-//! measured in the same run: the same rig with the device replaced by nothing (the bare rapier step).
+//! One full rig step (rapier multibody + loop closure + MR damper device model) against baselines
+//! measured in the same run: the same rig with the device replaced by nothing (the bare rapier step), and
+//! rapier's own floor, one step of a world holding a single free body (no joint, no collider), which is what
+//! any rig built on rapier's pipeline pays per step before it has a linkage.
 //!
 //! `cargo bench --bench rig`
 
@@ -52,6 +54,22 @@ fn bench(c: &mut Criterion) {
         // Baseline: the bare rapier step of the same multibody and loop closure (no device, no bookkeeping).
         let mut r = rig(3.0, 5.0, 300.0);
         g.bench_function("baseline_rapier_step_only", |b| b.iter(|| r.step_rapier_only()));
+    }
+    {
+        // Floor: rapier's pipeline for one free body, with the rig's integration settings.
+        use rapier3d::prelude::{PhysicsWorld, RigidBodyBuilder};
+        let mut w = PhysicsWorld::new();
+        w.integration_parameters.dt = 1e-3;
+        w.integration_parameters.num_solver_iterations = 1;
+        w.integration_parameters.max_ccd_substeps = 0;
+        let body = RigidBodyBuilder::dynamic().can_sleep(false).additional_mass(1.0);
+        let h = w.bodies.insert(body);
+        g.bench_function("floor_rapier_one_free_body", |b| {
+            b.iter(|| {
+                w.step();
+                black_box(w.bodies[h].translation().z)
+            })
+        });
     }
     g.finish();
 }
