@@ -58,9 +58,11 @@ fn bench(c: &mut Criterion) {
     {
         // Floor: rapier's pipeline for one free body, with the rig's integration settings.
         use rapier3d::prelude::{PhysicsWorld, RigidBodyBuilder};
+        let cfg = RigConfig::new("unused.urdf");
         let mut w = PhysicsWorld::new();
-        w.integration_parameters.dt = 1e-3;
-        w.integration_parameters.num_solver_iterations = 1;
+        w.integration_parameters.dt = (1.0 / cfg.physics_hz) as f32;
+        w.integration_parameters.num_solver_iterations = cfg.solver_iterations;
+        w.integration_parameters.num_internal_pgs_iterations = cfg.pgs_iterations;
         w.integration_parameters.max_ccd_substeps = 0;
         let body = RigidBodyBuilder::dynamic().can_sleep(false).additional_mass(1.0);
         let h = w.bodies.insert(body);
