@@ -25,6 +25,8 @@ find a term for them or say that structure is left, tests/discovery.rs):
                force F_d obeys dF_d/dt = KF (v - v_p), v_p = 0 while |F_d| <= f_y, else (F_d - f_y sgn F_d) / c
   cavitation   on extension (F > 0) the rebound chamber's pressure cannot fall below the vapour pressure,
                so the positive force is capped softly: F <- F / (1 + (F / FCAV)^4)^(1/4)
+  shear_thin   a shear-thinning fluid (Herschel-Bulkley): the viscous force c v becomes
+               c V0 sgn v (|v| / V0)^HB_N, equal to it at V0 = 0.05 m/s (HB_N default 0.5)
   slow_field   a coil field whose time constant grows with the current (eddy currents and the iron's
                rising reluctance): di_f/dt = (i - i_f) / (TAUF (1 + 4 (i_f / IMAX)^2)), the yield force made
                by i_f; with constant currents the field is settled, so it shows under STEPS=1 only
@@ -227,7 +229,8 @@ else:
     FST, VST, BL, FE, XE, FR, PR = 4.0, 0.01, 3e-4, 6.0, 0.03, 1.0, 0.004
     S0, S1, FLS, FLC, VLS, KF, FCAV, TAUF = 1e5, 100.0, 5.0, 3.0, 0.005, 1e5, 60.0, 0.01
 NOVEL_EFFECTS = ("stribeck", "backlash", "end_friction", "lugre", "ripple", "compress", "cavitation",
-                 "slow_field")
+                 "slow_field", "shear_thin")
+HB_N = float(os.environ.get("HB_N", "0.5"))
 
 def novel_init(effect, kin, i0):
     """The state of the later effects at the first sample (settled as if the motion had run before)."""
@@ -256,6 +259,8 @@ def novel_force(st, f, fy, c, d, extra, x, v, i):
             st["fd"] = fy * d + c * v
         st["fy"], st["c"] = fy, c
         f = st["fd"] + extra
+    if "shear_thin" in on:
+        f += c * 0.05 * np.sign(v) * (abs(v) / 0.05) ** HB_N - c * v
     if "stribeck" in on:
         f += FST * np.sign(v) * np.exp(-(v / VST) ** 2)
     if "end_friction" in on:

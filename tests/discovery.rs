@@ -1,7 +1,8 @@
 //! Discovery beyond the vocabulary, on data that neither mrfeel's effect code nor this crate made:
 //! `python/independent_truth.py` writes the paper's device with a physical effect no named effect covers
 //! (turbulent `v|v|` drag, an adiabatic gas spring, a yield force that builds up after each reversal, a
-//! force ripple periodic in position, LuGre friction, a field lag that grows with current), on
+//! force ripple periodic in position, LuGre friction, a field lag that grows with current, a shear-thinning
+//! fluid), on
 //! sines, triangles, multisines and current steps, at 500 Hz to 3 kHz, with and without a velocity channel.
 //!
 //! For each, `diagnose` must either end within 1.3× of the true model's held-out error (the load cell's
@@ -201,6 +202,26 @@ fn velocity_squared_drag_is_found_as_quadratic_damping() {
         "refitted alone {:.4} vs discovered {:.4}",
         cv.heldout_nrmse(),
         t.heldout_nrmse
+    );
+}
+
+/// A shear-thinning fluid (Herschel–Bulkley: the viscous force grows as |v|^0.7, not v), on triangles at
+/// 500 Hz: the model's viscous term takes part of it, and the search, judging each term by what it adds
+/// beside the model's own terms, finds a shear-thinning term and ends at the noise.
+#[test]
+fn shear_thinning_on_triangles_is_found_as_a_shear_thinning_term() {
+    let env = [("HB_N", "0.7"), ("WAVE", "triangle"), ("FS", "500")];
+    let (_dir, tests) = generate("shear_thin", &env, 12);
+    let d = run(&tests);
+    let report = mrfeel::ident::report::diagnose_table(&d);
+    let truth = truth_nrmse(&tests, NOISE_N);
+    assert!(d.final_heldout_nrmse <= 1.1 * truth, "{report}");
+    assert!(d.unexplained().is_none(), "{report}");
+    assert!(
+        d.discovered
+            .iter()
+            .any(|t| t.resembles.starts_with("shear-thinning")),
+        "{report}"
     );
 }
 

@@ -16,7 +16,9 @@ use std::sync::Mutex;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 
-use super::discover::{lagged_current, library, propose_term, readable, verdict, Scales, Verdict};
+use super::discover::{
+    lagged_current, library, model_directions, propose_term, readable, verdict, Scales, Verdict,
+};
 use super::fit::{fit, span_stats, FitOptions, Span};
 use super::residual::{direction_weights, noise_floor_n, where_regions, Region, Signatures};
 use super::validate::{evaluate, Figures};
@@ -938,7 +940,21 @@ fn diagnose_from(
         if opts.open_search && (named_choice.is_none() || term_competes) && !search.at_floor(&cur) {
             super::stop_if_asked()?;
             let name = next_term_name(&reg);
-            if let Some(effect) = propose_term(&name, tests, &cur.oof, &current, &lib) {
+            // The search reads the residual of the model fitted to all the data, at whose optimum the
+            // residual holds nothing along the model's own directions, the ones each candidate is cleared of.
+            let start = Some(fold_median(&cur.fold_params));
+            let full = fit(
+                &cur_model,
+                tests,
+                &all,
+                &FitOptions {
+                    start,
+                    ..cv_fit.clone()
+                },
+            );
+            let pred = evaluate(&cur_model, &full.params, tests);
+            let directions = model_directions(&cur_model, &full.params, tests);
+            if let Some(effect) = propose_term(&name, tests, &pred, &current, directions, &lib) {
                 bar.set_message(format!("trying the term {} on {}", effect.formula(), cur.spec));
                 let mut with = reg.clone();
                 with.register(effect.clone());
@@ -949,7 +965,7 @@ fn diagnose_from(
                     &cv,
                     format!("{name} = {}", effect.formula()),
                     format!(
-                        "found by forward regression in the held-out residual; resembles {}",
+                        "found by forward regression beside the model's own terms; resembles {}",
                         effect.resembles()
                     ),
                 ));
@@ -1140,6 +1156,14 @@ fn diagnose_from(
 }
 
 /// The next free name of a discovered term: `term1`, `term2`, …
+/// The parameters of the folds' fits, each the median over the folds (a model that stands for them all).
+fn fold_median(fold_params: &[Vec<f64>]) -> Vec<f64> {
+    let n = fold_params.first().map_or(0, Vec::len);
+    (0..n)
+        .map(|k| quantile(fold_params.iter().map(|p| p[k]).collect(), 0.5))
+        .collect()
+}
+
 fn next_term_name(reg: &Registry) -> String {
     (1..)
         .map(|k| format!("term{k}"))

@@ -334,20 +334,56 @@ const MIN_ERR: f64 = 0.02;
 /// Most terms a discovered effect has.
 const MAX_TERMS: usize = 3;
 
-/// The term a forward regression (FROLS) finds in the held-out residual `oof − f` of the current model:
+/// The current model's directions of change: at every sample of every test (concatenated), the force's
+/// change with each parameter, by a forward difference at `p` (backward at an upper bound). The term search
+/// scores a candidate only on what these cannot make: refitted beside the term, the model takes the rest.
+pub(crate) fn model_directions(model: &Model, p: &[f64], tests: &[Test]) -> Vec<Vec<f64>> {
+    let force = |p: &[f64]| -> Vec<f64> {
+        tests
+            .par_iter()
+            .map(|t| model.simulate(p, &t.inputs))
+            .collect::<Vec<_>>()
+            .concat()
+    };
+    let at = force(p);
+    model
+        .param_specs()
+        .iter()
+        .enumerate()
+        .filter_map(|(k, s)| {
+            let span = if (s.upper - s.lower).is_finite() {
+                s.upper - s.lower
+            } else {
+                1.0
+            };
+            let h = 1e-5 * p[k].abs().max(1e-3 * span).max(1e-9);
+            let h = if p[k] + h > s.upper { -h } else { h };
+            let mut q = p.to_vec();
+            q[k] += h;
+            let d: Vec<f64> = force(&q).iter().zip(&at).map(|(b, a)| (b - a) / h).collect();
+            d.iter().all(|v| v.is_finite()).then_some(d)
+        })
+        .collect()
+}
+
+/// The term a forward regression (FROLS) finds in the residual `f − pred` of the current model:
 /// a data-defined effect named `name` with a coefficient per kept library term (initial guesses their
-/// least-squares values), or `None` when no term explains [`MIN_ERR`] of it.
+/// least-squares values beside the model's `directions`), or `None` when no term explains [`MIN_ERR`] of
+/// it. Each candidate is orthogonalised against the model's directions of change first
+/// ([`model_directions`]), as a regression with terms already in the model starts: a term is judged by
+/// what it adds to the model, not by what it shares with it.
 pub(crate) fn propose_term(
     name: &str,
     tests: &[Test],
-    oof: &[Vec<f64>],
+    pred: &[Vec<f64>],
     current: &[Vec<f64>],
+    directions: Vec<Vec<f64>>,
     lib: &[LibraryTerm],
 ) -> Option<FormulaEffect> {
     // The force the term must add: measured − predicted, on the samples that count.
     let mut target = Vec::new();
     let mut w = Vec::new();
-    for (t, p) in tests.iter().zip(oof) {
+    for (t, p) in tests.iter().zip(pred) {
         let dw = direction_weights(t);
         for k in 0..t.len() {
             let r = t.f_n[k] - p[k];
@@ -386,18 +422,27 @@ pub(crate) fn propose_term(
         }
         Some((dot(&q, &target).powi(2) / (qq * rr), q))
     };
+    // The model's own directions open the basis (weighted and orthogonalised in place, so that no second
+    // copy of them is held); those the others already span add nothing.
+    let mut basis: Vec<Vec<f64>> = Vec::new();
+    for mut c in directions {
+        c.iter_mut().zip(&w).for_each(|(c, w)| *c *= w);
+        if let Some((_, q)) = orthogonal(&c, &basis) {
+            basis.push(q);
+        }
+    }
+    let n_model = basis.len();
     // The columns are computed afresh in each round (in parallel, each dropped once scored) rather than
     // held all at once: a library of ~50 terms would hold ~50 values per sample through the search, the
     // largest buffer of a diagnosis. Only the chosen terms' columns are kept.
     let first: Vec<Option<Option<f64>>> = (0..lib.len())
         .into_par_iter()
-        .map(|j| weighted(j).map(|c| orthogonal(&c, &[]).map(|(err, _)| err)))
+        .map(|j| weighted(j).map(|c| orthogonal(&c, &basis).map(|(err, _)| err)))
         .collect();
     // The library terms whose columns are finite; a candidate's index `ci` is its place in this list.
     let valid: Vec<usize> = (0..lib.len()).filter(|&j| first[j].is_some()).collect();
     let mut errs: Vec<Option<f64>> = first.into_iter().flatten().collect();
     let mut chosen: Vec<usize> = Vec::new();
-    let mut basis: Vec<Vec<f64>> = Vec::new();
     let mut raw: Vec<Vec<f64>> = Vec::new();
     while chosen.len() < MAX_TERMS {
         if !chosen.is_empty() {
@@ -431,24 +476,29 @@ pub(crate) fn propose_term(
             _ => break,
         }
     }
-    drop(basis);
+    // The model's part of the basis spans its directions: the chosen terms' coefficients are fitted beside it.
+    basis.truncate(n_model);
     if chosen.is_empty() {
         return None;
     }
-    // Least-squares coefficients of the chosen (not orthogonalised) columns. A term chosen early can end
-    // with a negligible share once the later terms are fitted beside it (they explain what it explained):
-    // such a term is dropped and the rest refitted, so the effect keeps only terms that carry force.
+    // Least-squares coefficients of the chosen (not orthogonalised) columns, fitted beside the model's
+    // directions (the model's share of a term is the model's to take when refitted). A term chosen early can
+    // end with a negligible share once the later terms are fitted beside it (they explain what it
+    // explained): such a term is dropped and the rest refitted, so the effect keeps only terms that carry
+    // force.
     let solve = |raw: &[Vec<f64>]| -> Option<DVector<f64>> {
-        let m = raw.len();
-        let mut ata = DMatrix::<f64>::zeros(m, m);
-        let mut atb = DVector::<f64>::zeros(m);
-        for a in 0..m {
-            atb[a] = dot(&raw[a], &target);
-            for b in 0..m {
-                ata[(a, b)] = dot(&raw[a], &raw[b]);
+        let cols: Vec<&Vec<f64>> = basis.iter().chain(raw).collect();
+        let (n, m) = (cols.len(), raw.len());
+        let mut ata = DMatrix::<f64>::zeros(n, n);
+        let mut atb = DVector::<f64>::zeros(n);
+        for a in 0..n {
+            atb[a] = dot(cols[a], &target);
+            for b in 0..n {
+                ata[(a, b)] = dot(cols[a], cols[b]);
             }
         }
-        ata.lu().solve(&atb)
+        let all = ata.lu().solve(&atb)?;
+        Some(all.rows(n - m, m).into_owned())
     };
     let share =
         |raw: &[Vec<f64>], coef: &DVector<f64>, a: usize| coef[a].powi(2) * dot(&raw[a], &raw[a]) / rr;
@@ -958,6 +1008,79 @@ mod tests {
     /// joins them.
     #[test]
     fn a_residual_of_two_library_terms_is_found_as_them() {
+        let (tests, current) = three_sine_groups();
+        let lib = library(Scales::of(&tests));
+        let truth = [("v^2".to_string(), 1000.0), ("x^3".to_string(), 2e6)];
+        let mut tests = tests;
+        for (j, t) in tests.iter_mut().enumerate() {
+            let cur = std::slice::from_ref(&current[j]);
+            let one = std::slice::from_ref(t);
+            let mut f = vec![0.0; t.len()];
+            for (term, c) in &truth {
+                let col = column(term, one, cur).expect("finite");
+                f.iter_mut().zip(col).for_each(|(f, x)| *f += c * x);
+            }
+            t.f_n = f;
+        }
+        let oof: Vec<Vec<f64>> = tests.iter().map(|t| vec![0.0; t.len()]).collect();
+        let e = propose_term("term1", &tests, &oof, &current, Vec::new(), &lib).expect("a term");
+        let features = features_of(&e);
+        let mut want: Vec<&str> = truth.iter().map(|t| t.0.as_str()).collect();
+        let mut got: Vec<&str> = features.iter().map(String::as_str).collect();
+        want.sort_unstable();
+        got.sort_unstable();
+        assert_eq!(got, want, "{}", e.formula());
+        for (p, f) in e.declared_params().iter().zip(&features) {
+            let c = truth
+                .iter()
+                .find(|t| &t.0 == f)
+                .map(|t| t.1)
+                .expect("a true term");
+            assert!((p.guess - c).abs() <= 1e-6 * c, "{f}: {} against {c}", p.guess);
+        }
+    }
+
+    /// A model with viscous damping and friction, fitted, leaves of a shear-thinning force only the part
+    /// its own terms cannot take. Read beside the model's directions, that residual is found as the
+    /// shear-thinning term with the force's whole coefficient (the model gives back what it took when
+    /// refitted); read alone, the term gets a coefficient far from it.
+    #[test]
+    fn a_term_the_model_partly_absorbed_is_found_with_its_whole_force() {
+        let (mut tests, current) = three_sine_groups();
+        let lib = library(Scales::of(&tests));
+        let (term, c) = ("sign(v)*sqrt(abs(v))", 40.0);
+        let col = |f: &str| column(f, &tests, &current).expect("finite");
+        let (s, dirs) = (col(term), vec![col("v"), col("sign(v)")]);
+        // The least-squares residual of `c s` on the model's directions.
+        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+        let g = DMatrix::from_fn(2, 2, |a, b| dot(&dirs[a], &dirs[b]));
+        let rhs = DVector::from_fn(2, |a, _| c * dot(&dirs[a], &s));
+        let k = g.lu().solve(&rhs).expect("independent directions");
+        let mut at = 0;
+        for t in &mut tests {
+            t.f_n = (at..at + t.len())
+                .map(|n| c * s[n] - k[0] * dirs[0][n] - k[1] * dirs[1][n])
+                .collect();
+            at += t.len();
+        }
+        let zero: Vec<Vec<f64>> = tests.iter().map(|t| vec![0.0; t.len()]).collect();
+        let with = propose_term("term1", &tests, &zero, &current, dirs.clone(), &lib).expect("a term");
+        assert_eq!(features_of(&with), [term], "{}", with.formula());
+        let guess = with.declared_params()[0].guess;
+        assert!((guess - c).abs() <= 1e-6 * c, "{guess} against {c}");
+        let alone = propose_term("term1", &tests, &zero, &current, Vec::new(), &lib).expect("a term");
+        let p = alone.declared_params();
+        let at_term = features_of(&alone).iter().position(|f| f == term);
+        assert!(
+            at_term.is_none_or(|i| (p[i].guess - c).abs() > 0.2 * c),
+            "{}",
+            alone.formula()
+        );
+    }
+
+    /// Three sine groups of falling amplitude and rising frequency under current steps, with zero force,
+    /// and their commanded current.
+    fn three_sine_groups() -> (Vec<Test>, Vec<Vec<f64>>) {
         let tests: Vec<Test> = (0..3)
             .map(|j| {
                 let (a, f) = (0.02 / (1.0 + j as f64), 1.0 + j as f64);
@@ -982,35 +1105,7 @@ mod tests {
             .iter()
             .map(|t| t.inputs.iter().map(|i| i.current_cmd_a).collect())
             .collect();
-        let lib = library(Scales::of(&tests));
-        let truth = [("v^2".to_string(), 1000.0), ("x^3".to_string(), 2e6)];
-        let mut tests = tests;
-        for (j, t) in tests.iter_mut().enumerate() {
-            let cur = std::slice::from_ref(&current[j]);
-            let one = std::slice::from_ref(t);
-            let mut f = vec![0.0; t.len()];
-            for (term, c) in &truth {
-                let col = column(term, one, cur).expect("finite");
-                f.iter_mut().zip(col).for_each(|(f, x)| *f += c * x);
-            }
-            t.f_n = f;
-        }
-        let oof: Vec<Vec<f64>> = tests.iter().map(|t| vec![0.0; t.len()]).collect();
-        let e = propose_term("term1", &tests, &oof, &current, &lib).expect("a term");
-        let features = features_of(&e);
-        let mut want: Vec<&str> = truth.iter().map(|t| t.0.as_str()).collect();
-        let mut got: Vec<&str> = features.iter().map(String::as_str).collect();
-        want.sort_unstable();
-        got.sort_unstable();
-        assert_eq!(got, want, "{}", e.formula());
-        for (p, f) in e.declared_params().iter().zip(&features) {
-            let c = truth
-                .iter()
-                .find(|t| &t.0 == f)
-                .map(|t| t.1)
-                .expect("a true term");
-            assert!((p.guess - c).abs() <= 1e-6 * c, "{f}: {} against {c}", p.guess);
-        }
+        (tests, current)
     }
 
     /// A force periodic in position, beside a larger smooth one and noise, is found at its wavelength (to
