@@ -1084,19 +1084,10 @@ mod tests {
         let tests: Vec<Test> = (0..3)
             .map(|j| {
                 let (a, f) = (0.02 / (1.0 + j as f64), 1.0 + j as f64);
-                let w = std::f64::consts::TAU * f;
-                let inputs: Vec<Inputs> = (0..4000)
-                    .map(|k| {
-                        let t = k as f64 * 1e-3;
-                        Inputs {
-                            t_s: t,
-                            x_m: a * (w * t).sin(),
-                            v_m_s: a * w * (w * t).cos(),
-                            a_m_s2: -a * w * w * (w * t).sin(),
-                            current_cmd_a: 2.0 * ((k / 700 + j) % 4) as f64,
-                        }
-                    })
-                    .collect();
+                let mut inputs = crate::device::effects::testkit::sine(a, f, 0.0, 1e-3, 3.999);
+                for (k, i) in inputs.iter_mut().enumerate() {
+                    i.current_cmd_a = 2.0 * ((k / 700 + j) % 4) as f64;
+                }
                 let f_n = vec![0.0; inputs.len()];
                 Test::synthetic(&format!("g{j}.csv"), &format!("g{j}"), inputs, f_n)
             })
