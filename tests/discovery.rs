@@ -225,6 +225,23 @@ fn shear_thinning_on_triangles_is_found_as_a_shear_thinning_term() {
     );
 }
 
+/// An adiabatic gas spring on sines (its force grows as (L / (L − x))^1.4, steeply toward one end): the
+/// search finds a spring stiffening toward one end, and the held-out error falls to under a twelfth of
+/// Bingham's (a polynomial in x, extrapolated to the largest stroke held out, stays above a seventh).
+#[test]
+fn a_gas_spring_is_found_as_a_spring_stiffening_toward_one_end() {
+    let (_dir, tests) = generate("gas_spring", &[], 11);
+    let d = run(&tests);
+    let report = mrfeel::ident::report::diagnose_table(&d);
+    assert!(d.final_heldout_nrmse < d.base_heldout_nrmse / 12.0, "{report}");
+    assert!(
+        d.discovered
+            .iter()
+            .any(|t| t.resembles.starts_with("spring stiffening toward one end")),
+        "{report}"
+    );
+}
+
 #[test]
 fn gas_spring_on_triangles_at_2_khz_is_found_or_reported() {
     found_or_said("gas_spring", &[("WAVE", "triangle"), ("FS", "2000")], 2);

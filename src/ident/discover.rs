@@ -131,6 +131,17 @@ pub(crate) fn library(s: Scales) -> Vec<LibraryTerm> {
         "N",
         "saturating centring force (detent)",
     ));
+    // A spring that stiffens steeply toward one end of the stroke (a gas spring's compression, a bump stop),
+    // without a pole: a term used beyond the measured travel stays finite.
+    for k in [0.2, 0.4] {
+        for sign in ["", "-"] {
+            l.push(t(
+                format!("exp({sign}x/{})", num(k * x)),
+                "N",
+                "spring stiffening toward one end of the stroke (gas spring, bump stop)",
+            ));
+        }
+    }
     for k in [0.03, 0.15, 0.5] {
         l.push(t(
             format!("tanh(v/{})", num(k * v)),
