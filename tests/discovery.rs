@@ -211,18 +211,9 @@ fn velocity_squared_drag_is_found_as_quadratic_damping() {
 #[test]
 fn shear_thinning_on_triangles_is_found_as_a_shear_thinning_term() {
     let env = [("HB_N", "0.7"), ("WAVE", "triangle"), ("FS", "500")];
-    let (_dir, tests) = generate("shear_thin", &env, 12);
-    let d = run(&tests);
-    let report = mrfeel::ident::report::diagnose_table(&d);
-    let truth = truth_nrmse(&tests, NOISE_N);
+    let (d, truth, report) = found_as("shear_thin", &env, 12, "shear-thinning");
     assert!(d.final_heldout_nrmse <= 1.1 * truth, "{report}");
     assert!(d.unexplained().is_none(), "{report}");
-    assert!(
-        d.discovered
-            .iter()
-            .any(|t| t.resembles.starts_with("shear-thinning")),
-        "{report}"
-    );
 }
 
 /// An adiabatic gas spring on sines (its force grows as (L / (L − x))^1.4, steeply toward one end): the
@@ -230,16 +221,19 @@ fn shear_thinning_on_triangles_is_found_as_a_shear_thinning_term() {
 /// Bingham's (a polynomial in x, extrapolated to the largest stroke held out, stays above a seventh).
 #[test]
 fn a_gas_spring_is_found_as_a_spring_stiffening_toward_one_end() {
-    let (_dir, tests) = generate("gas_spring", &[], 11);
+    let (d, _, report) = found_as("gas_spring", &[], 11, "spring stiffening toward one end");
+    assert!(d.final_heldout_nrmse < d.base_heldout_nrmse / 12.0, "{report}");
+}
+
+/// Diagnose `effects` and check that a discovered term resembles `family`; the diagnosis, the truth's
+/// held-out NRMSE and the report.
+fn found_as(effects: &str, env: &[(&str, &str)], seed: u64, family: &str) -> (Diagnosis, f64, String) {
+    let (_dir, tests) = generate(effects, env, seed);
     let d = run(&tests);
     let report = mrfeel::ident::report::diagnose_table(&d);
-    assert!(d.final_heldout_nrmse < d.base_heldout_nrmse / 12.0, "{report}");
-    assert!(
-        d.discovered
-            .iter()
-            .any(|t| t.resembles.starts_with("spring stiffening toward one end")),
-        "{report}"
-    );
+    let found = d.discovered.iter().any(|t| t.resembles.starts_with(family));
+    assert!(found, "{effects}: no term resembles {family}\n{report}");
+    (d, truth_nrmse(&tests, NOISE_N), report)
 }
 
 #[test]
