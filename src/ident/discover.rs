@@ -3,10 +3,11 @@
 //!
 //! **Term search.** A library of candidate force terms built from the measured and derived signals
 //! (`library`) is searched by forward-regression orthogonal least squares (FROLS, Billings' error-reduction
-//! ratio) on the current model's held-out residual: its criterion, the share of the residual's energy each
-//! term explains once orthogonalised against those already chosen, does not depend on the terms' unrelated
-//! units and scales, as a threshold on coefficients or an L1 penalty would. The few terms it keeps become one
-//! data-defined effect ([`crate::device::formula::FormulaEffect`]) judged exactly as a named effect is.
+//! ratio) on the residual of the current model fitted to all the data: its criterion, the share of the
+//! residual's energy each term explains once orthogonalised against the model's own directions of change
+//! and the terms already chosen, does not depend on the terms' unrelated units and scales, as a threshold on
+//! coefficients or an L1 penalty would. The few terms it keeps become one data-defined effect
+//! ([`crate::device::formula::FormulaEffect`]) judged exactly as a named effect is.
 //!
 //! **Verdict.** A ridge regression on smooth functions, shifted copies, low-pass states and bins of the
 //! signals (`verdict`) is fitted to the final model's held-out residual on training folds and scored on the
