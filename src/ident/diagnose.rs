@@ -953,7 +953,7 @@ fn diagnose_from(
                 },
             );
             let pred = evaluate(&cur_model, &full.params, tests);
-            let directions = model_directions(&cur_model, &full.params, tests);
+            let directions = model_directions(&cur_model, &full.params, tests, &pred);
             if let Some(effect) = propose_term(&name, tests, &pred, &current, directions, &lib) {
                 bar.set_message(format!("trying the term {} on {}", effect.formula(), cur.spec));
                 let mut with = reg.clone();
@@ -1155,7 +1155,6 @@ fn diagnose_from(
     Ok((d, cur))
 }
 
-/// The next free name of a discovered term: `term1`, `term2`, …
 /// The parameters of the folds' fits, each the median over the folds (a model that stands for them all).
 fn fold_median(fold_params: &[Vec<f64>]) -> Vec<f64> {
     let n = fold_params.first().map_or(0, Vec::len);
@@ -1164,6 +1163,7 @@ fn fold_median(fold_params: &[Vec<f64>]) -> Vec<f64> {
         .collect()
 }
 
+/// The next free name of a discovered term: `term1`, `term2`, …
 fn next_term_name(reg: &Registry) -> String {
     (1..)
         .map(|k| format!("term{k}"))

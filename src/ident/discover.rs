@@ -18,6 +18,7 @@ use rayon::prelude::*;
 
 use super::diagnose::Fold;
 use super::residual::direction_weights;
+use super::validate::evaluate;
 use super::Test;
 use crate::device::formula::{Formula, FormulaEffect, FormulaParam};
 use crate::device::{Inputs, Model};
@@ -346,18 +347,12 @@ const MIN_ERR: f64 = 0.02;
 /// Most terms a discovered effect has.
 const MAX_TERMS: usize = 3;
 
-/// The current model's directions of change: at every sample of every test (concatenated), the force's
-/// change with each parameter, by a forward difference at `p` (backward at an upper bound). The term search
-/// scores a candidate only on what these cannot make: refitted beside the term, the model takes the rest.
-pub(crate) fn model_directions(model: &Model, p: &[f64], tests: &[Test]) -> Vec<Vec<f64>> {
-    let force = |p: &[f64]| -> Vec<f64> {
-        tests
-            .par_iter()
-            .map(|t| model.simulate(p, &t.inputs))
-            .collect::<Vec<_>>()
-            .concat()
-    };
-    let at = force(p);
+/// The current model's directions of change: at every sample of every test (concatenated), the change of
+/// the force the fit sees (through each test's drive and acquisition chain, [`evaluate`]) with each
+/// parameter, by a forward difference from `pred`, the prediction at `p` (backward at an upper bound). The
+/// term search scores a candidate only on what these cannot make: refitted beside the term, the model takes
+/// the rest.
+pub(crate) fn model_directions(model: &Model, p: &[f64], tests: &[Test], pred: &[Vec<f64>]) -> Vec<Vec<f64>> {
     model
         .param_specs()
         .iter()
@@ -372,7 +367,13 @@ pub(crate) fn model_directions(model: &Model, p: &[f64], tests: &[Test]) -> Vec<
             let h = if p[k] + h > s.upper { -h } else { h };
             let mut q = p.to_vec();
             q[k] += h;
-            let d: Vec<f64> = force(&q).iter().zip(&at).map(|(b, a)| (b - a) / h).collect();
+            let moved = evaluate(model, &q, tests);
+            let d: Vec<f64> = moved
+                .iter()
+                .flatten()
+                .zip(pred.iter().flatten())
+                .map(|(b, a)| (b - a) / h)
+                .collect();
             d.iter().all(|v| v.is_finite()).then_some(d)
         })
         .collect()
