@@ -17,7 +17,8 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 
 use super::discover::{
-    lagged_current, library, model_directions, propose_term, readable, verdict, Scales, Verdict,
+    driven_current, lagged_current, library, model_directions, propose_term, readable, verdict, Scales,
+    Verdict,
 };
 use super::fit::{fit, span_stats, FitOptions, Span};
 use super::residual::{direction_weights, noise_floor_n, where_regions, Region, Signatures};
@@ -815,8 +816,15 @@ fn diagnose_from(
     let base_fit = fit(&base_model, tests, &all, &opts.fit);
     let base_pred = evaluate(&base_model, &base_fit.params, tests);
     let where_ = where_regions(tests, &base_pred);
-    // The lagged current the library's and the verdict's features read: the base model's excitation state.
+    // The lagged current the library's and the verdict's features read: the base model's excitation state,
+    // over the logged samples for the verdict and over each test's drive for the library's terms (the same
+    // where no test went through a filter).
     let current = lagged_current(&base_model, &base_fit.params, tests);
+    let driven = tests
+        .iter()
+        .any(|t| t.drive.is_some())
+        .then(|| driven_current(&base_model, &base_fit.params, tests));
+    let term_current = driven.as_ref().unwrap_or(&current);
     let lib = library(Scales::of(tests));
     let mut discovered: Vec<(FormulaEffect, f64, f64)> = Vec::new();
 
@@ -954,7 +962,7 @@ fn diagnose_from(
             );
             let pred = evaluate(&cur_model, &full.params, tests);
             let directions = model_directions(&cur_model, &full.params, tests, &pred);
-            if let Some(effect) = propose_term(&name, tests, &pred, &current, directions, &lib) {
+            if let Some(effect) = propose_term(&name, tests, &pred, term_current, directions, &lib) {
                 bar.set_message(format!("trying the term {} on {}", effect.formula(), cur.spec));
                 let mut with = reg.clone();
                 with.register(effect.clone());
@@ -1108,7 +1116,7 @@ fn diagnose_from(
                         .map_or(f64::NAN, |k| final_fit.params[k])
                 })
                 .collect();
-            let effect = match super::discover::strongest_family(&effect, &values, tests, &current) {
+            let effect = match super::discover::strongest_family(&effect, &values, tests, term_current) {
                 Some(family) => effect.with_resembles(family),
                 None => effect,
             };

@@ -316,28 +316,39 @@ fn ripple_terms(s: Scales, tests: &[Test], target: &[f64], w: &[f64]) -> Vec<Lib
 
 /// The lagged current (the model's own excitation state) at every sample of every test.
 pub(crate) fn lagged_current(model: &Model, p: &[f64], tests: &[Test]) -> Vec<Vec<f64>> {
+    tests.iter().map(|t| current_over(model, p, &t.inputs)).collect()
+}
+
+/// The lagged current over each test's drive ([`Test::drive_inputs`]): what a term of the model is fed
+/// when its force is predicted through the acquisition chain.
+pub(crate) fn driven_current(model: &Model, p: &[f64], tests: &[Test]) -> Vec<Vec<f64>> {
     tests
         .iter()
-        .map(|t| {
-            let mut out = vec![0.0; t.len()];
-            let mut states = Vec::new();
-            model.simulate_recording(p, &t.inputs, &mut out, &mut states);
-            let ns = model.n_states();
-            t.inputs
-                .iter()
-                .enumerate()
-                .map(|(k, inp)| model.eval(p, &states[k * ns..(k + 1) * ns], inp).current_a)
-                .collect()
-        })
+        .map(|t| current_over(model, p, t.drive_inputs(t.len())))
         .collect()
 }
 
-/// A library term's value at every sample of every test, concatenated test after test.
+fn current_over(model: &Model, p: &[f64], inputs: &[Inputs]) -> Vec<f64> {
+    let mut out = vec![0.0; inputs.len()];
+    let mut states = Vec::new();
+    model.simulate_recording(p, inputs, &mut out, &mut states);
+    let ns = model.n_states();
+    inputs
+        .iter()
+        .enumerate()
+        .map(|(k, inp)| model.eval(p, &states[k * ns..(k + 1) * ns], inp).current_a)
+        .collect()
+}
+
+/// A library term's force as the file would show it, at every sample of every test (concatenated test
+/// after test): the term over the test's drive with the [`driven_current`] `current`, through the test's
+/// acquisition chain ([`Test::observed`]), as the model's own force is compared. A term judged on the
+/// logged signals instead would not be the force a fit of the term makes on filtered data.
 fn column(term: &str, tests: &[Test], current: &[Vec<f64>]) -> Option<Vec<f64>> {
     let f = Formula::parse(term, &[]).ok()?;
     let mut out = Vec::new();
     for (t, i) in tests.iter().zip(current) {
-        out.extend(f.series(&t.inputs, i));
+        out.extend(t.observed(f.series(t.drive_inputs(t.len()), i)));
     }
     out.iter().all(|v| v.is_finite()).then_some(out)
 }
@@ -384,7 +395,8 @@ pub(crate) fn model_directions(model: &Model, p: &[f64], tests: &[Test], pred: &
 /// least-squares values beside the model's `directions`), or `None` when no term explains [`MIN_ERR`] of
 /// it. Each candidate is orthogonalised against the model's directions of change first
 /// ([`model_directions`]), as a regression with terms already in the model starts: a term is judged by
-/// what it adds to the model, not by what it shares with it.
+/// what it adds to the model, not by what it shares with it. `current` is the [`driven_current`]: the terms
+/// are taken through each test's acquisition chain, as the model's force is.
 pub(crate) fn propose_term(
     name: &str,
     tests: &[Test],
@@ -602,7 +614,7 @@ pub fn merged(name: &str, effects: &[FormulaEffect]) -> Option<FormulaEffect> {
 }
 
 /// The family of the term of `effect` that carries the most force with the coefficients `values` (its
-/// share `c² Σ term²` over `tests`), or `None` when none of its terms is in the library. Read from the final
+/// share `c² Σ term²` over `tests`, with the [`driven_current`] `current`), or `None` when none of its terms is in the library. Read from the final
 /// fit, not from the search's least-squares proposal: once the model's own parameters are refitted beside
 /// the terms, the force can move from one term to another.
 pub(crate) fn strongest_family(

@@ -306,9 +306,9 @@ fn candidate_rows(s: &mut String, cands: &[Candidate]) {
     }
 }
 
-/// The noise floor for the text report: four decimals, or, where that would print 0.0000 (the real damper's
-/// files: the source filtered the force, and its third differences hold almost no white noise), the figure
-/// and what it means for the diagnosis.
+/// The noise floor for the text report: four decimals, or, where that would print 0.0000 (a force filtered
+/// before it was logged by a filter the data do not show: its third differences hold almost no white
+/// noise), the figure and what it means for the diagnosis.
 fn floor_words(nrmse: f64) -> String {
     if nrmse >= 5e-5 {
         format!("{nrmse:.4}")
