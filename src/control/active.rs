@@ -244,16 +244,6 @@ impl ActiveStick {
         }
     }
 
-    /// Its configuration.
-    pub fn config(&self) -> &ActiveStickConfig {
-        &self.cfg
-    }
-
-    /// Motor current, A.
-    pub fn current_a(&self) -> f64 {
-        self.current_a
-    }
-
     /// The grip sensor's reading at `t_s`, N along the grip path, after its faults.
     fn read_sensor(&mut self, t_s: f64, true_n: f64, faults: &FaultSchedule) -> f64 {
         let s = self.cfg.sensor;

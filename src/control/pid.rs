@@ -63,11 +63,6 @@ impl Pid {
         }
     }
 
-    /// The integrator's state, in output units.
-    pub fn integral(&self) -> f64 {
-        self.integral
-    }
-
     /// Back to rest: zero integral, no previous measurement.
     pub fn reset(&mut self) {
         self.integral = 0.0;

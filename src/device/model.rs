@@ -227,6 +227,8 @@ impl std::fmt::Display for ModelSpec {
 
 struct Slot {
     effect: Arc<dyn Effect>,
+    /// The effect's [`Effect::stage`].
+    stage: EffectStage,
     params: std::ops::Range<usize>,
     states: std::ops::Range<usize>,
 }
@@ -297,13 +299,14 @@ impl Model {
             let s0 = n_states;
             n_states += effect.n_states();
             slots.push(Slot {
+                stage: effect.stage(),
                 params: p0..param_specs.len(),
                 states: s0..n_states,
                 effect,
             });
         }
         let mut apply_order: Vec<usize> = (0..slots.len()).collect();
-        apply_order.sort_by_key(|&k| slots[k].effect.stage());
+        apply_order.sort_by_key(|&k| slots[k].stage);
         Ok(Self {
             spec: spec.clone(),
             slots,
@@ -381,6 +384,11 @@ impl Model {
             );
             p.extend(g);
         }
+        self.clamped(&p)
+    }
+
+    /// `p` clamped into the parameters' bounds.
+    fn clamped(&self, p: &[f64]) -> Vec<f64> {
         p.iter()
             .zip(&self.param_specs)
             .map(|(v, s)| s.clamp(*v))
@@ -416,10 +424,7 @@ impl Model {
             }
             p.extend(g);
         }
-        Ok(p.iter()
-            .zip(&self.param_specs)
-            .map(|(v, s)| s.clamp(*v))
-            .collect())
+        Ok(self.clamped(&p))
     }
 
     /// Whether the force is a usable number everywhere a damper may be driven: the first inputs of
@@ -470,24 +475,31 @@ impl Model {
 
     /// The force assembly at one sample (base, then each effect in stage order).
     pub fn eval(&self, p: &[f64], s: &[f64], inp: &Inputs) -> Stage {
-        let mut stage = self.spec.base.stage(p, s, inp);
-        for &k in &self.apply_order {
-            let slot = &self.slots[k];
-            slot.effect
-                .apply(&p[slot.params.clone()], &s[slot.states.clone()], inp, &mut stage);
-        }
-        stage
+        self.apply_effects(p, s, inp, self.spec.base.stage(p, s, inp), |_| true)
     }
 
     /// [`Model::eval`] with the direction function set to `direction` (the fluid fully yielded that way):
-    /// the effects that shape the direction ([`super::EffectStage::Direction`]) are skipped, the others
-    /// apply as usual. A controller's holding force: the damper holds up to its yield force.
+    /// the effects that shape the direction ([`EffectStage::Direction`]) are skipped. A controller's
+    /// holding force: the damper holds up to its yield force.
     pub(crate) fn eval_yielded(&self, p: &[f64], s: &[f64], inp: &Inputs, direction: f64) -> Stage {
-        let mut stage = bingham::stage(p, s, inp);
-        stage.direction = direction;
-        for &k in &self.apply_order {
-            let slot = &self.slots[k];
-            if slot.effect.stage() != super::EffectStage::Direction {
+        let stage = Stage {
+            direction,
+            ..bingham::stage(p, s, inp)
+        };
+        self.apply_effects(p, s, inp, stage, |at| at != EffectStage::Direction)
+    }
+
+    /// Apply, in stage order, the effects whose stage `keep` accepts to `stage`.
+    fn apply_effects(
+        &self,
+        p: &[f64],
+        s: &[f64],
+        inp: &Inputs,
+        mut stage: Stage,
+        keep: impl Fn(EffectStage) -> bool,
+    ) -> Stage {
+        for slot in self.apply_order.iter().map(|&k| &self.slots[k]) {
+            if keep(slot.stage) {
                 slot.effect
                     .apply(&p[slot.params.clone()], &s[slot.states.clone()], inp, &mut stage);
             }
@@ -517,8 +529,7 @@ impl Model {
         step: Step,
         memo: &mut DecayMemo,
     ) {
-        for &k in &self.apply_order {
-            let slot = &self.slots[k];
+        for slot in self.apply_order.iter().map(|&k| &self.slots[k]) {
             slot.effect.advance(
                 &p[slot.params.clone()],
                 &mut s[slot.states.clone()],

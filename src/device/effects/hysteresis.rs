@@ -277,31 +277,15 @@ impl Effect for Hysteresis {
          the measured force rises with velocity (pre-yield slope Fy/v_y) instead of jumping to Fy",
     );
 
-    /// 2 % of the largest displacement and 10 % of the largest velocity: a loop and a knee the data can see,
-    /// so the gradient is informative (the fit on the UTFSM damper converges from here); the Dahl shape
-    /// (`κ = g = 0`), the simplest, from which the data bend it.
-    fn initial_guess(&self, stats: &DataStats) -> Vec<f64> {
-        let sc = Scales::of(stats);
-        vec![
-            PARAMS[X_YIELD].clamp(0.02 * sc.x_m),
-            PARAMS[V_YIELD].clamp(0.1 * sc.v_m_s),
-            0.0,
-            0.0,
-        ]
-    }
-
-    /// 1 % of the largest displacement (small enough not to act as a spring over the stroke) and 20 % of the
-    /// largest velocity: a clearly visible pre-yield branch and loop, of the Dahl shape (the hidden truth of
-    /// `mrfeel mts`; `--set hyst_knee=1` gives Bouc-Wen n = 2).
-    fn typical_params(&self, stats: &DataStats) -> Vec<f64> {
-        let sc = Scales::of(stats);
-        vec![
-            PARAMS[X_YIELD].clamp(0.01 * sc.x_m),
-            PARAMS[V_YIELD].clamp(0.2 * sc.v_m_s),
-            0.0,
-            0.0,
-        ]
-    }
+    // Both of the Dahl shape (`κ = g = 0`), the simplest. Guess: 2 % of the largest displacement and 10 % of
+    // the largest velocity, a loop and a knee the data can see, so the gradient is informative (the fit on the
+    // UTFSM damper converges from here). Typical: 1 % (not acting as a spring over the stroke) and 20 %, a
+    // clearly visible pre-yield branch and loop (the hidden truth of `mrfeel mts`; `--set hyst_knee=1` gives
+    // Bouc-Wen n = 2).
+    scaled_guesses!(
+        s => vec![PARAMS[X_YIELD].clamp(0.02 * s.x_m), PARAMS[V_YIELD].clamp(0.1 * s.v_m_s), 0.0, 0.0],
+        vec![PARAMS[X_YIELD].clamp(0.01 * s.x_m), PARAMS[V_YIELD].clamp(0.2 * s.v_m_s), 0.0, 0.0],
+    );
 
     fn n_states(&self) -> usize {
         1

@@ -24,6 +24,21 @@ macro_rules! effect_constants {
     };
 }
 
+/// `initial_guess` and `typical_params` of a built-in effect, each an expression of the data's [`Scales`]
+/// (bound to `$s`).
+macro_rules! scaled_guesses {
+    ($s:ident => $guess:expr, $typical:expr $(,)?) => {
+        fn initial_guess(&self, stats: &DataStats) -> Vec<f64> {
+            let $s = Scales::of(stats);
+            $guess
+        }
+        fn typical_params(&self, stats: &DataStats) -> Vec<f64> {
+            let $s = Scales::of(stats);
+            $typical
+        }
+    };
+}
+
 pub(crate) mod asymmetry;
 pub(crate) mod current_viscosity;
 pub(crate) mod hysteresis;
@@ -206,6 +221,12 @@ pub(crate) mod testkit {
             fc_gain_n_per_a: BASE[1],
             c0_n_s_per_m: BASE[2],
         }
+    }
+
+    /// Mean force on the rising (`v > 0`) samples of a 1 s triangle of 10 mm at `speed_m_s` and `current_a`.
+    pub fn rising_mean(m: &Model, p: &[f64], speed_m_s: f64, current_a: f64) -> f64 {
+        let inputs = triangle(0.01, speed_m_s, current_a, 1e-3, 1.0);
+        mean_where(&m.simulate(p, &inputs), &inputs, |k| k.v_m_s > 0.0)
     }
 
     /// Mean of the values where the mask holds.
