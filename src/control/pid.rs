@@ -66,8 +66,7 @@ impl Pid {
     /// Back to rest: zero integral, no previous measurement.
     pub fn reset(&mut self) {
         self.integral = 0.0;
-        self.last_meas = None;
-        self.deriv = 0.0;
+        self.restart_derivative();
         self.saturated = false;
     }
 

@@ -455,7 +455,6 @@ pub struct FormulaEffect {
     resembles: String,
     formula: Formula,
     params: &'static [ParamSpec],
-    guesses: Vec<f64>,
     declared: Vec<FormulaParam>,
 }
 
@@ -507,7 +506,6 @@ impl FormulaEffect {
             name: leak(name),
             describe: leak(describe),
             resembles: resembles.to_string(),
-            guesses: params.iter().map(|p| p.guess).collect(),
             formula,
             params: Box::leak(specs.into_boxed_slice()),
             declared: params,
@@ -526,7 +524,6 @@ impl FormulaEffect {
             if v.is_finite() {
                 let p = &mut e.declared[k];
                 p.guess = v.max(p.lower).min(p.upper);
-                e.guesses[k] = p.guess;
             }
         }
         e
@@ -692,7 +689,7 @@ impl Effect for FormulaEffect {
     }
 
     fn initial_guess(&self, _stats: &DataStats) -> Vec<f64> {
-        self.guesses.clone()
+        self.declared.iter().map(|p| p.guess).collect()
     }
 
     fn n_states(&self) -> usize {

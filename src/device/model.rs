@@ -517,6 +517,12 @@ impl Model {
         self.advance_in(p, s, inp, stage, force_n, step, &mut DecayMemo::default());
     }
 
+    /// [`Model::advance`] over `step` from `inp` with the force the states give there.
+    pub(crate) fn step(&self, p: &[f64], s: &mut [f64], inp: &Inputs, step: Step) {
+        let stage = self.eval(p, s, inp);
+        self.advance(p, s, inp, &stage, stage.force_n(inp.v_m_s), step);
+    }
+
     /// [`Model::advance`] with the base's lag decays from `memo` (an integration's).
     #[allow(clippy::too_many_arguments)]
     fn advance_in(

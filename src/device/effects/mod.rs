@@ -51,23 +51,15 @@ use super::effect::{Effect, EffectStage, Inputs, Stage, Step};
 use super::model::Registry;
 use super::params::{DataStats, ParamSpec};
 
-pub(crate) use asymmetry::Asymmetry;
-pub(crate) use current_viscosity::CurrentViscosity;
-pub(crate) use hysteresis::Hysteresis;
-pub(crate) use inertia::Inertia;
-pub(crate) use magnetic_saturation::MagneticSaturation;
-pub(crate) use stiffness::Stiffness;
-pub(crate) use thermal_drift::ThermalDrift;
-
 /// Register every effect of the canonical vocabulary.
 pub(crate) fn register_builtin(r: &mut Registry) {
-    r.register(Hysteresis)
-        .register(Asymmetry)
-        .register(MagneticSaturation)
-        .register(CurrentViscosity)
-        .register(Stiffness)
-        .register(Inertia)
-        .register(ThermalDrift);
+    r.register(hysteresis::Hysteresis)
+        .register(asymmetry::Asymmetry)
+        .register(magnetic_saturation::MagneticSaturation)
+        .register(current_viscosity::CurrentViscosity)
+        .register(stiffness::Stiffness)
+        .register(inertia::Inertia)
+        .register(thermal_drift::ThermalDrift);
 }
 
 /// `v` when it is a usable positive scale, else `fallback`.
