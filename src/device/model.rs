@@ -27,12 +27,17 @@ impl Base {
     /// Every base, in the order listed in messages.
     pub const ALL: [Base; 2] = [Base::Bingham, Base::Spencer];
 
+    /// `bingham` for the Bingham base, `spencer` for the Spencer base.
+    fn pick<T>(self, bingham: T, spencer: T) -> T {
+        match self {
+            Base::Bingham => bingham,
+            Base::Spencer => spencer,
+        }
+    }
+
     /// The base's name in a model spec (`bingham`, `spencer`).
     pub fn name(self) -> &'static str {
-        match self {
-            Base::Bingham => BASE,
-            Base::Spencer => "spencer",
-        }
+        self.pick(BASE, "spencer")
     }
 
     /// The base named `name`, if any.
@@ -42,41 +47,26 @@ impl Base {
 
     /// Parameter declarations, in vector order (the first parameters of every model of this base).
     pub fn params(self) -> &'static [ParamSpec] {
-        match self {
-            Base::Bingham => &bingham::PARAMS,
-            Base::Spencer => &spencer::PARAMS,
-        }
+        self.pick(&bingham::PARAMS, &spencer::PARAMS)
     }
 
     pub(crate) fn n_states(self) -> usize {
-        match self {
-            Base::Bingham => bingham::N_STATES,
-            Base::Spencer => spencer::N_STATES,
-        }
+        self.pick(bingham::N_STATES, spencer::N_STATES)
     }
 
     /// Parameters the base's states depend on.
     pub(crate) fn state_params(self) -> &'static [usize] {
-        match self {
-            Base::Bingham => &bingham::STATE_PARAMS,
-            Base::Spencer => &spencer::STATE_PARAMS,
-        }
+        self.pick(&bingham::STATE_PARAMS, &spencer::STATE_PARAMS)
     }
 
     /// Parameters that act only where the current command changes (the lags' time constants).
     pub(crate) fn lag_params(self) -> &'static [usize] {
-        match self {
-            Base::Bingham => &bingham::STATE_PARAMS,
-            Base::Spencer => &spencer::LAG_PARAMS,
-        }
+        self.pick(&bingham::STATE_PARAMS, &spencer::LAG_PARAMS)
     }
 
     /// Parameters the force is linear in (a fit's warm start solves for them first).
     pub(crate) fn linear_gains(self) -> &'static [usize] {
-        match self {
-            Base::Bingham => &bingham::LINEAR_GAINS,
-            Base::Spencer => &spencer::LINEAR_GAINS,
-        }
+        self.pick(&bingham::LINEAR_GAINS, &spencer::LINEAR_GAINS)
     }
 
     /// Whether an effect acting at `stage` composes with this base: the Spencer model has its own
@@ -107,10 +97,7 @@ impl Base {
     }
 
     fn initial_guess(self, stats: &DataStats) -> Vec<f64> {
-        match self {
-            Base::Bingham => bingham::initial_guess(stats),
-            Base::Spencer => spencer::initial_guess(stats),
-        }
+        self.pick::<fn(&DataStats) -> Vec<f64>>(bingham::initial_guess, spencer::initial_guess)(stats)
     }
 }
 
