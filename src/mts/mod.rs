@@ -272,6 +272,15 @@ pub struct SensorSpec {
 }
 
 impl SensorSpec {
+    /// A 16-bit channel of noise `noise_std` over ±`range`.
+    const fn adc16(noise_std: f64, range: f64) -> Self {
+        Self {
+            noise_std,
+            range,
+            bits: 16,
+        }
+    }
+
     /// A reading: add noise, saturate at the range, quantise to the ADC's LSB.
     pub fn read(&self, truth: f64, rng: &mut ChaCha8Rng) -> f64 {
         let mut y = truth;
@@ -322,21 +331,9 @@ impl MtsTest {
             cycles_per_block: 3.0,
             sample_rate_hz: 1000.0,
             physics_hz: 10_000.0,
-            load_cell: SensorSpec {
-                noise_std: 0.15,
-                range: 250.0,
-                bits: 16,
-            },
-            displacement: SensorSpec {
-                noise_std: 2e-6,
-                range: 0.0508,
-                bits: 16,
-            },
-            velocity: SensorSpec {
-                noise_std: 2e-4,
-                range: 2.0,
-                bits: 16,
-            },
+            load_cell: SensorSpec::adc16(0.15, 250.0),
+            displacement: SensorSpec::adc16(2e-6, 0.0508),
+            velocity: SensorSpec::adc16(2e-4, 2.0),
             record_velocity: true,
             record_coil_current: false,
             stroke_limit_m: None,
@@ -767,11 +764,7 @@ mod tests {
 
     #[test]
     fn load_cell_quantises_to_its_adc_step() {
-        let s = SensorSpec {
-            noise_std: 0.0,
-            range: 250.0,
-            bits: 16,
-        };
+        let s = SensorSpec::adc16(0.0, 250.0);
         let lsb = 500.0 / 65536.0;
         let mut rng = ChaCha8Rng::seed_from_u64(0);
         let y = s.read(12.3456, &mut rng);

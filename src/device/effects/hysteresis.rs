@@ -188,17 +188,15 @@ fn ceil_count(r: f64) -> usize {
 /// `1/n` from a table for the usual sub-step counts (a division is among the slowest operations on the
 /// sample's chain), computed beyond it.
 fn reciprocal(n: usize) -> f64 {
-    const TABLE: [f64; 9] = [
-        f64::INFINITY,
-        1.0,
-        1.0 / 2.0,
-        1.0 / 3.0,
-        1.0 / 4.0,
-        1.0 / 5.0,
-        1.0 / 6.0,
-        1.0 / 7.0,
-        1.0 / 8.0,
-    ];
+    const TABLE: [f64; 9] = {
+        let mut t = [f64::INFINITY; 9];
+        let mut n = 1;
+        while n < 9 {
+            t[n] = 1.0 / n as f64;
+            n += 1;
+        }
+        t
+    };
     TABLE.get(n).copied().unwrap_or_else(|| 1.0 / n as f64)
 }
 
