@@ -244,16 +244,6 @@ impl ActiveStick {
         }
     }
 
-    /// Its configuration.
-    pub fn config(&self) -> &ActiveStickConfig {
-        &self.cfg
-    }
-
-    /// Motor current, A.
-    pub fn current_a(&self) -> f64 {
-        self.current_a
-    }
-
     /// The grip sensor's reading at `t_s`, N along the grip path, after its faults.
     fn read_sensor(&mut self, t_s: f64, true_n: f64, faults: &FaultSchedule) -> f64 {
         let s = self.cfg.sensor;
@@ -383,13 +373,6 @@ impl ActiveStick {
         self.motor_force_n = i_mean * self.cfg.force_per_amp_n();
         self.motor_force_n - self.cfg.rotor_mass_kg() * self.rod_accel_m_s2
     }
-
-    /// Drive the motion loop from outside (bypassing the virtual model): the reference position, m, and
-    /// velocity, m/s, for the next steps. For the bandwidth sweep.
-    fn set_reference(&mut self, x_m: f64, v_m_s: f64) {
-        self.x_r_m = x_m;
-        self.v_r_m_s = v_m_s;
-    }
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -466,10 +449,8 @@ pub fn margins_of(l: impl Fn(f64) -> Complex<f64>, f_lo_hz: f64, f_hi_hz: f64, n
         let v = l(std::f64::consts::TAU * f);
         let mag = v.norm();
         let mut ph = v.arg().to_degrees();
-        if let Some((_, _, p0)) = prev {
-            ph += 360.0 * ((p0 - ph) / 360.0).round();
-        }
         if let Some((f0, m0, p0)) = prev {
+            ph += 360.0 * ((p0 - ph) / 360.0).round();
             if out.crossover_hz.is_nan() && m0 >= 1.0 && mag < 1.0 {
                 let u = m0.ln() / (m0.ln() - mag.ln());
                 out.crossover_hz = f0 + u * (f - f0);
@@ -537,7 +518,9 @@ pub fn motion_gain(cfg: &ActiveStickConfig, freq_hz: f64, amplitude_m: f64) -> f
     let b = cfg.rod_damping_n_s_per_m();
     for k in 0..n {
         let t = k as f64 * dt;
-        stick.set_reference(amplitude_m * (w * t).sin(), amplitude_m * w * (w * t).cos());
+        // The reference drives the motion loop from outside, bypassing the virtual model.
+        stick.x_r_m = amplitude_m * (w * t).sin();
+        stick.v_r_m_s = amplitude_m * w * (w * t).cos();
         let rod = RodState {
             grip_force_n: 0.0,
             grip_to_rod: 1.0,

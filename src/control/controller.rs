@@ -106,8 +106,7 @@ impl FeelController {
 
     /// One DAQ tick: `t_s` is the controller's clock (the sample's time), `dt_s` the DAQ period.
     pub fn update(&mut self, t_s: f64, s: &DaqSample, dt_s: f64) -> ControlOutput {
-        let lo = self.pid.gains.out_min;
-        let hi = self.pid.gains.out_max;
+        let (lo, hi) = (self.pid.gains.out_min, self.pid.gains.out_max);
         let moving = s.v_m_s.abs() >= self.rest_speed_m_s;
         // Direction of the motion, or at rest the direction the pilot pushes (the load cell's sign).
         let dir = if moving {
@@ -191,7 +190,7 @@ impl FeelController {
 
 #[cfg(test)]
 mod tests {
-    use super::super::pid::{AntiWindup, PidGains};
+    use super::super::pid::{tests::gains, AntiWindup};
     use super::*;
 
     fn ctl() -> FeelController {
@@ -201,15 +200,7 @@ mod tests {
             damping_n_s_per_m: 0.0,
             max_force_n: 70.0,
         };
-        let pid = Pid::new(PidGains {
-            kp: 0.05,
-            ki: 2.0,
-            kd: 0.0,
-            derivative_filter_s: 0.0,
-            out_min: 0.0,
-            out_max: 14.0,
-            anti_windup: AntiWindup::Clamping,
-        });
+        let pid = Pid::new(gains(AntiWindup::Clamping));
         // The controller's model: fc0 1 N, 5 N/A, C0 20 N·s/m.
         let text = "model = \"bingham\"\n[params]\nfc0_n = 1.0\nfc_gain_n_per_a = 5.0\n\
                     c0_n_s_per_m = 20.0\nte_s = 0.01\ntm_s = 0.008\n";

@@ -376,9 +376,8 @@ mod tests {
         let path = crate::builtin::by_file_name("feel-springs.toml").unwrap();
         let f = FeelSprings::load(&path).unwrap();
         assert!(f.centring.k_n_per_m > 0.0);
-        let dir = std::env::temp_dir().join(format!("mrfeel-feel-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let bad = dir.join("bad.toml");
+        let dir = tempfile::tempdir().unwrap();
+        let bad = dir.path().join("bad.toml");
         let text = crate::input::text::read_text(&path)
             .unwrap()
             .replace("nonlinearity = ", "nonlinearity = -");
@@ -396,6 +395,5 @@ mod tests {
             )) && e.contains("[0, 100]"),
             "{e}"
         );
-        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -63,16 +63,10 @@ impl Pid {
         }
     }
 
-    /// The integrator's state, in output units.
-    pub fn integral(&self) -> f64 {
-        self.integral
-    }
-
     /// Back to rest: zero integral, no previous measurement.
     pub fn reset(&mut self) {
         self.integral = 0.0;
-        self.last_meas = None;
-        self.deriv = 0.0;
+        self.restart_derivative();
         self.saturated = false;
     }
 
@@ -120,10 +114,11 @@ impl Pid {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn gains(aw: AntiWindup) -> PidGains {
+    /// The feel loop's gains in the tests: 0.05 A/N, 2 A/(N·s), no derivative, 0 to 14 A.
+    pub(crate) fn gains(aw: AntiWindup) -> PidGains {
         PidGains {
             kp: 0.05,
             ki: 2.0,

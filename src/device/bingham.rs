@@ -66,9 +66,7 @@ pub(crate) fn saturate(current_cmd_a: f64, limit_a: f64) -> f64 {
 
 /// Lag states at rest for a command held since long before the first sample.
 pub(crate) fn init_states(s: &mut [f64], current_cmd_a: f64, limit_a: f64) {
-    let u = saturate(current_cmd_a, limit_a);
-    s[0] = u;
-    s[1] = u;
+    s[..N_STATES].fill(saturate(current_cmd_a, limit_a));
 }
 
 /// Eq. (2) with Eq. (6)'s yield force: the stage before any effect.
@@ -98,9 +96,7 @@ pub(crate) fn advance_in(
     memo: &mut DecayMemo,
 ) {
     let u = saturate(current_cmd_a, limit_a);
-    let (i, h) = advance_two_lags_in(s[0], s[1], u, p[TE], p[TM], dt_s, memo);
-    s[0] = i;
-    s[1] = h;
+    (s[0], s[1]) = advance_two_lags_in(s[0], s[1], u, p[TE], p[TM], dt_s, memo);
 }
 
 /// `sgn` of Eq. (2), zero at zero velocity.
@@ -137,7 +133,7 @@ mod tests {
         assert_eq!(saturate(5.0, 14.0), 5.0);
     }
 
-    /// A limit that `Model::new` would refuse never panics here (it did on a negative or NaN limit).
+    /// A limit that `Model::new` would refuse never panics here.
     #[test]
     fn saturation_does_not_panic_on_a_limit_that_is_not_positive() {
         assert_eq!(saturate(20.0, -14.0), 14.0);

@@ -372,32 +372,32 @@ impl TomlGeometry {
         let od = len(&self.cylinder_od_in, "cylinder_od_in")?;
         let cyl_len = len(&self.cylinder_length_in, "cylinder_length_in")?;
         let stroke = len(&self.stroke_half_in, "stroke_half_in")?;
-        let clash = |v: &toml::Spanned<f64>, name: &str, why: String| {
-            Err(src.err(v, &format!("geometry.{name}"), why))
-        };
-        if piston > id {
-            return clash(
+        for (clash, v, name, why) in [
+            (
+                piston > id,
                 &self.piston_diameter_in,
                 "piston_diameter_in",
                 format!("value {piston} in is larger than the cylinder's bore, cylinder_id_in = {id} in"),
-            );
-        }
-        if id >= od {
-            return clash(
+            ),
+            (
+                id >= od,
                 &self.cylinder_id_in,
                 "cylinder_id_in",
                 format!("value {id} in is not smaller than the cylinder's outside diameter, cylinder_od_in = {od} in"),
-            );
-        }
-        if 2.0 * stroke > cyl_len {
-            return clash(
+            ),
+            (
+                2.0 * stroke > cyl_len,
                 &self.stroke_half_in,
                 "stroke_half_in",
                 format!(
                     "value {stroke} in: the full stroke, 2 × {stroke} in, is longer than the cylinder, \
                      cylinder_length_in = {cyl_len} in"
                 ),
-            );
+            ),
+        ] {
+            if clash {
+                return Err(src.err(v, &format!("geometry.{name}"), why));
+            }
         }
         Ok(Geometry {
             piston_diameter_m: piston * IN_TO_M,

@@ -455,7 +455,6 @@ pub struct FormulaEffect {
     resembles: String,
     formula: Formula,
     params: &'static [ParamSpec],
-    guesses: Vec<f64>,
     declared: Vec<FormulaParam>,
 }
 
@@ -507,7 +506,6 @@ impl FormulaEffect {
             name: leak(name),
             describe: leak(describe),
             resembles: resembles.to_string(),
-            guesses: params.iter().map(|p| p.guess).collect(),
             formula,
             params: Box::leak(specs.into_boxed_slice()),
             declared: params,
@@ -526,7 +524,6 @@ impl FormulaEffect {
             if v.is_finite() {
                 let p = &mut e.declared[k];
                 p.guess = v.max(p.lower).min(p.upper);
-                e.guesses[k] = p.guess;
             }
         }
         e
@@ -692,7 +689,7 @@ impl Effect for FormulaEffect {
     }
 
     fn initial_guess(&self, _stats: &DataStats) -> Vec<f64> {
-        self.guesses.clone()
+        self.declared.iter().map(|p| p.guess).collect()
     }
 
     fn n_states(&self) -> usize {
@@ -768,6 +765,14 @@ mod tests {
         }
     }
 
+    /// `bingham+NAME` with the effect `e` (named NAME) registered beside the built-in ones.
+    fn model_with(e: FormulaEffect) -> Model {
+        let spec = format!("bingham+{}", e.name());
+        let mut r = Registry::builtin();
+        r.register(e);
+        Model::from_spec(&spec, &r, 14.0).expect("model")
+    }
+
     fn at(x: f64, v: f64) -> (Inputs, Stage) {
         (
             Inputs {
@@ -804,10 +809,7 @@ mod tests {
     /// `lp(v, tau)` follows a step of velocity as `1 − exp(−t/τ)`, exactly at the sample times.
     #[test]
     fn a_low_pass_state_follows_a_step_with_its_time_constant() {
-        let e = FormulaEffect::new("lag", "", "", "lp(v, 0.1)", vec![]).expect("parses");
-        let mut r = Registry::builtin();
-        r.register(e);
-        let m = Model::from_spec("bingham+lag", &r, 14.0).expect("model");
+        let m = model_with(FormulaEffect::new("lag", "", "", "lp(v, 0.1)", vec![]).expect("parses"));
         let dt = 1e-3;
         let inputs: Vec<Inputs> = (0..400)
             .map(|k| Inputs {
@@ -927,9 +929,7 @@ mod tests {
         let text = "m_c1 * sign(v)*exp(-s/0.002) + m_c2 * lp(exp(-tc/0.05), 0.01)";
         let e = FormulaEffect::new("mem", "", "", text, vec![param("m_c1", 1.0), param("m_c2", 1.0)])
             .expect("builds");
-        let mut r = Registry::builtin();
-        r.register(e);
-        let m = Model::from_spec("bingham+mem", &r, 14.0).expect("model");
+        let m = model_with(e);
         let dt = 1e-3;
         let inputs: Vec<Inputs> = (0..1200)
             .map(|k| {

@@ -81,8 +81,8 @@ impl ForceInverse {
             t_s,
             x_m,
             v_m_s,
-            a_m_s2: 0.0,
             current_cmd_a: self.last_cmd_a,
+            ..Inputs::default()
         };
         match self.last {
             None => self.state = self.model.init_state(&self.params, &inp),
@@ -93,16 +93,13 @@ impl ForceInverse {
                         current_cmd_a: self.last_cmd_a,
                         ..prev
                     };
-                    let stage = self.model.eval(&self.params, &self.state, &prev);
-                    let f = stage.force_n(prev.v_m_s);
                     // The filtered velocity, trapezoidal: the laser's position is too noisy to difference
                     // at a pre-yield displacement's scale.
                     let step = Step {
                         dt_s,
                         dx_m: 0.5 * (prev.v_m_s + v_m_s) * dt_s,
                     };
-                    self.model
-                        .advance(&self.params, &mut self.state, &prev, &stage, f, step);
+                    self.model.step(&self.params, &mut self.state, &prev, step);
                 }
             }
         }
@@ -112,14 +109,11 @@ impl ForceInverse {
         let h = te_s + tm_s;
         self.ahead.clone_from(&self.state);
         if h > 0.0 {
-            let stage = self.model.eval(&self.params, &self.ahead, &inp);
-            let f = stage.force_n(v_m_s);
             let step = Step {
                 dt_s: h,
                 dx_m: v_m_s * h,
             };
-            self.model
-                .advance(&self.params, &mut self.ahead, &inp, &stage, f, step);
+            self.model.step(&self.params, &mut self.ahead, &inp, step);
         }
     }
 
@@ -131,8 +125,8 @@ impl ForceInverse {
             t_s: self.last.map_or(0.0, |l| l.t_s),
             x_m,
             v_m_s: dir * speed_m_s,
-            a_m_s2: 0.0,
             current_cmd_a: current_a,
+            ..Inputs::default()
         };
         let observed = if yielded { &self.state } else { &self.ahead };
         let mut s = if observed.is_empty() {
@@ -221,11 +215,9 @@ impl DeviceConfig {
     pub(crate) fn ceiling_force_n(&self, current_a: f64) -> f64 {
         self.yield_force_n(current_a).unwrap_or_else(|| {
             let inp = Inputs {
-                t_s: 0.0,
-                x_m: 0.0,
                 v_m_s: f64::MIN_POSITIVE,
-                a_m_s2: 0.0,
                 current_cmd_a: current_a,
+                ..Inputs::default()
             };
             let s = self.model.init_state(&self.params, &inp);
             self.model.eval(&self.params, &s, &inp).force_n(0.0)

@@ -27,12 +27,17 @@ impl Base {
     /// Every base, in the order listed in messages.
     pub const ALL: [Base; 2] = [Base::Bingham, Base::Spencer];
 
+    /// `bingham` for the Bingham base, `spencer` for the Spencer base.
+    fn pick<T>(self, bingham: T, spencer: T) -> T {
+        match self {
+            Base::Bingham => bingham,
+            Base::Spencer => spencer,
+        }
+    }
+
     /// The base's name in a model spec (`bingham`, `spencer`).
     pub fn name(self) -> &'static str {
-        match self {
-            Base::Bingham => BASE,
-            Base::Spencer => "spencer",
-        }
+        self.pick(BASE, "spencer")
     }
 
     /// The base named `name`, if any.
@@ -42,41 +47,26 @@ impl Base {
 
     /// Parameter declarations, in vector order (the first parameters of every model of this base).
     pub fn params(self) -> &'static [ParamSpec] {
-        match self {
-            Base::Bingham => &bingham::PARAMS,
-            Base::Spencer => &spencer::PARAMS,
-        }
+        self.pick(&bingham::PARAMS, &spencer::PARAMS)
     }
 
     pub(crate) fn n_states(self) -> usize {
-        match self {
-            Base::Bingham => bingham::N_STATES,
-            Base::Spencer => spencer::N_STATES,
-        }
+        self.pick(bingham::N_STATES, spencer::N_STATES)
     }
 
     /// Parameters the base's states depend on.
     pub(crate) fn state_params(self) -> &'static [usize] {
-        match self {
-            Base::Bingham => &bingham::STATE_PARAMS,
-            Base::Spencer => &spencer::STATE_PARAMS,
-        }
+        self.pick(&bingham::STATE_PARAMS, &spencer::STATE_PARAMS)
     }
 
     /// Parameters that act only where the current command changes (the lags' time constants).
     pub(crate) fn lag_params(self) -> &'static [usize] {
-        match self {
-            Base::Bingham => &bingham::STATE_PARAMS,
-            Base::Spencer => &spencer::LAG_PARAMS,
-        }
+        self.pick(&bingham::STATE_PARAMS, &spencer::LAG_PARAMS)
     }
 
     /// Parameters the force is linear in (a fit's warm start solves for them first).
     pub(crate) fn linear_gains(self) -> &'static [usize] {
-        match self {
-            Base::Bingham => &bingham::LINEAR_GAINS,
-            Base::Spencer => &spencer::LINEAR_GAINS,
-        }
+        self.pick(&bingham::LINEAR_GAINS, &spencer::LINEAR_GAINS)
     }
 
     /// Whether an effect acting at `stage` composes with this base: the Spencer model has its own
@@ -107,10 +97,7 @@ impl Base {
     }
 
     fn initial_guess(self, stats: &DataStats) -> Vec<f64> {
-        match self {
-            Base::Bingham => bingham::initial_guess(stats),
-            Base::Spencer => spencer::initial_guess(stats),
-        }
+        self.pick::<fn(&DataStats) -> Vec<f64>>(bingham::initial_guess, spencer::initial_guess)(stats)
     }
 }
 
@@ -227,6 +214,8 @@ impl std::fmt::Display for ModelSpec {
 
 struct Slot {
     effect: Arc<dyn Effect>,
+    /// The effect's [`Effect::stage`].
+    stage: EffectStage,
     params: std::ops::Range<usize>,
     states: std::ops::Range<usize>,
 }
@@ -297,13 +286,14 @@ impl Model {
             let s0 = n_states;
             n_states += effect.n_states();
             slots.push(Slot {
+                stage: effect.stage(),
                 params: p0..param_specs.len(),
                 states: s0..n_states,
                 effect,
             });
         }
         let mut apply_order: Vec<usize> = (0..slots.len()).collect();
-        apply_order.sort_by_key(|&k| slots[k].effect.stage());
+        apply_order.sort_by_key(|&k| slots[k].stage);
         Ok(Self {
             spec: spec.clone(),
             slots,
@@ -381,6 +371,11 @@ impl Model {
             );
             p.extend(g);
         }
+        self.clamped(&p)
+    }
+
+    /// `p` clamped into the parameters' bounds.
+    fn clamped(&self, p: &[f64]) -> Vec<f64> {
         p.iter()
             .zip(&self.param_specs)
             .map(|(v, s)| s.clamp(*v))
@@ -416,10 +411,7 @@ impl Model {
             }
             p.extend(g);
         }
-        Ok(p.iter()
-            .zip(&self.param_specs)
-            .map(|(v, s)| s.clamp(*v))
-            .collect())
+        Ok(self.clamped(&p))
     }
 
     /// Whether the force is a usable number everywhere a damper may be driven: the first inputs of
@@ -470,24 +462,31 @@ impl Model {
 
     /// The force assembly at one sample (base, then each effect in stage order).
     pub fn eval(&self, p: &[f64], s: &[f64], inp: &Inputs) -> Stage {
-        let mut stage = self.spec.base.stage(p, s, inp);
-        for &k in &self.apply_order {
-            let slot = &self.slots[k];
-            slot.effect
-                .apply(&p[slot.params.clone()], &s[slot.states.clone()], inp, &mut stage);
-        }
-        stage
+        self.apply_effects(p, s, inp, self.spec.base.stage(p, s, inp), |_| true)
     }
 
     /// [`Model::eval`] with the direction function set to `direction` (the fluid fully yielded that way):
-    /// the effects that shape the direction ([`super::EffectStage::Direction`]) are skipped, the others
-    /// apply as usual. A controller's holding force: the damper holds up to its yield force.
+    /// the effects that shape the direction ([`EffectStage::Direction`]) are skipped. A controller's
+    /// holding force: the damper holds up to its yield force.
     pub(crate) fn eval_yielded(&self, p: &[f64], s: &[f64], inp: &Inputs, direction: f64) -> Stage {
-        let mut stage = bingham::stage(p, s, inp);
-        stage.direction = direction;
-        for &k in &self.apply_order {
-            let slot = &self.slots[k];
-            if slot.effect.stage() != super::EffectStage::Direction {
+        let stage = Stage {
+            direction,
+            ..bingham::stage(p, s, inp)
+        };
+        self.apply_effects(p, s, inp, stage, |at| at != EffectStage::Direction)
+    }
+
+    /// Apply, in stage order, the effects whose stage `keep` accepts to `stage`.
+    fn apply_effects(
+        &self,
+        p: &[f64],
+        s: &[f64],
+        inp: &Inputs,
+        mut stage: Stage,
+        keep: impl Fn(EffectStage) -> bool,
+    ) -> Stage {
+        for slot in self.apply_order.iter().map(|&k| &self.slots[k]) {
+            if keep(slot.stage) {
                 slot.effect
                     .apply(&p[slot.params.clone()], &s[slot.states.clone()], inp, &mut stage);
             }
@@ -505,6 +504,12 @@ impl Model {
         self.advance_in(p, s, inp, stage, force_n, step, &mut DecayMemo::default());
     }
 
+    /// [`Model::advance`] over `step` from `inp` with the force the states give there.
+    pub(crate) fn step(&self, p: &[f64], s: &mut [f64], inp: &Inputs, step: Step) {
+        let stage = self.eval(p, s, inp);
+        self.advance(p, s, inp, &stage, stage.force_n(inp.v_m_s), step);
+    }
+
     /// [`Model::advance`] with the base's lag decays from `memo` (an integration's).
     #[allow(clippy::too_many_arguments)]
     fn advance_in(
@@ -517,8 +522,7 @@ impl Model {
         step: Step,
         memo: &mut DecayMemo,
     ) {
-        for &k in &self.apply_order {
-            let slot = &self.slots[k];
+        for slot in self.apply_order.iter().map(|&k| &self.slots[k]) {
             slot.effect.advance(
                 &p[slot.params.clone()],
                 &mut s[slot.states.clone()],

@@ -307,20 +307,7 @@ mod tests {
 
     /// Force at every sample of `inputs`, the base alone.
     fn run(p: &[f64], inputs: &[Inputs]) -> Vec<f64> {
-        let mut s = [0.0; N_STATES];
-        init_states(p, &mut s, &inputs[0], 14.0);
-        let mut out = Vec::with_capacity(inputs.len());
-        for (k, inp) in inputs.iter().enumerate() {
-            out.push(stage(p, &s, inp).force_n(inp.v_m_s));
-            if let Some(n) = inputs.get(k + 1) {
-                let st = Step {
-                    dt_s: n.t_s - inp.t_s,
-                    dx_m: n.x_m - inp.x_m,
-                };
-                advance(p, &mut s, inp, 14.0, st);
-            }
-        }
-        out
+        crate::device::effects::testkit::model("spencer").simulate(p, inputs)
     }
 
     /// The substep cap bounds only what a fit explores: the 1997 device on its Fig. 5 test (2.5 Hz, 1.5

@@ -272,6 +272,15 @@ pub struct SensorSpec {
 }
 
 impl SensorSpec {
+    /// A 16-bit channel of noise `noise_std` over ±`range`.
+    const fn adc16(noise_std: f64, range: f64) -> Self {
+        Self {
+            noise_std,
+            range,
+            bits: 16,
+        }
+    }
+
     /// A reading: add noise, saturate at the range, quantise to the ADC's LSB.
     pub fn read(&self, truth: f64, rng: &mut ChaCha8Rng) -> f64 {
         let mut y = truth;
@@ -322,21 +331,9 @@ impl MtsTest {
             cycles_per_block: 3.0,
             sample_rate_hz: 1000.0,
             physics_hz: 10_000.0,
-            load_cell: SensorSpec {
-                noise_std: 0.15,
-                range: 250.0,
-                bits: 16,
-            },
-            displacement: SensorSpec {
-                noise_std: 2e-6,
-                range: 0.0508,
-                bits: 16,
-            },
-            velocity: SensorSpec {
-                noise_std: 2e-4,
-                range: 2.0,
-                bits: 16,
-            },
+            load_cell: SensorSpec::adc16(0.15, 250.0),
+            displacement: SensorSpec::adc16(2e-6, 0.0508),
+            velocity: SensorSpec::adc16(2e-4, 2.0),
             record_velocity: true,
             record_coil_current: false,
             stroke_limit_m: None,
@@ -621,6 +618,20 @@ mod tests {
         .unwrap()
     }
 
+    fn sine(amplitude_m: f64, frequency_hz: f64) -> Protocol {
+        Protocol::Sine {
+            amplitude_m,
+            frequency_hz,
+        }
+    }
+
+    fn triangle(amplitude_m: f64, frequency_hz: f64) -> Protocol {
+        Protocol::Triangle {
+            amplitude_m,
+            frequency_hz,
+        }
+    }
+
     fn quiet(t: MtsTest) -> MtsTest {
         let mut t = t.noise_free();
         for s in [&mut t.load_cell, &mut t.displacement, &mut t.velocity] {
@@ -648,10 +659,7 @@ mod tests {
         // Constant 10 mm/s, each current held for an eighth of a triangle cycle: no reversal inside a block.
         let dev = paper();
         let mut t = quiet(MtsTest::paper(
-            Protocol::Triangle {
-                amplitude_m: 0.0254,
-                frequency_hz: 0.098_425,
-            },
+            triangle(0.0254, 0.098_425),
             vec![2.2, 5.0, 14.0, 17.0],
         ));
         t.cycles_per_block = 0.0625;
@@ -694,13 +702,7 @@ mod tests {
             }
         }
         let t63_pred = lo;
-        let mut t = quiet(MtsTest::paper(
-            Protocol::Triangle {
-                amplitude_m: 0.0254,
-                frequency_hz: 0.1,
-            },
-            vec![0.0, 5.0],
-        ));
+        let mut t = quiet(MtsTest::paper(triangle(0.0254, 0.1), vec![0.0, 5.0]));
         t.cycles_per_block = 0.125;
         t.sample_rate_hz = 20_000.0;
         t.physics_hz = 20_000.0;
@@ -726,14 +728,8 @@ mod tests {
     fn damper_force_has_the_sign_of_velocity_and_never_injects_energy() {
         let dev = paper();
         for p in [
-            Protocol::Sine {
-                amplitude_m: 0.04,
-                frequency_hz: 1.3,
-            },
-            Protocol::Triangle {
-                amplitude_m: 0.03,
-                frequency_hz: 0.7,
-            },
+            sine(0.04, 1.3),
+            triangle(0.03, 0.7),
             Protocol::Multisine {
                 amplitude_m: 0.05,
                 f_min_hz: 0.2,
@@ -757,13 +753,7 @@ mod tests {
     #[test]
     fn same_seed_gives_identical_records_and_another_seed_does_not() {
         let dev = paper();
-        let t = MtsTest::paper(
-            Protocol::Sine {
-                amplitude_m: 0.02,
-                frequency_hz: 1.0,
-            },
-            vec![2.2, 5.0],
-        );
+        let t = MtsTest::paper(sine(0.02, 1.0), vec![2.2, 5.0]);
         let a = t.run(&mut dev.damper()).unwrap().to_csv_string();
         let b = t.run(&mut dev.damper()).unwrap().to_csv_string();
         assert_eq!(a, b);
@@ -774,11 +764,7 @@ mod tests {
 
     #[test]
     fn load_cell_quantises_to_its_adc_step() {
-        let s = SensorSpec {
-            noise_std: 0.0,
-            range: 250.0,
-            bits: 16,
-        };
+        let s = SensorSpec::adc16(0.0, 250.0);
         let lsb = 500.0 / 65536.0;
         let mut rng = ChaCha8Rng::seed_from_u64(0);
         let y = s.read(12.3456, &mut rng);
@@ -789,13 +775,7 @@ mod tests {
     #[test]
     fn amplitude_beyond_the_stroke_is_refused() {
         let dev = paper();
-        let mut t = MtsTest::paper(
-            Protocol::Sine {
-                amplitude_m: 0.06,
-                frequency_hz: 1.0,
-            },
-            vec![1.0],
-        );
+        let mut t = MtsTest::paper(sine(0.06, 1.0), vec![1.0]);
         t.stroke_limit_m = dev.geometry.map(|g| g.stroke_half_m);
         let e = t.run(&mut dev.damper()).unwrap_err().to_string();
         assert!(e.contains("amplitude_m") && e.contains("0.0508"), "{e}");
@@ -804,13 +784,7 @@ mod tests {
     #[test]
     fn a_sensor_setting_that_cannot_be_simulated_is_refused_naming_the_field() {
         let dev = paper();
-        let base = MtsTest::paper(
-            Protocol::Sine {
-                amplitude_m: 0.01,
-                frequency_hz: 1.0,
-            },
-            vec![1.0],
-        );
+        let base = MtsTest::paper(sine(0.01, 1.0), vec![1.0]);
         let mut t = base.clone();
         t.load_cell.range = -250.0;
         let e = t.run(&mut dev.damper()).unwrap_err().to_string();

@@ -83,16 +83,17 @@ mod tests {
         let mut p = params(&m, &[("asym_fraction", a)]);
         p[2] = 0.0; // no viscous term: the yield branches alone
         let inputs = triangle(0.01, 0.05, 8.0, 1e-3, 2.0);
-        let f = m.simulate(&p, &inputs);
-        let up = mean_where(&f, &inputs, |i| i.v_m_s > 0.0);
-        let down = mean_where(&f, &inputs, |i| i.v_m_s < 0.0);
+        let up_down = |p: &[f64]| {
+            let f = m.simulate(p, &inputs);
+            let up = mean_where(&f, &inputs, |i| i.v_m_s > 0.0);
+            (up, mean_where(&f, &inputs, |i| i.v_m_s < 0.0))
+        };
+        let (up, down) = up_down(&p);
         let ratio = up.abs() / down.abs();
         assert!((ratio - (1.0 + a) / (1.0 - a)).abs() < 1e-9, "ratio {ratio}");
         // The paper's sign: negative a means more force in the negative direction.
         p[m.param_index("asym_fraction").expect("param")] = -0.18;
-        let f = m.simulate(&p, &inputs);
-        let up = mean_where(&f, &inputs, |i| i.v_m_s > 0.0);
-        let down = mean_where(&f, &inputs, |i| i.v_m_s < 0.0);
+        let (up, down) = up_down(&p);
         assert!(down.abs() > up.abs() * 1.4, "70 N vs 100 N: {up} vs {down}");
     }
 

@@ -41,17 +41,12 @@ impl Effect for CurrentViscosity {
          grows with current (linearly, or faster or slower)",
     );
 
-    /// Adds 2 % of the force scale at the largest velocity and current, linearly: a small, non-zero start.
-    fn initial_guess(&self, stats: &DataStats) -> Vec<f64> {
-        let s = Scales::of(stats);
-        vec![0.02 * s.force_n / (s.v_m_s * s.i_a), 1.0]
-    }
-
-    /// Adds 25 % of the force scale at the largest velocity and current, linearly.
-    fn typical_params(&self, stats: &DataStats) -> Vec<f64> {
-        let s = Scales::of(stats);
-        vec![0.25 * s.force_n / (s.v_m_s * s.i_a), 1.0]
-    }
+    // Adds 2 % (a small, non-zero start) and 25 % of the force scale at the largest velocity and current,
+    // linearly.
+    scaled_guesses!(
+        s => vec![0.02 * s.force_n / (s.v_m_s * s.i_a), 1.0],
+        vec![0.25 * s.force_n / (s.v_m_s * s.i_a), 1.0],
+    );
 
     fn apply(&self, p: &[f64], _s: &[f64], _inp: &Inputs, stage: &mut Stage) {
         let h = stage.current_a.abs();
@@ -72,12 +67,7 @@ mod tests {
     fn slope_at(i: f64, c1: f64) -> f64 {
         let m = model("bingham+current_viscosity");
         let p = params(&m, &[("visc_c1_n_s_per_m_per_a", c1)]);
-        let f_at = |v: f64| {
-            let inputs = triangle(0.01, v, i, 1e-3, 1.0);
-            let f = m.simulate(&p, &inputs);
-            mean_where(&f, &inputs, |k| k.v_m_s > 0.0)
-        };
-        (f_at(0.08) - f_at(0.02)) / 0.06
+        (rising_mean(&m, &p, 0.08, i) - rising_mean(&m, &p, 0.02, i)) / 0.06
     }
 
     #[test]
@@ -105,13 +95,7 @@ mod tests {
     fn damping_rise_follows_the_exponent() {
         let m = model("bingham+current_viscosity");
         let p = params(&m, &[("visc_c1_n_s_per_m_per_a", 3.0), ("visc_exponent", 2.0)]);
-        let slope = |i: f64| {
-            let f_at = |v: f64| {
-                let inputs = triangle(0.01, v, i, 1e-3, 1.0);
-                mean_where(&m.simulate(&p, &inputs), &inputs, |k| k.v_m_s > 0.0)
-            };
-            (f_at(0.08) - f_at(0.02)) / 0.06 - BASE[2]
-        };
+        let slope = |i: f64| (rising_mean(&m, &p, 0.08, i) - rising_mean(&m, &p, 0.02, i)) / 0.06 - BASE[2];
         let (a5, a10) = (slope(5.0), slope(10.0));
         assert!((a5 - 3.0 * 25.0).abs() < 1e-6 * a5, "added slope at 5 A: {a5}");
         assert!((a10 / a5 - 4.0).abs() < 1e-6, "10 A vs 5 A: {}", a10 / a5);
@@ -123,10 +107,7 @@ mod tests {
         let m = model("bingham+current_viscosity");
         let p = params(&m, &[("visc_c1_n_s_per_m_per_a", 80.0)]);
         let i = 6.0;
-        let f_at = |v: f64| {
-            let inputs = triangle(0.01, v, i, 1e-3, 1.0);
-            mean_where(&m.simulate(&p, &inputs), &inputs, |k| k.v_m_s > 0.0)
-        };
+        let f_at = |v: f64| rising_mean(&m, &p, v, i);
         let intercept = f_at(0.02) - 0.02 * (f_at(0.08) - f_at(0.02)) / 0.06;
         assert!(
             (intercept - (BASE[0] + BASE[1] * i)).abs() < 1e-6 * intercept,

@@ -188,17 +188,15 @@ fn ceil_count(r: f64) -> usize {
 /// `1/n` from a table for the usual sub-step counts (a division is among the slowest operations on the
 /// sample's chain), computed beyond it.
 fn reciprocal(n: usize) -> f64 {
-    const TABLE: [f64; 9] = [
-        f64::INFINITY,
-        1.0,
-        1.0 / 2.0,
-        1.0 / 3.0,
-        1.0 / 4.0,
-        1.0 / 5.0,
-        1.0 / 6.0,
-        1.0 / 7.0,
-        1.0 / 8.0,
-    ];
+    const TABLE: [f64; 9] = {
+        let mut t = [f64::INFINITY; 9];
+        let mut n = 1;
+        while n < 9 {
+            t[n] = 1.0 / n as f64;
+            n += 1;
+        }
+        t
+    };
     TABLE.get(n).copied().unwrap_or_else(|| 1.0 / n as f64)
 }
 
@@ -277,31 +275,15 @@ impl Effect for Hysteresis {
          the measured force rises with velocity (pre-yield slope Fy/v_y) instead of jumping to Fy",
     );
 
-    /// 2 % of the largest displacement and 10 % of the largest velocity: a loop and a knee the data can see,
-    /// so the gradient is informative (the fit on the UTFSM damper converges from here); the Dahl shape
-    /// (`κ = g = 0`), the simplest, from which the data bend it.
-    fn initial_guess(&self, stats: &DataStats) -> Vec<f64> {
-        let sc = Scales::of(stats);
-        vec![
-            PARAMS[X_YIELD].clamp(0.02 * sc.x_m),
-            PARAMS[V_YIELD].clamp(0.1 * sc.v_m_s),
-            0.0,
-            0.0,
-        ]
-    }
-
-    /// 1 % of the largest displacement (small enough not to act as a spring over the stroke) and 20 % of the
-    /// largest velocity: a clearly visible pre-yield branch and loop, of the Dahl shape (the hidden truth of
-    /// `mrfeel mts`; `--set hyst_knee=1` gives Bouc-Wen n = 2).
-    fn typical_params(&self, stats: &DataStats) -> Vec<f64> {
-        let sc = Scales::of(stats);
-        vec![
-            PARAMS[X_YIELD].clamp(0.01 * sc.x_m),
-            PARAMS[V_YIELD].clamp(0.2 * sc.v_m_s),
-            0.0,
-            0.0,
-        ]
-    }
+    // Both of the Dahl shape (`κ = g = 0`), the simplest. Guess: 2 % of the largest displacement and 10 % of
+    // the largest velocity, a loop and a knee the data can see, so the gradient is informative (the fit on the
+    // UTFSM damper converges from here). Typical: 1 % (not acting as a spring over the stroke) and 20 %, a
+    // clearly visible pre-yield branch and loop (the hidden truth of `mrfeel mts`; `--set hyst_knee=1` gives
+    // Bouc-Wen n = 2).
+    scaled_guesses!(
+        s => vec![PARAMS[X_YIELD].clamp(0.02 * s.x_m), PARAMS[V_YIELD].clamp(0.1 * s.v_m_s), 0.0, 0.0],
+        vec![PARAMS[X_YIELD].clamp(0.01 * s.x_m), PARAMS[V_YIELD].clamp(0.2 * s.v_m_s), 0.0, 0.0],
+    );
 
     fn n_states(&self) -> usize {
         1

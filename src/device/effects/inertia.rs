@@ -28,17 +28,8 @@ impl Effect for Inertia {
          looks like a negative stiffness, so it separates from stiffness only across frequencies",
     );
 
-    /// A mass giving 1 % of the force scale at the largest acceleration.
-    fn initial_guess(&self, stats: &DataStats) -> Vec<f64> {
-        let s = Scales::of(stats);
-        vec![0.01 * s.force_n / s.a_m_s2]
-    }
-
-    /// A mass giving 15 % of the force scale at the largest acceleration.
-    fn typical_params(&self, stats: &DataStats) -> Vec<f64> {
-        let s = Scales::of(stats);
-        vec![0.15 * s.force_n / s.a_m_s2]
-    }
+    // A mass giving 1 % (guess) and 15 % (typical) of the force scale at the largest acceleration.
+    scaled_guesses!(s => vec![0.01 * s.force_n / s.a_m_s2], vec![0.15 * s.force_n / s.a_m_s2]);
 
     fn apply(&self, p: &[f64], _s: &[f64], inp: &Inputs, stage: &mut Stage) {
         stage.extra_n += p[MASS] * inp.a_m_s2;

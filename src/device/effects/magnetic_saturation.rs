@@ -41,15 +41,9 @@ impl Effect for MagneticSaturation {
          not a damping, error)",
     );
 
-    /// Four times the largest current: a 2 % curvature at the top of the data, close to the linear model.
-    fn initial_guess(&self, stats: &DataStats) -> Vec<f64> {
-        vec![4.0 * Scales::of(stats).i_a]
-    }
-
-    /// The largest current: at the top of the data the yield force is 24 % below the linear map.
-    fn typical_params(&self, stats: &DataStats) -> Vec<f64> {
-        vec![Scales::of(stats).i_a]
-    }
+    // Guess: four times the largest current, a 2 % curvature at the top of the data (close to the linear
+    // model). Typical: the largest current, where the yield force is then 24 % below the linear map.
+    scaled_guesses!(s => vec![4.0 * s.i_a], vec![s.i_a]);
 
     fn apply(&self, p: &[f64], _s: &[f64], _inp: &Inputs, stage: &mut Stage) {
         let u = stage.current_a.abs() / p[I_SAT];
@@ -68,9 +62,7 @@ mod tests {
         let m = model("bingham+magnetic_saturation");
         let mut p = params(&m, &[("sat_current_a", i_sat)]);
         p[2] = 0.0;
-        let inputs = triangle(0.01, 0.05, i, 1e-3, 1.0);
-        let f = m.simulate(&p, &inputs);
-        mean_where(&f, &inputs, |k| k.v_m_s > 0.0)
+        rising_mean(&m, &p, 0.05, i)
     }
 
     #[test]

@@ -24,6 +24,21 @@ macro_rules! effect_constants {
     };
 }
 
+/// `initial_guess` and `typical_params` of a built-in effect, each an expression of the data's [`Scales`]
+/// (bound to `$s`).
+macro_rules! scaled_guesses {
+    ($s:ident => $guess:expr, $typical:expr $(,)?) => {
+        fn initial_guess(&self, stats: &DataStats) -> Vec<f64> {
+            let $s = Scales::of(stats);
+            $guess
+        }
+        fn typical_params(&self, stats: &DataStats) -> Vec<f64> {
+            let $s = Scales::of(stats);
+            $typical
+        }
+    };
+}
+
 pub(crate) mod asymmetry;
 pub(crate) mod current_viscosity;
 pub(crate) mod hysteresis;
@@ -36,23 +51,15 @@ use super::effect::{Effect, EffectStage, Inputs, Stage, Step};
 use super::model::Registry;
 use super::params::{DataStats, ParamSpec};
 
-pub(crate) use asymmetry::Asymmetry;
-pub(crate) use current_viscosity::CurrentViscosity;
-pub(crate) use hysteresis::Hysteresis;
-pub(crate) use inertia::Inertia;
-pub(crate) use magnetic_saturation::MagneticSaturation;
-pub(crate) use stiffness::Stiffness;
-pub(crate) use thermal_drift::ThermalDrift;
-
 /// Register every effect of the canonical vocabulary.
 pub(crate) fn register_builtin(r: &mut Registry) {
-    r.register(Hysteresis)
-        .register(Asymmetry)
-        .register(MagneticSaturation)
-        .register(CurrentViscosity)
-        .register(Stiffness)
-        .register(Inertia)
-        .register(ThermalDrift);
+    r.register(hysteresis::Hysteresis)
+        .register(asymmetry::Asymmetry)
+        .register(magnetic_saturation::MagneticSaturation)
+        .register(current_viscosity::CurrentViscosity)
+        .register(stiffness::Stiffness)
+        .register(inertia::Inertia)
+        .register(thermal_drift::ThermalDrift);
 }
 
 /// `v` when it is a usable positive scale, else `fallback`.
@@ -206,6 +213,12 @@ pub(crate) mod testkit {
             fc_gain_n_per_a: BASE[1],
             c0_n_s_per_m: BASE[2],
         }
+    }
+
+    /// Mean force on the rising (`v > 0`) samples of a 1 s triangle of 10 mm at `speed_m_s` and `current_a`.
+    pub fn rising_mean(m: &Model, p: &[f64], speed_m_s: f64, current_a: f64) -> f64 {
+        let inputs = triangle(0.01, speed_m_s, current_a, 1e-3, 1.0);
+        mean_where(&m.simulate(p, &inputs), &inputs, |k| k.v_m_s > 0.0)
     }
 
     /// Mean of the values where the mask holds.

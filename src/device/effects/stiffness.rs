@@ -47,19 +47,12 @@ impl Effect for Stiffness {
          constant offset from the preload that, unlike asymmetry, does not grow with current",
     );
 
-    /// A spring giving 2 % of the force scale at the largest displacement, no preload (its sign is unknown),
-    /// and a hardening adding 0.5 % there.
-    fn initial_guess(&self, stats: &DataStats) -> Vec<f64> {
-        let s = Scales::of(stats);
-        vec![0.02 * s.force_n / s.x_m, 0.0, 0.005 * s.force_n / s.x_m.powi(3)]
-    }
-
-    /// 15 % of the force scale at the largest displacement, and a preload of 5 % of it; linear (Spencer's
-    /// spring).
-    fn typical_params(&self, stats: &DataStats) -> Vec<f64> {
-        let s = Scales::of(stats);
-        vec![0.15 * s.force_n / s.x_m, 0.05 * s.force_n, 0.0]
-    }
+    // Guess: a spring giving 2 % of the force scale at the largest displacement, no preload (its sign is
+    // unknown), a hardening adding 0.5 % there. Typical: 15 % and a preload of 5 %, linear (Spencer's spring).
+    scaled_guesses!(
+        s => vec![0.02 * s.force_n / s.x_m, 0.0, 0.005 * s.force_n / s.x_m.powi(3)],
+        vec![0.15 * s.force_n / s.x_m, 0.05 * s.force_n, 0.0],
+    );
 
     fn apply(&self, p: &[f64], _s: &[f64], inp: &Inputs, stage: &mut Stage) {
         let x = inp.x_m;

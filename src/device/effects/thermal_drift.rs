@@ -56,19 +56,10 @@ impl Effect for ThermalDrift {
          too weak early and too strong late in every test",
     );
 
-    /// Heat for a full loss 20× the energy dissipated in the longest test (a drift of a few %), cooling
-    /// over three test durations.
-    fn initial_guess(&self, stats: &DataStats) -> Vec<f64> {
-        let s = Scales::of(stats);
-        vec![20.0 * s.energy_j, 3.0 * s.duration_s]
-    }
-
-    /// 2.5× the dissipated energy and cooling over one test duration: the yield force falls by about a
-    /// quarter over the longest test.
-    fn typical_params(&self, stats: &DataStats) -> Vec<f64> {
-        let s = Scales::of(stats);
-        vec![2.5 * s.energy_j, s.duration_s]
-    }
+    // Guess: heat for a full loss 20× the energy dissipated in the longest test (a drift of a few %),
+    // cooling over three test durations. Typical: 2.5× and one duration, the yield force falling by about
+    // a quarter over the longest test.
+    scaled_guesses!(s => vec![20.0 * s.energy_j, 3.0 * s.duration_s], vec![2.5 * s.energy_j, s.duration_s]);
 
     fn n_states(&self) -> usize {
         1
