@@ -323,7 +323,10 @@ pub(crate) fn pooled_white_noise_std(records: &[(Vec<f64>, &[f64])]) -> f64 {
 /// so that white noise of variance σ² gives it the variance 20σ², as `Δ³` has.
 fn third_differences_on(t: &[f64], y: &[f64]) -> Vec<f64> {
     if t.len() != y.len() || uniform_interval(t).is_some() {
-        return third_differences(y).collect();
+        return y
+            .windows(4)
+            .map(|w| (w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]).abs())
+            .collect();
     }
     t.windows(4)
         .zip(y.windows(4))
@@ -342,13 +345,8 @@ fn third_differences_on(t: &[f64], y: &[f64]) -> Vec<f64> {
 /// signal (up to its third derivative × dt³) and multiply white noise variance by 20; the median absolute
 /// value (× 1.4826 for a Gaussian) ignores the few samples where the signal itself jumps.
 pub(crate) fn white_noise_std(y: &[f64]) -> f64 {
-    std_from_third_differences(third_differences(y).collect())
-}
-
-/// `|Δ³y|` at every window of four samples.
-fn third_differences(y: &[f64]) -> impl Iterator<Item = f64> + '_ {
-    y.windows(4)
-        .map(|w| (w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]).abs())
+    // No times: `Δ³`, as on an even grid.
+    white_noise_std_on(&[], y)
 }
 
 /// White-noise standard deviation from `|Δ³|` values: their median × 1.4826 / √20 (0 with none).
