@@ -470,14 +470,10 @@ pub(crate) fn dominant_period(x: &[f64], dt: f64) -> f64 {
     let mag = |b: usize| power[b].max(f64::MIN_POSITIVE).ln();
     let top = n / 2;
     let best = (1..top).max_by(|&a, &b| mag(a).total_cmp(&mag(b))).unwrap_or(1);
-    let shift = if best > 1 && best + 1 < top {
-        let (a, b, c) = (mag(best - 1), mag(best), mag(best + 1));
-        let den = a - 2.0 * b + c;
-        if den < 0.0 {
-            (0.5 * (a - c) / den).clamp(-0.5, 0.5)
-        } else {
-            0.0
-        }
+    let (a, b, c) = (mag(best - 1), mag(best), mag(best + 1));
+    let den = a - 2.0 * b + c;
+    let shift = if best > 1 && best + 1 < top && den < 0.0 {
+        (0.5 * (a - c) / den).clamp(-0.5, 0.5)
     } else {
         0.0
     };
