@@ -393,13 +393,10 @@ pub fn plot_diagnosis(dir: &Path, tests: &[Test], d: &Diagnosis) -> Result<Vec<P
         .iter()
         .enumerate()
         .map(|(k, s)| {
-            let name = if k == 0 {
-                s.model.clone()
-            } else {
-                match &s.added {
-                    Some(a) => format!("+{a}"),
-                    None => "pruned".into(),
-                }
+            let name = match (k, &s.added) {
+                (0, _) => s.model.clone(),
+                (_, Some(a)) => format!("+{a}"),
+                _ => "pruned".into(),
             };
             (name, s.heldout_nrmse)
         })
