@@ -56,22 +56,17 @@ fn local_poly_slope(t: &[f64], y: &[f64], t0: f64, degree: usize) -> f64 {
     }
 }
 
-/// Weights (per sample) of the `order`-th derivative at the centre of a least-squares quintic over `2h + 1`
-/// equally spaced samples (its bias on a sinusoid of period P is of order (2πh·dt/P)⁶).
-pub(crate) fn quintic_derivative_weights(h: usize, order: usize) -> Vec<f64> {
-    QuinticFit::new(h).derivative_weights(order, 0.0)
-}
-
 /// The least-squares quintic over `2h + 1` equally spaced samples: its coefficients (in the window's unit
-/// half-width `u`) as weights on the samples, which give any derivative anywhere in the window.
-struct QuinticFit {
+/// half-width `u`) as weights on the samples, which give any derivative anywhere in the window (centred,
+/// its bias on a sinusoid of period P is of order (2πh·dt/P)⁶).
+pub(crate) struct QuinticFit {
     h: usize,
     /// Row `c`: the weights giving the coefficient of `u^c`; `None` if the fit is singular.
     coef: Option<nalgebra::DMatrix<f64>>,
 }
 
 impl QuinticFit {
-    fn new(h: usize) -> Self {
+    pub(crate) fn new(h: usize) -> Self {
         let n = 2 * h + 1;
         // Unit half-width for conditioning; rescaled to per-sample units in `derivative_weights`.
         let u: Vec<f64> = (0..n).map(|k| (k as f64 - h as f64) / h as f64).collect();
@@ -82,7 +77,7 @@ impl QuinticFit {
 
     /// Weights (per sample) of the `order`-th derivative at `u0` half-widths from the window's centre
     /// (−1 ≤ u0 ≤ 1; off-centre at the ends of a record, as Savitzky–Golay treats the edges).
-    fn derivative_weights(&self, order: usize, u0: f64) -> Vec<f64> {
+    pub(crate) fn derivative_weights(&self, order: usize, u0: f64) -> Vec<f64> {
         let n = 2 * self.h + 1;
         let Some(w) = &self.coef else {
             return vec![0.0; n];

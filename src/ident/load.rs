@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use super::{acquisition, IdentError, Test};
 use crate::device::{DataStats, Inputs};
 use crate::measurement::Measurement;
-use crate::signal::{quintic_derivative_weights, white_noise_std_on, widest_unbiased_derivative};
+use crate::signal::{white_noise_std_on, widest_unbiased_derivative, QuinticFit};
 
 /// The moving average that the measurements `ms` (tests of one protocol) went through, if their
 /// displacements and forces (and measured velocities) show its comb ([`acquisition::detect_moving_average`]).
@@ -119,7 +119,7 @@ pub fn inputs_and_velocity_noise(m: &Measurement) -> (Vec<Inputs>, Option<Vec<f6
         return (inputs, v_noise);
     }
     let noise_of = |order: usize, sd: f64| {
-        let w = quintic_derivative_weights(10, order);
+        let w = QuinticFit::new(10).derivative_weights(order, 0.0);
         w.iter().map(|w| w * w).sum::<f64>().sqrt() * sd / dt.powi(order as i32)
     };
     let sd_v = m.velocity_measured.then(|| white_noise_std_on(t, &m.v_m_s));

@@ -189,14 +189,12 @@ pub(crate) fn parse(bytes: &[u8], path: &Path, force_required: bool) -> Result<M
             if c == t_col {
                 t_resolution = t_resolution.min(written_resolution(s));
             }
-            let why = match s.parse::<f64>() {
-                Ok(v) => match unmeasurable(v) {
-                    None => {
-                        cols[c].push(v);
-                        continue;
-                    }
-                    Some(why) => why,
-                },
+            let why = match s.parse::<f64>().map(|v| (v, unmeasurable(v))) {
+                Ok((v, None)) => {
+                    cols[c].push(v);
+                    continue;
+                }
+                Ok((_, Some(why))) => why,
                 Err(_) if s.is_empty() => "empty field".into(),
                 Err(_) => "not a number".into(),
             };
