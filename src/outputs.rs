@@ -619,16 +619,22 @@ mod tests {
         write_whole(path, |tmp| std::fs::write(tmp, text), |e| e)
     }
 
-    /// Within an open set, outputs in two directories keep their old contents until the commit, which puts
-    /// both in place and leaves no temporary file or journal; a set dropped uncommitted (a command that
-    /// failed) changes nothing and leaves nothing behind.
-    #[test]
-    fn an_output_set_is_put_in_place_whole_at_its_commit_or_not_at_all() {
+    /// A temporary directory with the directories `a` and `b`, and an output path in each.
+    fn two_dirs() -> (tempfile::TempDir, PathBuf, PathBuf, PathBuf, PathBuf) {
         let d = tempfile::tempdir().unwrap();
         let (a, b) = (d.path().join("a"), d.path().join("b"));
         std::fs::create_dir(&a).unwrap();
         std::fs::create_dir(&b).unwrap();
         let (fa, fb) = (a.join("out.csv"), b.join("device.json"));
+        (d, a, b, fa, fb)
+    }
+
+    /// Within an open set, outputs in two directories keep their old contents until the commit, which puts
+    /// both in place and leaves no temporary file or journal; a set dropped uncommitted (a command that
+    /// failed) changes nothing and leaves nothing behind.
+    #[test]
+    fn an_output_set_is_put_in_place_whole_at_its_commit_or_not_at_all() {
+        let (_d, a, b, fa, fb) = two_dirs();
         std::fs::write(&fa, "old a").unwrap();
         std::fs::write(&fb, "old b").unwrap();
         {
@@ -664,11 +670,7 @@ mod tests {
     /// files; the other directory's journal goes with the next run there.
     #[test]
     fn a_set_a_killed_run_left_half_renamed_is_finished_by_the_next_run() {
-        let d = tempfile::tempdir().unwrap();
-        let (a, b) = (d.path().join("a"), d.path().join("b"));
-        std::fs::create_dir(&a).unwrap();
-        std::fs::create_dir(&b).unwrap();
-        let (fa, fb) = (a.join("out.csv"), b.join("device.json"));
+        let (_d, a, b, fa, fb) = two_dirs();
         let (ta, tb) = (
             a.join(".out.mrfeel-partial-AbCdEfGhIj.csv"),
             b.join(".device.mrfeel-partial-KlMnOpQrSt.json"),

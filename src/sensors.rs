@@ -107,32 +107,33 @@ pub fn check_channel(
     range: f64,
     adc_bits: u32,
 ) -> Result<(), SensorFieldError> {
-    let err = |field, value: String, why| SensorFieldError {
-        channel: channel.to_string(),
-        field,
-        value,
-        why,
-    };
-    if !(noise_rms.is_finite() && noise_rms >= 0.0) {
-        return Err(err(
+    let checks = [
+        (
+            !(noise_rms.is_finite() && noise_rms >= 0.0),
             "noise_rms",
             noise_rms.to_string(),
             "the noise's standard deviation must be a finite number ≥ 0",
-        ));
-    }
-    if !(range.is_finite() && range > 0.0) {
-        return Err(err(
+        ),
+        (
+            !(range.is_finite() && range > 0.0),
             "range",
             range.to_string(),
             "the full-scale range must be a positive, finite number (readings saturate at ±range)",
-        ));
-    }
-    if adc_bits > MAX_ADC_BITS {
-        return Err(err(
+        ),
+        (
+            adc_bits > MAX_ADC_BITS,
             "adc_bits",
             adc_bits.to_string(),
             "the ADC resolution must be at most 32 bits (0: no quantisation)",
-        ));
+        ),
+    ];
+    if let Some((_, field, value, why)) = checks.into_iter().find(|c| c.0) {
+        return Err(SensorFieldError {
+            channel: channel.to_string(),
+            field,
+            value,
+            why,
+        });
     }
     Ok(())
 }
@@ -161,11 +162,6 @@ impl Daq {
             diff: FilteredDifferentiator::new(cfg.laser.velocity_cutoff_hz, period_s),
             line: VecDeque::with_capacity(cfg.daq.latency_samples + 1),
         }
-    }
-
-    /// Its configuration.
-    pub fn config(&self) -> &SensorsConfig {
-        &self.cfg
     }
 
     /// Sample period, s.

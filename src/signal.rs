@@ -30,10 +30,8 @@ pub fn uniform_interval(t: &[f64]) -> Option<f64> {
 pub fn smooth_derivative(t: &[f64], y: &[f64]) -> Vec<f64> {
     const WINDOW: usize = 7;
     let n = t.len();
-    match n {
-        0 => return Vec::new(),
-        1 => return vec![0.0],
-        _ => {}
+    if n < 2 {
+        return vec![0.0; n];
     }
     let w = WINDOW.min(n);
     let degree = (w - 1).min(3);
@@ -58,22 +56,17 @@ fn local_poly_slope(t: &[f64], y: &[f64], t0: f64, degree: usize) -> f64 {
     }
 }
 
-/// Weights (per sample) of the `order`-th derivative at the centre of a least-squares quintic over `2h + 1`
-/// equally spaced samples (its bias on a sinusoid of period P is of order (2πh·dt/P)⁶).
-pub(crate) fn quintic_derivative_weights(h: usize, order: usize) -> Vec<f64> {
-    QuinticFit::new(h).derivative_weights(order, 0.0)
-}
-
 /// The least-squares quintic over `2h + 1` equally spaced samples: its coefficients (in the window's unit
-/// half-width `u`) as weights on the samples, which give any derivative anywhere in the window.
-struct QuinticFit {
+/// half-width `u`) as weights on the samples, which give any derivative anywhere in the window (centred,
+/// its bias on a sinusoid of period P is of order (2πh·dt/P)⁶).
+pub(crate) struct QuinticFit {
     h: usize,
     /// Row `c`: the weights giving the coefficient of `u^c`; `None` if the fit is singular.
     coef: Option<nalgebra::DMatrix<f64>>,
 }
 
 impl QuinticFit {
-    fn new(h: usize) -> Self {
+    pub(crate) fn new(h: usize) -> Self {
         let n = 2 * h + 1;
         // Unit half-width for conditioning; rescaled to per-sample units in `derivative_weights`.
         let u: Vec<f64> = (0..n).map(|k| (k as f64 - h as f64) / h as f64).collect();
@@ -84,7 +77,7 @@ impl QuinticFit {
 
     /// Weights (per sample) of the `order`-th derivative at `u0` half-widths from the window's centre
     /// (−1 ≤ u0 ≤ 1; off-centre at the ends of a record, as Savitzky–Golay treats the edges).
-    fn derivative_weights(&self, order: usize, u0: f64) -> Vec<f64> {
+    pub(crate) fn derivative_weights(&self, order: usize, u0: f64) -> Vec<f64> {
         let n = 2 * self.h + 1;
         let Some(w) = &self.coef else {
             return vec![0.0; n];
@@ -323,7 +316,10 @@ pub(crate) fn pooled_white_noise_std(records: &[(Vec<f64>, &[f64])]) -> f64 {
 /// so that white noise of variance σ² gives it the variance 20σ², as `Δ³` has.
 fn third_differences_on(t: &[f64], y: &[f64]) -> Vec<f64> {
     if t.len() != y.len() || uniform_interval(t).is_some() {
-        return third_differences(y).collect();
+        return y
+            .windows(4)
+            .map(|w| (w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]).abs())
+            .collect();
     }
     t.windows(4)
         .zip(y.windows(4))
@@ -342,13 +338,8 @@ fn third_differences_on(t: &[f64], y: &[f64]) -> Vec<f64> {
 /// signal (up to its third derivative × dt³) and multiply white noise variance by 20; the median absolute
 /// value (× 1.4826 for a Gaussian) ignores the few samples where the signal itself jumps.
 pub(crate) fn white_noise_std(y: &[f64]) -> f64 {
-    std_from_third_differences(third_differences(y).collect())
-}
-
-/// `|Δ³y|` at every window of four samples.
-fn third_differences(y: &[f64]) -> impl Iterator<Item = f64> + '_ {
-    y.windows(4)
-        .map(|w| (w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]).abs())
+    // No times: `Δ³`, as on an even grid.
+    white_noise_std_on(&[], y)
 }
 
 /// White-noise standard deviation from `|Δ³|` values: their median × 1.4826 / √20 (0 with none).
@@ -606,7 +597,6 @@ mod tests {
         let n = 600;
         let t: Vec<f64> = (0..n).map(|k| k as f64 * 1e-3).collect();
         for order in [1usize, 2] {
-            let mut early = 0;
             let mut ratios = Vec::new();
             for seed in 0..400u64 {
                 let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
@@ -621,11 +611,7 @@ mod tests {
                 ratios.push(sd[0] / sd[n / 2]);
             }
             let widest = ratios.iter().cloned().fold(f64::INFINITY, f64::min);
-            for r in &ratios {
-                if *r > 1.001 * widest {
-                    early += 1;
-                }
-            }
+            let early = ratios.iter().filter(|r| **r > 1.001 * widest).count();
             assert!(
                 early <= 3,
                 "derivative {order}: the end window stopped early in {early} of 400 runs"

@@ -27,9 +27,7 @@ pub(crate) struct Spike {
 /// move), or where that is 0 (a constant column with a few other values) its median's magnitude; `None`
 /// where both are 0 (nothing to judge a spike against).
 fn spread(values: &[f64]) -> Option<f64> {
-    let mut s: Vec<f64> = values.to_vec();
-    s.sort_by(f64::total_cmp);
-    let q = |p: f64| s[((s.len() - 1) as f64 * p).round() as usize];
+    let q = |p: f64| crate::signal::quantile(values.to_vec(), p);
     let central = q(0.95) - q(0.05);
     let scale = if central > 0.0 { central } else { q(0.5).abs() };
     (scale > 0.0 && scale.is_finite()).then_some(scale)

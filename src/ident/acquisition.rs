@@ -390,17 +390,7 @@ pub(crate) fn detect_moving_average(records: &[Channels<'_>]) -> Option<MovingAv
     passing
         .iter()
         .filter(|(window, _)| !explained(*window))
-        .map(|(window, all)| {
-            let t = all.total();
-            (
-                sigmas(t),
-                MovingAverage {
-                    window: *window,
-                    mean_depth: t.depth / t.counted,
-                    predicted: false,
-                },
-            )
-        })
+        .map(|(window, all)| (sigmas(all.total()), shown(*window, all, false)))
         .max_by(|a, b| a.0.total_cmp(&b.0))
         .map(|(_, m)| m)
 }
@@ -414,11 +404,17 @@ pub(crate) fn confirm_moving_average(records: &[Channels<'_>], window: usize) ->
     let pooled = pooled_combs(records, |w| w == window);
     let all = evidence(pooled.get(&window)?)?;
     let t = all.total();
-    (t.depth <= need(CONFIRM_SIGMAS, t.counted)).then(|| MovingAverage {
+    (t.depth <= need(CONFIRM_SIGMAS, t.counted)).then(|| shown(window, &all, true))
+}
+
+/// The moving average of `window` whose pooled comb is `all`.
+fn shown(window: usize, all: &Comb, predicted: bool) -> MovingAverage {
+    let t = all.total();
+    MovingAverage {
         window,
         mean_depth: t.depth / t.counted,
-        predicted: true,
-    })
+        predicted,
+    }
 }
 
 /// The share of the drive period that the moving average of every protocol in `found` (window, sample
@@ -470,14 +466,10 @@ pub(crate) fn dominant_period(x: &[f64], dt: f64) -> f64 {
     let mag = |b: usize| power[b].max(f64::MIN_POSITIVE).ln();
     let top = n / 2;
     let best = (1..top).max_by(|&a, &b| mag(a).total_cmp(&mag(b))).unwrap_or(1);
-    let shift = if best > 1 && best + 1 < top {
-        let (a, b, c) = (mag(best - 1), mag(best), mag(best + 1));
-        let den = a - 2.0 * b + c;
-        if den < 0.0 {
-            (0.5 * (a - c) / den).clamp(-0.5, 0.5)
-        } else {
-            0.0
-        }
+    let (a, b, c) = (mag(best - 1), mag(best), mag(best + 1));
+    let den = a - 2.0 * b + c;
+    let shift = if best > 1 && best + 1 < top && den < 0.0 {
+        (0.5 * (a - c) / den).clamp(-0.5, 0.5)
     } else {
         0.0
     };
@@ -620,19 +612,12 @@ mod tests {
     /// A sine test through a causal moving average: white noise before the filter, rounding after it
     /// (0.1 µm, 1 µm/s, 0.01 N), the velocity differenced from the filtered displacement.
     fn logged_sine(p: Protocol, seed: u64) -> Logged {
-        let Protocol {
-            n,
-            fs,
-            f0,
-            window,
-            x_noise,
-            span,
-        } = p;
-        let dt = 1.0 / fs;
+        let (n, window, span, dt) = (p.n, p.window, p.span, 1.0 / p.fs);
         // `span` samples more than the record before it, for the first differences.
         let m = n + span + window - 1;
-        let phase = |k: usize| 2.0 * std::f64::consts::PI * f0 * (k as f64 - (span + window - 1) as f64) * dt;
-        let nz = noise(m, x_noise, seed);
+        let phase =
+            |k: usize| 2.0 * std::f64::consts::PI * p.f0 * (k as f64 - (span + window - 1) as f64) * dt;
+        let nz = noise(m, p.x_noise, seed);
         let u: Vec<f64> = (0..m).map(|k| 0.01 * phase(k).sin() + nz[k]).collect();
         let fnz = noise(m, 5.0, seed + 1);
         let f_true: Vec<f64> = (0..m)
@@ -844,29 +829,24 @@ mod tests {
         let u: Vec<f64> = (0..m)
             .map(|k| 0.01 * (w * k as f64).sin() + 0.002 * (3.0 * w * k as f64 + 0.4).sin())
             .collect();
+        let rms = |a: &[f64], b: &[f64]| {
+            (a.iter().zip(b).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / a.len() as f64).sqrt()
+        };
         let y = moving_average(&u, window);
-        let filt_err = (y
-            .iter()
-            .zip(&u[window - 1..])
-            .map(|(a, b)| (a - b).powi(2))
-            .sum::<f64>()
-            / n as f64)
-            .sqrt();
+        let filt_err = rms(&y, &u[window - 1..]);
         let r = deconvolve_moving_average(&y, window);
         assert_eq!(r.len(), m);
         // Away from the first and last periods, where the record's ends leave the fit less determined.
-        let inner = window..m - window;
-        let err = (inner.clone().map(|k| (r[k] - u[k]).powi(2)).sum::<f64>() / inner.len() as f64).sqrt();
+        let err = rms(&r[window..m - window], &u[window..m - window]);
         assert!(
             err < 0.01 * filt_err,
             "recovered rms error {err:e} m against the filter's {filt_err:e} m"
         );
         // The whole record, ends included, to 2 % of the filter's change.
-        let all = (0..m).map(|k| (r[k] - u[k]).powi(2)).sum::<f64>() / m as f64;
-        assert!(all.sqrt() < 0.02 * filt_err, "whole record: {:e} m", all.sqrt());
+        let all = rms(&r, &u);
+        assert!(all < 0.02 * filt_err, "whole record: {all:e} m");
         // And the recovered motion filtered again is the data.
-        let back = moving_average(&r, window);
-        let fit = (back.iter().zip(&y).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / n as f64).sqrt();
+        let fit = rms(&moving_average(&r, window), &y);
         assert!(fit < 1e-3 * filt_err, "refiltered misfit {fit:e} m");
     }
 

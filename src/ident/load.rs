@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use super::{acquisition, IdentError, Test};
 use crate::device::{DataStats, Inputs};
 use crate::measurement::Measurement;
-use crate::signal::{quintic_derivative_weights, white_noise_std_on, widest_unbiased_derivative};
+use crate::signal::{white_noise_std_on, widest_unbiased_derivative, QuinticFit};
 
 /// The moving average that the measurements `ms` (tests of one protocol) went through, if their
 /// displacements and forces (and measured velocities) show its comb ([`acquisition::detect_moving_average`]).
@@ -54,14 +54,9 @@ pub(crate) fn drive_of(m: &Measurement, filter: acquisition::MovingAverage) -> O
     let lead = filter.window - 1;
     let dt = crate::signal::uniform_interval(&m.t_s)?;
     let x = acquisition::deconvolve_moving_average(&m.x_m, filter.window);
-    let t: Vec<f64> = (0..x.len())
-        .map(|k| {
-            if k < lead {
-                m.t_s[0] - (lead - k) as f64 * dt
-            } else {
-                m.t_s[k - lead]
-            }
-        })
+    let t: Vec<f64> = (0..lead)
+        .map(|k| m.t_s[0] - (lead - k) as f64 * dt)
+        .chain(m.t_s.iter().copied())
         .collect();
     let i_a: Vec<f64> = std::iter::repeat_n(m.i_a[0], lead)
         .chain(m.i_a.iter().copied())
@@ -108,48 +103,33 @@ pub fn inputs_and_velocity_noise(m: &Measurement) -> (Vec<Inputs>, Option<Vec<f6
     }
     let t = &m.t_s;
     let sd_x = white_noise_std_on(t, &m.x_m);
-    let mut v_noise = None;
-    if !m.velocity_measured {
+    // Where no noise figure comes back, the estimate is its fallback: the value `inputs` holds already.
+    let v_noise = if m.velocity_measured {
+        None
+    } else {
         let (v, sd_v) = widest_unbiased_derivative(t, &m.x_m, 1, sd_x, &m.v_m_s);
-        if sd_v.is_some() {
-            for (i, v) in inputs.iter_mut().zip(v) {
-                i.v_m_s = v;
-            }
-            v_noise = sd_v;
-        }
-    }
+        inputs.iter_mut().zip(v).for_each(|(i, v)| i.v_m_s = v);
+        sd_v
+    };
     // The displacement smoothed by the same rule: the hysteresis law integrates the path `|dx|`, and noise
     // on `x` rectified there is travel the piston never made.
-    let (x_smooth, sd_smooth) = widest_unbiased_derivative(t, &m.x_m, 0, sd_x, &m.x_m);
-    if sd_smooth.is_some() {
-        for (i, x) in inputs.iter_mut().zip(x_smooth) {
-            i.x_m = x;
-        }
-    }
+    let (x_smooth, _) = widest_unbiased_derivative(t, &m.x_m, 0, sd_x, &m.x_m);
+    inputs.iter_mut().zip(x_smooth).for_each(|(i, x)| i.x_m = x);
     if m.a_m_s2.is_some() {
         return (inputs, v_noise);
     }
-    let fallback = m.acceleration();
-    let h_ref = 10;
     let noise_of = |order: usize, sd: f64| {
-        let w = quintic_derivative_weights(h_ref, order);
+        let w = QuinticFit::new(10).derivative_weights(order, 0.0);
         w.iter().map(|w| w * w).sum::<f64>().sqrt() * sd / dt.powi(order as i32)
     };
-    let from_x = (&m.x_m, 2usize, sd_x);
-    let route = if m.velocity_measured {
-        let sd_v = white_noise_std_on(t, &m.v_m_s);
-        if noise_of(2, sd_x) < noise_of(1, sd_v) {
-            from_x
-        } else {
-            (&m.v_m_s, 1usize, sd_v)
-        }
-    } else {
-        from_x
+    let sd_v = m.velocity_measured.then(|| white_noise_std_on(t, &m.v_m_s));
+    let (y, order, sd) = match sd_v {
+        Some(sd_v) if noise_of(2, sd_x) < noise_of(1, sd_v) => (&m.x_m, 2, sd_x),
+        Some(sd_v) => (&m.v_m_s, 1, sd_v),
+        None => (&m.x_m, 2, sd_x),
     };
-    let (a, _) = widest_unbiased_derivative(t, route.0, route.1, route.2, &fallback);
-    for (i, a) in inputs.iter_mut().zip(a) {
-        i.a_m_s2 = a;
-    }
+    let (a, _) = widest_unbiased_derivative(t, y, order, sd, &m.acceleration());
+    inputs.iter_mut().zip(a).for_each(|(i, a)| i.a_m_s2 = a);
     (inputs, v_noise)
 }
 
@@ -509,25 +489,26 @@ mod tests {
     }
 
     /// A file of `n` samples at `rate` of a sine displacement with 2 µm white noise (seeded) and no velocity
-    /// channel (the reader's 7-sample derivative in its place, as when such a file is read).
-    fn sine_without_velocity(amp: f64, f_hz: f64, rate: f64, n: usize, seed: u64) -> Measurement {
-        let t: Vec<f64> = (0..n).map(|k| k as f64 / rate).collect();
-        sine_without_velocity_at(t, amp, f_hz, seed)
-    }
-
-    /// [`sine_without_velocity`] on a clock that jitters: sample `k` at `(k + u) / rate`, `u` uniform in
-    /// ±¼ (intervals 0.5–1.5 of the nominal one).
-    fn jittered_sine_without_velocity(amp: f64, f_hz: f64, rate: f64, n: usize, seed: u64) -> Measurement {
+    /// channel (the reader's 7-sample derivative in its place, as when such a file is read); with `jitter`,
+    /// sample `k` at `(k + u) / rate`, `u` uniform in ±¼ (intervals 0.5–1.5 of the nominal one).
+    fn sine_without_velocity(
+        amp: f64,
+        f_hz: f64,
+        rate: f64,
+        n: usize,
+        seed: u64,
+        jitter: bool,
+    ) -> Measurement {
         use rand::Rng;
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed + 1_000_000);
-        let t: Vec<f64> = (0..n)
-            .map(|k| (k as f64 + rng.random_range(-0.25..0.25)) / rate)
-            .collect();
-        sine_without_velocity_at(t, amp, f_hz, seed)
-    }
-
-    /// A sine displacement at the times `t` with 2 µm of noise, no velocity channel.
-    fn sine_without_velocity_at(t: Vec<f64>, amp: f64, f_hz: f64, seed: u64) -> Measurement {
+        let mut clock = rand_chacha::ChaCha8Rng::seed_from_u64(seed + 1_000_000);
+        let mut u = || {
+            if jitter {
+                clock.random_range(-0.25..0.25)
+            } else {
+                0.0
+            }
+        };
+        let t: Vec<f64> = (0..n).map(|k| (k as f64 + u()) / rate).collect();
         let n = t.len();
         let w = std::f64::consts::TAU * f_hz;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
@@ -555,7 +536,7 @@ mod tests {
     fn the_path_near_reversals_is_the_piston_s_not_the_noise_s() {
         let (amp, f_hz, rate, n) = (0.02, 1.0, 2000.0, 8000usize);
         let w = std::f64::consts::TAU * f_hz;
-        let m = sine_without_velocity(amp, f_hz, rate, n, 11);
+        let m = sine_without_velocity(amp, f_hz, rate, n, 11, false);
         let inputs = inputs_of(&m);
         let (mut truth, mut raw, mut model) = (0.0, 0.0, 0.0);
         for k in 0..n - 1 {
@@ -583,7 +564,7 @@ mod tests {
         let (amp, f_hz, rate, n) = (0.002, 5.0, 500.0, 400usize);
         let w = std::f64::consts::TAU * f_hz;
         for seed in 0..8u64 {
-            let test = Test::from_measurement(&sine_without_velocity(amp, f_hz, rate, n, 300 + seed));
+            let test = Test::from_measurement(&sine_without_velocity(amp, f_hz, rate, n, 300 + seed, false));
             let sd = test.velocity_noise_m_s.as_ref().expect("derived velocity noise");
             let weights = residual::direction_weights(&test);
             let (mut ss, mut var) = (0.0, 0.0);
@@ -618,7 +599,7 @@ mod tests {
     fn derivatives_near_the_ends_of_a_test_are_as_good_as_inside() {
         let (amp, f_hz, rate, n) = (0.02, 1.0, 2000.0, 6000usize);
         let w = std::f64::consts::TAU * f_hz;
-        let test = Test::from_measurement(&sine_without_velocity(amp, f_hz, rate, n, 7));
+        let test = Test::from_measurement(&sine_without_velocity(amp, f_hz, rate, n, 7, false));
         let ends: Vec<&Inputs> = test.inputs[..40].iter().chain(&test.inputs[n - 40..]).collect();
         let a_rms = amp * w * w / 2f64.sqrt();
         let v_rms = amp * w / 2f64.sqrt();
@@ -646,7 +627,7 @@ mod tests {
     #[test]
     fn acceleration_and_velocity_noise_from_displacement_alone_on_every_seed() {
         for (seed, f_hz) in (0..8u64).map(|s| (s, if s % 2 == 0 { 0.4 } else { 1.0 })) {
-            let m = sine_without_velocity(0.02, f_hz, 1000.0, 5000, 100 + seed);
+            let m = sine_without_velocity(0.02, f_hz, 1000.0, 5000, 100 + seed, false);
             check_sine_derivatives(&m, 0.02, f_hz, 100..4900);
         }
     }
@@ -657,7 +638,7 @@ mod tests {
     #[test]
     fn derivatives_on_a_jittered_clock_are_as_good_as_on_an_even_one() {
         for (seed, f_hz) in [(0u64, 0.4), (1, 1.0), (2, 2.5)] {
-            let m = jittered_sine_without_velocity(0.02, f_hz, 1000.0, 5000, 200 + seed);
+            let m = sine_without_velocity(0.02, f_hz, 1000.0, 5000, 200 + seed, true);
             assert!(crate::signal::uniform_interval(&m.t_s).is_none());
             check_sine_derivatives(&m, 0.02, f_hz, 0..5000);
         }
@@ -670,7 +651,7 @@ mod tests {
     #[test]
     fn derivatives_on_either_side_of_a_hole_in_the_record() {
         let (amp, f_hz) = (0.01, 2.5);
-        let mut m = sine_without_velocity(amp, f_hz, 1000.0, 5000, 300);
+        let mut m = sine_without_velocity(amp, f_hz, 1000.0, 5000, 300, false);
         for c in [&mut m.t_s, &mut m.x_m, &mut m.v_m_s, &mut m.i_a, &mut m.f_n] {
             c.drain(2000..2100);
         }

@@ -12,19 +12,22 @@ use super::diagnose::Diagnosis;
 use super::residual::{heatmap, CurrentBins};
 use super::{IdentError, Test};
 
-/// The bundled font, registered once by the shared plot helpers.
-fn font() {
-    crate::viz::plot::register_font();
-}
-
 fn e2s<E: std::fmt::Display>(e: E) -> IdentError {
     IdentError::Other(format!("plot: {e}"))
 }
 
-/// Draw a figure through `$backend` into the file `$path`, whole or not at all
-/// ([`crate::outputs::write_whole`]).
-macro_rules! draw_to {
-    ($backend:ident, $path:expr, $size:expr, |$root:ident| $body:expr) => {
+/// Draw the same figure into `NAME.png` and `NAME.svg`, each whole or not at all
+/// ([`crate::outputs::write_whole`]), and list both in `$out`.
+macro_rules! both {
+    ($dir:expr, $name:expr, $size:expr, $out:expr, |$root:ident| $body:expr) => {{
+        crate::viz::plot::register_font();
+        let name = $name;
+        let (png, svg) = ($dir.join(format!("{name}.png")), $dir.join(format!("{name}.svg")));
+        both!(@ BitMapBackend, png, $size, |$root| $body);
+        both!(@ SVGBackend, svg, $size, |$root| $body);
+        $out.extend([png, svg]);
+    }};
+    (@ $backend:ident, $path:expr, $size:expr, |$root:ident| $body:expr) => {
         crate::outputs::write_whole(
             &$path,
             |tmp| -> Result<(), IdentError> {
@@ -36,18 +39,6 @@ macro_rules! draw_to {
             e2s,
         )?
     };
-}
-
-/// Draw the same figure into `NAME.png` and `NAME.svg` and list both in `$out`.
-macro_rules! both {
-    ($dir:expr, $name:expr, $size:expr, $out:expr, |$root:ident| $body:expr) => {{
-        font();
-        let png = $dir.join(format!("{}.png", $name));
-        draw_to!(BitMapBackend, png, $size, |$root| $body);
-        let svg = $dir.join(format!("{}.svg", $name));
-        draw_to!(SVGBackend, svg, $size, |$root| $body);
-        $out.extend([png, svg]);
-    }};
 }
 
 /// Every `k`-th index so that at most `max` remain.
@@ -402,13 +393,10 @@ pub fn plot_diagnosis(dir: &Path, tests: &[Test], d: &Diagnosis) -> Result<Vec<P
         .iter()
         .enumerate()
         .map(|(k, s)| {
-            let name = if k == 0 {
-                s.model.clone()
-            } else {
-                match &s.added {
-                    Some(a) => format!("+{a}"),
-                    None => "pruned".into(),
-                }
+            let name = match (k, &s.added) {
+                (0, _) => s.model.clone(),
+                (_, Some(a)) => format!("+{a}"),
+                _ => "pruned".into(),
             };
             (name, s.heldout_nrmse)
         })

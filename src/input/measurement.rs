@@ -63,12 +63,11 @@ pub(crate) fn parse(bytes: &[u8], path: &Path, force_required: bool) -> Result<M
         return Err(empty());
     }
     // A lone carriage return ends a line as `\n` does (csv counts only the latter).
-    let lone_cr = |t: &str| {
-        t.match_indices('\r')
-            .any(|(k, _)| t.as_bytes().get(k + 1) != Some(&b'\n'))
-    };
     let normalized;
-    let text = if lone_cr(text) {
+    let text = if text
+        .match_indices('\r')
+        .any(|(k, _)| text.as_bytes().get(k + 1) != Some(&b'\n'))
+    {
         normalized = text.replace("\r\n", "\n").replace('\r', "\n");
         normalized.as_str()
     } else {
@@ -190,14 +189,12 @@ pub(crate) fn parse(bytes: &[u8], path: &Path, force_required: bool) -> Result<M
             if c == t_col {
                 t_resolution = t_resolution.min(written_resolution(s));
             }
-            let why = match s.parse::<f64>() {
-                Ok(v) => match unmeasurable(v) {
-                    None => {
-                        cols[c].push(v);
-                        continue;
-                    }
-                    Some(why) => why,
-                },
+            let why = match s.parse::<f64>().map(|v| (v, unmeasurable(v))) {
+                Ok((v, None)) => {
+                    cols[c].push(v);
+                    continue;
+                }
+                Ok((_, Some(why))) => why,
                 Err(_) if s.is_empty() => "empty field".into(),
                 Err(_) => "not a number".into(),
             };
@@ -212,12 +209,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path, force_required: bool) -> Result<M
 
     let mut take = |name: &str| col(name).map(|c| std::mem::take(&mut cols[c]));
     m.t_s = take("t_s").unwrap_or_default();
-    if let Some(w) = (1..m.t_s.len()).find(|&w| m.t_s[w] <= m.t_s[w - 1]) {
-        let why = format!(
-            "time {} s is not after the previous sample's {} s (time must increase strictly)",
-            m.t_s[w],
-            m.t_s[w - 1]
-        );
+    if let Some((w, why)) = not_increasing(&m.t_s) {
         return Err(column(path, m.lines[w], "t_s", why));
     }
     if let Some((r, line)) = rate {
@@ -292,6 +284,17 @@ fn refuse_spikes(m: &Measurement) -> Result<(), InputError> {
         ));
     }
     Ok(())
+}
+
+/// The first sample whose time is not after the previous one's, and why.
+pub(crate) fn not_increasing(t: &[f64]) -> Option<(usize, String)> {
+    let w = (1..t.len()).find(|&w| t[w] <= t[w - 1])?;
+    let why = format!(
+        "time {} s is not after the previous sample's {} s (time must increase strictly)",
+        t[w],
+        t[w - 1]
+    );
+    Some((w, why))
 }
 
 /// Why `v` is no measured value (NaN, infinite, or beyond [`MAGNITUDE_LIMIT`]), if it is not.
