@@ -144,15 +144,9 @@ fn toml_key_at(text: &str, offset: usize) -> Option<String> {
     let outer = bare_key(before.split_once('=')?.0)?;
     // The nearest `key =` before the value, inside the braces of an inline table.
     let inner_text = before.rsplit_once('=')?.0;
-    let brace = inner_text.rfind('{');
-    let inner = match brace {
-        Some(b) => {
-            let seg = &inner_text[b + 1..];
-            let seg = seg.rsplit(',').next().unwrap_or(seg);
-            bare_key(seg)
-        }
-        None => None,
-    };
+    let inner = inner_text
+        .rfind('{')
+        .and_then(|b| bare_key(inner_text[b + 1..].rsplit(',').next()?));
     Some(match inner {
         Some(k) => format!("{outer}.{k}"),
         None => outer,
