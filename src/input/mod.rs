@@ -268,7 +268,8 @@ impl<'de, E: DeserializeOwned> serde::Deserialize<'de> for Variant<E> {
 }
 
 /// Why a name is not a variant: `` `x` is not one of: a, b ``.
-#[derive(Debug)]
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
 struct NotOneOf(String);
 
 impl serde::de::Error for NotOneOf {
@@ -279,14 +280,6 @@ impl serde::de::Error for NotOneOf {
         Self(format!("`{name}` is not one of: {}", names.join(", ")))
     }
 }
-
-impl fmt::Display for NotOneOf {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for NotOneOf {}
 
 #[cfg(test)]
 mod tests {

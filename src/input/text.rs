@@ -155,7 +155,8 @@ fn toml_key_at(text: &str, offset: usize) -> Option<String> {
 
 /// Where a text's first byte that is not UTF-8 is: 1-based line and column (in characters, as an editor
 /// shows it), and the byte.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("line {line}, {}", self.what())]
 pub(crate) struct NotUtf8 {
     pub(crate) line: usize,
     pub(crate) column: usize,
@@ -169,12 +170,6 @@ impl NotUtf8 {
             "column {}: byte 0x{:02x} is not UTF-8 text (a binary file, or another encoding?)",
             self.column, self.byte
         )
-    }
-}
-
-impl std::fmt::Display for NotUtf8 {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "line {}, {}", self.line, self.what())
     }
 }
 
