@@ -25,57 +25,51 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::Deserialize;
 
-/// Kinds of fault, in table order.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum FaultKind {
+/// Declares [`FaultKind`], its [`FaultKind::KINDS`] and its names from one list, in table order.
+macro_rules! fault_kinds {
+    ($($(#[doc = $doc:literal])* $kind:ident = $name:literal,)*) => {
+        /// Kinds of fault, in table order.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Deserialize)]
+        pub enum FaultKind {
+            $($(#[doc = $doc])* #[serde(rename = $name)] $kind,)*
+        }
+
+        impl FaultKind {
+            /// Every kind, in table order: the feel path's, then the pilot's.
+            pub const KINDS: [FaultKind; 8] = [$(FaultKind::$kind),*];
+
+            /// The name used in scenario files and tables.
+            pub fn name(self) -> &'static str {
+                match self {
+                    $(FaultKind::$kind => $name,)*
+                }
+            }
+        }
+    };
+}
+
+fault_kinds! {
     /// The coil carries no current (the active stick's motor no force).
-    CoilOpen,
+    CoilOpen = "coil_open",
     /// The driver gives its full-scale current (force) whatever the command.
-    DriverStuck,
+    DriverStuck = "driver_stuck",
     /// The load-cell reading freezes at its value when the fault starts.
-    LoadCellStuck,
+    LoadCellStuck = "load_cell_stuck",
     /// The load-cell reading is 0 N.
-    LoadCellZero,
+    LoadCellZero = "load_cell_zero",
     /// Gaussian noise on the load-cell reading.
-    LoadCellNoisy,
+    LoadCellNoisy = "load_cell_noisy",
     /// The DAQ holds the last valid position.
-    DisplacementDropout,
+    DisplacementDropout = "displacement_dropout",
     /// The controller sees older samples.
-    LatencySpike,
+    LatencySpike = "latency_spike",
     /// The pilot lets go of the grip.
-    HandsOff,
+    HandsOff = "hands_off",
 }
 
 impl FaultKind {
-    /// Every kind, in table order: the feel path's, then the pilot's.
-    pub const KINDS: [FaultKind; 8] = [
-        FaultKind::CoilOpen,
-        FaultKind::DriverStuck,
-        FaultKind::LoadCellStuck,
-        FaultKind::LoadCellZero,
-        FaultKind::LoadCellNoisy,
-        FaultKind::DisplacementDropout,
-        FaultKind::LatencySpike,
-        FaultKind::HandsOff,
-    ];
-
     /// Every kind of fault in the feel system's path, in table order (all but [`FaultKind::HandsOff`]).
     pub const ALL: &'static [FaultKind] = Self::KINDS.split_last().expect("kinds").1;
-
-    /// The name used in scenario files and tables.
-    pub fn name(self) -> &'static str {
-        match self {
-            FaultKind::CoilOpen => "coil_open",
-            FaultKind::DriverStuck => "driver_stuck",
-            FaultKind::LoadCellStuck => "load_cell_stuck",
-            FaultKind::LoadCellZero => "load_cell_zero",
-            FaultKind::LoadCellNoisy => "load_cell_noisy",
-            FaultKind::DisplacementDropout => "displacement_dropout",
-            FaultKind::LatencySpike => "latency_spike",
-            FaultKind::HandsOff => "hands_off",
-        }
-    }
 
     /// The kind's bit in a mask of active faults.
     pub fn bit(self) -> u8 {
@@ -146,6 +140,11 @@ impl FaultSchedule {
         self.faults.iter().find(|f| f.kind == kind && f.active(t_s))
     }
 
+    /// Whether a fault of `kind` acts at `t_s`.
+    fn on(&self, kind: FaultKind, t_s: f64) -> bool {
+        self.active(kind, t_s).is_some()
+    }
+
     /// Bit set of the kinds active at `t_s` (bit `k` = `FaultKind::ALL[k]`), for result columns.
     pub(crate) fn active_mask(&self, t_s: f64) -> u8 {
         self.faults
@@ -210,9 +209,9 @@ impl FaultInjector {
     /// Hook driver → coil: the current command the coil actually receives, A (`limit_a`: the driver's
     /// full scale).
     pub(crate) fn coil_command_a(&self, t_s: f64, cmd_a: f64, limit_a: f64) -> f64 {
-        if self.schedule.active(FaultKind::CoilOpen, t_s).is_some() {
+        if self.schedule.on(FaultKind::CoilOpen, t_s) {
             0.0
-        } else if self.schedule.active(FaultKind::DriverStuck, t_s).is_some() {
+        } else if self.schedule.on(FaultKind::DriverStuck, t_s) {
             limit_a
         } else {
             cmd_a
@@ -223,9 +222,9 @@ impl FaultInjector {
     /// one; `last_n` is the force it gave over the previous step, `limit_n` its full scale. An open driver
     /// gives nothing; a stuck one gives full force in the direction it was pushing.
     pub(crate) fn motor_force_n(&self, t_s: f64, cmd_n: f64, last_n: f64, limit_n: f64) -> f64 {
-        if self.schedule.active(FaultKind::CoilOpen, t_s).is_some() {
+        if self.schedule.on(FaultKind::CoilOpen, t_s) {
             0.0
-        } else if self.schedule.active(FaultKind::DriverStuck, t_s).is_some() {
+        } else if self.schedule.on(FaultKind::DriverStuck, t_s) {
             let dir = if last_n != 0.0 { last_n } else { cmd_n };
             limit_n * dir.signum()
         } else {
@@ -235,9 +234,9 @@ impl FaultInjector {
 
     /// Hook load cell → DAQ: the reading the DAQ digitises, N, from the healthy reading.
     pub(crate) fn load_cell_n(&mut self, t_s: f64, reading_n: f64) -> f64 {
-        let out = if self.schedule.active(FaultKind::LoadCellZero, t_s).is_some() {
+        let out = if self.schedule.on(FaultKind::LoadCellZero, t_s) {
             0.0
-        } else if self.schedule.active(FaultKind::LoadCellStuck, t_s).is_some() {
+        } else if self.schedule.on(FaultKind::LoadCellStuck, t_s) {
             *self.held_force_n.get_or_insert(self.last_force_n)
         } else {
             self.held_force_n = None;
@@ -255,11 +254,7 @@ impl FaultInjector {
 
     /// Hook laser → DAQ: the position the DAQ sees, m (held at the last valid value during a dropout).
     pub(crate) fn displacement_m(&mut self, t_s: f64, x_m: f64) -> f64 {
-        if self
-            .schedule
-            .active(FaultKind::DisplacementDropout, t_s)
-            .is_some()
-        {
+        if self.schedule.on(FaultKind::DisplacementDropout, t_s) {
             self.last_x_m
         } else {
             self.last_x_m = x_m;
@@ -269,7 +264,7 @@ impl FaultInjector {
 
     /// Hook hand → grip: whether the pilot's hand is off the grip at `t_s`.
     pub(crate) fn hands_off(&self, t_s: f64) -> bool {
-        self.schedule.active(FaultKind::HandsOff, t_s).is_some()
+        self.schedule.on(FaultKind::HandsOff, t_s)
     }
 
     /// Hook DAQ → controller: extra delay of the samples the controller sees, s.

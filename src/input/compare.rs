@@ -252,9 +252,7 @@ fn active(src: &Source, a: &ActiveFile, systems: &S<Vec<String>>) -> Result<Acti
         let msg = "not used with `active.model` (the motor file gives the force limit and the friction)";
         return Err(src.err(v, &format!("active.{key}"), msg));
     }
-    let path = src.named_file(p, "active.model", p.get_ref())?;
-    let m = crate::control::active::ActiveStickConfig::load(&path)
-        .map_err(|e| src.err(p, "active.model", e.to_string()))?;
+    let (_, m) = src.load_named(p, "active.model", crate::control::active::ActiveStickConfig::load)?;
     Ok(ActiveSection {
         max_force_n: m.max_force_n(),
         damping_n_s_per_m: m.rod_damping_n_s_per_m(),

@@ -88,12 +88,6 @@ impl InputError {
             ..Self::file(path, msg)
         }
     }
-
-    /// The same error with `context` before its message (`… in the file the scenario names: …`).
-    pub fn context(mut self, context: impl fmt::Display) -> Self {
-        self.msg = format!("{context}: {}", self.msg);
-        self
-    }
 }
 
 impl fmt::Display for InputError {
@@ -213,14 +207,9 @@ impl Source {
     /// The file this one names at `at` (`field`), found as [`crate::builtin::resolve`] finds it: a built-in
     /// file or a regular file that exists (files named are read once per run of a comparison or a sweep,
     /// which a pipe cannot give twice).
-    pub(crate) fn named_file<T>(
-        &self,
-        at: &Spanned<T>,
-        field: &str,
-        named: &Path,
-    ) -> Result<PathBuf, InputError> {
+    pub(crate) fn named_file(&self, at: &Spanned<PathBuf>, field: &str) -> Result<PathBuf, InputError> {
         use text::NotAFile;
-        let file = crate::builtin::resolve(self.path.parent().unwrap_or(Path::new(".")), named);
+        let file = crate::builtin::resolve(self.path.parent().unwrap_or(Path::new(".")), at.get_ref());
         if crate::builtin::is_builtin(&file) {
             return Ok(file);
         }
@@ -238,6 +227,19 @@ impl Source {
             Err(e) => format!("{}: {e}", file.display()),
         };
         Err(self.err(at, field, msg))
+    }
+
+    /// The file named at `at` ([`Source::named_file`]) read by `load`: its path and what it holds; an error
+    /// of its own is placed at `at`.
+    pub(crate) fn load_named<T, E: fmt::Display>(
+        &self,
+        at: &Spanned<PathBuf>,
+        field: &str,
+        load: impl FnOnce(&Path) -> Result<T, E>,
+    ) -> Result<(PathBuf, T), InputError> {
+        let path = self.named_file(at, field)?;
+        let loaded = load(&path).map_err(|e| self.err(at, field, e.to_string()))?;
+        Ok((path, loaded))
     }
 }
 
@@ -266,7 +268,8 @@ impl<'de, E: DeserializeOwned> serde::Deserialize<'de> for Variant<E> {
 }
 
 /// Why a name is not a variant: `` `x` is not one of: a, b ``.
-#[derive(Debug)]
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
 struct NotOneOf(String);
 
 impl serde::de::Error for NotOneOf {
@@ -277,14 +280,6 @@ impl serde::de::Error for NotOneOf {
         Self(format!("`{name}` is not one of: {}", names.join(", ")))
     }
 }
-
-impl fmt::Display for NotOneOf {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for NotOneOf {}
 
 #[cfg(test)]
 mod tests {

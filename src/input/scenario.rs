@@ -8,6 +8,7 @@ use toml::Spanned;
 
 use super::faults::FaultTable;
 use super::{InputError, Source, Variant};
+use crate::control::active::ActiveStickConfig;
 use crate::control::feel::{CentringSpring, FeelKind, FeelSprings, FeelSystemConfig};
 use crate::control::{AntiWindup, FeelLaw, PidGains};
 use crate::pilot::attitude::{CrossoverPilotConfig, PilotLoop, Schedule};
@@ -380,12 +381,10 @@ fn schedule(
 /// The scenario in `src`, checked.
 pub fn scenario(src: &Source) -> Result<Scenario, InputError> {
     let f: File = src.toml()?;
-    let mut rig = RigConfig::new(src.named_file(&f.rig.urdf, "rig.urdf", f.rig.urdf.get_ref())?);
-    let device_path = src.named_file(&f.device.file, "device.file", f.device.file.get_ref())?;
-    let controller_model_path = match &f.controller.model {
-        Some(m) => Some(src.named_file(m, "controller.model", m.get_ref())?),
-        None => None,
-    };
+    let mut rig = RigConfig::new(src.named_file(&f.rig.urdf, "rig.urdf")?);
+    let device_path = src.named_file(&f.device.file, "device.file")?;
+    let model = f.controller.model.as_ref();
+    let controller_model_path = model.map(|m| src.named_file(m, "controller.model")).transpose()?;
     let r = &f.rig;
     if let Some(hz) = &r.physics_hz {
         rig.physics_hz = num(src, hz, "rig.physics_hz")?;
@@ -606,8 +605,7 @@ fn feel_system(
         let msg = format!("required by {by} (a feel-spring file such as models/feel-springs.toml)");
         return Err(src.err(&fs.kind, "feel_system.springs", msg));
     };
-    let path = src.named_file(p, "feel_system.springs", p.get_ref())?;
-    let springs = FeelSprings::load(&path).map_err(|e| src.err(p, "feel_system.springs", e.to_string()))?;
+    let (path, springs) = src.load_named(p, "feel_system.springs", FeelSprings::load)?;
     let damping = match kind.has_coil() {
         true => 0.0,
         false => need(&fs.damping_n_s_per_m, "damping_n_s_per_m")?,
@@ -660,14 +658,12 @@ fn active_stick(
             Ok((FeelSystemConfig::active(max_force, damping), None))
         }
         (Some(p), None) => {
-            let path = src.named_file(p, "feel_system.model", p.get_ref())?;
-            let stick = crate::control::active::ActiveStickConfig::load(&path)
-                .map_err(|e| src.err(p, "feel_system.model", e.to_string()))?;
+            let (path, stick) = src.load_named(p, "feel_system.model", ActiveStickConfig::load)?;
             Ok((FeelSystemConfig::active_stick(stick), Some(path)))
         }
         (None, None) => {
             let path = crate::builtin::by_file_name("active-stick.toml").expect("a built-in file");
-            let stick = crate::control::active::ActiveStickConfig::load(&path)
+            let stick = ActiveStickConfig::load(&path)
                 .map_err(|e| src.err(&fs.kind, "feel_system.kind", e.to_string()))?;
             Ok((FeelSystemConfig::active_stick(stick), None))
         }
@@ -788,8 +784,7 @@ fn pilot(
     dt_s: f64,
     seed: u64,
 ) -> Result<PilotConfig, InputError> {
-    let hand_path = src.named_file(&p.model, "pilot.model", p.model.get_ref())?;
-    let hand = super::hand::load(&hand_path).map_err(|e| src.err(&p.model, "pilot.model", e.to_string()))?;
+    let (hand_path, hand) = src.load_named(&p.model, "pilot.model", super::hand::load)?;
     let task = src.variant(&p.task, "pilot.task")?;
     let by = format!("signal = \"{}\"", p.signal.get_ref().name());
     // Command values carry the task's unit: `_rad` (stick angle) for position, `_n` (grip force) for force.

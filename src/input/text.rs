@@ -144,15 +144,9 @@ fn toml_key_at(text: &str, offset: usize) -> Option<String> {
     let outer = bare_key(before.split_once('=')?.0)?;
     // The nearest `key =` before the value, inside the braces of an inline table.
     let inner_text = before.rsplit_once('=')?.0;
-    let brace = inner_text.rfind('{');
-    let inner = match brace {
-        Some(b) => {
-            let seg = &inner_text[b + 1..];
-            let seg = seg.rsplit(',').next().unwrap_or(seg);
-            bare_key(seg)
-        }
-        None => None,
-    };
+    let inner = inner_text
+        .rfind('{')
+        .and_then(|b| bare_key(inner_text[b + 1..].rsplit(',').next()?));
     Some(match inner {
         Some(k) => format!("{outer}.{k}"),
         None => outer,
@@ -161,7 +155,8 @@ fn toml_key_at(text: &str, offset: usize) -> Option<String> {
 
 /// Where a text's first byte that is not UTF-8 is: 1-based line and column (in characters, as an editor
 /// shows it), and the byte.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("line {line}, {}", self.what())]
 pub(crate) struct NotUtf8 {
     pub(crate) line: usize,
     pub(crate) column: usize,
@@ -175,12 +170,6 @@ impl NotUtf8 {
             "column {}: byte 0x{:02x} is not UTF-8 text (a binary file, or another encoding?)",
             self.column, self.byte
         )
-    }
-}
-
-impl std::fmt::Display for NotUtf8 {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "line {}, {}", self.line, self.what())
     }
 }
 

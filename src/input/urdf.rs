@@ -302,28 +302,6 @@ impl XmlElement {
     }
 }
 
-/// A position in the text: byte offset to 1-based line.
-struct Lines {
-    starts: Vec<usize>,
-}
-
-impl Lines {
-    fn new(text: &str) -> Self {
-        let mut starts = vec![0];
-        starts.extend(
-            text.bytes()
-                .enumerate()
-                .filter(|(_, b)| *b == b'\n')
-                .map(|(i, _)| i + 1),
-        );
-        Self { starts }
-    }
-
-    fn line(&self, offset: usize) -> usize {
-        self.starts.partition_point(|&s| s <= offset)
-    }
-}
-
 type XmlError = (usize, String);
 
 /// The deepest nesting of elements read: the tree is walked by recursion (here and in `urdf-rs`), which a
@@ -334,17 +312,21 @@ const MAX_DEPTH: usize = 256;
 /// with its line, or the line and reason it is not XML.
 fn scan_xml(text: &str) -> Result<XmlElement, XmlError> {
     use quick_xml::events::{BytesStart, Event};
-    let lines = Lines::new(text);
+    // 1-based line of a byte offset, by the offsets where lines start.
+    let starts: Vec<usize> = std::iter::once(0)
+        .chain(text.match_indices('\n').map(|(i, _)| i + 1))
+        .collect();
+    let line_of = |offset: usize| starts.partition_point(|&s| s <= offset);
     let mut reader = quick_xml::Reader::from_str(text);
     // End tags are matched here, to name the line the unmatched element was opened at.
     reader.config_mut().check_end_names = false;
     let mut stack: Vec<XmlElement> = Vec::new();
     let mut root: Option<XmlElement> = None;
-    let at_error = |reader: &quick_xml::Reader<&[u8]>| lines.line(reader.error_position() as usize);
+    let at_error = |reader: &quick_xml::Reader<&[u8]>| line_of(reader.error_position() as usize);
     // An element from its start tag, which begins at byte `start` of the text.
     let element = |tag: &BytesStart<'_>, start: usize| -> Result<XmlElement, XmlError> {
         let name = String::from_utf8_lossy(tag.name().as_ref()).into_owned();
-        let line = lines.line(start);
+        let line = line_of(start);
         // The tag's text from its `<`: quick-xml's tag content (quotes may hold a `>`) and the `<`.
         let raw = text.get(start..start + 1 + tag.len()).unwrap_or(&text[start..]);
         let mut el = XmlElement {
@@ -360,7 +342,7 @@ fn scan_xml(text: &str) -> Result<XmlElement, XmlError> {
                 .map_err(|e| (line, format!("attribute `{key}` of `<{}>`: {e}", el.name)))?
                 .into_owned();
             el.attrs.push(XmlAttr {
-                line: lines.line(start + attribute_offset(raw, &key)),
+                line: line_of(start + attribute_offset(raw, &key)),
                 name: key,
                 value,
             });
@@ -379,7 +361,7 @@ fn scan_xml(text: &str) -> Result<XmlElement, XmlError> {
                 if stack.len() >= MAX_DEPTH {
                     let name = String::from_utf8_lossy(tag.name().as_ref()).into_owned();
                     return Err((
-                        lines.line(start),
+                        line_of(start),
                         format!(
                             "`<{name}>` is nested {} elements deep, more than the {MAX_DEPTH} allowed (a URDF \
                              nests a few)",
@@ -393,7 +375,7 @@ fn scan_xml(text: &str) -> Result<XmlElement, XmlError> {
             Event::Empty(tag) => Some(element(&tag, start)?),
             Event::End(tag) => {
                 let name = String::from_utf8_lossy(tag.name().as_ref()).into_owned();
-                let line = lines.line(start);
+                let line = line_of(start);
                 let Some(open) = stack.pop() else {
                     return Err((line, format!("`</{name}>` closes no open element")));
                 };
@@ -412,7 +394,7 @@ fn scan_xml(text: &str) -> Result<XmlElement, XmlError> {
                 } else {
                     "before any element (not an XML file?)"
                 };
-                return Err((lines.line(at), format!("text `{shown}` {where_}")));
+                return Err((line_of(at), format!("text `{shown}` {where_}")));
             }
             Event::Eof => break,
             _ => None,
@@ -502,15 +484,8 @@ const SCHEMA: &[(&str, &str, &str, &str)] = &[
 
 const JOINT_CHILDREN: &str = "origin parent! child! axis limit calibration dynamics mimic safety_controller";
 
-const JOINT_TYPES: [&str; 7] = [
-    "revolute",
-    "continuous",
-    "prismatic",
-    "fixed",
-    "floating",
-    "planar",
-    "spherical",
-];
+/// The joint types, as a message lists them.
+const JOINT_TYPES: &str = "revolute, continuous, prismatic, fixed, floating, planar, spherical";
 
 /// An element's attributes (name, kind, required) and children (name, repeatable, required) by
 /// [`SCHEMA`], `None` for an element not listed.
@@ -671,7 +646,7 @@ fn check_value(kind: char, v: &str) -> Result<(), String> {
         },
         '3' => vector(3),
         '4' => vector(4),
-        'j' if !JOINT_TYPES.contains(&v) => Err(format!("`{v}` is not one of: {}", JOINT_TYPES.join(", "))),
+        'j' if !JOINT_TYPES.split(", ").any(|t| t == v) => Err(format!("`{v}` is not one of: {JOINT_TYPES}")),
         _ => Ok(()),
     }
 }

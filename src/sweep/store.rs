@@ -39,11 +39,15 @@ pub enum StoreError {
     },
 }
 
-fn io(path: &Path) -> impl Fn(std::io::Error) -> StoreError + '_ {
-    move |e| StoreError::Io {
+fn io_err(path: &Path, msg: impl ToString) -> StoreError {
+    StoreError::Io {
         path: path.to_path_buf(),
-        msg: e.to_string(),
+        msg: msg.to_string(),
     }
+}
+
+fn io(path: &Path) -> impl Fn(std::io::Error) -> StoreError + '_ {
+    move |e| io_err(path, e)
 }
 
 fn not_a_sweep(manifest: &Path) -> InputError {
@@ -122,7 +126,7 @@ pub struct Record {
 }
 
 /// `sweep.toml`.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 struct Manifest {
     name: String,
     plan: String,
@@ -136,19 +140,6 @@ struct Manifest {
 impl Loaded {
     fn err<T>(&self, at: &Spanned<T>, key: &str, msg: String) -> StoreError {
         self.src.err(at, key, msg).into()
-    }
-
-    fn manifest(&self) -> Manifest {
-        let f = &self.file;
-        Manifest {
-            name: f.name.clone(),
-            plan: f.plan.clone(),
-            digest: f.digest.get_ref().clone(),
-            runs: *f.runs.get_ref(),
-            shard: f.shard.get_ref().clone(),
-            columns: f.columns.get_ref().clone(),
-            numeric: f.numeric.clone(),
-        }
     }
 }
 
@@ -211,7 +202,12 @@ impl Store {
                     ));
                 }
             }
-            None => write_text(&mpath, &toml::to_string(&manifest).expect("manifest serialises"))?,
+            None => write_bytes(
+                &mpath,
+                toml::to_string(&manifest)
+                    .expect("manifest serialises")
+                    .as_bytes(),
+            )?,
         }
         let jpath = dir.join(JOURNAL);
         let done = read_journal(&jpath, manifest.runs, |i| shard.contains(i), true)?;
@@ -284,10 +280,6 @@ fn read_journal(
     Ok(out)
 }
 
-fn write_text(path: &Path, text: &str) -> Result<(), StoreError> {
-    write_bytes(path, text.as_bytes())
-}
-
 /// Write a whole file through a temporary beside it, so that a reader never sees half of it.
 fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), StoreError> {
     crate::outputs::write_whole(path, |tmp| std::fs::write(tmp, bytes).map_err(io(path)), io(path))
@@ -300,10 +292,10 @@ fn write_results(dir: &Path, m: &Manifest, records: &mut [Record]) -> Result<(),
         journal.push_str(&serde_json::to_string(r).expect("a record serialises"));
         journal.push('\n');
     }
-    write_text(&dir.join(JOURNAL), &journal)?;
+    write_bytes(&dir.join(JOURNAL), journal.as_bytes())?;
     write_bytes(&dir.join(RESULTS_CSV), &csv_bytes(m, records))?;
     let p = dir.join(RESULTS_PARQUET);
-    let bytes = parquet_bytes(m, records).map_err(|msg| StoreError::Io { path: p.clone(), msg })?;
+    let bytes = parquet_bytes(m, records).map_err(|msg| io_err(&p, msg))?;
     write_bytes(&p, &bytes)
 }
 
@@ -440,10 +432,8 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<usize, StoreError> {
         for r in read_journal(&d.join(JOURNAL), runs, |i| shard.contains(i), false)? {
             match all.get(&r.index) {
                 Some(prev) if *prev != r => {
-                    return Err(StoreError::Io {
-                        path: d.join(JOURNAL),
-                        msg: format!("run {} differs from the same run in another shard", r.index),
-                    })
+                    let msg = format!("run {} differs from the same run in another shard", r.index);
+                    return Err(io_err(&d.join(JOURNAL), msg));
                 }
                 _ => {
                     all.insert(r.index, r);
@@ -455,12 +445,10 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<usize, StoreError> {
         }
     }
     let Some(first) = first else {
-        return Err(StoreError::Io {
-            path: out.to_path_buf(),
-            msg: "no shard directories to merge".into(),
-        });
+        return Err(io_err(out, "no shard directories to merge"));
     };
-    let mut m = first.manifest();
+    // The manifest as written (its schema is `ManifestFile`'s without the places).
+    let mut m: Manifest = first.src.toml()?;
     m.shard = Shard::ALL.label();
     let missing: Vec<u64> = (0..m.runs).filter(|i| !all.contains_key(i)).take(6).collect();
     if !missing.is_empty() {
@@ -478,10 +466,8 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<usize, StoreError> {
         ));
     }
     std::fs::create_dir_all(out).map_err(io(out))?;
-    write_text(
-        &out.join(MANIFEST),
-        &toml::to_string(&m).expect("manifest serialises"),
-    )?;
+    let text = toml::to_string(&m).expect("manifest serialises");
+    write_bytes(&out.join(MANIFEST), text.as_bytes())?;
     let mut records: Vec<Record> = all.into_values().collect();
     write_results(out, &m, &mut records)?;
     Ok(records.len())
