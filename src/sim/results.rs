@@ -174,8 +174,6 @@ pub struct Results {
     pub rest_speed_m_s: f64,
     /// Half stroke of the piston, m.
     pub stroke_half_m: f64,
-    /// The driver's largest current, A.
-    pub current_max_a: f64,
     /// One row per physics step.
     pub rows: Vec<Row>,
     /// Link shapes for drawing (empty unless poses were recorded).
