@@ -229,10 +229,7 @@ mod tests {
     /// hinge model is fed the embedded state (the same formula a JSBSim state goes through).
     #[test]
     fn a_held_up_elevator_needs_a_stick_force() {
-        let mut b = match open("c172p") {
-            Ok(b) => b,
-            Err(e) => panic!("{e}"),
-        };
+        let mut b = open("c172p").unwrap_or_else(|e| panic!("{e}"));
         b.trim(50.0, 1000.0, 1.0 / 120.0).unwrap();
         let mut s = b.step(-0.08, 1.0).unwrap();
         for _ in 0..60 {
@@ -247,10 +244,7 @@ mod tests {
 
     #[test]
     fn unknown_backend_is_an_error_naming_the_choices() {
-        let e = open("xplane:c172p")
-            .err()
-            .map(|e| e.to_string())
-            .unwrap_or_default();
+        let e = open("xplane:c172p").err().unwrap().to_string();
         assert!(e.contains("jsbsim:<name>"), "{e}");
     }
 }

@@ -90,10 +90,7 @@ pub fn fault_table(scn: &CompareScenario, c: &Comparison) -> String {
         "Faults active {}–{} s of the standard task (sinusoidal motion, deflect–hold, let go at {:.1} s).\n\n",
         scn.fault_test.start_s,
         scn.fault_test.end_s,
-        {
-            let t = scn.main_task();
-            t.segment_start_s(2)
-        }
+        scn.main_task().segment_start_s(2)
     );
     s += "| system | fault | active steps | peak force N | force RMS err N (healthy) | tracking RMS deg | cmd A min–max | applied A mean | yield N mean | hands-off moved deg | moves away alone |\n";
     s += "|---|---|---|---|---|---|---|---|---|---|---|\n";
@@ -166,15 +163,14 @@ fn plots(c: &Comparison, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     let line = |name: &str, tr: &Trace, f: fn(&Row) -> (f64, f64)| {
         Series::line(name, tr.rows.iter().step_by(every).map(f).collect())
     };
+    // Every fifth row of the sinusoidal motion: the stick angle against `f` of the row.
+    let sweep = |tr: &Trace, f: fn(&Row) -> f64| -> Vec<(f64, f64)> {
+        let rows = tr.rows.iter().filter(|r| r.segment == 0).step_by(every);
+        rows.map(|r| (r.theta_rad.to_degrees(), f(r))).collect()
+    };
     for (k, _, main, b) in &c.systems {
-        let sweep: Vec<(f64, f64)> = main
-            .rows
-            .iter()
-            .filter(|r| r.segment == 0)
-            .step_by(every)
-            .map(|r| (r.theta_rad.to_degrees(), r.hand_force_n))
-            .collect();
-        fd.series.push(Series::line(k.name(), sweep));
+        fd.series
+            .push(Series::line(k.name(), sweep(main, |r| r.hand_force_n)));
         rel.series
             .push(line(k.name(), main, |r| (r.t_s, r.theta_rad.to_degrees())));
         if k.has_coil() {
@@ -185,13 +181,7 @@ fn plots(c: &Comparison, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
             .push(line(k.name(), b, |r| (r.hand_force_n, r.theta_rad.to_degrees())));
     }
     if let Some((_, _, main, _)) = c.systems.first() {
-        let mut tgt: Vec<(f64, f64)> = main
-            .rows
-            .iter()
-            .filter(|r| r.segment == 0)
-            .step_by(every)
-            .map(|r| (r.theta_rad.to_degrees(), r.target_grip_n))
-            .collect();
+        let mut tgt = sweep(main, |r| r.target_grip_n);
         tgt.sort_by(|a, b| a.0.total_cmp(&b.0));
         fd.series.push(Series::dashed("target", tgt));
     }

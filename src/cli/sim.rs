@@ -224,12 +224,9 @@ fn run_streamed<P: Plant>(
     let pb = progress_bar(1000, &scn.name);
     let run = maybe_whole(args.out.as_deref(), "writing", |csv_tmp| {
         maybe_whole(rrd, "--rerun", |_rrd_tmp| {
-            let mut csv = match csv_tmp {
-                Some(p) => Some(std::io::BufWriter::new(
-                    std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?,
-                )),
-                None => None,
-            };
+            let create =
+                |p: &Path| std::fs::File::create(p).with_context(|| format!("creating {}", p.display()));
+            let mut csv = csv_tmp.map(create).transpose()?.map(std::io::BufWriter::new);
             #[cfg(feature = "rerun")]
             let file_rec = match _rrd_tmp {
                 Some(p) => Some(mrfeel::viz::rerun_rig::to_file(p)?),

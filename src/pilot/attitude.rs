@@ -268,16 +268,6 @@ impl PursuitPilot {
         }
     }
 
-    /// The pilot's parameters.
-    pub fn config(&self) -> &CrossoverPilotConfig {
-        self.pilot.config()
-    }
-
-    /// Feedforward gain, stick rad per unit of command.
-    pub fn feedforward(&self) -> f64 {
-        self.feedforward
-    }
-
     /// One step. `error`: command − measured now (rad or g), for the compensatory loop;
     /// `command_ahead`: the command relative to trim that the feedforward acts on: the present
     /// command (pursuit) or the command `preview` seconds ahead (precognitive, a known schedule; a

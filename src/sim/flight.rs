@@ -245,14 +245,6 @@ impl Flight {
         self.stick_cmd_rad
     }
 
-    /// A fly-by-wire aircraft's stick, if the aircraft is one.
-    pub fn fly_by_wire(&self) -> Option<&FlyByWire> {
-        match &self.controls {
-            Controls::FlyByWire(f) => Some(f),
-            Controls::Hinge(_) => None,
-        }
-    }
-
     /// The aircraft's stick force now (pull +), N at the grip.
     pub fn stick_force_n(&self) -> f64 {
         self.state.stick_force_n

@@ -44,7 +44,8 @@ impl FlightMetrics {
         let rows = &res.rows;
         // NaN for an empty set (nothing to judge), not 0.
         let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt();
-        let (tracking_rms, command_span) = match &scn.outer_loop {
+        // Judged from the first command change (every row without an outer loop).
+        let (tracking_rms, command_span, t_judged) = match &scn.outer_loop {
             Some(o) => {
                 let t0 = o.command.first_change_s();
                 let e: Vec<f64> = rows
@@ -59,26 +60,18 @@ impl FlightMetrics {
                 let v: Vec<f64> = o.command.points.iter().map(|p| p.1).collect();
                 let span = v.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
                     - v.iter().cloned().fold(f64::INFINITY, f64::min);
-                (rms(&e), span)
+                (rms(&e), span, t0)
             }
-            None => (f64::NAN, f64::NAN),
+            None => (f64::NAN, f64::NAN, f64::NEG_INFINITY),
         };
-        let t_judged = scn
-            .outer_loop
-            .as_ref()
-            .map_or(f64::NEG_INFINITY, |o| o.command.first_change_s());
         let (nz, hand): (Vec<f64>, Vec<f64>) = rows
             .iter()
             .filter(|r| r.t_s >= t_judged)
             .filter_map(|r| r.aero.map(|a| (a.nz_g, r.pilot_force_n)))
             .unzip();
-        let stick: Vec<f64> = rows
-            .iter()
-            .map(|r| r.aero.map_or(0.0, |a| a.stick_force_n))
-            .collect();
         let rest = res.rest_speed_m_s;
         let ceiling = res.feel_ceiling_n;
-        let follow: Vec<(f64, f64)> = rows
+        let (e, d): (Vec<f64>, Vec<f64>) = rows
             .iter()
             .filter(|r| {
                 r.mode == LoopMode::Tracking
@@ -87,9 +80,7 @@ impl FlightMetrics {
                     && r.desired_force_n.abs() < 0.9 * ceiling
             })
             .map(|r| (r.load_cell_true_n - r.desired_force_n, r.desired_force_n))
-            .collect();
-        let e: Vec<f64> = follow.iter().map(|p| p.0).collect();
-        let d: Vec<f64> = follow.iter().map(|p| p.1).collect();
+            .unzip();
         let (_, mean_rt, max_rt) = flight.round_trip_us.unwrap_or((0, f64::NAN, f64::NAN));
         Some(Self {
             tracking_rms,
@@ -97,8 +88,11 @@ impl FlightMetrics {
             hand_force_per_g_n: slope(nz.iter().copied().zip(hand.iter().copied())),
             follow_rms_n: rms(&e),
             follow_desired_rms_n: rms(&d),
-            follow_fraction: follow.len() as f64 / rows.len().max(1) as f64,
-            stick_force_peak_n: stick.iter().fold(0.0, |m: f64, x| m.max(x.abs())),
+            follow_fraction: e.len() as f64 / rows.len().max(1) as f64,
+            stick_force_peak_n: rows
+                .iter()
+                .map(|r| r.aero.map_or(0.0, |a| a.stick_force_n))
+                .fold(0.0, |m: f64, x| m.max(x.abs())),
             ceiling_at_grip_n: ceiling * res.gearing_at_centre_m_per_rad / res.grip_arm_m,
             round_trip_mean_us: mean_rt,
             round_trip_max_us: max_rt,

@@ -570,7 +570,6 @@ impl<'a> Collector<'a> {
             scenario: scn.name.clone(),
             rest_speed_m_s: scn.controller.rest_speed_m_s,
             stroke_half_m: lp.plant.stroke_half_m(),
-            current_max_a: scn.controller.gains.out_max,
             rows: Vec::with_capacity(if self.keep_rows { n + 1 } else { 0 }),
             visuals: frame_every.map_or_else(Vec::new, |_| lp.plant.visuals()),
             frames: Vec::new(),

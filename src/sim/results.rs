@@ -65,49 +65,76 @@ pub struct Row {
     pub aero: Option<AeroRow>,
 }
 
-pub(crate) const CSV_COLUMNS: [&str; 24] = [
-    "t_s",
-    "stick_angle_rad",
-    "stick_rate_rad_s",
-    "piston_x_m",
-    "piston_v_m_s",
-    "load_cell_n",
-    "load_cell_true_n",
-    "desired_force_n",
-    "current_a",
-    "pilot_force_n",
-    "pilot_cmd",
-    "damper_force_n",
-    "yield_force_n",
-    "loop_mode",
-    "kinetic_energy_j",
-    "potential_energy_j",
-    "dissipated_j",
-    "pilot_work_j",
-    "fault_mask",
-    "current_applied_a",
-    "coil_current_a",
-    "spring_energy_j",
-    "actuator_force_n",
-    "actuator_work_j",
-];
+/// The CSV columns of a row type: `$names` lists them (a column is named after its field, or given a value
+/// by `name = expr` over `$s`, the row), and `$ty::values` gives the row's numbers in that order.
+macro_rules! csv_columns {
+    ($(#[$doc:meta])* $names:ident, $ty:ty, $s:ident: $($col:ident $(= $e:expr)?),* $(,)?) => {
+        $(#[$doc])*
+        pub(crate) const $names: [&str; [$(stringify!($col)),*].len()] = [$(stringify!($col)),*];
 
-/// Columns added when the scenario flies an aircraft.
-pub(crate) const AERO_COLUMNS: [&str; 13] = [
-    "qbar_pa",
-    "elevator_rad",
-    "hinge_moment_nm",
-    "pitch_rad",
-    "pitch_cmd_rad",
-    "nz_g",
-    "nz_cmd_g",
-    "q_rad_s",
-    "alpha_rad",
-    "airspeed_m_s",
-    "altitude_m",
-    "stick_force_n",
-    "stick_cmd_rad",
-];
+        impl $ty {
+            /// The row's values in the order of the columns.
+            fn values(&self) -> [f64; $names.len()] {
+                let $s = self;
+                [$(csv_columns!(@value $s $col $($e)?)),*]
+            }
+        }
+    };
+    (@value $s:ident $col:ident) => {
+        $s.$col
+    };
+    (@value $s:ident $col:ident $e:expr) => {
+        $e
+    };
+}
+
+csv_columns!(
+    /// The CSV's columns of every run (the loop mode and the fault mask as the integers they are, which print
+    /// alike as `f64`).
+    CSV_COLUMNS, Row, r:
+    t_s,
+    stick_angle_rad,
+    stick_rate_rad_s,
+    piston_x_m,
+    piston_v_m_s,
+    load_cell_n,
+    load_cell_true_n,
+    desired_force_n,
+    current_a,
+    pilot_force_n,
+    pilot_cmd,
+    damper_force_n,
+    yield_force_n,
+    loop_mode = f64::from(mode_code(r.mode)),
+    kinetic_energy_j,
+    potential_energy_j,
+    dissipated_j,
+    pilot_work_j,
+    fault_mask = f64::from(r.faults),
+    current_applied_a,
+    coil_current_a,
+    spring_energy_j,
+    actuator_force_n,
+    actuator_work_j,
+);
+
+csv_columns!(
+    /// Columns added when the scenario flies an aircraft.
+    AERO_COLUMNS, AeroRow, a:
+    qbar_pa,
+    elevator_rad,
+    hinge_moment_nm,
+    pitch_rad,
+    pitch_cmd_rad,
+    nz_g,
+    nz_cmd_g,
+    q_rad_s,
+    alpha_rad,
+    airspeed_m_s,
+    altitude_m,
+    stick_force_n,
+    stick_cmd_rad,
+);
 
 /// Columns where NaN means none rather than a failed number: the pilot's command (hands off the stick)
 /// and the outer loop's commands (the other loop's, or no outer loop).
@@ -147,8 +174,6 @@ pub struct Results {
     pub rest_speed_m_s: f64,
     /// Half stroke of the piston, m.
     pub stroke_half_m: f64,
-    /// The driver's largest current, A.
-    pub current_max_a: f64,
     /// One row per physics step.
     pub rows: Vec<Row>,
     /// Link shapes for drawing (empty unless poses were recorded).
@@ -356,74 +381,44 @@ impl Results {
                 f.estimates.join(", ")
             )?;
         }
-        let aero = self.flight.is_some();
-        let mut header = CSV_COLUMNS.join(",");
-        if aero {
-            header.push(',');
-            header.push_str(&AERO_COLUMNS.join(","));
-        }
-        writeln!(w, "{header}")
+        writeln!(w, "{}", self.column_names().collect::<Vec<_>>().join(","))
     }
 
     /// One row of the CSV ([`Results::write_csv`]).
     pub fn write_csv_row(&self, mut w: impl Write, r: &Row) -> std::io::Result<()> {
-        for (k, v) in r.values().iter().enumerate() {
+        for (k, v) in self.csv_values(r).enumerate() {
             if k > 0 {
                 w.write_all(b",")?;
             }
             write!(w, "{v}")?;
         }
-        if self.flight.is_some() {
-            for v in r.aero.unwrap_or_default().values() {
-                write!(w, ",{v}")?;
-            }
-        }
         writeln!(w)
     }
 
-    /// The CSV's columns ([`Results::write_csv`]), by name: `CSV_COLUMNS`, then `AERO_COLUMNS` when the
-    /// scenario flies an aircraft. The same values the CSV holds (it prints these numbers).
+    /// The CSV's column names: `CSV_COLUMNS`, then `AERO_COLUMNS` when the scenario flies an aircraft.
+    fn column_names(&self) -> impl Iterator<Item = &'static str> {
+        let aero = self.flight.is_some().then_some(AERO_COLUMNS);
+        CSV_COLUMNS.into_iter().chain(aero.into_iter().flatten())
+    }
+
+    /// A row's numbers in the CSV's columns (the aircraft's zero where a flight's row has none).
+    fn csv_values(&self, r: &Row) -> impl Iterator<Item = f64> {
+        let aero = self.flight.is_some().then(|| r.aero.unwrap_or_default().values());
+        r.values().into_iter().chain(aero.into_iter().flatten())
+    }
+
+    /// The CSV's columns ([`Results::write_csv`]) by name, with the same values the CSV prints.
     pub fn columns(&self) -> Vec<(&'static str, Vec<f64>)> {
-        let mut cols: Vec<(&'static str, Vec<f64>)> = CSV_COLUMNS
-            .iter()
-            .map(|&name| (name, Vec::with_capacity(self.rows.len())))
+        let mut cols: Vec<(&'static str, Vec<f64>)> = self
+            .column_names()
+            .map(|name| (name, Vec::with_capacity(self.rows.len())))
             .collect();
-        if self.flight.is_some() {
-            cols.extend(
-                AERO_COLUMNS
-                    .iter()
-                    .map(|&name| (name, Vec::with_capacity(self.rows.len()))),
-            );
-        }
         for r in &self.rows {
-            let aero = self.flight.is_some().then(|| r.aero.unwrap_or_default().values());
-            let values = r.values().into_iter().chain(aero.into_iter().flatten());
-            for ((_, col), v) in cols.iter_mut().zip(values) {
+            for ((_, col), v) in cols.iter_mut().zip(self.csv_values(r)) {
                 col.push(v);
             }
         }
         cols
-    }
-}
-
-impl AeroRow {
-    /// The row's values in the order of [`AERO_COLUMNS`].
-    fn values(&self) -> [f64; AERO_COLUMNS.len()] {
-        [
-            self.qbar_pa,
-            self.elevator_rad,
-            self.hinge_moment_nm,
-            self.pitch_rad,
-            self.pitch_cmd_rad,
-            self.nz_g,
-            self.nz_cmd_g,
-            self.q_rad_s,
-            self.alpha_rad,
-            self.airspeed_m_s,
-            self.altitude_m,
-            self.stick_force_n,
-            self.stick_cmd_rad,
-        ]
     }
 }
 
@@ -436,37 +431,6 @@ impl Row {
             .into_iter()
             .zip(self.values())
             .chain(aero.into_iter().flatten())
-    }
-
-    /// The row's values in the order of [`CSV_COLUMNS`] (the loop mode and the fault mask as the integers
-    /// they are, which print alike as `f64`).
-    fn values(&self) -> [f64; CSV_COLUMNS.len()] {
-        [
-            self.t_s,
-            self.stick_angle_rad,
-            self.stick_rate_rad_s,
-            self.piston_x_m,
-            self.piston_v_m_s,
-            self.load_cell_n,
-            self.load_cell_true_n,
-            self.desired_force_n,
-            self.current_a,
-            self.pilot_force_n,
-            self.pilot_cmd,
-            self.damper_force_n,
-            self.yield_force_n,
-            f64::from(mode_code(self.mode)),
-            self.kinetic_energy_j,
-            self.potential_energy_j,
-            self.dissipated_j,
-            self.pilot_work_j,
-            f64::from(self.faults),
-            self.current_applied_a,
-            self.coil_current_a,
-            self.spring_energy_j,
-            self.actuator_force_n,
-            self.actuator_work_j,
-        ]
     }
 }
 
