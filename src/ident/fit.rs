@@ -832,8 +832,7 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
     let negligible = 1e-13 * f_norm.max(f64::MIN_POSITIVE);
     let mut zero_held = vec![false; n];
     for (c, &k) in movable.iter().enumerate() {
-        let cn = j0.column_norm(c);
-        if cn <= negligible {
+        if j0.column_norm(c) <= negligible {
             held[k] = true;
             zero_held[k] = true;
             notes[k] = "the force does not depend on it in these data; held at its initial value".into();
@@ -1347,19 +1346,8 @@ fn bounded_lstsq3(ata: [[f64; 3]; 3], atb: [f64; 3], lo: &[f64], hi: &[f64]) -> 
     for code in 0..27u32 {
         // state per unknown: 0 free, 1 at lo, 2 at hi
         let st = [code % 3, (code / 3) % 3, code / 9];
-        let mut d = [0.0; 3];
-        let mut fixed_ok = true;
-        for i in 0..3 {
-            match st[i] {
-                1 => d[i] = lo[i],
-                2 => d[i] = hi[i],
-                _ => {}
-            }
-            if !d[i].is_finite() {
-                fixed_ok = false;
-            }
-        }
-        if !fixed_ok {
+        let mut d: [f64; 3] = std::array::from_fn(|i| [0.0, lo[i], hi[i]][st[i] as usize]);
+        if d.iter().any(|v| !v.is_finite()) {
             continue;
         }
         let fr: Vec<usize> = (0..3).filter(|&i| st[i] == 0).collect();
@@ -1510,6 +1498,13 @@ mod tests {
     /// current steps through 0–14 A every 0.25 s (so the lags show), 1 kHz, exact force.
     const TRUTH: [f64; 5] = [20.0, 4.83, 60.0, 0.015, 0.008];
 
+    /// `model` fitted to every sample of `tests`, with the default options as `set` changes them.
+    fn fit_all(model: &Model, tests: &[Test], set: impl FnOnce(&mut FitOptions)) -> FitResult {
+        let mut opts = FitOptions::default();
+        set(&mut opts);
+        fit(model, tests, &all_spans(tests), &opts)
+    }
+
     fn stepped_sine(model: &Model) -> Vec<Test> {
         let mut inputs = testkit::sine(0.02, 1.0, 0.0, 1e-3, 3.999);
         for (k, inp) in inputs.iter_mut().enumerate() {
@@ -1523,30 +1518,13 @@ mod tests {
     fn a_held_parameter_stays_at_its_start_and_a_free_one_finds_the_truth() {
         let model = testkit::model("bingham");
         let tests = stepped_sine(&model);
-        let spans = all_spans(&tests);
         // Coil lag started at twice its value, gains 30 % off.
         let start = vec![14.0, 6.0, 80.0, 0.030, 0.008];
-        let held = fit(
-            &model,
-            &tests,
-            &spans,
-            &FitOptions {
-                start: Some(start.clone()),
-                hold: vec![bingham::TE],
-                ..Default::default()
-            },
-        );
+        let (s0, hold) = (Some(start.clone()), vec![bingham::TE]);
+        let held = fit_all(&model, &tests, |o| (o.start, o.hold) = (s0, hold));
         assert_eq!(held.params[bingham::TE], start[bingham::TE]);
         assert!(held.notes[bingham::TE].contains("held"));
-        let free = fit(
-            &model,
-            &tests,
-            &spans,
-            &FitOptions {
-                start: Some(start),
-                ..Default::default()
-            },
-        );
+        let free = fit_all(&model, &tests, |o| o.start = Some(start));
         for (k, truth) in TRUTH.iter().enumerate() {
             let rel = (free.params[k] - truth).abs() / truth;
             assert!(rel < 0.01, "parameter {k}: {} vs {truth}", free.params[k]);
@@ -1601,17 +1579,8 @@ mod tests {
             (24.0..26.0).contains(&ratio),
             "the long test has {ratio}× the samples"
         );
-        let spans = all_spans(&tests);
         let run = |weighting| {
-            let fr = fit(
-                &model,
-                &tests,
-                &spans,
-                &FitOptions {
-                    weighting,
-                    ..Default::default()
-                },
-            );
+            let fr = fit_all(&model, &tests, |o| o.weighting = weighting);
             let per = per_test_nrmse(&model, &tests, &fr.params);
             (fr, per)
         };
@@ -1641,7 +1610,7 @@ mod tests {
     fn a_fit_reports_its_error_over_samples_and_its_weighted_loss_apart() {
         let model = testkit::model("bingham");
         let tests = long_and_short_tests(&model);
-        let fr = fit(&model, &tests, &all_spans(&tests), &FitOptions::default());
+        let fr = fit_all(&model, &tests, |_| ());
         let mut total = Figures::default();
         // Each test's mean squared residual, counted once per test and scaled to the number of samples.
         let mut loss = 0.0;
@@ -1686,16 +1655,8 @@ mod tests {
         let spans = all_spans(&tests);
         let w = loss_weights(&tests, &spans, Weighting::Tests);
         assert!(w.iter().flatten().all(|w| *w == 0.0 || *w == 1.0));
-        let a = fit(&model, &tests, &spans, &FitOptions::default());
-        let b = fit(
-            &model,
-            &tests,
-            &spans,
-            &FitOptions {
-                weighting: Weighting::Samples,
-                ..Default::default()
-            },
-        );
+        let a = fit_all(&model, &tests, |_| ());
+        let b = fit_all(&model, &tests, |o| o.weighting = Weighting::Samples);
         assert_eq!(a.params, b.params);
         assert!((a.sse - a.loss).abs() <= 1e-12 * a.sse, "{} vs {}", a.sse, a.loss);
     }
@@ -1766,19 +1727,10 @@ mod tests {
                 Test::synthetic("two.csv", &format!("{f}"), inputs, f_n)
             })
             .collect();
-        let spans = all_spans(&tests);
         let mut start = truth.clone();
         start[idx("stiff_k_n_per_m")] = 0.0;
         start[idx("inertia_mass_kg")] = 1.5;
-        let fr = fit(
-            &model,
-            &tests,
-            &spans,
-            &FitOptions {
-                start: Some(start),
-                ..Default::default()
-            },
-        );
+        let fr = fit_all(&model, &tests, |o| o.start = Some(start));
         for name in ["stiff_k_n_per_m", "stiff_k3_n_per_m3", "inertia_mass_kg"] {
             let (got, want) = (fr.params[idx(name)], truth[idx(name)]);
             assert!((got - want).abs() < 0.01 * want, "{name}: {got} vs {want}");
@@ -1798,15 +1750,7 @@ mod tests {
         tests[0].f_n = model.simulate(&truth, &tests[0].inputs);
         let mut start = truth.clone();
         start[share] = model.param_specs()[share].lower;
-        let r = fit(
-            &model,
-            &tests,
-            &all_spans(&tests),
-            &FitOptions {
-                start: Some(start),
-                ..Default::default()
-            },
-        );
+        let r = fit_all(&model, &tests, |o| o.start = Some(start));
         assert!(
             (r.params[share] - 0.3).abs() < 0.01 && (r.params[knee] - 1.0).abs() < 0.02,
             "shape {} / {}: {}",

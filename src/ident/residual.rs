@@ -285,36 +285,25 @@ pub(crate) struct Signatures {
 impl Signatures {
     /// Names and values, in a fixed order.
     pub fn named(&self) -> [(&'static str, f64); 7] {
-        [
-            (
-                "loop near v = 0 (residual × sgn a at low |v|, of rms force)",
-                self.loop_near_zero_velocity,
-            ),
-            (
-                "direction offset growing with current (of rms force)",
-                self.direction_offset_vs_current,
-            ),
-            (
-                "curvature of the residual vs current (of rms force)",
-                self.curvature_vs_current,
-            ),
-            (
-                "residual slope vs velocity changing with current (of rms force)",
-                self.velocity_slope_vs_current,
-            ),
-            (
-                "correlation of the residual with displacement",
-                self.correlation_with_x,
-            ),
-            (
-                "correlation of the residual with acceleration",
-                self.correlation_with_acceleration,
-            ),
-            (
-                "drift of the residual with dissipated energy (correlation)",
-                self.drift_with_energy,
-            ),
-        ]
+        const NAMES: [&str; 7] = [
+            "loop near v = 0 (residual × sgn a at low |v|, of rms force)",
+            "direction offset growing with current (of rms force)",
+            "curvature of the residual vs current (of rms force)",
+            "residual slope vs velocity changing with current (of rms force)",
+            "correlation of the residual with displacement",
+            "correlation of the residual with acceleration",
+            "drift of the residual with dissipated energy (correlation)",
+        ];
+        let values = [
+            self.loop_near_zero_velocity,
+            self.direction_offset_vs_current,
+            self.curvature_vs_current,
+            self.velocity_slope_vs_current,
+            self.correlation_with_x,
+            self.correlation_with_acceleration,
+            self.drift_with_energy,
+        ];
+        std::array::from_fn(|k| (NAMES[k], values[k]))
     }
 
     #[allow(clippy::needless_range_loop)] // several parallel per-sample arrays
@@ -330,9 +319,7 @@ impl Signatures {
         let mut odd = vec![(0.0, 0usize); nb];
         // Per current bin: the residual against the velocity, for its slope.
         let mut sl: Vec<Corr> = (0..nb).map(|_| Corr::default()).collect();
-        let mut cx = Corr::default();
-        let mut ca = Corr::default();
-        let mut ce = Corr::default();
+        let (mut cx, mut ca, mut ce) = (Corr::default(), Corr::default(), Corr::default());
         let mut v2 = 0.0;
         for (t, p) in tests.iter().zip(pred) {
             let mut energy = 0.0;
