@@ -313,7 +313,7 @@ impl Signatures {
         let vmax = v_max(tests);
         let mut f2 = 0.0;
         let mut n = 0usize;
-        let (mut loop_s, mut loop_n) = (0.0, 0usize);
+        let mut near_zero = (0.0, 0usize);
         let mut pos = vec![(0.0, 0usize); nb];
         let mut neg = vec![(0.0, 0usize); nb];
         let mut odd = vec![(0.0, 0usize); nb];
@@ -321,6 +321,11 @@ impl Signatures {
         let mut sl: Vec<Corr> = (0..nb).map(|_| Corr::default()).collect();
         let (mut cx, mut ca, mut ce) = (Corr::default(), Corr::default(), Corr::default());
         let mut v2 = 0.0;
+        // A sum and its count, for a mean.
+        let add = |acc: &mut (f64, usize), x: f64| {
+            acc.0 += x;
+            acc.1 += 1;
+        };
         for (t, p) in tests.iter().zip(pred) {
             let mut energy = 0.0;
             for k in 0..t.len() {
@@ -332,19 +337,15 @@ impl Signatures {
                 n += 1;
                 let sv = inp.v_m_s.signum() * (inp.v_m_s != 0.0) as i32 as f64;
                 if inp.v_m_s.abs() < 0.1 * vmax && inp.a_m_s2 != 0.0 {
-                    loop_s += r * inp.a_m_s2.signum();
-                    loop_n += 1;
+                    add(&mut near_zero, r * inp.a_m_s2.signum());
                 }
                 let b = cb.index(inp.current_cmd_a);
                 if inp.v_m_s > 0.0 {
-                    pos[b].0 += r;
-                    pos[b].1 += 1;
+                    add(&mut pos[b], r);
                 } else if inp.v_m_s < 0.0 {
-                    neg[b].0 += r;
-                    neg[b].1 += 1;
+                    add(&mut neg[b], r);
                 }
-                odd[b].0 += r * sv;
-                odd[b].1 += 1;
+                add(&mut odd[b], r * sv);
                 sl[b].add(inp.v_m_s, r);
                 cx.add(r, inp.x_m);
                 ca.add(r, inp.a_m_s2);
@@ -358,11 +359,7 @@ impl Signatures {
         let vrms = (v2 / n.max(1) as f64).sqrt();
         let mean = |(s, c): (f64, usize)| if c > 0 { s / c as f64 } else { 0.0 };
         let mut sig = Signatures {
-            loop_near_zero_velocity: if loop_n > 0 {
-                loop_s / loop_n as f64 / frms
-            } else {
-                0.0
-            },
+            loop_near_zero_velocity: mean(near_zero) / frms,
             correlation_with_x: cx.value(),
             correlation_with_acceleration: ca.value(),
             drift_with_energy: ce.value(),
