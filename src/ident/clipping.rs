@@ -63,13 +63,8 @@ pub fn clips(y: &[f64]) -> Vec<Clip> {
             let len = k - start;
             // The samples within a run's length beyond each end (up to the record's end).
             let sides = [start.saturating_sub(len)..start, k..(k + len).min(n)];
-            if len >= MIN_RUN
-                && sides.iter().any(|s| !s.is_empty())
-                && sides
-                    .iter()
-                    .filter(|s| !s.is_empty())
-                    .all(|s| s.clone().any(falls))
-            {
+            let sides: Vec<Range<usize>> = sides.into_iter().filter(|s| !s.is_empty()).collect();
+            if len >= MIN_RUN && !sides.is_empty() && sides.into_iter().all(|mut s| s.any(falls)) {
                 runs.push(start..k);
             }
         }
@@ -97,21 +92,21 @@ pub fn unclipped(y: &[f64]) -> Vec<f64> {
 
 /// One line per clipped force channel of the tests, for stderr.
 pub fn notes(tests: &[super::Test]) -> Vec<String> {
-    let mut out = Vec::new();
-    for t in tests {
-        for c in clips(&t.f_n) {
-            out.push(format!(
-                "{}: f_n stuck at {} N over {} samples ({} run{}): a saturated load cell; those samples are left \
-                 out of the fit and of every score",
-                t.name,
-                c.value,
-                c.samples,
-                c.runs.len(),
-                if c.runs.len() == 1 { "" } else { "s" }
-            ));
-        }
-    }
-    out
+    let note = |t: &super::Test, c: Clip| {
+        format!(
+            "{}: f_n stuck at {} N over {} samples ({} run{}): a saturated load cell; those samples are left out \
+             of the fit and of every score",
+            t.name,
+            c.value,
+            c.samples,
+            c.runs.len(),
+            if c.runs.len() == 1 { "" } else { "s" }
+        )
+    };
+    tests
+        .iter()
+        .flat_map(|t| clips(&t.f_n).into_iter().map(move |c| note(t, c)))
+        .collect()
 }
 
 #[cfg(test)]

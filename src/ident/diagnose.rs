@@ -927,18 +927,16 @@ fn diagnose_from(
                 }
             }
         }
-        let named_choice = match cands.iter().position(|c| c.significant) {
-            Some(bi) => Some(tried.swap_remove(bi)),
-            None => match pair_cands.iter().position(|c| c.significant) {
-                Some(pi) => {
-                    // The single fits of both members are on the path, for the backward pass.
-                    for (m, cv) in &tried {
-                        path_cv.insert(m.name(), cv.shed(tests));
-                    }
-                    Some(pairs.swap_remove(pi))
-                }
-                None => None,
-            },
+        let named_choice = if let Some(bi) = cands.iter().position(|c| c.significant) {
+            Some(tried.swap_remove(bi))
+        } else if let Some(pi) = pair_cands.iter().position(|c| c.significant) {
+            // The single fits of both members are on the path, for the backward pass.
+            for (m, cv) in &tried {
+                path_cv.insert(m.name(), cv.shed(tests));
+            }
+            Some(pairs.swap_remove(pi))
+        } else {
+            None
         };
         // The open search, where no named effect (or pair) is significant (on the second path, at every step):
         // a library term judged on the same folds by the same rules. Named effects come first because a term
@@ -1524,9 +1522,9 @@ mod tests {
         let (folds, how) = make_folds(&tests, 4, 5);
         assert_eq!(folds.len(), 3, "{how}");
         assert!(how.starts_with("leave one motion group out over 3"), "{how}");
+        let held = |fold: &Fold| fold.test.iter().map(|s| s.test).collect::<Vec<usize>>();
         for (f, fold) in folds.iter().enumerate() {
-            let held: Vec<usize> = fold.test.iter().map(|s| s.test).collect();
-            assert_eq!(held, vec![2 * f, 2 * f + 1], "fold {f}: {how}");
+            assert_eq!(held(fold), vec![2 * f, 2 * f + 1], "fold {f}: {how}");
         }
         // Names that group: by name, even across motions.
         for (j, t) in tests.iter_mut().enumerate() {
@@ -1535,8 +1533,7 @@ mod tests {
         let (folds, how) = make_folds(&tests, 4, 5);
         assert_eq!(folds.len(), 3, "{how}");
         for (f, fold) in folds.iter().enumerate() {
-            let held: Vec<usize> = fold.test.iter().map(|s| s.test).collect();
-            assert_eq!(held, vec![f, f + 3], "fold {f}: {how}");
+            assert_eq!(held(fold), vec![f, f + 3], "fold {f}: {how}");
         }
         // Two groups: every fold holds out one time block of every test and is fitted on the other blocks of
         // both groups; every sample is held out exactly once.
@@ -1562,16 +1559,9 @@ mod tests {
             assert!(held.iter().all(|&h| h == 1), "test {j}: {how}");
         }
         // Every test its own motion: one test per fold.
+        let name = |j: usize| format!("r{j}");
         let distinct: Vec<Test> = (0..4)
-            .map(|j| {
-                sine_test(
-                    &format!("r{j}"),
-                    &format!("r{j}"),
-                    0.01 * (j + 1) as f64,
-                    1.0,
-                    7.0,
-                )
-            })
+            .map(|j| sine_test(&name(j), &name(j), 0.01 * (j + 1) as f64, 1.0, 7.0))
             .collect();
         let (folds, how) = make_folds(&distinct, 4, 5);
         assert_eq!(folds.len(), 4, "{how}");

@@ -744,14 +744,8 @@ pub(crate) fn verdict(
     let mut fold_of: Vec<Vec<usize>> = tests.iter().map(|t| vec![usize::MAX; t.len()]).collect();
     for fold in folds {
         for sp in &fold.test {
-            for (k, f) in fold_of[sp.test]
-                .iter_mut()
-                .enumerate()
-                .take(sp.end)
-                .skip(sp.start)
-            {
-                *f = (k / chunk) % VERDICT_BLOCKS;
-            }
+            let of = fold_of[sp.test][sp.start..sp.end].iter_mut().zip(sp.start..);
+            of.for_each(|(f, k)| *f = (k / chunk) % VERDICT_BLOCKS);
         }
     }
     let total: usize = tests.iter().map(Test::len).sum();

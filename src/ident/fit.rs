@@ -153,9 +153,8 @@ pub(crate) fn loss_weights(tests: &[Test], spans: &[Span], weighting: Weighting)
 pub struct FitOptions {
     /// Starting values; `None` = the model's data-derived initial guess.
     pub start: Option<Vec<f64>>,
-    /// Parameters held at their starting values (a staged fit frees a new effect's parameters first). With
-    /// any held the fit is a quick first stage: no linear warm start of the base's gains, at the start or
-    /// after the search.
+    /// Parameters held at their starting values. With any held the fit is a staged fit's quick first stage:
+    /// no linear warm start of the base's gains.
     pub hold: Vec<usize>,
     /// Stop when the relative reduction of the sum of squares in a step is below this.
     pub tol: f64,
@@ -166,9 +165,8 @@ pub struct FitOptions {
     pub std_errors: bool,
     /// How the tests share the loss.
     pub weighting: Weighting,
-    /// Spread the fit's simulations over threads (tests, Jacobian columns). A caller running many fits side by
-    /// side turns it off, so that a thread waiting for its own fit's work never starts (and holds) another
-    /// fit meanwhile. The numbers are the same either way.
+    /// Spread the fit's simulations over threads; off for fits run side by side, so that a thread waiting
+    /// for its own fit's work never starts another meanwhile. The numbers are the same either way.
     pub parallel: bool,
 }
 
@@ -198,9 +196,8 @@ pub struct FitResult {
     /// Sum of squared residuals over the fitted samples that count (velocity sign known, see
     /// [`direction_weights`]), N².
     pub sse: f64,
-    /// The loss the search minimised: the sum of squares weighted as [`FitOptions::weighting`] says, N²
-    /// (equal to `sse` up to rounding when every test has as many counted samples, or with
-    /// [`Weighting::Samples`]). Fits of the same samples are compared by it.
+    /// The loss the search minimised, weighted as [`FitOptions::weighting`] says, N²: fits of the same
+    /// samples are compared by it.
     pub loss: f64,
     /// Number of fitted samples that count.
     pub n: usize,
@@ -208,9 +205,8 @@ pub struct FitResult {
     pub f_ss: f64,
     /// Residual evaluations (whole simulations of the data) the search used.
     pub evaluations: usize,
-    /// Jacobian columns that integrated the data again (each a whole simulation of it), and columns
-    /// assembled on kept states (a parameter no state depends on; the force assembly alone). A lag's time
-    /// constant where the current never changes is in neither: its column is zero, known without either.
+    /// Jacobian columns that integrated the data again, and columns assembled on kept states (a parameter
+    /// no state depends on). A lag's zero column where the current never changes is in neither.
     pub jacobian_columns: (usize, usize),
     /// Why the search stopped, in words.
     pub termination: String,
@@ -311,11 +307,11 @@ struct Problem<'a> {
     sims: Vec<Vec<f64>>,
     /// Which parameters the states can depend on ([`Model::state_params`]).
     state_params: Vec<bool>,
-    /// The states at every sample per test at `z`, kept when some parameter acts on the force alone: its
-    /// Jacobian column then costs a force assembly over them, not an integration.
+    /// The states at every sample per test at `z`, kept when some parameter acts on the force alone (its
+    /// Jacobian column is then a force assembly over them).
     states: Vec<Vec<f64>>,
-    /// Per test: the current command never changes over the simulated samples. The lags (Eq. 3–4) start
-    /// settled on it and stay there exactly, so their time constants' columns are zero without integrating.
+    /// Per test: the current command never changes, so the lags (Eq. 3–4) stay settled and their time
+    /// constants' columns are zero.
     steady_current: Vec<bool>,
     resid: DVector<f64>,
     /// Weight of each sample's residual in the loss, per test ([`loss_weights`]; 0 where it does not count).
@@ -326,8 +322,7 @@ struct Problem<'a> {
     blowup_n: f64,
     /// The search's first (compressed) Jacobian and the search vector it is at, computed before the search.
     first_jac: Option<(Vec<f64>, DMatrix<f64>)>,
-    /// Lowest loss (weighted sum of squares) seen and its search vector (the search may end on a rejected
-    /// trial).
+    /// Lowest loss seen and its search vector (the search may end on a rejected trial).
     best: (f64, Vec<f64>),
     evaluations: usize,
     /// Jacobian columns integrated and assembled on kept states, so far.
@@ -470,20 +465,17 @@ impl<'a> Problem<'a> {
         }
     }
 
-    /// The factor of the forward-difference Jacobian of the residual w.r.t. `z[cols]` beside the residual
-    /// ([`Factor`]). A parameter no state depends on is moved on the states kept at `z` (the same numbers
-    /// as integrating again, test `columns_of_parameters_no_state_reads_equal_a_new_integration`); a lag's
-    /// time constant in a test whose current never changes has a zero column, taken without a simulation
-    /// (test `a_lag_constant_where_the_current_never_changes_costs_no_simulation`).
+    /// The factor ([`Factor`]) of the forward-difference Jacobian of the residual w.r.t. `z[cols]`. A
+    /// parameter no state depends on is moved on the states kept at `z` (the same numbers as integrating
+    /// again); a lag's time constant where the current never changes has a zero column, without simulation.
     fn jacobian_cols(&self, cols: &[usize]) -> Factor {
         let at: Vec<usize> = (0..cols.len()).collect();
         self.jacobian_into(cols, &at, cols.len())
     }
 
-    /// [`Problem::jacobian_cols`] with the columns at `at` of a Jacobian `width` wide (the other columns
-    /// zero). The columns' simulations of a test run side by side, parallel over columns, a block of
-    /// [`JACOBIAN_BLOCK`] samples at a time, and each block of rows goes into the factor before the next is
-    /// made: no column is held whole, so the memory of a fit does not grow with its parameters.
+    /// [`Problem::jacobian_cols`] with the columns at `at` of a Jacobian `width` wide (the others zero). The
+    /// columns are simulated side by side a block of [`JACOBIAN_BLOCK`] samples at a time, each block going
+    /// into the factor before the next: a fit's memory does not grow with its parameters.
     fn jacobian_into(&self, cols: &[usize], at: &[usize], width: usize) -> Factor {
         let used: Vec<usize> = (0..self.tests.len()).filter(|&j| self.sim_len[j] > 0).collect();
         let lags = self.model.lag_params();
@@ -832,8 +824,7 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
     let negligible = 1e-13 * f_norm.max(f64::MIN_POSITIVE);
     let mut zero_held = vec![false; n];
     for (c, &k) in movable.iter().enumerate() {
-        let cn = j0.column_norm(c);
-        if cn <= negligible {
+        if j0.column_norm(c) <= negligible {
             held[k] = true;
             zero_held[k] = true;
             notes[k] = "the force does not depend on it in these data; held at its initial value".into();
@@ -1132,12 +1123,9 @@ fn std_errors(
         return (se, enormous);
     }
     // Column-scaled normal matrix of the live columns, for conditioning.
-    let mut a = nalgebra::DMatrix::<f64>::zeros(nl, nl);
-    for (r, &cr) in live.iter().enumerate() {
-        for (c, &cc) in live.iter().enumerate() {
-            a[(r, c)] = gram[(cr, cc)] / (norms[cr] * norms[cc]);
-        }
-    }
+    let a = DMatrix::from_fn(nl, nl, |r, c| {
+        gram[(live[r], live[c])] / (norms[live[r]] * norms[live[c]])
+    });
     let svd = a
         .iter()
         .all(|v| v.is_finite())
@@ -1150,11 +1138,9 @@ fn std_errors(
     };
     let smax = sv.max().max(1e-300);
     for (r, &c) in live.iter().enumerate() {
-        let mut var = 0.0;
-        for i in 0..nl {
-            let s = sv[i].max(1e-14 * smax);
-            var += v[(r, i)] * v[(r, i)] / s;
-        }
+        let var = (0..nl).fold(0.0, |var, i| {
+            var + v[(r, i)] * v[(r, i)] / sv[i].max(1e-14 * smax)
+        });
         let sez = (s2 * var).sqrt() / norms[c];
         let k = free[c];
         let scale = match prob.tf[k] {
@@ -1347,37 +1333,20 @@ fn bounded_lstsq3(ata: [[f64; 3]; 3], atb: [f64; 3], lo: &[f64], hi: &[f64]) -> 
     for code in 0..27u32 {
         // state per unknown: 0 free, 1 at lo, 2 at hi
         let st = [code % 3, (code / 3) % 3, code / 9];
-        let mut d = [0.0; 3];
-        let mut fixed_ok = true;
-        for i in 0..3 {
-            match st[i] {
-                1 => d[i] = lo[i],
-                2 => d[i] = hi[i],
-                _ => {}
-            }
-            if !d[i].is_finite() {
-                fixed_ok = false;
-            }
-        }
-        if !fixed_ok {
+        let mut d: [f64; 3] = std::array::from_fn(|i| [0.0, lo[i], hi[i]][st[i] as usize]);
+        if d.iter().any(|v| !v.is_finite()) {
             continue;
         }
         let fr: Vec<usize> = (0..3).filter(|&i| st[i] == 0).collect();
         if !fr.is_empty() {
             let m = fr.len();
-            let mut a = DMatrix::<f64>::zeros(m, m);
-            let mut b = DVector::<f64>::zeros(m);
-            for (r, &i) in fr.iter().enumerate() {
-                b[r] = atb[i];
-                for j in 0..3 {
-                    if st[j] != 0 {
-                        b[r] -= ata[i][j] * d[j];
-                    }
-                }
-                for (c, &j) in fr.iter().enumerate() {
-                    a[(r, c)] = ata[i][j];
-                }
-            }
+            let a = DMatrix::from_fn(m, m, |r, c| ata[fr[r]][fr[c]]);
+            let b = DVector::from_fn(m, |r, _| {
+                let i = fr[r];
+                (0..3)
+                    .filter(|&j| st[j] != 0)
+                    .fold(atb[i], |b, j| b - ata[i][j] * d[j])
+            });
             let Some(sol) = a.lu().solve(&b) else { continue };
             for (r, &i) in fr.iter().enumerate() {
                 d[i] = sol[r];
@@ -1484,18 +1453,14 @@ mod tests {
         // Two tests' factors joined: the same as one factor of all their rows.
         let (top, bottom) = (1234, m - 1234);
         let mut joined = factor_of(&j.rows(0, top).into(), &r.rows(0, top).into());
-        joined.join(&factor_of(
-            &j.rows(top, bottom).into(),
-            &r.rows(top, bottom).into(),
-        ));
+        let (j_bottom, r_bottom) = (j.rows(top, bottom).into(), r.rows(top, bottom).into());
+        joined.join(&factor_of(&j_bottom, &r_bottom));
         let cj = joined.compressed();
         assert!((&g - cj.tr_mul(&rc)).norm() <= 1e-10 * g.norm());
         assert!((&a - cj.tr_mul(&cj)).norm() <= 1e-10 * a.norm());
         // Columns left out after the rows went in: the same as a factor of the remaining columns.
-        let (kept, cw) = (
-            j.clone().remove_column(0),
-            factor_of(&j, &r).without(&[0]).compressed(),
-        );
+        let kept = j.clone().remove_column(0);
+        let cw = factor_of(&j, &r).without(&[0]).compressed();
         let (g, gw) = (kept.tr_mul(&r), cw.tr_mul(&rc.rows(0, n)));
         assert!((&g - &gw).norm() <= 1e-10 * g.norm());
         let (a, aw) = (kept.tr_mul(&kept), cw.tr_mul(&cw));
@@ -1510,6 +1475,13 @@ mod tests {
     /// current steps through 0–14 A every 0.25 s (so the lags show), 1 kHz, exact force.
     const TRUTH: [f64; 5] = [20.0, 4.83, 60.0, 0.015, 0.008];
 
+    /// `model` fitted to every sample of `tests`, with the default options as `set` changes them.
+    fn fit_all(model: &Model, tests: &[Test], set: impl FnOnce(&mut FitOptions)) -> FitResult {
+        let mut opts = FitOptions::default();
+        set(&mut opts);
+        fit(model, tests, &all_spans(tests), &opts)
+    }
+
     fn stepped_sine(model: &Model) -> Vec<Test> {
         let mut inputs = testkit::sine(0.02, 1.0, 0.0, 1e-3, 3.999);
         for (k, inp) in inputs.iter_mut().enumerate() {
@@ -1523,30 +1495,13 @@ mod tests {
     fn a_held_parameter_stays_at_its_start_and_a_free_one_finds_the_truth() {
         let model = testkit::model("bingham");
         let tests = stepped_sine(&model);
-        let spans = all_spans(&tests);
         // Coil lag started at twice its value, gains 30 % off.
         let start = vec![14.0, 6.0, 80.0, 0.030, 0.008];
-        let held = fit(
-            &model,
-            &tests,
-            &spans,
-            &FitOptions {
-                start: Some(start.clone()),
-                hold: vec![bingham::TE],
-                ..Default::default()
-            },
-        );
+        let (s0, hold) = (Some(start.clone()), vec![bingham::TE]);
+        let held = fit_all(&model, &tests, |o| (o.start, o.hold) = (s0, hold));
         assert_eq!(held.params[bingham::TE], start[bingham::TE]);
         assert!(held.notes[bingham::TE].contains("held"));
-        let free = fit(
-            &model,
-            &tests,
-            &spans,
-            &FitOptions {
-                start: Some(start),
-                ..Default::default()
-            },
-        );
+        let free = fit_all(&model, &tests, |o| o.start = Some(start));
         for (k, truth) in TRUTH.iter().enumerate() {
             let rel = (free.params[k] - truth).abs() / truth;
             assert!(rel < 0.01, "parameter {k}: {} vs {truth}", free.params[k]);
@@ -1601,17 +1556,8 @@ mod tests {
             (24.0..26.0).contains(&ratio),
             "the long test has {ratio}× the samples"
         );
-        let spans = all_spans(&tests);
         let run = |weighting| {
-            let fr = fit(
-                &model,
-                &tests,
-                &spans,
-                &FitOptions {
-                    weighting,
-                    ..Default::default()
-                },
-            );
+            let fr = fit_all(&model, &tests, |o| o.weighting = weighting);
             let per = per_test_nrmse(&model, &tests, &fr.params);
             (fr, per)
         };
@@ -1641,7 +1587,7 @@ mod tests {
     fn a_fit_reports_its_error_over_samples_and_its_weighted_loss_apart() {
         let model = testkit::model("bingham");
         let tests = long_and_short_tests(&model);
-        let fr = fit(&model, &tests, &all_spans(&tests), &FitOptions::default());
+        let fr = fit_all(&model, &tests, |_| ());
         let mut total = Figures::default();
         // Each test's mean squared residual, counted once per test and scaled to the number of samples.
         let mut loss = 0.0;
@@ -1686,16 +1632,8 @@ mod tests {
         let spans = all_spans(&tests);
         let w = loss_weights(&tests, &spans, Weighting::Tests);
         assert!(w.iter().flatten().all(|w| *w == 0.0 || *w == 1.0));
-        let a = fit(&model, &tests, &spans, &FitOptions::default());
-        let b = fit(
-            &model,
-            &tests,
-            &spans,
-            &FitOptions {
-                weighting: Weighting::Samples,
-                ..Default::default()
-            },
-        );
+        let a = fit_all(&model, &tests, |_| ());
+        let b = fit_all(&model, &tests, |o| o.weighting = Weighting::Samples);
         assert_eq!(a.params, b.params);
         assert!((a.sse - a.loss).abs() <= 1e-12 * a.sse, "{} vs {}", a.sse, a.loss);
     }
@@ -1766,19 +1704,10 @@ mod tests {
                 Test::synthetic("two.csv", &format!("{f}"), inputs, f_n)
             })
             .collect();
-        let spans = all_spans(&tests);
         let mut start = truth.clone();
         start[idx("stiff_k_n_per_m")] = 0.0;
         start[idx("inertia_mass_kg")] = 1.5;
-        let fr = fit(
-            &model,
-            &tests,
-            &spans,
-            &FitOptions {
-                start: Some(start),
-                ..Default::default()
-            },
-        );
+        let fr = fit_all(&model, &tests, |o| o.start = Some(start));
         for name in ["stiff_k_n_per_m", "stiff_k3_n_per_m3", "inertia_mass_kg"] {
             let (got, want) = (fr.params[idx(name)], truth[idx(name)]);
             assert!((got - want).abs() < 0.01 * want, "{name}: {got} vs {want}");
@@ -1798,15 +1727,7 @@ mod tests {
         tests[0].f_n = model.simulate(&truth, &tests[0].inputs);
         let mut start = truth.clone();
         start[share] = model.param_specs()[share].lower;
-        let r = fit(
-            &model,
-            &tests,
-            &all_spans(&tests),
-            &FitOptions {
-                start: Some(start),
-                ..Default::default()
-            },
-        );
+        let r = fit_all(&model, &tests, |o| o.start = Some(start));
         assert!(
             (r.params[share] - 0.3).abs() < 0.01 && (r.params[knee] - 1.0).abs() < 0.02,
             "shape {} / {}: {}",
@@ -1845,26 +1766,20 @@ mod tests {
             doc: String::new(),
         };
         let mut r = Registry::builtin();
-        r.register(
-            FormulaEffect::new(
+        for (name, formula, params) in [
+            (
                 "lagged",
-                "",
-                "",
                 "lg_c1 * abs(i)*lp(tanh(v/0.02), 0.05) + lg_c2 * lp(x, 0.1)",
                 vec![param("lg_c1", 0.8), param("lg_c2", 900.0)],
-            )
-            .expect("formula"),
-        );
-        r.register(
-            FormulaEffect::new(
+            ),
+            (
                 "scaled_lag",
-                "",
-                "",
                 "sl_c * lp(sl_k * v, 0.05) + sl_d * x",
                 vec![param("sl_c", 40.0), param("sl_k", 1.5), param("sl_d", 300.0)],
-            )
-            .expect("formula"),
-        );
+            ),
+        ] {
+            r.register(FormulaEffect::new(name, "", "", formula, params).expect("formula"));
+        }
         r
     }
 

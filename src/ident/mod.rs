@@ -59,11 +59,9 @@ pub enum IdentError {
 /// `Err(Interrupted)` when a stop was asked for ([`crate::interrupt`]): long searches check between
 /// stages, so a stop does not wait for the rest of the search to run on stopped fits.
 pub(crate) fn stop_if_asked() -> Result<(), IdentError> {
-    if crate::interrupt::requested() {
-        Err(IdentError::Interrupted)
-    } else {
-        Ok(())
-    }
+    (!crate::interrupt::requested())
+        .then_some(())
+        .ok_or(IdentError::Interrupted)
 }
 
 /// One test prepared for the models: the inputs at every sample and the measured force.

@@ -285,36 +285,25 @@ pub(crate) struct Signatures {
 impl Signatures {
     /// Names and values, in a fixed order.
     pub fn named(&self) -> [(&'static str, f64); 7] {
-        [
-            (
-                "loop near v = 0 (residual × sgn a at low |v|, of rms force)",
-                self.loop_near_zero_velocity,
-            ),
-            (
-                "direction offset growing with current (of rms force)",
-                self.direction_offset_vs_current,
-            ),
-            (
-                "curvature of the residual vs current (of rms force)",
-                self.curvature_vs_current,
-            ),
-            (
-                "residual slope vs velocity changing with current (of rms force)",
-                self.velocity_slope_vs_current,
-            ),
-            (
-                "correlation of the residual with displacement",
-                self.correlation_with_x,
-            ),
-            (
-                "correlation of the residual with acceleration",
-                self.correlation_with_acceleration,
-            ),
-            (
-                "drift of the residual with dissipated energy (correlation)",
-                self.drift_with_energy,
-            ),
-        ]
+        const NAMES: [&str; 7] = [
+            "loop near v = 0 (residual × sgn a at low |v|, of rms force)",
+            "direction offset growing with current (of rms force)",
+            "curvature of the residual vs current (of rms force)",
+            "residual slope vs velocity changing with current (of rms force)",
+            "correlation of the residual with displacement",
+            "correlation of the residual with acceleration",
+            "drift of the residual with dissipated energy (correlation)",
+        ];
+        let values = [
+            self.loop_near_zero_velocity,
+            self.direction_offset_vs_current,
+            self.curvature_vs_current,
+            self.velocity_slope_vs_current,
+            self.correlation_with_x,
+            self.correlation_with_acceleration,
+            self.drift_with_energy,
+        ];
+        std::array::from_fn(|k| (NAMES[k], values[k]))
     }
 
     #[allow(clippy::needless_range_loop)] // several parallel per-sample arrays
@@ -324,16 +313,19 @@ impl Signatures {
         let vmax = v_max(tests);
         let mut f2 = 0.0;
         let mut n = 0usize;
-        let (mut loop_s, mut loop_n) = (0.0, 0usize);
+        let mut near_zero = (0.0, 0usize);
         let mut pos = vec![(0.0, 0usize); nb];
         let mut neg = vec![(0.0, 0usize); nb];
         let mut odd = vec![(0.0, 0usize); nb];
         // Per current bin: the residual against the velocity, for its slope.
         let mut sl: Vec<Corr> = (0..nb).map(|_| Corr::default()).collect();
-        let mut cx = Corr::default();
-        let mut ca = Corr::default();
-        let mut ce = Corr::default();
+        let (mut cx, mut ca, mut ce) = (Corr::default(), Corr::default(), Corr::default());
         let mut v2 = 0.0;
+        // A sum and its count, for a mean.
+        let add = |acc: &mut (f64, usize), x: f64| {
+            acc.0 += x;
+            acc.1 += 1;
+        };
         for (t, p) in tests.iter().zip(pred) {
             let mut energy = 0.0;
             for k in 0..t.len() {
@@ -345,19 +337,15 @@ impl Signatures {
                 n += 1;
                 let sv = inp.v_m_s.signum() * (inp.v_m_s != 0.0) as i32 as f64;
                 if inp.v_m_s.abs() < 0.1 * vmax && inp.a_m_s2 != 0.0 {
-                    loop_s += r * inp.a_m_s2.signum();
-                    loop_n += 1;
+                    add(&mut near_zero, r * inp.a_m_s2.signum());
                 }
                 let b = cb.index(inp.current_cmd_a);
                 if inp.v_m_s > 0.0 {
-                    pos[b].0 += r;
-                    pos[b].1 += 1;
+                    add(&mut pos[b], r);
                 } else if inp.v_m_s < 0.0 {
-                    neg[b].0 += r;
-                    neg[b].1 += 1;
+                    add(&mut neg[b], r);
                 }
-                odd[b].0 += r * sv;
-                odd[b].1 += 1;
+                add(&mut odd[b], r * sv);
                 sl[b].add(inp.v_m_s, r);
                 cx.add(r, inp.x_m);
                 ca.add(r, inp.a_m_s2);
@@ -371,11 +359,7 @@ impl Signatures {
         let vrms = (v2 / n.max(1) as f64).sqrt();
         let mean = |(s, c): (f64, usize)| if c > 0 { s / c as f64 } else { 0.0 };
         let mut sig = Signatures {
-            loop_near_zero_velocity: if loop_n > 0 {
-                loop_s / loop_n as f64 / frms
-            } else {
-                0.0
-            },
+            loop_near_zero_velocity: mean(near_zero) / frms,
             correlation_with_x: cx.value(),
             correlation_with_acceleration: ca.value(),
             drift_with_energy: ce.value(),

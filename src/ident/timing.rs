@@ -6,7 +6,6 @@
 //!
 //! Each current step read the wrong way leaves a sample off by the whole change of the yield force. `auto`
 //! fits both ways where some test's command changes and keeps the smaller loss.
-#![warn(missing_docs)]
 
 use super::fit::{all_spans, fit, FitOptions, FitResult};
 use super::Test;
@@ -195,10 +194,6 @@ mod tests {
         vec![Test::synthetic("steps.csv", "steps", inputs, f_n)]
     }
 
-    fn lag_free(at_sample: bool, seed: u64) -> Vec<Test> {
-        stepped(at_sample, 0.0, seed)
-    }
-
     fn quick() -> FitOptions {
         FitOptions {
             std_errors: false,
@@ -210,7 +205,7 @@ mod tests {
     fn a_step_in_force_at_its_own_sample_is_read_so_and_fitted_to_the_noise() {
         let model = testkit::model("bingham");
         for seed in [1, 2] {
-            let tests = lag_free(true, seed);
+            let tests = stepped(true, 0.0, seed);
             let (read, d) = decide(&model, tests.clone(), TimingChoice::Auto, &quick());
             assert_eq!(d.timing, CommandTiming::AtSample, "seed {seed}: {}", d.note());
             let (after, at) = d.fits.as_ref().expect("both readings fitted");
@@ -235,7 +230,7 @@ mod tests {
     #[test]
     fn a_daq_that_writes_after_reading_is_read_after_its_sample() {
         let model = testkit::model("bingham");
-        let tests = lag_free(false, 3);
+        let tests = stepped(false, 0.0, 3);
         let (read, d) = decide(&model, tests.clone(), TimingChoice::Auto, &quick());
         assert_eq!(d.timing, CommandTiming::AfterSample, "{}", d.note());
         let (after, at) = d.fits.as_ref().expect("both readings fitted");
@@ -250,17 +245,17 @@ mod tests {
     #[test]
     fn a_command_that_never_changes_is_read_without_a_fit_and_asked_readings_are_kept() {
         let model = testkit::model("bingham");
-        let mut tests = lag_free(true, 4);
+        let mut tests = stepped(true, 0.0, 4);
         for inp in &mut tests[0].inputs {
             inp.current_cmd_a = 7.0;
         }
         let (_, d) = decide(&model, tests.clone(), TimingChoice::Auto, &quick());
         assert!(d.fits.is_none() && d.timing == CommandTiming::AfterSample);
         // Asked for, a reading is taken as it is, even where the other would fit better.
-        let stepped = lag_free(true, 4);
-        let (read, d) = decide(&model, stepped.clone(), TimingChoice::AfterSample, &quick());
+        let steps = stepped(true, 0.0, 4);
+        let (read, d) = decide(&model, steps.clone(), TimingChoice::AfterSample, &quick());
         assert!(d.fits.is_none() && d.timing == CommandTiming::AfterSample);
-        assert_eq!(read[0].inputs, stepped[0].inputs);
+        assert_eq!(read[0].inputs, steps[0].inputs);
     }
 
     #[test]
@@ -270,7 +265,7 @@ mod tests {
         // bound, where the force is the same as where the search left them, not at their initial value
         // (5 sample intervals), which would spoil the fit.
         let model = testkit::model("bingham");
-        let tests = retimed(lag_free(true, 5), CommandTiming::AtSample);
+        let tests = retimed(stepped(true, 0.0, 5), CommandTiming::AtSample);
         let fr = fit(&model, &tests, &all_spans(&tests), &FitOptions::default());
         assert!(
             fr.rmse_n() < 1.05 * NOISE_N,
