@@ -49,18 +49,18 @@ fn logged(model: &Model, proto: usize, current: f64, seed: u64) -> Measurement {
 
 /// [`logged`] through a moving average of `window` samples (1: none).
 fn logged_through(model: &Model, proto: usize, current: f64, seed: u64, window: usize) -> Measurement {
-    logged_with(model, proto, current, seed, window, 0.0)
+    logged_with(model, proto, current, seed, window, None)
 }
 
-/// [`logged_through`] with a turbulent drag `drag · v|v|` (N s²/m²) added to the truth's force: a force
-/// the model's vocabulary does not name, written here rather than by mrfeel's effect code.
+/// [`logged_through`] with a force `hidden` of the motion added to the truth's: a force the model's
+/// vocabulary does not name, written here rather than by mrfeel's effect code.
 fn logged_with(
     model: &Model,
     proto: usize,
     current: f64,
     seed: u64,
     window: usize,
-    drag: f64,
+    hidden: Option<fn(&Inputs) -> f64>,
 ) -> Measurement {
     let (amp, f_hz, rate, secs) = PROTOCOLS[proto];
     let n = (secs * rate) as usize;
@@ -87,13 +87,7 @@ fn logged_with(
         .simulate(&TRUTH, &inputs)
         .into_iter()
         .zip(&inputs)
-        .map(|(f, i)| {
-            if drag == 0.0 {
-                f
-            } else {
-                f + drag * i.v_m_s * i.v_m_s.abs()
-            }
-        })
+        .map(|(f, i)| hidden.map_or(f, |h| f + h(i)))
         .map(|f| f + fnoise.sample(&mut rng))
         .collect();
     let x: Vec<f64> = inputs.iter().map(|i| i.x_m + xnoise.sample(&mut rng)).collect();
@@ -445,20 +439,26 @@ fn a_file_on_an_uneven_clock_is_said_to_be_compared_as_logged() {
     );
 }
 
-/// A force outside the vocabulary in filtered data: the UTFSM-scale damper with a turbulent drag
-/// `v|v|` added, every protocol logged through its moving average. The open search reads the residual of
-/// predictions made through each test's chain, so the model's own directions must be taken through the same
-/// chain: the drag is then found as one `v|v|` term, the error ends at the filtered noise, and the noise
-/// floor read from the files (through the filter) says so.
-#[test]
-fn a_drag_hidden_in_filtered_data_is_found_through_the_chain() {
-    const DRAG: f64 = 25_000.0;
+/// A force outside the vocabulary in filtered data: the UTFSM-scale damper with `hidden` added, every
+/// protocol logged through its moving average. The open search reads the residual of predictions made
+/// through each test's chain, so its terms and the model's own directions are taken through the same chain:
+/// the force is then found as one term whose formula contains `feature`, with the coefficient `coef`
+/// within `tol`, the error ends at the filtered noise, and the noise floor read from the files (through the
+/// filter) says so.
+fn found_through_the_chain(hidden: fn(&Inputs) -> f64, feature: &str, coef: f64, tol: f64) {
     let model = Model::from_spec(MODEL, &Registry::builtin(), 14.0).expect("model");
     let mut ms = Vec::new();
     for (proto, &(_, f_hz, rate, _)) in PROTOCOLS.iter().enumerate() {
         for (c, &i) in CURRENTS.iter().enumerate() {
             let seed = 500 + 10 * proto as u64 + c as u64;
-            ms.push(logged_with(&model, proto, i, seed, window_of(rate, f_hz), DRAG));
+            ms.push(logged_with(
+                &model,
+                proto,
+                i,
+                seed,
+                window_of(rate, f_hz),
+                Some(hidden),
+            ));
         }
     }
     let tests = tests_from(&ms);
@@ -481,9 +481,6 @@ fn a_drag_hidden_in_filtered_data_is_found_through_the_chain() {
     )
     .expect("diagnose");
     let report = mrfeel::ident::report::diagnose_table(&d);
-    eprintln!("floor {floor:.4}\n{report}");
-    // The noise floor read from the files is the filtered noise's, not its third differences' far smaller
-    // spread; with the drag found, what is left is that noise.
     assert!(
         (d.noise_floor_nrmse / floor - 1.0).abs() < 0.2,
         "noise floor read {:.2e} against the filtered noise's {floor:.2e}",
@@ -491,10 +488,43 @@ fn a_drag_hidden_in_filtered_data_is_found_through_the_chain() {
     );
     assert!(d.unexplained().is_none(), "{report}");
     assert_eq!(d.discovered.len(), 1, "{report}");
-    assert!(d.discovered[0].formula.contains("v*abs(v)"), "{report}");
+    let term = &d.discovered[0];
+    assert_eq!(term.features, [feature], "{report}");
+    let fin = Model::from_spec(&d.final_model, &d.registry, 14.0).expect("final model");
+    let got = d.final_params[fin
+        .param_index(&format!("{}_c1", term.name))
+        .expect("coefficient")];
+    assert!(
+        (got / coef - 1.0).abs() < tol,
+        "coefficient {got} against {coef}\n{report}"
+    );
     assert!(
         d.final_heldout_nrmse <= 1.3 * floor,
         "held-out {:.4} against the filtered noise's {floor:.4}\n{report}",
         d.final_heldout_nrmse
     );
+}
+
+/// A turbulent drag `25,000 v|v|` N (about 100 N at the protocols' top speed). Taken on the logged,
+/// filtered signals, the search found `v³` and a friction term and called the rest structure.
+#[test]
+fn a_drag_hidden_in_filtered_data_is_found_through_the_chain() {
+    found_through_the_chain(|i| 25_000.0 * i.v_m_s * i.v_m_s.abs(), "v*abs(v)", 25_000.0, 0.02);
+}
+
+/// A shear-thinning force `100 sgn(v) √|v|` N (the viscous term takes part of it when refitted).
+#[test]
+fn a_shear_thinning_force_hidden_in_filtered_data_is_found_through_the_chain() {
+    found_through_the_chain(
+        |i| 100.0 * i.v_m_s.signum() * i.v_m_s.abs().sqrt(),
+        "sign(v)*sqrt(abs(v))",
+        100.0,
+        0.1,
+    );
+}
+
+/// A hardening spring `4·10⁶ x³` N (4 N at 1 cm, 62 N at the 2.5 cm stroke).
+#[test]
+fn a_hardening_spring_hidden_in_filtered_data_is_found_through_the_chain() {
+    found_through_the_chain(|i| 4.0e6 * i.x_m.powi(3), "x^3", 4.0e6, 0.02);
 }
