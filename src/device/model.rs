@@ -460,8 +460,8 @@ impl Model {
         s
     }
 
-    /// The force assembly at one sample (base, then each effect in stage order). Its own loop rather than
-    /// `apply_effects` with a filter that keeps all: the feel loop's step was 2 % slower through it
+    /// The force assembly at one sample (base, then each effect in stage order). A loop of its own, not one
+    /// shared with `eval_yielded` through a stage filter: the feel loop's step ran 2 % slower so
     /// (`cargo bench --bench sim -- full_loop_1000_steps`).
     pub fn eval(&self, p: &[f64], s: &[f64], inp: &Inputs) -> Stage {
         let mut stage = self.spec.base.stage(p, s, inp);
@@ -477,24 +477,12 @@ impl Model {
     /// the effects that shape the direction ([`EffectStage::Direction`]) are skipped. A controller's
     /// holding force: the damper holds up to its yield force.
     pub(crate) fn eval_yielded(&self, p: &[f64], s: &[f64], inp: &Inputs, direction: f64) -> Stage {
-        let stage = Stage {
+        let mut stage = Stage {
             direction,
             ..bingham::stage(p, s, inp)
         };
-        self.apply_effects(p, s, inp, stage, |at| at != EffectStage::Direction)
-    }
-
-    /// Apply, in stage order, the effects whose stage `keep` accepts to `stage`.
-    fn apply_effects(
-        &self,
-        p: &[f64],
-        s: &[f64],
-        inp: &Inputs,
-        mut stage: Stage,
-        keep: impl Fn(EffectStage) -> bool,
-    ) -> Stage {
         for slot in self.apply_order.iter().map(|&k| &self.slots[k]) {
-            if keep(slot.stage) {
+            if slot.stage != EffectStage::Direction {
                 slot.effect
                     .apply(&p[slot.params.clone()], &s[slot.states.clone()], inp, &mut stage);
             }

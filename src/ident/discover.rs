@@ -614,9 +614,9 @@ pub fn merged(name: &str, effects: &[FormulaEffect]) -> Option<FormulaEffect> {
 }
 
 /// The family of the term of `effect` that carries the most force with the coefficients `values` (its
-/// share `c² Σ term²` over `tests`, with the [`driven_current`] `current`), or `None` when none of its terms is in the library. Read from the final
-/// fit, not from the search's least-squares proposal: once the model's own parameters are refitted beside
-/// the terms, the force can move from one term to another.
+/// share `c² Σ term²` over `tests`, with the [`driven_current`] `current`), or `None` when none of its terms
+/// is in the library. Read from the final fit, not from the search's least-squares proposal: once the
+/// model's own parameters are refitted beside the terms, the force can move from one term to another.
 pub(crate) fn strongest_family(
     effect: &FormulaEffect,
     values: &[f64],

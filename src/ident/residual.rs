@@ -454,7 +454,10 @@ pub(crate) fn noise_floor_n(tests: &[Test]) -> f64 {
         .iter()
         .map(|t| match window(t) {
             1 => std::borrow::Cow::Borrowed(t.f_n.as_slice()),
-            w => t.f_n.iter().map(|f| f * raw_noise_gain(w)).collect(),
+            w => {
+                let gain = raw_noise_gain(w);
+                t.f_n.iter().map(|f| f * gain).collect()
+            }
         })
         .collect();
     let records: Vec<(Vec<f64>, &[f64])> = tests

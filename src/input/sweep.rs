@@ -394,11 +394,8 @@ fn flatten(prefix: &str, t: &toml::Table, out: &mut dyn FnMut(String, &toml::Val
     }
 }
 
-/// `sweep.toml` with the places of the keys its errors name (`name` and `numeric` are checked here and read
-/// by the store without places).
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
-#[allow(dead_code)]
 pub(crate) struct ManifestFile {
     pub(crate) name: String,
     pub(crate) plan: String,

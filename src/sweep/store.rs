@@ -126,7 +126,7 @@ pub struct Record {
 }
 
 /// `sweep.toml`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 struct Manifest {
     name: String,
     plan: String,
@@ -140,6 +140,19 @@ struct Manifest {
 impl Loaded {
     fn err<T>(&self, at: &Spanned<T>, key: &str, msg: String) -> StoreError {
         self.src.err(at, key, msg).into()
+    }
+
+    fn manifest(&self) -> Manifest {
+        let f = &self.file;
+        Manifest {
+            name: f.name.clone(),
+            plan: f.plan.clone(),
+            digest: f.digest.get_ref().clone(),
+            runs: *f.runs.get_ref(),
+            shard: f.shard.get_ref().clone(),
+            columns: f.columns.get_ref().clone(),
+            numeric: f.numeric.clone(),
+        }
     }
 }
 
@@ -447,8 +460,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<usize, StoreError> {
     let Some(first) = first else {
         return Err(io_err(out, "no shard directories to merge"));
     };
-    // The manifest as written (its schema is `ManifestFile`'s without the places).
-    let mut m: Manifest = first.src.toml()?;
+    let mut m = first.manifest();
     m.shard = Shard::ALL.label();
     let missing: Vec<u64> = (0..m.runs).filter(|i| !all.contains_key(i)).take(6).collect();
     if !missing.is_empty() {
