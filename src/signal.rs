@@ -347,7 +347,38 @@ fn std_from_third_differences(d: Vec<f64>) -> f64 {
     if d.is_empty() {
         return 0.0;
     }
-    1.4826 * quantile(d, 0.5) / 20f64.sqrt()
+    1.4826 * level_median(d) / 20f64.sqrt()
+}
+
+/// The median of `d`, read between the levels of a quantised signal. The third differences of a signal
+/// recorded on a grid of step `q` (an ADC's LSB, a file's last decimal) are multiples of `q`, and their
+/// sample median sits on one of them: off by up to `q/2`, a tenth of the noise when it spans a few steps.
+/// Where the median level holds many values, the median is interpolated within it as for grouped data (the
+/// level spans half a step either side); values without ties keep the sample median.
+fn level_median(mut d: Vec<f64>) -> f64 {
+    let n = d.len();
+    let k = ((n - 1) as f64 * 0.5).round() as usize;
+    let m = *d.select_nth_unstable_by(k, f64::total_cmp).1;
+    // Equal up to the rounding of the differences of decimal values read from a file; five values on one
+    // level make it a level (continuous noise puts about one value that close to its median).
+    let tol = 1e-6 * m;
+    let (mut below, mut ties) = (0usize, 0usize);
+    let (mut under, mut over) = (f64::NEG_INFINITY, f64::INFINITY);
+    for &x in &d {
+        if (x - m).abs() <= tol {
+            ties += 1;
+        } else if x < m {
+            below += 1;
+            under = under.max(x);
+        } else {
+            over = over.min(x);
+        }
+    }
+    let step = (m - under).min(over - m);
+    if m <= 0.0 || ties < 5 || !step.is_finite() {
+        return m;
+    }
+    m - 0.5 * step + step * (0.5 * n as f64 - below as f64) / ties as f64
 }
 
 /// Least-squares slope of y on x over the pairs `(x, y)` (NaN for fewer than two pairs or a constant x).
@@ -569,6 +600,31 @@ mod tests {
         // On an even grid both are the same estimate.
         let te: Vec<f64> = (0..5000).map(|k| k as f64 * 1e-3).collect();
         assert_eq!(white_noise_std_on(&te, &x), white_noise_std(&x));
+    }
+
+    /// A channel quantised to a step `q` comparable to its noise `σ` carries white noise of variance
+    /// `σ² + q²/12` (for σ ≥ q/2, where the rounding error is uniform and independent of the signal); the
+    /// estimate reads it between the levels of its third differences. The plain median snaps to a level: on
+    /// records like these it is 15 %, 8 % and 4 % off at σ = 0.5 q, 0.66 q and q.
+    #[test]
+    fn the_noise_of_a_quantised_channel_is_read_between_its_levels() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let q = 20.0 / 65536.0;
+        for sigma_q in [0.5, 0.66, 1.0, 2.0] {
+            let nd = Normal::new(0.0, sigma_q * q).unwrap();
+            let y: Vec<f64> = (0..200_000)
+                .map(|k| {
+                    let v = 0.12 * (std::f64::consts::TAU * k as f64 * 1e-3).sin() + nd.sample(&mut rng);
+                    (v / q).round() * q
+                })
+                .collect();
+            let truth = (sigma_q * sigma_q + 1.0 / 12.0).sqrt() * q;
+            let est = white_noise_std(&y);
+            assert!(
+                (est / truth - 1.0).abs() < 0.03,
+                "sigma {sigma_q} q: estimated {est}, truth {truth}"
+            );
+        }
     }
 
     #[test]
