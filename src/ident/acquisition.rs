@@ -3,7 +3,6 @@
 //! thresholds below against white noise), undone on the motion by regularised least squares
 //! (`deconvolve_moving_average`), and applied to the model's force before it is compared ([`Drive`]).
 //! Why: `docs/explanation/diagnosis.md`, "Reading the data as it was logged".
-#![warn(missing_docs)]
 
 use rustfft::num_complex::Complex;
 use rustfft::FftPlanner;

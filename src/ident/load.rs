@@ -1,7 +1,6 @@
 //! Reading measurements into [`Test`]s: the model's inputs estimated from each file (velocity and
 //! acceleration where the file has none, the displacement smoothed), and the acquisition chain (a moving
 //! average the files went through) found per protocol and undone.
-#![warn(missing_docs)]
 
 use std::path::PathBuf;
 
@@ -594,7 +593,7 @@ mod tests {
     }
 
     /// Near the ends of a test, where a centred window does not reach, the off-centre windows give
-    /// derivatives about as good as inside (a 7-sample differentiator there gave 17 m/s² of noise at 2 kHz).
+    /// derivatives about as good as inside.
     #[test]
     fn derivatives_near_the_ends_of_a_test_are_as_good_as_inside() {
         let (amp, f_hz, rate, n) = (0.02, 1.0, 2000.0, 6000usize);
@@ -620,10 +619,8 @@ mod tests {
     }
 
     /// Slow sines (0.4 and 1 Hz at 1 kHz), displacement only (2 µm noise), on eight noise seeds: the window
-    /// widens every time, so the acceleration from the displacement twice is within 5 % of the signal. (The
-    /// rule that stopped at the mean change of pure noise failed on the first seed: it stayed at the
-    /// narrowest window, an error of 580 % of the 0.4 Hz signal.) The derived velocity's noise is estimated
-    /// within 25 %.
+    /// widens every time, so the acceleration from the displacement twice is within 5 % of the signal. The
+    /// derived velocity's noise is estimated within 25 %.
     #[test]
     fn acceleration_and_velocity_noise_from_displacement_alone_on_every_seed() {
         for (seed, f_hz) in (0..8u64).map(|s| (s, if s % 2 == 0 { 0.4 } else { 1.0 })) {
@@ -633,8 +630,7 @@ mod tests {
     }
 
     /// The same on a clock jittered by up to ¼ sample (the format asks only for increasing times), the
-    /// acceleration checked at every sample. With the file reader's 7-sample derivatives on an
-    /// uneven grid, the acceleration from the displacement twice is 8 times the 0.4 Hz signal.
+    /// acceleration checked at every sample.
     #[test]
     fn derivatives_on_a_jittered_clock_are_as_good_as_on_an_even_one() {
         for (seed, f_hz) in [(0u64, 0.4), (1, 1.0), (2, 2.5)] {
@@ -645,9 +641,7 @@ mod tests {
     }
 
     /// A record with a hole (100 samples lost in the middle of a 10 mm 2.5 Hz sine at 1 kHz, displacement
-    /// only): each side is differentiated on its own, as well as a record without one. (This record does not
-    /// show what fitting across the hole did; `independent_mass_in_records_with_a_hole_is_fitted_to_the_noise`
-    /// in `tests/independent_truth.rs` does.)
+    /// only): each side is differentiated on its own, as well as a record without one.
     #[test]
     fn derivatives_on_either_side_of_a_hole_in_the_record() {
         let (amp, f_hz) = (0.01, 2.5);

@@ -1,7 +1,6 @@
 //! Static plots (PNG + SVG) of a fit or a diagnosis: measured vs model force–time, force–displacement and
 //! force–velocity per current level, the residual over |v| × current and over time, the candidate ranking
 //! and the held-out error falling as effects are added.
-#![warn(missing_docs)]
 
 use std::path::{Path, PathBuf};
 

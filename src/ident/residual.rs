@@ -28,14 +28,10 @@ pub(crate) enum CurrentBins {
 impl CurrentBins {
     /// Bins for the current commands (|i|) of these tests.
     pub fn of(tests: &[Test]) -> Self {
-        let imax = tests
-            .iter()
-            .flat_map(|t| &t.inputs)
-            .fold(0.0f64, |m, i| m.max(i.current_cmd_a.abs()));
+        let every = || tests.iter().flat_map(|t| &t.inputs);
+        let imax = every().fold(0.0f64, |m, i| m.max(i.current_cmd_a.abs()));
         let q = (imax * 1e-3).max(1e-9);
-        let mut levels: Vec<i64> = tests
-            .iter()
-            .flat_map(|t| &t.inputs)
+        let mut levels: Vec<i64> = every()
             .map(|i| (i.current_cmd_a.abs() / q).round() as i64)
             .collect();
         levels.sort_unstable();
@@ -43,11 +39,7 @@ impl CurrentBins {
         if levels.len() <= 8 {
             return CurrentBins::Levels(levels.iter().map(|&l| l as f64 * q).collect());
         }
-        let mut all: Vec<f64> = tests
-            .iter()
-            .flat_map(|t| &t.inputs)
-            .map(|i| i.current_cmd_a.abs())
-            .collect();
+        let mut all: Vec<f64> = every().map(|i| i.current_cmd_a.abs()).collect();
         all.sort_by(f64::total_cmp);
         let qt = |f: f64| all[((all.len() - 1) as f64 * f) as usize];
         let mut edges = vec![
@@ -503,17 +495,8 @@ pub(crate) const DIRECTION_SIGMAS: f64 = 4.0;
 /// velocity; where that sign is a coin toss, a residual of `2 Fy` no effect explains would dominate the
 /// residual of a correct model, and any effect that softens the reversal would look significant.
 pub fn direction_weights(t: &Test) -> Vec<f64> {
-    let mut w = sign_weights(t);
-    for (w, c) in w.iter_mut().zip(super::clipping::unclipped(&t.f_n)) {
-        *w *= c;
-    }
-    w
-}
-
-/// [`direction_weights`] from the velocity alone.
-fn sign_weights(t: &Test) -> Vec<f64> {
     let weight = |v: f64, sd: f64| if v.abs() < DIRECTION_SIGMAS * sd { 0.0 } else { 1.0 };
-    match &t.velocity_noise_m_s {
+    let mut w: Vec<f64> = match &t.velocity_noise_m_s {
         // A velocity derived here: its noise at each sample (larger at the ends of the test).
         Some(sd) if sd.len() == t.inputs.len() => t
             .inputs
@@ -525,7 +508,11 @@ fn sign_weights(t: &Test) -> Vec<f64> {
             let sd = velocity_noise_std(t);
             t.inputs.iter().map(|i| weight(i.v_m_s, sd)).collect()
         }
+    };
+    for (w, c) in w.iter_mut().zip(super::clipping::unclipped(&t.f_n)) {
+        *w *= c;
     }
+    w
 }
 
 /// Standard deviation of the noise in the velocity a test's model is given: [`Test::velocity_noise_m_s`]
@@ -536,9 +523,9 @@ pub(crate) fn velocity_noise_std(t: &Test) -> f64 {
         // Inside the test, where the centred window is used.
         return sd[sd.len() / 2];
     }
+    let ts: Vec<f64> = t.inputs.iter().map(|i| i.t_s).collect();
     if t.velocity_measured {
         let v: Vec<f64> = t.inputs.iter().map(|i| i.v_m_s).collect();
-        let ts: Vec<f64> = t.inputs.iter().map(|i| i.t_s).collect();
         return white_noise_std_on(&ts, &v);
     }
     let x: Vec<f64> = t.inputs.iter().map(|i| i.x_m).collect();
@@ -549,16 +536,14 @@ pub(crate) fn velocity_noise_std(t: &Test) -> f64 {
     // An impulse in the middle of a stretch of the test's time grid, wide enough for the differentiator.
     let w = n.min(31);
     let lo = (n - w) / 2;
-    let ts: Vec<f64> = t.inputs[lo..lo + w].iter().map(|i| i.t_s).collect();
     let mut pulse = vec![0.0; w];
     pulse[w / 2] = 1.0;
-    let gain = smooth_derivative(&ts, &pulse)
+    let gain = smooth_derivative(&ts[lo..lo + w], &pulse)
         .iter()
         .map(|d| d * d)
         .sum::<f64>()
         .sqrt();
-    let t_all: Vec<f64> = t.inputs.iter().map(|i| i.t_s).collect();
-    white_noise_std_on(&t_all, &x) * gain
+    white_noise_std_on(&ts, &x) * gain
 }
 
 #[cfg(test)]

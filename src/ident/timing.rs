@@ -67,11 +67,6 @@ pub(crate) fn command_never_changes(inputs: &[Inputs]) -> bool {
         .all(|s| s.current_cmd_a.to_bits() == inputs[0].current_cmd_a.to_bits())
 }
 
-/// Whether any test's command changes from one sample to the next (only then do the readings differ).
-pub(crate) fn commands_change(tests: &[Test]) -> bool {
-    tests.iter().any(|t| !command_never_changes(&t.inputs))
-}
-
 /// The tests as the model reads them under `timing`, from tests loaded as logged ([`Test::from_measurement`]
 /// reads them after their sample). At-sample: the model holds the command of row `k + 1` over
 /// `(t_k, t_{k+1}]`; the last row keeps its own, and the first sample's lags start settled at the command of
@@ -136,7 +131,9 @@ pub fn decide(
     let timing = match choice {
         TimingChoice::AfterSample => CommandTiming::AfterSample,
         TimingChoice::AtSample => CommandTiming::AtSample,
-        TimingChoice::Auto if !commands_change(&tests) => CommandTiming::AfterSample,
+        TimingChoice::Auto if tests.iter().all(|t| command_never_changes(&t.inputs)) => {
+            CommandTiming::AfterSample
+        }
         TimingChoice::Auto => {
             let spans = all_spans(&tests);
             let fa = fit(model, &tests, &spans, opts);
