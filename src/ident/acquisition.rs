@@ -260,12 +260,10 @@ pub(crate) fn comb_depths(
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Channels<'a> {
     pub t: &'a [f64],
-    /// Displacement.
     pub x: &'a [f64],
     /// Velocity, when the file measured it (one derived here from `x` has comb-like zeros of its own
     /// differentiator, and is no witness).
     pub v: Option<&'a [f64]>,
-    /// Force.
     pub f: &'a [f64],
 }
 
@@ -565,15 +563,8 @@ pub(crate) fn deconvolve_moving_average(y: &[f64], window: usize) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ident::noise;
     use crate::signal::moving_average;
-    use rand::SeedableRng;
-    use rand_distr::{Distribution, Normal};
-
-    fn noise(n: usize, sd: f64, seed: u64) -> Vec<f64> {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-        let d = Normal::new(0.0, sd).unwrap();
-        (0..n).map(|_| d.sample(&mut rng)).collect()
-    }
 
     /// A sine test as a rig logs it.
     struct Logged {

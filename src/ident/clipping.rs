@@ -112,15 +112,12 @@ pub fn notes(tests: &[super::Test]) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rand::SeedableRng;
-    use rand_distr::{Distribution, Normal};
 
     /// A noisy 1 kHz sine force of ±100 N through a load cell whose range is `range` N.
     fn logged(range: f64, seed: u64) -> (Vec<f64>, Vec<bool>) {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-        let noise = Normal::new(0.0, 0.5).unwrap();
+        let noise = crate::ident::noise(4000, 0.5, seed);
         let truth: Vec<f64> = (0..4000)
-            .map(|k| 100.0 * (std::f64::consts::TAU * 2.0 * k as f64 * 1e-3).sin() + noise.sample(&mut rng))
+            .map(|k| 100.0 * (std::f64::consts::TAU * 2.0 * k as f64 * 1e-3).sin() + noise[k])
             .collect();
         let rail: Vec<bool> = truth.iter().map(|f| f.abs() >= range).collect();
         (truth.iter().map(|f| f.clamp(-range, range)).collect(), rail)

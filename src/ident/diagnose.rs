@@ -322,7 +322,6 @@ impl CvResult {
         self
     }
 
-    /// The signatures of the held-out residual.
     fn signatures(&self, tests: &[Test]) -> Signatures {
         self.sig.unwrap_or_else(|| Signatures::of(tests, &self.oof))
     }
@@ -337,7 +336,6 @@ fn out_of_fold(tests: &[Test], preds: impl IntoIterator<Item = (Span, Vec<f64>)>
     oof
 }
 
-/// The prediction of `model` with parameters `p` over the held-out span `s`.
 fn heldout_prediction(model: &Model, p: &[f64], tests: &[Test], s: &Span) -> Vec<f64> {
     let sim = tests[s.test].predict(model, p, s.end);
     sim[s.start..s.end].to_vec()
@@ -1140,7 +1138,6 @@ fn diagnose_from(
         base_params: base_fit.params,
         base_pred,
         where_,
-        // The base's candidates (the first step's).
         candidates: steps[0].candidates.clone(),
         missing,
         pruned,
@@ -1369,7 +1366,6 @@ fn enough_removed(cur: &CvResult, cand: &CvResult, noise_mse: f64, opts: &Diagno
     gain >= opts.min_gain && removed >= opts.min_excess_removed
 }
 
-/// The folds in which `cand`'s held-out error is lower than `cur`'s.
 fn folds_better(cur: &CvResult, cand: &CvResult) -> usize {
     cur.per_fold
         .iter()

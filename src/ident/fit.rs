@@ -597,6 +597,22 @@ impl<'a> Problem<'a> {
         }
         factor
     }
+
+    /// The factor of the Jacobian of the residual with respect to the free parameters' `z`.
+    fn full_jacobian(&self) -> Factor {
+        // A parameter on its bound sits where the transform is flat: its column is nearly zero and the
+        // search cannot move it, so it costs no simulation. `step_off_bound` asks the data afterwards.
+        let params = self.params_of(&self.z);
+        let specs = self.model.param_specs();
+        let (at, moving): (Vec<usize>, Vec<usize>) = self
+            .free
+            .iter()
+            .copied()
+            .enumerate()
+            .filter(|&(_, k)| !on_bound(&specs[k], params[k]))
+            .unzip();
+        self.jacobian_into(&moving, &at, self.free.len())
+    }
 }
 
 /// Samples of a test whose Jacobian rows are made before they go into the [`Factor`].
@@ -751,24 +767,6 @@ impl Factor {
             out.view_mut((1, 0), (n, n)).copy_from(&r1);
         }
         out
-    }
-}
-
-impl Problem<'_> {
-    /// The factor of the Jacobian of the residual with respect to the free parameters' `z`.
-    fn full_jacobian(&self) -> Factor {
-        // A parameter on its bound sits where the transform is flat: its column is nearly zero and the
-        // search cannot move it, so it costs no simulation. `step_off_bound` asks the data afterwards.
-        let params = self.params_of(&self.z);
-        let specs = self.model.param_specs();
-        let (at, moving): (Vec<usize>, Vec<usize>) = self
-            .free
-            .iter()
-            .copied()
-            .enumerate()
-            .filter(|&(_, k)| !on_bound(&specs[k], params[k]))
-            .unzip();
-        self.jacobian_into(&moving, &at, self.free.len())
     }
 }
 
@@ -1532,13 +1530,13 @@ mod tests {
             .collect()
     }
 
-    /// Per test, the NRMSE of the fitted model over its counted samples (from a fresh simulation).
-    fn per_test_nrmse(model: &Model, tests: &[Test], p: &[f64]) -> Vec<f64> {
+    /// Per test, the figures of the fitted model over its counted samples (from a fresh simulation).
+    fn per_test(model: &Model, tests: &[Test], p: &[f64]) -> Vec<Figures> {
         tests
             .iter()
             .map(|t| {
                 let pred = t.predict(model, p, t.len());
-                Figures::of_weighted(&pred, &t.f_n, &direction_weights(t)).nrmse()
+                Figures::of_weighted(&pred, &t.f_n, &direction_weights(t))
             })
             .collect()
     }
@@ -1558,7 +1556,10 @@ mod tests {
         );
         let run = |weighting| {
             let fr = fit_all(&model, &tests, |o| o.weighting = weighting);
-            let per = per_test_nrmse(&model, &tests, &fr.params);
+            let per: Vec<f64> = per_test(&model, &tests, &fr.params)
+                .iter()
+                .map(Figures::nrmse)
+                .collect();
             (fr, per)
         };
         let (by_tests, per_tests) = run(Weighting::Tests);
@@ -1591,9 +1592,7 @@ mod tests {
         let mut total = Figures::default();
         // Each test's mean squared residual, counted once per test and scaled to the number of samples.
         let mut loss = 0.0;
-        for t in &tests {
-            let pred = t.predict(&model, &fr.params, t.len());
-            let fig = Figures::of_weighted(&pred, &t.f_n, &direction_weights(t));
+        for fig in per_test(&model, &tests, &fr.params) {
             loss += fig.mse();
             total.add(&fig);
         }

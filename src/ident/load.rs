@@ -430,18 +430,17 @@ pub fn default_current_limit_a(tests: &[Test]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ident::noise;
     use crate::ident::residual;
     use rand::SeedableRng;
-    use rand_distr::{Distribution, Normal};
 
     /// A 1 Hz sine at 1 kHz with a 0.2 mm/s noisy velocity channel: the estimated acceleration is far closer
     /// to the truth than the 7-sample derivative of the noisy velocity, and not attenuated.
     #[test]
     fn acceleration_from_a_noisy_velocity_channel_is_close_to_the_truth() {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-        let nd = Normal::new(0.0, 2e-4).unwrap();
         let w = 2.0 * std::f64::consts::PI;
         let n = 6000;
+        let nd = noise(n, 2e-4, 3);
         let t: Vec<f64> = (0..n).map(|k| k as f64 * 1e-3).collect();
         let m = Measurement {
             path: "a.csv".into(),
@@ -451,7 +450,8 @@ mod tests {
                 .collect(),
             v_m_s: t
                 .iter()
-                .map(|t| 0.02 * w * (w * t).cos() + nd.sample(&mut rng))
+                .zip(&nd)
+                .map(|(t, e)| 0.02 * w * (w * t).cos() + e)
                 .collect(),
             velocity_measured: true,
             i_a: vec![1.0; n],
@@ -510,12 +510,8 @@ mod tests {
         let t: Vec<f64> = (0..n).map(|k| (k as f64 + u()) / rate).collect();
         let n = t.len();
         let w = std::f64::consts::TAU * f_hz;
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-        let nd = Normal::new(0.0, 2e-6).unwrap();
-        let x: Vec<f64> = t
-            .iter()
-            .map(|t| amp * (w * t).sin() + nd.sample(&mut rng))
-            .collect();
+        let nd = noise(n, 2e-6, seed);
+        let x: Vec<f64> = t.iter().zip(&nd).map(|(t, e)| amp * (w * t).sin() + e).collect();
         Measurement {
             path: "a.csv".into(),
             v_m_s: crate::signal::smooth_derivative(&t, &x),

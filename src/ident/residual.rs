@@ -550,18 +550,14 @@ pub(crate) fn velocity_noise_std(t: &Test) -> f64 {
 mod tests {
     use super::*;
     use crate::device::Inputs;
-    use rand::SeedableRng;
-    use rand_distr::{Distribution, Normal};
+    use crate::ident::noise;
 
     /// White noise through a moving average: the third-difference estimate, scaled by the gain, reads the
     /// spread of the noise before the filter (without it, a small fraction of it: 0.8 % at 100 samples), and
     /// the filter passes `1/window` of its variance.
     #[test]
     fn the_raw_noise_gain_recovers_the_spread_of_white_noise_before_a_moving_average() {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-        let e: Vec<f64> = (0..200_000)
-            .map(|_| Normal::new(0.0, 1.0).unwrap().sample(&mut rng))
-            .collect();
+        let e = noise(200_000, 1.0, 3);
         for window in [1, 2, 5, 100] {
             let f = crate::signal::moving_average(&e, window);
             let f = &f[window..];
@@ -593,13 +589,12 @@ mod tests {
     #[test]
     fn noise_floor_recovers_white_noise_on_a_square_wave_force() {
         // A Bingham-like force (jumps at reversals, slow sine part) plus white noise of 0.7 N.
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-        let nd = Normal::new(0.0, 0.7).unwrap();
         let n = 20_000;
+        let nd = noise(n, 0.7, 3);
         let f: Vec<f64> = (0..n)
             .map(|k| {
                 let ph = 2.0 * std::f64::consts::PI * 2.0 * k as f64 * 1e-3;
-                40.0 * ph.cos().signum() + 10.0 * ph.cos() + nd.sample(&mut rng)
+                40.0 * ph.cos().signum() + 10.0 * ph.cos() + nd[k]
             })
             .collect();
         let t = test_of(f, vec![0.0; n], vec![0.0; n]);

@@ -155,8 +155,6 @@ pub fn decide(
 mod tests {
     use super::*;
     use crate::device::effects::testkit;
-    use rand::SeedableRng;
-    use rand_distr::{Distribution, Normal};
 
     const NOISE_N: f64 = 0.2;
     /// Current levels of the paper's driver, each held 0.25 s.
@@ -172,14 +170,13 @@ mod tests {
         for (k, inp) in inputs.iter_mut().enumerate() {
             inp.current_cmd_a = LEVELS[(k / 250) % LEVELS.len()];
         }
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-        let noise = Normal::new(0.0, NOISE_N).unwrap();
+        let noise = crate::ident::noise(inputs.len(), NOISE_N, seed);
         let decay = if lag_s > 0.0 { (-1e-3 / lag_s).exp() } else { 0.0 };
         let mut ic = inputs[0].current_cmd_a;
         let mut f_n = Vec::with_capacity(inputs.len());
         for k in 0..inputs.len() {
             let v = inputs[k].v_m_s;
-            f_n.push((2.0 + 4.83 * ic) * v.signum() + 60.0 * v + noise.sample(&mut rng));
+            f_n.push((2.0 + 4.83 * ic) * v.signum() + 60.0 * v + noise[k]);
             let next = if at_sample {
                 (k + 1).min(inputs.len() - 1)
             } else {
