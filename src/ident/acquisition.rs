@@ -217,10 +217,8 @@ impl Comb {
     /// zeros that the other window's average does not have.
     pub(crate) fn except_multiples_of(&self, m: usize) -> Tally {
         let mut t = Tally::default();
-        for (k, a) in self.at.iter().enumerate() {
-            if (k + 1) % m != 0 {
-                t.add(*a);
-            }
+        for (_, a) in self.at.iter().enumerate().filter(|(k, _)| (k + 1) % m != 0) {
+            t.add(*a);
         }
         t
     }

@@ -115,13 +115,11 @@ pub fn make_folds(tests: &[Test], blocks: usize, max_folds: usize) -> (Vec<Fold>
     let mut groups: Vec<String> = Vec::new();
     let mut key: Vec<usize> = Vec::with_capacity(tests.len());
     for t in tests {
-        match groups.iter().position(|g| *g == t.group) {
-            Some(g) => key.push(g),
-            None => {
-                key.push(groups.len());
-                groups.push(t.group.clone());
-            }
-        }
+        let g = groups.iter().position(|g| *g == t.group).unwrap_or_else(|| {
+            groups.push(t.group.clone());
+            groups.len() - 1
+        });
+        key.push(g);
     }
     let mut kind = "group";
     // Names that group nothing: group by motion where that groups some tests (a held-out fold is then a motion

@@ -135,10 +135,7 @@ pub(crate) fn loss_weights(tests: &[Test], spans: &[Span], weighting: Weighting)
     }
     let total: usize = counted.iter().sum();
     let n_tests = counted.iter().filter(|&&c| c > 0).count();
-    for (w, &c) in weights.iter_mut().zip(&counted) {
-        if c == 0 {
-            continue;
-        }
+    for (w, &c) in weights.iter_mut().zip(&counted).filter(|(_, c)| **c > 0) {
         // The residual is multiplied by the square root of the test's share.
         let scale = (total as f64 / (n_tests * c) as f64).sqrt();
         for v in w.iter_mut() {
@@ -433,10 +430,8 @@ impl<'a> Problem<'a> {
                 self.model.simulate_into(&p, inputs, &mut out);
             }
             let mut out = self.tests[j].observed(out);
-            for v in &mut out {
-                if !v.is_finite() {
-                    *v = self.blowup_n;
-                }
+            for v in out.iter_mut().filter(|v| !v.is_finite()) {
+                *v = self.blowup_n;
             }
             (out, states)
         };
@@ -473,9 +468,8 @@ impl<'a> Problem<'a> {
         self.jacobian_into(cols, &at, cols.len())
     }
 
-    /// [`Problem::jacobian_cols`] with the columns at `at` of a Jacobian `width` wide (the others zero). The
-    /// columns are simulated side by side a block of [`JACOBIAN_BLOCK`] samples at a time, each block going
-    /// into the factor before the next: a fit's memory does not grow with its parameters.
+    /// [`Problem::jacobian_cols`] into the columns `at` of a Jacobian `width` wide (the others zero),
+    /// simulated side by side a block of [`JACOBIAN_BLOCK`] samples at a time (see the module documentation).
     fn jacobian_into(&self, cols: &[usize], at: &[usize], width: usize) -> Factor {
         let used: Vec<usize> = (0..self.tests.len()).filter(|&j| self.sim_len[j] > 0).collect();
         let lags = self.model.lag_params();
@@ -794,11 +788,9 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
     let n = model.n_params();
     let mut held = vec![false; n];
     let mut notes = vec![String::new(); n];
-    for &k in &opts.hold {
-        if k < n {
-            held[k] = true;
-            notes[k] = "held at its starting value".into();
-        }
+    for &k in opts.hold.iter().filter(|&&k| k < n) {
+        held[k] = true;
+        notes[k] = "held at its starting value".into();
     }
 
     // Parameters the force does not depend on in these data: a zero Jacobian column at the start.
@@ -914,10 +906,8 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
                 z_start[k] = z;
                 notes[k] = note;
             }
-            for &k in &free {
-                if !held[k] {
-                    z_start[k] = prob.z[k];
-                }
+            for &k in free.iter().filter(|&&k| !held[k]) {
+                z_start[k] = prob.z[k];
             }
             continue;
         }

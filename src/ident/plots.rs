@@ -277,10 +277,7 @@ fn draw_heatmap<DB: DrawingBackend>(
         .map_err(e2s)?;
     let color = crate::viz::plot::colormap;
     for (i, row) in hm.rms_n.iter().enumerate() {
-        for (v, val) in row.iter().enumerate() {
-            if !val.is_finite() {
-                continue;
-            }
+        for (v, val) in row.iter().enumerate().filter(|(_, val)| val.is_finite()) {
             let x0 = hm.v_edges_m_s[v];
             let x1 = hm.v_edges_m_s[(v + 1).min(nv)];
             chart

@@ -348,10 +348,7 @@ pub fn diagnose_table(d: &Diagnosis) -> String {
         );
     }
     region_rows(&mut s, &format!("where {} fails", d.base_model), &d.where_);
-    for st in &d.steps {
-        if st.candidates.is_empty() {
-            continue;
-        }
+    for st in d.steps.iter().filter(|st| !st.candidates.is_empty()) {
         let _ = writeln!(
             s,
             "\neffects added to {} (held-out NRMSE {:.4}):",

@@ -169,10 +169,7 @@ pub(crate) fn where_regions(tests: &[Test], pred: &[Vec<f64>]) -> Vec<Region> {
     }
     let mut cells: Vec<Region> = Vec::new();
     for (vb, row) in sse.iter().enumerate() {
-        for (ib, &s) in row.iter().enumerate() {
-            if cnt[vb][ib] == 0 {
-                continue;
-            }
+        for (ib, &s) in row.iter().enumerate().filter(|&(ib, _)| cnt[vb][ib] > 0) {
             let vl = if vb == 0 {
                 format!("|v| < {} m/s", sig(edges[1]))
             } else if vb + 1 == nv {
