@@ -203,9 +203,7 @@ pub(crate) struct Comb {
 
 impl Comb {
     fn add(&mut self, o: &Comb) {
-        for (a, b) in self.at.iter_mut().zip(&o.at) {
-            a.add(*b);
-        }
+        self.at.iter_mut().zip(&o.at).for_each(|(a, b)| a.add(*b));
     }
 
     /// Over every comb frequency.

@@ -82,10 +82,8 @@ pub fn clips(y: &[f64]) -> Vec<Clip> {
 /// 1 where a sample of `y` counts, 0 where it is stuck at a rail ([`clips`]).
 pub fn unclipped(y: &[f64]) -> Vec<f64> {
     let mut w = vec![1.0; y.len()];
-    for c in clips(y) {
-        for r in c.runs {
-            w[r].fill(0.0);
-        }
+    for r in clips(y).into_iter().flat_map(|c| c.runs) {
+        w[r].fill(0.0);
     }
     w
 }

@@ -825,10 +825,7 @@ fn diagnose_from(
     let mut discovered: Vec<(FormulaEffect, f64, f64)> = Vec::new();
 
     let mut cur_model = base_model;
-    let mut cur = match first {
-        Some(cv) => cv,
-        None => cross_validate(&cur_model, tests, &folds, None, &cv_fit, &bar),
-    };
+    let mut cur = first.unwrap_or_else(|| cross_validate(&cur_model, tests, &folds, None, &cv_fit, &bar));
     let mut steps = vec![StepResult::new(base.to_string(), None, &cur)];
     let mut missing: Vec<String> = Vec::new();
     // The effects added at each step (one, or a pair), in order.
@@ -1201,17 +1198,12 @@ impl CvCache {
         if !named(model.spec()) || !named(&parent.spec) {
             return run();
         }
-        let bits: Vec<String> = parent
+        let bits: Vec<Vec<u64>> = parent
             .fold_params
             .iter()
-            .map(|p| {
-                p.iter()
-                    .map(|v| format!("{:x}", v.to_bits()))
-                    .collect::<Vec<_>>()
-                    .join(",")
-            })
+            .map(|p| p.iter().map(|v| v.to_bits()).collect())
             .collect();
-        let key = format!("{}|{}|{}", model.spec(), parent.spec, bits.join(";"));
+        let key = format!("{}|{}|{bits:?}", model.spec(), parent.spec);
         if let Some(cv) = self.0.lock().expect("cache lock").get(&key) {
             return cv.clone();
         }

@@ -138,9 +138,7 @@ pub(crate) fn loss_weights(tests: &[Test], spans: &[Span], weighting: Weighting)
     for (w, &c) in weights.iter_mut().zip(&counted).filter(|(_, c)| **c > 0) {
         // The residual is multiplied by the square root of the test's share.
         let scale = (total as f64 / (n_tests * c) as f64).sqrt();
-        for v in w.iter_mut() {
-            *v *= scale;
-        }
+        w.iter_mut().for_each(|v| *v *= scale);
     }
     weights
 }
@@ -646,9 +644,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     type ParameterStorage = Owned<f64, Dyn>;
 
     fn set_params(&mut self, x: &DVector<f64>) {
-        for (c, &k) in self.free.iter().enumerate() {
-            self.z[k] = x[c];
-        }
+        self.free.iter().enumerate().for_each(|(c, &k)| self.z[k] = x[c]);
         self.update();
     }
 
@@ -1336,9 +1332,7 @@ fn bounded_lstsq3(ata: [[f64; 3]; 3], atb: [f64; 3], lo: &[f64], hi: &[f64]) -> 
                     .fold(atb[i], |b, j| b - ata[i][j] * d[j])
             });
             let Some(sol) = a.lu().solve(&b) else { continue };
-            for (r, &i) in fr.iter().enumerate() {
-                d[i] = sol[r];
-            }
+            fr.iter().enumerate().for_each(|(r, &i)| d[i] = sol[r]);
         }
         if (0..3).any(|i| !d[i].is_finite() || d[i] < lo[i] - 1e-12 || d[i] > hi[i] + 1e-12) {
             continue;
@@ -1614,9 +1608,7 @@ mod tests {
         let mut tests = long_and_short_tests(&model);
         tests.truncate(1);
         let mut other = tests[0].clone();
-        for f in &mut other.f_n {
-            *f *= 0.9 / 1.1;
-        }
+        other.f_n.iter_mut().for_each(|f| *f *= 0.9 / 1.1);
         tests.push(other);
         let spans = all_spans(&tests);
         let w = loss_weights(&tests, &spans, Weighting::Tests);
@@ -1957,9 +1949,7 @@ mod tests {
         let model = testkit::model("bingham+hysteresis");
         let (stepped, p) = typical(&model);
         let mut steady = stepped[0].clone();
-        for inp in &mut steady.inputs {
-            inp.current_cmd_a = 7.0;
-        }
+        steady.inputs.iter_mut().for_each(|inp| inp.current_cmd_a = 7.0);
         steady.f_n = model.simulate(&p, &steady.inputs);
         let cols: Vec<usize> = (0..model.n_params()).collect();
         let integrating = model.state_params().iter().filter(|s| **s).count();

@@ -220,9 +220,7 @@ pub(crate) fn tests_predicting(ms: &[Measurement], share: Option<f64>) -> (Vec<T
     let mut read: Vec<Option<Test>> = vec![None; ms.len()];
     for ((key, members), found) in protocols.iter().zip(found) {
         let found = found.map(|(filter, through)| {
-            for (&k, t) in members.iter().zip(through) {
-                read[k] = Some(t);
-            }
+            members.iter().zip(through).for_each(|(&k, t)| read[k] = Some(t));
             filter
         });
         let filter = found.or_else(|| {
@@ -234,9 +232,7 @@ pub(crate) fn tests_predicting(ms: &[Measurement], share: Option<f64>) -> (Vec<T
                 })
                 .flatten()
         });
-        for &k in members {
-            filters[k] = filter;
-        }
+        members.iter().for_each(|&k| filters[k] = filter);
     }
     // In parallel: undoing a filter is a banded solve of a test's length times the window squared.
     let tests = ms

@@ -185,11 +185,7 @@ pub fn plot_model(
     std::fs::create_dir_all(dir).map_err(|e| IdentError::Other(format!("{}: {e}", dir.display())))?;
     let mut out = Vec::new();
     let size = (1500, 900);
-    let pfx = if prefix.is_empty() {
-        String::new()
-    } else {
-        format!("{prefix}_")
-    };
+    let pfx = format!("{prefix}{}", if prefix.is_empty() { "" } else { "_" });
     // Measured vs model force over time (the test with most samples at each current), displacement, velocity.
     let views: [(&str, Abscissa, bool, &str, &str); 3] = [
         (

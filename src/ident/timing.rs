@@ -177,12 +177,7 @@ mod tests {
         for k in 0..inputs.len() {
             let v = inputs[k].v_m_s;
             f_n.push((2.0 + 4.83 * ic) * v.signum() + 60.0 * v + noise[k]);
-            let next = if at_sample {
-                (k + 1).min(inputs.len() - 1)
-            } else {
-                k
-            };
-            let cmd = inputs[next].current_cmd_a;
+            let cmd = inputs[(k + usize::from(at_sample)).min(inputs.len() - 1)].current_cmd_a;
             ic = cmd + (ic - cmd) * decay;
         }
         vec![Test::synthetic("steps.csv", "steps", inputs, f_n)]
@@ -240,9 +235,7 @@ mod tests {
     fn a_command_that_never_changes_is_read_without_a_fit_and_asked_readings_are_kept() {
         let model = testkit::model("bingham");
         let mut tests = stepped(true, 0.0, 4);
-        for inp in &mut tests[0].inputs {
-            inp.current_cmd_a = 7.0;
-        }
+        tests[0].inputs.iter_mut().for_each(|inp| inp.current_cmd_a = 7.0);
         let (_, d) = decide(&model, tests.clone(), TimingChoice::Auto, &quick());
         assert!(d.fits.is_none() && d.timing == CommandTiming::AfterSample);
         // Asked for, a reading is taken as it is, even where the other would fit better.
