@@ -101,12 +101,7 @@ fn power_spectrum(y: &[f64], window: impl Fn(f64) -> f64) -> Vec<f64> {
     let mut buf: Vec<Complex<f64>> = y
         .iter()
         .enumerate()
-        .map(|(k, v)| {
-            Complex::new(
-                (v - mean) * window(2.0 * std::f64::consts::PI * k as f64 / n as f64),
-                0.0,
-            )
-        })
+        .map(|(k, v)| Complex::from((v - mean) * window(2.0 * std::f64::consts::PI * k as f64 / n as f64)))
         .collect();
     FftPlanner::new().plan_fft_forward(n).process(&mut buf);
     buf[..n / 2 + 1].iter().map(|c| c.norm_sqr()).collect()
