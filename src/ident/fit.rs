@@ -1582,23 +1582,13 @@ mod tests {
         }
         loss *= total.samples as f64 / tests.len() as f64;
         assert_eq!(fr.n, total.samples);
-        assert!(
-            (fr.sse - total.sse).abs() <= 1e-9 * total.sse,
-            "{} vs {}",
-            fr.sse,
-            total.sse
-        );
-        assert!(
-            (fr.nrmse() - total.nrmse()).abs() <= 1e-9,
-            "{} vs {}",
-            fr.nrmse(),
-            total.nrmse()
-        );
-        assert!(
-            (fr.loss - loss).abs() <= 1e-9 * loss,
-            "loss {} vs {loss}",
-            fr.loss
-        );
+        for (what, got, want, tol) in [
+            ("sse", fr.sse, total.sse, 1e-9 * total.sse),
+            ("nrmse", fr.nrmse(), total.nrmse(), 1e-9),
+            ("loss", fr.loss, loss, 1e-9 * loss),
+        ] {
+            assert!((got - want).abs() <= tol, "{what}: {got} vs {want}");
+        }
     }
 
     /// Tests of equal length: both losses are the same and so are the fits, to the bit.

@@ -597,16 +597,12 @@ mod tests {
         for i in ends {
             let a_err = i.a_m_s2 + amp * w * w * (w * i.t_s).sin();
             let v_err = i.v_m_s - amp * w * (w * i.t_s).cos();
-            assert!(
-                a_err.abs() < 0.3 * a_rms,
-                "t = {} s: acceleration off by {a_err} m/s²",
-                i.t_s
-            );
-            assert!(
-                v_err.abs() < 0.01 * v_rms,
-                "t = {} s: velocity off by {v_err} m/s",
-                i.t_s
-            );
+            for (what, err, tol, unit) in [
+                ("acceleration", a_err, 0.3 * a_rms, "m/s²"),
+                ("velocity", v_err, 0.01 * v_rms, "m/s"),
+            ] {
+                assert!(err.abs() < tol, "t = {} s: {what} off by {err} {unit}", i.t_s);
+            }
         }
     }
 
