@@ -1289,8 +1289,7 @@ fn linear_warm_start(
     }
 }
 
-/// `f(0)`, …, `f(n − 1)` over the indices of spans or tests, in order, computed in parallel or on this
-/// thread.
+/// `f(0)`, …, `f(n − 1)` in order, computed in parallel or on this thread.
 fn each_index<T: Send>(parallel: bool, n: usize, f: impl Fn(usize) -> T + Sync + Send) -> Vec<T> {
     if parallel {
         (0..n).into_par_iter().map(f).collect()

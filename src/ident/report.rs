@@ -152,10 +152,7 @@ impl FitJson {
         }
         let _ = writeln!(s, "\n{:<28} {:>14} {:>12}  unit", "parameter", "value", "std err");
         for (name, p) in &self.params {
-            let se = p
-                .std_err
-                .map(|e| crate::input::text::significant(e, 3))
-                .unwrap_or_else(|| "—".into());
+            let se = p.std_err.map_or_else(|| "—".into(), force);
             let value = crate::input::text::significant(p.value, 6);
             let _ = writeln!(s, "{name:<28} {value:>14} {se:>12}  {}", p.unit);
             if !p.note.is_empty() {
