@@ -1488,12 +1488,8 @@ mod tests {
             assert!(rel < 0.01, "parameter {k}: {} vs {truth}", free.params[k]);
         }
         // Holding the wrong lag costs accuracy the free fit does not have.
-        assert!(
-            held.sse > 100.0 * free.sse.max(1e-12),
-            "{} vs {}",
-            held.sse,
-            free.sse
-        );
+        let (held, free) = (held.sse, free.sse);
+        assert!(held > 100.0 * free.max(1e-12), "{held} vs {free}");
     }
 
     /// Two tests of the paper's device at 7 A whose force scales differ as a measured damper's tests do

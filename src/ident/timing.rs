@@ -198,18 +198,11 @@ mod tests {
             let (read, d) = decide(&model, tests.clone(), TimingChoice::Auto, &quick());
             assert_eq!(d.timing, CommandTiming::AtSample, "seed {seed}: {}", d.note());
             let (after, at) = d.fits.as_ref().expect("both readings fitted");
+            let (after, at) = (after.rmse_n(), at.rmse_n());
             // Read after its sample, every step (16 of them) leaves a sample off by the whole change of the
             // yield force (17–68 N): several times the noise. Read at it, the right model meets the noise.
-            assert!(
-                at.rmse_n() < 1.05 * NOISE_N,
-                "seed {seed}: at-sample RMSE {}",
-                at.rmse_n()
-            );
-            assert!(
-                after.rmse_n() > 2.0 * NOISE_N,
-                "seed {seed}: after-sample RMSE {}",
-                after.rmse_n()
-            );
+            assert!(at < 1.05 * NOISE_N, "seed {seed}: at-sample RMSE {at}");
+            assert!(after > 2.0 * NOISE_N, "seed {seed}: after-sample RMSE {after}");
             // The tests handed on are the ones that fit: the command of row k + 1 over (t_k, t_k+1].
             assert_eq!(read[0].inputs[249].current_cmd_a, LEVELS[1]);
             assert_eq!(tests[0].inputs[249].current_cmd_a, LEVELS[0]);
@@ -254,12 +247,8 @@ mod tests {
         let model = testkit::model("bingham");
         let tests = retimed(stepped(true, 0.0, 5), CommandTiming::AtSample);
         let fr = fit(&model, &tests, &all_spans(&tests), &FitOptions::default());
-        assert!(
-            fr.rmse_n() < 1.05 * NOISE_N,
-            "RMSE {} N, notes {:?}",
-            fr.rmse_n(),
-            fr.notes
-        );
+        let rmse = fr.rmse_n();
+        assert!(rmse < 1.05 * NOISE_N, "RMSE {rmse} N, notes {:?}", fr.notes);
         for k in [crate::device::bingham::TE, crate::device::bingham::TM] {
             assert!(fr.params[k] < 1e-4, "{}: {:?}", fr.params[k], fr.notes);
         }
@@ -276,21 +265,13 @@ mod tests {
         ] {
             let tests = stepped(at_sample, 1e-3, 6);
             let (_, d) = decide(&model, tests.clone(), TimingChoice::Auto, &FitOptions::default());
-            assert_eq!(d.timing, want, "{}", d.note());
+            let note = d.note();
+            assert_eq!(d.timing, want, "{note}");
             let fr = d.kept_fit().expect("fitted");
-            assert!(
-                fr.rmse_n() < 1.05 * NOISE_N,
-                "{}: RMSE {} N",
-                d.note(),
-                fr.rmse_n()
-            );
+            let rmse = fr.rmse_n();
+            assert!(rmse < 1.05 * NOISE_N, "{note}: RMSE {rmse} N");
             let te = fr.params[crate::device::bingham::TE].max(fr.params[crate::device::bingham::TM]);
-            assert!(
-                (te - 1e-3).abs() < 2e-4,
-                "{}: lags {:?}",
-                d.note(),
-                &fr.params[3..5]
-            );
+            assert!((te - 1e-3).abs() < 2e-4, "{note}: lags {:?}", &fr.params[3..5]);
         }
     }
 }
