@@ -3,7 +3,6 @@
 //! thresholds below against white noise), undone on the motion by regularised least squares
 //! (`deconvolve_moving_average`), and applied to the model's force before it is compared ([`Drive`]).
 //! Why: `docs/explanation/diagnosis.md`, "Reading the data as it was logged".
-#![warn(missing_docs)]
 
 use rustfft::num_complex::Complex;
 use rustfft::FftPlanner;
@@ -102,12 +101,7 @@ fn power_spectrum(y: &[f64], window: impl Fn(f64) -> f64) -> Vec<f64> {
     let mut buf: Vec<Complex<f64>> = y
         .iter()
         .enumerate()
-        .map(|(k, v)| {
-            Complex::new(
-                (v - mean) * window(2.0 * std::f64::consts::PI * k as f64 / n as f64),
-                0.0,
-            )
-        })
+        .map(|(k, v)| Complex::from((v - mean) * window(2.0 * std::f64::consts::PI * k as f64 / n as f64)))
         .collect();
     FftPlanner::new().plan_fft_forward(n).process(&mut buf);
     buf[..n / 2 + 1].iter().map(|c| c.norm_sqr()).collect()
@@ -204,9 +198,7 @@ pub(crate) struct Comb {
 
 impl Comb {
     fn add(&mut self, o: &Comb) {
-        for (a, b) in self.at.iter_mut().zip(&o.at) {
-            a.add(*b);
-        }
+        self.at.iter_mut().zip(&o.at).for_each(|(a, b)| a.add(*b));
     }
 
     /// Over every comb frequency.
@@ -218,10 +210,8 @@ impl Comb {
     /// zeros that the other window's average does not have.
     pub(crate) fn except_multiples_of(&self, m: usize) -> Tally {
         let mut t = Tally::default();
-        for (k, a) in self.at.iter().enumerate() {
-            if (k + 1) % m != 0 {
-                t.add(*a);
-            }
+        for (_, a) in self.at.iter().enumerate().filter(|(k, _)| (k + 1) % m != 0) {
+            t.add(*a);
         }
         t
     }
@@ -261,12 +251,10 @@ pub(crate) fn comb_depths(
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Channels<'a> {
     pub t: &'a [f64],
-    /// Displacement.
     pub x: &'a [f64],
     /// Velocity, when the file measured it (one derived here from `x` has comb-like zeros of its own
     /// differentiator, and is no witness).
     pub v: Option<&'a [f64]>,
-    /// Force.
     pub f: &'a [f64],
 }
 
@@ -566,15 +554,8 @@ pub(crate) fn deconvolve_moving_average(y: &[f64], window: usize) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ident::noise;
     use crate::signal::moving_average;
-    use rand::SeedableRng;
-    use rand_distr::{Distribution, Normal};
-
-    fn noise(n: usize, sd: f64, seed: u64) -> Vec<f64> {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-        let d = Normal::new(0.0, sd).unwrap();
-        (0..n).map(|_| d.sample(&mut rng)).collect()
-    }
 
     /// A sine test as a rig logs it.
     struct Logged {

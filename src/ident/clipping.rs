@@ -82,10 +82,8 @@ pub fn clips(y: &[f64]) -> Vec<Clip> {
 /// 1 where a sample of `y` counts, 0 where it is stuck at a rail ([`clips`]).
 pub fn unclipped(y: &[f64]) -> Vec<f64> {
     let mut w = vec![1.0; y.len()];
-    for c in clips(y) {
-        for r in c.runs {
-            w[r].fill(0.0);
-        }
+    for r in clips(y).into_iter().flat_map(|c| c.runs) {
+        w[r].fill(0.0);
     }
     w
 }
@@ -112,15 +110,12 @@ pub fn notes(tests: &[super::Test]) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rand::SeedableRng;
-    use rand_distr::{Distribution, Normal};
 
     /// A noisy 1 kHz sine force of ±100 N through a load cell whose range is `range` N.
     fn logged(range: f64, seed: u64) -> (Vec<f64>, Vec<bool>) {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-        let noise = Normal::new(0.0, 0.5).unwrap();
+        let noise = crate::ident::noise(4000, 0.5, seed);
         let truth: Vec<f64> = (0..4000)
-            .map(|k| 100.0 * (std::f64::consts::TAU * 2.0 * k as f64 * 1e-3).sin() + noise.sample(&mut rng))
+            .map(|k| 100.0 * (std::f64::consts::TAU * 2.0 * k as f64 * 1e-3).sin() + noise[k])
             .collect();
         let rail: Vec<bool> = truth.iter().map(|f| f.abs() >= range).collect();
         (truth.iter().map(|f| f.clamp(-range, range)).collect(), rail)

@@ -115,13 +115,11 @@ pub fn make_folds(tests: &[Test], blocks: usize, max_folds: usize) -> (Vec<Fold>
     let mut groups: Vec<String> = Vec::new();
     let mut key: Vec<usize> = Vec::with_capacity(tests.len());
     for t in tests {
-        match groups.iter().position(|g| *g == t.group) {
-            Some(g) => key.push(g),
-            None => {
-                key.push(groups.len());
-                groups.push(t.group.clone());
-            }
-        }
+        let g = groups.iter().position(|g| *g == t.group).unwrap_or_else(|| {
+            groups.push(t.group.clone());
+            groups.len() - 1
+        });
+        key.push(g);
     }
     let mut kind = "group";
     // Names that group nothing: group by motion where that groups some tests (a held-out fold is then a motion
@@ -322,7 +320,6 @@ impl CvResult {
         self
     }
 
-    /// The signatures of the held-out residual.
     fn signatures(&self, tests: &[Test]) -> Signatures {
         self.sig.unwrap_or_else(|| Signatures::of(tests, &self.oof))
     }
@@ -337,7 +334,6 @@ fn out_of_fold(tests: &[Test], preds: impl IntoIterator<Item = (Span, Vec<f64>)>
     oof
 }
 
-/// The prediction of `model` with parameters `p` over the held-out span `s`.
 fn heldout_prediction(model: &Model, p: &[f64], tests: &[Test], s: &Span) -> Vec<f64> {
     let sim = tests[s.test].predict(model, p, s.end);
     sim[s.start..s.end].to_vec()
@@ -829,10 +825,7 @@ fn diagnose_from(
     let mut discovered: Vec<(FormulaEffect, f64, f64)> = Vec::new();
 
     let mut cur_model = base_model;
-    let mut cur = match first {
-        Some(cv) => cv,
-        None => cross_validate(&cur_model, tests, &folds, None, &cv_fit, &bar),
-    };
+    let mut cur = first.unwrap_or_else(|| cross_validate(&cur_model, tests, &folds, None, &cv_fit, &bar));
     let mut steps = vec![StepResult::new(base.to_string(), None, &cur)];
     let mut missing: Vec<String> = Vec::new();
     // The effects added at each step (one, or a pair), in order.
@@ -1140,7 +1133,6 @@ fn diagnose_from(
         base_params: base_fit.params,
         base_pred,
         where_,
-        // The base's candidates (the first step's).
         candidates: steps[0].candidates.clone(),
         missing,
         pruned,
@@ -1206,17 +1198,12 @@ impl CvCache {
         if !named(model.spec()) || !named(&parent.spec) {
             return run();
         }
-        let bits: Vec<String> = parent
+        let bits: Vec<Vec<u64>> = parent
             .fold_params
             .iter()
-            .map(|p| {
-                p.iter()
-                    .map(|v| format!("{:x}", v.to_bits()))
-                    .collect::<Vec<_>>()
-                    .join(",")
-            })
+            .map(|p| p.iter().map(|v| v.to_bits()).collect())
             .collect();
-        let key = format!("{}|{}|{}", model.spec(), parent.spec, bits.join(";"));
+        let key = format!("{}|{}|{bits:?}", model.spec(), parent.spec);
         if let Some(cv) = self.0.lock().expect("cache lock").get(&key) {
             return cv.clone();
         }
@@ -1369,7 +1356,6 @@ fn enough_removed(cur: &CvResult, cand: &CvResult, noise_mse: f64, opts: &Diagno
     gain >= opts.min_gain && removed >= opts.min_excess_removed
 }
 
-/// The folds in which `cand`'s held-out error is lower than `cur`'s.
 fn folds_better(cur: &CvResult, cand: &CvResult) -> usize {
     cur.per_fold
         .iter()

@@ -369,11 +369,7 @@ pub(crate) fn model_directions(model: &Model, p: &[f64], tests: &[Test], pred: &
         .iter()
         .enumerate()
         .filter_map(|(k, s)| {
-            let span = if (s.upper - s.lower).is_finite() {
-                s.upper - s.lower
-            } else {
-                1.0
-            };
+            let span = Some(s.upper - s.lower).filter(|d| d.is_finite()).unwrap_or(1.0);
             let h = 1e-5 * p[k].abs().max(1e-3 * span).max(1e-9);
             let h = if p[k] + h > s.upper { -h } else { h };
             let mut q = p.to_vec();

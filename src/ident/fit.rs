@@ -135,15 +135,10 @@ pub(crate) fn loss_weights(tests: &[Test], spans: &[Span], weighting: Weighting)
     }
     let total: usize = counted.iter().sum();
     let n_tests = counted.iter().filter(|&&c| c > 0).count();
-    for (w, &c) in weights.iter_mut().zip(&counted) {
-        if c == 0 {
-            continue;
-        }
+    for (w, &c) in weights.iter_mut().zip(&counted).filter(|(_, c)| **c > 0) {
         // The residual is multiplied by the square root of the test's share.
         let scale = (total as f64 / (n_tests * c) as f64).sqrt();
-        for v in w.iter_mut() {
-            *v *= scale;
-        }
+        w.iter_mut().for_each(|v| *v *= scale);
     }
     weights
 }
@@ -433,10 +428,8 @@ impl<'a> Problem<'a> {
                 self.model.simulate_into(&p, inputs, &mut out);
             }
             let mut out = self.tests[j].observed(out);
-            for v in &mut out {
-                if !v.is_finite() {
-                    *v = self.blowup_n;
-                }
+            for v in out.iter_mut().filter(|v| !v.is_finite()) {
+                *v = self.blowup_n;
             }
             (out, states)
         };
@@ -473,9 +466,8 @@ impl<'a> Problem<'a> {
         self.jacobian_into(cols, &at, cols.len())
     }
 
-    /// [`Problem::jacobian_cols`] with the columns at `at` of a Jacobian `width` wide (the others zero). The
-    /// columns are simulated side by side a block of [`JACOBIAN_BLOCK`] samples at a time, each block going
-    /// into the factor before the next: a fit's memory does not grow with its parameters.
+    /// [`Problem::jacobian_cols`] into the columns `at` of a Jacobian `width` wide (the others zero),
+    /// simulated side by side a block of [`JACOBIAN_BLOCK`] samples at a time (see the module documentation).
     fn jacobian_into(&self, cols: &[usize], at: &[usize], width: usize) -> Factor {
         let used: Vec<usize> = (0..self.tests.len()).filter(|&j| self.sim_len[j] > 0).collect();
         let lags = self.model.lag_params();
@@ -597,6 +589,22 @@ impl<'a> Problem<'a> {
         }
         factor
     }
+
+    /// The factor of the Jacobian of the residual with respect to the free parameters' `z`.
+    fn full_jacobian(&self) -> Factor {
+        // A parameter on its bound sits where the transform is flat: its column is nearly zero and the
+        // search cannot move it, so it costs no simulation. `step_off_bound` asks the data afterwards.
+        let params = self.params_of(&self.z);
+        let specs = self.model.param_specs();
+        let (at, moving): (Vec<usize>, Vec<usize>) = self
+            .free
+            .iter()
+            .copied()
+            .enumerate()
+            .filter(|&(_, k)| !on_bound(&specs[k], params[k]))
+            .unzip();
+        self.jacobian_into(&moving, &at, self.free.len())
+    }
 }
 
 /// Samples of a test whose Jacobian rows are made before they go into the [`Factor`].
@@ -636,9 +644,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     type ParameterStorage = Owned<f64, Dyn>;
 
     fn set_params(&mut self, x: &DVector<f64>) {
-        for (c, &k) in self.free.iter().enumerate() {
-            self.z[k] = x[c];
-        }
+        self.free.iter().enumerate().for_each(|(c, &k)| self.z[k] = x[c]);
         self.update();
     }
 
@@ -754,24 +760,6 @@ impl Factor {
     }
 }
 
-impl Problem<'_> {
-    /// The factor of the Jacobian of the residual with respect to the free parameters' `z`.
-    fn full_jacobian(&self) -> Factor {
-        // A parameter on its bound sits where the transform is flat: its column is nearly zero and the
-        // search cannot move it, so it costs no simulation. `step_off_bound` asks the data afterwards.
-        let params = self.params_of(&self.z);
-        let specs = self.model.param_specs();
-        let (at, moving): (Vec<usize>, Vec<usize>) = self
-            .free
-            .iter()
-            .copied()
-            .enumerate()
-            .filter(|&(_, k)| !on_bound(&specs[k], params[k]))
-            .unzip();
-        self.jacobian_into(&moving, &at, self.free.len())
-    }
-}
-
 /// Whether a parameter value is on (within a fraction 2e-3 of) one of its bounds.
 fn on_bound(s: &ParamSpec, p: f64) -> bool {
     (s.lower.is_finite() && (p - s.lower).abs() <= 2.0 * inside(s.lower, p))
@@ -796,11 +784,9 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
     let n = model.n_params();
     let mut held = vec![false; n];
     let mut notes = vec![String::new(); n];
-    for &k in &opts.hold {
-        if k < n {
-            held[k] = true;
-            notes[k] = "held at its starting value".into();
-        }
+    for &k in opts.hold.iter().filter(|&&k| k < n) {
+        held[k] = true;
+        notes[k] = "held at its starting value".into();
     }
 
     // Parameters the force does not depend on in these data: a zero Jacobian column at the start.
@@ -916,10 +902,8 @@ pub fn fit(model: &Model, tests: &[Test], spans: &[Span], opts: &FitOptions) -> 
                 z_start[k] = z;
                 notes[k] = note;
             }
-            for &k in &free {
-                if !held[k] {
-                    z_start[k] = prob.z[k];
-                }
+            for &k in free.iter().filter(|&&k| !held[k]) {
+                z_start[k] = prob.z[k];
             }
             continue;
         }
@@ -1305,8 +1289,7 @@ fn linear_warm_start(
     }
 }
 
-/// `f(0)`, …, `f(n − 1)` over the indices of spans or tests, in order, computed in parallel or on this
-/// thread.
+/// `f(0)`, …, `f(n − 1)` in order, computed in parallel or on this thread.
 fn each_index<T: Send>(parallel: bool, n: usize, f: impl Fn(usize) -> T + Sync + Send) -> Vec<T> {
     if parallel {
         (0..n).into_par_iter().map(f).collect()
@@ -1348,9 +1331,7 @@ fn bounded_lstsq3(ata: [[f64; 3]; 3], atb: [f64; 3], lo: &[f64], hi: &[f64]) -> 
                     .fold(atb[i], |b, j| b - ata[i][j] * d[j])
             });
             let Some(sol) = a.lu().solve(&b) else { continue };
-            for (r, &i) in fr.iter().enumerate() {
-                d[i] = sol[r];
-            }
+            fr.iter().enumerate().for_each(|(r, &i)| d[i] = sol[r]);
         }
         if (0..3).any(|i| !d[i].is_finite() || d[i] < lo[i] - 1e-12 || d[i] > hi[i] + 1e-12) {
             continue;
@@ -1507,12 +1488,8 @@ mod tests {
             assert!(rel < 0.01, "parameter {k}: {} vs {truth}", free.params[k]);
         }
         // Holding the wrong lag costs accuracy the free fit does not have.
-        assert!(
-            held.sse > 100.0 * free.sse.max(1e-12),
-            "{} vs {}",
-            held.sse,
-            free.sse
-        );
+        let (held, free) = (held.sse, free.sse);
+        assert!(held > 100.0 * free.max(1e-12), "{held} vs {free}");
     }
 
     /// Two tests of the paper's device at 7 A whose force scales differ as a measured damper's tests do
@@ -1532,13 +1509,13 @@ mod tests {
             .collect()
     }
 
-    /// Per test, the NRMSE of the fitted model over its counted samples (from a fresh simulation).
-    fn per_test_nrmse(model: &Model, tests: &[Test], p: &[f64]) -> Vec<f64> {
+    /// Per test, the figures of the fitted model over its counted samples (from a fresh simulation).
+    fn per_test(model: &Model, tests: &[Test], p: &[f64]) -> Vec<Figures> {
         tests
             .iter()
             .map(|t| {
                 let pred = t.predict(model, p, t.len());
-                Figures::of_weighted(&pred, &t.f_n, &direction_weights(t)).nrmse()
+                Figures::of_weighted(&pred, &t.f_n, &direction_weights(t))
             })
             .collect()
     }
@@ -1558,7 +1535,10 @@ mod tests {
         );
         let run = |weighting| {
             let fr = fit_all(&model, &tests, |o| o.weighting = weighting);
-            let per = per_test_nrmse(&model, &tests, &fr.params);
+            let per: Vec<f64> = per_test(&model, &tests, &fr.params)
+                .iter()
+                .map(Figures::nrmse)
+                .collect();
             (fr, per)
         };
         let (by_tests, per_tests) = run(Weighting::Tests);
@@ -1591,31 +1571,19 @@ mod tests {
         let mut total = Figures::default();
         // Each test's mean squared residual, counted once per test and scaled to the number of samples.
         let mut loss = 0.0;
-        for t in &tests {
-            let pred = t.predict(&model, &fr.params, t.len());
-            let fig = Figures::of_weighted(&pred, &t.f_n, &direction_weights(t));
+        for fig in per_test(&model, &tests, &fr.params) {
             loss += fig.mse();
             total.add(&fig);
         }
         loss *= total.samples as f64 / tests.len() as f64;
         assert_eq!(fr.n, total.samples);
-        assert!(
-            (fr.sse - total.sse).abs() <= 1e-9 * total.sse,
-            "{} vs {}",
-            fr.sse,
-            total.sse
-        );
-        assert!(
-            (fr.nrmse() - total.nrmse()).abs() <= 1e-9,
-            "{} vs {}",
-            fr.nrmse(),
-            total.nrmse()
-        );
-        assert!(
-            (fr.loss - loss).abs() <= 1e-9 * loss,
-            "loss {} vs {loss}",
-            fr.loss
-        );
+        for (what, got, want, tol) in [
+            ("sse", fr.sse, total.sse, 1e-9 * total.sse),
+            ("nrmse", fr.nrmse(), total.nrmse(), 1e-9),
+            ("loss", fr.loss, loss, 1e-9 * loss),
+        ] {
+            assert!((got - want).abs() <= tol, "{what}: {got} vs {want}");
+        }
     }
 
     /// Tests of equal length: both losses are the same and so are the fits, to the bit.
@@ -1625,9 +1593,7 @@ mod tests {
         let mut tests = long_and_short_tests(&model);
         tests.truncate(1);
         let mut other = tests[0].clone();
-        for f in &mut other.f_n {
-            *f *= 0.9 / 1.1;
-        }
+        other.f_n.iter_mut().for_each(|f| *f *= 0.9 / 1.1);
         tests.push(other);
         let spans = all_spans(&tests);
         let w = loss_weights(&tests, &spans, Weighting::Tests);
@@ -1912,14 +1878,14 @@ mod tests {
             Transform::Upper(2.0),
             Transform::Both(-1.0, 3.0),
         ] {
+            let (lo, hi) = match tf {
+                Transform::Free => (f64::NEG_INFINITY, f64::INFINITY),
+                Transform::Lower(lo) => (lo, f64::INFINITY),
+                Transform::Upper(hi) => (f64::NEG_INFINITY, hi),
+                Transform::Both(lo, hi) => (lo, hi),
+            };
             for p in [-0.5, 0.3, 1.7] {
-                let inside = match tf {
-                    Transform::Lower(lo) => p > lo,
-                    Transform::Upper(hi) => p < hi,
-                    Transform::Both(lo, hi) => p > lo && p < hi,
-                    Transform::Free => true,
-                };
-                if inside {
+                if p > lo && p < hi {
                     assert!((tf.p(tf.z(p)) - p).abs() < 1e-9, "{tf:?} {p}");
                 }
             }
@@ -1931,12 +1897,7 @@ mod tests {
                     (num - tf.dp_dz(z)).abs() <= 1e-5 * (1.0 + num.abs()),
                     "{tf:?} z={z}"
                 );
-                match tf {
-                    Transform::Lower(lo) => assert!(p >= lo),
-                    Transform::Upper(hi) => assert!(p <= hi),
-                    Transform::Both(lo, hi) => assert!(p >= lo && p <= hi),
-                    Transform::Free => {}
-                }
+                assert!(p >= lo && p <= hi, "{tf:?} z={z}: {p}");
             }
         }
     }
@@ -1973,9 +1934,7 @@ mod tests {
         let model = testkit::model("bingham+hysteresis");
         let (stepped, p) = typical(&model);
         let mut steady = stepped[0].clone();
-        for inp in &mut steady.inputs {
-            inp.current_cmd_a = 7.0;
-        }
+        steady.inputs.iter_mut().for_each(|inp| inp.current_cmd_a = 7.0);
         steady.f_n = model.simulate(&p, &steady.inputs);
         let cols: Vec<usize> = (0..model.n_params()).collect();
         let integrating = model.state_params().iter().filter(|s| **s).count();

@@ -1,7 +1,6 @@
 //! Reading measurements into [`Test`]s: the model's inputs estimated from each file (velocity and
 //! acceleration where the file has none, the displacement smoothed), and the acquisition chain (a moving
 //! average the files went through) found per protocol and undone.
-#![warn(missing_docs)]
 
 use std::path::PathBuf;
 
@@ -221,9 +220,7 @@ pub(crate) fn tests_predicting(ms: &[Measurement], share: Option<f64>) -> (Vec<T
     let mut read: Vec<Option<Test>> = vec![None; ms.len()];
     for ((key, members), found) in protocols.iter().zip(found) {
         let found = found.map(|(filter, through)| {
-            for (&k, t) in members.iter().zip(through) {
-                read[k] = Some(t);
-            }
+            members.iter().zip(through).for_each(|(&k, t)| read[k] = Some(t));
             filter
         });
         let filter = found.or_else(|| {
@@ -235,9 +232,7 @@ pub(crate) fn tests_predicting(ms: &[Measurement], share: Option<f64>) -> (Vec<T
                 })
                 .flatten()
         });
-        for &k in members {
-            filters[k] = filter;
-        }
+        members.iter().for_each(|&k| filters[k] = filter);
     }
     // In parallel: undoing a filter is a banded solve of a test's length times the window squared.
     let tests = ms
@@ -431,18 +426,17 @@ pub fn default_current_limit_a(tests: &[Test]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ident::noise;
     use crate::ident::residual;
     use rand::SeedableRng;
-    use rand_distr::{Distribution, Normal};
 
     /// A 1 Hz sine at 1 kHz with a 0.2 mm/s noisy velocity channel: the estimated acceleration is far closer
     /// to the truth than the 7-sample derivative of the noisy velocity, and not attenuated.
     #[test]
     fn acceleration_from_a_noisy_velocity_channel_is_close_to_the_truth() {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-        let nd = Normal::new(0.0, 2e-4).unwrap();
         let w = 2.0 * std::f64::consts::PI;
         let n = 6000;
+        let nd = noise(n, 2e-4, 3);
         let t: Vec<f64> = (0..n).map(|k| k as f64 * 1e-3).collect();
         let m = Measurement {
             path: "a.csv".into(),
@@ -452,7 +446,8 @@ mod tests {
                 .collect(),
             v_m_s: t
                 .iter()
-                .map(|t| 0.02 * w * (w * t).cos() + nd.sample(&mut rng))
+                .zip(&nd)
+                .map(|(t, e)| 0.02 * w * (w * t).cos() + e)
                 .collect(),
             velocity_measured: true,
             i_a: vec![1.0; n],
@@ -471,13 +466,8 @@ mod tests {
                 .sqrt()
         };
         let est: Vec<f64> = inputs_of(&m).iter().map(|i| i.a_m_s2).collect();
-        let naive = m.acceleration();
-        assert!(
-            rms_err(&est) < 0.2 * rms_err(&naive),
-            "{} vs {}",
-            rms_err(&est),
-            rms_err(&naive)
-        );
+        let (est_err, naive_err) = (rms_err(&est), rms_err(&m.acceleration()));
+        assert!(est_err < 0.2 * naive_err, "{est_err} vs {naive_err}");
         // Not attenuated: the fitted amplitude is the true 0.79 m/s² within 1 %.
         let gain = est[50..n - 50]
             .iter()
@@ -511,12 +501,8 @@ mod tests {
         let t: Vec<f64> = (0..n).map(|k| (k as f64 + u()) / rate).collect();
         let n = t.len();
         let w = std::f64::consts::TAU * f_hz;
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-        let nd = Normal::new(0.0, 2e-6).unwrap();
-        let x: Vec<f64> = t
-            .iter()
-            .map(|t| amp * (w * t).sin() + nd.sample(&mut rng))
-            .collect();
+        let nd = noise(n, 2e-6, seed);
+        let x: Vec<f64> = t.iter().zip(&nd).map(|(t, e)| amp * (w * t).sin() + e).collect();
         Measurement {
             path: "a.csv".into(),
             v_m_s: crate::signal::smooth_derivative(&t, &x),
@@ -594,7 +580,7 @@ mod tests {
     }
 
     /// Near the ends of a test, where a centred window does not reach, the off-centre windows give
-    /// derivatives about as good as inside (a 7-sample differentiator there gave 17 m/s² of noise at 2 kHz).
+    /// derivatives about as good as inside.
     #[test]
     fn derivatives_near_the_ends_of_a_test_are_as_good_as_inside() {
         let (amp, f_hz, rate, n) = (0.02, 1.0, 2000.0, 6000usize);
@@ -606,24 +592,18 @@ mod tests {
         for i in ends {
             let a_err = i.a_m_s2 + amp * w * w * (w * i.t_s).sin();
             let v_err = i.v_m_s - amp * w * (w * i.t_s).cos();
-            assert!(
-                a_err.abs() < 0.3 * a_rms,
-                "t = {} s: acceleration off by {a_err} m/s²",
-                i.t_s
-            );
-            assert!(
-                v_err.abs() < 0.01 * v_rms,
-                "t = {} s: velocity off by {v_err} m/s",
-                i.t_s
-            );
+            for (what, err, tol, unit) in [
+                ("acceleration", a_err, 0.3 * a_rms, "m/s²"),
+                ("velocity", v_err, 0.01 * v_rms, "m/s"),
+            ] {
+                assert!(err.abs() < tol, "t = {} s: {what} off by {err} {unit}", i.t_s);
+            }
         }
     }
 
     /// Slow sines (0.4 and 1 Hz at 1 kHz), displacement only (2 µm noise), on eight noise seeds: the window
-    /// widens every time, so the acceleration from the displacement twice is within 5 % of the signal. (The
-    /// rule that stopped at the mean change of pure noise failed on the first seed: it stayed at the
-    /// narrowest window, an error of 580 % of the 0.4 Hz signal.) The derived velocity's noise is estimated
-    /// within 25 %.
+    /// widens every time, so the acceleration from the displacement twice is within 5 % of the signal. The
+    /// derived velocity's noise is estimated within 25 %.
     #[test]
     fn acceleration_and_velocity_noise_from_displacement_alone_on_every_seed() {
         for (seed, f_hz) in (0..8u64).map(|s| (s, if s % 2 == 0 { 0.4 } else { 1.0 })) {
@@ -633,8 +613,7 @@ mod tests {
     }
 
     /// The same on a clock jittered by up to ¼ sample (the format asks only for increasing times), the
-    /// acceleration checked at every sample. With the file reader's 7-sample derivatives on an
-    /// uneven grid, the acceleration from the displacement twice is 8 times the 0.4 Hz signal.
+    /// acceleration checked at every sample.
     #[test]
     fn derivatives_on_a_jittered_clock_are_as_good_as_on_an_even_one() {
         for (seed, f_hz) in [(0u64, 0.4), (1, 1.0), (2, 2.5)] {
@@ -645,9 +624,7 @@ mod tests {
     }
 
     /// A record with a hole (100 samples lost in the middle of a 10 mm 2.5 Hz sine at 1 kHz, displacement
-    /// only): each side is differentiated on its own, as well as a record without one. (This record does not
-    /// show what fitting across the hole did; `independent_mass_in_records_with_a_hole_is_fitted_to_the_noise`
-    /// in `tests/independent_truth.rs` does.)
+    /// only): each side is differentiated on its own, as well as a record without one.
     #[test]
     fn derivatives_on_either_side_of_a_hole_in_the_record() {
         let (amp, f_hz) = (0.01, 2.5);

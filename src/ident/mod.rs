@@ -171,3 +171,13 @@ impl Test {
         }
     }
 }
+
+/// `n` samples of seeded white Gaussian noise of standard deviation `sd`, for tests.
+#[cfg(test)]
+pub(crate) fn noise(n: usize, sd: f64, seed: u64) -> Vec<f64> {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let d = Normal::new(0.0, sd).unwrap();
+    (0..n).map(|_| d.sample(&mut rng)).collect()
+}

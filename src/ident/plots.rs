@@ -1,7 +1,6 @@
 //! Static plots (PNG + SVG) of a fit or a diagnosis: measured vs model force–time, force–displacement and
 //! force–velocity per current level, the residual over |v| × current and over time, the candidate ranking
 //! and the held-out error falling as effects are added.
-#![warn(missing_docs)]
 
 use std::path::{Path, PathBuf};
 
@@ -186,11 +185,7 @@ pub fn plot_model(
     std::fs::create_dir_all(dir).map_err(|e| IdentError::Other(format!("{}: {e}", dir.display())))?;
     let mut out = Vec::new();
     let size = (1500, 900);
-    let pfx = if prefix.is_empty() {
-        String::new()
-    } else {
-        format!("{prefix}_")
-    };
+    let pfx = format!("{prefix}{}", if prefix.is_empty() { "" } else { "_" });
     // Measured vs model force over time (the test with most samples at each current), displacement, velocity.
     let views: [(&str, Abscissa, bool, &str, &str); 3] = [
         (
@@ -278,10 +273,7 @@ fn draw_heatmap<DB: DrawingBackend>(
         .map_err(e2s)?;
     let color = crate::viz::plot::colormap;
     for (i, row) in hm.rms_n.iter().enumerate() {
-        for (v, val) in row.iter().enumerate() {
-            if !val.is_finite() {
-                continue;
-            }
+        for (v, val) in row.iter().enumerate().filter(|(_, val)| val.is_finite()) {
             let x0 = hm.v_edges_m_s[v];
             let x1 = hm.v_edges_m_s[(v + 1).min(nv)];
             chart

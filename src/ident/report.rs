@@ -152,10 +152,7 @@ impl FitJson {
         }
         let _ = writeln!(s, "\n{:<28} {:>14} {:>12}  unit", "parameter", "value", "std err");
         for (name, p) in &self.params {
-            let se = p
-                .std_err
-                .map(|e| crate::input::text::significant(e, 3))
-                .unwrap_or_else(|| "—".into());
+            let se = p.std_err.map_or_else(|| "—".into(), force);
             let value = crate::input::text::significant(p.value, 6);
             let _ = writeln!(s, "{name:<28} {value:>14} {se:>12}  {}", p.unit);
             if !p.note.is_empty() {
@@ -348,10 +345,7 @@ pub fn diagnose_table(d: &Diagnosis) -> String {
         );
     }
     region_rows(&mut s, &format!("where {} fails", d.base_model), &d.where_);
-    for st in &d.steps {
-        if st.candidates.is_empty() {
-            continue;
-        }
+    for st in d.steps.iter().filter(|st| !st.candidates.is_empty()) {
         let _ = writeln!(
             s,
             "\neffects added to {} (held-out NRMSE {:.4}):",

@@ -28,14 +28,10 @@ pub(crate) enum CurrentBins {
 impl CurrentBins {
     /// Bins for the current commands (|i|) of these tests.
     pub fn of(tests: &[Test]) -> Self {
-        let imax = tests
-            .iter()
-            .flat_map(|t| &t.inputs)
-            .fold(0.0f64, |m, i| m.max(i.current_cmd_a.abs()));
+        let every = || tests.iter().flat_map(|t| &t.inputs);
+        let imax = every().fold(0.0f64, |m, i| m.max(i.current_cmd_a.abs()));
         let q = (imax * 1e-3).max(1e-9);
-        let mut levels: Vec<i64> = tests
-            .iter()
-            .flat_map(|t| &t.inputs)
+        let mut levels: Vec<i64> = every()
             .map(|i| (i.current_cmd_a.abs() / q).round() as i64)
             .collect();
         levels.sort_unstable();
@@ -43,11 +39,7 @@ impl CurrentBins {
         if levels.len() <= 8 {
             return CurrentBins::Levels(levels.iter().map(|&l| l as f64 * q).collect());
         }
-        let mut all: Vec<f64> = tests
-            .iter()
-            .flat_map(|t| &t.inputs)
-            .map(|i| i.current_cmd_a.abs())
-            .collect();
+        let mut all: Vec<f64> = every().map(|i| i.current_cmd_a.abs()).collect();
         all.sort_by(f64::total_cmp);
         let qt = |f: f64| all[((all.len() - 1) as f64 * f) as usize];
         let mut edges = vec![
@@ -177,10 +169,7 @@ pub(crate) fn where_regions(tests: &[Test], pred: &[Vec<f64>]) -> Vec<Region> {
     }
     let mut cells: Vec<Region> = Vec::new();
     for (vb, row) in sse.iter().enumerate() {
-        for (ib, &s) in row.iter().enumerate() {
-            if cnt[vb][ib] == 0 {
-                continue;
-            }
+        for (ib, &s) in row.iter().enumerate().filter(|&(ib, _)| cnt[vb][ib] > 0) {
             let vl = if vb == 0 {
                 format!("|v| < {} m/s", sig(edges[1]))
             } else if vb + 1 == nv {
@@ -503,17 +492,8 @@ pub(crate) const DIRECTION_SIGMAS: f64 = 4.0;
 /// velocity; where that sign is a coin toss, a residual of `2 Fy` no effect explains would dominate the
 /// residual of a correct model, and any effect that softens the reversal would look significant.
 pub fn direction_weights(t: &Test) -> Vec<f64> {
-    let mut w = sign_weights(t);
-    for (w, c) in w.iter_mut().zip(super::clipping::unclipped(&t.f_n)) {
-        *w *= c;
-    }
-    w
-}
-
-/// [`direction_weights`] from the velocity alone.
-fn sign_weights(t: &Test) -> Vec<f64> {
     let weight = |v: f64, sd: f64| if v.abs() < DIRECTION_SIGMAS * sd { 0.0 } else { 1.0 };
-    match &t.velocity_noise_m_s {
+    let mut w: Vec<f64> = match &t.velocity_noise_m_s {
         // A velocity derived here: its noise at each sample (larger at the ends of the test).
         Some(sd) if sd.len() == t.inputs.len() => t
             .inputs
@@ -525,7 +505,11 @@ fn sign_weights(t: &Test) -> Vec<f64> {
             let sd = velocity_noise_std(t);
             t.inputs.iter().map(|i| weight(i.v_m_s, sd)).collect()
         }
+    };
+    for (w, c) in w.iter_mut().zip(super::clipping::unclipped(&t.f_n)) {
+        *w *= c;
     }
+    w
 }
 
 /// Standard deviation of the noise in the velocity a test's model is given: [`Test::velocity_noise_m_s`]
@@ -536,9 +520,9 @@ pub(crate) fn velocity_noise_std(t: &Test) -> f64 {
         // Inside the test, where the centred window is used.
         return sd[sd.len() / 2];
     }
+    let ts: Vec<f64> = t.inputs.iter().map(|i| i.t_s).collect();
     if t.velocity_measured {
         let v: Vec<f64> = t.inputs.iter().map(|i| i.v_m_s).collect();
-        let ts: Vec<f64> = t.inputs.iter().map(|i| i.t_s).collect();
         return white_noise_std_on(&ts, &v);
     }
     let x: Vec<f64> = t.inputs.iter().map(|i| i.x_m).collect();
@@ -549,44 +533,36 @@ pub(crate) fn velocity_noise_std(t: &Test) -> f64 {
     // An impulse in the middle of a stretch of the test's time grid, wide enough for the differentiator.
     let w = n.min(31);
     let lo = (n - w) / 2;
-    let ts: Vec<f64> = t.inputs[lo..lo + w].iter().map(|i| i.t_s).collect();
     let mut pulse = vec![0.0; w];
     pulse[w / 2] = 1.0;
-    let gain = smooth_derivative(&ts, &pulse)
+    let gain = smooth_derivative(&ts[lo..lo + w], &pulse)
         .iter()
         .map(|d| d * d)
         .sum::<f64>()
         .sqrt();
-    let t_all: Vec<f64> = t.inputs.iter().map(|i| i.t_s).collect();
-    white_noise_std_on(&t_all, &x) * gain
+    white_noise_std_on(&ts, &x) * gain
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::device::Inputs;
-    use rand::SeedableRng;
-    use rand_distr::{Distribution, Normal};
+    use crate::ident::noise;
 
     /// White noise through a moving average: the third-difference estimate, scaled by the gain, reads the
     /// spread of the noise before the filter (without it, a small fraction of it: 0.8 % at 100 samples), and
     /// the filter passes `1/window` of its variance.
     #[test]
     fn the_raw_noise_gain_recovers_the_spread_of_white_noise_before_a_moving_average() {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-        let e: Vec<f64> = (0..200_000)
-            .map(|_| Normal::new(0.0, 1.0).unwrap().sample(&mut rng))
-            .collect();
+        let e = noise(200_000, 1.0, 3);
         for window in [1, 2, 5, 100] {
             let f = crate::signal::moving_average(&e, window);
             let f = &f[window..];
             let est = crate::signal::white_noise_std(f) * raw_noise_gain(window);
             assert!((est - 1.0).abs() < 0.03, "window {window}: {est}");
             let sd = (f.iter().map(|v| v * v).sum::<f64>() / f.len() as f64).sqrt();
-            assert!(
-                (sd * (window as f64).sqrt() - 1.0).abs() < 0.03,
-                "window {window}: {sd}"
-            );
+            let before = sd * (window as f64).sqrt();
+            assert!((before - 1.0).abs() < 0.03, "window {window}: {sd}");
         }
     }
 
@@ -608,13 +584,12 @@ mod tests {
     #[test]
     fn noise_floor_recovers_white_noise_on_a_square_wave_force() {
         // A Bingham-like force (jumps at reversals, slow sine part) plus white noise of 0.7 N.
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-        let nd = Normal::new(0.0, 0.7).unwrap();
         let n = 20_000;
+        let nd = noise(n, 0.7, 3);
         let f: Vec<f64> = (0..n)
             .map(|k| {
                 let ph = 2.0 * std::f64::consts::PI * 2.0 * k as f64 * 1e-3;
-                40.0 * ph.cos().signum() + 10.0 * ph.cos() + nd.sample(&mut rng)
+                40.0 * ph.cos().signum() + 10.0 * ph.cos() + nd[k]
             })
             .collect();
         let t = test_of(f, vec![0.0; n], vec![0.0; n]);

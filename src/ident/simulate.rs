@@ -60,9 +60,7 @@ fn numbers(values: &[f64], m: &Measurement, name: &str) -> Result<TextColumn, St
         ));
     }
     let mut c = TextColumn::default();
-    for v in values {
-        c.push(&v.to_string());
-    }
+    values.iter().for_each(|v| c.push(&v.to_string()));
     Ok(c)
 }
 

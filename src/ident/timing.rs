@@ -67,11 +67,6 @@ pub(crate) fn command_never_changes(inputs: &[Inputs]) -> bool {
         .all(|s| s.current_cmd_a.to_bits() == inputs[0].current_cmd_a.to_bits())
 }
 
-/// Whether any test's command changes from one sample to the next (only then do the readings differ).
-pub(crate) fn commands_change(tests: &[Test]) -> bool {
-    tests.iter().any(|t| !command_never_changes(&t.inputs))
-}
-
 /// The tests as the model reads them under `timing`, from tests loaded as logged ([`Test::from_measurement`]
 /// reads them after their sample). At-sample: the model holds the command of row `k + 1` over
 /// `(t_k, t_{k+1}]`; the last row keeps its own, and the first sample's lags start settled at the command of
@@ -136,7 +131,9 @@ pub fn decide(
     let timing = match choice {
         TimingChoice::AfterSample => CommandTiming::AfterSample,
         TimingChoice::AtSample => CommandTiming::AtSample,
-        TimingChoice::Auto if !commands_change(&tests) => CommandTiming::AfterSample,
+        TimingChoice::Auto if tests.iter().all(|t| command_never_changes(&t.inputs)) => {
+            CommandTiming::AfterSample
+        }
         TimingChoice::Auto => {
             let spans = all_spans(&tests);
             let fa = fit(model, &tests, &spans, opts);
@@ -158,8 +155,6 @@ pub fn decide(
 mod tests {
     use super::*;
     use crate::device::effects::testkit;
-    use rand::SeedableRng;
-    use rand_distr::{Distribution, Normal};
 
     const NOISE_N: f64 = 0.2;
     /// Current levels of the paper's driver, each held 0.25 s.
@@ -175,20 +170,14 @@ mod tests {
         for (k, inp) in inputs.iter_mut().enumerate() {
             inp.current_cmd_a = LEVELS[(k / 250) % LEVELS.len()];
         }
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-        let noise = Normal::new(0.0, NOISE_N).unwrap();
+        let noise = crate::ident::noise(inputs.len(), NOISE_N, seed);
         let decay = if lag_s > 0.0 { (-1e-3 / lag_s).exp() } else { 0.0 };
         let mut ic = inputs[0].current_cmd_a;
         let mut f_n = Vec::with_capacity(inputs.len());
         for k in 0..inputs.len() {
             let v = inputs[k].v_m_s;
-            f_n.push((2.0 + 4.83 * ic) * v.signum() + 60.0 * v + noise.sample(&mut rng));
-            let next = if at_sample {
-                (k + 1).min(inputs.len() - 1)
-            } else {
-                k
-            };
-            let cmd = inputs[next].current_cmd_a;
+            f_n.push((2.0 + 4.83 * ic) * v.signum() + 60.0 * v + noise[k]);
+            let cmd = inputs[(k + usize::from(at_sample)).min(inputs.len() - 1)].current_cmd_a;
             ic = cmd + (ic - cmd) * decay;
         }
         vec![Test::synthetic("steps.csv", "steps", inputs, f_n)]
@@ -209,18 +198,11 @@ mod tests {
             let (read, d) = decide(&model, tests.clone(), TimingChoice::Auto, &quick());
             assert_eq!(d.timing, CommandTiming::AtSample, "seed {seed}: {}", d.note());
             let (after, at) = d.fits.as_ref().expect("both readings fitted");
+            let (after, at) = (after.rmse_n(), at.rmse_n());
             // Read after its sample, every step (16 of them) leaves a sample off by the whole change of the
             // yield force (17–68 N): several times the noise. Read at it, the right model meets the noise.
-            assert!(
-                at.rmse_n() < 1.05 * NOISE_N,
-                "seed {seed}: at-sample RMSE {}",
-                at.rmse_n()
-            );
-            assert!(
-                after.rmse_n() > 2.0 * NOISE_N,
-                "seed {seed}: after-sample RMSE {}",
-                after.rmse_n()
-            );
+            assert!(at < 1.05 * NOISE_N, "seed {seed}: at-sample RMSE {at}");
+            assert!(after > 2.0 * NOISE_N, "seed {seed}: after-sample RMSE {after}");
             // The tests handed on are the ones that fit: the command of row k + 1 over (t_k, t_k+1].
             assert_eq!(read[0].inputs[249].current_cmd_a, LEVELS[1]);
             assert_eq!(tests[0].inputs[249].current_cmd_a, LEVELS[0]);
@@ -246,9 +228,7 @@ mod tests {
     fn a_command_that_never_changes_is_read_without_a_fit_and_asked_readings_are_kept() {
         let model = testkit::model("bingham");
         let mut tests = stepped(true, 0.0, 4);
-        for inp in &mut tests[0].inputs {
-            inp.current_cmd_a = 7.0;
-        }
+        tests[0].inputs.iter_mut().for_each(|inp| inp.current_cmd_a = 7.0);
         let (_, d) = decide(&model, tests.clone(), TimingChoice::Auto, &quick());
         assert!(d.fits.is_none() && d.timing == CommandTiming::AfterSample);
         // Asked for, a reading is taken as it is, even where the other would fit better.
@@ -267,12 +247,8 @@ mod tests {
         let model = testkit::model("bingham");
         let tests = retimed(stepped(true, 0.0, 5), CommandTiming::AtSample);
         let fr = fit(&model, &tests, &all_spans(&tests), &FitOptions::default());
-        assert!(
-            fr.rmse_n() < 1.05 * NOISE_N,
-            "RMSE {} N, notes {:?}",
-            fr.rmse_n(),
-            fr.notes
-        );
+        let rmse = fr.rmse_n();
+        assert!(rmse < 1.05 * NOISE_N, "RMSE {rmse} N, notes {:?}", fr.notes);
         for k in [crate::device::bingham::TE, crate::device::bingham::TM] {
             assert!(fr.params[k] < 1e-4, "{}: {:?}", fr.params[k], fr.notes);
         }
@@ -289,21 +265,13 @@ mod tests {
         ] {
             let tests = stepped(at_sample, 1e-3, 6);
             let (_, d) = decide(&model, tests.clone(), TimingChoice::Auto, &FitOptions::default());
-            assert_eq!(d.timing, want, "{}", d.note());
+            let note = d.note();
+            assert_eq!(d.timing, want, "{note}");
             let fr = d.kept_fit().expect("fitted");
-            assert!(
-                fr.rmse_n() < 1.05 * NOISE_N,
-                "{}: RMSE {} N",
-                d.note(),
-                fr.rmse_n()
-            );
+            let rmse = fr.rmse_n();
+            assert!(rmse < 1.05 * NOISE_N, "{note}: RMSE {rmse} N");
             let te = fr.params[crate::device::bingham::TE].max(fr.params[crate::device::bingham::TM]);
-            assert!(
-                (te - 1e-3).abs() < 2e-4,
-                "{}: lags {:?}",
-                d.note(),
-                &fr.params[3..5]
-            );
+            assert!((te - 1e-3).abs() < 2e-4, "{note}: lags {:?}", &fr.params[3..5]);
         }
     }
 }
