@@ -221,6 +221,13 @@ pub(crate) mod testkit {
         mean_where(&m.simulate(p, &inputs), &inputs, |k| k.v_m_s > 0.0)
     }
 
+    /// Mean force on the rising (`v > 0`) and on the falling (`v < 0`) samples of `inputs`.
+    pub fn up_down(m: &Model, p: &[f64], inputs: &[Inputs]) -> (f64, f64) {
+        let f = m.simulate(p, inputs);
+        let up = mean_where(&f, inputs, |i| i.v_m_s > 0.0);
+        (up, mean_where(&f, inputs, |i| i.v_m_s < 0.0))
+    }
+
     /// Mean of the values where the mask holds.
     pub fn mean_where(f: &[f64], inputs: &[Inputs], keep: impl Fn(&Inputs) -> bool) -> f64 {
         let (s, n) = f
