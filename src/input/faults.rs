@@ -42,22 +42,18 @@ pub fn window_error(start_s: f64, end_s: f64, run_s: f64, run: &str) -> Option<(
         ));
     }
     if !(end_s.is_finite() && end_s >= start_s && end_s <= run_s) {
-        return Some((
-            "end_s",
-            format!(
-                "value {end_s} outside the allowed range [{start_s}, {run_s}] s (after start_s, within the \
-                 {run}: to last to its end, write {run_s})"
-            ),
-        ));
+        let msg = format!(
+            "value {end_s} outside the allowed range [{start_s}, {run_s}] s (after start_s, within the \
+             {run}: to last to its end, write {run_s})"
+        );
+        return Some(("end_s", msg));
     }
     if end_s <= start_s {
-        return Some((
-            "end_s",
-            format!(
-                "value {end_s} s is not after start_s = {start_s} s: the fault would never act (it is active \
-                 from start_s until end_s)"
-            ),
-        ));
+        let msg = format!(
+            "value {end_s} s is not after start_s = {start_s} s: the fault would never act (it is active \
+             from start_s until end_s)"
+        );
+        return Some(("end_s", msg));
     }
     None
 }

@@ -188,14 +188,11 @@ impl Source {
         if range.contains(&x) {
             return Ok(x);
         }
+        let (lo, hi) = range.into_inner();
         Err(self.err(
             v,
             field,
-            format!(
-                "value {x} outside the allowed range [{}, {}]",
-                range.start(),
-                range.end()
-            ),
+            format!("value {x} outside the allowed range [{lo}, {hi}]"),
         ))
     }
 

@@ -214,20 +214,17 @@ impl UrdfModel {
                 .map(|l| l.inertial.mass.value)
                 .sum();
             if mass <= 0.0 {
-                let child = &j.child.link;
                 let fixed = if group.len() > 1 {
                     format!(" (with the links fixed to it: {})", group[1..].join(", "))
                 } else {
                     String::new()
                 };
-                return Err(self.mass_error(
-                    child,
-                    format!(
-                        "mass {mass} kg{fixed}: the link moves on joint `{}` ({}) and must have a mass > 0",
-                        j.name,
-                        format!("{:?}", j.joint_type).to_lowercase()
-                    ),
-                ));
+                let kind = format!("{:?}", j.joint_type).to_lowercase();
+                let msg = format!(
+                    "mass {mass} kg{fixed}: the link moves on joint `{}` ({kind}) and must have a mass > 0",
+                    j.name
+                );
+                return Err(self.mass_error(&j.child.link, msg));
             }
         }
         Ok(())

@@ -1036,16 +1036,12 @@ fn check_stops_agree(
             return Err(model.field_error("joint", &stick_j.name, "limit", msg).into());
         };
         if x <= piston_j.limit.lower || x >= piston_j.limit.upper {
-            return Err(model.field_error(
-                "joint",
-                &stick_j.name,
-                "limit",
-                format!(
-                    "stick stops [{lo}, {hi}] rad drive the piston to {x:.5} m at {t:.4} rad, outside its stroke [{}, {}] m \
-                     (joint `{}`): the stops would fight",
-                    piston_j.limit.lower, piston_j.limit.upper, piston_j.name
-                ),
-            ).into());
+            let msg = format!(
+                "stick stops [{lo}, {hi}] rad drive the piston to {x:.5} m at {t:.4} rad, outside its stroke [{}, {}] m \
+                 (joint `{}`): the stops would fight",
+                piston_j.limit.lower, piston_j.limit.upper, piston_j.name
+            );
+            return Err(model.field_error("joint", &stick_j.name, "limit", msg).into());
         }
     }
     Ok(())
