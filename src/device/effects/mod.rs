@@ -299,16 +299,10 @@ mod tests {
                 assert_eq!(g.len(), e.params().len());
                 assert_eq!(t.len(), e.params().len());
                 for ((ps, g), t) in e.params().iter().zip(&g).zip(&t) {
-                    assert!(
-                        g.is_finite() && *g >= ps.lower && *g <= ps.upper,
-                        "{}: guess {g}",
-                        ps.name
-                    );
-                    assert!(
-                        t.is_finite() && *t >= ps.lower && *t <= ps.upper,
-                        "{}: typical {t}",
-                        ps.name
-                    );
+                    for (what, v) in [("guess", g), ("typical", t)] {
+                        let inside = v.is_finite() && *v >= ps.lower && *v <= ps.upper;
+                        assert!(inside, "{}: {what} {v}", ps.name);
+                    }
                 }
                 assert_ne!(g, t, "{name}: the typical strength equals the initial guess");
             }
