@@ -417,7 +417,7 @@ struct TomlLoadCell {
 }
 
 /// `PARAMS.json` as written by `mrfeel fit --save` and read by `mrfeel validate --params`.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct ParamsFile {
     /// The model's spec (`bingham+hysteresis`).
     pub model: String,
@@ -463,10 +463,8 @@ impl ParamsFile {
         Self {
             model: model.name(),
             current_limit_a: Some(model.current_limit_a),
-            command_timing: None,
-            acquisition_window_periods: None,
-            weighting: None,
             params,
+            ..Self::default()
         }
     }
 
