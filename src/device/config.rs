@@ -208,14 +208,11 @@ impl DeviceConfig {
 /// A value that must be a positive, finite number of `unit`.
 fn positive(v: &toml::Spanned<f64>, unit: &str, src: &Source, field: &str) -> Result<f64, InputError> {
     let x = *v.get_ref();
-    match x.is_finite() && x > 0.0 {
-        true => Ok(x),
-        false => Err(src.err(
-            v,
-            field,
-            format!("value {} {unit}: must be a positive, finite number", num(x)),
-        )),
+    if x.is_finite() && x > 0.0 {
+        return Ok(x);
     }
+    let msg = format!("value {} {unit}: must be a positive, finite number", num(x));
+    Err(src.err(v, field, msg))
 }
 
 /// Match named values to the model's parameters: every parameter present (or one whose absence has a
