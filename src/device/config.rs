@@ -262,13 +262,8 @@ fn assign_params(
             }
         };
         if !v.is_finite() || v < spec.lower || v > spec.upper {
-            let msg = format!(
-                "value {} outside the allowed range [{}, {}] {}",
-                num(v),
-                spec.lower,
-                spec.upper,
-                spec.unit
-            );
+            let (v, lo, hi, unit) = (num(v), spec.lower, spec.upper, spec.unit);
+            let msg = format!("value {v} outside the allowed range [{lo}, {hi}] {unit}");
             return Err(InputError::field(path, line, spec.name, msg));
         }
         out.push(v);
@@ -308,11 +303,8 @@ fn check_force(
                 .iter()
                 .find(|p| p.name == spec.name)
                 .map_or(section_line, |p| p.line);
-            let msg = format!(
-                "value {} {} gives {at}; correct the value or refit",
-                num(params[k]),
-                spec.unit
-            );
+            let (v, unit) = (num(params[k]), spec.unit);
+            let msg = format!("value {v} {unit} gives {at}; correct the value or refit");
             return Err(InputError::field(path, line, spec.name, msg));
         }
     }

@@ -587,10 +587,8 @@ fn check_element(parent: &str, el: &XmlElement, owner: &str, path: &str) -> Resu
         };
         let first = el.children.iter().find(|d| d.name == c.name).expect("c itself");
         if !repeats && !std::ptr::eq(first, c) {
-            let msg = format!(
-                "a second <{}> (one allowed; the first is at line {})",
-                c.name, first.line
-            );
+            let (name, at) = (&c.name, first.line);
+            let msg = format!("a second <{name}> (one allowed; the first is at line {at})");
             return Err((c.line, here, msg));
         }
         let sub = match path {
