@@ -197,7 +197,6 @@ pub struct ActiveStick {
     v_r_m_s: f64,
     enc_m: Option<f64>,
     v_filt_m_s: f64,
-    outer_ticks: u64,
     inner_ticks: u64,
     /// Current-loop ticks per admittance tick (`current_loop_hz / rate_hz`, ≥ 1).
     inner_per_outer: u64,
@@ -229,7 +228,6 @@ impl ActiveStick {
             v_r_m_s: 0.0,
             enc_m: None,
             v_filt_m_s: 0.0,
-            outer_ticks: 0,
             inner_ticks: 0,
             inner_per_outer: ratio,
             inner_dt_s: 1.0 / cfg.inner_rate_hz(),
@@ -363,7 +361,6 @@ impl ActiveStick {
             let x = rod.x_m + rod.v_m_s * (t - t_s).max(0.0);
             if self.inner_ticks.is_multiple_of(self.inner_per_outer) {
                 self.outer_tick(t, law, rod, x, faults);
-                self.outer_ticks += 1;
             }
             sum += self.inner_tick(t, rod.v_m_s * self.cfg.gear_rad_per_m, faults);
             n += 1;

@@ -105,7 +105,7 @@ impl Spring for QFeelSpring {
 }
 
 /// The feel systems a scenario can put on the rig, in comparison-table order.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub enum FeelKind {
     /// A passive centring spring.
     CentringSpring,
@@ -113,7 +113,8 @@ pub enum FeelKind {
     VariableGradientSpring,
     /// A spring whose force scales with dynamic pressure (q-feel).
     QFeel,
-    /// The MR damper alone under the feel loop.
+    /// The MR damper alone under the feel loop (the default).
+    #[default]
     Mr,
     /// The MR damper with a centring spring on the same joint (the hybrid).
     MrSpring,
@@ -206,8 +207,8 @@ impl Spring for SpringElement {
     }
 }
 
-/// The feel system of a scenario (`[feel_system]`; the MR damper alone when absent).
-#[derive(Debug, Clone, PartialEq)]
+/// The feel system of a scenario (`[feel_system]`; the MR damper alone when absent, the default).
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct FeelSystemConfig {
     /// Which feel system.
     pub kind: FeelKind,
@@ -223,20 +224,6 @@ pub struct FeelSystemConfig {
     pub motor_max_force_n: f64,
     /// Active stick: its motor, driver, sensor and admittance loop; `None`: an ideal clamped force source.
     pub active_stick: Option<super::active::ActiveStickConfig>,
-}
-
-impl Default for FeelSystemConfig {
-    fn default() -> Self {
-        Self {
-            kind: FeelKind::Mr,
-            spring: None,
-            unit_damping_n_s_per_m: 0.0,
-            return_damping_n_s_per_m: 0.0,
-            q_from_aircraft: false,
-            motor_max_force_n: 0.0,
-            active_stick: None,
-        }
-    }
 }
 
 impl FeelSystemConfig {

@@ -208,14 +208,11 @@ impl DeviceConfig {
 /// A value that must be a positive, finite number of `unit`.
 fn positive(v: &toml::Spanned<f64>, unit: &str, src: &Source, field: &str) -> Result<f64, InputError> {
     let x = *v.get_ref();
-    match x.is_finite() && x > 0.0 {
-        true => Ok(x),
-        false => Err(src.err(
-            v,
-            field,
-            format!("value {} {unit}: must be a positive, finite number", num(x)),
-        )),
+    if x.is_finite() && x > 0.0 {
+        return Ok(x);
     }
+    let msg = format!("value {} {unit}: must be a positive, finite number", num(x));
+    Err(src.err(v, field, msg))
 }
 
 /// Match named values to the model's parameters: every parameter present (or one whose absence has a
@@ -265,13 +262,8 @@ fn assign_params(
             }
         };
         if !v.is_finite() || v < spec.lower || v > spec.upper {
-            let msg = format!(
-                "value {} outside the allowed range [{}, {}] {}",
-                num(v),
-                spec.lower,
-                spec.upper,
-                spec.unit
-            );
+            let (v, lo, hi, unit) = (num(v), spec.lower, spec.upper, spec.unit);
+            let msg = format!("value {v} outside the allowed range [{lo}, {hi}] {unit}");
             return Err(InputError::field(path, line, spec.name, msg));
         }
         out.push(v);
@@ -311,11 +303,8 @@ fn check_force(
                 .iter()
                 .find(|p| p.name == spec.name)
                 .map_or(section_line, |p| p.line);
-            let msg = format!(
-                "value {} {} gives {at}; correct the value or refit",
-                num(params[k]),
-                spec.unit
-            );
+            let (v, unit) = (num(params[k]), spec.unit);
+            let msg = format!("value {v} {unit} gives {at}; correct the value or refit");
             return Err(InputError::field(path, line, spec.name, msg));
         }
     }
@@ -417,7 +406,7 @@ struct TomlLoadCell {
 }
 
 /// `PARAMS.json` as written by `mrfeel fit --save` and read by `mrfeel validate --params`.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct ParamsFile {
     /// The model's spec (`bingham+hysteresis`).
     pub model: String,
@@ -463,10 +452,8 @@ impl ParamsFile {
         Self {
             model: model.name(),
             current_limit_a: Some(model.current_limit_a),
-            command_timing: None,
-            acquisition_window_periods: None,
-            weighting: None,
             params,
+            ..Self::default()
         }
     }
 

@@ -650,9 +650,7 @@ fn valid_name(name: &str) -> bool {
 #[serde(deny_unknown_fields)]
 struct EffectFile {
     name: toml::Spanned<String>,
-    #[serde(default)]
     describe: Option<String>,
-    #[serde(default)]
     resembles: Option<String>,
     formula: toml::Spanned<String>,
     #[serde(default)]
@@ -665,9 +663,7 @@ struct ParamFile {
     unit: String,
     lower: toml::Spanned<f64>,
     upper: toml::Spanned<f64>,
-    #[serde(default)]
     guess: Option<toml::Spanned<f64>>,
-    #[serde(default)]
     doc: Option<String>,
 }
 

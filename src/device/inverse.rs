@@ -40,15 +40,13 @@ impl ForceInverse {
     /// follows its own filtered-command and Bouc–Wen states) is refused.
     pub fn new(device: &DeviceConfig) -> Result<Self, DeviceError> {
         if device.model.base() != Base::Bingham {
-            return Err(DeviceError::bad_spec(
-                device.model.name(),
-                format!(
-                    "the feel controller's inverse needs a `{}` base model ({}); give the controller a \
-                     bingham-based model or set `controller.feedforward = false`",
-                    Base::Bingham.name(),
-                    device.path.display()
-                ),
-            ));
+            let why = format!(
+                "the feel controller's inverse needs a `{}` base model ({}); give the controller a \
+                 bingham-based model or set `controller.feedforward = false`",
+                Base::Bingham.name(),
+                device.path.display()
+            );
+            return Err(DeviceError::bad_spec(device.model.name(), why));
         }
         Ok(Self {
             model: device.model.clone(),

@@ -245,13 +245,11 @@ impl Model {
     /// Build a model from a spec; unknown effects are an error that lists the known ones.
     pub fn new(spec: &ModelSpec, registry: &Registry, current_limit_a: f64) -> Result<Self, DeviceError> {
         if !(current_limit_a.is_finite() && current_limit_a > 0.0) {
-            return Err(DeviceError::bad_spec(
-                spec,
-                format!(
-                    "current limit {current_limit_a} A: the driver's saturation limits the command to \
-                     ±current_limit_a, a positive, finite number of amperes"
-                ),
-            ));
+            let why = format!(
+                "current limit {current_limit_a} A: the driver's saturation limits the command to \
+                 ±current_limit_a, a positive, finite number of amperes"
+            );
+            return Err(DeviceError::bad_spec(spec, why));
         }
         let base = spec.base;
         let mut param_specs: Vec<ParamSpec> = base.params().to_vec();
@@ -273,13 +271,9 @@ impl Model {
             let p0 = param_specs.len();
             for ps in effect.params() {
                 if param_specs.iter().any(|q| q.name == ps.name) {
-                    return Err(DeviceError::bad_spec(
-                        spec,
-                        format!(
-                            "parameter `{}` of `{name}` clashes with another element's",
-                            ps.name
-                        ),
-                    ));
+                    let p = ps.name;
+                    let why = format!("parameter `{p}` of `{name}` clashes with another element's");
+                    return Err(DeviceError::bad_spec(spec, why));
                 }
                 param_specs.push(ps.clone());
             }
@@ -387,27 +381,17 @@ impl Model {
     pub fn typical_params(&self, base: &[f64], stats: &DataStats) -> Result<Vec<f64>, DeviceError> {
         let n_base = self.spec.base.params().len();
         if base.len() != n_base {
-            return Err(DeviceError::bad_spec(
-                self.name(),
-                format!(
-                    "{} base parameter values for {n_base} base parameters",
-                    base.len()
-                ),
-            ));
+            let n = base.len();
+            let why = format!("{n} base parameter values for {n_base} base parameters");
+            return Err(DeviceError::bad_spec(self.name(), why));
         }
         let mut p = base.to_vec();
         for slot in &self.slots {
             let g = slot.effect.typical_params(stats);
             if g.len() != slot.params.len() {
-                return Err(DeviceError::bad_spec(
-                    self.name(),
-                    format!(
-                        "effect `{}` gives {} typical values for {} parameters",
-                        slot.effect.name(),
-                        g.len(),
-                        slot.params.len()
-                    ),
-                ));
+                let (name, got, n) = (slot.effect.name(), g.len(), slot.params.len());
+                let why = format!("effect `{name}` gives {got} typical values for {n} parameters");
+                return Err(DeviceError::bad_spec(self.name(), why));
             }
             p.extend(g);
         }
@@ -666,14 +650,9 @@ impl Damper {
     /// A damper of `model` with parameter values `params` (in [`Model::param_specs`] order), at rest.
     pub fn new(model: Arc<Model>, params: Vec<f64>) -> Result<Self, DeviceError> {
         if params.len() != model.n_params() {
-            return Err(DeviceError::bad_spec(
-                model.name(),
-                format!(
-                    "{} parameter values for {} parameters",
-                    params.len(),
-                    model.n_params()
-                ),
-            ));
+            let (got, n) = (params.len(), model.n_params());
+            let why = format!("{got} parameter values for {n} parameters");
+            return Err(DeviceError::bad_spec(model.name(), why));
         }
         let state = vec![0.0; model.n_states()];
         Ok(Self {

@@ -65,7 +65,6 @@ pub struct ParamValue {
     /// The value, in `unit`.
     pub value: f64,
     /// Standard error from the fit's Jacobian; `None` when the data does not determine the parameter.
-    #[serde(default)]
     pub std_err: Option<f64>,
     /// Unit, as written (checked against the declaration where given).
     #[serde(default)]

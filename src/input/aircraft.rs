@@ -252,6 +252,7 @@ impl AircraftModel {
         let derived = elevator_geometry
             .derivatives()
             .map_err(|msg| src.err(&f.geometry.htail_span_m, "geometry.htail_span_m", msg))?;
+        let stick = &f.stick;
         let hinge = HingeModel {
             elevator_area_m2: elevator_geometry.chord_ratio * htail_area_m2,
             elevator_chord_m: elevator_geometry.chord_ratio * htail_area_m2 / htail_span_m,
@@ -264,11 +265,7 @@ impl AircraftModel {
             tail_dynamic_pressure_ratio: within!(src, f.hinge.tail_dynamic_pressure_ratio, 0.3..=1.5)?,
             downwash_gradient: within!(src, f.hinge.downwash_gradient, 0.0..=0.9)?,
             tail_arm_m: within!(src, f.geometry.htail_arm_m, 0.1..=100.0)?,
-            elevator_per_stick_rad_per_rad: within!(
-                src,
-                f.stick.elevator_per_stick_rad_per_rad,
-                0.05..=20.0
-            )?,
+            elevator_per_stick_rad_per_rad: within!(src, stick.elevator_per_stick_rad_per_rad, 0.05..=20.0)?,
             stick_arm_m: within!(src, f.stick.arm_m, 0.05..=2.0)?,
             force_feedback_ratio: within!(src, f.stick.force_feedback_ratio, 0.0..=1.0)?,
             feel_computer,
@@ -455,13 +452,11 @@ impl FlyByWireFile {
                 .filter(|(_, m)| *m)
                 .map(|(s, _)| *s)
                 .collect();
-                return Err(InputError::file(
-                    path,
-                    format!(
-                        "an embedded fly-by-wire model needs [airframe], [aero_tables] and [fcs] together: {} missing",
-                        missing.join(", ")
-                    ),
-                ));
+                let missing = missing.join(", ");
+                let msg = format!(
+                    "an embedded fly-by-wire model needs [airframe], [aero_tables] and [fcs] together: {missing} missing"
+                );
+                return Err(InputError::file(path, msg));
             }
         };
         let alpha = a.alpha_rad.get_ref();

@@ -42,22 +42,18 @@ pub fn window_error(start_s: f64, end_s: f64, run_s: f64, run: &str) -> Option<(
         ));
     }
     if !(end_s.is_finite() && end_s >= start_s && end_s <= run_s) {
-        return Some((
-            "end_s",
-            format!(
-                "value {end_s} outside the allowed range [{start_s}, {run_s}] s (after start_s, within the \
-                 {run}: to last to its end, write {run_s})"
-            ),
-        ));
+        let msg = format!(
+            "value {end_s} outside the allowed range [{start_s}, {run_s}] s (after start_s, within the \
+             {run}: to last to its end, write {run_s})"
+        );
+        return Some(("end_s", msg));
     }
     if end_s <= start_s {
-        return Some((
-            "end_s",
-            format!(
-                "value {end_s} s is not after start_s = {start_s} s: the fault would never act (it is active \
-                 from start_s until end_s)"
-            ),
-        ));
+        let msg = format!(
+            "value {end_s} s is not after start_s = {start_s} s: the fault would never act (it is active \
+             from start_s until end_s)"
+        );
+        return Some(("end_s", msg));
     }
     None
 }
@@ -110,6 +106,12 @@ mod tests {
         schedule(&src, &tables.fault, 5.0).map_err(|e| e.to_string())
     }
 
+    /// `text` is refused with a message holding both `at` (file, line, field) and `what`.
+    fn refused(text: &str, at: &str, what: &str) {
+        let e = parse(text).unwrap_err();
+        assert!(e.contains(at) && e.contains(what), "{e}");
+    }
+
     #[test]
     fn schedule_parses_and_windows_are_half_open() {
         let text = "name = \"x\"\n[other]\na = 1\n\n[[fault]]\nkind = \"coil_open\"\nstart_s = 1.0\nend_s = 2.0\n\n[[fault]]\nkind = \"load_cell_noisy\"\nstart_s = 0.5\nend_s = 3.0\nnoise_rms_n = 4.0\n";
@@ -125,11 +127,7 @@ mod tests {
     #[test]
     fn bad_fault_entries_name_line_and_key() {
         let bad_kind = "[[fault]]\nkind = \"coil_shorted\"\nstart_s = 1.0\nend_s = 2.0\n";
-        let e = parse(bad_kind).unwrap_err();
-        assert!(
-            e.contains("s.toml:2: field `fault.1.kind`") && e.contains("coil_open"),
-            "{e}"
-        );
+        refused(bad_kind, "s.toml:2: field `fault.1.kind`", "coil_open");
         // The header spelled with spaces (valid TOML), the bad table the second: its own `kind` line.
         let spaced = format!(
             "[[ fault ]]\nkind = \"coil_open\"\nstart_s = 1.0\nend_s = 2.0\n\n[[ fault ]]\n{}",
@@ -146,37 +144,23 @@ mod tests {
         // A fault that starts where the run ends, or ends after it: never acting, or acting on a time the
         // run does not reach (the file says something the run would not do).
         let at_end = "[[fault]]\nkind = \"coil_open\"\nstart_s = 5.0\nend_s = 6.0\n";
-        let e = parse(at_end).unwrap_err();
-        assert!(
-            e.contains("s.toml:3: field `fault.1.start_s`") && e.contains("never act"),
-            "{e}"
-        );
+        refused(at_end, "s.toml:3: field `fault.1.start_s`", "never act");
         let past = "[[fault]]\nkind = \"coil_open\"\nstart_s = 4.0\nend_s = 6.0\n";
-        let e = parse(past).unwrap_err();
-        assert!(
-            e.contains("s.toml:4: field `fault.1.end_s`") && e.contains("[4, 5]"),
-            "{e}"
-        );
+        refused(past, "s.toml:4: field `fault.1.end_s`", "[4, 5]");
         assert!(parse("[[fault]]\nkind = \"coil_open\"\nstart_s = 4.0\nend_s = 5.0\n").is_ok());
         // A value of the wrong type is named by its key; a missing key by the table.
         let typed = "[[fault]]\nkind = \"coil_open\"\nstart_s = \"x\"\nend_s = 2.0\n";
-        let e = parse(typed).unwrap_err();
-        assert!(
-            e.contains("s.toml:3: field `start_s`") && e.contains("invalid type"),
-            "{e}"
+        refused(typed, "s.toml:3: field `start_s`", "invalid type");
+        refused(
+            "[[fault]]\nkind = \"coil_open\"\nstart_s = 1.0\n",
+            "s.toml:1:",
+            "end_s",
         );
-        let e = parse("[[fault]]\nkind = \"coil_open\"\nstart_s = 1.0\n").unwrap_err();
-        assert!(e.contains("s.toml:1:") && e.contains("end_s"), "{e}");
         let empty = "[[fault]]\nkind = \"coil_open\"\nstart_s = 2.0\nend_s = 2.0\n";
-        let e = parse(empty).unwrap_err();
-        assert!(
-            e.contains("s.toml:4: field `fault.1.end_s`") && e.contains("never act"),
-            "{e}"
-        );
+        refused(empty, "s.toml:4: field `fault.1.end_s`", "never act");
         let wrong_param = "[[fault]]\nkind = \"coil_open\"\nstart_s = 1.0\nend_s = 2.0\nnoise_rms_n = 1.0\n";
         assert!(parse(wrong_param).unwrap_err().contains("noise_rms_n"));
         let unknown = "[[fault]]\nkind = \"coil_open\"\nstart_s = 1.0\nend_s = 2.0\nseverity = 1\n";
-        let e = parse(unknown).unwrap_err();
-        assert!(e.contains("s.toml:5") && e.contains("severity"), "{e}");
+        refused(unknown, "s.toml:5", "severity");
     }
 }

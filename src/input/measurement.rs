@@ -270,18 +270,14 @@ fn refuse_spikes(m: &Measurement) -> Result<(), InputError> {
             }
         };
         let num = super::text::short_number;
-        return Err(column(
-            &m.path,
-            m.lines[first.index],
-            name,
-            format!(
-                "looks like a spike: {} times the column's spread (its central 90 %) away from the median of its \
-                 neighbours, {}; no sensor moves so far for one sample: correct or remove it{more} (value `{}`)",
-                num(first.spreads.round()),
-                num(first.neighbours),
-                num(first.value)
-            ),
-        ));
+        let msg = format!(
+            "looks like a spike: {} times the column's spread (its central 90 %) away from the median of its \
+             neighbours, {}; no sensor moves so far for one sample: correct or remove it{more} (value `{}`)",
+            num(first.spreads.round()),
+            num(first.neighbours),
+            num(first.value)
+        );
+        return Err(column(&m.path, m.lines[first.index], name, msg));
     }
     Ok(())
 }

@@ -168,12 +168,8 @@ impl Source {
         if x.is_finite() && range.contains(&x) {
             return Ok(x);
         }
-        let msg = format!(
-            "value {} outside the allowed range [{}, {}] {unit}",
-            text::short_number(x),
-            text::short_number(*range.start()),
-            text::short_number(*range.end())
-        );
+        let [x, lo, hi] = [x, *range.start(), *range.end()].map(text::short_number);
+        let msg = format!("value {x} outside the allowed range [{lo}, {hi}] {unit}");
         Err(self.err(v, field, msg.trim_end()))
     }
 
@@ -188,14 +184,11 @@ impl Source {
         if range.contains(&x) {
             return Ok(x);
         }
+        let (lo, hi) = range.into_inner();
         Err(self.err(
             v,
             field,
-            format!(
-                "value {x} outside the allowed range [{}, {}]",
-                range.start(),
-                range.end()
-            ),
+            format!("value {x} outside the allowed range [{lo}, {hi}]"),
         ))
     }
 

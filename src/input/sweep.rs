@@ -97,7 +97,6 @@ struct DrawFile {
 #[serde(deny_unknown_fields)]
 struct CaseFile {
     label: Spanned<String>,
-    #[serde(default)]
     set: Option<Spanned<toml::Table>>,
     #[serde(default)]
     unset: Vec<Spanned<String>>,

@@ -214,20 +214,17 @@ impl UrdfModel {
                 .map(|l| l.inertial.mass.value)
                 .sum();
             if mass <= 0.0 {
-                let child = &j.child.link;
                 let fixed = if group.len() > 1 {
                     format!(" (with the links fixed to it: {})", group[1..].join(", "))
                 } else {
                     String::new()
                 };
-                return Err(self.mass_error(
-                    child,
-                    format!(
-                        "mass {mass} kg{fixed}: the link moves on joint `{}` ({}) and must have a mass > 0",
-                        j.name,
-                        format!("{:?}", j.joint_type).to_lowercase()
-                    ),
-                ));
+                let kind = format!("{:?}", j.joint_type).to_lowercase();
+                let msg = format!(
+                    "mass {mass} kg{fixed}: the link moves on joint `{}` ({kind}) and must have a mass > 0",
+                    j.name
+                );
+                return Err(self.mass_error(&j.child.link, msg));
             }
         }
         Ok(())
@@ -590,10 +587,8 @@ fn check_element(parent: &str, el: &XmlElement, owner: &str, path: &str) -> Resu
         };
         let first = el.children.iter().find(|d| d.name == c.name).expect("c itself");
         if !repeats && !std::ptr::eq(first, c) {
-            let msg = format!(
-                "a second <{}> (one allowed; the first is at line {})",
-                c.name, first.line
-            );
+            let (name, at) = (&c.name, first.line);
+            let msg = format!("a second <{name}> (one allowed; the first is at line {at})");
             return Err((c.line, here, msg));
         }
         let sub = match path {
@@ -692,15 +687,24 @@ mod tests {
         assert_eq!(m.line_of("loop_joint", "cb"), 10);
     }
 
+    fn parse_err(text: &str) -> String {
+        UrdfModel::parse(text, Path::new("bad.urdf"))
+            .expect_err("must be rejected")
+            .to_string()
+    }
+
+    /// `text` is refused with a message holding both `at` (file and line) and `what`.
+    fn refused(text: &str, at: &str, what: &str) {
+        let e = parse_err(text);
+        assert!(e.contains(at) && e.contains(what), "{e}");
+    }
+
     #[test]
     fn a_link_with_two_parents_is_an_error_naming_the_line() {
         let bad = MINI
             .replace("<loop_joint", "<joint")
             .replace("</loop_joint>", "</joint>");
-        let e = UrdfModel::parse(&bad, Path::new("bad.urdf"))
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("bad.urdf:4") && e.contains("link `b`"), "{e}");
+        refused(&bad, "bad.urdf:4", "link `b`");
     }
 
     #[test]
@@ -710,19 +714,7 @@ mod tests {
             r#"ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="3""#,
             1,
         );
-        let e = UrdfModel::parse(&bad, Path::new("bad.urdf"))
-            .unwrap_err()
-            .to_string();
-        assert!(
-            e.contains("triangle inequality") && e.contains("bad.urdf:3"),
-            "{e}"
-        );
-    }
-
-    fn parse_err(text: &str) -> String {
-        UrdfModel::parse(text, Path::new("bad.urdf"))
-            .expect_err("must be rejected")
-            .to_string()
+        refused(&bad, "bad.urdf:3", "triangle inequality");
     }
 
     #[test]
@@ -738,41 +730,38 @@ mod tests {
     #[test]
     fn bad_values_name_the_line_element_and_attribute() {
         // An attribute on the next line of its tag, after a quoted `>`, is still found at its own line.
-        let e = parse_err(&MINI.replace(
-            r#"<joint name="ac" type="prismatic">"#,
-            "<joint name=\"a>c\"\n    type=\"prismatik\">",
-        ));
-        assert!(e.contains("bad.urdf:9:") && e.contains("`prismatik`"), "{e}");
+        let split = "<joint name=\"a>c\"\n    type=\"prismatik\">";
+        refused(
+            &MINI.replace(r#"<joint name="ac" type="prismatic">"#, split),
+            "bad.urdf:9:",
+            "`prismatik`",
+        );
         // A value that urdf-rs would silently drop from a vector.
-        let e = parse_err(&MINI.replacen(r#"<axis xyz="0 1 0"/>"#, r#"<axis xyz="0 one 0"/>"#, 1));
-        assert!(
-            e.contains("bad.urdf:6:") && e.contains("`one` is not a number"),
-            "{e}"
-        );
-        let e = parse_err(&MINI.replacen(r#"<mass value="1"/>"#, r#"<mass/>"#, 1));
-        assert!(
-            e.contains("bad.urdf:3:") && e.contains("missing attribute `value`"),
-            "{e}"
-        );
-        let e = parse_err(&MINI.replacen("<limit ", "<limits ", 1));
-        assert!(
-            e.contains("bad.urdf:7:") && e.contains("unknown element <limits>"),
-            "{e}"
-        );
+        let bad_axis = MINI.replacen(r#"<axis xyz="0 1 0"/>"#, r#"<axis xyz="0 one 0"/>"#, 1);
+        refused(&bad_axis, "bad.urdf:6:", "`one` is not a number");
+        let no_mass = MINI.replacen(r#"<mass value="1"/>"#, r#"<mass/>"#, 1);
+        refused(&no_mass, "bad.urdf:3:", "missing attribute `value`");
+        let limits = MINI.replacen("<limit ", "<limits ", 1);
+        refused(&limits, "bad.urdf:7:", "unknown element <limits>");
     }
 
     #[test]
     fn malformed_xml_names_the_line() {
-        let cut = &MINI[..MINI.find("<origin").unwrap() + 12];
-        let e = parse_err(cut);
-        assert!(e.contains("bad.urdf:10:") && e.contains("not closed"), "{e}");
+        refused(
+            &MINI[..MINI.find("<origin").unwrap() + 12],
+            "bad.urdf:10:",
+            "not closed",
+        );
         assert!(parse_err("").contains("bad.urdf:1:"));
         assert!(parse_err("hello").contains("bad.urdf:1:"));
-        let e = parse_err("<?xml version=\"1.0\"?>\n<link name=\"a\"/>\n");
-        assert!(e.contains("bad.urdf:2:") && e.contains("must be <robot>"), "{e}");
+        refused(
+            "<?xml version=\"1.0\"?>\n<link name=\"a\"/>\n",
+            "bad.urdf:2:",
+            "must be <robot>",
+        );
         // `--` inside a comment: quick-xml lets it pass, urdf-rs's reader refuses it at its line.
-        let e = parse_err(&MINI.replace("  <joint name=\"ac\"", "  <!-- a -- b -->\n  <joint name=\"ac\""));
-        assert!(e.contains("bad.urdf:8:") && e.contains("not a valid URDF"), "{e}");
+        let comment = MINI.replace("  <joint name=\"ac\"", "  <!-- a -- b -->\n  <joint name=\"ac\"");
+        refused(&comment, "bad.urdf:8:", "not a valid URDF");
     }
 
     #[test]
@@ -795,19 +784,9 @@ mod tests {
     #[test]
     fn rpy_quaternion_turns_z_into_x_for_a_quarter_pitch() {
         let q = rpy_to_quat_xyzw([0.0, std::f64::consts::FRAC_PI_2, 0.0]);
-        // Rotate z = (0,0,1) by q: v' = v + 2w(u×v) + 2u×(u×v)
-        let (u, w) = ([q[0], q[1], q[2]], q[3]);
-        let v = [0.0, 0.0, 1.0];
-        let c = |a: [f64; 3], b: [f64; 3]| {
-            [
-                a[1] * b[2] - a[2] * b[1],
-                a[2] * b[0] - a[0] * b[2],
-                a[0] * b[1] - a[1] * b[0],
-            ]
-        };
-        let uv = c(u, v);
-        let uuv = c(u, uv);
-        let r: Vec<f64> = (0..3).map(|k| v[k] + 2.0 * w * uv[k] + 2.0 * uuv[k]).collect();
+        // Rotate z = (0,0,1) by q.
+        let q = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(q[3], q[0], q[1], q[2]));
+        let r = q * nalgebra::Vector3::z();
         assert!(
             (r[0] - 1.0).abs() < 1e-12 && r[1].abs() < 1e-12 && r[2].abs() < 1e-12,
             "{r:?}"

@@ -253,13 +253,7 @@ mod tests {
         assert_eq!(f.robot.joints.len(), 1);
         let a = &f.robot.links[0].inertial;
         assert!((a.mass.value - 2.0).abs() < 1e-12);
-        assert!(a
-            .origin
-            .xyz
-            .0
-            .iter()
-            .zip([0.0, 0.0, 0.0])
-            .all(|(x, y)| (x - y).abs() < 1e-12));
+        assert!(a.origin.xyz.0.iter().all(|x| x.abs() < 1e-12));
         // b's own inertia turned a quarter about z: ixx and iyy swap.
         assert!((a.inertia.ixx - (0.1 + 0.2)).abs() < 1e-12, "{a:?}");
         assert!((a.inertia.iyy - (0.2 + 0.1 + 2.0)).abs() < 1e-12, "{a:?}");

@@ -399,15 +399,13 @@ impl Rig {
                 "the piston joint must be `prismatic`",
             );
         }
-        let stick_limits = (stick_j.limit.lower, stick_j.limit.upper);
-        if !(stick_limits.0 < 0.0 && stick_limits.1 > 0.0) {
-            let (lo, hi) = stick_limits;
+        let stick_limits @ (lo, hi) = (stick_j.limit.lower, stick_j.limit.upper);
+        if !(lo < 0.0 && hi > 0.0) {
             let msg = format!("stops [{lo}, {hi}] rad must bracket the neutral angle 0");
             return fail("joint", &stick_j.name, "limit", &msg);
         }
-        let stroke_limits = (piston_j.limit.lower, piston_j.limit.upper);
-        if !(stroke_limits.0 < 0.0 && stroke_limits.1 > 0.0) {
-            let (lo, hi) = stroke_limits;
+        let stroke_limits @ (lo, hi) = (piston_j.limit.lower, piston_j.limit.upper);
+        if !(lo < 0.0 && hi > 0.0) {
             let msg = format!("stroke [{lo}, {hi}] m must bracket mid-stroke 0");
             return fail("joint", &piston_j.name, "limit", &msg);
         }
@@ -1004,14 +1002,10 @@ impl Rig {
             .iter()
             .map(|l| {
                 let p = *self.world.bodies[l.body].position() * l.offset;
-                let q = p.rotation;
+                let (t, q) = (p.translation, p.rotation);
                 BodyPose {
                     name: l.name.clone(),
-                    translation_m: [
-                        p.translation.x as f64,
-                        p.translation.y as f64,
-                        p.translation.z as f64,
-                    ],
+                    translation_m: [t.x as f64, t.y as f64, t.z as f64],
                     rotation_xyzw: [q.x as f64, q.y as f64, q.z as f64, q.w as f64],
                 }
             })
@@ -1036,16 +1030,12 @@ fn check_stops_agree(
             return Err(model.field_error("joint", &stick_j.name, "limit", msg).into());
         };
         if x <= piston_j.limit.lower || x >= piston_j.limit.upper {
-            return Err(model.field_error(
-                "joint",
-                &stick_j.name,
-                "limit",
-                format!(
-                    "stick stops [{lo}, {hi}] rad drive the piston to {x:.5} m at {t:.4} rad, outside its stroke [{}, {}] m \
-                     (joint `{}`): the stops would fight",
-                    piston_j.limit.lower, piston_j.limit.upper, piston_j.name
-                ),
-            ).into());
+            let msg = format!(
+                "stick stops [{lo}, {hi}] rad drive the piston to {x:.5} m at {t:.4} rad, outside its stroke [{}, {}] m \
+                 (joint `{}`): the stops would fight",
+                piston_j.limit.lower, piston_j.limit.upper, piston_j.name
+            );
+            return Err(model.field_error("joint", &stick_j.name, "limit", msg).into());
         }
     }
     Ok(())

@@ -83,17 +83,12 @@ mod tests {
         let mut p = params(&m, &[("asym_fraction", a)]);
         p[2] = 0.0; // no viscous term: the yield branches alone
         let inputs = triangle(0.01, 0.05, 8.0, 1e-3, 2.0);
-        let up_down = |p: &[f64]| {
-            let f = m.simulate(p, &inputs);
-            let up = mean_where(&f, &inputs, |i| i.v_m_s > 0.0);
-            (up, mean_where(&f, &inputs, |i| i.v_m_s < 0.0))
-        };
-        let (up, down) = up_down(&p);
+        let (up, down) = up_down(&m, &p, &inputs);
         let ratio = up.abs() / down.abs();
         assert!((ratio - (1.0 + a) / (1.0 - a)).abs() < 1e-9, "ratio {ratio}");
         // The paper's sign: negative a means more force in the negative direction.
         p[m.param_index("asym_fraction").expect("param")] = -0.18;
-        let (up, down) = up_down(&p);
+        let (up, down) = up_down(&m, &p, &inputs);
         assert!(down.abs() > up.abs() * 1.4, "70 N vs 100 N: {up} vs {down}");
     }
 
@@ -103,10 +98,8 @@ mod tests {
         let a = 0.2;
         let p = params(&m, &[("asym_fraction", a)]);
         let diff = |i: f64| {
-            let inputs = triangle(0.01, 0.05, i, 1e-3, 2.0);
-            let f = m.simulate(&p, &inputs);
-            mean_where(&f, &inputs, |k| k.v_m_s > 0.0).abs()
-                - mean_where(&f, &inputs, |k| k.v_m_s < 0.0).abs()
+            let (up, down) = up_down(&m, &p, &triangle(0.01, 0.05, i, 1e-3, 2.0));
+            up.abs() - down.abs()
         };
         let (d2, d6, d10) = (diff(2.0), diff(6.0), diff(10.0));
         // |F+| - |F-| = 2 a (fc0 + k i): equal increments for equal current steps, slope 2 a k.

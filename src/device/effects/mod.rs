@@ -221,6 +221,13 @@ pub(crate) mod testkit {
         mean_where(&m.simulate(p, &inputs), &inputs, |k| k.v_m_s > 0.0)
     }
 
+    /// Mean force on the rising (`v > 0`) and on the falling (`v < 0`) samples of `inputs`.
+    pub fn up_down(m: &Model, p: &[f64], inputs: &[Inputs]) -> (f64, f64) {
+        let f = m.simulate(p, inputs);
+        let up = mean_where(&f, inputs, |i| i.v_m_s > 0.0);
+        (up, mean_where(&f, inputs, |i| i.v_m_s < 0.0))
+    }
+
     /// Mean of the values where the mask holds.
     pub fn mean_where(f: &[f64], inputs: &[Inputs], keep: impl Fn(&Inputs) -> bool) -> f64 {
         let (s, n) = f
@@ -292,16 +299,10 @@ mod tests {
                 assert_eq!(g.len(), e.params().len());
                 assert_eq!(t.len(), e.params().len());
                 for ((ps, g), t) in e.params().iter().zip(&g).zip(&t) {
-                    assert!(
-                        g.is_finite() && *g >= ps.lower && *g <= ps.upper,
-                        "{}: guess {g}",
-                        ps.name
-                    );
-                    assert!(
-                        t.is_finite() && *t >= ps.lower && *t <= ps.upper,
-                        "{}: typical {t}",
-                        ps.name
-                    );
+                    for (what, v) in [("guess", g), ("typical", t)] {
+                        let inside = v.is_finite() && *v >= ps.lower && *v <= ps.upper;
+                        assert!(inside, "{}: {what} {v}", ps.name);
+                    }
                 }
                 assert_ne!(g, t, "{name}: the typical strength equals the initial guess");
             }

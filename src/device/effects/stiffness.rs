@@ -65,18 +65,21 @@ mod tests {
     use super::*;
     use crate::device::effects::testkit::*;
 
+    /// Parameters of `m` with the spring's rate `k`, preload `f0` and cubic rate `k3`.
+    fn spring(m: &crate::device::Model, k: f64, f0: f64, k3: f64) -> Vec<f64> {
+        let named = [
+            ("stiff_k_n_per_m", k),
+            ("stiff_preload_n", f0),
+            ("stiff_k3_n_per_m3", k3),
+        ];
+        params(m, &named)
+    }
+
     #[test]
     fn force_at_rest_is_spring_plus_preload() {
         let m = model("bingham+stiffness");
         let (k, f0, k3) = (2000.0, 15.0, 4.0e7);
-        let p = params(
-            &m,
-            &[
-                ("stiff_k_n_per_m", k),
-                ("stiff_preload_n", f0),
-                ("stiff_k3_n_per_m3", k3),
-            ],
-        );
+        let p = spring(&m, k, f0, k3);
         let rest = |x: f64| {
             let at = Inputs {
                 x_m: x,
@@ -109,14 +112,7 @@ mod tests {
         let m = model("bingham+stiffness");
         let base = model("bingham");
         let (k, k3) = (3000.0, 2.0e7);
-        let p = params(
-            &m,
-            &[
-                ("stiff_k_n_per_m", k),
-                ("stiff_preload_n", 0.0),
-                ("stiff_k3_n_per_m3", k3),
-            ],
-        );
+        let p = spring(&m, k, 0.0, k3);
         for i in [0.0, 10.0] {
             let inputs = sine(0.01, 1.0, i, 1e-3, 2.0);
             let f = m.simulate(&p, &inputs);
@@ -132,14 +128,7 @@ mod tests {
         // ∮ (k x + k3 x³) dx = 0: the spring adds no dissipation, unlike hysteresis.
         let m = model("bingham+stiffness");
         let base = model("bingham");
-        let p = params(
-            &m,
-            &[
-                ("stiff_k_n_per_m", 5000.0),
-                ("stiff_preload_n", 30.0),
-                ("stiff_k3_n_per_m3", 5.0e7),
-            ],
-        );
+        let p = spring(&m, 5000.0, 30.0, 5.0e7);
         let inputs = sine(0.01, 1.0, 4.0, 1e-4, 1.0);
         let work = |f: &[f64]| -> f64 {
             (0..inputs.len() - 1)
