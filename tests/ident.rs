@@ -624,6 +624,52 @@ fn a_long_record_of_a_quantised_velocity_channel_leaves_only_noise_after_the_hid
 }
 
 #[test]
+fn a_cooling_time_guessed_too_long_is_found_from_a_start_a_decade_below() {
+    // Heating hidden in three MTS runs of 15 to 60 s whose fluid cools in 30 s. The guess for the cooling
+    // time (three of the longest test's durations, 180 s) runs off to the bound, "no cooling", a local
+    // minimum 3.2 times the noise; from a start a decade below, the fit finds the device.
+    let dir = tempfile::tempdir().expect("tempdir");
+    let d = dir.path();
+    let s = |p: &Path| p.display().to_string();
+    let truth = d.join("truth.json");
+    let files: Vec<PathBuf> = (0..3).map(|k| d.join(format!("run{k}.csv"))).collect();
+    let runs = [
+        format!("--effects thermal_drift --amplitude-m 0.02 --frequency-hz 1 --save-device {}", s(&truth)),
+        format!("--device {} --amplitude-m 0.01 --frequency-hz 2 --seed 2", s(&truth)),
+        format!("--device {} --protocol multisine --amplitude-m 0.02 --frequency-hz 0.5 --seed 3 --sample-rate-hz 500 --no-velocity", s(&truth)),
+    ];
+    for (r, f) in runs.iter().zip(&files) {
+        let f = s(f);
+        let args: Vec<&str> = ["mts", "--current", "0,7,14", "--cycles", "10", "--out", &f]
+            .into_iter()
+            .chain(r.split_whitespace())
+            .collect();
+        let out = mrfeel(&args);
+        assert!(
+            out.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&truth).unwrap()).unwrap();
+    let want = |name: &str| v["params"][name]["value"].as_f64().unwrap();
+    let tests = mrfeel::ident::load_tests(&files).expect("runs");
+    let model = Model::from_spec("bingham+thermal_drift", &Registry::builtin(), LIMIT_A).expect("model");
+    let r = fit(&model, &tests, &all_spans(&tests), &FitOptions::default());
+    let got = |name: &str| r.params[model.param_specs().iter().position(|p| p.name == name).unwrap()];
+    for name in ["thermal_tau_s", "thermal_energy_j"] {
+        assert!(
+            (got(name) / want(name) - 1.0).abs() < 0.03,
+            "{name}: fitted {}, truth {}",
+            got(name),
+            want(name)
+        );
+    }
+    // The load cell's 0.15 N of noise is 0.0039 of the force's RMS here.
+    assert!(r.nrmse() < 0.0045, "NRMSE {}", r.nrmse());
+}
+
+#[test]
 fn mts_runs_of_one_saved_hidden_device_are_diagnosed_together() {
     // `mrfeel mts --effects` scales a hidden effect to its own run's test, so each run is another device;
     // `--save-device` writes the simulated device and `--device` runs it again under other protocols. The
