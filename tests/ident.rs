@@ -575,6 +575,38 @@ fn write_tests(dir: &Path, tests: &[Test]) -> Vec<String> {
         .collect()
 }
 
+/// Three MTS runs of one device with `effect` hidden, `cycles` cycles at each of 0, 7 and 14 A: a 1 Hz sine
+/// that makes the device, a 2 Hz sine and a multisine at 500 Hz without the velocity channel. Returns the
+/// saved device and the three files.
+fn three_mts_runs(d: &Path, effect: &str, cycles: &str) -> (PathBuf, Vec<PathBuf>) {
+    let truth = d.join("truth.json");
+    let files: Vec<PathBuf> = (0..3).map(|k| d.join(format!("run{k}.csv"))).collect();
+    let t = truth.display();
+    let runs = [
+        format!("--effects {effect} --amplitude-m 0.02 --frequency-hz 1 --save-device {t}"),
+        format!("--device {t} --amplitude-m 0.01 --frequency-hz 2 --seed 2"),
+        format!("--device {t} --protocol multisine --amplitude-m 0.02 --frequency-hz 0.5 --seed 3 --sample-rate-hz 500 --no-velocity"),
+    ];
+    for (r, f) in runs.iter().zip(&files) {
+        mts_at_three_currents(cycles, &format!("{r} --out {}", f.display()));
+    }
+    (truth, files)
+}
+
+/// `mrfeel mts --current 0,7,14 --cycles CYCLES ARGS…`, which must succeed.
+fn mts_at_three_currents(cycles: &str, args: &str) {
+    let args: Vec<&str> = ["mts", "--current", "0,7,14", "--cycles", cycles]
+        .into_iter()
+        .chain(args.split_whitespace())
+        .collect();
+    let out = mrfeel(&args);
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 #[test]
 fn a_long_record_of_a_quantised_velocity_channel_leaves_only_noise_after_the_hidden_mass() {
     // The MTS's velocity channel reads 0.2 mm/s of noise on a 16-bit ADC step of 0.3 mm/s, so its third
@@ -583,27 +615,8 @@ fn a_long_record_of_a_quantised_velocity_channel_leaves_only_noise_after_the_hid
     // carry about 20 times the acceleration's noise, and the verdict would call that noise structure. Read
     // right, the model that made the data leaves what the load cell's noise leaves.
     let dir = tempfile::tempdir().expect("tempdir");
-    let d = dir.path();
-    let s = |p: &Path| p.display().to_string();
-    let truth = s(&d.join("truth.json"));
-    let files: Vec<String> = (0..3).map(|k| s(&d.join(format!("run{k}.csv")))).collect();
-    let runs = [
-        format!("--effects inertia --amplitude-m 0.02 --frequency-hz 1 --save-device {truth}"),
-        format!("--device {truth} --amplitude-m 0.01 --frequency-hz 2 --seed 2"),
-        format!("--device {truth} --protocol multisine --amplitude-m 0.02 --frequency-hz 0.5 --seed 3 --sample-rate-hz 500 --no-velocity"),
-    ];
-    for (r, f) in runs.iter().zip(&files) {
-        let args: Vec<&str> = ["mts", "--current", "0,7,14", "--cycles", "4", "--out", f]
-            .into_iter()
-            .chain(r.split_whitespace())
-            .collect();
-        let out = mrfeel(&args);
-        assert!(
-            out.status.success(),
-            "{args:?}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-    }
+    let (_, files) = three_mts_runs(dir.path(), "inertia", "4");
+    let files: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
     let args: Vec<&str> = ["diagnose", "--json"]
         .into_iter()
         .chain(files.iter().map(String::as_str))
@@ -629,28 +642,7 @@ fn a_cooling_time_guessed_too_long_is_found_from_a_start_a_decade_below() {
     // time (three of the longest test's durations, 180 s) runs off to the bound, "no cooling", a local
     // minimum 3.2 times the noise; from a start a decade below, the fit finds the device.
     let dir = tempfile::tempdir().expect("tempdir");
-    let d = dir.path();
-    let s = |p: &Path| p.display().to_string();
-    let truth = d.join("truth.json");
-    let files: Vec<PathBuf> = (0..3).map(|k| d.join(format!("run{k}.csv"))).collect();
-    let runs = [
-        format!("--effects thermal_drift --amplitude-m 0.02 --frequency-hz 1 --save-device {}", s(&truth)),
-        format!("--device {} --amplitude-m 0.01 --frequency-hz 2 --seed 2", s(&truth)),
-        format!("--device {} --protocol multisine --amplitude-m 0.02 --frequency-hz 0.5 --seed 3 --sample-rate-hz 500 --no-velocity", s(&truth)),
-    ];
-    for (r, f) in runs.iter().zip(&files) {
-        let f = s(f);
-        let args: Vec<&str> = ["mts", "--current", "0,7,14", "--cycles", "10", "--out", &f]
-            .into_iter()
-            .chain(r.split_whitespace())
-            .collect();
-        let out = mrfeel(&args);
-        assert!(
-            out.status.success(),
-            "{args:?}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-    }
+    let (truth, files) = three_mts_runs(dir.path(), "thermal_drift", "10");
     let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&truth).unwrap()).unwrap();
     let want = |name: &str| v["params"][name]["value"].as_f64().unwrap();
     let tests = mrfeel::ident::load_tests(&files).expect("runs");
@@ -700,16 +692,7 @@ fn mts_runs_of_one_saved_hidden_device_are_diagnosed_together() {
         format!("--effects inertia --protocol sine --amplitude-m 0.01 --frequency-hz 2 --out {x} --save-device {other_s}"),
     ];
     for r in &runs {
-        let args: Vec<&str> = ["mts", "--current", "0,7,14", "--cycles", "2"]
-            .into_iter()
-            .chain(r.split_whitespace())
-            .collect();
-        let out = mrfeel(&args);
-        assert!(
-            out.status.success(),
-            "{args:?}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        mts_at_three_currents("2", r);
     }
     let mass = |p: &Path| -> f64 {
         let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap();
