@@ -301,6 +301,30 @@ pub(crate) fn white_noise_std_on(t: &[f64], y: &[f64]) -> f64 {
     std_from_third_differences(third_differences_on(t, y))
 }
 
+/// The noise standard deviation of a measured channel: its white noise ([`white_noise_std_on`]), and at
+/// least the rounding `q/√12` of a channel recorded on a grid of step `q` ([`grid_step`]). Where the grid is
+/// coarser than the noise, the samples sit on a few levels, their third differences are mostly zero and
+/// read no noise, and the rounding is what the channel does not tell.
+pub(crate) fn channel_noise_std_on(t: &[f64], y: &[f64]) -> f64 {
+    let white = white_noise_std_on(t, y);
+    grid_step(y).map_or(white, |q| white.max(q / 12f64.sqrt()))
+}
+
+/// The step of the grid a channel is recorded on (an ADC's LSB, a file's last decimal): the smallest change
+/// between successive samples, where nine in ten changes are whole multiples of it (within a thousandth of
+/// it, the rounding of decimal values read from a file); `None` for a channel off any grid or constant.
+pub(crate) fn grid_step(y: &[f64]) -> Option<f64> {
+    let changes = || y.windows(2).map(|w| (w[1] - w[0]).abs()).filter(|d| *d > 0.0);
+    let q = changes().fold(f64::INFINITY, f64::min);
+    let (all, on) = changes().fold((0usize, 0usize), |(all, on), d| {
+        (
+            all + 1,
+            on + usize::from((d - (d / q).round() * q).abs() <= 1e-3 * q),
+        )
+    });
+    (q.is_finite() && 10 * on >= 9 * all).then_some(q)
+}
+
 /// [`white_noise_std_on`] of several records of one signal, pooled: `(times, values)` of each.
 pub(crate) fn pooled_white_noise_std(records: &[(Vec<f64>, &[f64])]) -> f64 {
     std_from_third_differences(
@@ -625,6 +649,30 @@ mod tests {
                 "sigma {sigma_q} q: estimated {est}, truth {truth}"
             );
         }
+    }
+
+    /// The grid of a channel is its ADC's step, or the last decimal its file was written with; a channel off
+    /// any grid has none. On a grid far coarser than the noise the third differences read almost no noise,
+    /// and the channel's noise is its rounding.
+    #[test]
+    fn a_channel_on_a_grid_has_its_step_and_at_least_its_rounding_for_noise() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(12);
+        let q = 20.0 / 4096.0;
+        let nd = Normal::new(0.0, 0.1 * q).unwrap();
+        let v: Vec<f64> = (0..6000)
+            .map(|k| 0.126 * (std::f64::consts::TAU * k as f64 * 1e-3).sin() + nd.sample(&mut rng))
+            .collect();
+        let coarse: Vec<f64> = v.iter().map(|v| (v / q).round() * q).collect();
+        assert!((grid_step(&coarse).unwrap() / q - 1.0).abs() < 1e-12);
+        assert_eq!(grid_step(&v), None);
+        let t: Vec<f64> = (0..6000).map(|k| k as f64 * 1e-3).collect();
+        let white = white_noise_std_on(&t, &coarse);
+        let rounding = q / 12f64.sqrt();
+        assert!(white < 0.5 * rounding, "third differences read {white}");
+        assert_eq!(channel_noise_std_on(&t, &coarse), rounding);
+        // Four decimals, as a file holds them and a reader parses them back.
+        let written: Vec<f64> = v.iter().map(|v| format!("{v:.4}").parse().unwrap()).collect();
+        assert!((grid_step(&written).unwrap() / 1e-4 - 1.0).abs() < 1e-6);
     }
 
     #[test]

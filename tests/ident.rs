@@ -576,9 +576,9 @@ fn write_tests(dir: &Path, tests: &[Test]) -> Vec<String> {
 }
 
 /// Three MTS runs of one device with `effect` hidden, `cycles` cycles at each of 0, 7 and 14 A: a 1 Hz sine
-/// that makes the device, a 2 Hz sine and a multisine at 500 Hz without the velocity channel. Returns the
-/// saved device and the three files.
-fn three_mts_runs(d: &Path, effect: &str, cycles: &str) -> (PathBuf, Vec<PathBuf>) {
+/// that makes the device, a 2 Hz sine and a multisine at 500 Hz without the velocity channel; `extra` options
+/// on each. Returns the saved device and the three files.
+fn three_mts_runs(d: &Path, effect: &str, cycles: &str, extra: &str) -> (PathBuf, Vec<PathBuf>) {
     let truth = d.join("truth.json");
     let files: Vec<PathBuf> = (0..3).map(|k| d.join(format!("run{k}.csv"))).collect();
     let t = truth.display();
@@ -588,7 +588,7 @@ fn three_mts_runs(d: &Path, effect: &str, cycles: &str) -> (PathBuf, Vec<PathBuf
         format!("--device {t} --protocol multisine --amplitude-m 0.02 --frequency-hz 0.5 --seed 3 --sample-rate-hz 500 --no-velocity"),
     ];
     for (r, f) in runs.iter().zip(&files) {
-        mts_at_three_currents(cycles, &format!("{r} --out {}", f.display()));
+        mts_at_three_currents(cycles, &format!("{r} {extra} --out {}", f.display()));
     }
     (truth, files)
 }
@@ -615,7 +615,7 @@ fn a_long_record_of_a_quantised_velocity_channel_leaves_only_noise_after_the_hid
     // carry about 20 times the acceleration's noise, and the verdict would call that noise structure. Read
     // right, the model that made the data leaves what the load cell's noise leaves.
     let dir = tempfile::tempdir().expect("tempdir");
-    let (_, files) = three_mts_runs(dir.path(), "inertia", "4");
+    let (_, files) = three_mts_runs(dir.path(), "inertia", "4", "");
     let files: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
     let args: Vec<&str> = ["diagnose", "--json"]
         .into_iter()
@@ -637,12 +637,41 @@ fn a_long_record_of_a_quantised_velocity_channel_leaves_only_noise_after_the_hid
 }
 
 #[test]
+fn a_velocity_channel_on_a_coarse_adc_grid_leaves_only_noise_after_the_hidden_effect() {
+    // A 12-bit velocity channel over ±10 m/s steps by 4.9 mm/s, 24 times its 0.2 mm/s noise: near each
+    // reversal it reads 0 or one step, and its third differences read almost no noise. With that noise the
+    // samples whose velocity sign is unknown would count, each a 2 Fy residual, and the diagnosis end at up
+    // to 20 times the noise floor; the channel's rounding, step/√12, marks them.
+    for effect in ["stiffness", "hysteresis"] {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let (_, files) = three_mts_runs(dir.path(), effect, "6", "--adc-bits 12");
+        let files: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
+        let args: Vec<&str> = ["diagnose", "--json"]
+            .into_iter()
+            .chain(files.iter().map(String::as_str))
+            .collect();
+        let out = mrfeel(&args);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("diagnose --json");
+        assert_eq!(v["missing"], serde_json::json!([effect]), "{v:#}");
+        let (fin, floor) = (
+            v["final"]["heldout_nrmse"].as_f64().unwrap(),
+            v["noise_floor_nrmse"].as_f64().unwrap(),
+        );
+        assert!(
+            fin <= 1.3 * floor,
+            "{effect}: held-out NRMSE {fin} against a noise floor of {floor}"
+        );
+    }
+}
+
+#[test]
 fn a_cooling_time_guessed_too_long_is_found_from_a_start_a_decade_below() {
     // Heating hidden in three MTS runs of 15 to 60 s whose fluid cools in 30 s. The guess for the cooling
     // time (three of the longest test's durations, 180 s) runs off to the bound, "no cooling", a local
     // minimum 3.2 times the noise; from a start a decade below, the fit finds the device.
     let dir = tempfile::tempdir().expect("tempdir");
-    let (truth, files) = three_mts_runs(dir.path(), "thermal_drift", "10");
+    let (truth, files) = three_mts_runs(dir.path(), "thermal_drift", "10", "");
     let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&truth).unwrap()).unwrap();
     let want = |name: &str| v["params"][name]["value"].as_f64().unwrap();
     let tests = mrfeel::ident::load_tests(&files).expect("runs");

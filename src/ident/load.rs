@@ -9,7 +9,7 @@ use rayon::prelude::*;
 use super::{acquisition, IdentError, Test};
 use crate::device::{DataStats, Inputs};
 use crate::measurement::Measurement;
-use crate::signal::{white_noise_std_on, widest_unbiased_derivative, QuinticFit};
+use crate::signal::{channel_noise_std_on, widest_unbiased_derivative, QuinticFit};
 
 /// The moving average that the measurements `ms` (tests of one protocol) went through, if their
 /// displacements and forces (and measured velocities) show its comb ([`acquisition::detect_moving_average`]).
@@ -101,7 +101,7 @@ pub fn inputs_and_velocity_noise(m: &Measurement) -> (Vec<Inputs>, Option<Vec<f6
         return (inputs, None);
     }
     let t = &m.t_s;
-    let sd_x = white_noise_std_on(t, &m.x_m);
+    let sd_x = channel_noise_std_on(t, &m.x_m);
     // Where no noise figure comes back, the estimate is its fallback: the value `inputs` holds already.
     let v_noise = if m.velocity_measured {
         None
@@ -121,7 +121,7 @@ pub fn inputs_and_velocity_noise(m: &Measurement) -> (Vec<Inputs>, Option<Vec<f6
         let w = QuinticFit::new(10).derivative_weights(order, 0.0);
         w.iter().map(|w| w * w).sum::<f64>().sqrt() * sd / dt.powi(order as i32)
     };
-    let sd_v = m.velocity_measured.then(|| white_noise_std_on(t, &m.v_m_s));
+    let sd_v = m.velocity_measured.then(|| channel_noise_std_on(t, &m.v_m_s));
     let (y, order, sd) = match sd_v {
         Some(sd_v) if noise_of(2, sd_x) < noise_of(1, sd_v) => (&m.x_m, 2, sd_x),
         Some(sd_v) => (&m.v_m_s, 1, sd_v),

@@ -5,7 +5,7 @@
 use serde::Serialize;
 
 use super::Test;
-use crate::signal::{smooth_derivative, white_noise_std_on};
+use crate::signal::{channel_noise_std_on, smooth_derivative};
 
 /// A region of the operating space and its part of the squared error.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -513,8 +513,9 @@ pub fn direction_weights(t: &Test) -> Vec<f64> {
 }
 
 /// Standard deviation of the noise in the velocity a test's model is given: [`Test::velocity_noise_m_s`]
-/// when known; a measured velocity's white noise; or, for one derived by [`smooth_derivative`] (whose
-/// differences hide its noise), the displacement's white noise times the differentiator's noise gain.
+/// when known; a measured velocity's noise ([`channel_noise_std_on`]); or, for one derived by
+/// [`smooth_derivative`] (whose differences hide its noise), the displacement's noise times the
+/// differentiator's noise gain.
 pub(crate) fn velocity_noise_std(t: &Test) -> f64 {
     if let Some(sd) = t.velocity_noise_m_s.as_ref().filter(|sd| !sd.is_empty()) {
         // Inside the test, where the centred window is used.
@@ -523,7 +524,7 @@ pub(crate) fn velocity_noise_std(t: &Test) -> f64 {
     let ts: Vec<f64> = t.inputs.iter().map(|i| i.t_s).collect();
     if t.velocity_measured {
         let v: Vec<f64> = t.inputs.iter().map(|i| i.v_m_s).collect();
-        return white_noise_std_on(&ts, &v);
+        return channel_noise_std_on(&ts, &v);
     }
     let x: Vec<f64> = t.inputs.iter().map(|i| i.x_m).collect();
     let n = t.inputs.len();
@@ -540,7 +541,7 @@ pub(crate) fn velocity_noise_std(t: &Test) -> f64 {
         .map(|d| d * d)
         .sum::<f64>()
         .sqrt();
-    white_noise_std_on(&ts, &x) * gain
+    channel_noise_std_on(&ts, &x) * gain
 }
 
 #[cfg(test)]
