@@ -593,6 +593,24 @@ fn three_mts_runs(d: &Path, effect: &str, cycles: &str, extra: &str) -> (PathBuf
     (truth, files)
 }
 
+/// `mrfeel diagnose --json FILES…`, which must succeed: its JSON, and the final model's held-out NRMSE with
+/// the noise floor's.
+fn diagnose_json(files: &[PathBuf]) -> (serde_json::Value, f64, f64) {
+    let files: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
+    let args: Vec<&str> = ["diagnose", "--json"]
+        .into_iter()
+        .chain(files.iter().map(String::as_str))
+        .collect();
+    let out = mrfeel(&args);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("diagnose --json");
+    let (fin, floor) = (
+        v["final"]["heldout_nrmse"].as_f64().unwrap(),
+        v["noise_floor_nrmse"].as_f64().unwrap(),
+    );
+    (v, fin, floor)
+}
+
 /// `mrfeel mts --current 0,7,14 --cycles CYCLES ARGS…`, which must succeed.
 fn mts_at_three_currents(cycles: &str, args: &str) {
     let args: Vec<&str> = ["mts", "--current", "0,7,14", "--cycles", cycles]
@@ -616,19 +634,8 @@ fn a_long_record_of_a_quantised_velocity_channel_leaves_only_noise_after_the_hid
     // right, the model that made the data leaves what the load cell's noise leaves.
     let dir = tempfile::tempdir().expect("tempdir");
     let (_, files) = three_mts_runs(dir.path(), "inertia", "4", "");
-    let files: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
-    let args: Vec<&str> = ["diagnose", "--json"]
-        .into_iter()
-        .chain(files.iter().map(String::as_str))
-        .collect();
-    let out = mrfeel(&args);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("diagnose --json");
+    let (v, fin, floor) = diagnose_json(&files);
     assert_eq!(v["missing"], serde_json::json!(["inertia"]), "{v:#}");
-    let (fin, floor) = (
-        v["final"]["heldout_nrmse"].as_f64().unwrap(),
-        v["noise_floor_nrmse"].as_f64().unwrap(),
-    );
     assert!(
         fin <= 1.3 * floor,
         "held-out NRMSE {fin} against a noise floor of {floor}"
@@ -645,19 +652,8 @@ fn a_velocity_channel_on_a_coarse_adc_grid_leaves_only_noise_after_the_hidden_ef
     for effect in ["stiffness", "hysteresis"] {
         let dir = tempfile::tempdir().expect("tempdir");
         let (_, files) = three_mts_runs(dir.path(), effect, "6", "--adc-bits 12");
-        let files: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
-        let args: Vec<&str> = ["diagnose", "--json"]
-            .into_iter()
-            .chain(files.iter().map(String::as_str))
-            .collect();
-        let out = mrfeel(&args);
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-        let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("diagnose --json");
+        let (v, fin, floor) = diagnose_json(&files);
         assert_eq!(v["missing"], serde_json::json!([effect]), "{v:#}");
-        let (fin, floor) = (
-            v["final"]["heldout_nrmse"].as_f64().unwrap(),
-            v["noise_floor_nrmse"].as_f64().unwrap(),
-        );
         assert!(
             fin <= 1.3 * floor,
             "{effect}: held-out NRMSE {fin} against a noise floor of {floor}"
