@@ -428,8 +428,10 @@ impl<'a> Problem<'a> {
                 self.model.simulate_into(&p, inputs, &mut out);
             }
             let mut out = self.tests[j].observed(out);
-            for v in out.iter_mut().filter(|v| !v.is_finite()) {
-                *v = self.blowup_n;
+            for v in &mut out {
+                if !v.is_finite() {
+                    *v = self.blowup_n;
+                }
             }
             (out, states)
         };
