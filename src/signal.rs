@@ -314,15 +314,25 @@ pub(crate) fn channel_noise_std_on(t: &[f64], y: &[f64]) -> f64 {
 /// between successive samples, where nine in ten changes are whole multiples of it (within a thousandth of
 /// it, the rounding of decimal values read from a file); `None` for a channel off any grid or constant.
 pub(crate) fn grid_step(y: &[f64]) -> Option<f64> {
-    let changes = || y.windows(2).map(|w| (w[1] - w[0]).abs()).filter(|d| *d > 0.0);
-    let q = changes().fold(f64::INFINITY, f64::min);
-    let (all, on) = changes().fold((0usize, 0usize), |(all, on), d| {
+    let q = smallest_change(y);
+    let (all, on) = changes(y).fold((0usize, 0usize), |(all, on), d| {
         (
             all + 1,
             on + usize::from((d - (d / q).round() * q).abs() <= 1e-3 * q),
         )
     });
     (q.is_finite() && 10 * on >= 9 * all).then_some(q)
+}
+
+/// The sizes of the nonzero changes between successive samples of `y`.
+fn changes(y: &[f64]) -> impl Iterator<Item = f64> + '_ {
+    y.windows(2).map(|w| (w[1] - w[0]).abs()).filter(|d| *d > 0.0)
+}
+
+/// The smallest nonzero change between successive samples of `y` (infinite for a constant `y`): a
+/// channel's resolution where it is recorded on a grid.
+pub(crate) fn smallest_change(y: &[f64]) -> f64 {
+    changes(y).fold(f64::INFINITY, f64::min)
 }
 
 /// [`white_noise_std_on`] of several records of one signal, pooled: `(times, values)` of each.

@@ -593,13 +593,12 @@ fn three_mts_runs(d: &Path, effect: &str, cycles: &str, extra: &str) -> (PathBuf
     (truth, files)
 }
 
-/// `mrfeel diagnose --json FILES…`, which must succeed: its JSON, and the final model's held-out NRMSE with
+/// `mrfeel diagnose --json ARGS…`, which must succeed: its JSON, and the final model's held-out NRMSE with
 /// the noise floor's.
-fn diagnose_json(files: &[PathBuf]) -> (serde_json::Value, f64, f64) {
-    let files: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
+fn diagnose_json<S: AsRef<str>>(args: &[S]) -> (serde_json::Value, f64, f64) {
     let args: Vec<&str> = ["diagnose", "--json"]
         .into_iter()
-        .chain(files.iter().map(String::as_str))
+        .chain(args.iter().map(AsRef::as_ref))
         .collect();
     let out = mrfeel(&args);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
@@ -609,6 +608,11 @@ fn diagnose_json(files: &[PathBuf]) -> (serde_json::Value, f64, f64) {
         v["noise_floor_nrmse"].as_f64().unwrap(),
     );
     (v, fin, floor)
+}
+
+/// Paths as command-line arguments.
+fn args_of(paths: &[PathBuf]) -> Vec<String> {
+    paths.iter().map(|p| p.display().to_string()).collect()
 }
 
 /// `mrfeel mts --current 0,7,14 --cycles CYCLES ARGS…`, which must succeed.
@@ -634,7 +638,7 @@ fn a_long_record_of_a_quantised_velocity_channel_leaves_only_noise_after_the_hid
     // right, the model that made the data leaves what the load cell's noise leaves.
     let dir = tempfile::tempdir().expect("tempdir");
     let (_, files) = three_mts_runs(dir.path(), "inertia", "4", "");
-    let (v, fin, floor) = diagnose_json(&files);
+    let (v, fin, floor) = diagnose_json(&args_of(&files));
     assert_eq!(v["missing"], serde_json::json!(["inertia"]), "{v:#}");
     assert!(
         fin <= 1.3 * floor,
@@ -652,7 +656,7 @@ fn a_velocity_channel_on_a_coarse_adc_grid_leaves_only_noise_after_the_hidden_ef
     for effect in ["stiffness", "hysteresis"] {
         let dir = tempfile::tempdir().expect("tempdir");
         let (_, files) = three_mts_runs(dir.path(), effect, "6", "--adc-bits 12");
-        let (v, fin, floor) = diagnose_json(&files);
+        let (v, fin, floor) = diagnose_json(&args_of(&files));
         assert_eq!(v["missing"], serde_json::json!([effect]), "{v:#}");
         assert!(
             fin <= 1.3 * floor,
@@ -788,17 +792,11 @@ fn a_refit_that_fits_the_training_samples_no_better_than_noise_does_not_replace_
         &csv,
     ]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let out = mrfeel(&["diagnose", &csv, "--json", "--model", "bingham", "--named-only"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("diagnose --json");
+    let (v, fin, floor) = diagnose_json(&[&csv, "--model", "bingham", "--named-only"]);
     assert_eq!(
         v["missing"],
         serde_json::json!(["hysteresis", "stiffness"]),
         "{v:#}"
-    );
-    let (fin, floor) = (
-        v["final"]["heldout_nrmse"].as_f64().unwrap(),
-        v["noise_floor_nrmse"].as_f64().unwrap(),
     );
     assert!(
         fin <= 1.5 * floor,

@@ -32,11 +32,7 @@ pub fn clips(y: &[f64]) -> Vec<Clip> {
     if n < 2 * MIN_RUN {
         return Vec::new();
     }
-    let step = y
-        .windows(2)
-        .map(|w| (w[1] - w[0]).abs())
-        .filter(|d| *d > 0.0)
-        .fold(f64::INFINITY, f64::min);
+    let step = crate::signal::smallest_change(y);
     if !step.is_finite() {
         return Vec::new(); // constant
     }
